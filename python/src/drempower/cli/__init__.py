@@ -1,0 +1,58 @@
+"""The ``drempower`` command.
+
+Each subcommand lives in its own module of this package and exposes
+``register(subparsers)``; modules are discovered automatically, so adding a
+subcommand means adding a module.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import pkgutil
+import sys
+from collections.abc import Sequence
+
+from .. import __version__
+from ..errors import DrEmpowerError
+
+__all__ = ["main", "build_parser"]
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="drempower",
+        description="Work with DrEmpower servo joint motors: decode, simulate, drive, configure.",
+    )
+    parser.add_argument("--version", action="version", version=f"drempower {__version__}")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub.required = True
+    for info in sorted(pkgutil.iter_modules(__path__), key=lambda i: i.name):
+        if info.name.startswith("_"):
+            continue
+        mod = importlib.import_module(f"{__name__}.{info.name}")
+        register = getattr(mod, "register", None)
+        if register is not None:
+            register(sub)
+    return parser
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    """Entry point of the ``drempower`` console script; returns the exit code."""
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        code: int = args.func(args)
+        return code
+    except DrEmpowerError as exc:
+        print(f"drempower: error: {exc}", file=sys.stderr)
+        return 1
+    except KeyboardInterrupt:
+        print("drempower: interrupted", file=sys.stderr)
+        return 130
+    except BrokenPipeError:
+        return 0
+
+
+if __name__ == "__main__":  # pragma: no cover
+    sys.exit(main())

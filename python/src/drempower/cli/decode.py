@@ -1,0 +1,103 @@
+"""``drempower decode``: decode candump lines into DrEmpower messages."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Iterable
+from typing import Any, TextIO
+
+from ..errors import DrEmpowerError
+from ..protocol import ParamValue, ReadParam, WriteParam, decode_frame, describe, message_fields, message_name
+from ..protocol.candump import parse_candump_line
+from ..protocol.parameters import find_parameter
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "decode",
+        help="decode candump lines (from files or stdin) into DrEmpower messages",
+        description=(
+            "Decode candump-format lines, e.g. '(ts) can0 039#0000B4420000E803' or '039#0000B4420000E803', "
+            "one message per frame. Lines that are not frames or do not decode are reported, never fatal."
+        ),
+    )
+    p.add_argument("files", nargs="*", help="candump files (default: stdin; '-' is stdin)")
+    p.add_argument("--json", action="store_true", help="one JSON object per line")
+    p.add_argument(
+        "--direction",
+        choices=("auto", "host", "motor"),
+        default="auto",
+        help="who sent the frames: host commands, motor replies, or guess per frame (default)",
+    )
+    p.set_defaults(func=run)
+
+
+def decode_line(line: str, direction: str = "auto") -> dict[str, Any]:
+    """Decode one candump line into a JSON-ready dict (``error`` set when it cannot be decoded)."""
+    out: dict[str, Any] = {"line": line.rstrip("\n")}
+    try:
+        frame = parse_candump_line(line)
+    except DrEmpowerError as exc:
+        out["error"] = f"not a frame: {exc}"
+        return out
+    out["id"] = f"0x{frame.arbitration_id:03X}"
+    out["data"] = frame.data.hex().upper()
+    if frame.timestamp is not None:
+        out["timestamp"] = frame.timestamp
+    if frame.channel is not None:
+        out["channel"] = frame.channel
+    if frame.is_extended or frame.is_remote or frame.is_fd:
+        kind = "extended-id" if frame.is_extended else "remote" if frame.is_remote else "CAN-FD"
+        out["error"] = f"{kind} frame: DrEmpower uses standard data frames only"
+        return out
+    try:
+        who, msg = decode_frame(frame.arbitration_id, frame.data, direction)  # type: ignore[arg-type]
+    except DrEmpowerError as exc:
+        out["error"] = str(exc)
+        return out
+    out["node"] = msg.node
+    out["direction"] = who
+    out["command"] = message_name(msg)
+    out["fields"] = message_fields(msg)
+    if isinstance(msg, (ReadParam, WriteParam, ParamValue)):
+        p = find_parameter(msg.address)
+        if p is not None:
+            out["parameter"] = p.name
+            out["unit"] = p.unit
+    out["text"] = describe(msg)
+    return out
+
+
+def _lines(files: list[str]) -> Iterable[str]:
+    if not files:
+        files = ["-"]
+    for name in files:
+        if name == "-":
+            yield from sys.stdin
+        else:
+            try:
+                with open(name, encoding="utf-8", errors="replace") as fh:
+                    yield from fh
+            except OSError as exc:
+                raise DrEmpowerError(f"cannot read {name}: {exc.strerror}") from None
+
+
+def run(args: argparse.Namespace, out: TextIO | None = None) -> int:
+    out = out or sys.stdout
+    bad = 0
+    for line in _lines(args.files):
+        if not line.strip() or line.lstrip().startswith("#"):
+            continue
+        rec = decode_line(line, args.direction)
+        if "error" in rec:
+            bad += 1
+        if args.json:
+            out.write(json.dumps(rec) + "\n")
+        elif "error" in rec:
+            out.write(f"{rec['line'].strip()}  !! {rec['error']}\n")
+        else:
+            out.write(f"{rec['id']:>5} {rec['data']:<16}  {rec['direction']:<5} {rec['text']}\n")
+        out.flush()
+    return 0

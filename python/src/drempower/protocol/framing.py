@@ -1,0 +1,226 @@
+"""Serial framings of CAN frames, with incremental, resynchronising stream decoders.
+
+* The 11-byte frame of a G-series motor's UART (and of the adapter's TTL->CAN
+  mode): ``08 idH idL d0..d7``.
+* The vendor USB-CAN adapter's 0xAA frame (standard mode):
+  ``AA ext flag N id3 id2 id1 id0 data[N]`` with a big-endian 4-byte id; N is a
+  byte count (0..8, or a CAN-FD length).
+
+Both decoders take bytes as they arrive (``feed``), return the complete frames,
+skip garbage one byte at a time until a plausible header lines up again, and
+count what they dropped in ``dropped``. They have no clock: a transport that
+sees a long gap inside a frame may call ``flush()`` to discard a stale partial
+frame.
+"""
+
+from __future__ import annotations
+
+from ..errors import ProtocolError
+from .ids import Frame
+
+__all__ = [
+    "UART11_LEN",
+    "encode_uart11",
+    "Uart11Decoder",
+    "AA_HEADER",
+    "encode_aa",
+    "AADecoder",
+    "FD_LENGTHS",
+]
+
+UART11_LEN = 11
+AA_HEADER = 0xAA
+FD_LENGTHS = frozenset((*range(9), 12, 16, 20, 24, 32, 48, 64))
+"""Valid data lengths of a CAN-FD frame (the 0xAA length byte is a byte count)."""
+
+_AA_FLAG_DATA = 0x00
+_AA_FLAG_REMOTE = 0x01
+_AA_FLAG_FD = 0x02
+_AA_FLAG_FD_BRS = 0x06
+
+
+def encode_uart11(arbitration_id: int, data: bytes) -> bytes:
+    """The 11-byte UART frame for a standard-id CAN frame with 8 data bytes."""
+    if not 0 <= arbitration_id <= 0x7FF:
+        raise ProtocolError(f"arbitration id 0x{arbitration_id:X} does not fit the 11-byte frame (11-bit ids)")
+    if len(data) != 8:
+        raise ProtocolError(f"the 11-byte frame carries exactly 8 data bytes, not {len(data)}")
+    return bytes((0x08, arbitration_id >> 8, arbitration_id & 0xFF)) + bytes(data)
+
+
+class Uart11Decoder:
+    """Incremental decoder of 11-byte UART frames.
+
+    A frame starts with 0x08 followed by an id high byte of at most 0x07. Bytes
+    that cannot start a frame are dropped and counted. Since the framing has no
+    checksum, a header that lines up by chance inside data is only rejected when
+    ``accept`` (optional: ``accept(arbitration_id, data) -> bool``) says no.
+    """
+
+    __slots__ = ("_buf", "dropped", "frames", "_accept")
+
+    def __init__(self, accept: object = None) -> None:
+        self._buf = bytearray()
+        self.dropped = 0
+        """Bytes discarded while resynchronising."""
+        self.frames = 0
+        """Frames decoded so far."""
+        self._accept = accept
+
+    @property
+    def pending(self) -> int:
+        """Bytes held waiting for the rest of a frame."""
+        return len(self._buf)
+
+    def flush(self) -> int:
+        """Drop a partial frame (e.g. after a gap on the line); returns how many bytes were dropped."""
+        n = len(self._buf)
+        self.dropped += n
+        self._buf.clear()
+        return n
+
+    def feed(self, chunk: bytes) -> list[Frame]:
+        """Add received bytes; return the frames completed by them."""
+        buf = self._buf
+        buf += chunk
+        out: list[Frame] = []
+        accept = self._accept
+        i = 0
+        n = len(buf)
+        while i < n:
+            if buf[i] != 0x08:
+                i += 1
+                self.dropped += 1
+                continue
+            if n - i < 2:
+                break
+            if buf[i + 1] > 0x07:
+                i += 1
+                self.dropped += 1
+                continue
+            if n - i < UART11_LEN:
+                break
+            arb = (buf[i + 1] << 8) | buf[i + 2]
+            data = bytes(buf[i + 3 : i + 11])
+            if accept is not None and not accept(arb, data):  # type: ignore[operator]
+                i += 1
+                self.dropped += 1
+                continue
+            out.append(Frame(arb, data))
+            i += UART11_LEN
+        if i:
+            del buf[:i]
+        self.frames += len(out)
+        return out
+
+
+def encode_aa(frame: Frame | tuple[int, bytes]) -> bytes:
+    """The adapter's 0xAA frame for ``frame`` (16 bytes for a standard 8-byte data frame)."""
+    if isinstance(frame, Frame):
+        arb, data, ext, remote = frame.arbitration_id, frame.data, frame.is_extended, frame.is_remote
+    else:
+        (arb, data), ext, remote = frame, False, False
+    limit = 0x1FFFFFFF if ext else 0x7FF
+    if not 0 <= arb <= limit:
+        raise ProtocolError(f"arbitration id 0x{arb:X} does not fit a {'29' if ext else '11'}-bit id")
+    if len(data) > 8:
+        raise ProtocolError(f"a CAN frame carries at most 8 data bytes, not {len(data)}")
+    head = bytes((AA_HEADER, 1 if ext else 0, _AA_FLAG_REMOTE if remote else _AA_FLAG_DATA, len(data)))
+    return head + arb.to_bytes(4, "big") + bytes(data)
+
+
+class AADecoder:
+    """Incremental decoder of the adapter's 0xAA frames.
+
+    A header is plausible when byte 0 is 0xAA, the extended flag is 0 or 1, the
+    frame flag is 0 (data), 1 (remote), 2 or 6 (CAN-FD), the length is valid for
+    that flag, and the id fits (11 bits with bytes 4-5 zero, or 29 bits). Anything
+    else is dropped one byte at a time and counted in ``dropped``. CAN-FD frames
+    are decoded too but are marked ``fd``; DrEmpower motors do not send them.
+    """
+
+    __slots__ = ("_buf", "dropped", "frames", "fd_frames")
+
+    def __init__(self) -> None:
+        self._buf = bytearray()
+        self.dropped = 0
+        self.frames = 0
+        self.fd_frames = 0
+        """CAN-FD frames seen (decoded and returned with ``is_remote`` False)."""
+
+    @property
+    def pending(self) -> int:
+        return len(self._buf)
+
+    def flush(self) -> int:
+        n = len(self._buf)
+        self.dropped += n
+        self._buf.clear()
+        return n
+
+    @staticmethod
+    def _header_len(buf: bytearray, i: int, n: int) -> int:
+        """0 = not a header; -1 = need more bytes; else the total frame length."""
+        if buf[i] != AA_HEADER:
+            return 0
+        avail = n - i
+        if avail >= 2 and buf[i + 1] > 1:
+            return 0
+        if avail >= 3 and buf[i + 2] not in (0, 1, 2, 6):
+            return 0
+        if avail >= 4:
+            length = buf[i + 3]
+            if buf[i + 2] in (0, 1):
+                if length > 8:
+                    return 0
+            elif length not in FD_LENGTHS:
+                return 0
+        else:
+            return -1
+        if avail < 8:
+            # check what we have of the id for plausibility
+            if buf[i + 1] == 0:
+                for k in (4, 5):
+                    if avail > k and buf[i + k] != 0:
+                        return 0
+                if avail > 6 and buf[i + 6] > 0x07:
+                    return 0
+            elif avail > 4 and buf[i + 4] > 0x1F:
+                return 0
+            return -1
+        ident = int.from_bytes(buf[i + 4 : i + 8], "big")
+        if ident > (0x1FFFFFFF if buf[i + 1] else 0x7FF):
+            return 0
+        return 8 + buf[i + 3]
+
+    def feed(self, chunk: bytes) -> list[Frame]:
+        """Add received bytes; return the frames completed by them."""
+        buf = self._buf
+        buf += chunk
+        out: list[Frame] = []
+        i = 0
+        n = len(buf)
+        while i < n:
+            total = self._header_len(buf, i, n)
+            if total == 0:
+                i += 1
+                self.dropped += 1
+                continue
+            if total < 0 or n - i < total:
+                break
+            flag = buf[i + 2]
+            out.append(
+                Frame(
+                    int.from_bytes(buf[i + 4 : i + 8], "big"),
+                    bytes(buf[i + 8 : i + total]),
+                    bool(buf[i + 1]),
+                    flag == _AA_FLAG_REMOTE,
+                )
+            )
+            if flag in (_AA_FLAG_FD, _AA_FLAG_FD_BRS):
+                self.fd_frames += 1
+            i += total
+        if i:
+            del buf[:i]
+        self.frames += len(out)
+        return out

@@ -1,0 +1,105 @@
+"""Command ids, system sub-commands and the 11-bit arbitration id layout.
+
+An arbitration id is ``(node << 5) | command``: bits 10..5 hold the node id
+(0..63, 0 = broadcast) and bits 4..0 the command.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+from typing import NamedTuple
+
+from ..errors import FieldRangeError, ProtocolError
+
+__all__ = [
+    "BROADCAST",
+    "MAX_NODE",
+    "Cmd",
+    "SysCmd",
+    "StartKind",
+    "arbitration_id",
+    "split_arbitration_id",
+    "check_node",
+    "Frame",
+]
+
+BROADCAST = 0
+"""Node id 0 addresses every motor on the bus."""
+MAX_NODE = 63
+
+
+class Cmd(IntEnum):
+    """The 5-bit command field of host frames."""
+
+    SYSTEM = 0x08
+    PRESET = 0x0C
+    POSITION_T = 0x19
+    POSITION_Q = 0x1A
+    POSITION_P = 0x1B
+    VELOCITY = 0x1C
+    TORQUE = 0x1D
+    READ = 0x1E
+    WRITE = 0x1F
+
+
+class SysCmd(IntEnum):
+    """``sys_num`` of the system command 0x08."""
+
+    INIT_CONFIG = 0x00
+    SAVE_CONFIG = 0x01
+    ERASE_CONFIG = 0x02
+    REBOOT = 0x03
+    CLEAR_ERRORS = 0x04
+    SET_ZERO_POSITION = 0x05
+    ESTOP = 0x06
+    ENTER_DFU_MODE = 0x07
+    START_T = 0x10
+    START_Q = 0x11
+    START_P = 0x12
+    START_V = 0x13
+    START_C = 0x14
+    START_D = 0x15
+
+
+class StartKind(IntEnum):
+    """Which preset interpretation a broadcast start selects (its ``sys_num``)."""
+
+    T = 0x10
+    Q = 0x11
+    P = 0x12
+    V = 0x13
+    C = 0x14
+    D = 0x15
+
+
+class Frame(NamedTuple):
+    """One CAN frame as it travels: 11-bit (or 29-bit) id and its data bytes."""
+
+    arbitration_id: int
+    data: bytes
+    is_extended: bool = False
+    is_remote: bool = False
+
+
+def check_node(node: object, field: str = "node") -> int:
+    """Return ``node`` if it is a valid node id (0..63, 0 = broadcast), else raise."""
+    if isinstance(node, bool) or not isinstance(node, int):
+        raise FieldRangeError(field, node, 0, MAX_NODE, "motor ids are integers, 0 is broadcast")
+    if not 0 <= node <= MAX_NODE:
+        raise FieldRangeError(field, node, 0, MAX_NODE, "motor ids are 0..63, 0 is broadcast")
+    return node
+
+
+def arbitration_id(node: int, cmd: int) -> int:
+    """Pack node (0..63) and command (0..31) into an 11-bit arbitration id."""
+    check_node(node)
+    if not 0 <= cmd <= 0x1F:
+        raise FieldRangeError("command", cmd, 0, 0x1F, "5-bit command field")
+    return (node << 5) | cmd
+
+
+def split_arbitration_id(arb_id: int) -> tuple[int, int]:
+    """Split an 11-bit arbitration id into ``(node, command)``."""
+    if not 0 <= arb_id <= 0x7FF:
+        raise ProtocolError(f"arbitration id 0x{arb_id:X} is not an 11-bit standard id")
+    return arb_id >> 5, arb_id & 0x1F

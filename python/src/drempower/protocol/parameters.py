@@ -1,0 +1,193 @@
+"""Parameter registry and typed parameter values.
+
+The table itself lives in ``spec/parameters.csv`` and is generated into
+``_parameter_table.py`` by ``tools/generate.py``. Look a parameter up with
+:func:`parameter` by name (``"axis0.output_shaft.pos_estimate"``) or address
+(``38007``). Bools travel as u32 (0/1).
+"""
+
+from __future__ import annotations
+
+import math
+import struct
+from collections.abc import Iterator
+from dataclasses import dataclass
+from enum import Enum, IntEnum
+
+from ..errors import FieldRangeError, ProtocolError, ValidationError
+
+__all__ = [
+    "DataType",
+    "Access",
+    "Parameter",
+    "parameter",
+    "parameters",
+    "find_parameter",
+    "encode_value",
+    "decode_value",
+    "F32_MAX",
+]
+
+F32_MAX = 3.4028234663852886e38
+
+
+class DataType(IntEnum):
+    """The ``data_type`` code of read/write frames."""
+
+    F32 = 0
+    U16 = 1
+    S16 = 2
+    U32 = 3
+    S32 = 4
+
+    @property
+    def size(self) -> int:
+        """Bytes the value occupies in the frame (at offset 4)."""
+        return 2 if self in (DataType.U16, DataType.S16) else 4
+
+
+class Access(str, Enum):
+    """Whether a parameter may be written."""
+
+    RO = "ro"
+    RW = "rw"
+
+
+@dataclass(frozen=True, slots=True)
+class Parameter:
+    """One entry of the parameter table."""
+
+    name: str
+    address: int
+    dtype: DataType
+    access: Access
+    user_settable: bool
+    unit: str
+    series: str
+    is_bool: bool
+    description: str
+
+    @property
+    def writable(self) -> bool:
+        return self.access is Access.RW
+
+    def encode(self, value: int | float | bool) -> bytes:
+        """Encode ``value`` in this parameter's type (4 bytes, little-endian, zero padded)."""
+        if self.is_bool and value not in (0, 1, True, False):
+            raise FieldRangeError(self.name, value, 0, 1, "bool parameter, sent as u32")
+        return encode_value(self.dtype, value, field=self.name)
+
+
+_INT_RANGES: dict[DataType, tuple[int, int, str]] = {
+    DataType.U16: (0, 0xFFFF, "<H"),
+    DataType.S16: (-0x8000, 0x7FFF, "<h"),
+    DataType.U32: (0, 0xFFFFFFFF, "<I"),
+    DataType.S32: (-0x80000000, 0x7FFFFFFF, "<i"),
+}
+_F32 = struct.Struct("<f")
+_INT_STRUCTS = {dt: struct.Struct(fmt) for dt, (_, _, fmt) in _INT_RANGES.items()}
+
+
+def encode_value(dtype: DataType, value: int | float | bool, field: str = "value") -> bytes:
+    """Encode a parameter value of type ``dtype`` into the 4 value bytes of a frame.
+
+    Integers must be whole and in range; floats must be finite and fit binary32.
+    Nothing is clipped or wrapped: out-of-range input raises :class:`FieldRangeError`.
+    """
+    if isinstance(value, bool):
+        value = int(value)
+    if not isinstance(value, (int, float)):
+        raise ValidationError(f"{field}={value!r}: expected a number")
+    if dtype is DataType.F32:
+        v = float(value)
+        if not math.isfinite(v):
+            raise ValidationError(f"{field}={value!r}: NaN and infinity cannot be sent")
+        if abs(v) > F32_MAX:
+            raise FieldRangeError(field, value, -F32_MAX, F32_MAX, "float32")
+        return _F32.pack(v)
+    try:
+        lo, hi, _ = _INT_RANGES[dtype]
+    except KeyError:
+        raise ValidationError(f"{field}: unknown data type {dtype!r}") from None
+    if isinstance(value, float):
+        if not math.isfinite(value) or value != int(value):
+            raise ValidationError(f"{field}={value!r}: {dtype.name.lower()} needs a whole number")
+        value = int(value)
+    if not lo <= value <= hi:
+        raise FieldRangeError(field, value, lo, hi, dtype.name.lower())
+    return _INT_STRUCTS[dtype].pack(value).ljust(4, b"\0")
+
+
+def decode_value(dtype: int, raw: bytes) -> int | float:
+    """Decode the value bytes (offset 4 of a frame) as ``dtype``."""
+    if dtype == DataType.F32:
+        return float(_F32.unpack_from(raw)[0])
+    try:
+        st = _INT_STRUCTS[DataType(dtype)]
+    except ValueError:
+        raise ProtocolError(f"unknown data type code {dtype}") from None
+    return int(st.unpack_from(raw)[0])
+
+
+class _Registry:
+    __slots__ = ("by_name", "by_address", "_all")
+
+    def __init__(self, table: tuple[Parameter, ...]) -> None:
+        self._all = table
+        self.by_name = {p.name: p for p in table}
+        self.by_address = {p.address: p for p in table}
+
+
+_registry: _Registry | None = None
+
+
+def _reg() -> _Registry:
+    global _registry
+    if _registry is None:
+        from ._parameter_table import PARAMETER_TABLE
+
+        _registry = _Registry(PARAMETER_TABLE)
+    return _registry
+
+
+def parameters() -> Iterator[Parameter]:
+    """Every parameter, by address."""
+    return iter(_reg()._all)
+
+
+def _normalise(name: str) -> str:
+    name = name.strip()
+    # The vendor library accepts axis1.x etc. and rewrites to axis0 (single-axis motors).
+    if name.startswith("axis") and "." in name and name[4:name.index(".")].isdigit():
+        name = "axis0" + name[name.index(".") :]
+    return name
+
+
+def find_parameter(key: str | int) -> Parameter | None:
+    """Look a parameter up by name or address; None when unknown."""
+    reg = _reg()
+    if isinstance(key, int) and not isinstance(key, bool):
+        return reg.by_address.get(key)
+    if isinstance(key, str):
+        k = key.strip()
+        if k.isdigit():
+            return reg.by_address.get(int(k))
+        return reg.by_name.get(_normalise(k))
+    return None
+
+
+def parameter(key: str | int | Parameter) -> Parameter:
+    """Look a parameter up by name or address; raise :class:`ValidationError` when unknown."""
+    if isinstance(key, Parameter):
+        return key
+    p = find_parameter(key)
+    if p is None:
+        hint = ""
+        if isinstance(key, str):
+            import difflib
+
+            close = difflib.get_close_matches(_normalise(key), _reg().by_name, n=3)
+            if close:
+                hint = "; did you mean " + ", ".join(close) + "?"
+        raise ValidationError(f"unknown parameter {key!r}{hint}")
+    return p

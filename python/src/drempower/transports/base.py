@@ -1,0 +1,48 @@
+"""The one small interface every transport implements."""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from types import TracebackType
+
+from ..protocol.ids import Frame
+
+__all__ = ["Transport"]
+
+
+class Transport(ABC):
+    """Moves whole CAN frames between the host and a bus.
+
+    ``send`` queues one frame for transmission and returns without waiting for
+    any reply; ``recv`` returns the next received frame, or ``None`` when
+    ``timeout`` seconds pass without one (``timeout=None`` waits until a frame
+    arrives or the transport is closed, then returns ``None``). A transport may
+    be used by one sending thread and one receiving thread at the same time.
+    ``close`` is idempotent and makes a blocked ``recv`` return.
+    """
+
+    description: str = "transport"
+    """What this transport is connected to, e.g. ``"python-can socketcan can0"``."""
+
+    @abstractmethod
+    def send(self, frame: Frame) -> None:
+        """Transmit one frame."""
+
+    @abstractmethod
+    def recv(self, timeout: float | None = None) -> Frame | None:
+        """Next received frame, or None after ``timeout`` seconds (or once closed)."""
+
+    @abstractmethod
+    def close(self) -> None:
+        """Release the underlying device or socket."""
+
+    def __enter__(self) -> Transport:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.description}>"
