@@ -223,7 +223,9 @@ _INFO: dict[tuple[str, str], FlagInfo] = {
         "Measured current exceeded the current limit plus margin.",
         "Lower gains or the load; check current_lim.",
     ),
-    ("motor", "DRV_FAULT"): FlagInfo("The gate driver reported a fault.", "Power-cycle; if it persists, contact support."),
+    ("motor", "DRV_FAULT"): FlagInfo(
+        "The gate driver reported a fault.", "Power-cycle; if it persists, contact support."
+    ),
     ("encoder", "EDR_BATTERY_LOW"): FlagInfo(
         "The multi-turn encoder's backup battery is low.",
         "Set zero first, then clear errors; leave the motor powered 3-4 h to recharge.",
@@ -234,9 +236,7 @@ _INFO: dict[tuple[str, str], FlagInfo] = {
     ("encoder", "EDR_POWER_FAILURE"): FlagInfo(
         "The multi-turn encoder lost power.", "Set zero first, then clear errors."
     ),
-    ("encoder", "EDR_OVER_RANGE"): FlagInfo(
-        "The multi-turn counter overflowed.", "Set zero first, then clear errors."
-    ),
+    ("encoder", "EDR_OVER_RANGE"): FlagInfo("The multi-turn counter overflowed.", "Set zero first, then clear errors."),
     ("encoder", "TURNS_COUNTER_WARNING"): FlagInfo(
         "The multi-turn counter is unreliable.", "Set zero first, then clear errors."
     ),

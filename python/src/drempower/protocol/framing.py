@@ -57,7 +57,7 @@ class Uart11Decoder:
     ``accept`` (optional: ``accept(arbitration_id, data) -> bool``) says no.
     """
 
-    __slots__ = ("_buf", "dropped", "frames", "_accept")
+    __slots__ = ("_accept", "_buf", "dropped", "frames")
 
     def __init__(self, accept: object = None) -> None:
         self._buf = bytearray()
@@ -139,7 +139,7 @@ class AADecoder:
     are decoded too but are marked ``fd``; DrEmpower motors do not send them.
     """
 
-    __slots__ = ("_buf", "dropped", "frames", "fd_frames")
+    __slots__ = ("_buf", "dropped", "fd_frames", "frames")
 
     def __init__(self) -> None:
         self._buf = bytearray()

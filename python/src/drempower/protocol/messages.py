@@ -17,7 +17,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import ClassVar, TypeAlias
+from typing import ClassVar, NoReturn, TypeAlias
 
 from ..errors import FieldRangeError, ProtocolError, ValidationError
 from .enums import TorqueMode, VelocityMode
@@ -69,6 +69,18 @@ _ZERO8 = bytes(8)
 _S16_DETAIL = "s16 field scaled by 0.01"
 
 
+_new_frame = tuple.__new__
+_FSS_pack = _FSS.pack
+_FSS_unpack = _FSS.unpack
+_RW_unpack_from = _RW.unpack_from
+_FSU_pack = _FSU.pack
+_PACK_ERRORS = (TypeError, ValueError, OverflowError, struct.error)
+
+
+def _frame(arb: int, data: bytes) -> Frame:
+    return _new_frame(Frame, (arb, data, False, False))
+
+
 def _node(node: int) -> int:
     if node.__class__ is int and 0 <= node <= MAX_NODE:
         return node
@@ -81,28 +93,74 @@ def _s16(value: float, field: str) -> int:
         raw = round(value * 100)
     except (TypeError, ValueError, OverflowError):
         raw = None
-    if raw is not None and -32768 <= raw <= 32767 and value.__class__ is not bool:
+    if raw is not None and -32768 <= raw <= 32767:
         return raw
     raise FieldRangeError(field, value, S16_MIN, S16_MAX, _S16_DETAIL)
 
 
 def _f32(value: float, field: str) -> float:
     try:
-        if -F32_MAX <= value <= F32_MAX and value.__class__ is not bool:
+        if -F32_MAX <= value <= F32_MAX:
             return value
     except TypeError:
         pass
     raise FieldRangeError(field, value, -F32_MAX, F32_MAX, "finite float32; NaN and infinity cannot be sent")
 
 
-def _u16_raw(value: int, field: str) -> int:
-    if value.__class__ is not bool and isinstance(value, int) and 0 <= value <= 0xFFFF:
-        return value
-    raise FieldRangeError(field, value, 0, 0xFFFF, "u16")
+def _diagnose(node: int, *checks: tuple[str, float, str]) -> NoReturn:
+    """Raise the precise error for a message whose fast encode path failed."""
+    _node(node)
+    for kind, value, field in checks:
+        if kind == "f":
+            _f32(value, field)
+        else:
+            _s16(value, field)
+    raise ValidationError(f"cannot encode fields {[c[2] for c in checks]}")  # pragma: no cover
 
 
 def _fss(node: int, cmd: int, a: float, fa: str, b: float, fb: str, c: float, fc: str) -> Frame:
-    return Frame((_node(node) << 5) | cmd, _FSS.pack(_f32(a, fa), _s16(b, fb), _s16(c, fc)))
+    """Frame with data ``f32 a, s16 b x100, s16 c x100``; the fast path validates through struct."""
+    try:
+        if node.__class__ is int and 0 <= node <= MAX_NODE and -F32_MAX <= a <= F32_MAX:
+            return _new_frame(Frame, ((node << 5) | cmd, _FSS_pack(a, round(b * 100), round(c * 100)), False, False))
+    except _PACK_ERRORS:
+        pass
+    _diagnose(node, ("f", a, fa), ("s", b, fb), ("s", c, fc))
+
+
+def _fsu(node: int, cmd: int, a: float, fa: str, b: float, fb: str, mode: int) -> Frame:
+    """Frame with data ``f32 a, s16 b x100, u16 mode`` (V and C commands)."""
+    try:
+        if node.__class__ is int and 0 <= node <= MAX_NODE and -F32_MAX <= a <= F32_MAX:
+            return _new_frame(Frame, ((node << 5) | cmd, _FSU_pack(a, round(b * 100), mode), False, False))
+    except _PACK_ERRORS:
+        pass
+    _diagnose(node, ("f", a, fa), ("s", b, fb))
+
+
+_RW_PACK = (
+    struct.Struct("<HHf").pack,
+    struct.Struct("<HHH2x").pack,
+    struct.Struct("<HHh2x").pack,
+    struct.Struct("<HHI").pack,
+    struct.Struct("<HHi").pack,
+)
+
+
+def _rw(node: int, cmd: int, address: int, dtype: int, value: int | float) -> Frame:
+    """Frame with data ``u16 address, u16 dtype, value`` (writes and read replies)."""
+    try:
+        if node.__class__ is int and 0 <= node <= MAX_NODE and address.__class__ is int and 1 <= address <= 0xFFFF:
+            if dtype == 0:
+                if -F32_MAX <= value <= F32_MAX:
+                    return _new_frame(Frame, ((node << 5) | cmd, _RW_PACK[0](address, 0, value), False, False))
+            elif value.__class__ is int and 0 < dtype <= 4:
+                return _new_frame(Frame, ((node << 5) | cmd, _RW_PACK[dtype](address, dtype, value), False, False))
+    except _PACK_ERRORS:
+        pass
+    # slow path: precise errors, and values such as 2.0 or True for integer types
+    dt = _dtype(dtype)
+    return _frame((_node(node) << 5) | cmd, _RW.pack(_address(address), dt) + encode_value(dt, value, "value"))
 
 
 class Message:
@@ -123,7 +181,7 @@ class Message:
 # --------------------------------------------------------------------------- motion
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class PositionT(Message):
     """T mode (0x19): track a stream of target positions through an input filter.
 
@@ -141,7 +199,7 @@ class PositionT(Message):
         return _fss(self.node, 0x19, self.position, "position", self.speed, "speed", self.bandwidth, "bandwidth")
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class PositionQ(Message):
     """Q mode (0x1A): trapezoid or S-curve move to ``position`` deg.
 
@@ -158,7 +216,7 @@ class PositionQ(Message):
         return _fss(self.node, 0x1A, self.position, "position", self.speed, "speed", self.accel, "accel")
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class PositionP(Message):
     """P mode (0x1B): position ``position`` deg with speed (r/min) and torque (Nm) feed-forward."""
 
@@ -169,12 +227,10 @@ class PositionP(Message):
     cmd: ClassVar[int] = Cmd.POSITION_P
 
     def encode(self) -> Frame:
-        return _fss(
-            self.node, 0x1B, self.position, "position", self.speed_ff, "speed_ff", self.torque_ff, "torque_ff"
-        )
+        return _fss(self.node, 0x1B, self.position, "position", self.speed_ff, "speed_ff", self.torque_ff, "torque_ff")
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Velocity(Message):
     """V mode (0x1C): run at ``speed`` r/min.
 
@@ -192,13 +248,10 @@ class Velocity(Message):
         mode = self.mode
         if mode != 1 and mode != 2:
             raise FieldRangeError("mode", mode, 1, 2, "1 = passthrough, 2 = ramp")
-        return Frame(
-            (_node(self.node) << 5) | 0x1C,
-            _FSU.pack(_f32(self.speed, "speed"), _s16(self.param, "param"), mode),
-        )
+        return _fsu(self.node, 0x1C, self.speed, "speed", self.param, "param", mode)
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Torque(Message):
     """C mode (0x1D): apply ``torque`` Nm.
 
@@ -215,16 +268,13 @@ class Torque(Message):
         mode = self.mode
         if mode != 1 and mode != 6:
             raise FieldRangeError("mode", mode, 1, 6, "1 = direct, 6 = ramp")
-        return Frame(
-            (_node(self.node) << 5) | 0x1D,
-            _FSU.pack(_f32(self.torque, "torque"), _s16(self.param, "param"), mode),
-        )
+        return _fsu(self.node, 0x1D, self.torque, "torque", self.param, "param", mode)
 
 
 # --------------------------------------------------------------------------- presets
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Preset(Message):
     """Preset (0x0C) as it is on the wire: ``p1`` f32, ``p2`` and ``p3`` s16 scaled by 0.01.
 
@@ -279,7 +329,7 @@ class _TypedPreset(Message):
         return p
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class PresetT(_TypedPreset):
     """Preset for a synchronised T move (start 0x10): ``position`` deg, ``bandwidth`` 1/s."""
 
@@ -293,7 +343,7 @@ class PresetT(_TypedPreset):
         return _fss(self.node, 0x0C, self.position, "position", self.speed, "speed", self.bandwidth, "bandwidth")
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class PresetQ(_TypedPreset):
     """Preset for a synchronised Q move (start 0x11): reach ``position`` deg in ``time`` s at ``accel`` (r/min)/s."""
 
@@ -307,7 +357,7 @@ class PresetQ(_TypedPreset):
         return _fss(self.node, 0x0C, self.position, "position", self.time, "time", self.accel, "accel")
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class PresetP(_TypedPreset):
     """Preset for a synchronised P move (start 0x12): ``position`` deg, feed-forwards r/min and Nm."""
 
@@ -318,12 +368,10 @@ class PresetP(_TypedPreset):
     kind: ClassVar[StartKind] = StartKind.P
 
     def encode(self) -> Frame:
-        return _fss(
-            self.node, 0x0C, self.position, "position", self.speed_ff, "speed_ff", self.torque_ff, "torque_ff"
-        )
+        return _fss(self.node, 0x0C, self.position, "position", self.speed_ff, "speed_ff", self.torque_ff, "torque_ff")
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class PresetV(_TypedPreset):
     """Preset for synchronised V (start 0x13). The mode code travels x100 (100, 200)."""
 
@@ -337,13 +385,10 @@ class PresetV(_TypedPreset):
         mode = self.mode
         if mode != 1 and mode != 2:
             raise FieldRangeError("mode", mode, 1, 2, "1 = passthrough, 2 = ramp")
-        return Frame(
-            (_node(self.node) << 5) | 0x0C,
-            _FSS.pack(_f32(self.speed, "speed"), _s16(self.param, "param"), int(mode) * 100),
-        )
+        return _fss(self.node, 0x0C, self.speed, "speed", self.param, "param", int(mode), "mode")
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class PresetC(_TypedPreset):
     """Preset for synchronised C (start 0x14). The mode code travels x100 (100, 600)."""
 
@@ -357,13 +402,10 @@ class PresetC(_TypedPreset):
         mode = self.mode
         if mode != 1 and mode != 6:
             raise FieldRangeError("mode", mode, 1, 6, "1 = direct, 6 = ramp")
-        return Frame(
-            (_node(self.node) << 5) | 0x0C,
-            _FSS.pack(_f32(self.torque, "torque"), _s16(self.param, "param"), int(mode) * 100),
-        )
+        return _fss(self.node, 0x0C, self.torque, "torque", self.param, "param", int(mode), "mode")
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class PresetD(_TypedPreset):
     """Preset for impedance control (start 0x15): ``position`` deg, ``speed`` r/min, ``torque_ff`` Nm."""
 
@@ -383,7 +425,7 @@ class PresetD(_TypedPreset):
 _SINGLE_SHOT = frozenset(range(0x00, 0x08))
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class SystemCommand(Message):
     """A single-shot system command (0x08, sys_num 0x00..0x07), e.g. estop or save_config."""
 
@@ -395,10 +437,10 @@ class SystemCommand(Message):
         op = self.op
         if op not in _SINGLE_SHOT:
             raise ValidationError(f"op={op!r}: system op must be 0x00..0x07; use Start/StartImpedance for 0x10..0x15")
-        return Frame((_node(self.node) << 5) | 0x08, _SYS.pack(op, 0, 0))
+        return _frame((_node(self.node) << 5) | 0x08, _SYS.pack(op, 0, 0))
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class Start(Message):
     """Start the pending presets (0x08, sys_num 0x10..0x14).
 
@@ -417,10 +459,10 @@ class Start(Message):
             raise ValidationError(f"kind={kind!r}: Start takes T, Q, P, V or C; use StartImpedance for D")
         if self.relative and kind > 0x12:
             raise ValidationError(f"relative=True: only T, Q and P starts have a relative flag, not {kind!r}")
-        return Frame((_node(self.node) << 5) | 0x08, _SYS.pack(kind, 1 if self.relative else 0, 0))
+        return _frame((_node(self.node) << 5) | 0x08, _SYS.pack(kind, 1 if self.relative else 0, 0))
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class StartImpedance(Message):
     """Start impedance control (0x08, sys_num 0x15) with ``kp`` Nm/rad and ``kd`` Nm/(rad/s).
 
@@ -434,9 +476,7 @@ class StartImpedance(Message):
     kind: ClassVar[StartKind] = StartKind.D
 
     def encode(self) -> Frame:
-        return Frame(
-            (_node(self.node) << 5) | 0x08, _SYS_KPKD.pack(0x15, _s16(self.kp, "kp"), _s16(self.kd, "kd"))
-        )
+        return _frame((_node(self.node) << 5) | 0x08, _SYS_KPKD.pack(0x15, _s16(self.kp, "kp"), _s16(self.kd, "kd")))
 
 
 # --------------------------------------------------------------------------- parameters
@@ -455,7 +495,7 @@ def _dtype(dtype: int) -> DataType:
         raise FieldRangeError("dtype", dtype, 0, 4, "0 f32, 1 u16, 2 s16, 3 u32, 4 s32") from None
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class ReadParam(Message):
     """Read a parameter (0x1E) at ``address`` as ``dtype``; the motor answers with :class:`ParamValue`."""
 
@@ -471,12 +511,10 @@ class ReadParam(Message):
         return cls(node, p.address, p.dtype)
 
     def encode(self) -> Frame:
-        return Frame(
-            (_node(self.node) << 5) | 0x1E, _RW.pack(_address(self.address), _dtype(self.dtype)) + _PAD4
-        )
+        return _frame((_node(self.node) << 5) | 0x1E, _RW.pack(_address(self.address), _dtype(self.dtype)) + _PAD4)
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class FastRead(Message):
     """Fast read (0x1E, address 0): the motor answers with one :class:`State` frame."""
 
@@ -484,10 +522,10 @@ class FastRead(Message):
     cmd: ClassVar[int] = Cmd.READ
 
     def encode(self) -> Frame:
-        return Frame((_node(self.node) << 5) | 0x1E, _ZERO8)
+        return _frame((_node(self.node) << 5) | 0x1E, _ZERO8)
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class WriteParam(Message):
     """Write ``value`` to the parameter at ``address`` as ``dtype`` (0x1F). Changes RAM only."""
 
@@ -498,7 +536,9 @@ class WriteParam(Message):
     cmd: ClassVar[int] = Cmd.WRITE
 
     @classmethod
-    def of(cls, node: int, name: str | int | Parameter, value: int | float | bool, *, allow_read_only: bool = False) -> WriteParam:
+    def of(
+        cls, node: int, name: str | int | Parameter, value: int | float | bool, *, allow_read_only: bool = False
+    ) -> WriteParam:
         """Write ``value`` to the parameter ``name`` with its table type; checks range and access."""
         p = parameter(name)
         if not p.writable and not allow_read_only:
@@ -508,14 +548,10 @@ class WriteParam(Message):
         return cls(node, p.address, p.dtype, v)
 
     def encode(self) -> Frame:
-        dtype = _dtype(self.dtype)
-        return Frame(
-            (_node(self.node) << 5) | 0x1F,
-            _RW.pack(_address(self.address), dtype) + encode_value(dtype, self.value, "value"),
-        )
+        return _rw(self.node, 0x1F, self.address, self.dtype, self.value)
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class ParamValue(Message):
     """The motor's answer to :class:`ReadParam` (0x1E): ``value`` of ``dtype`` at ``address``."""
 
@@ -526,14 +562,10 @@ class ParamValue(Message):
     cmd: ClassVar[int] = Cmd.READ
 
     def encode(self) -> Frame:
-        dtype = _dtype(self.dtype)
-        return Frame(
-            (_node(self.node) << 5) | 0x1E,
-            _RW.pack(_address(self.address), dtype) + encode_value(dtype, self.value, "value"),
-        )
+        return _rw(self.node, 0x1E, self.address, self.dtype, self.value)
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)
 class State(Message):
     """Real-time state frame (reply to a control frame, fast read, or heartbeat).
 
@@ -588,50 +620,59 @@ Reply: TypeAlias = ParamValue | State
 # --------------------------------------------------------------------------- decoding
 
 
+_VMODES = {1: VelocityMode.PASSTHROUGH, 2: VelocityMode.RAMP}
+_TMODES = {1: TorqueMode.DIRECT, 6: TorqueMode.RAMP}
+_DTYPES = tuple(DataType)
+_OPS = {op.value: op for op in SysCmd}
+_KINDS = {k.value: k for k in StartKind}
+
+
 def _dec_t(node: int, data: bytes) -> Command:
-    p, s, b = _FSS.unpack(data)
+    p, s, b = _FSS_unpack(data)
     return PositionT(node, p, b / 100, s / 100)
 
 
 def _dec_q(node: int, data: bytes) -> Command:
-    p, s, a = _FSS.unpack(data)
+    p, s, a = _FSS_unpack(data)
     return PositionQ(node, p, s / 100, a / 100)
 
 
 def _dec_p(node: int, data: bytes) -> Command:
-    p, s, t = _FSS.unpack(data)
+    p, s, t = _FSS_unpack(data)
     return PositionP(node, p, s / 100, t / 100)
 
 
 def _dec_v(node: int, data: bytes) -> Command:
     v, prm, mode = _FSU.unpack(data)
-    if mode != 1 and mode != 2:
+    m = _VMODES.get(mode)
+    if m is None:
         raise ProtocolError(f"velocity command mode {mode} is not 1 (passthrough) or 2 (ramp)")
-    return Velocity(node, v, prm / 100, VelocityMode(mode))
+    return Velocity(node, v, prm / 100, m)
 
 
 def _dec_c(node: int, data: bytes) -> Command:
     t, prm, mode = _FSU.unpack(data)
-    if mode != 1 and mode != 6:
+    m = _TMODES.get(mode)
+    if m is None:
         raise ProtocolError(f"torque command mode {mode} is not 1 (direct) or 6 (ramp)")
-    return Torque(node, t, prm / 100, TorqueMode(mode))
+    return Torque(node, t, prm / 100, m)
 
 
 def _dec_preset(node: int, data: bytes) -> Command:
-    p1, p2, p3 = _FSS.unpack(data)
+    p1, p2, p3 = _FSS_unpack(data)
     return Preset(node, p1, p2 / 100, p3 / 100)
 
 
 def _dec_sys(node: int, data: bytes) -> Command:
-    op, d1, d2 = _SYS.unpack(data)
+    op, d1, _d2 = _SYS.unpack(data)
     if op < 0x08:
-        return SystemCommand(node, SysCmd(op))
+        return SystemCommand(node, _OPS[op])
     if 0x10 <= op <= 0x12:
         if d1 > 1:
             raise ProtocolError(f"start 0x{op:02X}: sys_data1={d1} is not 0 (absolute) or 1 (relative)")
-        return Start(node, StartKind(op), d1 == 1)
+        return Start(node, _KINDS[op], d1 == 1)
     if op == 0x13 or op == 0x14:
-        return Start(node, StartKind(op), False)
+        return Start(node, _KINDS[op], False)
     if op == 0x15:
         _, kp, kd = _SYS_KPKD.unpack(data)
         return StartImpedance(node, kp / 100, kd / 100)
@@ -639,23 +680,23 @@ def _dec_sys(node: int, data: bytes) -> Command:
 
 
 def _dec_read(node: int, data: bytes) -> Command:
-    addr, dtype = _RW.unpack_from(data)
+    addr, dtype = _RW_unpack_from(data)
     if addr == 0:
         if dtype != 0:
             raise ProtocolError(f"fast read (address 0) with data type {dtype}; it must be 0")
         return FastRead(node)
     if dtype > 4:
         raise ProtocolError(f"read of {addr}: unknown data type code {dtype}")
-    return ReadParam(node, addr, DataType(dtype))
+    return ReadParam(node, addr, _DTYPES[dtype])
 
 
 def _dec_write(node: int, data: bytes) -> Command:
-    addr, dtype = _RW.unpack_from(data)
+    addr, dtype = _RW_unpack_from(data)
     if dtype > 4:
         raise ProtocolError(f"write of {addr}: unknown data type code {dtype}")
     if addr == 0:
         raise ProtocolError("write to address 0 (reserved for the fast read)")
-    return WriteParam(node, addr, DataType(dtype), decode_value(dtype, data[4:]))
+    return WriteParam(node, addr, _DTYPES[dtype], decode_value(dtype, data[4:]))
 
 
 _COMMAND_DECODERS: dict[int, Callable[[int, bytes], Command]] = {
@@ -685,7 +726,7 @@ def decode_command(arb_id: int, data: bytes) -> Command:
         dec = _COMMAND_DECODERS[arb_id & 0x1F]
     except KeyError:
         raise ProtocolError(f"frame 0x{arb_id:03X}: unknown command 0x{arb_id & 0x1F:02X}") from None
-    return dec(arb_id >> 5, bytes(data))
+    return dec(arb_id >> 5, data)
 
 
 def decode_reply(arb_id: int, data: bytes) -> Reply:
@@ -698,15 +739,15 @@ def decode_reply(arb_id: int, data: bytes) -> Reply:
         _check(arb_id, data)
     cmd = arb_id & 0x1F
     if cmd & 1:
-        p, v, t = _FSS.unpack(data)
+        p, v, t = _FSS_unpack(data)
         return State(arb_id >> 5, p, v / 100, t / 100, bool(cmd & 2), bool(cmd & 4), cmd >> 3)
     if cmd == 0x1E:
-        addr, dtype = _RW.unpack_from(data)
+        addr, dtype = _RW_unpack_from(data)
         if dtype > 4:
             raise ProtocolError(f"reply for {addr}: unknown data type code {dtype}")
         if addr == 0:
             raise ProtocolError("parameter reply for address 0 (the fast read answers with a state frame)")
-        return ParamValue(arb_id >> 5, addr, DataType(dtype), decode_value(dtype, data[4:]))
+        return ParamValue(arb_id >> 5, addr, _DTYPES[dtype], decode_value(dtype, data[4:]))
     raise ProtocolError(f"frame 0x{arb_id:03X}: command 0x{cmd:02X} is not a motor reply")
 
 

@@ -120,17 +120,24 @@ def encode_value(dtype: DataType, value: int | float | bool, field: str = "value
 
 def decode_value(dtype: int, raw: bytes) -> int | float:
     """Decode the value bytes (offset 4 of a frame) as ``dtype``."""
-    if dtype == DataType.F32:
-        return float(_F32.unpack_from(raw)[0])
     try:
-        st = _INT_STRUCTS[DataType(dtype)]
-    except ValueError:
+        unpack = _UNPACKERS[dtype]
+    except (IndexError, TypeError):
         raise ProtocolError(f"unknown data type code {dtype}") from None
-    return int(st.unpack_from(raw)[0])
+    return unpack(raw)[0]  # type: ignore[no-any-return]
+
+
+_UNPACKERS = (
+    _F32.unpack_from,
+    _INT_STRUCTS[DataType.U16].unpack_from,
+    _INT_STRUCTS[DataType.S16].unpack_from,
+    _INT_STRUCTS[DataType.U32].unpack_from,
+    _INT_STRUCTS[DataType.S32].unpack_from,
+)
 
 
 class _Registry:
-    __slots__ = ("by_name", "by_address", "_all")
+    __slots__ = ("_all", "by_address", "by_name")
 
     def __init__(self, table: tuple[Parameter, ...]) -> None:
         self._all = table
@@ -158,7 +165,7 @@ def parameters() -> Iterator[Parameter]:
 def _normalise(name: str) -> str:
     name = name.strip()
     # The vendor library accepts axis1.x etc. and rewrites to axis0 (single-axis motors).
-    if name.startswith("axis") and "." in name and name[4:name.index(".")].isdigit():
+    if name.startswith("axis") and "." in name and name[4 : name.index(".")].isdigit():
         name = "axis0" + name[name.index(".") :]
     return name
 

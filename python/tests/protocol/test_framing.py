@@ -1,0 +1,86 @@
+"""The 11-byte and 0xAA serial framings."""
+
+from __future__ import annotations
+
+import pytest
+
+from drempower.errors import ProtocolError
+from drempower.protocol import AADecoder, PositionT, Uart11Decoder, encode_aa, encode_uart11
+from drempower.protocol.ids import Frame
+
+
+def test_uart11_doc_example() -> None:
+    # protocol document 2.1: the full 11-byte packet of the T-mode example
+    f = PositionT(1, 90.0, 10.0).encode()
+    assert encode_uart11(*f[:2]).hex(" ").upper() == "08 00 39 00 00 B4 42 00 00 E8 03"
+
+
+def test_uart11_rejects_bad_frames() -> None:
+    with pytest.raises(ProtocolError):
+        encode_uart11(0x800, bytes(8))
+    with pytest.raises(ProtocolError):
+        encode_uart11(0x39, bytes(7))
+
+
+def test_uart11_resync_after_fake_header() -> None:
+    good = encode_uart11(0x39, bytes(range(8)))
+    # 08 FF cannot start a frame (id high byte > 7); a truncated frame followed by a good one
+    dec = Uart11Decoder()
+    assert dec.feed(b"\x08\xff\x01") == []
+    assert dec.dropped == 3
+    assert dec.feed(good[:5]) == []
+    assert dec.pending == 5
+    assert dec.feed(good[5:] + good) == [Frame(0x39, bytes(range(8)))] * 2
+    assert dec.frames == 2
+
+
+def test_uart11_accept_hook_and_flush() -> None:
+    stale = b"\x08\x00\x21\x00\x00"  # partial frame, then a gap
+    dec = Uart11Decoder()
+    dec.feed(stale)
+    assert dec.flush() == 5
+    assert dec.dropped == 5
+    # a predicate can refuse headers that line up by chance
+    dec = Uart11Decoder(accept=lambda arb, data: arb & 1 == 1)
+    good = encode_uart11(0x21, bytes(8))
+    assert dec.feed(b"\x08\x00\x20" + good) == [Frame(0x21, bytes(8))]
+
+
+def test_aa_vendor_layout() -> None:
+    # the vendor library's can_to_uart: AA 00 00 08 00 00 idH idL d0..d7
+    f = PositionT(1, 90.0, 10.0).encode()
+    assert encode_aa(f).hex(" ").upper() == "AA 00 00 08 00 00 00 39 00 00 B4 42 00 00 E8 03"
+    assert encode_aa(Frame(0x12345678, b"\x01", is_extended=True)).hex() == "aa01000112345678" + "01"
+    assert encode_aa(Frame(0x123, b"", is_remote=True)).hex() == "aa00010000000123"
+    with pytest.raises(ProtocolError):
+        encode_aa(Frame(0x800, bytes(8)))
+    with pytest.raises(ProtocolError):
+        encode_aa(Frame(0x1, bytes(9)))
+
+
+def test_aa_decoder_flags_and_garbage() -> None:
+    dec = AADecoder()
+    std = encode_aa(Frame(0x39, bytes(8)))
+    ext = encode_aa(Frame(0x1ABCDEF, b"\x05\x06", is_extended=True))
+    rtr = encode_aa(Frame(0x7FF, b"", is_remote=True))
+    fd12 = bytes([0xAA, 0, 0x06, 12, 0, 0, 0, 0x55]) + bytes(range(12))
+    junk = b"\xaa\x05" + b"\xaa\x00\x09" + b"\xaa\x00\x00\x09" + b"\xaa\x00\x00\x08\x01"
+    out = dec.feed(junk + std + ext + rtr + fd12)
+    assert out == [
+        Frame(0x39, bytes(8)),
+        Frame(0x1ABCDEF, b"\x05\x06", True, False),
+        Frame(0x7FF, b"", False, True),
+        Frame(0x55, bytes(range(12))),
+    ]
+    assert dec.dropped == len(junk)
+    assert dec.fd_frames == 1
+    assert dec.pending == 0
+
+
+def test_aa_decoder_waits_for_partial_frames() -> None:
+    dec = AADecoder()
+    data = encode_aa(Frame(0x21, bytes(range(8))))
+    for i in range(len(data) - 1):
+        assert dec.feed(data[i : i + 1]) == []
+    assert dec.feed(data[-1:]) == [Frame(0x21, bytes(range(8)))]
+    assert dec.dropped == 0
