@@ -6,6 +6,7 @@ PYTHON ?= python3
 VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
+LINTED := ../tools ../bench $(addprefix ../,$(wildcard examples))
 
 .PHONY: demo test test-python test-c lint bench generate clean
 
@@ -22,7 +23,7 @@ test: test-python test-c
 
 test-python: $(STAMP)
 	cd python && ../$(BIN)/python -m pytest -q
-	cd python && ../$(BIN)/ruff check src tests ../tools ../bench ../examples
+	cd python && ../$(BIN)/ruff check src tests $(LINTED)
 	cd python && ../$(BIN)/ruff format --check src tests
 	cd python && ../$(BIN)/mypy
 
