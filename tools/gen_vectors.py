@@ -202,6 +202,23 @@ def doc_examples() -> list[V]:
             source=f"{d} 1.2 note 7; {p}",
         ),
         vec(
+            "real-time state frame example (the document reuses the read-reply bytes; values are meaningless)",
+            "motor",
+            "state",
+            4,
+            {
+                "position": struct.unpack("<f", lit("77940000"))[0],
+                "speed": -40.40,
+                "torque": -156.88,
+                "trajectory_done": False,
+                "error": False,
+                "spare_bits": 0,
+            },
+            0x01,
+            lit("7794000038F0B8C2"),
+            source=f"{d} 1.2 note 6; PROTOCOL.md 7.2 item 8",
+        ),
+        vec(
             "set_angles([1,2],[90,-90],10,20,1): preset node 1 (T = 2.0 s, accel 20)",
             "host",
             "preset_q",
@@ -845,6 +862,34 @@ def invalid() -> list[V]:
     return enc + dec
 
 
+def serial() -> list[V]:
+    """Frames in both serial framings: the 11-byte UART frame and the adapter's 16-byte 0xAA frame."""
+    out: list[V] = []
+    cases = [
+        ("T example, node 1", 0x039, lit("0000B4420000E803"), "protocol doc 2.1"),
+        ("Q example, node 1", 0x03A, lit("000016C3E803F401"), "protocol doc 2.1"),
+        ("V feed-forward example, node 1", 0x03C, lit("0000A04196000100"), "protocol doc 2.2"),
+        ("V ramp example, node 1", 0x03C, lit("0000A041F4010200"), "protocol doc 2.2"),
+        ("set_id example, node 1", 0x03F, lit("1979030005000000"), "protocol doc 2.3"),
+        ("estop example, node 3", 0x068, lit("0600000000000000"), "protocol doc 1.1"),
+        ("read reply example, node 4", 0x09E, lit("7794000038F0B8C2"), "protocol doc 1.2"),
+        ("highest id", 0x7FF, bytes(range(0xF8, 0x100)), ""),
+        ("id 0", 0x000, bytes(8), ""),
+    ]
+    for name, arb, data, source in cases:
+        v: V = {"name": name}
+        if source:
+            v["source"] = source
+        v.update(
+            id=arb,
+            data=hexs(data),
+            uart11=(bytes((0x08, arb >> 8, arb & 0xFF)) + data).hex().upper(),
+            aa=(bytes((0xAA, 0, 0, 8)) + arb.to_bytes(4, "big") + data).hex().upper(),
+        )
+        out.append(v)
+    return out
+
+
 FILES = {
     "doc_examples.json": (
         "Worked examples of the vendor's CAN protocol document and PROTOCOL.md 1.7, bytes as printed.",
@@ -856,6 +901,11 @@ FILES = {
     "parameters.json": ("Parameter reads, writes and read replies in all five data types; fast read.", parameters),
     "state.json": ("State replies with every T/E flag combination and spare bits 3-4.", state),
     "invalid.json": ("Inputs that must be refused: out-of-range fields and malformed frames.", invalid),
+    "serial/framings.json": (
+        "CAN frames in the motor UART's 11-byte framing and the USB-CAN adapter's 0xAA framing "
+        "(fields: id, data, uart11, aa; hex).",
+        serial,
+    ),
 }
 
 

@@ -84,3 +84,20 @@ def test_aa_decoder_waits_for_partial_frames() -> None:
         assert dec.feed(data[i : i + 1]) == []
     assert dec.feed(data[-1:]) == [Frame(0x21, bytes(range(8)))]
     assert dec.dropped == 0
+
+
+def test_serial_vectors() -> None:
+    import json
+
+    from ..conftest import REPO_ROOT
+
+    vectors = json.loads((REPO_ROOT / "spec" / "vectors" / "serial" / "framings.json").read_text())["vectors"]
+    assert len(vectors) >= 7
+    u11, aa = Uart11Decoder(), AADecoder()
+    for v in vectors:
+        data = bytes.fromhex(v["data"])
+        assert encode_uart11(v["id"], data).hex().upper() == v["uart11"], v["name"]
+        assert encode_aa(Frame(v["id"], data)).hex().upper() == v["aa"], v["name"]
+        assert u11.feed(bytes.fromhex(v["uart11"])) == [Frame(v["id"], data)]
+        assert aa.feed(bytes.fromhex(v["aa"])) == [Frame(v["id"], data)]
+    assert u11.dropped == aa.dropped == 0
