@@ -1,7 +1,38 @@
 """drempower: the open toolkit for DrEmpower (Daran Robot) servo joint motors."""
 
+from .client import (
+    AsyncBus,
+    AsyncMotor,
+    Bus,
+    BusClosedError,
+    Motor,
+    MotorFaultError,
+    MotorState,
+    PositionMode,
+    open_bus,
+    open_bus_async,
+)
+from .client.errors import TimeoutError as TimeoutError
 from .errors import DrEmpowerError, FieldRangeError, ProtocolError, ValidationError
+from .transports.errors import TransportError
 
 __version__ = "0.1.0"
 
-__all__ = ["DrEmpowerError", "FieldRangeError", "ProtocolError", "ValidationError", "__version__"]
+__all__ = [
+    "AsyncBus",
+    "AsyncMotor",
+    "Bus",
+    "BusClosedError",
+    "DrEmpowerError",
+    "FieldRangeError",
+    "Motor",
+    "MotorFaultError",
+    "MotorState",
+    "PositionMode",
+    "ProtocolError",
+    "TransportError",
+    "ValidationError",
+    "__version__",
+    "open_bus",
+    "open_bus_async",
+]

@@ -1,0 +1,69 @@
+"""The host client: drive DrEmpower motors from Python, threaded or with asyncio.
+
+>>> import drempower
+>>> with drempower.open_bus("sim", motors=[1, 2]) as bus:   # doctest: +SKIP
+...     m = bus.motor(1)
+...     m.set_angle(90, speed=10, param=20, mode=1)
+...     m.wait_position_done(timeout=10)
+"""
+
+from .aio import AsyncBus, AsyncMotor, open_bus_async
+from .backup import ConfigBackup, ParamRecord, RestoreReport
+from .bus import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, Bus, open_bus
+from .commands import (
+    AxisMode,
+    PositionMode,
+    TorqueMode,
+    TrajMode,
+    VelocityMode,
+    make_angle,
+    make_angles,
+    make_impedance,
+    make_speed,
+    make_speeds,
+    make_torque,
+    make_torques,
+    q_move_time,
+)
+from .core import DEFAULT_TIMEOUT
+from .errors import BusClosedError, MotorFaultError, TimeoutError, VerifyError
+from .motor import Motor
+from .results import ErrorReport, GpioMode, MotorInfo
+from .state import MotorState, Subscription
+
+__all__ = [
+    "AsyncBus",
+    "AsyncMotor",
+    "AxisMode",
+    "Bus",
+    "BusClosedError",
+    "ConfigBackup",
+    "DEFAULT_MOVE_TIMEOUT",
+    "DEFAULT_POLL_INTERVAL",
+    "DEFAULT_TIMEOUT",
+    "ErrorReport",
+    "GpioMode",
+    "Motor",
+    "MotorFaultError",
+    "MotorInfo",
+    "MotorState",
+    "ParamRecord",
+    "PositionMode",
+    "RestoreReport",
+    "Subscription",
+    "TimeoutError",
+    "TorqueMode",
+    "TrajMode",
+    "VelocityMode",
+    "VerifyError",
+    "make_angle",
+    "make_angles",
+    "make_impedance",
+    "make_speed",
+    "make_speeds",
+    "make_torque",
+    "make_torques",
+    "open_bus",
+    "open_bus_async",
+    "q_move_time",
+]

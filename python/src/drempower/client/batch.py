@@ -1,0 +1,122 @@
+"""Multi-motor operations: synchronised moves, the control cycle and the bus scan."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+
+from ..errors import FieldRangeError, ValidationError
+from ..protocol.messages import S16_MAX, FastRead, Message, ReadParam
+from ..protocol.parameters import DataType
+from .commands import PositionMode, check_ids, make_angles, make_speeds, make_torques, position_mode, q_move_time
+from .core import BusCore
+from .effects import Batch, Op, read_states, request
+from .ops import traj_modes
+from .requests import reply_key
+from .results import MotorInfo
+from .state import MotorState
+
+__all__ = ["move_angles", "set_speeds", "set_torques", "cycle", "scan", "ALL_IDS"]
+
+ALL_IDS = range(1, 64)
+_REPLYING = frozenset((0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D))
+"""Commands a motor answers with a state frame when enable_reply_state is on."""
+_REPLY_STATE = 31214
+
+
+def move_angles(
+    core: BusCore,
+    ids: Sequence[int],
+    angles: Sequence[float],
+    speed: float,
+    param: float,
+    mode: int,
+    relative: bool,
+    timeout: float | None = None,
+) -> Op[float | None]:
+    """Synchronised absolute (``set_angles``) or relative (``step_angles``) move.
+
+    Every argument is validated before any frame is sent. In Q mode the move
+    time follows PROTOCOL.md 3.4.3 for the biggest mover, from freshly read
+    positions (absolute moves) and each motor's real ``traj_mode``, rounded up
+    to the 0.01 s the preset carries; it is returned (None in T and P modes).
+    """
+    m = position_mode(mode)
+    nodes = check_ids(ids, angles, "angle_list")
+    make_angles(nodes, angles, speed, param, m, move_time=1.0, relative=relative)  # validate all but the time
+    move_time: float | None = None
+    if m is PositionMode.Q:
+        modes = yield from traj_modes(core, nodes, timeout)
+        if relative:
+            dists = [abs(a) for a in angles]
+        else:
+            states = yield from read_states(nodes, timeout)
+            dists = [abs(a - st.angle) for a, st in zip(angles, states, strict=True) if st is not None]
+        t = max(q_move_time(d, speed, param, modes[n]) for n, d in zip(nodes, dists, strict=True))
+        move_time = max(0.01, math.ceil(round(t * 100, 6)) / 100)
+        if move_time > S16_MAX:
+            raise FieldRangeError(
+                "move time", move_time, 0.01, S16_MAX, "s; the Q preset carries at most 327.67 s: raise speed or accel"
+            )
+    presets, start = make_angles(nodes, angles, speed, param, m, move_time=move_time, relative=relative)
+    yield Batch(presets, start)
+    return move_time
+
+
+def set_speeds(ids: Sequence[int], speeds: Sequence[float], param: float, mode: int) -> Op[None]:
+    """Synchronised speed change (vendor ``set_speeds``)."""
+    presets, start = make_speeds(ids, speeds, param, mode)
+    yield Batch(presets, start)
+
+
+def set_torques(ids: Sequence[int], torques: Sequence[float], param: float, mode: int) -> Op[None]:
+    """Synchronised torque change (vendor ``set_torques``)."""
+    presets, start = make_torques(ids, torques, param, mode)
+    yield Batch(presets, start)
+
+
+def cycle(
+    core: BusCore, commands: Iterable[Message], timeout: float | None = None, reply_state: bool | None = None
+) -> Op[dict[int, MotorState]]:
+    """Send one command to each motor and collect one state per motor.
+
+    A motor with ``enable_reply_state`` on answers a control or preset frame
+    with its state, so it costs one frame each way; the others get a fast read
+    after the commands. ``reply_state`` None uses what the bus knows about each
+    motor (reading 31214 once for motors it does not know yet); True or False
+    asserts it for all.
+    """
+    cmds = list(commands)
+    nodes = check_ids([c.node for c in cmds])
+    for c in cmds:
+        if c.cmd == 0x1E:
+            raise ValidationError("a control cycle sends commands; reads are answered by the cycle itself")
+        c.encode()
+    if reply_state is None:
+        unknown = [n for n in nodes if n not in core.reply_state]
+        if unknown:
+            replies = yield from request([ReadParam(n, _REPLY_STATE, DataType.U32) for n in unknown], timeout)
+            for n, r in zip(unknown, replies, strict=True):
+                core.learn(n, _REPLY_STATE, r.value)
+        replying = {n for n in nodes if core.reply_state[n]}
+    else:
+        replying = set(nodes) if reply_state else set()
+    msgs = cmds + [FastRead(c.node) for c in cmds if not (c.node in replying and c.cmd in _REPLYING)]
+    states = yield from request(msgs, timeout, expect=[reply_key(n, 0) for n in nodes], what="a control cycle")
+    return dict(zip(nodes, states, strict=True))
+
+
+def scan(ids: Iterable[int] = ALL_IDS, timeout: float | None = None, versions: bool = False) -> Op[list[MotorInfo]]:
+    """Fast-read every id at once and collect the answers in one timeout window."""
+    nodes = check_ids(list(ids))
+    states = yield from read_states(nodes, timeout, missing_ok=True)
+    found = [st for st in states if st is not None]
+    if not versions or not found:
+        return [MotorInfo(st.node, st) for st in found]
+    reads = [ReadParam(st.node, a, DataType.U32) for st in found for a in (5, 6)]
+    values = yield from request(reads, timeout, missing_ok=True)
+    out = []
+    for k, st in enumerate(found):
+        hw, fw = values[2 * k], values[2 * k + 1]
+        out.append(MotorInfo(st.node, st, hw and hw.value, fw and fw.value))
+    return out

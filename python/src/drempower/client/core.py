@@ -1,0 +1,456 @@
+"""The bus core shared by the threaded and asyncio APIs.
+
+It owns the transport and the one receive thread, sends frames, matches
+replies to requests, keeps the state cache and the per-motor facts the client
+has learned (trajectory mode, reply-state setting), and knows which motors
+hold pending presets and which motors this bus has commanded. It never blocks
+waiting for a reply: the two front ends (:class:`~drempower.client.bus.Bus`
+and :class:`~drempower.client.aio.AsyncBus`) wait in their own way.
+"""
+
+from __future__ import annotations
+
+import atexit
+import dataclasses
+import logging
+import struct
+import threading
+import time
+import weakref
+from collections.abc import Callable, Sequence
+from typing import Literal
+
+from ..errors import ProtocolError, ValidationError
+from ..protocol.ids import Frame, SysCmd
+from ..protocol.messages import (
+    FastRead,
+    Message,
+    ReadParam,
+    Start,
+    StartImpedance,
+    SystemCommand,
+    WriteParam,
+    decode_reply,
+)
+from ..protocol.parameters import DataType, find_parameter
+from ..transports.base import Transport
+from .errors import BusClosedError, TimeoutError
+from .requests import Matcher, Waiter, request_key
+from .state import MotorState, StateCache
+
+__all__ = [
+    "BusCore",
+    "Exchange",
+    "StartPolicy",
+    "StopOnClose",
+    "DEFAULT_TIMEOUT",
+    "DEFAULT_MOVE_TIMEOUT",
+    "DEFAULT_POLL_INTERVAL",
+    "describe_request",
+]
+
+_log = logging.getLogger("drempower.client")
+
+DEFAULT_TIMEOUT = 0.1
+"""Default time (s) a request waits for its reply."""
+DEFAULT_MOVE_TIMEOUT = 60.0
+"""Default longest wait (s) for a move to finish (position_done and friends)."""
+DEFAULT_POLL_INTERVAL = 0.01
+"""Default pause (s) between fast reads while waiting for a move to finish."""
+
+StartPolicy = Literal["auto", "broadcast", "node"]
+"""Where start commands go: see :class:`BusCore`."""
+StopOnClose = bool | Literal["idle", "estop"]
+"""What closing the bus does to the motors it commanded: see :class:`BusCore`."""
+
+_RX_SLICE = 0.25
+_STATE = struct.Struct("<fhh").unpack
+_MOTION_CMDS = frozenset((0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D))
+_IDLE = 1  # axis0.requested_state value for IDLE
+_REQUESTED_STATE = 30003
+_new_state = tuple.__new__
+_monotonic = time.monotonic
+_open_cores: weakref.WeakSet[BusCore] = weakref.WeakSet()
+
+
+@atexit.register
+def _close_open_buses() -> None:
+    """Close (and so apply ``stop_on_close`` to) every bus still open when Python exits."""
+    for core in list(_open_cores):
+        core.close()
+
+
+def describe_request(msg: Message) -> str:
+    """Short name of a request for error messages."""
+    if isinstance(msg, FastRead):
+        return "a fast read (get_state)"
+    if isinstance(msg, ReadParam):
+        p = find_parameter(msg.address)
+        return f"read_property {p.name} ({msg.address})" if p else f"read_property {msg.address}"
+    return type(msg).__name__
+
+
+class BusCore:
+    """Transport, receive loop, reply matching and state of one bus.
+
+    ``timeout`` (s) is the default wait for a reply and ``retries`` how often a
+    read whose reply did not come is sent again. ``start`` chooses where start
+    commands go: ``"auto"`` (default) sends the start of a one-motor move to
+    that motor only, and the start of a multi-motor move to broadcast unless a
+    motor outside the move may still hold a preset from this bus (then to each
+    motor of the move); ``"broadcast"`` always broadcasts (the vendor library's
+    behaviour); ``"node"`` always addresses each motor. ``stop_on_close``:
+    ``True`` or ``"idle"`` puts every motor this bus sent a motion command to
+    into IDLE when the bus closes, ``"estop"`` sends them an emergency stop,
+    ``False`` leaves them as they are.
+    """
+
+    def __init__(
+        self,
+        transport: Transport,
+        *,
+        timeout: float = DEFAULT_TIMEOUT,
+        retries: int = 0,
+        stop_on_close: StopOnClose = True,
+        start: StartPolicy = "auto",
+        on_unsolicited: Callable[[Frame], None] | None = None,
+    ) -> None:
+        if start not in ("auto", "broadcast", "node"):
+            raise ValidationError(f"start={start!r}: 'auto', 'broadcast' or 'node'")
+        if stop_on_close not in (True, False, "idle", "estop"):
+            raise ValidationError(f"stop_on_close={stop_on_close!r}: True, False, 'idle' or 'estop'")
+        if not timeout > 0:
+            raise ValidationError(f"timeout={timeout!r}: must be > 0 s")
+        if retries.__class__ is not int or retries < 0:
+            raise ValidationError(f"retries={retries!r}: must be an integer >= 0")
+        self.transport = transport
+        self.timeout = float(timeout)
+        self.retries = retries
+        self.stop_on_close = stop_on_close
+        self.start_policy: StartPolicy = start
+        self.on_unsolicited = on_unsolicited
+        """Called in the receive thread with every frame that is no reply to a request and no state frame."""
+        self.states = StateCache()
+        self.matcher = Matcher()
+        self.traj_mode: dict[int, int] = {}
+        """Known ``traj_mode`` (35104) per motor: read from it or set through this bus."""
+        self.reply_state: dict[int, bool] = {}
+        """Known ``enable_reply_state`` (31214) per motor."""
+        self.frames_received = 0
+        self.malformed = 0
+        self.unmatched = 0
+        self._send_lock = threading.Lock()
+        self._batch_lock = threading.Lock()
+        self._close_lock = threading.Lock()
+        self._pending_presets: set[int] = set()
+        self._commanded: set[int] = set()
+        self._closed = False
+        self.closed_event = threading.Event()
+        """Set when the bus closes (wakes sleeping operations)."""
+        self._failure: BaseException | None = None
+        self._thread = threading.Thread(
+            target=self._rx_loop, name=f"drempower rx ({transport.description})", daemon=True
+        )
+        self._thread.start()
+        _open_cores.add(self)
+
+    # ------------------------------------------------------------------ state
+
+    @property
+    def closed(self) -> bool:
+        return self._closed
+
+    @property
+    def commanded(self) -> frozenset[int]:
+        """Motors this bus has sent motion commands to (0 = broadcast)."""
+        return frozenset(self._commanded)
+
+    def check_open(self) -> None:
+        """Raise :class:`BusClosedError` if the bus is closed or its receive loop stopped."""
+        if self._closed:
+            raise BusClosedError(f"the bus ({self.transport.description}) is closed")
+        if self._failure is not None:
+            raise BusClosedError(f"the receive loop stopped: {self._failure}") from self._failure
+
+    def forget(self, node: int) -> None:
+        """Drop what is known about ``node`` (after a reboot, id change or config reset)."""
+        self.traj_mode.pop(node, None)
+        self.reply_state.pop(node, None)
+
+    def learn(self, node: int, address: int, value: float) -> None:
+        """Record a parameter value this bus read or wrote when the client relies on it."""
+        if node == 0:
+            return
+        if address == 35104:
+            self.traj_mode[node] = int(value)
+        elif address == 31214:
+            self.reply_state[node] = bool(value)
+
+    # ------------------------------------------------------------------ sending
+
+    def send(self, msg: Message) -> None:
+        """Encode (validating) and send one message; never waits for a reply."""
+        frame = msg.encode()
+        self.check_open()
+        if msg.cmd in _MOTION_CMDS:
+            self._commanded.add(msg.node)
+        with self._send_lock:
+            self.transport.send(frame)
+
+    def send_many(self, msgs: Sequence[Message]) -> None:
+        """Encode every message first (nothing is sent if one is invalid), then send them in order."""
+        frames = [m.encode() for m in msgs]
+        self.check_open()
+        for m in msgs:
+            if m.cmd in _MOTION_CMDS:
+                self._commanded.add(m.node)
+        self._send_frames(frames)
+
+    def _send_frames(self, frames: Sequence[Frame]) -> None:
+        lock, send = self._send_lock, self.transport.send
+        for f in frames:
+            with lock:  # per frame, so an estop from another thread waits one frame at most
+                send(f)
+
+    def estop(self, nodes: Sequence[int]) -> None:
+        """Emergency stop: one frame per node (0 = every motor), sent at once, no reply awaited.
+
+        Works even after the receive loop failed; only a closed bus refuses.
+        """
+        frames = [SystemCommand(n, SysCmd.ESTOP).encode() for n in nodes]
+        if self._closed:
+            raise BusClosedError(f"the bus ({self.transport.description}) is closed")
+        self._send_frames(frames)
+
+    def send_batch(self, presets: Sequence[Message], start: Start | StartImpedance) -> list[int]:
+        """Send presets and their start as one atomic batch; returns where the start(s) went.
+
+        Every frame is encoded before the first is sent. See the class
+        docstring for the start addressing.
+        """
+        nodes = [p.node for p in presets]
+        frames = [p.encode() for p in presets]
+        start.encode()
+        self.check_open()
+        with self._batch_lock:
+            policy = self.start_policy
+            broadcast = policy == "broadcast" or (
+                policy == "auto" and len(nodes) > 1 and self._pending_presets.issubset(nodes)
+            )
+            targets = [0] if broadcast else nodes
+            frames += [dataclasses.replace(start, node=n).encode() for n in targets]
+            self._pending_presets.update(nodes)
+            self._commanded.update(nodes)
+            self._send_frames(frames)
+            if broadcast:
+                self._pending_presets.clear()
+            else:
+                self._pending_presets.difference_update(nodes)
+        return targets
+
+    # ------------------------------------------------------------------ receiving
+
+    def _rx_loop(self) -> None:
+        recv = self.transport.recv
+        dispatch = self._dispatch
+        try:
+            while not self._closed:
+                frame = recv(_RX_SLICE)
+                if frame is not None:
+                    try:
+                        dispatch(frame)
+                    except Exception:
+                        _log.exception("dispatching %r failed", frame)
+        except Exception as exc:
+            if not self._closed:
+                _log.error("receive loop on %s stopped: %s", self.transport.description, exc)
+                self._failure = exc
+                self.matcher.fail_all(BusClosedError(f"the receive loop stopped: {exc}"))
+
+    def _dispatch(self, frame: Frame) -> None:
+        self.frames_received += 1
+        arb, data, ext, rtr = frame
+        if ext or rtr or len(data) != 8:
+            self.malformed += 1
+            self._unsolicited(frame)
+            return
+        cmd = arb & 0x1F
+        if cmd & 1:
+            # state frame: decode bits 0-2 only (as decode_reply does)
+            node = arb >> 5
+            pos, vel, tq = _STATE(data)
+            st: MotorState = _new_state(
+                MotorState, (node, pos, vel / 100, tq / 100, bool(cmd & 2), bool(cmd & 4), _monotonic())
+            )
+            self.states.update(st)
+            self.matcher.resolve(node, 0, st)
+            return
+        try:
+            reply = decode_reply(arb, data)
+        except ProtocolError:
+            self.malformed += 1
+            self._unsolicited(frame)
+            return
+        if not self.matcher.resolve(reply.node, reply.address, reply):  # type: ignore[union-attr]
+            self._unsolicited(frame)
+
+    def _unsolicited(self, frame: Frame) -> None:
+        self.unmatched += 1
+        hook = self.on_unsolicited
+        if hook is not None:
+            try:
+                hook(frame)
+            except Exception:
+                _log.exception("unsolicited-frame hook %r failed", hook)
+
+    # ------------------------------------------------------------------ closing
+
+    def stop_frames(self) -> list[Frame]:
+        """The frames ``stop_on_close`` sends: idle or estop to every commanded motor."""
+        if not self.stop_on_close:
+            return []
+        nodes = sorted(self._commanded)
+        if self.stop_on_close == "estop":
+            return [SystemCommand(n, SysCmd.ESTOP).encode() for n in nodes]
+        return [WriteParam(n, _REQUESTED_STATE, DataType.U32, _IDLE).encode() for n in nodes]
+
+    def close(self) -> None:
+        """Apply ``stop_on_close``, stop the receive loop, close the transport. Idempotent."""
+        with self._close_lock:
+            if self._closed:
+                return
+            stops = self.stop_frames() if self._failure is None else []
+            try:
+                self._send_frames(stops)
+            except Exception as exc:
+                _log.warning("stopping the motors on close failed: %s", exc)
+            self._closed = True
+            self.closed_event.set()
+            _open_cores.discard(self)
+        try:
+            self.transport.close()
+        finally:
+            if self._thread is not threading.current_thread():
+                self._thread.join(1.0)
+            self.matcher.fail_all(BusClosedError(f"the bus ({self.transport.description}) was closed"))
+
+
+class Exchange:
+    """One request/reply exchange: register, send, and (after the caller waited) collect.
+
+    Parameter reads to the same motor go one at a time: a read reply carries
+    the same CAN id as the request, so a second request sent while the first
+    reply is due could collide with it on the wire. Fast reads (answered with
+    a state frame, another id) and reads of different motors go out together.
+    A read whose reply did not come is sent again up to ``core.retries`` times.
+    ``expect`` lists the reply keys when they are not one per message (a
+    control cycle expects a state frame per motor whatever it sends); such an
+    exchange is sent once, never retried. Without ``missing_ok`` the exchange
+    ends at the first request that stays unanswered.
+    """
+
+    __slots__ = (
+        "_batch",
+        "_pending",
+        "_serial",
+        "_tries",
+        "core",
+        "failed",
+        "frames",
+        "keys",
+        "missing_ok",
+        "msgs",
+        "results",
+        "retries",
+        "timeout",
+        "what",
+    )
+
+    def __init__(
+        self,
+        core: BusCore,
+        msgs: Sequence[Message],
+        timeout: float | None,
+        missing_ok: bool = False,
+        expect: Sequence[int] | None = None,
+        what: str | None = None,
+    ) -> None:
+        self.core = core
+        self.msgs = msgs
+        self.frames = [m.encode() for m in msgs]
+        if expect is None:
+            self.keys = [request_key(m) for m in msgs]
+            self._serial: list[int] | None = [m.node if isinstance(m, ReadParam) else -1 for m in msgs]
+            self.retries = core.retries
+        else:
+            self.keys = list(expect)
+            self._serial = None
+            self.retries = 0
+        self.timeout = core.timeout if timeout is None else timeout
+        if not self.timeout > 0:
+            raise ValidationError(f"timeout={timeout!r}: must be > 0 s")
+        self.missing_ok = missing_ok
+        self.what = what
+        n = len(self.keys)
+        self.results: list[object | None] = [None] * n
+        self.failed: list[int] = []
+        self._pending = list(range(n))
+        self._tries = [0] * n
+        self._batch: list[int] = []
+
+    def _next_batch(self) -> list[int]:
+        serial = self._serial
+        if serial is None:
+            return self._pending
+        busy: set[int] = set()
+        out = []
+        for i in self._pending:
+            node = serial[i]
+            if node < 0:
+                out.append(i)
+            elif node not in busy:
+                busy.add(node)
+                out.append(i)
+        return out
+
+    def start(self, notify: Callable[[], None] | None = None) -> Waiter:
+        """Register the next replies to wait for and send their requests."""
+        core = self.core
+        core.check_open()
+        batch = self._batch = self._next_batch()
+        w = Waiter([self.keys[i] for i in batch], notify)
+        core.matcher.register(w)
+        try:
+            core._send_frames(self.frames if self._serial is None else [self.frames[i] for i in batch])
+        except BaseException:
+            core.matcher.cancel(w)
+            raise
+        return w
+
+    def collect(self, w: Waiter) -> bool:
+        """Take the answers ``w`` got; True when the exchange is over."""
+        if w.remaining:
+            self.core.matcher.cancel(w)
+        if w.error is not None:
+            raise w.error
+        results, tries, failed = self.results, self._tries, self.failed
+        for j, i in enumerate(self._batch):
+            r = w.results[j]
+            if r is not None:
+                results[i] = r
+            else:
+                tries[i] += 1
+                if tries[i] > self.retries:
+                    failed.append(i)
+        self._pending = [i for i in self._pending if results[i] is None and tries[i] <= self.retries]
+        if failed and not self.missing_ok:
+            return True
+        return not self._pending
+
+    def result(self) -> list[object | None]:
+        """The answers in request order; raises :class:`TimeoutError` for missing ones unless ``missing_ok``."""
+        if self.failed and not self.missing_ok:
+            nodes = sorted({self.keys[i] >> 16 for i in self.failed})
+            what = self.what or describe_request(self.msgs[self.failed[0]])
+            raise TimeoutError(nodes, what, self.timeout)
+        return self.results

@@ -1,0 +1,89 @@
+"""Operations as generators of effects, run by a threaded or an asyncio driver.
+
+An operation that needs several exchanges with the motors (read positions,
+then send presets; poll until a move ends; read seven error words...) is
+written once as a generator that yields effects and receives their results.
+:class:`~drempower.client.bus.Bus` runs it with blocking waits,
+:class:`~drempower.client.aio.AsyncBus` with awaits, so both APIs share every
+line of logic.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Generator, Sequence
+from dataclasses import dataclass
+from typing import Any, TypeAlias, TypeVar
+
+from ..protocol.messages import FastRead, Message, ParamValue, ReadParam, Start, StartImpedance
+from ..protocol.parameters import Parameter, parameter
+from .state import MotorState
+
+__all__ = ["Send", "Batch", "Request", "Sleep", "Effect", "Op", "request", "read_params", "read_states", "sleep"]
+
+T = TypeVar("T")
+
+
+@dataclass(frozen=True, slots=True)
+class Send:
+    """Send messages (all encoded before the first is sent); result None."""
+
+    messages: Sequence[Message]
+
+
+@dataclass(frozen=True, slots=True)
+class Batch:
+    """Send presets and their start atomically (see ``BusCore.send_batch``); result: start targets."""
+
+    presets: Sequence[Message]
+    start: Start | StartImpedance
+
+
+@dataclass(frozen=True, slots=True)
+class Request:
+    """Send ``messages`` and collect their answers; result: answers in order (None if missing and allowed)."""
+
+    messages: Sequence[Message]
+    timeout: float | None = None
+    missing_ok: bool = False
+    expect: Sequence[int] | None = None
+    what: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Sleep:
+    """Pause for ``seconds``; result None."""
+
+    seconds: float
+
+
+Effect: TypeAlias = Send | Batch | Request | Sleep
+Op: TypeAlias = Generator[Effect, Any, T]
+"""An operation: yields effects, returns ``T``."""
+
+
+def request(
+    msgs: Sequence[Message], timeout: float | None = None, missing_ok: bool = False, **kw: Any
+) -> Op[list[Any]]:
+    """Yield one :class:`Request` and return its answers."""
+    result: list[Any] = yield Request(msgs, timeout, missing_ok, **kw)
+    return result
+
+
+def read_params(node: int, params: Sequence[str | int | Parameter], timeout: float | None = None) -> Op[list[Any]]:
+    """Read several parameters of one motor in a single exchange; returns their values."""
+    ps = [parameter(p) for p in params]
+    replies: list[ParamValue] = yield from request([ReadParam(node, p.address, p.dtype) for p in ps], timeout)
+    return [r.value for r in replies]
+
+
+def read_states(
+    nodes: Sequence[int], timeout: float | None = None, missing_ok: bool = False
+) -> Op[list[MotorState | None]]:
+    """Fast-read several motors in a single exchange."""
+    states: list[MotorState | None] = yield from request([FastRead(n) for n in nodes], timeout, missing_ok)
+    return states
+
+
+def sleep(seconds: float) -> Op[None]:
+    """Yield one :class:`Sleep`."""
+    yield Sleep(seconds)

@@ -1,0 +1,294 @@
+"""Single-motor operations that take more than one frame (see :mod:`.effects`)."""
+
+from __future__ import annotations
+
+import math
+import struct
+import time
+from collections.abc import Sequence
+
+from ..errors import FieldRangeError, ValidationError
+from ..protocol.ids import MAX_NODE, SysCmd
+from ..protocol.messages import ReadParam, SystemCommand, WriteParam
+from ..protocol.parameters import DataType, Parameter, parameter
+from .commands import AxisMode, TrajMode
+from .core import BusCore
+from .effects import Op, Send, read_params, read_states, request, sleep
+from .errors import MotorFaultError, TimeoutError, VerifyError, motors
+from .results import ERROR_WORD_NAMES, ErrorReport, GpioMode
+from .state import MotorState
+
+__all__ = [
+    "get_state",
+    "read_property",
+    "write_property",
+    "write_verified",
+    "get_id",
+    "set_id",
+    "get_volcur",
+    "dump_error",
+    "set_can_baud_rate",
+    "set_uart_baud_rate",
+    "set_mode",
+    "get_traj_mode",
+    "set_traj_mode",
+    "traj_modes",
+    "set_angle_range",
+    "get_gpio_mode",
+    "set_gpio_mode",
+    "wait_done",
+    "CAN_BAUD_RATES",
+    "UART_BAUD_RATES",
+]
+
+CAN_BAUD_RATES = (125_000, 250_000, 500_000, 1_000_000)
+UART_BAUD_RATES = (9600, 19200, 57600, 115200)
+_F32 = struct.Struct("<f")
+_SAVE_SETTLE = 0.1
+"""Pause (s) between save_config and reboot, as the vendor library does."""
+
+
+def _same(p: Parameter, written: float, read: float) -> bool:
+    if p.dtype is DataType.F32:
+        return _F32.pack(written) == _F32.pack(read)
+    return int(written) == int(read)
+
+
+def _system(node: int, op: SysCmd) -> Send:
+    return Send([SystemCommand(node, op)])
+
+
+def get_state(node: int, timeout: float | None = None) -> Op[MotorState]:
+    """Fresh state by fast read."""
+    (st,) = yield from read_states([node], timeout)
+    assert st is not None
+    return st
+
+
+def read_property(core: BusCore, node: int, prop: str | int, timeout: float | None = None) -> Op[int | float]:
+    """Value of parameter ``prop`` (name or address)."""
+    p = parameter(prop)
+    (value,) = yield from read_params(node, [p], timeout)
+    core.learn(node, p.address, value)
+    v: int | float = value
+    return v
+
+
+def write_property(
+    core: BusCore, node: int, prop: str | int, value: float, verify: bool = False, timeout: float | None = None
+) -> Op[None]:
+    """Write ``value`` to ``prop``; with ``verify`` read it back and raise :class:`VerifyError` if it differs."""
+    msg = WriteParam.of(node, prop, value)
+    yield Send([msg])
+    if verify:
+        yield from _verify(node, [msg], timeout)
+    core.learn(node, msg.address, msg.value)
+
+
+def _verify(node: int, writes: Sequence[WriteParam], timeout: float | None) -> Op[None]:
+    params = [parameter(w.address) for w in writes]
+    values = yield from read_params(node, params, timeout)
+    for p, w, v in zip(params, writes, values, strict=True):
+        if not _same(p, w.value, v):
+            raise VerifyError(f"motor {node}: {p.name} reads {v!r} after writing {w.value!r}")
+
+
+def write_verified(node: int, items: Sequence[tuple[str | int, float]], timeout: float | None = None) -> Op[None]:
+    """Write several parameters, then read them all back in one exchange and check them."""
+    writes = [WriteParam.of(node, prop, value) for prop, value in items]
+    yield Send(writes)
+    yield from _verify(node, writes, timeout)
+
+
+def get_id(node: int, timeout: float | None = None) -> Op[int]:
+    """The motor's id as it reports it (``axis0.config.can_node_id``)."""
+    (value,) = yield from read_params(node, ["axis0.config.can_node_id"], timeout)
+    return int(value)
+
+
+def set_id(core: BusCore, node: int, new_id: int, timeout: float | None = None) -> Op[None]:
+    """Give the motor ``new_id`` (1..63), check that it answers there, then save."""
+    if new_id.__class__ is not int or not 1 <= new_id <= MAX_NODE:
+        raise FieldRangeError("new_id", new_id, 1, MAX_NODE, "motor ids are 1..63")
+    yield Send([WriteParam.of(node, "axis0.config.can_node_id", new_id)])
+    try:
+        answered = yield from get_id(new_id, timeout)
+    except TimeoutError as exc:
+        raise VerifyError(f"motor {node} does not answer at its new id {new_id}; nothing was saved") from exc
+    if answered != new_id:
+        raise VerifyError(f"motor at id {new_id} reports id {answered}; nothing was saved")
+    yield _system(new_id, SysCmd.SAVE_CONFIG)
+    if node != new_id:
+        for n in (node, new_id):
+            core.forget(n)
+            core.states.clear(n)
+
+
+def get_volcur(node: int, timeout: float | None = None) -> Op[tuple[float, float]]:
+    """Supply voltage (V) and q-axis current (A) (vendor ``get_volcur``)."""
+    v, i = yield from read_params(node, ["vbus_voltage", "axis0.motor.current_control.Iq_measured"], timeout)
+    return float(v), float(i)
+
+
+def dump_error(node: int, timeout: float | None = None) -> Op[ErrorReport]:
+    """Read the seven error words in one exchange."""
+    values = yield from read_params(node, ERROR_WORD_NAMES, timeout)
+    return ErrorReport(node, {name: int(v) for name, v in zip(ERROR_WORD_NAMES, values, strict=True)})
+
+
+def set_can_baud_rate(node: int, baud_rate: int, timeout: float | None = None) -> Op[None]:
+    """Set the CAN bitrate (125k/250k/500k/1M), verify, save; it applies after a reboot."""
+    if baud_rate not in CAN_BAUD_RATES:
+        raise ValidationError(f"baud_rate={baud_rate!r}: CAN bitrates are {', '.join(map(str, CAN_BAUD_RATES))}")
+    yield from write_verified(node, [("can.config.baud_rate", baud_rate)], timeout)
+    yield _system(node, SysCmd.SAVE_CONFIG)
+
+
+def set_uart_baud_rate(node: int, baud_rate: int, timeout: float | None = None) -> Op[None]:
+    """Set the UART rate of an M-series motor (9600/19200/57600/115200), verify, save."""
+    if baud_rate not in UART_BAUD_RATES:
+        raise ValidationError(f"baud_rate={baud_rate!r}: UART rates are {', '.join(map(str, UART_BAUD_RATES))}")
+    yield from write_verified(node, [("config.uart_baudrate", baud_rate)], timeout)
+    yield _system(node, SysCmd.SAVE_CONFIG)
+
+
+def set_mode(node: int, mode: int) -> WriteParam:
+    """The write of ``axis0.requested_state`` for set_mode: 1 = IDLE, 2 = closed loop."""
+    try:
+        m = AxisMode(mode)
+    except ValueError:
+        raise ValidationError(f"mode={mode!r}: 1 (idle) or 2 (closed loop); calibration is not offered") from None
+    return WriteParam.of(node, "axis0.requested_state", 1 if m is AxisMode.IDLE else 8)
+
+
+def get_traj_mode(core: BusCore, node: int, timeout: float | None = None) -> Op[TrajMode]:
+    """The motor's Q-mode profile (35104), read and remembered."""
+    value = yield from read_property(core, node, 35104, timeout)
+    return TrajMode(int(value))
+
+
+def set_traj_mode(core: BusCore, node: int, mode: int, timeout: float | None = None) -> Op[None]:
+    """Set the Q-mode profile (1 trapezoid, 2 S-curve), verified and remembered (not saved)."""
+    try:
+        m = TrajMode(mode)
+    except ValueError:
+        raise ValidationError(f"mode={mode!r}: 1 (trapezoid) or 2 (S-curve)") from None
+    yield from write_property(core, node, 35104, int(m), True, timeout)
+
+
+def traj_modes(core: BusCore, nodes: Sequence[int], timeout: float | None = None) -> Op[dict[int, int]]:
+    """The Q-mode profile of each motor: remembered ones, the rest read in one exchange."""
+    unknown = [n for n in nodes if n not in core.traj_mode]
+    if unknown:
+        p = parameter(35104)
+        replies = yield from request([ReadParam(n, p.address, p.dtype) for n in unknown], timeout)
+        for n, r in zip(unknown, replies, strict=True):
+            core.learn(n, p.address, r.value)
+    return {n: core.traj_mode[n] for n in nodes}
+
+
+def set_angle_range(node: int, angle_min: float, angle_max: float, timeout: float | None = None) -> Op[None]:
+    """Enable software limits [angle_min, angle_max] deg; the motor must be inside them now."""
+    for v, f in ((angle_min, "angle_min"), (angle_max, "angle_max")):
+        if not (isinstance(v, (int, float)) and math.isfinite(v)):
+            raise ValidationError(f"{f}={v!r}: expected a finite number of degrees")
+    if not angle_min < angle_max:
+        raise ValidationError(f"angle_min={angle_min} must be below angle_max={angle_max}")
+    st = yield from get_state(node, timeout)
+    if not angle_min <= st.angle <= angle_max:
+        raise ValidationError(
+            f"motor {node} is at {st.angle:.2f} deg, outside [{angle_min}, {angle_max}]; move it inside first"
+        )
+    yield from write_verified(
+        node,
+        [
+            ("axis0.output_shaft.circular_setpoint_min", angle_min),
+            ("axis0.output_shaft.circular_setpoint_max", angle_max),
+            ("axis0.config.extra_setting.enable_circular_setpoint_limit", 1),
+        ],
+        timeout,
+    )
+    yield _system(node, SysCmd.SAVE_CONFIG)
+
+
+def get_gpio_mode(node: int, timeout: float | None = None) -> Op[GpioMode]:
+    """What the spare pins do (M series)."""
+    uart, step = yield from read_params(node, ["config.enable_uart", "axis0.config.enable_step_dir"], timeout)
+    if uart:
+        (baud,) = yield from read_params(node, ["config.uart_baudrate"], timeout)
+        return GpioMode("tx_rx", True, bool(step), float(baud))
+    if step:
+        (steps,) = yield from read_params(node, ["axis0.output_shaft.steps_per_turn"], timeout)
+        return GpioMode("step_dir", False, True, float(steps))
+    return GpioMode("off", False, False, None)
+
+
+def set_gpio_mode(core: BusCore, node: int, mode: str, param: float, timeout: float | None = None) -> Op[None]:
+    """Switch the spare pins to UART (``"tx_rx"``, param = baud) or step/dir (param = pulses 1..1024).
+
+    The writes are verified, then saved, and the motor reboots (as the vendor's does).
+    """
+    if mode == "tx_rx":
+        if param not in UART_BAUD_RATES:
+            raise ValidationError(f"param={param!r}: UART rates are {', '.join(map(str, UART_BAUD_RATES))}")
+        items: list[tuple[str | int, float]] = [
+            ("axis0.config.enable_step_dir", 0),
+            ("config.enable_uart", 1),
+            ("config.uart_baudrate", int(param)),
+        ]
+    elif mode == "step_dir":
+        if not (isinstance(param, (int, float)) and param == int(param) and 1 <= param <= 1024):
+            raise FieldRangeError("param", param, 1, 1024, "whole pulses per turn")
+        items = [
+            ("config.enable_uart", 0),
+            ("axis0.config.enable_step_dir", 1),
+            ("axis0.output_shaft.steps_per_turn", float(param)),
+        ]
+    else:
+        raise ValidationError(f"mode={mode!r}: 'tx_rx' or 'step_dir'")
+    yield from write_verified(node, items, timeout)
+    yield _system(node, SysCmd.SAVE_CONFIG)
+    yield from sleep(_SAVE_SETTLE)
+    yield _system(node, SysCmd.REBOOT)
+    core.forget(node)
+
+
+def _fault(node: int, doing: str, timeout: float | None) -> Op[MotorFaultError]:
+    try:
+        report = yield from dump_error(node, timeout)
+        flags = report.flags
+    except TimeoutError:
+        flags = {}
+    return MotorFaultError(node, doing, flags)
+
+
+def wait_done(
+    nodes: Sequence[int], timeout: float, poll_interval: float, request_timeout: float | None = None
+) -> Op[dict[int, MotorState]]:
+    """Poll the motors (fast reads, one exchange per round) until each reports trajectory done.
+
+    Raises :class:`TimeoutError` naming the motors still moving after
+    ``timeout`` s, and :class:`MotorFaultError` as soon as one reports an error.
+    """
+    if not timeout > 0 or not poll_interval > 0:
+        raise ValidationError(f"timeout={timeout!r} and poll_interval={poll_interval!r} must be > 0 s")
+    deadline = time.monotonic() + timeout
+    waiting = list(dict.fromkeys(nodes))
+    done: dict[int, MotorState] = {}
+    while True:
+        states = yield from read_states(waiting, request_timeout)
+        for st in states:
+            assert st is not None
+            if st.error:
+                raise (yield from _fault(st.node, "while moving", request_timeout))
+            if st.trajectory_done:
+                done[st.node] = st
+        waiting = [n for n in waiting if n not in done]
+        if not waiting:
+            return done
+        left = deadline - time.monotonic()
+        if left <= 0:
+            raise TimeoutError(
+                waiting, "wait_position_done", timeout, f"{motors(waiting)}: still moving after {timeout:g} s"
+            )
+        yield from sleep(min(poll_interval, left))

@@ -1,0 +1,129 @@
+"""Matching replies to requests.
+
+Every request that expects an answer is registered under a key before its
+frame is sent: ``node << 16 | address`` for a parameter read and
+``node << 16`` for a fast read (address 0), whose answer is the motor's next
+state frame. A reply resolves the oldest request waiting on its key; a request
+to node 0 (broadcast) is answered by any node. Replies that match nothing are
+left to the caller (state cache, unsolicited-frame hook).
+"""
+
+from __future__ import annotations
+
+import threading
+from collections.abc import Callable, Sequence
+
+from ..protocol.messages import FastRead, Message, ReadParam
+
+__all__ = ["Waiter", "Matcher", "reply_key", "request_key"]
+
+
+def reply_key(node: int, address: int) -> int:
+    """Key of a reply from ``node`` for parameter ``address`` (0 = state frame)."""
+    return (node << 16) | address
+
+
+def request_key(msg: Message) -> int:
+    """Key under which the answer to ``msg`` (a read or fast read) is expected."""
+    if isinstance(msg, ReadParam):
+        return (msg.node << 16) | msg.address
+    if isinstance(msg, FastRead):
+        return msg.node << 16
+    raise TypeError(f"{type(msg).__name__} has no reply to wait for")
+
+
+class Waiter:
+    """The answers awaited by one call: ``results[i]`` answers ``keys[i]``.
+
+    Completion sets ``event`` (threads) or calls ``notify`` (asyncio bridge),
+    once, from the receive thread or from :meth:`Matcher.fail_all`.
+    """
+
+    __slots__ = ("error", "event", "keys", "notify", "remaining", "results")
+
+    def __init__(self, keys: Sequence[int], notify: Callable[[], None] | None = None) -> None:
+        self.keys = keys
+        self.results: list[object | None] = [None] * len(keys)
+        self.remaining = len(keys)
+        self.error: BaseException | None = None
+        self.notify = notify
+        self.event: threading.Event | None = threading.Event() if notify is None else None
+
+    def _complete(self) -> None:
+        if self.notify is not None:
+            self.notify()
+        elif self.event is not None:
+            self.event.set()
+
+    def missing(self) -> list[int]:
+        """Indices of the keys still unanswered."""
+        return [i for i, r in enumerate(self.results) if r is None]
+
+
+class Matcher:
+    """The table of outstanding requests, safe to use from any thread."""
+
+    def __init__(self) -> None:
+        self._lock = threading.Lock()
+        self._table: dict[int, list[tuple[Waiter, int]]] = {}
+
+    def __len__(self) -> int:
+        return sum(len(v) for v in self._table.values())
+
+    def register(self, waiter: Waiter) -> None:
+        """Expect the answers to ``waiter.keys`` (call before sending the requests)."""
+        with self._lock:
+            table = self._table
+            for i, key in enumerate(waiter.keys):
+                entry = (waiter, i)
+                lst = table.get(key)
+                if lst is None:
+                    table[key] = [entry]
+                else:
+                    lst.append(entry)
+
+    def resolve(self, node: int, address: int, value: object) -> bool:
+        """Hand ``value`` to the oldest request waiting for it; False if none is."""
+        table = self._table
+        key = (node << 16) | address
+        with self._lock:
+            lst = table.get(key)
+            if lst is None:
+                key = address  # a request sent to broadcast (node 0)
+                lst = table.get(key)
+                if lst is None:
+                    return False
+            waiter, i = lst.pop(0)
+            if not lst:
+                del table[key]
+            waiter.results[i] = value
+            waiter.remaining -= 1
+            done = waiter.remaining == 0
+        if done:
+            waiter._complete()
+        return True
+
+    def cancel(self, waiter: Waiter) -> None:
+        """Stop waiting for the unanswered keys of ``waiter``."""
+        with self._lock:
+            table = self._table
+            for i in waiter.missing():
+                key = waiter.keys[i]
+                lst = table.get(key)
+                if lst is None:
+                    continue
+                try:
+                    lst.remove((waiter, i))
+                except ValueError:
+                    continue
+                if not lst:
+                    del table[key]
+
+    def fail_all(self, error: BaseException) -> None:
+        """Complete every outstanding request with ``error`` (bus closed or device lost)."""
+        with self._lock:
+            waiters = {w for lst in self._table.values() for w, _ in lst}
+            self._table.clear()
+        for w in waiters:
+            w.error = error
+            w._complete()

@@ -1,0 +1,75 @@
+"""Open a transport from python-can style arguments."""
+
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from .base import Transport
+from .errors import TransportError
+
+__all__ = ["open_transport", "SERIAL_ADAPTER", "MOTOR_UART", "SIMULATOR"]
+
+SERIAL_ADAPTER = frozenset({"adapter", "serial"})
+"""Interface names of the vendor USB-CAN adapter (0xAA framing; channel = serial port)."""
+MOTOR_UART = frozenset({"uart"})
+"""Interface name of a G-series motor's UART (11-byte frames; channel = serial port)."""
+SIMULATOR = frozenset({"sim"})
+"""Interface name of the in-process simulator."""
+_PYTHON_CAN_PREFIX = "python-can:"
+
+
+def _serial_args(interface: str, channel: str | int | None, bitrate: int | None, kwargs: dict[str, Any]) -> str:
+    if channel is None:
+        raise TransportError(f"interface {interface!r} needs channel=<serial port>, e.g. '/dev/ttyACM0', 'COM5'")
+    if bitrate is not None:
+        kwargs.setdefault("baudrate", bitrate)
+    return str(channel)
+
+
+def open_transport(
+    interface: str | None = None,
+    channel: str | int | None = None,
+    bitrate: int | None = None,
+    **kwargs: Any,
+) -> Transport:
+    """Open the transport named by ``interface``.
+
+    * ``"adapter"`` or ``"serial"``: the vendor USB-CAN adapter, ``channel`` = serial
+      port or pyserial URL; keyword arguments go to pyserial.
+    * ``"uart"``: a G-series motor's UART, ``channel`` = serial port or URL,
+      ``bitrate`` (or ``baudrate``) = UART rate, 115200 by default.
+    * ``"sim"``: the in-process simulator; ``motors=[1, 2, 3]``, ``time_scale``
+      and the simulator's other options as keyword arguments.
+    * any other name: a python-can interface (``"socketcan"``, ``"pcan"``,
+      ``"slcan"``, ``"virtual"``...) with ``channel``, ``bitrate`` and keyword
+      arguments passed on; ``"python-can:serial"`` reaches python-can's own
+      ``serial`` interface. ``interface=None`` lets python-can's configuration
+      (config file, ``CAN_*`` environment variables) decide.
+
+    Raises :class:`TransportError` at once, naming what was tried, when the bus
+    cannot be opened.
+    """
+    if interface in SERIAL_ADAPTER:
+        from .serial_adapter import AdapterTransport
+
+        return AdapterTransport(_serial_args(interface, channel, bitrate, kwargs), **kwargs)
+    if interface in MOTOR_UART:
+        from .uart import UartTransport
+
+        return UartTransport(_serial_args(interface, channel, bitrate, kwargs), **kwargs)
+    if interface in SIMULATOR:
+        try:
+            sim = importlib.import_module(".sim", __package__)
+        except ImportError as exc:
+            raise TransportError(f"the simulator is not available: {exc}") from exc
+        if bitrate is not None:
+            kwargs.setdefault("bitrate", bitrate)
+        transport = sim.SimTransport(**kwargs)
+        assert isinstance(transport, Transport)
+        return transport
+    if interface is not None and interface.startswith(_PYTHON_CAN_PREFIX):
+        interface = interface[len(_PYTHON_CAN_PREFIX) :]
+    from .pythoncan import PythonCanTransport
+
+    return PythonCanTransport(interface, channel, bitrate, **kwargs)
