@@ -68,6 +68,7 @@ _STATE = struct.Struct("<fhh").unpack
 _MOTION_CMDS = frozenset((0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D))
 _IDLE = 1  # axis0.requested_state value for IDLE
 _REQUESTED_STATE = 30003
+_REQUESTED_STATE_LE = _REQUESTED_STATE.to_bytes(2, "little")
 _new_state = tuple.__new__
 _monotonic = time.monotonic
 _open_cores: weakref.WeakSet[BusCore] = weakref.WeakSet()
@@ -100,9 +101,9 @@ class BusCore:
     motor outside the move may still hold a preset from this bus (then to each
     motor of the move); ``"broadcast"`` always broadcasts (the vendor library's
     behaviour); ``"node"`` always addresses each motor. ``stop_on_close``:
-    ``True`` or ``"idle"`` puts every motor this bus sent a motion command to
-    into IDLE when the bus closes, ``"estop"`` sends them an emergency stop,
-    ``False`` leaves them as they are.
+    ``True`` or ``"idle"`` puts every motor this bus sent a motion command or
+    a state request (set_mode) to into IDLE when the bus closes, ``"estop"``
+    sends them an emergency stop, ``False`` leaves them as they are.
     """
 
     def __init__(
@@ -162,8 +163,8 @@ class BusCore:
 
     @property
     def commanded(self) -> frozenset[int]:
-        """Motors this bus has sent motion commands to (0 = broadcast)."""
-        return frozenset(self._commanded)
+        """Motors this bus has sent motion commands or a requested state to (0 = broadcast)."""
+        return frozenset(self._commanded.copy())
 
     def check_open(self) -> None:
         """Raise :class:`BusClosedError` if the bus is closed or its receive loop stopped."""
@@ -192,7 +193,7 @@ class BusCore:
         """Encode (validating) and send one message; never waits for a reply."""
         frame = msg.encode()
         self.check_open()
-        if msg.cmd in _MOTION_CMDS:
+        if msg.cmd in _MOTION_CMDS or (msg.cmd == 0x1F and frame[1][:2] == _REQUESTED_STATE_LE):
             self._commanded.add(msg.node)
         with self._send_lock:
             self.transport.send(frame)
@@ -201,8 +202,8 @@ class BusCore:
         """Encode every message first (nothing is sent if one is invalid), then send them in order."""
         frames = [m.encode() for m in msgs]
         self.check_open()
-        for m in msgs:
-            if m.cmd in _MOTION_CMDS:
+        for m, f in zip(msgs, frames, strict=True):
+            if m.cmd in _MOTION_CMDS or (m.cmd == 0x1F and f[1][:2] == _REQUESTED_STATE_LE):
                 self._commanded.add(m.node)
         self._send_frames(frames)
 
@@ -309,7 +310,7 @@ class BusCore:
         """The frames ``stop_on_close`` sends: idle or estop to every commanded motor."""
         if not self.stop_on_close:
             return []
-        nodes = sorted(self._commanded)
+        nodes = sorted(self._commanded.copy())
         if self.stop_on_close == "estop":
             return [SystemCommand(n, SysCmd.ESTOP).encode() for n in nodes]
         return [WriteParam(n, _REQUESTED_STATE, DataType.U32, _IDLE).encode() for n in nodes]
