@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterable, Sequence
 from types import TracebackType
 from typing import Any, TypeVar
 
-from ..protocol.ids import Frame, SysCmd
+from ..protocol.ids import Frame, SysCmd, check_node
 from ..protocol.messages import Message
 from ..transports.base import Transport
 from . import backup as _backup
@@ -159,6 +159,7 @@ class AsyncBus:
         """The handle of motor ``id``."""
         m = self._motors.get(id)
         if m is None:
+            check_node(id, "id")
             m = self._motors[id] = AsyncMotor(self, id)
         return m
 

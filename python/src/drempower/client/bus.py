@@ -8,7 +8,7 @@ from collections.abc import Callable, Iterable, Sequence
 from types import TracebackType
 from typing import Any, TypeVar
 
-from ..protocol.ids import Frame
+from ..protocol.ids import Frame, check_node
 from ..protocol.messages import Message
 from ..transports.base import Transport
 from ..transports.factory import open_transport
@@ -164,6 +164,7 @@ class Bus:
         """The handle of motor ``id`` (1..63; 0 addresses every motor, reads need a single motor)."""
         m = self._motors.get(id)
         if m is None:
+            check_node(id, "id")
             with self._motors_lock:
                 m = self._motors.get(id)
                 if m is None:
