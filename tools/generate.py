@@ -158,7 +158,7 @@ def render_c(rows: list[Row]) -> str:
         "",
     ]
     dtype_codes = {"DRE_F32": 0, "DRE_U16": 1, "DRE_S16": 2, "DRE_U32": 3, "DRE_S32": 4}
-    for r, name in zip(rows, idents):
+    for r, name in zip(rows, idents, strict=True):
         flags = []
         if r.access == "rw":
             flags.append("DRE_PF_RW")
@@ -171,7 +171,9 @@ def render_c(rows: list[Row]) -> str:
         elif r.series == "G":
             flags.append("DRE_PF_SERIES_G")
         unit = f" [{r.unit}]" if r.unit else ""
-        out.append(f"/** {comment(r.name)} ({r.address}, {r.type}, {r.access}){comment(unit)}: {comment(r.description)} */")
+        out.append(
+            f"/** {comment(r.name)} ({r.address}, {r.type}, {r.access}){comment(unit)}: {comment(r.description)} */"
+        )
         out.append(
             f"#define {name} DRE_PARAM({r.address}u, {dtype_codes[c_types[r.type]]}u, {' | '.join(flags) or '0u'})"
         )
@@ -187,7 +189,7 @@ def render_c(rows: list[Row]) -> str:
         "/** Every parameter, sorted by address. */",
         "extern const dre_param_info dre_param_table[DRE_PARAM_COUNT];",
         "",
-        "/** The parameter named `name` (\"axis1.x\" is read as \"axis0.x\", as the vendor does), or NULL. */",
+        '/** The parameter named `name` ("axis1.x" is read as "axis0.x", as the vendor does), or NULL. */',
         "const dre_param_info *dre_param_find(const char *name);",
         "",
         "/** The parameter at `address`, or NULL. */",
@@ -196,7 +198,7 @@ def render_c(rows: list[Row]) -> str:
         "#ifdef DRE_PARAMS_IMPLEMENTATION",
         "const dre_param_info dre_param_table[DRE_PARAM_COUNT] = {",
     ]
-    for r, name in zip(rows, idents):
+    for r, name in zip(rows, idents, strict=True):
         out.append(f"    {{{c_string(r.name)}, {c_string(r.unit)}, {name}}},")
     out += [
         "};",

@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # Cross-compile the C library for a Cortex-M4 and print code (text) and RAM
-# (data + bss) per module, as arm-none-eabi-size reports them for each object.
-# Installs gcc-arm-none-eabi with apt-get when it is missing. Fails when the
-# codec grows beyond 4 KiB of code or gets RAM of its own.
+# (data + bss) per module, as arm-none-eabi-size reports them for each object;
+# then compile it for an 8-bit AVR, whose int is 16 bits, with -Wconversion.
+# Installs gcc-arm-none-eabi and gcc-avr with apt-get when they are missing.
+# Fails when the codec grows beyond 4 KiB of code or gets RAM of its own.
 set -euo pipefail
 
 root="$(cd "$(dirname "${BASH_SOURCE[0]}")/../.." && pwd)"
@@ -13,6 +14,11 @@ if ! command -v arm-none-eabi-gcc >/dev/null 2>&1 ||
     echo "installing gcc-arm-none-eabi"
     apt-get update
     DEBIAN_FRONTEND=noninteractive apt-get install -y gcc-arm-none-eabi libnewlib-arm-none-eabi
+fi
+if ! command -v avr-gcc >/dev/null 2>&1; then
+    echo "installing gcc-avr"
+    apt-get update
+    DEBIAN_FRONTEND=noninteractive apt-get install -y --no-install-recommends gcc-avr avr-libc
 fi
 
 out=build/c-size
@@ -68,6 +74,14 @@ read -r linked_hard _ < <(arm-none-eabi-size "$out/codec_hard.elf" | tail -n 1)
 echo
 echo "codec linked alone (encode + both decoders + libgcc/libc helpers): $linked_soft bytes, M4F $linked_hard bytes"
 echo "All state lives in caller-owned structs; params is the name table (const, in flash)."
+
+# 16-bit int: every module must compile cleanly, conversions included.
+mkdir -p "$out/avr"
+for m in "${modules[@]}"; do
+    avr-gcc -std=c99 -Os -mmcu=atmega2560 -Wall -Wextra -Wpedantic -Werror -Wconversion -Wsign-conversion \
+        -Ic/include -c "c/src/dre_$m.c" -o "$out/avr/dre_$m.o"
+done
+echo "16-bit int: all modules compile for ATmega2560 with -Wconversion -Wsign-conversion -Werror"
 
 if [ "$codec_text" -gt 4096 ] || [ "$codec_ram" -ne 0 ]; then
     echo "codec: $codec_text bytes of code and $codec_ram of RAM; the budget is 4096 and 0" >&2

@@ -613,7 +613,7 @@ static dre_status move_angles(dre_bus *bus, uint8_t n, const uint8_t *ids, const
             return range_error(bus, DRE_FIELD_TIME, 0u);
         }
     }
-    start = start_msg(DRE_START_T + mode, relative);
+    start = start_msg((uint8_t)(DRE_START_T + mode), relative);
     return run_batch(bus, &b, n, &start);
 }
 

@@ -250,7 +250,7 @@ static dre_field encode_data(const dre_msg *m, uint8_t *d, uint8_t *cmd)
         if (m->u.state.spare_bits > 3u) {
             return DRE_FIELD_SPARE_BITS;
         }
-        *cmd = (uint8_t)((m->u.state.spare_bits << 3) | (m->u.state.error != 0u ? 4u : 0u) |
+        *cmd = (uint8_t)(((unsigned)m->u.state.spare_bits << 3) | (m->u.state.error != 0u ? 4u : 0u) |
                          (m->u.state.trajectory_done != 0u ? 2u : 0u) | 1u);
         return put_fss(d, m->u.state.position, DRE_FIELD_POSITION, m->u.state.speed, DRE_FIELD_SPEED,
                        m->u.state.torque, DRE_FIELD_TORQUE);

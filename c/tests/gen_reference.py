@@ -17,10 +17,10 @@ from pathlib import Path
 
 sys.path.insert(0, sys.argv[2])
 
-from drempower.protocol.flags import ERROR_WORDS, decode_error_word  # noqa: E402
-from drempower.protocol.framing import FD_LENGTHS, AADecoder, Uart11Decoder, encode_aa, encode_uart11  # noqa: E402
-from drempower.protocol.ids import Frame  # noqa: E402
-from drempower.protocol.parameters import parameters  # noqa: E402
+from drempower.protocol.flags import ERROR_WORDS, decode_error_word
+from drempower.protocol.framing import FD_LENGTHS, AADecoder, Uart11Decoder, encode_aa, encode_uart11
+from drempower.protocol.ids import Frame
+from drempower.protocol.parameters import parameters
 
 
 def c_bytes(data: bytes) -> str:
@@ -93,9 +93,7 @@ def streams(rows: list[str], defs: list[str]) -> None:
             for f in frames
         ]
         defs.append(f"static const uint8_t stream{index}[] = {c_bytes(stream)};")
-        defs.append(
-            f"static const ref_frame frames{index}[] = {{{', '.join(frame_rows) or '{0}'}}};"
-        )
+        defs.append(f"static const ref_frame frames{index}[] = {{{', '.join(frame_rows) or '{0}'}}};")
         fd = dec.fd_frames if isinstance(dec, AADecoder) else 0
         rows.append(
             f"    {{{int(aa)}, stream{index}, {len(stream)}, frames{index}, {len(frames)}, "

@@ -50,13 +50,22 @@ ENUMS = {
     ("system", "op"): {
         name: f"DRE_SYS_{name.upper()}"
         for name in (
-            "init_config", "save_config", "erase_config", "reboot",
-            "clear_errors", "set_zero_position", "estop", "enter_dfu_mode",
+            "init_config",
+            "save_config",
+            "erase_config",
+            "reboot",
+            "clear_errors",
+            "set_zero_position",
+            "estop",
+            "enter_dfu_mode",
         )
     },
     ("start", "kind"): {k: f"DRE_START_{k.upper()}" for k in "tqpvc"},
     ("param", "dtype"): {k: f"DRE_{k.upper()}" for k in ("f32", "u16", "s16", "u32", "s32")},
 }
+
+
+NO_MSG = "{DRE_MSG_NONE, 0, {.preset = {0.0f, 0.0f, 0.0f}}}"
 
 
 def c_float(x: float) -> str:
@@ -115,9 +124,7 @@ def main(argv: list[str]) -> int:
             arb = min(v["id"], 0xFFFF)
             data_c = "{" + ", ".join(f"0x{b:02X}" for b in data[:8]) + "}" if data else "{0}"
             if v.get("error") == "protocol":
-                rows.append(
-                    f"    {{{head}, VEC_PROTOCOL, {{DRE_MSG_NONE, 0, {{.preset = {{0.0f, 0.0f, 0.0f}}}}}}, {{DRE_MSG_NONE, 0, {{.preset = {{0.0f, 0.0f, 0.0f}}}}}}, {arb}, {len(data)}, {data_c}, NULL}},"
-                )
+                rows.append(f"    {{{head}, VEC_PROTOCOL, {NO_MSG}, {NO_MSG}, {arb}, {len(data)}, {data_c}, NULL}},")
                 continue
             msg = c_msg(v["message"], v["node"], v["fields"])
             dec = v.get("decodes_as", {"message": v["message"], "fields": v["fields"]})
