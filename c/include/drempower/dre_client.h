@@ -157,6 +157,7 @@ dre_status dre_send(dre_bus *bus, const dre_msg *msg);
 
 /* ----------------------------------------------------------------- motor */
 
+/** Bind `m` to `bus` and `node` (checked when a frame is built: 0..63). */
 void dre_motor_init(dre_motor *m, dre_bus *bus, uint8_t node);
 
 /** Move to `angle` deg; `mode` is a dre_angle_mode (what speed and param mean is there). */
