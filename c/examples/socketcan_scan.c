@@ -119,7 +119,11 @@ static unsigned scan(dre_bus *bus, int fd)
 
     for (id = 1u; id <= SCAN_SLOTS; id++) {
         dre_motor m = {bus, (uint8_t)id};
-        st = dre_get_state(&m, &reqs[id - 1u]);
+        unsigned tries = 0u;
+        /* the interface's transmit queue is short: wait for room when it is full */
+        while ((st = dre_get_state(&m, &reqs[id - 1u])) == DRE_E_SEND && ++tries < 100u) {
+            pump(bus, fd, 1);
+        }
         if (st != DRE_OK) {
             fprintf(stderr, "fast read of %u: %s\n", id, dre_status_name(st));
             reqs[id - 1u] = 0u;
