@@ -448,18 +448,19 @@ typedef struct {
     uint8_t type;           /* preset type */
     const uint8_t *ids;
     const float *values; /* first field of each preset */
-    float second, third; /* the other two fields, in the order of dre_set_angle's speed, param */
-    uint8_t mode;        /* V and C presets: param is `second` */
+    float second, third; /* T/Q/P: the other two fields in wire order; V/C: param in `second` */
+    uint8_t mode;        /* V and C presets */
 } batch;
 
 static dre_msg batch_msg(const batch *b, uint8_t i)
 {
     dre_msg m;
-    float v = b->values != NULL ? b->values[i] : 0.0f;
+    float v;
 
     if (b->presets != NULL) {
         return b->presets[i];
     }
+    v = b->values[i];
     memset(&m, 0, sizeof m);
     m.type = b->type;
     m.node = b->ids[i];
@@ -540,6 +541,9 @@ static dre_status run_batch(dre_bus *bus, const batch *b, uint8_t n, const dre_m
 dre_status dre_preset_start(dre_bus *bus, const dre_msg *presets, uint8_t n, const dre_msg *start)
 {
     batch b;
+    if (presets == NULL || start == NULL) {
+        return DRE_E_ARG;
+    }
     memset(&b, 0, sizeof b);
     b.presets = presets;
     return run_batch(bus, &b, n, start);
