@@ -1,0 +1,227 @@
+"""Connection options and argument types shared by every subcommand that talks to motors.
+
+The same flags everywhere: python-can's ``-i/--interface``, ``-c/--channel`` and
+``-b/--bitrate``; ``--serial PORT`` for the vendor USB-CAN adapter (0xAA framing);
+``--uart PORT`` for one motor's UART (11-byte frames); ``--sim IDS`` for the
+in-process simulator. With none of them, python-can's own configuration (config
+file or ``CAN_INTERFACE``/``CAN_CHANNEL``/``CAN_BITRATE``) is used if there is one,
+and the command says so on stderr.
+
+The simulator runs at real time unless ``DREMPOWER_SIM_TIME_SCALE`` (or the hidden
+``--sim-time-scale``) says otherwise: 10 makes simulated time pass ten times faster.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+from typing import TYPE_CHECKING, Any
+
+from ..errors import DrEmpowerError
+
+if TYPE_CHECKING:
+    from ..client import Bus
+    from ..transports import Transport
+
+__all__ = [
+    "TIME_SCALE_ENV",
+    "add_connection_args",
+    "add_ids_arg",
+    "connection_kwargs",
+    "open_from_args",
+    "motor_id",
+    "open_transport_from_args",
+    "parse_ids",
+    "positive",
+    "parse_targets",
+    "sim_time_scale",
+]
+
+TIME_SCALE_ENV = "DREMPOWER_SIM_TIME_SCALE"
+"""Environment variable: default time scale of the in-process simulator."""
+
+
+def parse_ids(text: str) -> list[int]:
+    """``"1,2,5-7"`` -> ``[1, 2, 5, 6, 7]`` in the order given; every id must be 1..63, named once."""
+    ids: list[int] = []
+    for part in text.replace(" ", "").split(","):
+        if not part:
+            continue
+        try:
+            if "-" in part:
+                lo, hi = (int(x) for x in part.split("-", 1))
+                ids.extend(range(lo, hi + 1))
+            else:
+                ids.append(int(part))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a list of motor ids such as 1,2,5-7") from None
+    bad = [i for i in ids if not 1 <= i <= 63]
+    if bad or not ids:
+        raise argparse.ArgumentTypeError(f"motor ids are 1..63 (0 is broadcast); got {text!r}")
+    twice = sorted({i for i in ids if ids.count(i) > 1})
+    if twice:
+        raise argparse.ArgumentTypeError(f"{text!r} names motor {', '.join(map(str, twice))} twice")
+    return ids
+
+
+def motor_id(text: str) -> int:
+    """An argument type: one motor id, 1..63."""
+    ids = parse_ids(text)
+    if len(ids) != 1:
+        raise argparse.ArgumentTypeError(f"expected one motor id, got {text!r}")
+    return ids[0]
+
+
+def parse_targets(text: str) -> list[int]:
+    """Motor ids as :func:`parse_ids`, or ``all`` -> ``[0]`` (one broadcast frame)."""
+    return [0] if text.strip().lower() == "all" else parse_ids(text)
+
+
+class _Ids(argparse.Action):
+    """Joins several IDS words (``1 2,3 5-7``) into one list, each motor named once."""
+
+    def __call__(
+        self, parser: argparse.ArgumentParser, ns: argparse.Namespace, values: Any, option: str | None = None
+    ) -> None:
+        ids = [i for part in values for i in part]
+        if 0 in ids and len(ids) > 1:
+            parser.error("`all` stands alone")
+        twice = sorted({i for i in ids if ids.count(i) > 1})
+        if twice:
+            parser.error(f"motor {', '.join(map(str, twice))} named twice")
+        setattr(ns, self.dest, ids)
+
+
+def add_ids_arg(
+    parser: argparse.ArgumentParser, *, many: bool = True, all_ok: bool = False, optional: bool = False
+) -> None:
+    """The ``IDS`` argument: motor ids such as ``1,2,5-7``.
+
+    ``many``: several words; ``all_ok``: ``all`` (-> ``[0]``, broadcast) is accepted;
+    ``optional``: may be left out (the list is then empty).
+    """
+    what = "motor ids, e.g. 1 or 1,2,3 or 1-4" + (", or all (broadcast)" if all_ok else "")
+    kind = parse_targets if all_ok else parse_ids
+    if many:
+        nargs = "*" if optional else "+"
+        parser.add_argument("ids", nargs=nargs, type=kind, action=_Ids, default=[], metavar="IDS", help=what)
+    else:
+        parser.add_argument("ids", type=kind, metavar="IDS", help=what)
+
+
+def positive(text: str) -> float:
+    """An argument type: a number > 0."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = 0.0
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    return value
+
+
+def sim_time_scale(args: argparse.Namespace) -> float | None:
+    """The simulator time scale: ``--sim-time-scale``, else ``$DREMPOWER_SIM_TIME_SCALE``, else None."""
+    scale: float | None = getattr(args, "sim_time_scale", None)
+    if scale is not None:
+        return scale
+    env = os.environ.get(TIME_SCALE_ENV)
+    if not env:
+        return None
+    try:
+        return positive(env)
+    except argparse.ArgumentTypeError as exc:
+        raise DrEmpowerError(f"{TIME_SCALE_ENV}: {exc}") from None
+
+
+def add_connection_args(parser: argparse.ArgumentParser) -> None:
+    g = parser.add_argument_group("connection (one of; default: python-can's configuration)")
+    g.add_argument("-i", "--interface", help="python-can interface: socketcan, pcan, kvaser, slcan, gs_usb, ...")
+    g.add_argument("-c", "--channel", help="python-can channel, e.g. can0")
+    g.add_argument("-b", "--bitrate", type=int, help="CAN bitrate in bit/s (e.g. 1000000)")
+    g.add_argument("--serial", metavar="PORT", help="vendor USB-CAN adapter on serial PORT (0xAA framing)")
+    g.add_argument("--uart", metavar="PORT", help="a single motor's UART on serial PORT (11-byte frames)")
+    g.add_argument("--sim", metavar="IDS", type=parse_ids, help="in-process simulated motors, e.g. 1,2,3")
+    g.add_argument("--sim-time-scale", type=positive, help=argparse.SUPPRESS)
+    g.add_argument(
+        "--timeout", type=float, default=None, metavar="S", help="reply timeout per request in seconds (default 0.1)"
+    )
+
+
+def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
+    """The ``open_bus`` keyword arguments for ``args``, and a sentence saying what is used."""
+    chosen = [name for name in ("serial", "uart", "sim") if getattr(args, name, None)]
+    if args.interface:
+        chosen.append("interface")
+    if len(chosen) > 1:
+        raise DrEmpowerError("give one connection: " + ", ".join(f"--{c}" for c in chosen) + " conflict")
+    kw: dict[str, Any]
+    if args.sim:
+        kw = {"interface": "sim", "motors": args.sim}
+        scale = sim_time_scale(args)
+        if scale is not None:
+            kw["time_scale"] = scale
+        how = f"simulated motors {','.join(map(str, args.sim))}"
+    elif args.serial:
+        kw = {"interface": "adapter", "channel": args.serial}
+        how = f"USB-CAN adapter on {args.serial}"
+    elif args.uart:
+        kw = {"interface": "uart", "channel": args.uart}
+        how = f"motor UART on {args.uart}"
+    elif args.interface:
+        kw = {"interface": args.interface, "channel": args.channel}
+        how = f"python-can {args.interface} {args.channel or ''}".rstrip()
+    else:
+        cfg = _python_can_config()
+        if cfg is None:
+            raise DrEmpowerError(
+                "no connection given and no python-can configuration found: "
+                "use --sim IDS, --serial PORT, --uart PORT or -i INTERFACE -c CHANNEL"
+            )
+        kw = {"interface": cfg.get("interface"), "channel": cfg.get("channel")}
+        how = f"python-can configuration: {cfg.get('interface')} {cfg.get('channel') or ''}".rstrip()
+    if args.bitrate is not None:
+        kw["bitrate"] = args.bitrate
+    return kw, how
+
+
+def _python_can_config() -> dict[str, Any] | None:
+    import can.util
+
+    try:
+        cfg = can.util.load_config()
+    except Exception:  # python-can raises several types when nothing is configured
+        return None
+    return dict(cfg) if cfg.get("interface") else None
+
+
+def _connect(args: argparse.Namespace, quiet: bool) -> tuple[dict[str, Any], str]:
+    kw, how = connection_kwargs(args)
+    chosen = args.sim or args.serial or args.uart or args.interface
+    if not (chosen or quiet):
+        print(f"drempower: using {how}", file=sys.stderr)
+    return kw, how
+
+
+def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
+    """Open the bus the connection options describe (saying so on stderr when python-can's configuration chose it).
+
+    Motors keep doing what they were told when the command ends (the bus does
+    not stop them on close); motion commands stop them themselves on Ctrl-C.
+    """
+    from .. import open_bus
+
+    kw, _ = _connect(args, quiet)
+    if args.timeout is not None:
+        kw["timeout"] = args.timeout
+    bus: Bus = open_bus(stop_on_close=False, **kw)
+    return bus
+
+
+def open_transport_from_args(args: argparse.Namespace) -> tuple[Transport, str]:
+    """Open the raw transport the connection options describe (for listening), and what it is."""
+    from ..transports import open_transport
+
+    kw, how = _connect(args, False)
+    return open_transport(**kw), how

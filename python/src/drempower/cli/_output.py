@@ -1,0 +1,146 @@
+"""Output shared by the subcommands: tables, JSON lines, numbers, progress and live redraws."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from collections.abc import Iterable, Mapping, Sequence
+from typing import Any, TextIO
+
+__all__ = [
+    "add_json_arg",
+    "emit",
+    "fmt",
+    "is_terminal",
+    "json_line",
+    "motors_text",
+    "Progress",
+    "LiveView",
+    "render_table",
+    "significant",
+]
+
+
+def add_json_arg(parser: argparse.ArgumentParser) -> None:
+    parser.add_argument("--json", action="store_true", help="one JSON object per line instead of a table")
+
+
+def is_terminal(stream: TextIO) -> bool:
+    isatty = getattr(stream, "isatty", None)
+    return bool(isatty and isatty())
+
+
+def fmt(value: object, digits: int | None = 2) -> str:
+    """A table cell: floats with ``digits`` decimals (None: 7 significant digits), booleans as yes/no, None as ``-``."""
+    if value is None:
+        return "-"
+    if isinstance(value, bool):
+        return "yes" if value else "no"
+    if isinstance(value, float):
+        return f"{value:.7g}" if digits is None else f"{value:.{digits}f}"
+    if isinstance(value, (list, tuple)):
+        return " ".join(map(str, value)) or "-"
+    return str(value)
+
+
+def motors_text(ids: Sequence[int]) -> str:
+    """``"motor 3"``, ``"motors 1, 2"``; ``[0]`` reads ``"all motors (broadcast)"``."""
+    if list(ids) == [0]:
+        return "all motors (broadcast)"
+    return ("motor " if len(ids) == 1 else "motors ") + ", ".join(map(str, ids))
+
+
+def _numeric(cell: str) -> bool:
+    try:
+        float(cell)
+    except ValueError:
+        return cell == "-"
+    return True
+
+
+def render_table(
+    headers: Sequence[str], rows: Iterable[Sequence[object]], min_widths: Sequence[int] = (), digits: int | None = 2
+) -> list[str]:
+    """Lines of a table: numeric columns right-aligned, others left-aligned; columns at least ``min_widths``.
+
+    Floats get ``digits`` decimals (None: 7 significant digits, for parameter values).
+    """
+    cells = [[fmt(c, digits) for c in row] for row in rows]
+    least = list(min_widths) + [0] * (len(headers) - len(min_widths))
+    widths = [max([len(h), least[i]] + [len(r[i]) for r in cells]) for i, h in enumerate(headers)]
+    right = [bool(cells) and all(_numeric(r[i]) for r in cells) for i in range(len(headers))]
+
+    def line(row: Sequence[str]) -> str:
+        out = [c.rjust(w) if r else c.ljust(w) for c, w, r in zip(row, widths, right, strict=True)]
+        return "  ".join(out).rstrip()
+
+    return [line(list(headers))] + [line(r) for r in cells]
+
+
+def json_line(record: Mapping[str, Any]) -> str:
+    return json.dumps(record)
+
+
+def significant(value: int | float) -> int | float:
+    """A float to 7 significant digits (what a float32 parameter holds): 0.30000001192 -> 0.3; ints unchanged."""
+    return float(f"{value:.7g}") if isinstance(value, float) else value
+
+
+def emit(
+    args: argparse.Namespace,
+    headers: Sequence[str],
+    records: Sequence[Mapping[str, Any]],
+    *,
+    digits: int | None = 2,
+) -> None:
+    """Print ``records`` as JSON lines (``--json``) or as a table (nothing when there are none).
+
+    ``headers`` are the table's column titles in the order of each record's keys;
+    ``digits`` as in :func:`render_table`.
+    """
+    if getattr(args, "json", False):
+        for rec in records:
+            sys.stdout.write(json_line(rec) + "\n")
+    elif records:
+        for line in render_table(headers, [list(r.values()) for r in records], digits=digits):
+            sys.stdout.write(line + "\n")
+
+
+class Progress:
+    """A one-line progress message on stderr, shown only when stderr is a terminal."""
+
+    def __init__(self, stream: TextIO | None = None) -> None:
+        self._stream = stream or sys.stderr
+        self._on = is_terminal(self._stream)
+
+    def show(self, text: str) -> None:
+        if self._on:
+            self._stream.write("\r\x1b[K" + text)
+            self._stream.flush()
+
+    def clear(self) -> None:
+        self.show("")
+
+    def __enter__(self) -> Progress:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.clear()
+
+
+class LiveView:
+    """Redraws a block of lines in place on a terminal (ANSI cursor movement)."""
+
+    def __init__(self, stream: TextIO) -> None:
+        self._stream = stream
+        self._height = 0
+
+    def draw(self, lines: Sequence[str]) -> None:
+        parts = [f"\x1b[{self._height}F"] if self._height else []
+        parts += [f"\x1b[2K{line}\n" for line in lines]
+        if len(lines) < self._height:
+            parts.append("\x1b[J")
+        self._stream.write("".join(parts))
+        self._stream.flush()
+        self._height = len(lines)

@@ -1,0 +1,135 @@
+"""What ``scan``, ``state``, ``monitor`` and the motion commands read from a motor, in one exchange."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from ..client import Bus, MotorState
+from ..client.errors import TimeoutError
+from ..errors import DrEmpowerError
+from ..protocol import DataType, FastRead, ReadParam
+from ..protocol.enums import AxisState
+
+__all__ = ["FIELDS", "HEADERS", "Reading", "axis_state_name", "read", "require_ready"]
+
+_VBUS = 1
+_CURRENT_STATE = 30002
+
+HEADERS = (
+    "id",
+    "position/deg",
+    "speed/rpm",
+    "torque/Nm",
+    "done",
+    "state",
+    "vbus/V",
+    "errors",
+)
+"""Table columns of :meth:`Reading.record`, in order."""
+
+FIELDS = ("id", "position_deg", "speed_rpm", "torque_nm", "done", "state", "vbus_v", "errors")
+"""Keys of :meth:`Reading.record`, in order."""
+
+
+def axis_state_name(value: int | None) -> str | None:
+    """``8`` -> ``"closed_loop"``, ``1`` -> ``"idle"``; other states by their lower-case name."""
+    if value is None:
+        return None
+    if value == AxisState.CLOSED_LOOP_CONTROL:
+        return "closed_loop"
+    try:
+        return AxisState(value).name.lower()
+    except ValueError:
+        return f"state_{value}"
+
+
+@dataclass(frozen=True, slots=True)
+class Reading:
+    """One motor's state frame, supply voltage, axis state and (when its E bit is set) error flags.
+
+    ``state`` is None when the motor did not answer; ``flags`` is None when no
+    error word was read (no error, or the read failed), else the set flag names.
+    """
+
+    id: int
+    state: MotorState | None
+    vbus: float | None
+    axis_state: int | None
+    flags: list[str] | None
+
+    @property
+    def answered(self) -> bool:
+        return self.state is not None
+
+    def error_text(self) -> str:
+        st = self.state
+        if st is None:
+            return "no answer"
+        if not st.error:
+            return ""
+        return " ".join(self.flags) if self.flags else "error (flags unread)"
+
+    def record(self) -> dict[str, Any]:
+        """JSON-ready fields, in the order of :data:`HEADERS`."""
+        st = self.state
+        return {
+            "id": self.id,
+            "position_deg": None if st is None else round(st.angle, 4),
+            "speed_rpm": None if st is None else st.speed,
+            "torque_nm": None if st is None else st.torque,
+            "done": None if st is None else st.trajectory_done,
+            "state": axis_state_name(self.axis_state),
+            "vbus_v": None if self.vbus is None else round(self.vbus, 3),
+            "errors": self.error_text(),
+        }
+
+
+def _flags(bus: Bus, node: int) -> list[str] | None:
+    try:
+        report = bus.motor(node).dump_error()
+    except TimeoutError:
+        return None
+    return [name for names in report.flags.values() for name in names]
+
+
+def read(bus: Bus, ids: Sequence[int], *, missing_ok: bool = False) -> list[Reading]:
+    """Fast read, ``vbus_voltage`` and ``axis0.current_state`` of every motor in one exchange.
+
+    Error words are read for motors whose E bit is set. A motor that does not
+    answer raises :class:`~drempower.client.TimeoutError` naming it, or gives a
+    reading without state with ``missing_ok``.
+    """
+    n = len(ids)
+    msgs = (
+        [FastRead(i) for i in ids]
+        + [ReadParam(i, _VBUS, DataType.F32) for i in ids]
+        + [ReadParam(i, _CURRENT_STATE, DataType.U32) for i in ids]
+    )
+    replies = bus.request(msgs, missing_ok=missing_ok)
+    out = []
+    for k, node in enumerate(ids):
+        st, vb, ax = replies[k], replies[n + k], replies[2 * n + k]
+        flags = _flags(bus, node) if st is not None and st.error else None
+        out.append(
+            Reading(node, st, None if vb is None else float(vb.value), None if ax is None else int(ax.value), flags)
+        )
+    return out
+
+
+def require_ready(bus: Bus, ids: Sequence[int]) -> list[Reading]:
+    """Check that every motor answers, has no error and is in closed loop; say what to run otherwise."""
+    readings = read(bus, ids)
+    for r in readings:
+        if r.state is not None and r.state.error:
+            raise DrEmpowerError(
+                f"motor {r.id} reports errors ({r.error_text()}): see `drempower errors {r.id}`, "
+                f"then `drempower clear {r.id}` and `drempower enable {r.id}`"
+            )
+        if r.axis_state is not None and r.axis_state != AxisState.CLOSED_LOOP_CONTROL:
+            raise DrEmpowerError(
+                f"motor {r.id} is {axis_state_name(r.axis_state)}, not in closed loop: "
+                f"run `drempower enable {r.id}` first"
+            )
+    return readings

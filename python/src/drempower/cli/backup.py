@@ -1,0 +1,108 @@
+"""``drempower backup``, ``restore`` and ``diff``: a motor's configuration to a JSON file and back."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from ..client import ConfigBackup, RestoreReport
+from ..errors import DrEmpowerError
+from ..protocol import find_parameter
+from ._connect import add_connection_args, motor_id, open_from_args
+from ._output import add_json_arg, emit, significant
+
+
+def register(sub: Any) -> None:
+    b = sub.add_parser(
+        "backup",
+        help="read every parameter of a motor into a JSON file",
+        description="Read every parameter of a motor and write them, with names, types and units, to FILE.",
+    )
+    b.add_argument("id", type=motor_id, metavar="ID", help="the motor's id")
+    b.add_argument("file", metavar="FILE", help="JSON file to write")
+    add_connection_args(b)
+    b.set_defaults(func=run_backup)
+
+    r = sub.add_parser(
+        "restore",
+        help="write a backup's configuration back to a motor (only what differs; verified)",
+        description=(
+            "Write the writable configuration of a backup to a motor: only values that differ are written, "
+            "then read back. Live values and commands are never written; the id and bitrates only with "
+            "--include-link."
+        ),
+    )
+    d = sub.add_parser(
+        "diff",
+        help="show how a motor's configuration differs from a backup",
+        description="Compare the writable configuration of a motor with a backup; nothing is written.",
+    )
+    for p in (r, d):
+        p.add_argument("id", type=motor_id, metavar="ID", help="the motor's id")
+        p.add_argument("file", metavar="FILE", help="backup file (written by `drempower backup`)")
+        p.add_argument("--include-link", action="store_true", help="also the id and bitrates")
+        add_json_arg(p)
+        add_connection_args(p)
+    r.add_argument("--save", action="store_true", help="store the configuration in flash when all went well")
+    r.set_defaults(func=run_restore)
+    d.set_defaults(func=run_diff)
+
+
+def run_backup(args: argparse.Namespace) -> int:
+    with open_from_args(args) as bus:
+        cfg = bus.motor(args.id).backup()
+    try:
+        cfg.save(args.file)
+    except OSError as exc:
+        raise DrEmpowerError(f"cannot write {args.file}: {exc.strerror}") from None
+    read = len(cfg.parameters) - len(cfg.failed)
+    unread = f" ({len(cfg.failed)} unreadable: {', '.join(cfg.failed)})" if cfg.failed else ""
+    print(f"motor {args.id}: {read} parameters written to {args.file}{unread}")
+    return 0
+
+
+def _unit(name: str) -> str:
+    p = find_parameter(name)
+    return p.unit if p is not None else ""
+
+
+def _restore(args: argparse.Namespace, dry_run: bool) -> RestoreReport:
+    cfg = ConfigBackup.load(args.file)
+    with open_from_args(args) as bus:
+        return bus.motor(args.id).restore(
+            cfg, include_link=args.include_link, save=getattr(args, "save", False), dry_run=dry_run
+        )
+
+
+def run_diff(args: argparse.Namespace) -> int:
+    report = _restore(args, dry_run=True)
+    records = [
+        {"name": n, "motor": significant(old), "backup": significant(new), "unit": _unit(n)}
+        for n, old, new in report.written
+    ]
+    emit(args, ("name", "motor", "backup", "unit"), records, digits=None)
+    if not args.json:
+        if not records:
+            print(f"motor {args.id}: configuration matches {args.file}")
+        for name, why in report.failed:
+            print(f"{name}: not compared: {why}", file=sys.stderr)
+    return 0
+
+
+def run_restore(args: argparse.Namespace) -> int:
+    report = _restore(args, dry_run=False)
+    records = [
+        {"name": n, "was": significant(old), "now": significant(new), "unit": _unit(n)}
+        for n, old, new in report.written
+    ]
+    emit(args, ("name", "was", "now", "unit"), records, digits=None)
+    if not args.json:
+        saved = ", saved" if report.saved else ""
+        print(f"motor {args.id}: {len(report.written)} written, {len(report.unchanged)} unchanged{saved}")
+    if report.failed:
+        raise DrEmpowerError(
+            f"motor {args.id}: {len(report.failed)} not restored: "
+            + "; ".join(f"{name}: {why}" for name, why in report.failed)
+        )
+    return 0

@@ -1,0 +1,109 @@
+"""``drempower get`` and ``drempower set``: parameters by name or address, with units."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from ..errors import ValidationError
+from ..protocol import DataType, Parameter, parameter
+from ._connect import add_connection_args, add_ids_arg, open_from_args
+from ._output import add_json_arg, emit, motors_text, significant
+
+_ELSEWHERE = {
+    31001: "drempower set-id",
+    21001: "drempower set-bitrate",
+    10001: "drempower set-bitrate --link uart",
+}
+"""Parameters that change how the motor is reached, and the command that changes them safely."""
+_TRUE = ("1", "true", "on", "yes")
+_FALSE = ("0", "false", "off", "no")
+
+
+def register(sub: Any) -> None:
+    g = sub.add_parser(
+        "get",
+        help="read parameters by name or address (units shown)",
+        description="Read parameters; `drempower params` lists them. Names complete with `drempower completion`.",
+    )
+    add_ids_arg(g, many=False)
+    g.add_argument("names", nargs="+", metavar="NAME", help="parameter name or address, e.g. vbus_voltage or 1")
+    add_json_arg(g)
+    add_connection_args(g)
+    g.set_defaults(func=run_get)
+
+    s = sub.add_parser(
+        "set",
+        help="write parameters by name or address (read back to verify)",
+        description=(
+            "Write parameters in RAM, then read them back; --save stores them in flash. Values take the "
+            "parameter's type: whole numbers (0x.. allowed) for integers, on/off or 1/0 for flags."
+        ),
+    )
+    add_ids_arg(s, many=False)
+    s.add_argument("items", nargs="+", metavar="NAME VALUE", help="parameter name (or address) and value, repeated")
+    s.add_argument("--save", action="store_true", help="store the configuration in flash afterwards")
+    s.add_argument("--force", action="store_true", help="also write parameters not meant for users to change")
+    add_json_arg(s)
+    add_connection_args(s)
+    s.set_defaults(func=run_set)
+
+
+def parse_value(p: Parameter, text: str) -> int | float:
+    """``text`` as a value of parameter ``p`` (flags accept on/off, true/false, yes/no)."""
+    t = text.strip().lower()
+    if p.is_bool:
+        if t in _TRUE or t in _FALSE:
+            return int(t in _TRUE)
+        raise ValidationError(f"{p.name} is a flag: give 1/0, on/off, true/false or yes/no, not {text!r}")
+    try:
+        return float(t) if p.dtype is DataType.F32 else int(t, 0)
+    except ValueError:
+        kind = "a number" if p.dtype is DataType.F32 else f"a whole number ({p.dtype.name.lower()})"
+        raise ValidationError(f"{p.name} takes {kind}, not {text!r}") from None
+
+
+def _writable(p: Parameter, force: bool) -> None:
+    if not p.writable:
+        raise ValidationError(f"{p.name} is read-only")
+    if p.address in _ELSEWHERE:
+        raise ValidationError(f"{p.name} changes how the motor is reached: use `{_ELSEWHERE[p.address]}`")
+    if not (p.user_settable or force):
+        raise ValidationError(f"{p.name} is not meant to be changed by users (add --force to write it anyway)")
+
+
+def run_get(args: argparse.Namespace) -> int:
+    params = [parameter(n) for n in args.names]
+    records = []
+    with open_from_args(args) as bus:
+        for node in args.ids:
+            motor = bus.motor(node)
+            for p in params:
+                value = significant(motor.read_property(p.address))
+                records.append({"id": node, "name": p.name, "address": p.address, "value": value, "unit": p.unit})
+    emit(args, ("id", "name", "address", "value", "unit"), records, digits=None)
+    return 0
+
+
+def run_set(args: argparse.Namespace) -> int:
+    if len(args.items) % 2:
+        raise ValidationError("give NAME VALUE pairs; the last name has no value")
+    wanted = []
+    for name, text in zip(args.items[::2], args.items[1::2], strict=True):
+        p = parameter(name)
+        _writable(p, args.force)
+        wanted.append((p, parse_value(p, text)))
+    records = []
+    with open_from_args(args) as bus:
+        for node in args.ids:
+            motor = bus.motor(node)
+            for p, value in wanted:
+                was = significant(motor.read_property(p.address))
+                motor.write_property(p.address, value, verify=True)
+                records.append({"id": node, "name": p.name, "was": was, "value": significant(value), "unit": p.unit})
+            if args.save:
+                motor.save_config()
+    emit(args, ("id", "name", "was", "value", "unit"), records, digits=None)
+    if args.save and not args.json:
+        print(f"{motors_text(args.ids)}: configuration saved")
+    return 0

@@ -1,0 +1,77 @@
+"""``drempower monitor``: a live table of motors' state, optionally recorded to CSV."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import sys
+import time
+from contextlib import ExitStack
+from typing import Any
+
+from ..errors import DrEmpowerError
+from . import _readings
+from ._connect import add_connection_args, add_ids_arg, open_from_args, positive
+from ._output import LiveView, add_json_arg, is_terminal, json_line, render_table
+
+_HEADERS = ("time/s", *_readings.HEADERS)
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "monitor",
+        help="live table of motors' state (redrawn in place on a terminal); Ctrl-C ends it",
+        description=(
+            "Read the motors RATE times a second and show position, speed, torque, trajectory done, "
+            "axis state, bus voltage and errors. On a terminal the table is redrawn in place; "
+            "otherwise one line per motor and reading."
+        ),
+    )
+    add_ids_arg(p)
+    p.add_argument("--rate", type=positive, default=10.0, metavar="HZ", help="readings per second (default 10)")
+    p.add_argument("--duration", type=positive, metavar="S", help="stop after S seconds (default: at Ctrl-C)")
+    p.add_argument("--csv", metavar="FILE", help="also record every reading to FILE")
+    add_json_arg(p)
+    add_connection_args(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    out = sys.stdout
+    live = LiveView(out) if is_terminal(out) and not args.json else None
+    widths = [max(len(h), 8) for h in _HEADERS]
+    with ExitStack() as stack:
+        writer: csv.DictWriter[str] | None = None
+        if args.csv:
+            try:
+                fh = stack.enter_context(open(args.csv, "w", newline="", encoding="utf-8"))
+            except OSError as exc:
+                raise DrEmpowerError(f"cannot write {args.csv}: {exc.strerror}") from None
+            writer = csv.DictWriter(fh, ["time_s", *_readings.FIELDS])
+            writer.writeheader()
+        bus = stack.enter_context(open_from_args(args))
+        start = time.monotonic()
+        k = 0
+        try:
+            while True:
+                t = round(time.monotonic() - start, 3)
+                records = [{"time_s": t, **r.record()} for r in _readings.read(bus, args.ids, missing_ok=True)]
+                if writer is not None:
+                    writer.writerows(records)
+                if args.json:
+                    out.write("".join(json_line(r) + "\n" for r in records))
+                else:
+                    lines = render_table(_HEADERS, [list(r.values()) for r in records], widths)
+                    if live is not None:
+                        live.draw(lines)
+                    else:
+                        out.write("\n".join(lines if k == 0 else lines[1:]) + "\n")
+                out.flush()
+                k += 1
+                due = k / args.rate
+                if args.duration is not None and due > args.duration:
+                    break
+                time.sleep(max(0.0, start + due - time.monotonic()))
+        except KeyboardInterrupt:
+            pass
+    return 0

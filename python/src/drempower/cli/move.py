@@ -1,0 +1,90 @@
+"""``drempower move``: position moves of one or several motors (T, Q or P mode), synchronised."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from ..client import DEFAULT_MOVE_TIMEOUT, PositionMode
+from ..errors import ValidationError
+from . import _readings
+from ._connect import add_connection_args, positive
+from ._motion import add_motion_args, driving, per_motor
+from ._output import add_json_arg, emit, fmt, motors_text
+
+_MODES = {"t": PositionMode.T, "q": PositionMode.Q, "p": PositionMode.P}
+_OPTIONS = {
+    PositionMode.T: {"bandwidth": 20.0},
+    PositionMode.Q: {"speed": 10.0, "accel": 10.0},
+    PositionMode.P: {"speed_ff": 0.0, "torque_ff": 0.0},
+}
+"""The options each mode takes, with their defaults."""
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "move",
+        help="move motors to angles (deg), all starting together",
+        description=(
+            "Move one or several motors, absolute or --relative, started together by one start command. "
+            "Modes: q (default) trapezoid/S-curve profile where the motor moving furthest cruises at --speed "
+            "and all arrive together; t trajectory tracking through a filter of --bandwidth; p position with "
+            "speed and torque feed-forward. Example: drempower move 1,2,3 90,-45,180 --wait --sim 1,2,3"
+        ),
+    )
+    add_motion_args(p, "ANGLES", "target angles in deg, e.g. 90 or 90,-45,180")
+    p.add_argument("--mode", type=str.lower, choices=_MODES, default="q", help="q (default), t or p")
+    p.add_argument("--speed", type=positive, metavar="RPM", help="q: cruise speed of the furthest mover (default 10)")
+    p.add_argument("--accel", type=positive, metavar="RPM/S", help="q: acceleration in (r/min)/s (default 10)")
+    p.add_argument("--bandwidth", type=positive, metavar="1/S", help="t: input filter bandwidth, 0-300 (default 20)")
+    p.add_argument("--speed-ff", type=float, metavar="RPM", help="p: speed feed-forward (default 0)")
+    p.add_argument("--torque-ff", type=float, metavar="NM", help="p: torque feed-forward (default 0)")
+    p.add_argument("--relative", action="store_true", help="angles are offsets from where the motors are")
+    p.add_argument("--wait", action="store_true", help="wait until every motor reports its move done")
+    p.add_argument("--wait-timeout", type=positive, metavar="S", help="longest wait (default: from the move time)")
+    add_json_arg(p)
+    add_connection_args(p)
+    p.set_defaults(func=run)
+
+
+def _params(args: argparse.Namespace, mode: PositionMode) -> tuple[float, float]:
+    """``speed`` and ``param`` of set_angles for ``mode``; the options of other modes are refused."""
+    for other, options in _OPTIONS.items():
+        stray = [name for name in options if other is not mode and getattr(args, name) is not None]
+        if stray:
+            flag = "--" + stray[0].replace("_", "-")
+            raise ValidationError(f"{flag} applies to mode {other.name.lower()}, not {mode.name.lower()}")
+    values = [default if (v := getattr(args, name)) is None else v for name, default in _OPTIONS[mode].items()]
+    return (0.0, values[0]) if mode is PositionMode.T else (values[0], values[1])
+
+
+def run(args: argparse.Namespace) -> int:
+    ids: list[int] = args.ids
+    mode = _MODES[args.mode]
+    angles = per_motor(ids, args.values, "angle")
+    speed, param = _params(args, mode)
+    with driving(args) as bus:
+        start = {r.id: r.state.angle for r in _readings.require_ready(bus, ids) if r.state is not None}
+        move = bus.step_angles if args.relative else bus.set_angles
+        move_time = move(ids, angles, speed, param, mode)
+        targets = [start[i] + a if args.relative else a for i, a in zip(ids, angles, strict=True)]
+        if not args.wait:
+            records = [
+                {"id": i, "target_deg": round(t, 4), "mode": args.mode, "move_time_s": move_time}
+                for i, t in zip(ids, targets, strict=True)
+            ]
+            if args.json:
+                emit(args, (), records)
+            else:
+                took = "" if move_time is None else f", about {move_time:g} s"
+                goal = ", ".join(fmt(t) for t in targets)
+                print(f"{motors_text(ids)}: moving to {goal} deg (mode {args.mode}{took})")
+            return 0
+        timeout = args.wait_timeout or (DEFAULT_MOVE_TIMEOUT if move_time is None else 2 * move_time + 5)
+        final = bus.positions_done(ids, timeout)
+    records = [
+        {"id": i, "target_deg": round(t, 4), "position_deg": round(final[i].angle, 4), "done": True}
+        for i, t in zip(ids, targets, strict=True)
+    ]
+    emit(args, ("id", "target/deg", "position/deg", "done"), records)
+    return 0

@@ -1,0 +1,29 @@
+"""``drempower state``: one reading of each motor."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+from . import _readings
+from ._connect import add_connection_args, add_ids_arg, open_from_args
+from ._output import add_json_arg, emit
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "state",
+        help="position, speed, torque, trajectory done, axis state, bus voltage and errors of motors",
+        description="Read each motor once; `drempower monitor` keeps reading.",
+    )
+    add_ids_arg(p)
+    add_json_arg(p)
+    add_connection_args(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    with open_from_args(args) as bus:
+        readings = _readings.read(bus, args.ids)
+    emit(args, _readings.HEADERS, [r.record() for r in readings])
+    return 0
