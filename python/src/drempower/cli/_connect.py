@@ -14,6 +14,7 @@ The simulator runs at real time unless ``DREMPOWER_SIM_TIME_SCALE`` (or the hidd
 from __future__ import annotations
 
 import argparse
+import math
 import os
 import sys
 from typing import TYPE_CHECKING, Any
@@ -28,6 +29,7 @@ __all__ = [
     "TIME_SCALE_ENV",
     "add_connection_args",
     "add_ids_arg",
+    "bitrate",
     "connection_kwargs",
     "open_from_args",
     "motor_id",
@@ -110,6 +112,22 @@ def add_ids_arg(
         parser.add_argument("ids", type=kind, metavar="IDS", help=what)
 
 
+_SUFFIX = {"k": 1_000, "m": 1_000_000}
+
+
+def bitrate(text: str) -> int:
+    """An argument type: ``1000000``, ``1M``, ``500k``, ``115200``."""
+    t = text.strip().lower()
+    scale = _SUFFIX.get(t[-1:], 1)
+    try:
+        value = float(t[:-1] if scale > 1 else t) * scale
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a bitrate such as 1M, 500k or 115200") from None
+    if not (math.isfinite(value) and value >= 1 and value == int(value)):
+        raise argparse.ArgumentTypeError(f"{text!r} is not a bitrate such as 1M, 500k or 115200")
+    return int(value)
+
+
 def positive(text: str) -> float:
     """An argument type: a number > 0."""
     try:
@@ -139,7 +157,7 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("connection (one of; default: python-can's configuration)")
     g.add_argument("-i", "--interface", help="python-can interface: socketcan, pcan, kvaser, slcan, gs_usb, ...")
     g.add_argument("-c", "--channel", help="python-can channel, e.g. can0")
-    g.add_argument("-b", "--bitrate", type=int, help="CAN bitrate in bit/s (e.g. 1000000)")
+    g.add_argument("-b", "--bitrate", type=bitrate, help="CAN bitrate in bit/s, e.g. 1M or 500k")
     g.add_argument("--serial", metavar="PORT", help="vendor USB-CAN adapter on serial PORT (0xAA framing)")
     g.add_argument("--uart", metavar="PORT", help="a single motor's UART on serial PORT (11-byte frames)")
     g.add_argument("--sim", metavar="IDS", type=parse_ids, help="in-process simulated motors, e.g. 1,2,3")

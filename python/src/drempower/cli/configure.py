@@ -9,21 +9,8 @@ from typing import Any
 from ..client import Bus
 from ..client.errors import TimeoutError
 from ..protocol import FastRead
-from ._connect import add_connection_args, add_ids_arg, motor_id, open_from_args, positive
+from ._connect import add_connection_args, add_ids_arg, bitrate, motor_id, open_from_args, positive
 from ._output import motors_text
-
-_SUFFIX = {"k": 1_000, "m": 1_000_000}
-
-
-def bitrate(text: str) -> int:
-    """An argument type: ``1000000``, ``1M``, ``500k``, ``115200``."""
-    t = text.strip().lower()
-    scale = _SUFFIX.get(t[-1:], 1)
-    try:
-        value = float(t[:-1] if scale > 1 else t) * scale
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a bitrate such as 1M, 500k or 115200") from None
-    return int(value)
 
 
 def register(sub: Any) -> None:

@@ -1,0 +1,73 @@
+"""``drempower sniff``: a live decoded view of the frames on a bus."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import time
+from typing import Any
+
+from ..protocol.ids import Frame
+from ._connect import add_connection_args, open_transport_from_args, positive
+from ._output import add_json_arg, json_line
+from .decode import decode_line
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "sniff",
+        help="show the frames on a bus as they pass, decoded (Ctrl-C ends it)",
+        description=(
+            "Listen to a bus and decode every frame: commands from hosts and replies from motors. "
+            "Frames this command does not send itself, so run it beside the program to watch."
+        ),
+    )
+    p.add_argument("--duration", type=positive, metavar="S", help="stop after S seconds")
+    p.add_argument("--count", type=int, metavar="N", help="stop after N frames")
+    p.add_argument(
+        "--direction",
+        choices=("auto", "host", "motor"),
+        default="auto",
+        help="who sends the frames: host commands, motor replies, or guess per frame (default)",
+    )
+    add_json_arg(p)
+    add_connection_args(p)
+    p.set_defaults(func=run)
+
+
+def candump_line(frame: Frame, timestamp: float) -> str:
+    """``frame`` as a ``candump -L`` line (without channel)."""
+    arb = f"{frame.arbitration_id:08X}" if frame.is_extended else f"{frame.arbitration_id:03X}"
+    data = "R" if frame.is_remote else frame.data.hex().upper()
+    return f"({timestamp:.6f}) {arb}#{data}"
+
+
+def run(args: argparse.Namespace) -> int:
+    out = sys.stdout
+    transport, how = open_transport_from_args(args)
+    start = time.monotonic()
+    seen = 0
+    with transport:
+        try:
+            while args.count is None or seen < args.count:
+                left = None if args.duration is None else args.duration - (time.monotonic() - start)
+                if left is not None and left <= 0:
+                    break
+                frame = transport.recv(0.25 if left is None else min(0.25, left))
+                if frame is None:
+                    continue
+                seen += 1
+                t = time.monotonic() - start
+                rec = decode_line(candump_line(frame, time.time()), args.direction)
+                rec.pop("line")
+                if args.json:
+                    out.write(json_line({"time_s": round(t, 6), **rec}) + "\n")
+                elif "error" in rec:
+                    out.write(f"{t:10.6f}  {rec.get('id', '?'):>5} {rec.get('data', ''):<16}  !! {rec['error']}\n")
+                else:
+                    out.write(f"{t:10.6f}  {rec['id']:>5} {rec['data']:<16}  {rec['direction']:<5} {rec['text']}\n")
+                out.flush()
+        except KeyboardInterrupt:
+            pass
+    print(f"{seen} frame{'' if seen == 1 else 's'} on {how}", file=sys.stderr)
+    return 0
