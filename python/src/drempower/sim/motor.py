@@ -1,0 +1,691 @@
+"""One simulated DrEmpower motor: the firmware's command handling, states, errors and protections.
+
+A :class:`SimMotor` receives decoded host commands (:meth:`SimMotor.receive`),
+answers through a callback, and is stepped by its :class:`~drempower.sim.bus.SimBus`
+at a fixed period (:meth:`SimMotor.step`). The control loop and mechanics are in
+:mod:`drempower.sim.drive`; the parameter memory in :mod:`drempower.sim.params`;
+every choice where the vendor is silent in :mod:`drempower.sim.behaviour`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from enum import IntFlag
+from pathlib import Path
+
+from ..errors import DrEmpowerError
+from ..protocol.enums import AxisState, TorqueMode, TrajMode, VelocityMode
+from ..protocol.flags import ERROR_WORDS, AxisError, CanError, ControllerError
+from ..protocol.ids import Frame, StartKind, SysCmd
+from ..protocol.messages import (
+    S16_MAX,
+    S16_MIN,
+    Command,
+    FastRead,
+    ParamValue,
+    PositionP,
+    PositionQ,
+    PositionT,
+    Preset,
+    PresetC,
+    PresetV,
+    ReadParam,
+    Start,
+    StartImpedance,
+    State,
+    SystemCommand,
+    Torque,
+    Velocity,
+    WriteParam,
+)
+from ..protocol.parameters import Parameter, parameter
+from . import behaviour as bh
+from .defaults import MotorModel
+from .drive import POSITION, TAU, TRAP_TRAJ, Drive
+from .params import OUTPUT_VIEWS, ParamStore, view_factor
+
+__all__ = ["SimMotor"]
+
+Reply = Callable[[Frame], None]
+"""Where a motor puts the frames it answers with."""
+
+_FILTER_MAX = 250.0
+"""Largest input-filter bandwidth (1/s): a quarter of the 1 kHz loop rate, as on ODrive."""
+_CALIBRATION_STATES = frozenset((3, 4, 6, 7))
+_WORD_OF_FLAGS: dict[type[IntFlag], int] = {w.flags: w.address for w in ERROR_WORDS}
+_ERROR_ADDRESSES = tuple(w.address for w in ERROR_WORDS)
+
+
+def _s16(x: float) -> float:
+    return S16_MIN if x < S16_MIN else S16_MAX if x > S16_MAX else x
+
+
+class SimMotor:
+    """A simulated motor at the output shaft: degrees, r/min, Nm.
+
+    ``ident`` is the id the motor was created with (its identity: the key in
+    ``SimBus.motors``, the factory node id, the name of its saved configuration);
+    ``node_id`` is its current CAN id. Tests may push the shaft with
+    ``external_torque`` (Nm), block it with ``locked``, or add ``load_inertia``
+    (kg*m^2 at the output).
+    """
+
+    def __init__(self, ident: int, *, model: MotorModel | None = None, config_path: Path | None = None) -> None:
+        self.ident = ident
+        self.model = model or MotorModel()
+        self.params = ParamStore(ident, config_path)
+        self.drive = Drive()
+        self.time = 0.0
+        """Simulated time of the last step (s)."""
+        self.state = AxisState.IDLE
+        self.errors: dict[int, int] = dict.fromkeys(_ERROR_ADDRESSES, 0)
+        """Error words by parameter address (30001 axis, 33001 motor, ...)."""
+        self.preset: Preset | None = None
+        """The pending preset (0x0C), waiting for a start."""
+        self.bitrate = 1_000_000
+        """CAN bit rate in use (can.config.baud_rate as it was at the last boot)."""
+        self.emit: Reply = _discard
+        """Where unsolicited frames (heartbeats) go; set by the bus."""
+        self._load_inertia = 0.0
+        self._requested = 0
+        self._offset = 0.0
+        self._ratio = 10.0
+        self._kt = 1.0
+        self._reply_state = False
+        self._stall_on = False
+        self._stall_tq = math.inf
+        self._stall_time = 0.0
+        self._stall_t = 0.0
+        self._overspeed = math.inf
+        self._hb_period = 0.0
+        self._hb_next = math.inf
+        self._timeout = 0.0
+        self._last_rx = 0.0
+        self._calib_end = math.inf
+        self._wake = math.inf
+        self._watchdog_damping = False
+        self._sticky_cleared = True
+        self._boot()
+
+    # ------------------------------------------------------------------ readings
+
+    @property
+    def node_id(self) -> int:
+        """The CAN node id the motor answers to (can_node_id, 31001)."""
+        return int(self.params.ram[31001])
+
+    @node_id.setter
+    def node_id(self, value: int) -> None:
+        self.params.ram[31001] = value
+
+    @property
+    def position(self) -> float:
+        """Output shaft position (deg) as the motor reports it."""
+        return self.drive.pos * 360.0 - self._offset
+
+    @property
+    def speed(self) -> float:
+        """Output shaft speed (r/min)."""
+        return self.drive.vel * 60.0
+
+    @property
+    def torque(self) -> float:
+        """Output torque the motor applies (Nm)."""
+        return self.drive.torque
+
+    @property
+    def current(self) -> float:
+        """q-axis current (A)."""
+        return self.drive.torque / self._kt
+
+    @property
+    def axis_error(self) -> int:
+        """axis0.error (30001); non-zero sets the E bit of state frames."""
+        return self.errors[30001]
+
+    @property
+    def trajectory_done(self) -> bool:
+        """The T bit: see :data:`drempower.sim.behaviour.DONE_TOLERANCE_DEG`."""
+        d = self.drive
+        if not d.active or d.mode != POSITION:
+            return True
+        if d.input_mode == TRAP_TRAJ:
+            return d.trajectory_done()
+        return abs(d.in_pos - d.pos) * 360.0 <= bh.DONE_TOLERANCE_DEG
+
+    @property
+    def external_torque(self) -> float:
+        """Torque applied to the output shaft from outside (Nm), e.g. a load or a hand."""
+        return self.drive.ext
+
+    @external_torque.setter
+    def external_torque(self, value: float) -> None:
+        self.drive.ext = value
+
+    @property
+    def locked(self) -> bool:
+        """True: the output shaft is mechanically blocked (it cannot turn)."""
+        return self.drive.locked
+
+    @locked.setter
+    def locked(self, value: bool) -> None:
+        self.drive.locked = value
+        if value:
+            self.drive.vel = 0.0
+
+    @property
+    def load_inertia(self) -> float:
+        """Inertia of the load on the output shaft (kg*m^2)."""
+        return self._load_inertia
+
+    @load_inertia.setter
+    def load_inertia(self, value: float) -> None:
+        self._load_inertia = value
+        self._refresh()
+
+    def state_frame(self) -> Frame:
+        """The real-time state frame as the motor would send it now."""
+        d = self.drive
+        return State(
+            self.node_id,
+            d.pos * 360.0 - self._offset,
+            _s16(d.vel * 60.0),
+            _s16(d.torque),
+            self.trajectory_done,
+            self.errors[30001] != 0,
+            bh.STATE_SPARE_BITS,
+        ).encode()
+
+    def param(self, key: str | int) -> int | float:
+        """A parameter's value as the motor would report it (in its table type)."""
+        value = self._read(parameter(key).address)
+        assert value is not None
+        return value
+
+    def set_param(self, key: str | int, value: float) -> None:
+        """Write a parameter as a 0x1F frame would (same checks; read-only ones are ignored)."""
+        p = parameter(key)
+        self._write(p, bh.convert_value(value, p.dtype))
+
+    def inject_error(self, flag: IntFlag, word: str | int | None = None) -> None:
+        """Raise error ``flag`` as the firmware would (the axis drops to IDLE unless it is a CAN error).
+
+        ``word`` (name or address) defaults to the word of the flag's type, e.g.
+        ``MotorError.DRV_FAULT`` goes to axis0.motor.error.
+        """
+        addr = _WORD_OF_FLAGS[type(flag)] if word is None else parameter(word).address
+        if addr == 34001 and int(flag) & bh.STICKY_ENCODER_ERRORS:
+            self._sticky_cleared = False
+        self._fault(addr, int(flag))
+
+    # ------------------------------------------------------------------ stepping
+
+    def step(self, dt: float, now: float) -> None:
+        """Advance by ``dt`` s to simulated time ``now``."""
+        d = self.drive
+        d.step(dt)
+        self.time = now
+        if d.active:
+            if self._stall_on:
+                if abs(d.torque) >= self._stall_tq:
+                    self._stall_t += dt
+                    if self._stall_t >= self._stall_time:
+                        self._fault(33001, bh.STALL_FLAG, bh.STALL_AXIS_ERROR)
+                else:
+                    self._stall_t = 0.0
+            if abs(d.vel) > self._overspeed:
+                self._fault(32001, ControllerError.OVERSPEED)
+        if now >= self._wake:
+            self._timers()
+
+    def _timers(self) -> None:
+        now = self.time
+        if now >= self._hb_next:
+            self.emit(self.state_frame())
+            self._hb_next = max(self._hb_next + self._hb_period, now)
+        if self._timeout and self.drive.active and now - self._last_rx >= self._timeout:
+            self._watchdog_damping = True
+            self._fault(30001, bh.WATCHDOG_ERROR)
+        if now >= self._calib_end:
+            self._calib_end = math.inf
+            self._enter_idle()
+        self._rearm()
+
+    def _rearm(self) -> None:
+        wake = min(self._hb_next, self._calib_end)
+        if self._timeout and self.drive.active:
+            wake = min(wake, self._last_rx + self._timeout)
+        self._wake = wake
+
+    # ------------------------------------------------------------------ commands
+
+    def receive(self, msg: Command, reply: Reply) -> None:
+        """Handle one host command addressed to this motor (or broadcast); answers go to ``reply``."""
+        self._last_rx = self.time
+        _HANDLERS[type(msg)](self, msg, reply)
+
+    def _answer_state(self, reply: Reply) -> None:
+        if self._reply_state:
+            reply(self.state_frame())
+
+    def _raw(self, deg: float) -> float:
+        """Reported degrees -> internal output turns, clamped to the software limits when they are on."""
+        pos = (deg + self._offset) / 360.0
+        d = self.drive
+        if d.lim_on:
+            pos = min(d.lmax, max(d.lmin, pos))
+        return pos
+
+    def _on_t(self, msg: PositionT, reply: Reply) -> None:
+        if self.drive.active:
+            self._track(msg.position, msg.bandwidth)
+        self._answer_state(reply)
+
+    def _track(self, deg: float, bandwidth: float) -> None:
+        bw = abs(bandwidth)
+        self.params.ram[32118] = bw
+        self.drive.filtered(self._raw(deg), min(bw, _FILTER_MAX))
+
+    def _on_q(self, msg: PositionQ, reply: Reply) -> None:
+        if self.drive.active:
+            self._move(msg.position, abs(msg.speed), abs(msg.accel))
+        self._answer_state(reply)
+
+    def _move(self, deg: float, speed: float, accel: float) -> None:
+        """Q move to ``deg`` at ``speed`` r/min and ``accel`` (r/min)/s."""
+        if speed == 0.0:
+            self._fault(32001, bh.Q_ZERO_SPEED_ERROR)
+            return
+        self._set_output(38014, speed)
+        self._set_output(38015, accel)
+        self._set_output(38016, accel)
+        target = self._raw(deg)
+        if accel == 0.0:
+            self.drive.hold(target)
+            return
+        vmax = min(speed / 60.0, self.drive.vlim)
+        self.drive.trajectory(target, vmax, accel / 60.0, self._s_curve())
+
+    def _s_curve(self) -> bool:
+        return bool(self.params.ram[35104] == TrajMode.S_CURVE)
+
+    def _timed_move(self, deg: float, seconds: float, accel: float) -> None:
+        """Q target-time move: reach ``deg`` in ``seconds`` with ``accel`` (r/min)/s."""
+        self._set_output(38015, accel)
+        self._set_output(38016, accel)
+        target = self._raw(deg)
+        d = self.drive
+        start = d.pos_sp if d.mode == POSITION else d.pos
+        s_curve = self._s_curve()
+        a = accel / 60.0 * (0.5 if s_curve else 1.0)
+        if seconds <= 0.0 or target == start:
+            d.hold(target)
+            return
+        vmax, a = bh.target_time_profile(abs(target - start), seconds, a)
+        d.trajectory(target, min(vmax, d.vlim), a * (2.0 if s_curve else 1.0), s_curve)
+
+    def _on_p(self, msg: PositionP, reply: Reply) -> None:
+        if self.drive.active:
+            self.drive.position(self._raw(msg.position), msg.speed_ff / 60.0, msg.torque_ff)
+        self._answer_state(reply)
+
+    def _on_v(self, msg: Velocity, reply: Reply) -> None:
+        if self.drive.active:
+            self._velocity(msg.speed, msg.param, msg.mode)
+        self._answer_state(reply)
+
+    def _velocity(self, speed: float, param: float, mode: VelocityMode) -> None:
+        if mode == VelocityMode.PASSTHROUGH:
+            self.drive.velocity(speed / 60.0, param, None)
+        else:
+            self._set_output(38017, abs(param))
+            self.drive.velocity(speed / 60.0, 0.0, abs(param) / 60.0)
+
+    def _on_c(self, msg: Torque, reply: Reply) -> None:
+        if self.drive.active:
+            self._torque(msg.torque, msg.param, msg.mode)
+        self._answer_state(reply)
+
+    def _torque(self, torque: float, param: float, mode: TorqueMode) -> None:
+        if mode == TorqueMode.DIRECT:
+            self.drive.torque_command(torque, None)
+        else:
+            self._set_output(38018, abs(param))
+            self.drive.torque_command(torque, abs(param))
+
+    def _on_preset(self, msg: Preset, reply: Reply) -> None:
+        self.preset = msg
+        self._answer_state(reply)
+
+    def _on_start(self, msg: Start | StartImpedance, reply: Reply) -> None:
+        p, self.preset = self.preset, None
+        if p is None or not self.drive.active:
+            return
+        kind = msg.kind
+        target = p.p1 + self.position if isinstance(msg, Start) and msg.relative else p.p1
+        if kind is StartKind.T:
+            self._track(target, p.p3)
+        elif kind is StartKind.Q:
+            self._timed_move(target, p.p2, abs(p.p3))
+        elif kind is StartKind.P:
+            self.drive.position(self._raw(target), p.p2 / 60.0, p.p3)
+        elif isinstance(msg, StartImpedance):
+            self.drive.impedance(self._raw(target), p.p2 / 60.0, p.p3, msg.kp * TAU, msg.kd * TAU)
+        else:
+            try:
+                typed = p.as_kind(kind)
+            except DrEmpowerError:
+                return
+            if isinstance(typed, PresetV):
+                self._velocity(typed.speed, typed.param, typed.mode)
+            elif isinstance(typed, PresetC):
+                self._torque(typed.torque, typed.param, typed.mode)
+
+    def _on_system(self, msg: SystemCommand, reply: Reply) -> None:
+        op = msg.op
+        if op is SysCmd.ESTOP:
+            self._fault(30001, AxisError.ESTOP_REQUESTED)
+        elif op is SysCmd.CLEAR_ERRORS:
+            self._clear_errors()
+        elif op is SysCmd.SET_ZERO_POSITION:
+            self._set_zero()
+        elif op is SysCmd.SAVE_CONFIG:
+            self.params.save()
+        elif op is SysCmd.ERASE_CONFIG:
+            self.params.erase()
+        elif op is SysCmd.INIT_CONFIG:
+            self.params.init()
+            self._refresh()
+        elif op is SysCmd.REBOOT:
+            self._boot()
+
+    def _on_read(self, msg: ReadParam, reply: Reply) -> None:
+        value = self._read(msg.address)
+        if value is not None:
+            reply(ParamValue(self.node_id, msg.address, msg.dtype, bh.convert_value(value, msg.dtype)).encode())
+
+    def _on_fast_read(self, msg: FastRead, reply: Reply) -> None:
+        reply(self.state_frame())
+
+    def _on_write(self, msg: WriteParam, reply: Reply) -> None:
+        try:
+            p = parameter(msg.address)
+        except DrEmpowerError:
+            return
+        self._write(p, bh.convert_value(msg.value, p.dtype))
+
+    # ------------------------------------------------------------------ parameters
+
+    def _read(self, addr: int) -> int | float | None:
+        getter = _LIVE.get(addr)
+        if getter is not None:
+            return getter(self)
+        view = OUTPUT_VIEWS.get(addr)
+        if view is not None:
+            rotor = self._read(view[0])
+            assert rotor is not None
+            return float(rotor) * view_factor(view[1], self._ratio)
+        return self.params.ram.get(addr)
+
+    def _set_output(self, addr: int, value: float) -> None:
+        """Store an output-shaft configuration value (through its rotor-side twin)."""
+        rotor, kind = OUTPUT_VIEWS[addr]
+        self.params.ram[rotor] = value / view_factor(kind, self._ratio)
+        self._refresh()
+
+    def _write(self, p: Parameter, value: int | float) -> None:
+        addr = p.address
+        view = OUTPUT_VIEWS.get(addr)
+        if view is not None:
+            rotor = parameter(view[0])
+            self._write(rotor, bh.convert_value(value / view_factor(view[1], self._ratio), rotor.dtype))
+            return
+        if not p.writable:
+            return
+        special = _WRITE_HOOKS.get(addr)
+        if special is not None:
+            special(self, value)
+            return
+        if not self._accept(addr, value):
+            return
+        self.params.ram[addr] = value
+        self._refresh()
+        if addr in (21003, 21004):
+            self._hb_next = self.time + self._hb_period if self._hb_period else math.inf
+            self._rearm()
+
+    def _accept(self, addr: int, value: float) -> bool:
+        """Validation of a configuration write (see :mod:`drempower.sim.behaviour`)."""
+        if addr == 31001:
+            return 1 <= value <= 63
+        if addr == 21001:
+            return value in bh.CAN_BITRATES
+        if addr in (31208, 34103):
+            return value > 0
+        ram = self.params.ram
+        if addr in (31202, 31203, 31204):
+            on = value if addr == 31202 else ram[31202]
+            lo = value if addr == 31203 else ram[31203]
+            hi = value if addr == 31204 else ram[31204]
+            turns = self.position * self._ratio / 360.0
+            return not on or lo <= turns <= hi
+        return True
+
+    def _write_requested_state(self, value: float) -> None:
+        self._requested = int(value)
+        if value == AxisState.CLOSED_LOOP_CONTROL:
+            self._enter_closed_loop()
+        elif value == AxisState.IDLE:
+            self._enter_idle()
+        elif value in _CALIBRATION_STATES:
+            self._enter_idle()
+            self.state = AxisState(int(value))
+            self._calib_end = self.time + bh.CALIBRATION_SECONDS
+            self._rearm()
+
+    def _write_input(self, addr: int, value: float) -> None:
+        d = self.drive
+        if not d.active:
+            return
+        if addr == 32002:
+            d.position(self._raw(value * 360.0 / self._ratio), 0.0, 0.0)
+        elif addr == 32003:
+            d.velocity(value / self._ratio, 0.0, None)
+        else:
+            d.torque_command(value * self._ratio, None)
+
+    def _refresh(self) -> None:
+        """Recompute the drive's gains and limits and the protections from the parameters."""
+        ram, d, m = self.params.ram, self.drive, self.model
+        r = self._ratio = float(ram[31208])
+        r2 = r * r
+        kt = float(ram[33107]) * r
+        self._kt = kt if kt else 1.0
+        d.kp = float(ram[32108])
+        d.kv = float(ram[32109]) * r2
+        d.ki = float(ram[32110]) * r2
+        d.vlim = float(ram[32111]) / r if ram[32102] else math.inf
+        d.tlim = min(float(ram[33112]), float(ram[33110]) * float(ram[33107])) * r
+        d.jff = float(ram[32117]) * r2 + float(ram[38021])
+        d.j = TAU * (m.rotor_inertia * r2 + self._load_inertia)
+        d.b = TAU * m.viscous
+        d.fc = m.coulomb
+        d.cm_vlim = bool(ram[32103])
+        damp = ram[31215] or self._watchdog_damping
+        d.g_idle = bh.IDLE_DAMPING_NM_PER_RPM * 60.0 if damp else 0.0
+        cpr = float(ram[34103])
+        self._offset = float(ram[31205]) / cpr * 360.0 / r
+        d.lim_on = bool(ram[31202])
+        d.lmin = float(ram[31203]) / r + self._offset / 360.0
+        d.lmax = float(ram[31204]) / r + self._offset / 360.0
+        self._reply_state = bool(ram[31214])
+        self._stall_on = bool(ram[31211])
+        self._stall_tq = float(ram[31209]) * self._kt
+        self._stall_time = float(ram[31210])
+        self._overspeed = d.vlim * float(ram[32112]) if ram[32104] else math.inf
+        self._hb_period = float(ram[21004]) / 1000.0
+        self._timeout = float(ram[21003]) / 1000.0
+
+    # ------------------------------------------------------------------ states and errors
+
+    def _boot(self) -> None:
+        """Power-up or reboot."""
+        p = self.params
+        p.boot()
+        self.errors = dict.fromkeys(_ERROR_ADDRESSES, 0)
+        self.preset = None
+        self._watchdog_damping = False
+        self._sticky_cleared = True
+        self._requested = 0
+        self._calib_end = math.inf
+        self._refresh()
+        if not p.ram[31207]:
+            p.ram[31205] = self.drive.pos * self._ratio * float(p.ram[34103])
+            self._refresh()
+        self.bitrate = int(p.ram[21001])
+        self._last_rx = self.time
+        self._hb_next = self.time + self._hb_period if self._hb_period else math.inf
+        self._enter_idle()
+        if p.ram[31005]:
+            self._enter_closed_loop()
+        self._rearm()
+
+    def _enter_idle(self) -> None:
+        self.state = AxisState.IDLE
+        self.drive.active = False
+        self._stall_t = 0.0
+        self._refresh()
+
+    def _enter_closed_loop(self) -> None:
+        if self.errors[30001]:
+            return
+        d = self.drive
+        self.state = AxisState.CLOSED_LOOP_CONTROL
+        self._calib_end = math.inf
+        self._watchdog_damping = False
+        self._last_rx = self.time
+        d.active = True
+        d.integ = 0.0
+        d.hold(d.pos)
+        self._refresh()
+        self._recover_limits()
+        self._rearm()
+
+    def _recover_limits(self) -> None:
+        """Outside the software limits in closed loop: move slowly to the nearest one."""
+        d = self.drive
+        if d.active and d.lim_on and not d.lmin <= d.pos <= d.lmax:
+            target = d.lmax if d.pos > d.lmax else d.lmin
+            d.hold(d.pos)
+            d.trajectory(target, bh.LIMIT_RECOVERY_SPEED_RPM / 60.0, bh.LIMIT_RECOVERY_ACCEL / 60.0, False)
+
+    def _fault(self, word: int, flags: int, axis_flag: int | None = None) -> None:
+        """Set error ``flags`` in ``word``; any axis error drops the axis to IDLE."""
+        self.errors[word] |= flags
+        if word != 30001:
+            extra = bh.ERROR_WORD_AXIS_FLAG.get(word, 0) if axis_flag is None else axis_flag
+            self.errors[30001] |= extra
+        if self.errors[30001] and self.state != AxisState.IDLE:
+            self._enter_idle()
+
+    def _clear_errors(self) -> None:
+        sticky = 0 if self._sticky_cleared else self.errors[34001] & bh.STICKY_ENCODER_ERRORS
+        self.errors = dict.fromkeys(_ERROR_ADDRESSES, 0)
+        self._stall_t = 0.0
+        if sticky:
+            self._fault(34001, sticky)
+
+    def _set_zero(self) -> None:
+        ram = self.params.ram
+        ram[31205] = self.drive.pos * self._ratio * float(ram[34103])
+        self._sticky_cleared = True
+        self._refresh()
+        self._recover_limits()
+
+    def saw_frame(self, node: int) -> None:
+        """Another motor put a frame with ``node`` on the bus: flag a duplicate id."""
+        if node == self.node_id:
+            self.errors[20001] |= CanError.DUPLICATE_CAN_IDS
+
+
+def _discard(frame: Frame) -> None:
+    """Default sink of unsolicited frames (a motor on no bus)."""
+
+
+def _ibus(m: SimMotor) -> float:
+    """Supply current (A): mechanical power plus copper loss over the bus voltage."""
+    d = m.drive
+    iq = d.torque / m._kt
+    power = d.torque * d.vel * TAU + 1.5 * iq * iq * float(m.params.ram[33106])
+    return power / m.model.vbus
+
+
+def _pos_rotor(m: SimMotor) -> float:
+    return m.position * m._ratio / 360.0
+
+
+def _rotor_turns(raw_of: Callable[[Drive], float]) -> Callable[[SimMotor], float]:
+    def read(m: SimMotor) -> float:
+        return (raw_of(m.drive) * 360.0 - m._offset) * m._ratio / 360.0
+
+    return read
+
+
+def _error_word(addr: int) -> Callable[[SimMotor], int]:
+    return lambda m: m.errors[addr]
+
+
+_LIVE: dict[int, Callable[[SimMotor], int | float]] = {
+    1: lambda m: m.model.vbus,
+    2: _ibus,
+    30002: lambda m: int(m.state),
+    30003: lambda m: m._requested,
+    32002: _rotor_turns(lambda d: d.in_pos),
+    32003: lambda m: m.drive.in_vel * m._ratio,
+    32004: lambda m: m.drive.in_tq / m._ratio,
+    32005: _rotor_turns(lambda d: d.pos_sp),
+    32006: lambda m: m.drive.vel_sp * m._ratio,
+    32007: lambda m: m.drive.tq_sp / m._ratio,
+    32008: lambda m: int(m.trajectory_done),
+    32105: lambda m: m.drive.mode,
+    32106: lambda m: m.drive.input_mode,
+    33003: lambda m: m.params.ram[33110],
+    33201: _ibus,
+    33205: lambda m: m.current,
+    33206: lambda m: m.current,
+    34004: _pos_rotor,
+    34005: lambda m: _pos_rotor(m) % 1.0,
+    34006: lambda m: m.drive.vel * m._ratio,
+    34009: lambda m: int(_pos_rotor(m) % 1.0 * float(m.params.ram[34103])),
+    34010: lambda m: math.floor(_pos_rotor(m)),
+    38009: lambda m: m.drive.torque,
+    **{a: _error_word(a) for a in _ERROR_ADDRESSES},
+}
+"""Parameters computed from the motor's state when read."""
+
+_WRITE_HOOKS: dict[int, Callable[[SimMotor, float], None]] = {
+    30003: SimMotor._write_requested_state,
+    32002: lambda m, v: m._write_input(32002, v),
+    32003: lambda m, v: m._write_input(32003, v),
+    32004: lambda m, v: m._write_input(32004, v),
+    32105: lambda m, v: None,
+    32106: lambda m, v: None,
+    33001: lambda m, v: m.errors.__setitem__(33001, int(v)),
+}
+"""Writable parameters that act instead of being stored (control and input mode follow the commands)."""
+
+_HANDLERS: dict[type, Callable[[SimMotor, object, Reply], None]] = {
+    PositionT: SimMotor._on_t,  # type: ignore[dict-item]
+    PositionQ: SimMotor._on_q,  # type: ignore[dict-item]
+    PositionP: SimMotor._on_p,  # type: ignore[dict-item]
+    Velocity: SimMotor._on_v,  # type: ignore[dict-item]
+    Torque: SimMotor._on_c,  # type: ignore[dict-item]
+    Preset: SimMotor._on_preset,  # type: ignore[dict-item]
+    Start: SimMotor._on_start,  # type: ignore[dict-item]
+    StartImpedance: SimMotor._on_start,  # type: ignore[dict-item]
+    SystemCommand: SimMotor._on_system,  # type: ignore[dict-item]
+    ReadParam: SimMotor._on_read,  # type: ignore[dict-item]
+    FastRead: SimMotor._on_fast_read,  # type: ignore[dict-item]
+    WriteParam: SimMotor._on_write,  # type: ignore[dict-item]
+}

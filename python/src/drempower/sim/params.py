@@ -1,0 +1,130 @@
+"""The parameter memory of a simulated motor: RAM, saved configuration, factory defaults.
+
+Configuration parameters (every writable one except the runtime inputs listed in
+:data:`RUNTIME`) live in RAM; ``save`` copies them to the saved configuration,
+which survives a reboot and, with a ``path``, is kept as a JSON file (by
+parameter name). The output-shaft configuration parameters are views of their
+rotor-side twins (:data:`OUTPUT_VIEWS`): only the rotor value is stored.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+from ..protocol.parameters import DataType, Parameter, parameter, parameters
+from .defaults import FACTORY, READ_ONLY_CONSTANTS
+
+__all__ = ["ANGLE", "SPEED", "TORQUE", "OUTPUT_VIEWS", "RUNTIME", "CONFIG", "ParamStore", "view_factor"]
+
+ANGLE, SPEED, TORQUE = 0, 1, 2
+"""Kinds of output view: degrees per rotor turn, r/min per rotor turn/s, output Nm per rotor Nm."""
+
+OUTPUT_VIEWS: dict[int, tuple[int, int]] = {
+    38001: (32002, ANGLE),
+    38002: (32003, SPEED),
+    38003: (32004, TORQUE),
+    38004: (32005, ANGLE),
+    38005: (32006, SPEED),
+    38006: (32007, TORQUE),
+    38007: (34004, ANGLE),
+    38008: (34006, SPEED),
+    38010: (31203, ANGLE),
+    38011: (31204, ANGLE),
+    38012: (32111, SPEED),
+    38013: (33112, TORQUE),
+    38014: (35101, SPEED),
+    38015: (35102, SPEED),
+    38016: (35103, SPEED),
+    38017: (32113, SPEED),
+    38018: (32114, TORQUE),
+    38020: (33107, TORQUE),
+}
+"""Output-shaft parameter -> (rotor-side parameter, kind of conversion)."""
+
+RUNTIME = frozenset((30003, 32002, 32003, 32004, 32105, 32106, 33001, 33201, 33202, 33203, 33204))
+"""Writable parameters that are commands or live values, not configuration (never saved)."""
+
+CONFIG = frozenset(
+    p.address for p in parameters() if p.writable and p.address not in RUNTIME and p.address not in OUTPUT_VIEWS
+)
+"""Addresses of the configuration: what save_config stores and init_config restores."""
+
+_FORMAT = "drempower-sim-config"
+
+
+def view_factor(kind: int, ratio: float) -> float:
+    """Output-view value per rotor-side value for ``kind`` at gear ratio ``ratio``."""
+    if kind == ANGLE:
+        return 360.0 / ratio
+    if kind == SPEED:
+        return 60.0 / ratio
+    return ratio
+
+
+def _typed(p: Parameter, value: float) -> int | float:
+    return float(value) if p.dtype is DataType.F32 else int(value)
+
+
+class ParamStore:
+    """RAM values by address, the saved configuration and the factory configuration of one motor.
+
+    ``node_id`` is the factory node id; ``path`` (optional) the JSON file holding the
+    saved configuration, loaded at construction when it exists.
+    """
+
+    __slots__ = ("factory", "path", "ram", "saved")
+
+    def __init__(self, node_id: int, path: Path | None = None) -> None:
+        factory = {a: _typed(parameter(a), 0) for a in CONFIG}
+        for name, value in FACTORY.items():
+            factory[parameter(name).address] = _typed(parameter(name), value)
+        factory[31001] = node_id
+        self.factory: dict[int, int | float] = factory
+        self.path = path
+        self.saved: dict[int, int | float] | None = self._load()
+        self.ram: dict[int, int | float] = {p.address: _typed(p, 0) for p in parameters()}
+        for name, value in READ_ONLY_CONSTANTS.items():
+            self.ram[parameter(name).address] = value
+        self.ram[3] = node_id
+        self.boot()
+
+    def boot(self) -> None:
+        """Power-up: the configuration in RAM becomes the saved one (or the factory one)."""
+        self.ram.update(self.factory)
+        if self.saved is not None:
+            self.ram.update(self.saved)
+
+    def init(self) -> None:
+        """init_config: the factory configuration into RAM (not saved)."""
+        self.ram.update(self.factory)
+
+    def save(self) -> None:
+        """save_config: RAM configuration -> saved configuration (and the file)."""
+        self.saved = {a: self.ram[a] for a in CONFIG}
+        if self.path is not None:
+            doc = {"format": _FORMAT, "parameters": {parameter(a).name: v for a, v in sorted(self.saved.items())}}
+            tmp = self.path.with_suffix(".tmp")
+            tmp.write_text(json.dumps(doc, indent=1) + "\n", encoding="utf-8")
+            os.replace(tmp, self.path)
+
+    def erase(self) -> None:
+        """erase_config: forget the saved configuration (RAM is untouched)."""
+        self.saved = None
+        if self.path is not None:
+            self.path.unlink(missing_ok=True)
+
+    def _load(self) -> dict[int, int | float] | None:
+        if self.path is None or not self.path.exists():
+            return None
+        doc = json.loads(self.path.read_text(encoding="utf-8"))
+        saved = dict(self.factory)
+        for name, value in doc.get("parameters", {}).items():
+            try:
+                p = parameter(name)
+            except ValueError:
+                continue
+            if p.address in CONFIG and isinstance(value, (int, float)):
+                saved[p.address] = _typed(p, value)
+        return saved

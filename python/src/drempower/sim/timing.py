@@ -1,0 +1,76 @@
+"""CAN frame length on the wire, and bus-load statistics.
+
+:func:`frame_bits` counts the bits a classic CAN data frame occupies: SOF,
+arbitration, control and data fields and the CRC-15 (computed for real) with
+bit stuffing applied, then the unstuffed CRC delimiter, ACK slot and delimiter,
+end of frame (7) and intermission (3).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import lru_cache
+
+__all__ = ["crc15", "frame_bits", "stuff_count", "BusStats", "TRAILER_BITS"]
+
+TRAILER_BITS = 1 + 2 + 7 + 3
+"""CRC delimiter, ACK slot and delimiter, end of frame, intermission: never stuffed."""
+
+
+def crc15(bits: str) -> int:
+    """The CAN CRC-15 (polynomial 0x4599) of a bit string such as ``"0110..."``."""
+    crc = 0
+    for b in bits:
+        feedback = (b == "1") ^ bool(crc & 0x4000)
+        crc = (crc << 1) & 0x7FFF
+        if feedback:
+            crc ^= 0x4599
+    return crc
+
+
+def stuff_count(bits: str) -> int:
+    """Stuff bits a transmitter inserts into ``bits``: one after every 5 equal bits in a row
+    (the stuff bit itself starts the next run)."""
+    count = 0
+    run = 0
+    last = ""
+    for b in bits:
+        if b == last:
+            run += 1
+        else:
+            last, run = b, 1
+        if run == 5:
+            count += 1
+            last = "1" if b == "0" else "0"
+            run = 1
+    return count
+
+
+@lru_cache(maxsize=4096)
+def frame_bits(arbitration_id: int, data: bytes, is_extended: bool = False) -> int:
+    """Bits a data frame with ``arbitration_id`` and ``data`` (0..8 bytes) occupies on the bus,
+    interframe space included. A standard frame with 8 data bytes takes 111 to 135 bits."""
+    dlc = f"{len(data):04b}"
+    payload = "".join(f"{b:08b}" for b in data)
+    if is_extended:
+        head = f"0{arbitration_id >> 18:011b}11{arbitration_id & 0x3FFFF:018b}000"
+    else:
+        head = f"0{arbitration_id:011b}000"
+    body = head + dlc + payload
+    body += f"{crc15(body):015b}"
+    return len(body) + stuff_count(body) + TRAILER_BITS
+
+
+@dataclass(slots=True)
+class BusStats:
+    """Traffic a bus has carried: ``frames``, ``bits``, ``busy`` time (s) over ``elapsed`` time (s)."""
+
+    frames: int = 0
+    bits: int = 0
+    busy: float = 0.0
+    elapsed: float = 0.0
+
+    @property
+    def utilisation(self) -> float:
+        """Fraction of the elapsed time the bus was busy (0 when no time has passed)."""
+        return self.busy / self.elapsed if self.elapsed > 0 else 0.0
