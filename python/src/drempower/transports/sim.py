@@ -1,0 +1,67 @@
+"""Transport to the in-process simulator (:mod:`drempower.sim`)."""
+
+from __future__ import annotations
+
+import queue
+from collections.abc import Iterable
+from typing import Any
+
+from ..protocol.ids import Frame
+from ..sim import SimBus, SimRunner
+from .base import Transport
+
+__all__ = ["SimTransport"]
+
+
+class SimTransport(Transport):
+    """Simulated motors ``motors`` on their own :class:`~drempower.sim.SimBus`, run in real time.
+
+    ``time_scale`` > 1 runs the simulation faster than real time. Pass ``bus`` to use an
+    existing SimBus (``motors`` and the SimBus options are then ignored); ``time_scale=0``
+    starts no runner, so the caller advances the bus's clock itself. Other keyword
+    arguments go to SimBus (``bitrate``, ``faults``, ``seed``, ``config_dir``...).
+    """
+
+    def __init__(
+        self,
+        motors: Iterable[int] = (1,),
+        *,
+        time_scale: float = 1.0,
+        bus: SimBus | None = None,
+        **simbus_kwargs: Any,
+    ) -> None:
+        if time_scale < 0:
+            raise ValueError(f"time_scale must be >= 0, got {time_scale}")
+        self.bus = bus if bus is not None else SimBus(ids=motors, **simbus_kwargs)
+        """The simulated bus."""
+        self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
+        self._closed = False
+        self.bus.add_listener(self._queue.put)
+        self._runner = SimRunner(self.bus, time_scale).start() if time_scale > 0 else None
+        ids = ",".join(str(m.node_id) for m in self.bus.motors.values())
+        pace = f"time x{time_scale:g}" if time_scale > 0 else "manual clock"
+        rate = f"{self.bus.bitrate} bit/s" if self.bus.bitrate else "instant delivery"
+        self.description = f"simulator: motors {ids} ({rate}, {pace})"
+
+    def send(self, frame: Frame) -> None:
+        self.bus.send(frame)
+
+    def recv(self, timeout: float | None = None) -> Frame | None:
+        if self._closed:
+            return None
+        try:
+            frame = self._queue.get(timeout=timeout)
+        except queue.Empty:
+            return None
+        if frame is None:
+            self._queue.put(None)
+        return frame
+
+    def close(self) -> None:
+        if self._closed:
+            return
+        self._closed = True
+        self.bus.remove_listener(self._queue.put)
+        if self._runner is not None:
+            self._runner.stop()
+        self._queue.put(None)
