@@ -14,11 +14,32 @@ python-can bus, pseudo-terminals that behave like the vendor USB-CAN adapter or
 a motor's UART, and a socketcand server.
 """
 
+from .adapter_pty import AdapterPty, attach_adapter_pty
+from .attach_pythoncan import PythonCanAttachment, attach_python_can
 from .bus import Listener, SimBus
 from .defaults import MotorModel
 from .faults import Faults
 from .motor import SimMotor
 from .runner import SimRunner
+from .socketcand import SocketcandServer, attach_socketcand
 from .timing import BusStats, frame_bits
+from .uart_pty import UartPty, attach_uart_pty
 
-__all__ = ["BusStats", "Faults", "Listener", "MotorModel", "SimBus", "SimMotor", "SimRunner", "frame_bits"]
+__all__ = [
+    "AdapterPty",
+    "BusStats",
+    "Faults",
+    "Listener",
+    "MotorModel",
+    "PythonCanAttachment",
+    "SimBus",
+    "SimMotor",
+    "SimRunner",
+    "SocketcandServer",
+    "UartPty",
+    "attach_adapter_pty",
+    "attach_python_can",
+    "attach_socketcand",
+    "attach_uart_pty",
+    "frame_bits",
+]

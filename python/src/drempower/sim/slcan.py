@@ -1,0 +1,106 @@
+"""The Lawicel (slcan) ASCII protocol, as the USB-CAN adapter speaks it in standard mode.
+
+Commands end with CR; the adapter answers CR for success and BEL for an error.
+Supported: ``O`` open, ``L`` open listen-only, ``C`` close, ``S0``-``S8`` bit rate,
+``sXXXX`` bit-timing registers, ``V`` version, ``N`` serial number, ``F`` status
+flags, ``Z`` time stamps, ``M``/``m`` acceptance filter, and the frames ``tIIIL..``,
+``TIIIIIIIIL..``, ``rIIIL``, ``RIIIIIIIIL``. Received frames go to the host as
+``tIIILDD..`` + CR (``T`` for extended ids).
+"""
+
+from __future__ import annotations
+
+from ..protocol.ids import Frame
+
+__all__ = ["OK", "ERROR", "SlcanSession", "format_frame", "parse_frame", "COMMANDS"]
+
+OK = b"\r"
+ERROR = b"\a"
+COMMANDS = frozenset(b"OLCSsVNFZMmtTrR")
+"""First bytes of the commands this adapter understands."""
+VERSION = b"V2003\r"
+"""Hardware 2.0, software 0.3 (the adapter's factory information)."""
+SERIAL = b"N0001\r"
+
+
+def parse_frame(line: str) -> Frame:
+    """A ``t``/``T``/``r``/``R`` command (without CR) as a frame; raises ValueError when malformed."""
+    kind = line[:1]
+    id_len = 8 if kind in ("T", "R") else 3
+    if kind not in ("t", "T", "r", "R") or len(line) < 2 + id_len:
+        raise ValueError(f"not an slcan frame: {line!r}")
+    arb = int(line[1 : 1 + id_len], 16)
+    dlc = int(line[1 + id_len], 10)
+    if dlc > 8 or arb > (0x1FFFFFFF if id_len == 8 else 0x7FF):
+        raise ValueError(f"bad id or length: {line!r}")
+    remote = kind in ("r", "R")
+    hexdata = line[2 + id_len :]
+    if remote:
+        if hexdata:
+            raise ValueError(f"a remote frame carries no data: {line!r}")
+        data = bytes(dlc)
+    else:
+        if len(hexdata) != 2 * dlc:
+            raise ValueError(f"length {dlc} does not match the data: {line!r}")
+        data = bytes.fromhex(hexdata)
+    return Frame(arb, data, id_len == 8, remote)
+
+
+def format_frame(frame: Frame) -> bytes:
+    """A received frame as the adapter sends it to the host (CR-terminated)."""
+    n = len(frame.data)
+    if frame.is_remote:
+        head = f"R{frame.arbitration_id:08X}{n}" if frame.is_extended else f"r{frame.arbitration_id:03X}{n}"
+        return head.encode() + OK
+    head = f"T{frame.arbitration_id:08X}{n}" if frame.is_extended else f"t{frame.arbitration_id:03X}{n}"
+    return (head + frame.data.hex().upper()).encode() + OK
+
+
+class SlcanSession:
+    """The adapter's slcan state: channel open or closed, and the requested bit rate.
+
+    ``handle(line)`` runs one command (without its CR) and returns the answer and
+    the frame to transmit, if any. The requested bit rate is remembered but the
+    simulated bus keeps its own (whether the real adapter honours ``S`` is not
+    documented).
+    """
+
+    __slots__ = ("bitrate_code", "is_open", "listen_only")
+
+    def __init__(self) -> None:
+        self.is_open = False
+        self.listen_only = False
+        self.bitrate_code = 8
+
+    def handle(self, line: str) -> tuple[bytes, Frame | None]:
+        cmd = line[:1]
+        if cmd in ("t", "T", "r", "R"):
+            if not self.is_open or self.listen_only:
+                return ERROR, None
+            try:
+                frame = parse_frame(line)
+            except ValueError:
+                return ERROR, None
+            return (b"Z\r" if cmd in ("T", "R") else b"z\r"), frame
+        if cmd in ("O", "L"):
+            self.is_open, self.listen_only = True, cmd == "L"
+            return OK, None
+        if cmd == "C":
+            self.is_open = False
+            return OK, None
+        if cmd == "S":
+            if self.is_open or line[1:] not in tuple("012345678"):
+                return ERROR, None
+            self.bitrate_code = int(line[1:])
+            return OK, None
+        if cmd == "s":
+            return (ERROR if self.is_open else OK), None
+        if cmd == "V":
+            return VERSION, None
+        if cmd == "N":
+            return SERIAL, None
+        if cmd == "F":
+            return (b"F00\r" if self.is_open else ERROR), None
+        if cmd in ("Z", "M", "m"):
+            return OK, None
+        return ERROR, None
