@@ -42,6 +42,8 @@ __all__ = [
 
 TIME_SCALE_ENV = "DREMPOWER_SIM_TIME_SCALE"
 """Environment variable: default time scale of the in-process simulator."""
+SIM_TIMEOUT = 0.5
+"""Default reply timeout (s) with the in-process simulator: it shares the interpreter with the client."""
 
 
 def parse_ids(text: str) -> list[int]:
@@ -163,7 +165,10 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--sim", metavar="IDS", type=parse_ids, help="in-process simulated motors, e.g. 1,2,3")
     g.add_argument("--sim-time-scale", type=positive, help=argparse.SUPPRESS)
     g.add_argument(
-        "--timeout", type=float, default=None, metavar="S", help="reply timeout per request in seconds (default 0.1)"
+        "--timeout",
+        type=positive,
+        metavar="S",
+        help="reply timeout per request in seconds (default 0.1; 0.5 with --sim)",
     )
 
 
@@ -231,8 +236,9 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
     from .. import open_bus
 
     kw, _ = _connect(args, quiet)
-    if args.timeout is not None:
-        kw["timeout"] = args.timeout
+    timeout = SIM_TIMEOUT if args.sim and args.timeout is None else args.timeout
+    if timeout is not None:
+        kw["timeout"] = timeout
     bus: Bus = open_bus(stop_on_close=False, **kw)
     return bus
 

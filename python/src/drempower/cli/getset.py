@@ -6,7 +6,7 @@ import argparse
 from typing import Any
 
 from ..errors import ValidationError
-from ..protocol import DataType, Parameter, parameter
+from ..protocol import DataType, Parameter, find_parameter, parameter, parameters
 from ._connect import add_connection_args, add_ids_arg, open_from_args
 from ._output import add_json_arg, emit, motors_text, significant
 
@@ -27,7 +27,9 @@ def register(sub: Any) -> None:
         description="Read parameters; `drempower params` lists them. Names complete with `drempower completion`.",
     )
     add_ids_arg(g, many=False)
-    g.add_argument("names", nargs="+", metavar="NAME", help="parameter name or address, e.g. vbus_voltage or 1")
+    g.add_argument(
+        "names", nargs="+", metavar="NAME", help="parameter name (or its unique end) or address, e.g. vbus_voltage or 1"
+    )
     add_json_arg(g)
     add_connection_args(g)
     g.set_defaults(func=run_get)
@@ -47,6 +49,18 @@ def register(sub: Any) -> None:
     add_json_arg(s)
     add_connection_args(s)
     s.set_defaults(func=run_set)
+
+
+def lookup(name: str) -> Parameter:
+    """A parameter by name, address, or the unique end of its name (``stall_current_limit``)."""
+    p = find_parameter(name)
+    if p is not None:
+        return p
+    suffix = "." + name.strip()
+    matches = [q.name for q in parameters() if q.name.endswith(suffix)]
+    if len(matches) > 1:
+        raise ValidationError(f"{name!r} could be any of {', '.join(matches)}")
+    return parameter(matches[0] if matches else name)
 
 
 def parse_value(p: Parameter, text: str) -> int | float:
@@ -73,7 +87,7 @@ def _writable(p: Parameter, force: bool) -> None:
 
 
 def run_get(args: argparse.Namespace) -> int:
-    params = [parameter(n) for n in args.names]
+    params = [lookup(n) for n in args.names]
     records = []
     with open_from_args(args) as bus:
         for node in args.ids:
@@ -90,7 +104,7 @@ def run_set(args: argparse.Namespace) -> int:
         raise ValidationError("give NAME VALUE pairs; the last name has no value")
     wanted = []
     for name, text in zip(args.items[::2], args.items[1::2], strict=True):
-        p = parameter(name)
+        p = lookup(name)
         _writable(p, args.force)
         wanted.append((p, parse_value(p, text)))
     records = []
