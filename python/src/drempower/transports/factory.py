@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import importlib
 from typing import Any
 
 from .base import Transport
@@ -59,15 +58,14 @@ def open_transport(
 
         return UartTransport(_serial_args(interface, channel, bitrate, kwargs), **kwargs)
     if interface in SIMULATOR:
-        try:
-            sim = importlib.import_module(".sim", __package__)
-        except ImportError as exc:
-            raise TransportError(f"the simulator is not available: {exc}") from exc
+        from .sim import SimTransport
+
         if bitrate is not None:
             kwargs.setdefault("bitrate", bitrate)
-        transport = sim.SimTransport(**kwargs)
-        assert isinstance(transport, Transport)
-        return transport
+        try:
+            return SimTransport(**kwargs)
+        except (TypeError, ValueError) as exc:
+            raise TransportError(f"cannot start the simulator ({exc})") from exc
     if interface is not None and interface.startswith(_PYTHON_CAN_PREFIX):
         interface = interface[len(_PYTHON_CAN_PREFIX) :]
     from .pythoncan import PythonCanTransport
