@@ -34,7 +34,7 @@ def main() -> None:
         for k in range(n):
             phase = 2 * math.pi * 0.5 * k * period
             cmds = [
-                m.make_angle(start[m.id] + args.amplitude * math.sin(phase + j), 0, BANDWIDTH)
+                m.make_angle(start[m.id] + args.amplitude * (j + 1) / len(motors) * math.sin(phase), 0, BANDWIDTH)
                 for j, m in enumerate(motors)
             ]
             states = bus.cycle(cmds)

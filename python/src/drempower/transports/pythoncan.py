@@ -50,6 +50,7 @@ class PythonCanTransport(Transport):
         except (can.CanError, ImportError, OSError, ValueError, TypeError) as exc:
             raise TransportError(f"cannot open python-can bus ({tried}): {exc}") from exc
         self._closing = threading.Event()
+        self._recv_lock = threading.Lock()
         self.description = f"python-can {self._bus.channel_info}"
 
     @property
@@ -75,7 +76,10 @@ class PythonCanTransport(Transport):
         while not self._closing.is_set():
             wait = _SLICE if deadline is None else min(_SLICE, max(0.0, deadline - time.monotonic()))
             try:
-                msg = recv(wait)
+                with self._recv_lock:
+                    if self._closing.is_set():
+                        return None
+                    msg = recv(wait)
             except (can.CanError, OSError, ValueError, AttributeError, TypeError) as exc:
                 if self._closing.is_set():
                     return None
@@ -92,4 +96,5 @@ class PythonCanTransport(Transport):
         if self._closing.is_set():
             return
         self._closing.set()
-        self._bus.shutdown()
+        with self._recv_lock:  # let a receive in progress end first: some interfaces fail loudly otherwise
+            self._bus.shutdown()

@@ -1,0 +1,182 @@
+#!/usr/bin/env python3
+"""Client latency and control-cycle rate against the simulator.
+
+Run: ``python3 bench/bench_client.py [--requests N] [--seconds S]``. Prints figures; asserts nothing.
+
+1. Round-trip latency of ``get_state`` (fast read) and ``read_property`` through
+   every transport (in-process, python-can virtual, slcan and 0xAA over the
+   adapter pty, the motor UART pty, socketcand over TCP on 127.0.0.1), with the
+   simulator answering at once: the cost of the client, the transport and the
+   attachment, median and 99th percentile.
+2. ``bus.cycle`` rate for 1, 6 and 12 motors on the simulator's 1 Mbit/s timing
+   model (frames take their real length on the wire, one at a time), with
+   enable_reply_state on (one frame each way per motor) and off (command + fast
+   read + reply), beside the bus's theoretical limit: 1 Mbit/s divided by the
+   bits one cycle puts on the wire (exact frame lengths, stuff bits included).
+"""
+
+from __future__ import annotations
+
+import argparse
+import itertools
+import platform
+import statistics
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator
+from contextlib import ExitStack, contextmanager
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python" / "src"))
+
+import drempower
+from drempower.client import Bus
+from drempower.protocol import FastRead, PositionT, State
+from drempower.sim import (
+    SimBus,
+    attach_adapter_pty,
+    attach_python_can,
+    attach_socketcand,
+    attach_uart_pty,
+    frame_bits,
+)
+
+TRANSPORTS = ("inprocess", "virtual", "slcan", "adapter", "uart", "socketcand")
+BITRATE = 1_000_000
+_channels = itertools.count()
+
+
+@contextmanager
+def link(kind: str, sim: SimBus) -> Iterator[Bus]:
+    """A client bus on ``sim`` through transport ``kind`` (the simulated clock is not run: replies are instant)."""
+    with ExitStack() as stack:
+        opts = {"timeout": 1.0, "stop_on_close": False}
+        if kind == "inprocess":
+            bus = drempower.open_bus("sim", bus=sim, time_scale=0, **opts)
+        elif kind == "virtual":
+            channel = f"drempower-bench-{next(_channels)}"
+            stack.callback(attach_python_can(sim, channel=channel).close)
+            bus = drempower.open_bus("virtual", channel, **opts)
+        elif kind in ("slcan", "adapter"):
+            pty = attach_adapter_pty(sim)
+            stack.callback(pty.close)
+            if kind == "slcan":
+                bus = drempower.open_bus("slcan", pty.path, BITRATE, sleep_after_open=0, **opts)
+            else:
+                bus = drempower.open_bus("adapter", pty.path, **opts)
+        elif kind == "uart":
+            pty = attach_uart_pty(sim, 1)
+            stack.callback(pty.close)
+            bus = drempower.open_bus("uart", pty.path, **opts)
+        else:
+            server = attach_socketcand(sim)
+            stack.callback(server.close)
+            bus = drempower.open_bus("socketcand", "can0", host=server.host, port=server.port, **opts)
+        stack.callback(bus.close)
+        yield bus
+
+
+def timings(fn: Callable[[], object], n: int) -> tuple[float, float]:
+    """Median and 99th percentile of ``n`` calls, in microseconds (after a short warm-up)."""
+    for _ in range(min(50, n)):
+        fn()
+    out = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - t0)
+    out.sort()
+    return statistics.median(out) * 1e6, out[min(len(out) - 1, int(len(out) * 0.99))] * 1e6
+
+
+def latency(n: int) -> None:
+    print(f"round trip through each transport ({n} calls each; simulator answers at once)")
+    print(f"  {'transport':<12} {'get_state median':>17} {'p99':>9} {'read_property median':>21} {'p99':>9}")
+    for kind in TRANSPORTS:
+        sim = SimBus(ids=[1])
+        with link(kind, sim) as bus:
+            m = bus.motor(1)
+            gs = timings(m.get_state, n)
+            rp = timings(lambda m=m: m.read_property(38012), n)  # type: ignore[misc]
+        print(f"  {kind:<12} {gs[0]:14.0f} us {gs[1]:6.0f} us {rp[0]:18.0f} us {rp[1]:6.0f} us")
+
+
+class FineClock:
+    """Runs a SimBus in real time with a fine step, so that the 1 Mbit/s timing model shows through."""
+
+    def __init__(self, sim: SimBus, period: float = 50e-6) -> None:
+        self.sim = sim
+        self.period = period
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._run, daemon=True)
+
+    def _run(self) -> None:
+        last = time.perf_counter()
+        while not self._stop.is_set():
+            time.sleep(self.period)
+            now = time.perf_counter()
+            self.sim.advance(min(now - last, 0.01))
+            last = now
+
+    def __enter__(self) -> FineClock:
+        self._thread.start()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self._stop.set()
+        self._thread.join()
+
+
+def cycle_bits(n: int, reply_state: bool) -> int:
+    """Bits on the wire for one cycle of ``n`` motors (typical frames: T command, state reply, fast read)."""
+    bits = 0
+    for node in range(1, n + 1):
+        cmd = PositionT(node, 12.34, 100.0).encode()
+        rep = State(node, 12.3, 1.5, 0.2, False, False).encode()
+        bits += frame_bits(cmd.arbitration_id, cmd.data) + frame_bits(rep.arbitration_id, rep.data)
+        if not reply_state:
+            fr = FastRead(node).encode()
+            bits += frame_bits(fr.arbitration_id, fr.data)
+    return bits
+
+
+def cycles(seconds: float) -> None:
+    print(f"bus.cycle on the simulator's {BITRATE // 1000} kbit/s timing model ({seconds:g} s per figure)")
+    print(
+        f"  {'motors':>6} {'reply_state':>11} {'frames/cycle':>12} {'measured':>14} {'bus limit':>14} {'of limit':>9}"
+    )
+    for n in (1, 6, 12):
+        for reply_state in (True, False):
+            ids = list(range(1, n + 1))
+            sim = SimBus(ids=ids, bitrate=BITRATE)
+            with FineClock(sim), drempower.open_bus("sim", bus=sim, time_scale=0, stop_on_close=False) as bus:
+                motors = [bus.motor(i) for i in ids]
+                for m in motors:
+                    m.enable_reply_state(reply_state)
+                frames0 = sim.stats.frames
+                done = 0
+                t0 = time.perf_counter()
+                while time.perf_counter() - t0 < seconds:
+                    bus.cycle([m.make_angle(12.34, 0, 100) for m in motors], reply_state=reply_state)
+                    done += 1
+                elapsed = time.perf_counter() - t0
+                per_cycle = (sim.stats.frames - frames0) / max(done, 1)
+            rate = done / elapsed
+            limit = BITRATE / cycle_bits(n, reply_state)
+            on = "on" if reply_state else "off"
+            print(f"  {n:>6} {on:>11} {per_cycle:12.1f} {rate:10.0f} /s {limit:10.0f} /s {rate / limit:8.0%}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--requests", type=int, default=1000, help="calls per latency figure (default 1000)")
+    ap.add_argument("--seconds", type=float, default=1.0, help="time per control-cycle figure (default 1)")
+    args = ap.parse_args()
+    print(f"drempower client benchmark: Python {platform.python_version()} ({platform.python_implementation()})")
+    latency(args.requests)
+    cycles(args.seconds)
+
+
+if __name__ == "__main__":
+    main()
