@@ -71,3 +71,19 @@ async def test_async_cancel_leaves_no_pending_request(motors: FakeMotors) -> Non
         with pytest.raises(asyncio.CancelledError):
             await task
         assert len(bus.core.matcher) == 0
+
+
+async def test_async_against_the_simulator() -> None:
+    from drempower.sim import SimBus
+
+    sim = SimBus(ids=[1, 2, 3])
+    async with open_bus_async("sim", bus=sim, time_scale=20, timeout=0.2, stop_on_close=False) as bus:
+        t = await bus.set_angles([1, 2, 3], [30, 60, 90], 60, 300, 1)
+        assert t is not None
+        done = await bus.positions_done([1, 2, 3], timeout=10)
+        assert [done[i].angle for i in (1, 2, 3)] == pytest.approx([30, 60, 90], abs=0.05)
+        volts = await asyncio.gather(*(bus.motor(i).get_volcur() for i in (1, 2, 3)))
+        assert all(v == pytest.approx(sim.motors[1].param("vbus_voltage")) for v, _ in volts)
+        await bus.motor(2).impedance_control(60, 0, 0, 1, 0.05)
+        await bus.estop()
+        assert all((await bus.motor(i).dump_error()).flags for i in (1, 2, 3))

@@ -339,10 +339,10 @@ class BusCore:
 class Exchange:
     """One request/reply exchange: register, send, and (after the caller waited) collect.
 
-    Parameter reads to the same motor go one at a time: a read reply carries
-    the same CAN id as the request, so a second request sent while the first
-    reply is due could collide with it on the wire. Fast reads (answered with
-    a state frame, another id) and reads of different motors go out together.
+    Requests to the same motor go one at a time: a parameter reply carries the
+    same CAN id as every read request to that motor, so a second request sent
+    while the reply is due could collide with it on the wire. Requests to
+    different motors go out together.
     A read whose reply did not come is sent again up to ``core.retries`` times.
     ``expect`` lists the reply keys when they are not one per message (a
     control cycle expects a state frame per motor whatever it sends); such an
@@ -381,7 +381,7 @@ class Exchange:
         self.frames = [m.encode() for m in msgs]
         if expect is None:
             self.keys = [request_key(m) for m in msgs]
-            self._serial: list[int] | None = [m.node if isinstance(m, ReadParam) else -1 for m in msgs]
+            self._serial: list[int] | None = [m.node for m in msgs]
             self.retries = core.retries
         else:
             self.keys = list(expect)
@@ -407,9 +407,7 @@ class Exchange:
         out = []
         for i in self._pending:
             node = serial[i]
-            if node < 0:
-                out.append(i)
-            elif node not in busy:
+            if node not in busy:
                 busy.add(node)
                 out.append(i)
         return out
