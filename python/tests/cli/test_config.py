@@ -1,0 +1,110 @@
+"""``set``, ``set-id``, ``set-bitrate``, ``save``, ``reboot``, ``backup``, ``restore`` and ``diff``."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+
+from drempower.sim import SimBus
+
+from .conftest import Cli
+
+STALL = "axis0.config.extra_setting.stall_current_limit"
+
+
+def test_set_then_get(cli: Cli, sim: SimBus) -> None:
+    r = cli("set", "1", "stall_current_limit", "3.5", "enable_damp_idle", "on", "--sim", "1")
+    assert r.code == 0
+    rows = [line.split() for line in r.out.splitlines()[1:]]
+    assert rows[0] == ["1", STALL, "10", "3.5", "A"]
+    assert rows[1] == ["1", "axis0.config.extra_setting.enable_damp_idle", "0", "1"]
+    (rec,) = cli("get", "1", STALL, "--json", "--sim", "1").records()
+    assert rec == {"id": 1, "name": STALL, "address": 31209, "value": 3.5, "unit": "A"}
+    assert sim.motors[1].param(STALL) == 3.5
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (("vbus_voltage", "3"), "vbus_voltage is read-only"),
+        (("can_node_id", "4"), "use `drempower set-id`"),
+        (("can.config.baud_rate", "500000"), "use `drempower set-bitrate`"),
+        (("axis0.controller.input_pos", "1"), "add --force"),
+        (("enable_damp_idle", "maybe"), "is a flag"),
+        (("can.config.timeout_ms", "1.5"), "takes a whole number (u32)"),
+        (("can.config.timeout_ms",), "give NAME VALUE pairs"),
+    ],
+)
+def test_set_refuses(cli: Cli, args: tuple[str, ...], message: str) -> None:
+    r = cli("set", "1", *args, "--sim", "1")
+    assert r.code == 1 and message in r.err
+
+
+def test_save_and_reboot_keep_the_value(cli: Cli, sim: SimBus) -> None:
+    cli("set", "1,2", STALL, "4", "--sim", "1,2")
+    assert cli("save", "1", "--sim", "1").out == "motor 1: configuration saved\n"
+    r = cli("reboot", "1", "2", "--wait", "--sim", "1,2")
+    assert r.code == 0 and r.out == "motors 1, 2: rebooted and answering\n"
+    recs = cli("get", "1,2", STALL, "--json", "--sim", "1,2").records()
+    assert [rec["value"] for rec in recs] == [4, 10]
+
+
+def test_set_with_save(cli: Cli, sim: SimBus) -> None:
+    r = cli("set", "3", "can.config.heartbeat_ms", "0x10", "--save", "--sim", "3")
+    assert r.code == 0 and r.out.endswith("motor 3: configuration saved\n")
+    cli("reboot", "all", "--sim", "3")
+    assert sim.motors[3].param("can.config.heartbeat_ms") == 16
+
+
+def test_set_id(cli: Cli, sim: SimBus) -> None:
+    r = cli("set-id", "3", "7", "--sim", "3")
+    assert r.code == 0 and r.out == "motor 3 is now motor 7 (saved)\n"
+    assert sim.motors[3].node_id == 7
+    assert cli("state", "7", "--sim", "3").code == 0
+    with pytest.raises(SystemExit):
+        cli("set-id", "7", "64", "--sim", "3")
+    r = cli("set-id", "4", "5", "--sim", "3", "--timeout", "0.05")
+    assert r.code == 1 and "motor 4" in r.err
+
+
+def test_set_bitrate(cli: Cli, sim: SimBus) -> None:
+    r = cli("set-bitrate", "2", "500k", "--sim", "2")
+    assert r.code == 0 and r.out == "motor 2: CAN bitrate 500000 bit/s saved; it applies after a reboot\n"
+    assert sim.motors[2].param("can.config.baud_rate") == 500000
+    r = cli("set-bitrate", "2", "300k", "--sim", "2")
+    assert r.code == 1 and "CAN bitrates are 125000, 250000, 500000, 1000000" in r.err
+    with pytest.raises(SystemExit):
+        cli("set-bitrate", "2", "fast", "--sim", "2")
+
+
+def test_backup_diff_restore(cli: Cli, sim: SimBus, tmp_path: Path) -> None:
+    path = tmp_path / "motor1.json"
+    r = cli("backup", "1", str(path), "--sim", "1")
+    assert r.code == 0 and r.out.startswith("motor 1: ") and str(path) in r.out
+    doc = json.loads(path.read_text())
+    assert doc["node"] == 1 and any(p["name"] == STALL for p in doc["parameters"])
+    assert cli("diff", "1", str(path), "--sim", "1").out == f"motor 1: configuration matches {path}\n"
+
+    cli("set", "1", STALL, "2.5", "--sim", "1")
+    r = cli("diff", "1", str(path), "--sim", "1")
+    assert r.out.splitlines()[1].split() == [STALL, "2.5", "10", "A"]
+    (rec,) = cli("diff", "1", str(path), "--json", "--sim", "1").records()
+    assert rec == {"name": STALL, "motor": 2.5, "backup": 10, "unit": "A"}
+
+    r = cli("restore", "1", str(path), "--save", "--sim", "1")
+    assert r.code == 0
+    assert r.out.splitlines()[1].split() == [STALL, "2.5", "10", "A"]
+    assert r.out.splitlines()[-1].startswith("motor 1: 1 written,") and r.out.endswith("saved\n")
+    assert sim.motors[1].param(STALL) == 10
+    assert cli("diff", "1", str(path), "--sim", "1").out.endswith("configuration matches " + str(path) + "\n")
+
+
+def test_restore_of_a_bad_file(cli: Cli, tmp_path: Path) -> None:
+    path = tmp_path / "bad.json"
+    path.write_text("{}")
+    r = cli("restore", "1", str(path), "--sim", "1")
+    assert r.code == 1 and "not a drempower-config-backup" in r.err
+    r = cli("backup", "1", str(tmp_path / "missing" / "x.json"), "--sim", "1")
+    assert r.code == 1 and "cannot write" in r.err

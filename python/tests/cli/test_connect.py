@@ -1,0 +1,67 @@
+"""The connection options and argument types every subcommand shares."""
+
+from __future__ import annotations
+
+import argparse
+
+import pytest
+
+from drempower.cli import _connect
+from drempower.cli._connect import TIME_SCALE_ENV, bitrate, parse_ids, parse_targets
+
+from .conftest import Cli
+
+
+def test_parse_ids_keeps_the_order() -> None:
+    assert parse_ids("3,1,5-7") == [3, 1, 5, 6, 7]
+    assert parse_targets("all") == [0] and parse_targets("2") == [2]
+    for bad in ("1,1", "0", "64", "a", "", "3-1x"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            parse_ids(bad)
+
+
+def test_bitrates() -> None:
+    assert [bitrate(t) for t in ("1M", "500k", "125000", "250K")] == [1_000_000, 500_000, 125_000, 250_000]
+    for bad in ("0", "fast", "1.5", "inf", "-1M"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            bitrate(bad)
+
+
+def test_ids_named_twice_across_words(cli: Cli) -> None:
+    with pytest.raises(SystemExit) as exc:
+        cli("state", "1,2", "2", "--sim", "1,2")
+    assert exc.value.code == 2
+
+
+def test_one_connection_only(cli: Cli) -> None:
+    r = cli("state", "1", "--sim", "1", "--serial", "/dev/null")
+    assert r.code == 1 and "give one connection: --serial, --sim conflict" in r.err
+
+
+def test_without_connection_or_configuration(cli: Cli, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(_connect, "_python_can_config", lambda: None)
+    r = cli("state", "1")
+    assert r.code == 1 and "no connection given and no python-can configuration found" in r.err
+
+
+def test_python_can_configuration_is_used_and_announced(
+    cli: Cli, virtual_channel: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(_connect, "_python_can_config", lambda: {"interface": "virtual", "channel": virtual_channel})
+    r = cli("state", "2", "--json")
+    assert r.code == 0 and r.records()[0]["id"] == 2
+    assert r.err == f"drempower: using python-can configuration: virtual {virtual_channel}\n"
+    r = cli("state", "2", "-i", "virtual", "-c", virtual_channel, "-b", "1M")
+    assert r.code == 0 and r.err == ""
+
+
+def test_a_missing_serial_port_is_one_line(cli: Cli, tmp_path: object) -> None:
+    r = cli("state", "1", "--serial", "/nonexistent/ttyACM9")
+    assert r.code == 1 and r.err.count("\n") == 1 and "/nonexistent/ttyACM9" in r.err
+
+
+def test_simulator_time_scale(cli: Cli, monkeypatch: pytest.MonkeyPatch) -> None:
+    assert cli("state", "1", "--sim", "1", "--sim-time-scale", "5").code == 0
+    monkeypatch.setenv(TIME_SCALE_ENV, "fast")
+    r = cli("state", "1", "--sim", "1")
+    assert r.code == 1 and TIME_SCALE_ENV in r.err

@@ -1,0 +1,36 @@
+"""``python -m drempower`` as a separate process: exit codes and one-line errors."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+from drempower.cli._connect import TIME_SCALE_ENV
+
+from .conftest import TIME_SCALE
+
+
+def drempower(*argv: str) -> subprocess.CompletedProcess[str]:
+    env = {**os.environ, TIME_SCALE_ENV: str(TIME_SCALE)}
+    return subprocess.run(
+        [sys.executable, "-m", "drempower", *argv], capture_output=True, text=True, timeout=60, env=env
+    )
+
+
+def test_demo_exits_0() -> None:
+    p = drempower("demo")
+    assert p.returncode == 0, p.stderr
+    assert "targets reached: 3/3" in p.stdout
+
+
+def test_a_silent_motor_exits_1_with_one_line() -> None:
+    p = drempower("state", "9", "--sim", "1", "--timeout", "0.05")
+    assert p.returncode == 1
+    assert p.stdout == ""
+    assert p.stderr == "drempower: error: motor 9: no answer to a fast read (get_state) within 0.05 s\n"
+
+
+def test_usage_errors_exit_2() -> None:
+    p = drempower("move", "1")
+    assert p.returncode == 2 and "the following arguments are required: ANGLES" in p.stderr

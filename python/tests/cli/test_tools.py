@@ -1,0 +1,111 @@
+"""``sniff``, ``bus-load``, ``completion`` and ``demo``."""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import threading
+
+import pytest
+
+from drempower.cli import main
+
+from .conftest import Cli
+
+
+def test_sniff_shows_the_frames_of_another_command(virtual_channel: str, capsys: pytest.CaptureFixture[str]) -> None:
+    link = ["-i", "virtual", "-c", virtual_channel]
+    codes: list[int] = []
+    sniffer = threading.Thread(
+        target=lambda: codes.append(main(["sniff", "--count", "6", "--duration", "5", "--json", *link]))
+    )
+    sniffer.start()
+    while sniffer.is_alive():
+        assert main(["get", "1", "vbus_voltage", *link]) == 0
+    sniffer.join()
+    out, err = capsys.readouterr()
+    records = [json.loads(line) for line in out.splitlines() if line.startswith("{")]
+    assert codes == [0] and len(records) == 6 and "6 frames on python-can virtual" in err
+    commands = {(r["direction"], r["command"], r.get("parameter")) for r in records}
+    assert ("host", "read_param", "vbus_voltage") in commands
+    assert ("motor", "param_value", "vbus_voltage") in commands
+    assert all(r["node"] == 1 and r["time_s"] >= 0 for r in records)
+
+
+def test_sniff_text_and_duration(virtual_channel: str, cli: Cli) -> None:
+    r = cli("sniff", "--duration", "0.1", "-i", "virtual", "-c", virtual_channel)
+    assert r.code == 0 and r.out == "" and "0 frames on python-can virtual" in r.err
+
+
+def test_bus_load_matches_a_hand_calculation(cli: Cli) -> None:
+    # One motor at 1000 Hz, no reply state: per cycle a T command 0x039 (bandwidth 300 1/s,
+    # data 00 00 00 00 00 00 30 75), a fast read 0x03E and a state reply 0x023 (all zero data).
+    # Each standard 8-byte frame: 98 stuffable bits (SOF, 11-bit id, RTR, IDE, r0, DLC 4,
+    # data 64, CRC 15) + 13 (CRC and ACK delimiters, ACK slot, EOF 7, intermission 3) = 111,
+    # plus stuff bits: 13, 16 and 14, i.e. 124 + 127 + 125 = 376 bits per cycle.
+    # Load = 376 * 1000 / 1e6 = 37.6 %; highest rate = 1e6 / 376 = 2659.6 Hz.
+    (rec,) = cli("bus-load", "--motors", "1", "--rate", "1000", "--json").records()
+    assert rec == {
+        "motors": 1,
+        "rate_hz": 1000.0,
+        "bitrate": 1000000,
+        "reply_state": False,
+        "frames_per_cycle": 3,
+        "bits_per_cycle": 376,
+        "load_percent": 37.6,
+        "max_rate_hz": 2659.6,
+    }
+    r = cli("bus-load", "--motors", "1", "--rate", "1000")
+    assert "per cycle: 3 frames, 376 bits = 376 us of bus time" in r.out
+    assert "bus load: 37.6 %" in r.out and "highest control rate: 2660 Hz" in r.out
+
+
+def test_bus_load_with_reply_state_and_overload(cli: Cli) -> None:
+    quiet = cli("bus-load", "--motors", "6", "--rate", "200", "--reply-state", "--json").records()[0]
+    polled = cli("bus-load", "--motors", "6", "--rate", "200", "--json").records()[0]
+    assert quiet["frames_per_cycle"] == 12 and polled["frames_per_cycle"] == 18
+    assert quiet["bits_per_cycle"] < polled["bits_per_cycle"]
+    r = cli("bus-load", "--motors", "20", "--rate", "500", "--bitrate", "500k")
+    assert "over 100 %" in r.out
+    with pytest.raises(SystemExit):
+        cli("bus-load", "--motors", "64", "--rate", "100")
+
+
+def test_completion_script(cli: Cli, tmp_path: object) -> None:
+    r = cli("completion", "bash")
+    assert r.code == 0
+    assert "complete -o default -F _drempower drempower" in r.out
+    for word in ("monitor", "bus-load", "set-bitrate", "axis0.output_shaft.vel_limit", "--no-stop-on-exit"):
+        assert word in r.out
+    assert "--sim-time-scale" not in r.out
+
+
+@pytest.mark.skipif(shutil.which("bash") is None, reason="needs bash")
+def test_completion_in_bash(cli: Cli) -> None:
+    script = cli("completion", "bash").out
+    probe = script + (
+        "COMP_WORDS=(drempower get --sim 1 1 axis0.output_shaft.vel_l); COMP_CWORD=5; _drempower; "
+        'echo "${COMPREPLY[*]}"; '
+        "COMP_WORDS=(drempower mon); COMP_CWORD=1; _drempower; "
+        'echo "${COMPREPLY[*]}"'
+    )
+    out = subprocess.run(["bash", "-c", probe], capture_output=True, text=True, timeout=30, check=True).stdout
+    assert out.splitlines() == ["axis0.output_shaft.vel_limit", "monitor"]
+
+
+def test_demo(cli: Cli) -> None:
+    r = cli("demo")
+    assert r.code == 0, r.err
+    lines = r.out.splitlines()
+    assert lines[0].startswith("3 simulated motors") and "90, -45, 180 deg" in lines[0]
+    assert "targets reached: 3/3" in r.out
+    sync = next(line for line in lines if line.startswith("max sync error:"))
+    assert float(sync.split()[3]) < 1.0
+
+
+def test_demo_live_on_a_terminal(cli: Cli, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr("drempower.cli.demo.is_terminal", lambda stream: True)
+    r = cli("demo", "--motors", "2")
+    assert r.code == 0
+    assert "\x1b[3F" in r.out and "motor 2  [" in r.out and "targets reached: 2/2" in r.out
