@@ -86,4 +86,5 @@ async def test_async_against_the_simulator() -> None:
         assert all(v == pytest.approx(sim.motors[1].param("vbus_voltage")) for v, _ in volts)
         await bus.motor(2).impedance_control(60, 0, 0, 1, 0.05)
         await bus.estop()
-        assert all((await bus.motor(i).dump_error()).flags for i in (1, 2, 3))
+        reports = [await bus.motor(i).dump_error() for i in (1, 2, 3)]
+        assert all(r.flags == {"axis0.error": ["ESTOP_REQUESTED"]} for r in reports)
