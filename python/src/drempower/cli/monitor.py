@@ -15,6 +15,8 @@ from ._connect import add_connection_args, add_ids_arg, open_from_args, positive
 from ._output import LiveView, add_json_arg, is_terminal, json_line, render_table
 
 _HEADERS = ("time/s", *_readings.HEADERS)
+_WIDTHS = (7, 2, 12, 9, 9, 4, 11, 6)
+"""Least column widths of the plain output, so that readings line up under one header."""
 
 
 def register(sub: Any) -> None:
@@ -39,7 +41,6 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     out = sys.stdout
     live = LiveView(out) if is_terminal(out) and not args.json else None
-    widths = [max(len(h), 8) for h in _HEADERS]
     with ExitStack() as stack:
         writer: csv.DictWriter[str] | None = None
         if args.csv:
@@ -61,7 +62,7 @@ def run(args: argparse.Namespace) -> int:
                 if args.json:
                     out.write("".join(json_line(r) + "\n" for r in records))
                 else:
-                    lines = render_table(_HEADERS, [list(r.values()) for r in records], widths)
+                    lines = render_table(_HEADERS, [list(r.values()) for r in records], _WIDTHS)
                     if live is not None:
                         live.draw(lines)
                     else:
