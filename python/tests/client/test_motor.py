@@ -130,3 +130,18 @@ def test_system_commands(bus: Bus, scripted: ScriptedTransport) -> None:
         SysCmd.ESTOP,
     ]
     assert all(isinstance(c, (SystemCommand, WriteParam)) for c in scripted.commands())
+
+
+def test_remembered_parameters_follow_every_write_and_reset(bus: Bus) -> None:
+    core = bus.core
+    bus.send(WriteParam.of(1, "axis0.trap_traj.config.traj_mode", 2))  # however it is sent
+    assert core.traj_mode == {1: 2}
+    bus.motor(2).get_traj_mode()
+    bus.motor(2).enable_reply_state(True)
+    assert core.traj_mode == {1: 2, 2: 1} and core.reply_state == {2: True}
+    bus.motor(1).reboot()
+    assert core.traj_mode == {2: 1}
+    bus.motor(0).write_property("axis0.trap_traj.config.traj_mode", 2)  # every motor: values unknown now
+    assert core.traj_mode == {} and core.reply_state == {2: True}
+    bus.send(SystemCommand(0, SysCmd.INIT_CONFIG))
+    assert core.reply_state == {}

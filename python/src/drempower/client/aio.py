@@ -354,7 +354,7 @@ class AsyncMotor(MotorBase):
         self._system(SysCmd.SET_ZERO_POSITION)
 
     async def set_GPIO_mode(self, mode: str = "tx_rx", param: float = 115200, *, timeout: float | None = None) -> None:
-        await self._bus.run(ops.set_gpio_mode(self._core, self._id, mode, param, timeout))
+        await self._bus.run(ops.set_gpio_mode(self._id, mode, param, timeout))
 
     async def get_GPIO_mode(self, *, timeout: float | None = None) -> GpioMode:
         return await self._bus.run(ops.get_gpio_mode(self._id, timeout))
@@ -365,7 +365,7 @@ class AsyncMotor(MotorBase):
         await self._bus.run(ops.set_angle_range(self._id, angle_min, angle_max, timeout))
 
     async def set_traj_mode(self, mode: int = TrajMode.TRAPEZOID, *, timeout: float | None = None) -> None:
-        await self._bus.run(ops.set_traj_mode(self._core, self._id, mode, timeout))
+        await self._bus.run(ops.set_traj_mode(self._id, mode, timeout))
 
     async def get_traj_mode(self, *, timeout: float | None = None) -> TrajMode:
         return await self._bus.run(ops.get_traj_mode(self._core, self._id, timeout))
@@ -373,13 +373,13 @@ class AsyncMotor(MotorBase):
     async def write_property(
         self, property: str | int, value: float, *, verify: bool = False, timeout: float | None = None
     ) -> None:
-        await self._bus.run(ops.write_property(self._core, self._id, property, value, verify, timeout))
+        await self._bus.run(ops.write_property(self._id, property, value, verify, timeout))
 
     async def read_property(self, property: str | int, *, timeout: float | None = None) -> int | float:
         return await self._bus.run(ops.read_property(self._core, self._id, property, timeout))
 
     async def enable_reply_state(self, on: bool = True, *, timeout: float | None = None) -> None:
-        await self._bus.run(ops.write_property(self._core, self._id, 31214, int(on), True, timeout))
+        await self._bus.run(ops.write_property(self._id, 31214, int(on), True, timeout))
 
     async def get_id(self, *, timeout: float | None = None) -> int:
         return await self._bus.run(ops.get_id(self._id, timeout))

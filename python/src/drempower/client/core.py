@@ -68,7 +68,7 @@ _STATE = struct.Struct("<fhh").unpack
 _MOTION_CMDS = frozenset((0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D))
 _IDLE = 1  # axis0.requested_state value for IDLE
 _REQUESTED_STATE = 30003
-_REQUESTED_STATE_LE = _REQUESTED_STATE.to_bytes(2, "little")
+_RESETS = frozenset((SysCmd.INIT_CONFIG, SysCmd.ERASE_CONFIG, SysCmd.REBOOT))
 _new_state = tuple.__new__
 _monotonic = time.monotonic
 _open_cores: weakref.WeakSet[BusCore] = weakref.WeakSet()
@@ -174,18 +174,42 @@ class BusCore:
             raise BusClosedError(f"the receive loop stopped: {self._failure}") from self._failure
 
     def forget(self, node: int) -> None:
-        """Drop what is known about ``node`` (after a reboot, id change or config reset)."""
-        self.traj_mode.pop(node, None)
-        self.reply_state.pop(node, None)
+        """Drop what is known about ``node`` (every motor for 0): after a reboot, id change or config reset."""
+        if node == 0:
+            self.traj_mode.clear()
+            self.reply_state.clear()
+        else:
+            self.traj_mode.pop(node, None)
+            self.reply_state.pop(node, None)
 
     def learn(self, node: int, address: int, value: float) -> None:
-        """Record a parameter value this bus read or wrote when the client relies on it."""
-        if node == 0:
-            return
+        """Record a parameter value this bus read or wrote when the client relies on it.
+
+        A broadcast write (node 0) makes the value of every motor unknown until read.
+        """
         if address == 35104:
-            self.traj_mode[node] = int(value)
+            if node == 0:
+                self.traj_mode.clear()
+            else:
+                self.traj_mode[node] = int(value)
         elif address == 31214:
-            self.reply_state[node] = bool(value)
+            if node == 0:
+                self.reply_state.clear()
+            else:
+                self.reply_state[node] = bool(value)
+
+    def _note(self, msg: Message, frame: Frame) -> None:
+        """Track what a sent message changes: commanded motors, remembered parameters."""
+        cmd = msg.cmd
+        if cmd in _MOTION_CMDS:
+            self._commanded.add(msg.node)
+        elif isinstance(msg, WriteParam):
+            if msg.address == _REQUESTED_STATE:
+                self._commanded.add(msg.node)
+            else:
+                self.learn(msg.node, msg.address, msg.value)
+        elif cmd == 0x08 and frame[1][0] in _RESETS:
+            self.forget(msg.node)
 
     # ------------------------------------------------------------------ sending
 
@@ -193,8 +217,8 @@ class BusCore:
         """Encode (validating) and send one message; never waits for a reply."""
         frame = msg.encode()
         self.check_open()
-        if msg.cmd in _MOTION_CMDS or (msg.cmd == 0x1F and frame[1][:2] == _REQUESTED_STATE_LE):
-            self._commanded.add(msg.node)
+        if msg.cmd != 0x1E:
+            self._note(msg, frame)
         with self._send_lock:
             self.transport.send(frame)
 
@@ -203,8 +227,8 @@ class BusCore:
         frames = [m.encode() for m in msgs]
         self.check_open()
         for m, f in zip(msgs, frames, strict=True):
-            if m.cmd in _MOTION_CMDS or (m.cmd == 0x1F and f[1][:2] == _REQUESTED_STATE_LE):
-                self._commanded.add(m.node)
+            if m.cmd != 0x1E:
+                self._note(m, f)
         self._send_frames(frames)
 
     def _send_frames(self, frames: Sequence[Frame]) -> None:

@@ -83,8 +83,6 @@ class MotorBase:
 
     def _system(self, op: SysCmd) -> None:
         self._core.send(SystemCommand(self._id, op))
-        if op in (SysCmd.REBOOT, SysCmd.INIT_CONFIG, SysCmd.ERASE_CONFIG):
-            self._core.forget(self._id)
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self._id}>"
@@ -199,7 +197,7 @@ class Motor(MotorBase):
 
     def set_GPIO_mode(self, mode: str = "tx_rx", param: float = 115200, *, timeout: float | None = None) -> None:
         """Spare pins as UART (``"tx_rx"``, param = baud) or step/dir (param = pulses); saves and reboots."""
-        self._bus.run(ops.set_gpio_mode(self._core, self._id, mode, param, timeout))
+        self._bus.run(ops.set_gpio_mode(self._id, mode, param, timeout))
 
     def get_GPIO_mode(self, *, timeout: float | None = None) -> GpioMode:
         """What the spare pins do (M series)."""
@@ -213,7 +211,7 @@ class Motor(MotorBase):
 
     def set_traj_mode(self, mode: int = TrajMode.TRAPEZOID, *, timeout: float | None = None) -> None:
         """Q-mode profile: 1 trapezoid, 2 S-curve (verified, remembered for set_angles; not saved)."""
-        self._bus.run(ops.set_traj_mode(self._core, self._id, mode, timeout))
+        self._bus.run(ops.set_traj_mode(self._id, mode, timeout))
 
     def get_traj_mode(self, *, timeout: float | None = None) -> TrajMode:
         """The motor's Q-mode profile, read from it."""
@@ -223,7 +221,7 @@ class Motor(MotorBase):
         self, property: str | int, value: float, *, verify: bool = False, timeout: float | None = None
     ) -> None:
         """Write parameter ``property`` (name or address) in RAM; ``verify`` reads it back."""
-        self._bus.run(ops.write_property(self._core, self._id, property, value, verify, timeout))
+        self._bus.run(ops.write_property(self._id, property, value, verify, timeout))
 
     def read_property(self, property: str | int, *, timeout: float | None = None) -> int | float:
         """Read parameter ``property`` (name or address)."""
@@ -231,7 +229,7 @@ class Motor(MotorBase):
 
     def enable_reply_state(self, on: bool = True, *, timeout: float | None = None) -> None:
         """Make the motor answer every control frame with its state (31214), verified."""
-        self._bus.run(ops.write_property(self._core, self._id, 31214, int(on), True, timeout))
+        self._bus.run(ops.write_property(self._id, 31214, int(on), True, timeout))
 
     # ------------------------------------------------------------------ queries
 

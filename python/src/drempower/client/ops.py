@@ -75,14 +75,13 @@ def read_property(core: BusCore, node: int, prop: str | int, timeout: float | No
 
 
 def write_property(
-    core: BusCore, node: int, prop: str | int, value: float, verify: bool = False, timeout: float | None = None
+    node: int, prop: str | int, value: float, verify: bool = False, timeout: float | None = None
 ) -> Op[None]:
     """Write ``value`` to ``prop``; with ``verify`` read it back and raise :class:`VerifyError` if it differs."""
     msg = WriteParam.of(node, prop, value)
     yield Send([msg])
     if verify:
         yield from _verify(node, [msg], timeout)
-    core.learn(node, msg.address, msg.value)
 
 
 def _verify(node: int, writes: Sequence[WriteParam], timeout: float | None) -> Op[None]:
@@ -167,13 +166,13 @@ def get_traj_mode(core: BusCore, node: int, timeout: float | None = None) -> Op[
     return TrajMode(int(value))
 
 
-def set_traj_mode(core: BusCore, node: int, mode: int, timeout: float | None = None) -> Op[None]:
+def set_traj_mode(node: int, mode: int, timeout: float | None = None) -> Op[None]:
     """Set the Q-mode profile (1 trapezoid, 2 S-curve), verified and remembered (not saved)."""
     try:
         m = TrajMode(mode)
     except ValueError:
         raise ValidationError(f"mode={mode!r}: 1 (trapezoid) or 2 (S-curve)") from None
-    yield from write_property(core, node, 35104, int(m), True, timeout)
+    yield from write_property(node, 35104, int(m), True, timeout)
 
 
 def traj_modes(core: BusCore, nodes: Sequence[int], timeout: float | None = None) -> Op[dict[int, int]]:
@@ -223,7 +222,7 @@ def get_gpio_mode(node: int, timeout: float | None = None) -> Op[GpioMode]:
     return GpioMode("off", False, False, None)
 
 
-def set_gpio_mode(core: BusCore, node: int, mode: str, param: float, timeout: float | None = None) -> Op[None]:
+def set_gpio_mode(node: int, mode: str, param: float, timeout: float | None = None) -> Op[None]:
     """Switch the spare pins to UART (``"tx_rx"``, param = baud) or step/dir (param = pulses 1..1024).
 
     The writes are verified, then saved, and the motor reboots (as the vendor's does).
@@ -250,7 +249,6 @@ def set_gpio_mode(core: BusCore, node: int, mode: str, param: float, timeout: fl
     yield _system(node, SysCmd.SAVE_CONFIG)
     yield from sleep(_SAVE_SETTLE)
     yield _system(node, SysCmd.REBOOT)
-    core.forget(node)
 
 
 def _fault(node: int, doing: str, timeout: float | None) -> Op[MotorFaultError]:
