@@ -26,17 +26,18 @@ if TYPE_CHECKING:
     from ..transports import Transport
 
 __all__ = [
+    "SIM_TIMEOUT",
     "TIME_SCALE_ENV",
     "add_connection_args",
     "add_ids_arg",
     "bitrate",
     "connection_kwargs",
-    "open_from_args",
     "motor_id",
+    "open_from_args",
     "open_transport_from_args",
     "parse_ids",
-    "positive",
     "parse_targets",
+    "positive",
     "sim_time_scale",
 ]
 
@@ -86,7 +87,7 @@ class _Ids(argparse.Action):
     """Joins several IDS words (``1 2,3 5-7``) into one list, each motor named once."""
 
     def __call__(
-        self, parser: argparse.ArgumentParser, ns: argparse.Namespace, values: Any, option: str | None = None
+        self, parser: argparse.ArgumentParser, ns: argparse.Namespace, values: Any, option_string: str | None = None
     ) -> None:
         ids = [i for part in values for i in part]
         if 0 in ids and len(ids) > 1:

@@ -17,8 +17,9 @@ from ._output import motors_text
 
 __all__ = ["add_duration_arg", "add_motion_args", "driving", "hold", "number_list", "per_motor", "stop_commanded"]
 
-_NUMBER = r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
-_NEGATIVE_LIST = re.compile(rf"^-(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?(?:,{_NUMBER})*$")
+_UNSIGNED = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
+_NEGATIVE_LIST = re.compile(rf"^-{_UNSIGNED}(?:,[-+]?{_UNSIGNED})*$")
+"""Words such as ``-45`` or ``-45,90`` that argparse must take as values, not as options."""
 
 
 def number_list(text: str) -> list[float]:
