@@ -9,7 +9,7 @@ from ..errors import FieldRangeError, ValidationError
 from ..protocol.messages import S16_MAX, FastRead, Message, ReadParam
 from ..protocol.parameters import DataType
 from .commands import PositionMode, check_ids, make_angles, make_speeds, make_torques, position_mode, q_move_time
-from .core import BusCore
+from .core import MOTION_CMDS, BusCore
 from .effects import Batch, Op, read_states, request
 from .ops import traj_modes
 from .requests import reply_key
@@ -19,8 +19,6 @@ from .state import MotorState
 __all__ = ["move_angles", "set_speeds", "set_torques", "cycle", "scan", "ALL_IDS"]
 
 ALL_IDS = range(1, 64)
-_REPLYING = frozenset((0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D))
-"""Commands a motor answers with a state frame when enable_reply_state is on."""
 _REPLY_STATE = 31214
 
 
@@ -101,7 +99,7 @@ def cycle(
         replying = {n for n in nodes if core.reply_state[n]}
     else:
         replying = set(nodes) if reply_state else set()
-    msgs = cmds + [FastRead(c.node) for c in cmds if not (c.node in replying and c.cmd in _REPLYING)]
+    msgs = cmds + [FastRead(c.node) for c in cmds if not (c.node in replying and c.cmd in MOTION_CMDS)]
     states = yield from request(msgs, timeout, expect=[reply_key(n, 0) for n in nodes], what="a control cycle")
     return dict(zip(nodes, states, strict=True))
 

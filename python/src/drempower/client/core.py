@@ -46,6 +46,7 @@ __all__ = [
     "DEFAULT_TIMEOUT",
     "DEFAULT_MOVE_TIMEOUT",
     "DEFAULT_POLL_INTERVAL",
+    "MOTION_CMDS",
     "describe_request",
 ]
 
@@ -65,7 +66,8 @@ StopOnClose = bool | Literal["idle", "estop"]
 
 _RX_SLICE = 0.25
 _STATE = struct.Struct("<fhh").unpack
-_MOTION_CMDS = frozenset((0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D))
+MOTION_CMDS = frozenset((0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D))
+"""Preset and control commands: they move motors, and with enable_reply_state on each is answered by a state."""
 _IDLE = 1  # axis0.requested_state value for IDLE
 _REQUESTED_STATE = 30003
 _RESETS = frozenset((SysCmd.INIT_CONFIG, SysCmd.ERASE_CONFIG, SysCmd.REBOOT))
@@ -201,7 +203,7 @@ class BusCore:
     def _note(self, msg: Message, frame: Frame) -> None:
         """Track what a sent message changes: commanded motors, remembered parameters."""
         cmd = msg.cmd
-        if cmd in _MOTION_CMDS:
+        if cmd in MOTION_CMDS:
             self._commanded.add(msg.node)
         elif isinstance(msg, WriteParam):
             if msg.address == _REQUESTED_STATE:

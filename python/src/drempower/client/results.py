@@ -8,7 +8,7 @@ from typing import Literal
 from ..protocol.flags import ERROR_WORDS, decode_error_word
 from .state import MotorState
 
-__all__ = ["ErrorReport", "GpioMode", "MotorInfo"]
+__all__ = ["ErrorReport", "GpioMode", "MotorInfo", "ERROR_WORD_NAMES"]
 
 
 @dataclass(frozen=True, slots=True)
