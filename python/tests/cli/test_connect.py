@@ -55,7 +55,7 @@ def test_python_can_configuration_is_used_and_announced(
     assert r.code == 0 and r.err == ""
 
 
-def test_a_missing_serial_port_is_one_line(cli: Cli, tmp_path: object) -> None:
+def test_a_missing_serial_port_is_one_line(cli: Cli) -> None:
     r = cli("state", "1", "--serial", "/nonexistent/ttyACM9")
     assert r.code == 1 and r.err.count("\n") == 1 and "/nonexistent/ttyACM9" in r.err
 

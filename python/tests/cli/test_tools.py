@@ -72,7 +72,7 @@ def test_bus_load_with_reply_state_and_overload(cli: Cli) -> None:
         cli("bus-load", "--motors", "64", "--rate", "100")
 
 
-def test_completion_script(cli: Cli, tmp_path: object) -> None:
+def test_completion_script(cli: Cli) -> None:
     r = cli("completion", "bash")
     assert r.code == 0
     assert "complete -o default -F _drempower drempower" in r.out
