@@ -31,7 +31,7 @@ def test_timeout_names_motor_and_request(bus: Bus, motors: FakeMotors) -> None:
     t0 = time.monotonic()
     with pytest.raises(drempower.TimeoutError) as info:
         bus.motor(3).read_property("axis0.trap_traj.config.traj_mode", timeout=0.02)
-    assert time.monotonic() - t0 < 1
+    assert time.monotonic() - t0 < 10  # no hang
     err = info.value
     assert isinstance(err, builtins.TimeoutError) and isinstance(err, drempower.DrEmpowerError)
     assert err.nodes == (3,)
@@ -172,12 +172,12 @@ class BrokenTransport(ScriptedTransport):
 
 
 def test_receive_failure_fails_requests_fast() -> None:
-    with Bus(BrokenTransport(), timeout=5, stop_on_close=False) as bus:
+    with Bus(BrokenTransport(), timeout=60, stop_on_close=False) as bus:
         time.sleep(0.05)
         t0 = time.monotonic()
         with pytest.raises(BusClosedError, match="unplugged"):
             bus.motor(1).get_state()
-        assert time.monotonic() - t0 < 1
+        assert time.monotonic() - t0 < 30  # failed at once instead of waiting 60 s
 
 
 def test_threads_share_one_bus(bus: Bus, motors: FakeMotors) -> None:
