@@ -32,6 +32,7 @@ __all__ = [
     "add_ids_arg",
     "bitrate",
     "connection_kwargs",
+    "count",
     "motor_id",
     "open_from_args",
     "open_transport_from_args",
@@ -140,6 +141,13 @@ def positive(text: str) -> float:
     if not value > 0:
         raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
     return value
+
+
+def count(text: str) -> int:
+    """An argument type: a whole number >= 1."""
+    if not (text.strip().isdigit() and int(text) >= 1):
+        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
+    return int(text)
 
 
 def sim_time_scale(args: argparse.Namespace) -> float | None:

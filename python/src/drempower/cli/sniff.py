@@ -8,7 +8,7 @@ import time
 from typing import Any
 
 from ..protocol.ids import Frame
-from ._connect import add_connection_args, open_transport_from_args, positive
+from ._connect import add_connection_args, count, open_transport_from_args, positive
 from ._output import add_json_arg, json_line
 from .decode import decode_line
 
@@ -23,7 +23,7 @@ def register(sub: Any) -> None:
         ),
     )
     p.add_argument("--duration", type=positive, metavar="S", help="stop after S seconds")
-    p.add_argument("--count", type=int, metavar="N", help="stop after N frames")
+    p.add_argument("--count", type=count, metavar="N", help="stop after N frames")
     p.add_argument(
         "--direction",
         choices=("auto", "host", "motor"),
