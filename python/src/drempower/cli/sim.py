@@ -1,0 +1,91 @@
+"""``drempower sim``: run simulated motors that other programs connect to."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import threading
+from contextlib import ExitStack
+from typing import Any, TextIO
+
+from ..sim import (
+    SimBus,
+    SimRunner,
+    attach_adapter_pty,
+    attach_python_can,
+    attach_socketcand,
+    attach_uart_pty,
+)
+from ._connect import bitrate, parse_ids, positive
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "sim",
+        help="run simulated motors behind a virtual USB-CAN adapter, a motor UART, socketcand or python-can",
+        description=(
+            "Simulated DrEmpower motors that behave like the firmware, reachable from other programs. "
+            "With no attachment option: the USB-CAN adapter pty and a socketcand server on a free port. "
+            "Prints where to connect, then runs until Ctrl-C (or --duration)."
+        ),
+    )
+    p.add_argument("--ids", type=parse_ids, default=[1], metavar="IDS", help="motor ids, e.g. 1,2,3 (default 1)")
+    p.add_argument("--adapter-pty", action="store_true", help="a pty that behaves like the USB-CAN adapter")
+    p.add_argument("--uart-pty", type=int, metavar="ID", help="a pty that behaves like motor ID's UART")
+    p.add_argument("--socketcand-port", type=int, metavar="PORT", help="serve socketcand on 127.0.0.1 (0: free port)")
+    p.add_argument("--python-can", metavar="CHANNEL", help="attach to this python-can channel")
+    p.add_argument(
+        "--python-can-interface",
+        default="virtual",
+        metavar="NAME",
+        help="python-can interface of --python-can (default virtual, in-process only; e.g. socketcan for vcan0)",
+    )
+    p.add_argument("--bitrate", type=bitrate, help="simulate bus timing at this bit rate, e.g. 1M (default instant)")
+    p.add_argument("--time-scale", type=positive, default=1.0, help="simulated seconds per second (default 1)")
+    p.add_argument("--config-dir", metavar="DIR", help="keep each motor's saved configuration in DIR")
+    p.add_argument("--seed", type=int, default=0, help="seed of the fault generator (default 0)")
+    p.add_argument("--duration", type=positive, metavar="S", help="stop after S seconds of wall time")
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Event | None = None) -> int:
+    """Run the simulator; ``stop`` (set by the caller) ends it early, as Ctrl-C does."""
+    out = out or sys.stdout
+    if args.uart_pty is not None and args.uart_pty not in args.ids:
+        print(f"drempower sim: --uart-pty {args.uart_pty} is not one of --ids", file=sys.stderr)
+        return 2
+    bus = SimBus(args.ids, bitrate=args.bitrate, seed=args.seed, config_dir=args.config_dir)
+    default = not (args.adapter_pty or args.uart_pty is not None or args.socketcand_port is not None or args.python_can)
+    ids = ",".join(map(str, args.ids))
+    timing = f"{args.bitrate} bit/s" if args.bitrate else "instant delivery"
+    with ExitStack() as stack:
+        stack.enter_context(SimRunner(bus, args.time_scale))
+        print(f"drempower sim: motors {ids} ({timing}, time x{args.time_scale:g}); Ctrl-C stops", file=out)
+        if args.adapter_pty or default:
+            path = stack.enter_context(attach_adapter_pty(bus)).path
+            print(f"USB-CAN adapter (0xAA frames and slcan): {path}", file=out)
+            print(f"    drempower state {ids} --serial {path}", file=out)
+            print(f"    can.Bus(interface='slcan', channel='{path}', sleep_after_open=0)", file=out)
+        if args.uart_pty is not None:
+            path = stack.enter_context(attach_uart_pty(bus, args.uart_pty)).path
+            print(f"UART of motor {args.uart_pty} (11-byte frames): {path}", file=out)
+            print(f"    drempower state {args.uart_pty} --uart {path}", file=out)
+        if args.socketcand_port is not None or default:
+            server = stack.enter_context(attach_socketcand(bus, args.socketcand_port or 0))
+            print(f"socketcand: {server.host} port {server.port}, bus {server.channel}", file=out)
+            print(
+                f"    can.Bus(interface='socketcand', host='{server.host}', port={server.port}, channel='can0')",
+                file=out,
+            )
+        if args.python_can:
+            stack.enter_context(attach_python_can(bus, args.python_can, args.python_can_interface))
+            print(f"python-can: interface {args.python_can_interface}, channel {args.python_can}", file=out)
+        out.flush()
+        try:
+            (stop or threading.Event()).wait(args.duration)
+        except KeyboardInterrupt:
+            pass
+    s = bus.stats
+    load = f", bus load {s.utilisation:.1%}" if args.bitrate else ""
+    print(f"drempower sim: stopped after {s.elapsed:.1f} s simulated, {s.frames} frames{load}", file=out)
+    return 0
