@@ -53,6 +53,8 @@ Reply = Callable[[Frame], None]
 _FILTER_MAX = 250.0
 """Largest input-filter bandwidth (1/s): a quarter of the 1 kHz loop rate, as on ODrive."""
 _CALIBRATION_STATES = frozenset((3, 4, 6, 7))
+_EPS = 1e-9
+"""Timer slack (s), so that periods that are whole numbers of steps fire on their step."""
 _WORD_OF_FLAGS: dict[type[IntFlag], int] = {w.flags: w.address for w in ERROR_WORDS}
 _ERROR_ADDRESSES = tuple(w.address for w in ERROR_WORDS)
 
@@ -240,7 +242,7 @@ class SimMotor:
             self._timers()
 
     def _timers(self) -> None:
-        now = self.time
+        now = self.time + _EPS
         if now >= self._hb_next:
             self.emit(self.state_frame())
             self._hb_next = max(self._hb_next + self._hb_period, now)
@@ -256,7 +258,7 @@ class SimMotor:
         wake = min(self._hb_next, self._calib_end)
         if self._timeout and self.drive.active:
             wake = min(wake, self._last_rx + self._timeout)
-        self._wake = wake
+        self._wake = wake - _EPS
 
     # ------------------------------------------------------------------ commands
 
