@@ -2,8 +2,8 @@
 
 The host may send 16-byte 0xAA binary frames (PROTOCOL.md 4.2) and slcan
 commands (:mod:`drempower.sim.slcan`) on the same port; the adapter tells them
-apart by the first byte (0xAA starts a binary frame, a command letter starts an
-slcan line) and drops bytes that fit neither. Frames from the motors go out as
+apart by the first byte (0xAA starts a binary frame, printable ASCII starts an
+slcan line, CR or LF alone is skipped) and drops bytes that fit neither. Frames from the motors go out as
 slcan text while the slcan channel is open (after ``O``, until ``C``), otherwise
 as 0xAA frames. python-can's ``can.Bus(interface="slcan", channel=path)`` and raw
 0xAA clients (the vendor library, :mod:`drempower.transports.serial_adapter`)
@@ -16,7 +16,7 @@ from ..protocol.framing import AADecoder, encode_aa
 from ..protocol.ids import Frame
 from .bus import SimBus
 from .pty_link import PtyLink
-from .slcan import COMMANDS, SlcanSession, format_frame
+from .slcan import SlcanSession, format_frame
 
 __all__ = ["AdapterPty", "attach_adapter_pty"]
 
@@ -64,7 +64,7 @@ class AdapterPty(PtyLink):
                 frame = Frame(int.from_bytes(buf[4:8], "big"), bytes(buf[8:total]), bool(buf[1]), buf[2] == 1)
                 del buf[:total]
                 self.sim.send(frame)
-            elif first in COMMANDS:
+            elif 0x20 < first < 0x7F:
                 end = buf.find(b"\r")
                 line = bytes(buf[: end if end >= 0 else _MAX_LINE + 1])
                 if len(line) > _MAX_LINE or not all(0x20 <= b < 0x7F for b in line):

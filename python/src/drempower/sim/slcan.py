@@ -4,7 +4,7 @@ Commands end with CR; the adapter answers CR for success and BEL for an error.
 Supported: ``O`` open, ``L`` open listen-only, ``C`` close, ``S0``-``S8`` bit rate,
 ``sXXXX`` bit-timing registers, ``V`` version, ``N`` serial number, ``F`` status
 flags, ``Z`` time stamps, ``M``/``m`` acceptance filter, and the frames ``tIIIL..``,
-``TIIIIIIIIL..``, ``rIIIL``, ``RIIIIIIIIL``. Received frames go to the host as
+``TIIIIIIIIL..``, ``rIIIL``, ``RIIIIIIIIL``; anything else gets BEL. Received frames go to the host as
 ``tIIILDD..`` + CR (``T`` for extended ids).
 """
 
@@ -12,12 +12,10 @@ from __future__ import annotations
 
 from ..protocol.ids import Frame
 
-__all__ = ["OK", "ERROR", "SlcanSession", "format_frame", "parse_frame", "COMMANDS"]
+__all__ = ["OK", "ERROR", "SlcanSession", "format_frame", "parse_frame"]
 
 OK = b"\r"
 ERROR = b"\a"
-COMMANDS = frozenset(b"OLCSsVNFZMmtTrR")
-"""First bytes of the commands this adapter understands."""
 VERSION = b"V2003\r"
 """Hardware 2.0, software 0.3 (the adapter's factory information)."""
 SERIAL = b"N0001\r"
