@@ -60,7 +60,7 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
     timing = f"{args.bitrate} bit/s" if args.bitrate else "instant delivery"
     with ExitStack() as stack:
         stack.enter_context(SimRunner(bus, args.time_scale))
-        print(f"drempower sim: motors {ids} ({timing}, time x{args.time_scale:g}); Ctrl-C stops", file=out)
+        print(f"drempower sim: motors {ids} ({timing}, time x{args.time_scale:g})", file=out)
         if args.adapter_pty or default:
             path = stack.enter_context(attach_adapter_pty(bus)).path
             print(f"USB-CAN adapter (0xAA frames and slcan): {path}", file=out)
@@ -80,6 +80,7 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
         if args.python_can:
             stack.enter_context(attach_python_can(bus, args.python_can, args.python_can_interface))
             print(f"python-can: interface {args.python_can_interface}, channel {args.python_can}", file=out)
+        print("running; Ctrl-C stops", file=out)
         out.flush()
         try:
             (stop or threading.Event()).wait(args.duration)
