@@ -32,9 +32,10 @@ class Profile:
         self.duration = sum(p[1] for p in phases)
 
     def sample(self, t: float) -> tuple[float, float, float]:
-        """(position, speed, acceleration) at ``t`` s; the target at rest once ``t`` >= duration."""
+        """(position, speed, acceleration) at ``t`` s (the start before 0, the target at rest after the end)."""
         if t >= self.duration:
             return self.x1, 0.0, 0.0
+        t = max(t, 0.0)
         x = self.x0
         for t0, dur, va, vb in self._phases:
             if t >= t0 + dur:
