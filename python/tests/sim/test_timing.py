@@ -40,6 +40,31 @@ def test_frame_length_bounds(arb: int, data: bytes) -> None:
     assert unstuffed + 13 <= n <= unstuffed + (unstuffed - 1) // 4 + 13
 
 
+def _reference_frame_bits(arb: int, data: bytes) -> int:
+    """The textbook computation, one bit at a time."""
+    bits = f"0{arb:011b}000{len(data):04b}" + "".join(f"{b:08b}" for b in data)
+    crc = 0
+    for b in bits:
+        top = (crc >> 14) & 1
+        crc = (crc << 1) & 0x7FFF
+        if int(b) ^ top:
+            crc ^= 0x4599
+    bits += f"{crc:015b}"
+    stuffed, run, last = 0, 0, ""
+    for b in bits:
+        run = run + 1 if b == last else 1
+        last = b
+        if run == 5:
+            stuffed += 1
+            last, run = ("1" if b == "0" else "0"), 1
+    return len(bits) + stuffed + 13
+
+
+@given(st.integers(0, 0x7FF), st.binary(min_size=0, max_size=8))
+def test_frame_bits_matches_the_textbook_computation(arb: int, data: bytes) -> None:
+    assert frame_bits(arb, data) == _reference_frame_bits(arb, data)
+
+
 def test_extended_frames_are_longer() -> None:
     assert frame_bits(0x1234567, bytes(8), True) > frame_bits(0x123, bytes(8))
 

@@ -200,12 +200,14 @@ class Drive:
                 self.tq_sp = acc * self.jff
             elif im == VEL_RAMP:
                 lim = self.vel_rate * dt
-                dv = min(lim, max(-lim, self.in_vel - self.vel_sp))
+                dv = self.in_vel - self.vel_sp
+                dv = lim if dv > lim else -lim if dv < -lim else dv
                 self.vel_sp += dv
                 self.tq_sp = dv / dt * self.jff
             elif im == TORQUE_RAMP:
                 lim = self.tq_rate * dt
-                self.tq_sp += min(lim, max(-lim, self.in_tq - self.tq_sp))
+                dq = self.in_tq - self.tq_sp
+                self.tq_sp += lim if dq > lim else -lim if dq < -lim else dq
             mode = self.mode
             tlim = self.tlim
             if mode == TORQUE:
@@ -226,7 +228,10 @@ class Drive:
                 if mode == POSITION:
                     vdes += self.kp * (self.pos_sp - self.pos)
                 vlim = self.vlim
-                vdes = min(vlim, max(-vlim, vdes))
+                if vdes > vlim:
+                    vdes = vlim
+                elif vdes < -vlim:
+                    vdes = -vlim
                 verr = vdes - vel
                 g = self.kv
                 tq = g * verr + self.integ + self.tq_sp
