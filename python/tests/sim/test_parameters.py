@@ -153,3 +153,9 @@ def test_malformed_frames_are_ignored() -> None:
     bus.send(Frame(0x03E, bytes(8), is_remote=True))
     bus.send(Frame(0x03E, bytes(8), is_extended=True))
     assert answers == []
+
+
+def test_float_reads_saturate_to_the_float32_range() -> None:
+    bus = SimBus([1])
+    bus.motors[1].set_param("axis0.config.extra_setting.circular_setpoint_max", 3.0e38)  # rotor turns
+    assert read(bus, 1, "axis0.output_shaft.circular_setpoint_max") == pytest.approx(3.4028234663852886e38)

@@ -143,3 +143,12 @@ def test_control_frames_are_ignored_in_idle() -> None:
     exchange(bus, Velocity(1, 50.0))
     bus.advance(0.5)
     assert bus.motors[1].speed == 0.0
+
+
+def test_requesting_closed_loop_again_does_not_interrupt_a_move() -> None:
+    bus = SimBus([1])
+    exchange(bus, PositionQ(1, 90.0, 30.0, 100.0))
+    bus.advance(0.3)
+    _closed_loop(bus, 1)
+    bus.advance(1.0)
+    assert bus.motors[1].position == pytest.approx(90.0, abs=0.05)

@@ -28,7 +28,8 @@ Choices that are simply "do nothing" live in this docstring:
 * After power-up, reboot and every entry into closed loop the axis holds its
   current position (position control, passthrough).
 * Requesting closed loop while an error word is non-zero is ignored (the axis
-  stays in IDLE). Requesting a calibration state (3, 4, 6, 7) runs it for
+  stays in IDLE); requesting it while in closed loop changes nothing.
+  Requesting a calibration state (3, 4, 6, 7) runs it for
   :data:`CALIBRATION_SECONDS` and ends in IDLE; other states are ignored.
 * ``reboot`` is instantaneous: RAM is loaded from the saved configuration (or
   the factory defaults), errors are cleared and the axis enters closed loop.
@@ -56,7 +57,7 @@ from __future__ import annotations
 import math
 
 from ..protocol.flags import AxisError, ControllerError, MotorError
-from ..protocol.parameters import DataType
+from ..protocol.parameters import F32_MAX, DataType
 
 __all__ = [
     "STATE_SPARE_BITS",
@@ -135,9 +136,11 @@ _INT_RANGE = {
 
 def convert_value(value: float, dtype: DataType) -> int | float:
     """A parameter value in another data type, as the motor answers a read of a different type
-    (and takes a write of one): floats truncate toward zero, integers saturate to the type's range."""
+    (and takes a write of one): floats truncate toward zero, and every value saturates to the
+    type's range (NaN reads as 0)."""
     if dtype is DataType.F32:
-        return float(value)
+        v = float(value)
+        return max(-F32_MAX, min(F32_MAX, v)) if v == v else 0.0
     lo, hi = _INT_RANGE[dtype]
     if not math.isfinite(value):
         return hi if value > 0 else lo if value < 0 else 0

@@ -39,7 +39,7 @@ from ..protocol.messages import (
     Velocity,
     WriteParam,
 )
-from ..protocol.parameters import Parameter, parameter
+from ..protocol.parameters import F32_MAX, Parameter, parameter
 from . import behaviour as bh
 from .defaults import MotorModel
 from .drive import POSITION, TAU, TRAP_TRAJ, Drive
@@ -189,9 +189,10 @@ class SimMotor:
     def state_frame(self) -> Frame:
         """The real-time state frame as the motor would send it now."""
         d = self.drive
+        pos = d.pos * 360.0 - self._offset
         return State(
             self.node_id,
-            d.pos * 360.0 - self._offset,
+            pos if -F32_MAX <= pos <= F32_MAX else 0.0,
             _s16(d.vel * 60.0),
             _s16(d.torque),
             self.trajectory_done,
@@ -560,7 +561,7 @@ class SimMotor:
         self._refresh()
 
     def _enter_closed_loop(self) -> None:
-        if self.errors[30001]:
+        if self.errors[30001] or self.state == AxisState.CLOSED_LOOP_CONTROL:
             return
         d = self.drive
         self.state = AxisState.CLOSED_LOOP_CONTROL
