@@ -183,3 +183,17 @@ def test_socketcand_refuses_other_buses_and_non_loopback(bus: SimBus) -> None:
         attach_socketcand(bus, host="0.0.0.0")
     with attach_socketcand(bus, channel="can0") as server, pytest.raises(can.CanError):
         can.Bus(interface="socketcand", host="127.0.0.1", port=server.port, channel="vcan9")
+
+
+def test_nobody_reading_the_adapter_pty_does_not_hold_the_bus_up() -> None:
+    sim = SimBus([1, 2, 3, 4])
+    for m in sim.motors.values():
+        m.set_param("can.config.heartbeat_ms", 1)
+    with SimRunner(sim, time_scale=5.0), attach_adapter_pty(sim) as pty:
+        assert _eventually(lambda: sim.now > 1.0, 5.0)  # > 4000 frames, more than the queue holds
+        with serial.Serial(pty.path, timeout=0.05) as port:
+            backlog = port.read(1 << 20)
+            assert len(backlog) <= (1 << 16) + (1 << 15)
+            assert len(AADecoder().feed(backlog)) > 0
+            before = sim.now
+            assert _eventually(lambda: sim.now > before + 0.2)

@@ -4,8 +4,8 @@ The master end is in raw mode and non-blocking; the simulator keeps the slave
 end open too, so clients may open and close ``path`` as often as they like.
 Incoming bytes go to :meth:`PtyLink.received` in whatever pieces they arrive;
 :meth:`PtyLink.write` queues bytes for the client. When nobody reads and the
-terminal's buffer fills up, what is waiting is discarded, as a USB serial
-adapter does when no program has its port open.
+queue overflows, what is waiting is discarded, as a USB serial adapter does when
+no program has its port open.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from types import TracebackType
 __all__ = ["PtyLink"]
 
 _OUT_LIMIT = 1 << 16
-"""Most bytes queued for the client; frames beyond it are dropped."""
+"""Most bytes queued for the client before the queue is discarded."""
 
 
 class PtyLink(ABC):
@@ -49,10 +49,12 @@ class PtyLink(ABC):
         """Bytes from the client, in the pieces they arrived in."""
 
     def write(self, data: bytes) -> None:
-        """Queue ``data`` for the client (dropped when the queue is full)."""
+        """Queue ``data`` for the client. When the queue overflows, nobody is reading: what is
+        waiting, here and in the terminal, is discarded first."""
         with self._out_lock:
             if len(self._pending) + len(data) > _OUT_LIMIT:
-                return
+                termios.tcflush(self._slave, termios.TCIFLUSH)
+                self._pending.clear()
             self._pending += data
         self._wake()
 
@@ -85,8 +87,6 @@ class PtyLink(ABC):
             try:
                 n = os.write(self._master, self._pending)
             except BlockingIOError:
-                termios.tcflush(self._slave, termios.TCIFLUSH)
-                self._pending.clear()
                 return
             del self._pending[:n]
 
