@@ -280,3 +280,26 @@ def test_start_rules() -> None:
     bus.send(Start(0, StartKind.C).encode())  # a broadcast C start reads the V preset's code 100 as direct
     bus.advance(0.1)
     assert bus.motors[1].torque == pytest.approx(10.0)
+
+
+def test_a_load_inertia_slows_the_acceleration() -> None:
+    speeds = []
+    for load in (0.0, 3.0e-4 / (2 * math.pi) * 100):  # none, then as much as the reflected rotor
+        bus = _bus(model=MotorModel(coulomb=0.0, viscous=0.0))
+        m = bus.motors[1]
+        m.load_inertia = load
+        bus.send(Torque(1, 0.6).encode())
+        bus.advance(0.1)
+        speeds.append(m.speed)
+    assert speeds[1] == pytest.approx(speeds[0] / 2, rel=1e-3)
+
+
+def test_currents_and_supply_follow_the_torque() -> None:
+    bus = _bus()
+    m = bus.motors[1]
+    m.locked = True
+    bus.send(Torque(1, 5.0).encode())
+    bus.advance(0.01)
+    assert m.current == pytest.approx(5.0)  # 1 Nm/A at the output
+    assert read(bus, 1, "axis0.motor.current_control.Iq_measured") == pytest.approx(5.0)
+    assert read(bus, 1, "ibus") == pytest.approx(1.5 * 25 * 0.2 / 24.0, rel=1e-3)  # copper loss only
