@@ -63,5 +63,7 @@ def test_a_silent_motor_obeys_but_does_not_answer() -> None:
     bus.send(PositionQ(2, 90.0, 30.0, 100.0).encode())
     bus.advance(1.5)
     assert abs(bus.motors[2].position - 90.0) < 0.05
+    assert bus.uart_request(2, FastRead(2).encode()) == []  # silent on its UART too
     bus.faults.silent.clear()
     assert len(_poll(bus, 1, node=2).frames) == 1
+    assert len(bus.uart_request(2, FastRead(2).encode())) == 1

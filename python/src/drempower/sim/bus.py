@@ -161,7 +161,7 @@ class SimBus:
             m = self.motors[ident]
             if msg is not None and (msg.node == 0 or msg.node == m.node_id):
                 m.receive(msg, out.append)
-        return out
+            return [] if ident in self.faults.silent else out
 
     def add_uart_tap(self, ident: int, listener: Listener) -> None:
         """Also send the heartbeats of motor ``ident`` to ``listener`` (its UART)."""
@@ -184,8 +184,9 @@ class SimBus:
 
     def _heartbeat_sink(self, m: SimMotor) -> Callable[[Frame], None]:
         def emit(frame: Frame) -> None:
-            for tap in self._uart_taps.get(m.ident, ()):
-                tap(frame)
+            if m.ident not in self.faults.silent:
+                for tap in self._uart_taps.get(m.ident, ()):
+                    tap(frame)
             self._from_motor(m, frame)
 
         return emit
