@@ -24,8 +24,9 @@ def test_every_parameter_answers_in_its_type_with_the_request_id() -> None:
     bus = SimBus([5])
     for p in parameters():
         (answer,) = exchange(bus, ReadParam(5, p.address, p.dtype))
-        assert answer == ParamValue(5, p.address, p.dtype, answer.value)  # type: ignore[union-attr]
-        assert isinstance(answer.value, float if p.dtype is DataType.F32 else int)  # type: ignore[union-attr]
+        assert isinstance(answer, ParamValue)
+        assert (answer.node, answer.address, answer.dtype) == (5, p.address, p.dtype)
+        assert isinstance(answer.value, float if p.dtype is DataType.F32 else int)
 
 
 def test_read_reply_echoes_the_request_id() -> None:

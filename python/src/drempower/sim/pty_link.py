@@ -17,8 +17,11 @@ import threading
 import tty
 from abc import ABC, abstractmethod
 from types import TracebackType
+from typing import TypeVar
 
 __all__ = ["PtyLink"]
+
+_Link = TypeVar("_Link", bound="PtyLink")
 
 _OUT_LIMIT = 1 << 16
 """Most bytes queued for the client before the queue is discarded."""
@@ -101,7 +104,7 @@ class PtyLink(ABC):
         for fd in (self._master, self._slave, self._wake_r, self._wake_w):
             os.close(fd)
 
-    def __enter__(self) -> PtyLink:
+    def __enter__(self: _Link) -> _Link:
         return self
 
     def __exit__(
