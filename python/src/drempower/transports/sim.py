@@ -43,6 +43,9 @@ class SimTransport(Transport):
         rate = f"{self.bus.bitrate} bit/s" if self.bus.bitrate else "instant delivery"
         self.description = f"simulator: motors {ids} ({rate}, {pace})"
 
+    def __enter__(self) -> SimTransport:
+        return self
+
     def send(self, frame: Frame) -> None:
         self.bus.send(frame)
 
