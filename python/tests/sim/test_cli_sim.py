@@ -91,3 +91,25 @@ def test_uart_and_python_can_attachments() -> None:
 def test_uart_id_must_be_simulated(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["sim", "--ids", "1", "--uart-pty", "2", "--duration", "0.1"]) == 2
     assert "--uart-pty 2" in capsys.readouterr().err
+
+
+def test_faults_from_the_command_line() -> None:
+    thread, stop, out = _start(["--ids", "1", "--adapter-pty", "--drop-rate", "1"])
+    try:
+        pty = re.search(r"adapter \(0xAA frames and slcan\): (\S+)", out.getvalue())
+        assert pty
+        t = open_transport("adapter", pty.group(1))
+        try:
+            t.send(FastRead(1).encode())
+            assert t.recv(0.2) is None
+        finally:
+            t.close()
+    finally:
+        stop.set()
+        thread.join(5.0)
+
+
+def test_rates_are_probabilities(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        build_parser().parse_args(["sim", "--drop-rate", "1.5"])
+    assert "probability" in capsys.readouterr().err

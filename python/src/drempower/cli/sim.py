@@ -9,6 +9,7 @@ from contextlib import ExitStack
 from typing import Any, TextIO
 
 from ..sim import (
+    Faults,
     SimBus,
     SimRunner,
     attach_adapter_pty,
@@ -43,9 +44,26 @@ def register(sub: Any) -> None:
     p.add_argument("--bitrate", type=bitrate, help="simulate bus timing at this bit rate, e.g. 1M (default instant)")
     p.add_argument("--time-scale", type=positive, default=1.0, help="simulated seconds per second (default 1)")
     p.add_argument("--config-dir", metavar="DIR", help="keep each motor's saved configuration in DIR")
-    p.add_argument("--seed", type=int, default=0, help="seed of the fault generator (default 0)")
     p.add_argument("--duration", type=positive, metavar="S", help="stop after S seconds of wall time")
+    f = p.add_argument_group("faults")
+    f.add_argument("--drop-rate", type=_rate, default=0.0, metavar="P", help="probability that a frame is lost")
+    f.add_argument("--corrupt-rate", type=_rate, default=0.0, metavar="P", help="probability of one flipped bit")
+    f.add_argument("--reply-delay", type=float, default=0.0, metavar="S", help="seconds before every motor frame")
+    f.add_argument(
+        "--serial-garbage", type=_rate, default=0.0, metavar="P", help="probability of garbage before a pty frame"
+    )
+    f.add_argument("--seed", type=int, default=0, help="seed of the fault generator (default 0)")
     p.set_defaults(func=run)
+
+
+def _rate(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        value = -1.0
+    if not 0.0 <= value <= 1.0:
+        raise argparse.ArgumentTypeError(f"expected a probability 0..1, got {text!r}")
+    return value
 
 
 def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Event | None = None) -> int:
@@ -54,7 +72,13 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
     if args.uart_pty is not None and args.uart_pty not in args.ids:
         print(f"drempower sim: --uart-pty {args.uart_pty} is not one of --ids", file=sys.stderr)
         return 2
-    bus = SimBus(args.ids, bitrate=args.bitrate, seed=args.seed, config_dir=args.config_dir)
+    faults = Faults(
+        drop_rate=args.drop_rate,
+        corrupt_rate=args.corrupt_rate,
+        reply_delay=args.reply_delay,
+        serial_garbage=args.serial_garbage,
+    )
+    bus = SimBus(args.ids, bitrate=args.bitrate, faults=faults, seed=args.seed, config_dir=args.config_dir)
     default = not (args.adapter_pty or args.uart_pty is not None or args.socketcand_port is not None or args.python_can)
     ids = ",".join(map(str, args.ids))
     timing = f"{args.bitrate} bit/s" if args.bitrate else "instant delivery"
