@@ -50,6 +50,10 @@ Choices that are simply "do nothing" live in this docstring:
   lie outside the new range.
 * Two motors sharing an id both answer; each sets CAN_ERROR_DUPLICATE_CAN_IDS
   when it sees the other's frame.
+* control_mode and input_mode (32105/32106) follow the commands; writes to them
+  are ignored. Writing an input parameter (input_pos/vel/torque, rotor side or
+  output side) acts like the matching passthrough command.
+* Speed and torque in state frames saturate to the s16 range (+-327.67).
 """
 
 from __future__ import annotations
