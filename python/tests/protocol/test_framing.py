@@ -101,3 +101,16 @@ def test_serial_vectors() -> None:
         assert u11.feed(bytes.fromhex(v["uart11"])) == [Frame(v["id"], data)]
         assert aa.feed(bytes.fromhex(v["aa"])) == [Frame(v["id"], data)]
     assert u11.dropped == aa.dropped == 0
+
+
+def test_aa_frame_length() -> None:
+    from drempower.protocol import aa_frame_length
+
+    full = encode_aa(Frame(0x39, bytes(8)))
+    assert aa_frame_length(full) == 16
+    assert aa_frame_length(b"\x00" + full, 1) == 16
+    assert [aa_frame_length(full[:k]) for k in (1, 3, 7)] == [-1, -1, -1]
+    assert aa_frame_length(b"\xaa\x02") == 0  # extended flag must be 0 or 1
+    assert aa_frame_length(b"\xaa\x00\x00\x09") == 0  # 9 bytes in a classic CAN frame
+    assert aa_frame_length(b"\xaa\x00\x00\x08\x00\x00\x08\x00") == 0  # id above 11 bits
+    assert aa_frame_length(b"\x08") == 0

@@ -23,7 +23,7 @@ from .flags import (
     decode_error_word,
     flag_info,
 )
-from .framing import AADecoder, Uart11Decoder, encode_aa, encode_uart11
+from .framing import AADecoder, Uart11Decoder, aa_frame_length, encode_aa, encode_uart11
 from .ids import BROADCAST, MAX_NODE, Cmd, Frame, StartKind, SysCmd, arbitration_id, split_arbitration_id
 from .messages import (
     S16_MAX,
@@ -58,6 +58,7 @@ from .parameters import Access, DataType, Parameter, decode_value, encode_value,
 
 __all__ = [
     "AADecoder",
+    "aa_frame_length",
     "Access",
     "AxisError",
     "AxisState",

@@ -25,6 +25,7 @@ __all__ = [
     "AA_HEADER",
     "encode_aa",
     "AADecoder",
+    "aa_frame_length",
     "FD_LENGTHS",
 ]
 
@@ -129,6 +130,44 @@ def encode_aa(frame: Frame | tuple[int, bytes]) -> bytes:
     return head + arb.to_bytes(4, "big") + bytes(data)
 
 
+def aa_frame_length(buf: bytes | bytearray, i: int = 0) -> int:
+    """Length of the 0xAA frame starting at ``buf[i]``: 0 if no plausible frame starts
+    there, -1 if more bytes are needed to tell, else the total frame length (8 + N).
+    """
+    n = len(buf)
+    if buf[i] != AA_HEADER:
+        return 0
+    avail = n - i
+    if avail >= 2 and buf[i + 1] > 1:
+        return 0
+    if avail >= 3 and buf[i + 2] not in (0, 1, 2, 6):
+        return 0
+    if avail >= 4:
+        length = buf[i + 3]
+        if buf[i + 2] in (0, 1):
+            if length > 8:
+                return 0
+        elif length not in FD_LENGTHS:
+            return 0
+    else:
+        return -1
+    if avail < 8:
+        # check what we have of the id for plausibility
+        if buf[i + 1] == 0:
+            for k in (4, 5):
+                if avail > k and buf[i + k] != 0:
+                    return 0
+            if avail > 6 and buf[i + 6] > 0x07:
+                return 0
+        elif avail > 4 and buf[i + 4] > 0x1F:
+            return 0
+        return -1
+    ident = int.from_bytes(buf[i + 4 : i + 8], "big")
+    if ident > (0x1FFFFFFF if buf[i + 1] else 0x7FF):
+        return 0
+    return 8 + buf[i + 3]
+
+
 class AADecoder:
     """Incremental decoder of the adapter's 0xAA frames.
 
@@ -158,41 +197,6 @@ class AADecoder:
         self._buf.clear()
         return n
 
-    @staticmethod
-    def _header_len(buf: bytearray, i: int, n: int) -> int:
-        """0 = not a header; -1 = need more bytes; else the total frame length."""
-        if buf[i] != AA_HEADER:
-            return 0
-        avail = n - i
-        if avail >= 2 and buf[i + 1] > 1:
-            return 0
-        if avail >= 3 and buf[i + 2] not in (0, 1, 2, 6):
-            return 0
-        if avail >= 4:
-            length = buf[i + 3]
-            if buf[i + 2] in (0, 1):
-                if length > 8:
-                    return 0
-            elif length not in FD_LENGTHS:
-                return 0
-        else:
-            return -1
-        if avail < 8:
-            # check what we have of the id for plausibility
-            if buf[i + 1] == 0:
-                for k in (4, 5):
-                    if avail > k and buf[i + k] != 0:
-                        return 0
-                if avail > 6 and buf[i + 6] > 0x07:
-                    return 0
-            elif avail > 4 and buf[i + 4] > 0x1F:
-                return 0
-            return -1
-        ident = int.from_bytes(buf[i + 4 : i + 8], "big")
-        if ident > (0x1FFFFFFF if buf[i + 1] else 0x7FF):
-            return 0
-        return 8 + buf[i + 3]
-
     def feed(self, chunk: bytes) -> list[Frame]:
         """Add received bytes; return the frames completed by them."""
         buf = self._buf
@@ -201,7 +205,7 @@ class AADecoder:
         i = 0
         n = len(buf)
         while i < n:
-            total = self._header_len(buf, i, n)
+            total = aa_frame_length(buf, i)
             if total == 0:
                 i += 1
                 self.dropped += 1

@@ -12,7 +12,7 @@ both work unchanged.
 
 from __future__ import annotations
 
-from ..protocol.framing import AADecoder, encode_aa
+from ..protocol.framing import aa_frame_length, encode_aa
 from ..protocol.ids import Frame
 from .bus import SimBus
 from .pty_link import PtyLink
@@ -54,8 +54,7 @@ class AdapterPty(PtyLink):
         while buf:
             first = buf[0]
             if first == _AA:
-                # the core decoder's header check: 0 = not a frame, -1 = need more, else frame length
-                total = AADecoder._header_len(buf, 0, len(buf))
+                total = aa_frame_length(buf)
                 if total == 0:
                     self._drop()
                     continue
