@@ -15,6 +15,7 @@ nearest 0.01 and anything outside raises :class:`~drempower.errors.FieldRangeErr
 from __future__ import annotations
 
 import struct
+from abc import ABC, abstractmethod
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar, NoReturn, TypeAlias
@@ -163,15 +164,16 @@ def _rw(node: int, cmd: int, address: int, dtype: int, value: int | float) -> Fr
     return _frame((_node(node) << 5) | cmd, _RW.pack(_address(address), dt) + encode_value(dt, value, "value"))
 
 
-class Message:
+class Message(ABC):
     """Base class of every DrEmpower message; ``node`` is the motor id (0 = broadcast)."""
 
     __slots__ = ()
     cmd: ClassVar[int]
     node: int
 
-    def encode(self) -> Frame:  # pragma: no cover - every subclass overrides it
-        raise NotImplementedError
+    @abstractmethod
+    def encode(self) -> Frame:
+        """The frame for this message; raises a validation error naming the bad field."""
 
     @property
     def arbitration_id(self) -> int:
