@@ -65,7 +65,7 @@ def test_set_id(cli: Cli, sim: SimBus) -> None:
     assert cli("state", "7", "--sim", "3").code == 0
     with pytest.raises(SystemExit):
         cli("set-id", "7", "64", "--sim", "3")
-    r = cli("set-id", "4", "5", "--sim", "3", "--timeout", "0.05")
+    r = cli("set-id", "4", "5", "--sim", "3", "--timeout", "0.25")
     assert r.code == 1 and "motor 4" in r.err
 
 

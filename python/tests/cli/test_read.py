@@ -33,7 +33,7 @@ def test_scan_json_and_progress_on_a_terminal(cli: Cli, monkeypatch: pytest.Monk
 
 
 def test_scan_finding_nothing_fails(cli: Cli) -> None:
-    r = cli("scan", "--sim", "1", "--ids", "4-6", "--timeout", "0.05")
+    r = cli("scan", "--sim", "1", "--ids", "4-6", "--timeout", "0.25")
     assert r.code == 1
     assert r.out == "" and "no motor answered" in r.err
 
@@ -50,7 +50,7 @@ def test_state_table_and_json(cli: Cli) -> None:
 
 
 def test_state_of_a_silent_motor_names_it(cli: Cli) -> None:
-    r = cli("state", "1", "4", "--sim", "1", "--timeout", "0.05")
+    r = cli("state", "1", "4", "--sim", "1", "--timeout", "0.25")
     assert r.code == 1
     assert r.err.startswith("drempower: error: motor 4: no answer") and r.err.count("\n") == 1
 

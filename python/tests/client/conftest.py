@@ -23,5 +23,5 @@ def scripted(motors: FakeMotors) -> ScriptedTransport:
 
 @pytest.fixture
 def bus(scripted: ScriptedTransport) -> Iterator[Bus]:
-    with Bus(scripted, timeout=0.05, stop_on_close=False) as b:
+    with Bus(scripted, timeout=0.5, stop_on_close=False) as b:
         yield b

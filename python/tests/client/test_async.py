@@ -17,7 +17,7 @@ async def test_async_queries_and_moves(motors: FakeMotors) -> None:
     t = ScriptedTransport(motors)
     motors.positions[2] = 5.0
     threads = threading.active_count()
-    async with open_bus_async(transport=t, timeout=0.05, stop_on_close=False) as bus:
+    async with open_bus_async(transport=t, timeout=0.5, stop_on_close=False) as bus:
         assert isinstance(bus, AsyncBus)
         m = bus.motor(2)
         states = await asyncio.gather(*(bus.motor(n).get_state() for n in (1, 2, 3)))
@@ -40,7 +40,7 @@ async def test_async_queries_and_moves(motors: FakeMotors) -> None:
 async def test_async_timeout_and_wait_state(motors: FakeMotors) -> None:
     motors.silent.add(3)
     t = ScriptedTransport(motors)
-    async with AsyncBus(t, timeout=0.02, stop_on_close=False) as bus:
+    async with AsyncBus(t, timeout=0.25, stop_on_close=False) as bus:
         with pytest.raises(drempower.TimeoutError, match="motor 3"):
             await bus.motor(3).get_state()
         with pytest.raises(drempower.TimeoutError):

@@ -56,7 +56,7 @@ def test_backup_of_a_silent_motor_fails_fast(bus: Bus) -> None:
 
 def test_restore_reports_failures(motors: FakeMotors, tmp_path: Path) -> None:
     t = ScriptedTransport(motors)
-    with Bus(t, timeout=0.02, stop_on_close=False) as bus:
+    with Bus(t, timeout=0.25, stop_on_close=False) as bus:
         motors.params[1][38013] = 9.0
         b = bus.motor(1).backup()
         motors.params[1][38013] = 1.0

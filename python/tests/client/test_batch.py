@@ -126,7 +126,7 @@ def test_multi_motor_start_is_broadcast_unless_a_stale_preset_exists(motors: Fak
             super().send(frame)  # type: ignore[arg-type]
 
     t = FailAfter(motors)
-    with Bus(t, timeout=0.05, stop_on_close=False) as bus:
+    with Bus(t, timeout=0.25, stop_on_close=False) as bus:
         bus.set_speeds([1, 2], [10, 10])
         assert [n for n, _ in starts(t)] == [0]
         t.fail_at = len(t.sent) + 1  # the preset for motor 3 goes out, then the link fails
@@ -143,9 +143,9 @@ def test_multi_motor_start_is_broadcast_unless_a_stale_preset_exists(motors: Fak
 
 def test_start_policies(motors: FakeMotors) -> None:
     t = ScriptedTransport(motors)
-    with Bus(t, timeout=0.05, stop_on_close=False, start="broadcast") as bus:
+    with Bus(t, timeout=0.25, stop_on_close=False, start="broadcast") as bus:
         bus.motor(1).step_angle(10, 0, 50)
-    with Bus(t, timeout=0.05, stop_on_close=False, start="node") as bus:
+    with Bus(t, timeout=0.25, stop_on_close=False, start="node") as bus:
         bus.set_torques([1, 2], [0.1, 0.2])
     assert [n for n, _ in starts(t)] == [0, 1, 2]
 
@@ -190,7 +190,7 @@ def test_cycle_rejects_reads_and_duplicates(bus: Bus, scripted: ScriptedTranspor
 def test_scan_finds_motors_in_one_window(motors: FakeMotors) -> None:
     motors.params[2].update({5: 3, 6: 0x10203})
     t = ScriptedTransport(motors)
-    with Bus(t, timeout=0.05, stop_on_close=False) as bus:
+    with Bus(t, timeout=0.25, stop_on_close=False) as bus:
         found = bus.scan()
         assert [m.id for m in found] == [1, 2, 3]
         assert len(t.sent) == 63
@@ -218,7 +218,7 @@ def test_wait_position_done_raises_on_motor_error(bus: Bus, motors: FakeMotors) 
 @pytest.mark.parametrize(("option", "expected"), [(True, "idle"), ("idle", "idle"), ("estop", "estop"), (False, None)])
 def test_stop_on_close(motors: FakeMotors, option: object, expected: str | None) -> None:
     t = ScriptedTransport(motors)
-    with Bus(t, timeout=0.05, stop_on_close=option) as bus:  # type: ignore[arg-type]
+    with Bus(t, timeout=0.25, stop_on_close=option) as bus:  # type: ignore[arg-type]
         bus.motor(2).set_speed(10)
         bus.motor(3).get_state()  # only read: not stopped
         n = len(t.sent)

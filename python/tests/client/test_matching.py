@@ -45,7 +45,7 @@ def test_reply_for_other_parameter_is_not_an_answer() -> None:
         return [ParamValue(f.arbitration_id >> 5, 1, DataType.F32, 24.0).encode()]
 
     t = ScriptedTransport(wrong_address)
-    with Bus(t, timeout=0.02, stop_on_close=False) as bus:
+    with Bus(t, timeout=0.25, stop_on_close=False) as bus:
         bus.on_unsolicited = unsolicited.append
         with pytest.raises(drempower.TimeoutError):
             bus.motor(1).read_property("axis0.error")
@@ -93,7 +93,7 @@ def test_malformed_frames_are_counted_and_skipped(bus: Bus, scripted: ScriptedTr
 
 def test_broadcast_read_answered_by_the_single_motor() -> None:
     t = ScriptedTransport(FakeMotors([7]))
-    with Bus(t, timeout=0.05, stop_on_close=False) as bus:
+    with Bus(t, timeout=0.25, stop_on_close=False) as bus:
         assert bus.motor(0).get_id() == 7
         assert bus.motor(0).get_state().node == 7
 
@@ -117,7 +117,7 @@ def test_reads_of_one_motor_are_not_pipelined() -> None:
         return out
 
     t = ScriptedTransport(respond)
-    with Bus(t, timeout=0.05, stop_on_close=False) as bus:
+    with Bus(t, timeout=0.25, stop_on_close=False) as bus:
         report = bus.motor(1).dump_error()
         assert not report and len(report.words) == 7
         reads = [ReadParam(n, 1, DataType.F32) for n in (1, 2, 1, 2)] + [FastRead(1)]
@@ -136,7 +136,7 @@ def test_retries_resend_only_missing_reads() -> None:
         return motors(f)
 
     t = ScriptedTransport(drop_first_of_node_2)
-    with Bus(t, timeout=0.02, retries=1, stop_on_close=False) as bus:
+    with Bus(t, timeout=0.25, retries=1, stop_on_close=False) as bus:
         states = bus.request([FastRead(1), FastRead(2)])
     assert [s.node for s in states] == [1, 2]
     assert [f.arbitration_id >> 5 for f in t.sent] == [1, 2, 2]

@@ -22,7 +22,7 @@ def test_set_id_lost_write_saves_nothing(motors: FakeMotors) -> None:
         return [] if f.arbitration_id & 0x1F == 0x1F else motors(f)  # type: ignore[attr-defined]
 
     t = ScriptedTransport(lose_writes)  # type: ignore[arg-type]
-    with Bus(t, timeout=0.02, stop_on_close=False) as bus, pytest.raises(VerifyError, match="new id 9"):
+    with Bus(t, timeout=0.25, stop_on_close=False) as bus, pytest.raises(VerifyError, match="new id 9"):
         bus.motor(3).set_id(9)
     assert not any(isinstance(c, SystemCommand) for c in t.commands())
 

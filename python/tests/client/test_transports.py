@@ -54,7 +54,7 @@ def test_serial_resynchronises_after_garbage(cls: type[AdapterTransport], encode
 
 def test_client_over_loop_times_out_cleanly() -> None:
     """On a loopback nobody answers: the echoed fast read is no state frame, the request times out."""
-    with drempower.open_bus("adapter", "loop://", timeout=0.02, stop_on_close=False) as bus:
+    with drempower.open_bus("adapter", "loop://", timeout=0.25, stop_on_close=False) as bus:
         with pytest.raises(drempower.TimeoutError):
             bus.motor(1).get_state()
         assert bus.stats["malformed"] == 1

@@ -34,7 +34,7 @@ def test_make_matches_vendor(msg: object, arb: int, data: str) -> None:
 @pytest.fixture
 def compat_bus() -> tuple[ScriptedTransport, Bus]:
     t = ScriptedTransport(FakeMotors([1, 2, 3, 4]))
-    bus = compat.use_bus(Bus(t, timeout=0.05, stop_on_close=False, start="broadcast"))
+    bus = compat.use_bus(Bus(t, timeout=0.25, stop_on_close=False, start="broadcast"))
     yield t, bus
     compat.close()
 

@@ -26,7 +26,6 @@ if TYPE_CHECKING:
     from ..transports import Transport
 
 __all__ = [
-    "SIM_TIMEOUT",
     "TIME_SCALE_ENV",
     "add_connection_args",
     "add_ids_arg",
@@ -44,8 +43,6 @@ __all__ = [
 
 TIME_SCALE_ENV = "DREMPOWER_SIM_TIME_SCALE"
 """Environment variable: default time scale of the in-process simulator."""
-SIM_TIMEOUT = 0.5
-"""Default reply timeout (s) with the in-process simulator: it shares the interpreter with the client."""
 
 
 def parse_ids(text: str) -> list[int]:
@@ -245,9 +242,8 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
     from .. import open_bus
 
     kw, _ = _connect(args, quiet)
-    timeout = SIM_TIMEOUT if args.sim and args.timeout is None else args.timeout
-    if timeout is not None:
-        kw["timeout"] = timeout
+    if args.timeout is not None:
+        kw["timeout"] = args.timeout
     bus: Bus = open_bus(stop_on_close=False, **kw)
     return bus
 

@@ -21,6 +21,7 @@ from ..transports.base import Transport
 from . import backup as _backup
 from . import batch, ops
 from .bus import connect
+from .busbase import BusBase
 from .commands import (
     PositionMode,
     TorqueMode,
@@ -34,8 +35,6 @@ from .commands import (
 from .core import (
     DEFAULT_MOVE_TIMEOUT,
     DEFAULT_POLL_INTERVAL,
-    DEFAULT_TIMEOUT,
-    BusCore,
     Exchange,
     StartPolicy,
     StopOnClose,
@@ -44,7 +43,7 @@ from .effects import Batch, Effect, Op, Request, Send, Sleep, request
 from .errors import TimeoutError
 from .motor import MotorBase
 from .results import ErrorReport, GpioMode, MotorInfo
-from .state import MotorState, StateCallback, Subscription
+from .state import MotorState
 
 __all__ = ["AsyncBus", "AsyncMotor", "open_bus_async"]
 
@@ -66,20 +65,20 @@ def _notifier(loop: asyncio.AbstractEventLoop, fut: asyncio.Future[Any]) -> Call
     return notify
 
 
-class AsyncBus:
+class AsyncBus(BusBase):
     """The asyncio counterpart of :class:`~drempower.client.bus.Bus` (same options)."""
 
     def __init__(
         self,
         transport: Transport,
         *,
-        timeout: float = DEFAULT_TIMEOUT,
+        timeout: float | None = None,
         retries: int = 0,
         stop_on_close: StopOnClose = True,
         start: StartPolicy = "auto",
         on_unsolicited: Callable[[Frame], None] | None = None,
     ) -> None:
-        self._core = BusCore(
+        super().__init__(
             transport,
             timeout=timeout,
             retries=retries,
@@ -88,18 +87,6 @@ class AsyncBus:
             on_unsolicited=on_unsolicited,
         )
         self._motors: dict[int, AsyncMotor] = {}
-
-    @property
-    def core(self) -> BusCore:
-        return self._core
-
-    @property
-    def transport(self) -> Transport:
-        return self._core.transport
-
-    @property
-    def closed(self) -> bool:
-        return self._core.closed
 
     async def run(self, op: Op[T]) -> T:
         """Run an operation (a generator of effects) to completion."""
@@ -232,18 +219,6 @@ class AsyncBus:
 
     wait_positions_done = positions_done
 
-    def state(self, id: int) -> MotorState | None:
-        """The latest state of motor ``id`` (no I/O)."""
-        return self._core.states.get(id)
-
-    def states(self) -> dict[int, MotorState]:
-        """The latest state of every motor heard from (no I/O)."""
-        return self._core.states.snapshot()
-
-    def subscribe(self, callback: StateCallback, id: int | None = None) -> Subscription:
-        """Call ``callback(state)`` in the receive thread for each state of motor ``id`` (all when None)."""
-        return self._core.states.subscribe(callback, id)
-
     async def wait_state(self, id: int, timeout: float, newer_than: float | None = None) -> MotorState:
         """Wait for a state of motor ``id`` newer than ``newer_than`` (monotonic s; default: now)."""
         since = time.monotonic() if newer_than is None else newer_than
@@ -276,9 +251,6 @@ class AsyncBus:
         self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
     ) -> None:
         await self.close()
-
-    def __repr__(self) -> str:
-        return f"<AsyncBus {self.transport.description}{' closed' if self.closed else ''}>"
 
 
 class AsyncMotor(MotorBase):
@@ -435,7 +407,7 @@ def open_bus_async(
     channel: str | int | None = None,
     bitrate: int | None = None,
     *,
-    timeout: float = DEFAULT_TIMEOUT,
+    timeout: float | None = None,
     retries: int = 0,
     stop_on_close: StopOnClose = True,
     start: StartPolicy = "auto",

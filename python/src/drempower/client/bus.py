@@ -13,12 +13,11 @@ from ..protocol.messages import Message
 from ..transports.base import Transport
 from ..transports.factory import open_transport
 from . import batch, ops
+from .busbase import BusBase
 from .commands import PositionMode, TorqueMode, VelocityMode
 from .core import (
     DEFAULT_MOVE_TIMEOUT,
     DEFAULT_POLL_INTERVAL,
-    DEFAULT_TIMEOUT,
-    BusCore,
     Exchange,
     StartPolicy,
     StopOnClose,
@@ -27,14 +26,14 @@ from .effects import Batch, Effect, Op, Request, Send, Sleep, request
 from .errors import TimeoutError
 from .motor import Motor
 from .results import MotorInfo
-from .state import MotorState, StateCallback, Subscription
+from .state import MotorState
 
 __all__ = ["Bus", "open_bus", "DEFAULT_MOVE_TIMEOUT", "DEFAULT_POLL_INTERVAL"]
 
 T = TypeVar("T")
 
 
-class Bus:
+class Bus(BusBase):
     """A DrEmpower bus: owns a transport and the receive thread; hands out :class:`Motor` handles.
 
     Use it as a context manager, or call :meth:`close`. Every method may be
@@ -49,13 +48,13 @@ class Bus:
         self,
         transport: Transport,
         *,
-        timeout: float = DEFAULT_TIMEOUT,
+        timeout: float | None = None,
         retries: int = 0,
         stop_on_close: StopOnClose = True,
         start: StartPolicy = "auto",
         on_unsolicited: Callable[[Frame], None] | None = None,
     ) -> None:
-        self._core = BusCore(
+        super().__init__(
             transport,
             timeout=timeout,
             retries=retries,
@@ -65,47 +64,6 @@ class Bus:
         )
         self._motors: dict[int, Motor] = {}
         self._motors_lock = threading.Lock()
-
-    # ------------------------------------------------------------------ plumbing
-
-    @property
-    def core(self) -> BusCore:
-        """The shared core (transport, matching, state cache)."""
-        return self._core
-
-    @property
-    def transport(self) -> Transport:
-        return self._core.transport
-
-    @property
-    def timeout(self) -> float:
-        """Default reply timeout (s)."""
-        return self._core.timeout
-
-    @timeout.setter
-    def timeout(self, value: float) -> None:
-        if not value > 0:
-            raise ValueError(f"timeout={value!r}: must be > 0 s")
-        self._core.timeout = float(value)
-
-    @property
-    def closed(self) -> bool:
-        return self._core.closed
-
-    @property
-    def stats(self) -> dict[str, int]:
-        """Frames received, malformed ones, and those that were no reply and no state."""
-        c = self._core
-        return {"frames_received": c.frames_received, "malformed": c.malformed, "unmatched": c.unmatched}
-
-    @property
-    def on_unsolicited(self) -> Callable[[Frame], None] | None:
-        """Hook called in the receive thread with frames that match no request and are no state."""
-        return self._core.on_unsolicited
-
-    @on_unsolicited.setter
-    def on_unsolicited(self, hook: Callable[[Frame], None] | None) -> None:
-        self._core.on_unsolicited = hook
 
     def run(self, op: Op[T]) -> T:
         """Run an operation (a generator of effects, see :mod:`drempower.client.effects`) to completion."""
@@ -262,14 +220,6 @@ class Bus:
 
     # ------------------------------------------------------------------ state
 
-    def state(self, id: int) -> MotorState | None:
-        """The latest state of motor ``id`` received in any way (no I/O), or None."""
-        return self._core.states.get(id)
-
-    def states(self) -> dict[int, MotorState]:
-        """The latest state of every motor heard from (no I/O)."""
-        return self._core.states.snapshot()
-
     def wait_state(self, id: int, timeout: float, newer_than: float | None = None) -> MotorState:
         """Wait for a state of motor ``id`` newer than ``newer_than`` (monotonic s; default: now)."""
         since = time.monotonic() if newer_than is None else newer_than
@@ -278,10 +228,6 @@ class Bus:
             self._core.check_open()
             raise TimeoutError([id], "a state update", timeout)
         return st
-
-    def subscribe(self, callback: StateCallback, id: int | None = None) -> Subscription:
-        """Call ``callback(state)`` in the receive thread for each state of motor ``id`` (all when None)."""
-        return self._core.states.subscribe(callback, id)
 
     # ------------------------------------------------------------------ lifetime
 
@@ -296,9 +242,6 @@ class Bus:
         self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
     ) -> None:
         self.close()
-
-    def __repr__(self) -> str:
-        return f"<Bus {self.transport.description}{' closed' if self.closed else ''}>"
 
 
 def connect(
@@ -317,7 +260,7 @@ def open_bus(
     channel: str | int | None = None,
     bitrate: int | None = None,
     *,
-    timeout: float = DEFAULT_TIMEOUT,
+    timeout: float | None = None,
     retries: int = 0,
     stop_on_close: StopOnClose = True,
     start: StartPolicy = "auto",

@@ -23,6 +23,8 @@ class Transport(ABC):
 
     description: str = "transport"
     """What this transport is connected to, e.g. ``"python-can socketcan can0"``."""
+    default_timeout: float | None = None
+    """Reply timeout (s) a bus should use on this transport when none is given (None: the bus's own)."""
 
     @abstractmethod
     def send(self, frame: Frame) -> None:

@@ -22,6 +22,9 @@ class SimTransport(Transport):
     arguments go to SimBus (``bitrate``, ``faults``, ``seed``, ``config_dir``...).
     """
 
+    default_timeout = 0.5
+    """The simulator runs in the client's interpreter, so give replies a little more room than on a bus."""
+
     def __init__(
         self,
         motors: Iterable[int] = (1,),
