@@ -147,8 +147,10 @@ def test_uart_pty_reaches_only_its_motor_with_garbage_and_heartbeats(bus: SimBus
         assert [f.arbitration_id for f in frames] == [0x043]
         assert uart.decoder.dropped >= 9
         bus.motors[2].set_param("can.config.heartbeat_ms", 50)
-        time.sleep(0.2)
-        beats = decoder.feed(port.read(4096))
+        beats: list[Frame] = []
+        deadline = time.monotonic() + 2.0
+        while len(beats) < 2 and time.monotonic() < deadline:
+            beats += decoder.feed(port.read(4096))
         assert len(beats) >= 2 and {f.arbitration_id for f in beats} == {0x043}
 
 
