@@ -7,7 +7,7 @@ import argparse
 import pytest
 
 from drempower.cli import _connect
-from drempower.cli._connect import TIME_SCALE_ENV, bitrate, parse_ids, parse_targets
+from drempower.cli._connect import TIME_SCALE_ENV, bitrate, can_option, connection_kwargs, parse_ids, parse_targets
 
 from .conftest import Cli
 
@@ -25,6 +25,29 @@ def test_bitrates() -> None:
     for bad in ("0", "fast", "1.5", "inf", "-1M"):
         with pytest.raises(argparse.ArgumentTypeError):
             bitrate(bad)
+
+
+def test_python_can_options_pass_through() -> None:
+    assert can_option("host=127.0.0.1") == ("host", "127.0.0.1")
+    assert can_option("port=29536") == ("port", 29536)
+    assert can_option("fd=true") == ("fd", True)
+    for bad in ("port", "=1", "a b=1"):
+        with pytest.raises(argparse.ArgumentTypeError):
+            can_option(bad)
+    args = argparse.Namespace(
+        sim=None,
+        serial=None,
+        uart=None,
+        interface="socketcand",
+        channel="can0",
+        bitrate=None,
+        timeout=None,
+        can_option=[("host", "127.0.0.1"), ("port", 29536)],
+        sim_time_scale=None,
+    )
+    kw, how = connection_kwargs(args)
+    assert kw == {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": 29536}
+    assert how == "python-can socketcand can0"
 
 
 def test_ids_named_twice_across_words(cli: Cli) -> None:
@@ -65,3 +88,18 @@ def test_simulator_time_scale(cli: Cli, monkeypatch: pytest.MonkeyPatch) -> None
     monkeypatch.setenv(TIME_SCALE_ENV, "fast")
     r = cli("state", "1", "--sim", "1")
     assert r.code == 1 and TIME_SCALE_ENV in r.err
+
+
+def test_socketcand_through_python_can_options(cli: Cli) -> None:
+    """A python-can interface that needs extra options (socketcand: host, port) reaches served motors."""
+    from drempower.sim import SimBus, SimRunner, attach_socketcand
+
+    bus = SimBus(ids=[4])
+    with SimRunner(bus, time_scale=20.0), attach_socketcand(bus) as server:
+        opts = ["-i", "socketcand", "-c", "can0", "-o", "host=127.0.0.1", "-o", f"port={server.port}"]
+        r = cli("move", "4", "30", "--mode", "q", "--speed", "100", "--accel", "300", "--wait", *opts)
+        assert r.code == 0, r.err
+        r = cli("state", "4", "--json", *opts)
+        assert r.code == 0, r.err
+        assert r.records()[0]["position_deg"] == pytest.approx(30.0, abs=0.05)
+    assert bus.motors[4].position == pytest.approx(30.0, abs=0.05)

@@ -36,6 +36,7 @@ __all__ = [
     "open_from_args",
     "open_transport_from_args",
     "parse_ids",
+    "can_option",
     "parse_targets",
     "positive",
     "sim_time_scale",
@@ -161,6 +162,25 @@ def sim_time_scale(args: argparse.Namespace) -> float | None:
         raise DrEmpowerError(f"{TIME_SCALE_ENV}: {exc}") from None
 
 
+def can_option(text: str) -> tuple[str, object]:
+    """``"port=29536"`` -> ``("port", 29536)``: numbers and true/false are converted, the rest stays text."""
+    key, sep, value = text.partition("=")
+    if not sep or not key.strip().isidentifier():
+        raise argparse.ArgumentTypeError(f"{text!r}: expected KEY=VALUE, e.g. host=127.0.0.1")
+    v: object = value
+    low = value.lower()
+    if low in ("true", "false"):
+        v = low == "true"
+    else:
+        for conv in (int, float):
+            try:
+                v = conv(value)
+                break
+            except ValueError:
+                continue
+    return key.strip(), v
+
+
 def add_connection_args(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("connection (one of; default: python-can's configuration)")
     g.add_argument("-i", "--interface", help="python-can interface: socketcan, pcan, kvaser, slcan, gs_usb, ...")
@@ -169,6 +189,15 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--serial", metavar="PORT", help="vendor USB-CAN adapter on serial PORT (0xAA framing)")
     g.add_argument("--uart", metavar="PORT", help="a single motor's UART on serial PORT (11-byte frames)")
     g.add_argument("--sim", metavar="IDS", type=parse_ids, help="in-process simulated motors, e.g. 1,2,3")
+    g.add_argument(
+        "-o",
+        "--can-option",
+        metavar="KEY=VALUE",
+        action="append",
+        type=can_option,
+        default=[],
+        help="extra python-can bus option, repeatable: -o host=127.0.0.1 -o port=29536 (socketcand), -o index=0",
+    )
     g.add_argument("--sim-time-scale", type=positive, help=argparse.SUPPRESS)
     g.add_argument(
         "--timeout",
@@ -199,7 +228,7 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
         kw = {"interface": "uart", "channel": args.uart}
         how = f"motor UART on {args.uart}"
     elif args.interface:
-        kw = {"interface": args.interface, "channel": args.channel}
+        kw = {"interface": args.interface, "channel": args.channel, **dict(args.can_option)}
         how = f"python-can {args.interface} {args.channel or ''}".rstrip()
     else:
         cfg = _python_can_config()

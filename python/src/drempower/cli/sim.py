@@ -97,6 +97,10 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
         if args.socketcand_port is not None or default:
             server = stack.enter_context(attach_socketcand(bus, args.socketcand_port or 0))
             print(f"socketcand: {server.host} port {server.port}, bus {server.channel}", file=out)
+            ids = ",".join(str(i) for i in bus.motors)
+            print(
+                f"    drempower state {ids} -i socketcand -c can0 -o host={server.host} -o port={server.port}", file=out
+            )
             print(
                 f"    can.Bus(interface='socketcand', host='{server.host}', port={server.port}, channel='can0')",
                 file=out,
