@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterable, Sequence
 from types import TracebackType
 from typing import Any, TypeVar
 
-from ..protocol.ids import Frame, SysCmd, check_node
+from ..protocol.ids import SysCmd
 from ..protocol.messages import Message
 from ..transports.base import Transport
 from . import backup as _backup
@@ -65,28 +65,8 @@ def _notifier(loop: asyncio.AbstractEventLoop, fut: asyncio.Future[Any]) -> Call
     return notify
 
 
-class AsyncBus(BusBase):
+class AsyncBus(BusBase["AsyncMotor"]):
     """The asyncio counterpart of :class:`~drempower.client.bus.Bus` (same options)."""
-
-    def __init__(
-        self,
-        transport: Transport,
-        *,
-        timeout: float | None = None,
-        retries: int = 0,
-        stop_on_close: StopOnClose = True,
-        start: StartPolicy = "auto",
-        on_unsolicited: Callable[[Frame], None] | None = None,
-    ) -> None:
-        super().__init__(
-            transport,
-            timeout=timeout,
-            retries=retries,
-            stop_on_close=stop_on_close,
-            start=start,
-            on_unsolicited=on_unsolicited,
-        )
-        self._motors: dict[int, AsyncMotor] = {}
 
     async def run(self, op: Op[T]) -> T:
         """Run an operation (a generator of effects) to completion."""
@@ -142,16 +122,8 @@ class AsyncBus(BusBase):
         """Send reads/fast reads and return their answers in order."""
         return await self.run(request(list(msgs), timeout, missing_ok))
 
-    def motor(self, id: int) -> AsyncMotor:
-        """The handle of motor ``id``."""
-        m = self._motors.get(id)
-        if m is None:
-            check_node(id, "id")
-            m = self._motors[id] = AsyncMotor(self, id)
-        return m
-
-    def __getitem__(self, id: int) -> AsyncMotor:
-        return self.motor(id)
+    def _new_motor(self, id: int) -> AsyncMotor:
+        return AsyncMotor(self, id)
 
     async def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor when None."""

@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import threading
 import time
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Iterable, Sequence
 from types import TracebackType
 from typing import Any, TypeVar
 
-from ..protocol.ids import Frame, check_node
 from ..protocol.messages import Message
 from ..transports.base import Transport
 from ..transports.factory import open_transport
@@ -33,7 +31,7 @@ __all__ = ["Bus", "open_bus", "DEFAULT_MOVE_TIMEOUT", "DEFAULT_POLL_INTERVAL"]
 T = TypeVar("T")
 
 
-class Bus(BusBase):
+class Bus(BusBase[Motor]):
     """A DrEmpower bus: owns a transport and the receive thread; hands out :class:`Motor` handles.
 
     Use it as a context manager, or call :meth:`close`. Every method may be
@@ -43,27 +41,6 @@ class Bus(BusBase):
     ``retries``, ``start`` and ``stop_on_close``; buses left open are closed
     when Python exits.
     """
-
-    def __init__(
-        self,
-        transport: Transport,
-        *,
-        timeout: float | None = None,
-        retries: int = 0,
-        stop_on_close: StopOnClose = True,
-        start: StartPolicy = "auto",
-        on_unsolicited: Callable[[Frame], None] | None = None,
-    ) -> None:
-        super().__init__(
-            transport,
-            timeout=timeout,
-            retries=retries,
-            stop_on_close=stop_on_close,
-            start=start,
-            on_unsolicited=on_unsolicited,
-        )
-        self._motors: dict[int, Motor] = {}
-        self._motors_lock = threading.Lock()
 
     def run(self, op: Op[T]) -> T:
         """Run an operation (a generator of effects, see :mod:`drempower.client.effects`) to completion."""
@@ -118,19 +95,8 @@ class Bus(BusBase):
 
     # ------------------------------------------------------------------ motors
 
-    def motor(self, id: int) -> Motor:
-        """The handle of motor ``id`` (1..63; 0 addresses every motor, reads need a single motor)."""
-        m = self._motors.get(id)
-        if m is None:
-            check_node(id, "id")
-            with self._motors_lock:
-                m = self._motors.get(id)
-                if m is None:
-                    m = self._motors[id] = Motor(self, id)
-        return m
-
-    def __getitem__(self, id: int) -> Motor:
-        return self.motor(id)
+    def _new_motor(self, id: int) -> Motor:
+        return Motor(self, id)
 
     def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor (one broadcast frame) when None."""

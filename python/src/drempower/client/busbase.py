@@ -2,18 +2,23 @@
 
 from __future__ import annotations
 
+import threading
+from abc import ABC, abstractmethod
 from collections.abc import Callable
+from typing import Generic, TypeVar
 
-from ..protocol.ids import Frame
+from ..protocol.ids import Frame, check_node
 from ..transports.base import Transport
 from .core import DEFAULT_TIMEOUT, BusCore, StartPolicy, StopOnClose
 from .state import MotorState, StateCallback, Subscription
 
 __all__ = ["BusBase"]
 
+M = TypeVar("M")
 
-class BusBase:
-    """Owns a :class:`BusCore` (transport, receive thread, matching, state cache).
+
+class BusBase(ABC, Generic[M]):
+    """Owns a :class:`BusCore` (transport, receive thread, matching, state cache) and the motor handles.
 
     ``timeout`` (s) is the default reply timeout; None takes the transport's
     ``default_timeout`` if it has one (0.5 s for the in-process simulator, which
@@ -40,6 +45,26 @@ class BusBase:
             start=start,
             on_unsolicited=on_unsolicited,
         )
+        self._motors: dict[int, M] = {}
+        self._motors_lock = threading.Lock()
+
+    @abstractmethod
+    def _new_motor(self, id: int) -> M:
+        """A new handle of motor ``id`` for this kind of bus."""
+
+    def motor(self, id: int) -> M:
+        """The handle of motor ``id`` (1..63; 0 addresses every motor, reads need a single motor)."""
+        m = self._motors.get(id)
+        if m is None:
+            check_node(id, "id")
+            with self._motors_lock:
+                m = self._motors.get(id)
+                if m is None:
+                    m = self._motors[id] = self._new_motor(id)
+        return m
+
+    def __getitem__(self, id: int) -> M:
+        return self.motor(id)
 
     @property
     def core(self) -> BusCore:
