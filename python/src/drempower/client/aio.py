@@ -369,8 +369,9 @@ class AsyncMotor(MotorBase):
         dry_run: bool = False,
         timeout: float | None = None,
     ) -> _backup.RestoreReport:
-        cfg = source if isinstance(source, _backup.ConfigBackup) else _backup.ConfigBackup.load(source)
-        op = _backup.restore(self._core, self._id, cfg, timeout, include_link=include_link, save=save, dry_run=dry_run)
+        op = _backup.restore(
+            self._core, self._id, source, timeout, include_link=include_link, save=save, dry_run=dry_run
+        )
         return await self._bus.run(op)
 
 

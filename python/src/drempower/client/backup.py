@@ -163,14 +163,14 @@ def _same(dtype: DataType, a: float, b: float) -> bool:
 def restore(
     core: BusCore,
     node: int,
-    source: ConfigBackup,
+    source: ConfigBackup | str | os.PathLike[str],
     timeout: float | None = None,
     *,
     include_link: bool = False,
     save: bool = False,
     dry_run: bool = False,
 ) -> Op[RestoreReport]:
-    """Write the writable configuration in ``source`` back to ``node``.
+    """Write the writable configuration in ``source`` (a backup or its JSON file) back to ``node``.
 
     Reads the current values first, writes only those that differ, then reads
     them back to verify. Read-only parameters, live values and commands
@@ -178,6 +178,8 @@ def restore(
     skipped. ``save`` sends save_config when everything was restored;
     ``dry_run`` reports the differences without writing.
     """
+    if not isinstance(source, ConfigBackup):
+        source = ConfigBackup.load(source)
     report = RestoreReport()
     todo: list[tuple[Parameter, int | float]] = []
     for rec in source.parameters:

@@ -292,6 +292,7 @@ class Motor(MotorBase):
         timeout: float | None = None,
     ) -> _backup.RestoreReport:
         """Write a backup (object or JSON file) back; see :func:`drempower.client.backup.restore`."""
-        cfg = source if isinstance(source, _backup.ConfigBackup) else _backup.ConfigBackup.load(source)
-        op = _backup.restore(self._core, self._id, cfg, timeout, include_link=include_link, save=save, dry_run=dry_run)
+        op = _backup.restore(
+            self._core, self._id, source, timeout, include_link=include_link, save=save, dry_run=dry_run
+        )
         return self._bus.run(op)
