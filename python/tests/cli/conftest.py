@@ -32,6 +32,11 @@ class Result:
 
 Cli = Callable[..., Result]
 
+SLOW_LINK = ("--timeout", "2")
+"""For commands whose replies cross threads (python-can virtual, TCP, a pty): the default
+0.1 s is right for a motor, but the simulator here shares the interpreter and CPU with
+the client, and a stalled machine can hold a reply longer. Success returns at once."""
+
 
 @pytest.fixture(autouse=True)
 def _fast_simulator(monkeypatch: pytest.MonkeyPatch) -> None:

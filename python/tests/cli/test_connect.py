@@ -9,7 +9,7 @@ import pytest
 from drempower.cli import _connect
 from drempower.cli._connect import TIME_SCALE_ENV, bitrate, can_option, connection_kwargs, parse_ids, parse_targets
 
-from .conftest import Cli
+from .conftest import SLOW_LINK, Cli
 
 
 def test_parse_ids_keeps_the_order() -> None:
@@ -71,10 +71,10 @@ def test_python_can_configuration_is_used_and_announced(
     cli: Cli, virtual_channel: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setattr(_connect, "_python_can_config", lambda: {"interface": "virtual", "channel": virtual_channel})
-    r = cli("state", "2", "--json")
+    r = cli("state", "2", "--json", *SLOW_LINK)
     assert r.code == 0 and r.records()[0]["id"] == 2
     assert r.err == f"drempower: using python-can configuration: virtual {virtual_channel}\n"
-    r = cli("state", "2", "-i", "virtual", "-c", virtual_channel, "-b", "1M")
+    r = cli("state", "2", "-i", "virtual", "-c", virtual_channel, "-b", "1M", *SLOW_LINK)
     assert r.code == 0 and r.err == ""
 
 
@@ -96,7 +96,7 @@ def test_socketcand_through_python_can_options(cli: Cli) -> None:
 
     bus = SimBus(ids=[4])
     with SimRunner(bus, time_scale=20.0), attach_socketcand(bus) as server:
-        opts = ["-i", "socketcand", "-c", "can0", "-o", "host=127.0.0.1", "-o", f"port={server.port}"]
+        opts = ["-i", "socketcand", "-c", "can0", "-o", "host=127.0.0.1", "-o", f"port={server.port}", *SLOW_LINK]
         r = cli("move", "4", "30", "--mode", "q", "--speed", "100", "--accel", "300", "--wait", *opts)
         assert r.code == 0, r.err
         r = cli("state", "4", "--json", *opts)

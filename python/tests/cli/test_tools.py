@@ -11,7 +11,7 @@ import pytest
 
 from drempower.cli import main
 
-from .conftest import Cli
+from .conftest import SLOW_LINK, Cli
 
 
 def test_sniff_shows_the_frames_of_another_command(virtual_channel: str, capsys: pytest.CaptureFixture[str]) -> None:
@@ -22,7 +22,7 @@ def test_sniff_shows_the_frames_of_another_command(virtual_channel: str, capsys:
     )
     sniffer.start()
     while sniffer.is_alive():
-        assert main(["get", "1", "vbus_voltage", *link]) == 0
+        assert main(["get", "1", "vbus_voltage", *link, *SLOW_LINK]) == 0
     sniffer.join()
     out, err = capsys.readouterr()
     records = [json.loads(line) for line in out.splitlines() if line.startswith("{")]

@@ -77,7 +77,7 @@ async def test_async_against_the_simulator() -> None:
     from drempower.sim import SimBus
 
     sim = SimBus(ids=[1, 2, 3])
-    async with open_bus_async("sim", bus=sim, time_scale=20, timeout=0.2, stop_on_close=False) as bus:
+    async with open_bus_async("sim", bus=sim, time_scale=20, timeout=1.0, stop_on_close=False) as bus:
         t = await bus.set_angles([1, 2, 3], [30, 60, 90], 60, 300, 1)
         assert t is not None
         done = await bus.positions_done([1, 2, 3], timeout=10)

@@ -16,7 +16,7 @@ from .links import TRANSPORTS, link
 def test_every_transport(kind: str) -> None:
     ids = [1] if kind == "uart" else [1, 2, 3]
     sim = SimBus(ids=ids)
-    with link(kind, sim, timeout=0.5) as bus:
+    with link(kind, sim, timeout=2.0) as bus:
         found = bus.scan(versions=True)
         assert [m.id for m in found] == ids
         assert all(m.fw_version == sim.motors[m.id].param("fw_version") for m in found)

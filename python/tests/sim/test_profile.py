@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 
 import pytest
-from hypothesis import given
+from hypothesis import example, given
 from hypothesis import strategies as st
 
 from drempower.sim.behaviour import target_time_profile
@@ -17,6 +17,7 @@ accels = st.floats(0.5, 500.0)
 
 
 @given(positions, st.floats(-20.0, 20.0), positions, speeds, accels, st.booleans())
+@example(0.0, 1.75, 1.75, 0.1, 1.75, True)  # stops exactly on target from above vmax
 def test_profile_ends_at_rest_on_target_and_is_continuous(
     x0: float, v0: float, x1: float, vmax: float, accel: float, s_curve: bool
 ) -> None:

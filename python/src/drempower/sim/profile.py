@@ -73,13 +73,13 @@ def plan(x0: float, v0: float, x1: float, vmax: float, accel: float, s_curve: bo
     ta = (vr - v0) / ar
     td = vr / (s * a)
     dmin = 0.5 * ta * (vr + v0) + 0.5 * td * vr
-    if s * dx < s * dmin:
+    if s * dx < s * dmin and s * ar > 0.0:  # too short to reach vmax: a triangle
         vr = s * math.sqrt(max((-s * a * v0 * v0 - 2.0 * ar * s * a * dx) / (-s * a - ar), 0.0))
         ta = max(0.0, (vr - v0) / ar)
         td = max(0.0, vr / (s * a))
         tv = 0.0
-    else:
-        tv = (dx - dmin) / vr
+    else:  # when slowing down to vmax, dmin is the stopping distance: dx < dmin only by rounding
+        tv = max(0.0, (dx - dmin) / vr)
     phases: list[tuple[float, float, float, float]] = []
     t = 0.0
     for dur, va, vb in ((ta, v0, vr), (tv, vr, vr), (td, vr, 0.0)):
