@@ -85,7 +85,7 @@ def test_garbage_on_the_serial_line(kind: str) -> None:
 
 def test_motor_error_mid_move_ends_the_wait() -> None:
     sim = SimBus(ids=[1, 2])
-    with link("inprocess", sim, time_scale=5, timeout=0.1) as bus:
+    with link("inprocess", sim, time_scale=5, timeout=1.0) as bus:
         bus.set_angles([1, 2], [180, 180], 10, 20, 1)  # about 3.5 s of simulated time
         sim.schedule(sim.now + 0.5, lambda: sim.motors[2].inject_error(MotorError.DRV_FAULT))
         t0 = time.monotonic()
@@ -101,7 +101,7 @@ def test_estop_mid_move_from_another_thread() -> None:
     import threading
 
     sim = SimBus(ids=[1])
-    with link("inprocess", sim, time_scale=2, timeout=0.1) as bus:
+    with link("inprocess", sim, time_scale=2, timeout=1.0) as bus:
         m = bus.motor(1)
         m.set_angle(360, 10, 20, 1)
         threading.Timer(0.1, m.estop).start()
