@@ -91,3 +91,17 @@ def test_decode_direction_override(capsys: pytest.CaptureFixture[str], monkeypat
 def test_decode_missing_file(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["decode", "/nonexistent/bus.log"]) == 1
     assert "cannot read" in capsys.readouterr().err
+
+
+def test_decode_pairs_a_zero_reply_with_its_read(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Reading axis0.error (0x03E, address 30001, u32) and its reply of 0: the same 8 bytes twice."""
+    import io
+
+    capture = "(10.000000) can0 03E#3175030000000000\n(10.000400) can0 03E#3175030000000000\n"
+    monkeypatch.setattr(sys, "stdin", io.StringIO(capture * 2))
+    assert main(["decode", "--json"]) == 0
+    recs = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert [(r["direction"], r["command"]) for r in recs] == [("host", "read_param"), ("motor", "param_value")] * 2
+    assert recs[1]["parameter"] == "axis0.error" and recs[1]["fields"]["value"] == 0

@@ -22,7 +22,7 @@ def test_sniff_shows_the_frames_of_another_command(virtual_channel: str, capsys:
     )
     sniffer.start()
     while sniffer.is_alive():
-        assert main(["get", "1", "vbus_voltage", *link, *SLOW_LINK]) == 0
+        assert main(["get", "1", "vbus_voltage", "axis0.error", *link, *SLOW_LINK]) == 0
     sniffer.join()
     out, err = capsys.readouterr()
     records = [json.loads(line) for line in out.splitlines() if line.startswith("{")]
@@ -30,6 +30,7 @@ def test_sniff_shows_the_frames_of_another_command(virtual_channel: str, capsys:
     commands = {(r["direction"], r["command"], r.get("parameter")) for r in records}
     assert ("host", "read_param", "vbus_voltage") in commands
     assert ("motor", "param_value", "vbus_voltage") in commands
+    assert ("motor", "param_value", "axis0.error") in commands  # a reply of 0, paired with its read
     assert all(r["node"] == 1 and r["time_s"] >= 0 for r in records)
 
 

@@ -9,7 +9,16 @@ from collections.abc import Iterable
 from typing import Any, TextIO
 
 from ..errors import DrEmpowerError
-from ..protocol import ParamValue, ReadParam, WriteParam, decode_frame, describe, message_fields, message_name
+from ..protocol import (
+    CaptureDecoder,
+    ParamValue,
+    ReadParam,
+    WriteParam,
+    decode_frame,
+    describe,
+    message_fields,
+    message_name,
+)
 from ..protocol.candump import parse_candump_line
 from ..protocol.parameters import find_parameter
 
@@ -34,8 +43,12 @@ def register(sub: Any) -> None:
     p.set_defaults(func=run)
 
 
-def decode_line(line: str, direction: str = "auto") -> dict[str, Any]:
-    """Decode one candump line into a JSON-ready dict (``error`` set when it cannot be decoded)."""
+def decode_line(line: str, direction: str = "auto", capture: CaptureDecoder | None = None) -> dict[str, Any]:
+    """Decode one candump line into a JSON-ready dict (``error`` set when it cannot be decoded).
+
+    With ``capture`` (one per capture, fed every line in order), a parameter reply of
+    value 0 is told from the read request it repeats.
+    """
     out: dict[str, Any] = {"line": line.rstrip("\n")}
     try:
         frame = parse_candump_line(line)
@@ -53,7 +66,10 @@ def decode_line(line: str, direction: str = "auto") -> dict[str, Any]:
         out["error"] = f"{kind} frame: DrEmpower uses standard data frames only"
         return out
     try:
-        who, msg = decode_frame(frame.arbitration_id, frame.data, direction)  # type: ignore[arg-type]
+        if capture is None:
+            who, msg = decode_frame(frame.arbitration_id, frame.data, direction)  # type: ignore[arg-type]
+        else:
+            who, msg = capture.decode(frame.arbitration_id, frame.data, frame.timestamp, direction)  # type: ignore[arg-type]
     except DrEmpowerError as exc:
         out["error"] = str(exc)
         return out
@@ -87,10 +103,11 @@ def _lines(files: list[str]) -> Iterable[str]:
 def run(args: argparse.Namespace, out: TextIO | None = None) -> int:
     out = out or sys.stdout
     bad = 0
+    capture = CaptureDecoder()
     for line in _lines(args.files):
         if not line.strip() or line.lstrip().startswith("#"):
             continue
-        rec = decode_line(line, args.direction)
+        rec = decode_line(line, args.direction, capture)
         if "error" in rec:
             bad += 1
         if args.json:

@@ -7,6 +7,7 @@ import sys
 import time
 from typing import Any
 
+from ..protocol.describe import CaptureDecoder
 from ..protocol.ids import Frame
 from ._connect import add_connection_args, count, open_transport_from_args, positive
 from ._output import add_json_arg, json_line
@@ -47,6 +48,7 @@ def run(args: argparse.Namespace) -> int:
     transport, how = open_transport_from_args(args)
     start = time.monotonic()
     seen = 0
+    capture = CaptureDecoder()
     with transport:
         try:
             while args.count is None or seen < args.count:
@@ -58,7 +60,7 @@ def run(args: argparse.Namespace) -> int:
                     continue
                 seen += 1
                 t = time.monotonic() - start
-                rec = decode_line(candump_line(frame, time.time()), args.direction)
+                rec = decode_line(candump_line(frame, time.time()), args.direction, capture)
                 rec.pop("line")
                 if args.json:
                     out.write(json_line({"time_s": round(t, 6), **rec}) + "\n")

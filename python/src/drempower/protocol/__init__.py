@@ -8,7 +8,7 @@
 PositionQ(node=1, position=-150.0, speed=10.0, accel=5.0)
 """
 
-from .describe import decode_frame, describe, message_fields, message_name
+from .describe import CaptureDecoder, decode_frame, describe, message_fields, message_name
 from .enums import AxisState, ControlMode, EncoderMode, InputMode, MotorType, TorqueMode, TrajMode, VelocityMode
 from .flags import (
     ERROR_WORDS,
@@ -115,6 +115,7 @@ __all__ = [
     "decode_command",
     "decode_error_word",
     "decode_frame",
+    "CaptureDecoder",
     "decode_reply",
     "decode_value",
     "encode_value",

@@ -15,7 +15,15 @@ from ..errors import ProtocolError
 from . import messages as m
 from .parameters import find_parameter
 
-__all__ = ["MESSAGE_NAMES", "message_name", "message_fields", "decode_frame", "Direction", "describe"]
+__all__ = [
+    "MESSAGE_NAMES",
+    "message_name",
+    "message_fields",
+    "decode_frame",
+    "CaptureDecoder",
+    "Direction",
+    "describe",
+]
 
 Direction = Literal["host", "motor", "auto"]
 
@@ -68,8 +76,9 @@ def decode_frame(arb_id: int, data: bytes, direction: Direction = "auto") -> tup
     ids 0x19/0x1B/0x1D/0x1F are taken as host commands (a motor's state reply can
     use the same ids; the host reading wins when it decodes), other odd ids are
     state replies, and a 0x1E frame with non-zero value bytes is a parameter
-    reply. A reply whose value is 0 is indistinguishable from a read request and
-    is shown as the request.
+    reply. A reply whose value is 0 has the bytes of the read request it answers
+    and is shown as the request here; :class:`CaptureDecoder` tells them apart
+    from the order of the frames.
     """
     if direction == "host":
         return "host", m.decode_command(arb_id, data)
@@ -88,6 +97,43 @@ def decode_frame(arb_id: int, data: bytes, direction: Direction = "auto") -> tup
         if cmd & 1:
             return "motor", m.decode_reply(arb_id, data)
         raise
+
+
+class CaptureDecoder:
+    """Decode a bus capture frame by frame, pairing parameter reads with their replies.
+
+    A parameter reply of value 0 repeats its read request byte for byte, so alone it
+    cannot be told from a request (:func:`decode_frame` shows it as one). This decoder
+    remembers the reads it has seen: the same frame again while that read is
+    outstanding is the motor's reply. A read stays outstanding until answered, or for
+    ``reply_window`` seconds when frames carry times. Pure: it holds no clock, the
+    caller passes each frame's time.
+    """
+
+    __slots__ = ("_pending", "reply_window")
+
+    def __init__(self, reply_window: float = 0.5) -> None:
+        self.reply_window = reply_window
+        """How long a read waits for its reply, in seconds of the frames' own times."""
+        self._pending: dict[tuple[int, bytes], float | None] = {}
+
+    def decode(
+        self, arb_id: int, data: bytes, time: float | None = None, direction: Direction = "auto"
+    ) -> tuple[str, m.Command | m.Reply]:
+        """Like :func:`decode_frame`; ``time`` (s) is the frame's capture time, if known."""
+        if direction != "auto" or arb_id & 0x1F != 0x1E:
+            return decode_frame(arb_id, data, direction)
+        key = (arb_id, bytes(data[:4]))
+        who, msg = decode_frame(arb_id, data)
+        if who == "motor":
+            self._pending.pop(key, None)
+            return who, msg
+        if key in self._pending:
+            sent = self._pending.pop(key)
+            if sent is None or time is None or time - sent <= self.reply_window:
+                return "motor", m.decode_reply(arb_id, data)
+        self._pending[key] = time
+        return who, msg
 
 
 def _fmt(v: object) -> str:
