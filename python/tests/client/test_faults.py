@@ -130,3 +130,19 @@ def test_validation_errors_send_nothing_to_the_simulator() -> None:
             with pytest.raises(drempower.ValidationError):
                 call()
         assert rec.frames == []
+
+
+def test_ctrl_c_during_a_request_leaves_nothing_waiting() -> None:
+    """An interrupted request must not stay registered and take the next request's reply."""
+    import _thread
+    import threading
+
+    sim = SimBus(ids=[1])
+    with link("inprocess", sim, time_scale=1, timeout=2.0) as bus:
+        sim.faults.silent.add(1)
+        threading.Timer(0.05, _thread.interrupt_main).start()
+        with pytest.raises(KeyboardInterrupt):
+            bus.motor(1).get_state()
+        assert len(bus._core.matcher) == 0
+        sim.faults.silent.discard(1)
+        assert bus.motor(1).get_state(timeout=2.0).node == 1

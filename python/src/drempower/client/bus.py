@@ -65,7 +65,11 @@ class Bus(BusBase[Motor]):
             while True:
                 w = ex.start()
                 assert w.event is not None
-                w.event.wait(ex.timeout)
+                try:
+                    w.event.wait(ex.timeout)
+                except BaseException:  # Ctrl-C: the waiter must not take the next request's reply
+                    core.matcher.cancel(w)
+                    raise
                 if ex.collect(w):
                     return ex.result()
         if isinstance(effect, Send):

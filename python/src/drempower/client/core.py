@@ -65,6 +65,11 @@ StopOnClose = bool | Literal["idle", "estop"]
 """What closing the bus does to the motors it commanded: see :class:`BusCore`."""
 
 _RX_SLICE = 0.25
+ZERO_REPLY_GRACE = 0.01
+"""How long (s) a parameter reply of value 0 is held back once another host is seen on the bus."""
+_HOST_ONLY_CMDS = frozenset((0x08, 0x0C, 0x1A, 0x1C, 0x1F))
+"""Commands only a host sends: seeing one that this bus did not send means another host is present."""
+_ZERO4 = bytes(4)
 _STATE = struct.Struct("<fhh").unpack
 MOTION_CMDS = frozenset((0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D))
 """Preset and control commands: they move motors, and with enable_reply_state on each is answered by a state."""
@@ -142,6 +147,10 @@ class BusCore:
         self.frames_received = 0
         self.malformed = 0
         self.unmatched = 0
+        self.other_hosts = False
+        """True once frames of another host were seen (see :meth:`_dispatch`)."""
+        self.zero_reply_grace = ZERO_REPLY_GRACE
+        self._provisional: dict[tuple[int, int], tuple[float, object]] = {}
         self._send_lock = threading.Lock()
         self._batch_lock = threading.Lock()
         self._close_lock = threading.Lock()
@@ -280,14 +289,22 @@ class BusCore:
     def _rx_loop(self) -> None:
         recv = self.transport.recv
         dispatch = self._dispatch
+        provisional = self._provisional
         try:
             while not self._closed:
-                frame = recv(_RX_SLICE)
+                wait = _RX_SLICE
+                if provisional:
+                    dues = [d for d, _ in list(provisional.values())]
+                    if dues:
+                        wait = max(0.0, min(wait, min(dues) - _monotonic()))
+                frame = recv(wait)
                 if frame is not None:
                     try:
                         dispatch(frame)
                     except Exception:
                         _log.exception("dispatching %r failed", frame)
+                if provisional:
+                    self._settle(_monotonic())
         except Exception as exc:
             if not self._closed:
                 _log.error("receive loop on %s stopped: %s", self.transport.description, exc)
@@ -312,14 +329,50 @@ class BusCore:
             self.states.update(st)
             self.matcher.resolve(node, 0, st)
             return
+        if cmd != 0x1E:
+            if cmd in _HOST_ONLY_CMDS:
+                self.other_hosts = True
+            else:
+                self.malformed += 1
+            self._unsolicited(frame)
+            return
         try:
             reply = decode_reply(arb, data)
         except ProtocolError:
             self.malformed += 1
             self._unsolicited(frame)
             return
-        if not self.matcher.resolve(reply.node, reply.address, reply):  # type: ignore[union-attr]
+        node, address = reply.node, reply.address  # type: ignore[union-attr]
+        if data[4:] == _ZERO4:
+            # A reply of value 0 has the bytes of a read request: another host's read
+            # of the same parameter looks exactly like it. With other hosts about, hold
+            # it back briefly: a second such frame or a non-zero reply settles it.
+            key = (node, address)
+            if self._provisional.pop(key, None) is not None:
+                pass  # the second such frame: the value is 0 either way
+            elif self.other_hosts and self.matcher.waiting(node, address):
+                self._provisional[key] = (_monotonic() + self.zero_reply_grace, reply)
+                return
+            if not self.matcher.resolve(node, address, reply):
+                self.other_hosts = True  # most likely another host's read request
+                self._unsolicited(frame)
+            return
+        self._provisional.pop((node, address), None)
+        if not self.matcher.resolve(node, address, reply):
             self._unsolicited(frame)
+
+    def _settle(self, now: float, keys: Sequence[tuple[int, int]] | None = None) -> None:
+        """Take held-back replies of value 0 as answers: those due by ``now``, or those for ``keys``."""
+        provisional = self._provisional
+        for key, (due, reply) in list(provisional.items()):
+            wanted = due <= now if keys is None else key in keys or (0, key[1]) in keys
+            if wanted and provisional.pop(key, None) is not None:
+                self.matcher.resolve(key[0], key[1], reply)
+
+    def settle_for(self, waiter_keys: Sequence[int]) -> None:
+        """Before a request gives up: take the held-back replies it was waiting for."""
+        if self._provisional:
+            self._settle(0.0, [(k >> 16, k & 0xFFFF) for k in waiter_keys])
 
     def _unsolicited(self, frame: Frame) -> None:
         self.unmatched += 1
@@ -454,6 +507,8 @@ class Exchange:
 
     def collect(self, w: Waiter) -> bool:
         """Take the answers ``w`` got; True when the exchange is over."""
+        if w.remaining:
+            self.core.settle_for([w.keys[i] for i in w.missing()])
         if w.remaining:
             self.core.matcher.cancel(w)
         if w.error is not None:

@@ -103,6 +103,11 @@ class Matcher:
             waiter._complete()
         return True
 
+    def waiting(self, node: int, address: int) -> bool:
+        """True when a request waits for this reply (from ``node``, or sent to broadcast)."""
+        table = self._table
+        return ((node << 16) | address) in table or address in table
+
     def cancel(self, waiter: Waiter) -> None:
         """Stop waiting for the unanswered keys of ``waiter``."""
         with self._lock:
