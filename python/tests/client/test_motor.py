@@ -145,3 +145,20 @@ def test_remembered_parameters_follow_every_write_and_reset(bus: Bus) -> None:
     assert core.traj_mode == {} and core.reply_state == {2: True}
     bus.send(SystemCommand(0, SysCmd.INIT_CONFIG))
     assert core.reply_state == {}
+
+
+def test_set_id_never_makes_two_motors_share_an_id() -> None:
+    from drempower.sim import SimBus
+
+    from .links import Recorder, link
+
+    sim = SimBus(ids=[1, 2])
+    rec = Recorder(sim)
+    with link("inprocess", sim, timeout=0.5) as bus:
+        with pytest.raises(VerifyError, match="id 1 is already taken"):
+            bus.motor(2).set_id(1)
+        with pytest.raises(VerifyError, match="no motor answers at id 3"):
+            bus.motor(3).set_id(5)
+        assert not any(f.arbitration_id & 0x1F == 0x1F for f in rec.frames)  # nothing written
+        bus.motor(2).set_id(7)
+        assert [m.id for m in bus.scan()] == [1, 7]

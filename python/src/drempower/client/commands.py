@@ -111,10 +111,38 @@ def _finite(value: float, field: str) -> float:
 
 
 def _positive(value: float, field: str, high: float = S16_MAX) -> float:
+    """A value > 0 that stays > 0 on the wire (s16 x 0.01: it must round to 0.01 or more)."""
     v = _finite(value, field)
-    if not 0 < v <= high:
-        raise FieldRangeError(field, value, 0.01, high, "must be > 0")
+    if not (round(v * 100) >= 1 and v <= high):
+        raise FieldRangeError(field, value, 0.01, high, "must be > 0 after rounding to the wire's 0.01 step")
     return v
+
+
+_NAMES = {
+    "position": "angle",
+    "speed_ff": "speed",
+    "torque_ff": "param",
+    "bandwidth": "param (bandwidth)",
+    "accel": "param (accel)",
+    "time": "move time (s)",
+}
+"""Message fields under the names of the vendor-style arguments they come from."""
+
+
+def _encoded(msgs: Sequence[Message], names: dict[str, str] = _NAMES, per_motor: tuple[str, str] | None = None) -> None:
+    """Encode every message now, so a bad value raises before anything is sent, naming the
+    argument the caller gave. ``per_motor``: (message field, list argument) of a value given
+    per motor, named with the motor, e.g. ``angle_list (motor 3)``."""
+    for msg in msgs:
+        try:
+            msg.encode()
+        except FieldRangeError as exc:
+            if per_motor is not None and exc.field == per_motor[0]:
+                raise exc.renamed(f"{per_motor[1]} (motor {msg.node})") from None
+            field = names.get(exc.field, exc.field)
+            if field == exc.field:
+                raise
+            raise exc.renamed(field) from None
 
 
 def _bandwidth(param: float) -> float:
@@ -150,11 +178,15 @@ def make_angle(
     """
     m = position_mode(mode)
     angle = _finite(angle, "angle")
+    msg: PositionT | PositionQ | PositionP
     if m is PositionMode.T:
-        return PositionT(node, angle, _bandwidth(param), abs(_finite(speed, "speed")))
-    if m is PositionMode.Q:
-        return PositionQ(node, angle, _positive(speed, "speed"), _positive(param, "param (accel)"))
-    return PositionP(node, angle, _finite(speed, "speed"), _finite(param, "param"))
+        msg = PositionT(node, angle, _bandwidth(param), abs(_finite(speed, "speed")))
+    elif m is PositionMode.Q:
+        msg = PositionQ(node, angle, _positive(speed, "speed"), _positive(param, "param (accel)"))
+    else:
+        msg = PositionP(node, angle, _finite(speed, "speed"), _finite(param, "param"))
+    _encoded([msg])
+    return msg
 
 
 def make_speed(node: int, speed: float, param: float = 0.0, mode: int = VelocityMode.PASSTHROUGH) -> Velocity:
@@ -165,17 +197,22 @@ def make_speed(node: int, speed: float, param: float = 0.0, mode: int = Velocity
     """
     m = velocity_mode(mode)
     speed = _finite(speed, "speed")
-    param = _finite(param, "param")
-    if m is VelocityMode.PASSTHROUGH and speed == 0:
-        param = 0.0
-    return Velocity(node, speed, param, m)
+    if m is VelocityMode.RAMP:
+        param = _positive(param, "param (ramp rate)")
+    else:
+        param = 0.0 if speed == 0 else _finite(param, "param")
+    msg = Velocity(node, speed, param, m)
+    _encoded([msg])
+    return msg
 
 
 def make_torque(node: int, torque: float, param: float = 0.0, mode: int = TorqueMode.DIRECT) -> Torque:
     """Apply ``torque`` Nm (vendor ``set_torque``). mode 1: direct; mode 6: ramp at ``param`` Nm/s."""
     m = torque_mode(mode)
     torque = _finite(torque, "torque")
-    return Torque(node, torque, 0.0 if m is TorqueMode.DIRECT else _finite(param, "param"), m)
+    msg = Torque(node, torque, 0.0 if m is TorqueMode.DIRECT else _positive(param, "param (ramp rate)"), m)
+    _encoded([msg])
+    return msg
 
 
 def make_impedance(
@@ -190,7 +227,9 @@ def make_impedance(
     for value, field in ((kp, "kp"), (kd, "kd")):
         if not 0 <= _finite(value, field) <= S16_MAX:
             raise FieldRangeError(field, value, 0, S16_MAX, "impedance gains are >= 0")
-    return preset, StartImpedance(node, float(kp), float(kd))
+    start = StartImpedance(node, float(kp), float(kd))
+    _encoded([preset, start], {"position": "pos", "speed": "vel", "torque_ff": "tff"})
+    return preset, start
 
 
 def q_move_time(distance: float, speed: float, accel: float, traj_mode: int = TrajMode.TRAPEZOID) -> float:
@@ -250,8 +289,7 @@ def make_angles(
         presets = [PresetP(n, float(a), sff, tff) for n, a in zip(nodes, angles, strict=True)]
         kind = StartKind.P
     start = Start(0, kind, relative)
-    for msg in (*presets, start):
-        msg.encode()
+    _encoded([*presets, start], per_motor=("position", "angle_list"))
     return presets, start
 
 
@@ -261,14 +299,13 @@ def make_speeds(
     """Presets and start of a synchronised speed change (vendor ``set_speeds``); one param/mode for all."""
     nodes = check_ids(ids, speeds, "speed_list")
     m = velocity_mode(mode)
-    prm = _finite(param, "param")
+    prm = _positive(param, "param (ramp rate)") if m is VelocityMode.RAMP else _finite(param, "param")
     presets: list[Message] = [
         PresetV(n, float(s), 0.0 if (m is VelocityMode.PASSTHROUGH and s == 0) else prm, m)
         for n, s in zip(nodes, speeds, strict=True)
     ]
     start = Start(0, StartKind.V)
-    for msg in (*presets, start):
-        msg.encode()
+    _encoded([*presets, start], per_motor=("speed", "speed_list"))
     return presets, start
 
 
@@ -278,9 +315,8 @@ def make_torques(
     """Presets and start of a synchronised torque change (vendor ``set_torques``); one param/mode for all."""
     nodes = check_ids(ids, torques, "torque_list")
     m = torque_mode(mode)
-    prm = 0.0 if m is TorqueMode.DIRECT else _finite(param, "param")
+    prm = 0.0 if m is TorqueMode.DIRECT else _positive(param, "param (ramp rate)")
     presets: list[Message] = [PresetC(n, float(t), prm, m) for n, t in zip(nodes, torques, strict=True)]
     start = Start(0, StartKind.C)
-    for msg in (*presets, start):
-        msg.encode()
+    _encoded([*presets, start], per_motor=("torque", "torque_list"))
     return presets, start

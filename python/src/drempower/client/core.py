@@ -201,8 +201,10 @@ class BusCore:
         if address == 35104:
             if node == 0:
                 self.traj_mode.clear()
-            else:
+            elif value in (1, 2):
                 self.traj_mode[node] = int(value)
+            else:  # not a mode a move can be timed with: read it again (and refuse it) when needed
+                self.traj_mode.pop(node, None)
         elif address == 31214:
             if node == 0:
                 self.reply_state.clear()

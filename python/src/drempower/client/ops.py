@@ -7,7 +7,7 @@ import struct
 import time
 from collections.abc import Sequence
 
-from ..errors import FieldRangeError, ValidationError
+from ..errors import DrEmpowerError, FieldRangeError, ValidationError
 from ..protocol.ids import MAX_NODE, SysCmd
 from ..protocol.messages import ReadParam, SystemCommand, WriteParam
 from ..protocol.parameters import DataType, Parameter, parameter
@@ -106,10 +106,25 @@ def get_id(node: int, timeout: float | None = None) -> Op[int]:
 
 
 def set_id(core: BusCore, node: int, new_id: int, timeout: float | None = None) -> Op[None]:
-    """Give the motor ``new_id`` (1..63), check that it answers there, then save."""
+    """Give the motor ``new_id`` (1..63), check that it answers there, then save.
+
+    Before writing: the motor must answer at ``node`` (any motor, for broadcast 0)
+    and no motor may answer at ``new_id``, so two motors never end up sharing an id.
+    """
     if new_id.__class__ is not int or not 1 <= new_id <= MAX_NODE:
         raise FieldRangeError("new_id", new_id, 1, MAX_NODE, "motor ids are 1..63")
-    yield Send([WriteParam.of(node, "axis0.config.can_node_id", new_id)])
+    write = WriteParam.of(node, "axis0.config.can_node_id", new_id)
+    if new_id == node:
+        (present,) = yield from read_states([node], timeout, missing_ok=True)
+        if present is None:
+            raise VerifyError(f"no motor answers at id {node}; nothing was changed")
+    else:
+        here, taken = yield from read_states([node, new_id], timeout, missing_ok=True)
+        if taken is not None:
+            raise VerifyError(f"id {new_id} is already taken by another motor; nothing was changed")
+        if here is None:
+            raise VerifyError(f"no motor answers at id {node}; nothing was changed")
+    yield Send([write])
     try:
         answered = yield from get_id(new_id, timeout)
     except TimeoutError as exc:
@@ -163,7 +178,17 @@ def set_mode(node: int, mode: int) -> WriteParam:
 def get_traj_mode(core: BusCore, node: int, timeout: float | None = None) -> Op[TrajMode]:
     """The motor's Q-mode profile (35104), read and remembered."""
     value = yield from read_property(core, node, 35104, timeout)
-    return TrajMode(int(value))
+    return _reported_traj_mode(node, value)
+
+
+def _reported_traj_mode(node: int, value: object) -> TrajMode:
+    try:
+        return TrajMode(value)
+    except ValueError:
+        raise DrEmpowerError(
+            f"motor {node} reports axis0.trap_traj.config.traj_mode={value!r}, which is neither "
+            "1 (trapezoid) nor 2 (S-curve); set it with set_traj_mode"
+        ) from None
 
 
 def set_traj_mode(node: int, mode: int, timeout: float | None = None) -> Op[None]:
@@ -182,7 +207,7 @@ def traj_modes(core: BusCore, nodes: Sequence[int], timeout: float | None = None
         p = parameter(35104)
         replies = yield from request([ReadParam(n, p.address, p.dtype) for n in unknown], timeout)
         for n, r in zip(unknown, replies, strict=True):
-            core.learn(n, p.address, r.value)
+            core.learn(n, p.address, int(_reported_traj_mode(n, r.value)))
     return {n: core.traj_mode[n] for n in nodes}
 
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from enum import Enum, IntEnum
 
 from ..errors import FieldRangeError, ProtocolError, ValidationError
+from .enums import AxisState, ControlMode, InputMode, TrajMode
 
 __all__ = [
     "DataType",
@@ -71,11 +72,30 @@ class Parameter:
     def writable(self) -> bool:
         return self.access is Access.RW
 
+    @property
+    def choices(self) -> type[IntEnum] | None:
+        """The enum of the values this parameter takes, for the modes and states with a fixed set."""
+        return _CHOICES.get(self.address)
+
     def encode(self, value: int | float | bool) -> bytes:
         """Encode ``value`` in this parameter's type (4 bytes, little-endian, zero padded)."""
         if self.is_bool and value not in (0, 1, True, False):
             raise FieldRangeError(self.name, value, 0, 1, "bool parameter, sent as u32")
+        choices = _CHOICES.get(self.address)
+        if choices is not None and value not in set(choices):
+            low, high = min(choices), max(choices)
+            names = ", ".join(f"{int(c)} {c.name}" for c in choices)
+            raise FieldRangeError(self.name, value, low, high, f"{choices.__name__}: {names}")
         return encode_value(self.dtype, value, field=self.name)
+
+
+_CHOICES: dict[int, type[IntEnum]] = {
+    30003: AxisState,  # axis0.requested_state
+    32105: ControlMode,  # axis0.controller.config.control_mode
+    32106: InputMode,  # axis0.controller.config.input_mode
+    35104: TrajMode,  # axis0.trap_traj.config.traj_mode
+}
+"""Parameters whose values form a fixed set (PROTOCOL.md section 5)."""
 
 
 _INT_RANGES: dict[DataType, tuple[int, int, str]] = {
