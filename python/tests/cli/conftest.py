@@ -12,6 +12,7 @@ import pytest
 
 from drempower.cli import main
 from drempower.cli._connect import TIME_SCALE_ENV
+from drempower.protocol import Frame
 from drempower.sim import SimBus, SimRunner, attach_python_can
 from drempower.transports import sim as sim_transport
 
@@ -45,10 +46,17 @@ def _fast_simulator(monkeypatch: pytest.MonkeyPatch) -> None:
 
 @pytest.fixture
 def cli(capsys: pytest.CaptureFixture[str]) -> Cli:
-    """``cli("state", "1", "--sim", "1")``: run the command, return exit code and output."""
+    """``cli("state", "1", "--sim", "1")``: run the command, return exit code and output.
+
+    The code is the process's exit code: usage errors (argparse's, and those
+    found afterwards) exit 2 through SystemExit.
+    """
 
     def run(*argv: str) -> Result:
-        code = main(list(argv))
+        try:
+            code = main(list(argv))
+        except SystemExit as exc:
+            code = exc.code if isinstance(exc.code, int) else 1
         out, err = capsys.readouterr()
         return Result(code, out, err)
 
@@ -71,6 +79,20 @@ def sim(monkeypatch: pytest.MonkeyPatch) -> Iterator[SimBus]:
     monkeypatch.setattr(sim_transport, "SimTransport", shared)
     with SimRunner(bus, TIME_SCALE):
         yield bus
+
+
+@pytest.fixture
+def host_frames(sim: SimBus, monkeypatch: pytest.MonkeyPatch) -> list[Frame]:
+    """Every frame the commands of the test send to the shared simulated motors, in order."""
+    frames: list[Frame] = []
+    send = sim.send
+
+    def recording(frame: Frame) -> None:
+        frames.append(frame)
+        send(frame)
+
+    monkeypatch.setattr(sim, "send", recording)
+    return frames
 
 
 @pytest.fixture

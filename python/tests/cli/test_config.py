@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path
 
 import pytest
@@ -34,12 +35,17 @@ def test_set_then_get(cli: Cli, sim: SimBus) -> None:
         (("axis0.controller.input_pos", "1"), "add --force"),
         (("enable_damp_idle", "maybe"), "is a flag"),
         (("can.config.timeout_ms", "1.5"), "takes a whole number (u32)"),
-        (("can.config.timeout_ms",), "give NAME VALUE pairs"),
     ],
 )
 def test_set_refuses(cli: Cli, args: tuple[str, ...], message: str) -> None:
     r = cli("set", "1", *args, "--sim", "1")
     assert r.code == 1 and message in r.err
+
+
+def test_set_needs_name_value_pairs(cli: Cli) -> None:
+    r = cli("set", "1", "can.config.timeout_ms", "--sim", "1")
+    assert r.code == 2 and r.err.startswith("usage: drempower set ")
+    assert "drempower set: error: give NAME VALUE pairs; the last name has no value" in r.err
 
 
 def test_save_and_reboot_keep_the_value(cli: Cli, sim: SimBus) -> None:
@@ -49,6 +55,24 @@ def test_save_and_reboot_keep_the_value(cli: Cli, sim: SimBus) -> None:
     assert r.code == 0 and r.out == "motors 1, 2: rebooted and answering\n"
     recs = cli("get", "1,2", STALL, "--json", "--sim", "1,2").records()
     assert [rec["value"] for rec in recs] == [4, 10]
+
+
+def test_save_reboot_set_id_and_set_bitrate_json(cli: Cli, sim: SimBus) -> None:
+    r = cli("save", "1", "2", "--json", "--sim", "1,2")
+    assert r.code == 0 and [(rec["id"], rec["command"], rec["sent"]) for rec in r.records()] == [
+        (1, "save", True),
+        (2, "save", True),
+    ]
+    (rec,) = cli("reboot", "1", "--wait", "--json", "--sim", "1").records()
+    assert rec == {"id": 1, "broadcast": False, "command": "reboot", "sent": True, "answering": True}
+    (rec,) = cli("reboot", "all", "--json", "--sim", "1").records()
+    assert rec == {"id": 0, "broadcast": True, "command": "reboot", "sent": True, "answering": None}
+    (rec,) = cli("set-bitrate", "2", "500k", "--json", "--sim", "2").records()
+    assert rec == {"id": 2, "link": "can", "bitrate": 500000, "saved": True, "applies": "after a reboot"}
+    (rec,) = cli("set-id", "3", "7", "--json", "--sim", "3").records()
+    assert rec == {"id": 3, "new_id": 7, "saved": True}
+    r = cli("set", "1", STALL, "4", "--save", "--json", "--sim", "1")
+    assert [rec.get("command") for rec in r.records()] == [None, "save"]
 
 
 def test_set_with_save(cli: Cli, sim: SimBus) -> None:
@@ -63,10 +87,9 @@ def test_set_id(cli: Cli, sim: SimBus) -> None:
     assert r.code == 0 and r.out == "motor 3 is now motor 7 (saved)\n"
     assert sim.motors[3].node_id == 7
     assert cli("state", "7", "--sim", "3").code == 0
-    with pytest.raises(SystemExit):
-        cli("set-id", "7", "64", "--sim", "3")
+    assert cli("set-id", "7", "64", "--sim", "3").code == 2
     r = cli("set-id", "4", "5", "--sim", "3", "--timeout", "0.25")
-    assert r.code == 1 and "motor 4" in r.err
+    assert r.code == 1 and re.search(r"\b4\b", r.err)
 
 
 def test_set_bitrate(cli: Cli, sim: SimBus) -> None:
@@ -75,8 +98,7 @@ def test_set_bitrate(cli: Cli, sim: SimBus) -> None:
     assert sim.motors[2].param("can.config.baud_rate") == 500000
     r = cli("set-bitrate", "2", "300k", "--sim", "2")
     assert r.code == 1 and "CAN bitrates are 125000, 250000, 500000, 1000000" in r.err
-    with pytest.raises(SystemExit):
-        cli("set-bitrate", "2", "fast", "--sim", "2")
+    assert cli("set-bitrate", "2", "fast", "--sim", "2").code == 2
 
 
 def test_backup_diff_restore(cli: Cli, sim: SimBus, tmp_path: Path) -> None:
@@ -99,6 +121,20 @@ def test_backup_diff_restore(cli: Cli, sim: SimBus, tmp_path: Path) -> None:
     assert r.out.splitlines()[-1].startswith("motor 1: 1 written,") and r.out.endswith("saved\n")
     assert sim.motors[1].param(STALL) == 10
     assert cli("diff", "1", str(path), "--sim", "1").out.endswith("configuration matches " + str(path) + "\n")
+
+
+def test_backup_diff_restore_json(cli: Cli, sim: SimBus, tmp_path: Path) -> None:
+    path = tmp_path / "motor2.json"
+    (rec,) = cli("backup", "2", str(path), "--json", "--sim", "2").records()
+    assert rec["id"] == 2 and rec["file"] == str(path) and rec["parameters"] > 100 and rec["unreadable"] == []
+    (rec,) = cli("diff", "2", str(path), "--json", "--sim", "2").records()
+    assert rec == {"id": 2, "file": str(path), "matches": True}
+    (rec,) = cli("restore", "2", str(path), "--json", "--sim", "2").records()
+    assert rec["id"] == 2 and rec["written"] == 0 and rec["unchanged"] > 0 and rec["saved"] is False
+    cli("set", "2", STALL, "2.5", "--sim", "2")
+    changed, summary = cli("restore", "2", str(path), "--save", "--json", "--sim", "2").records()
+    assert changed == {"name": STALL, "was": 2.5, "now": 10, "unit": "A"}
+    assert summary["written"] == 1 and summary["saved"] is True
 
 
 def test_restore_of_a_bad_file(cli: Cli, tmp_path: Path) -> None:

@@ -51,14 +51,37 @@ def test_python_can_options_pass_through() -> None:
 
 
 def test_ids_named_twice_across_words(cli: Cli) -> None:
-    with pytest.raises(SystemExit) as exc:
-        cli("state", "1,2", "2", "--sim", "1,2")
-    assert exc.value.code == 2
+    r = cli("state", "1,2", "2", "--sim", "1,2")
+    assert r.code == 2 and "motor 2 named twice" in r.err
 
 
 def test_one_connection_only(cli: Cli) -> None:
     r = cli("state", "1", "--sim", "1", "--serial", "/dev/null")
-    assert r.code == 1 and "give one connection: --serial, --sim conflict" in r.err
+    assert r.code == 2 and r.err.startswith("usage: drempower state ")
+    assert r.err.endswith("drempower state: error: give one connection: --serial, --sim conflict\n")
+    r = cli("state", "1", "--uart", "/dev/null", "-i", "virtual")
+    assert r.code == 2 and "give one connection: --uart, -i/--interface conflict" in r.err
+
+
+def test_python_can_options_need_a_python_can_interface(cli: Cli, monkeypatch: pytest.MonkeyPatch) -> None:
+    monkeypatch.setattr(_connect, "_python_can_config", lambda: None)
+    r = cli("state", "1", "-c", "can0")
+    assert r.code == 2
+    assert "drempower state: error: -c/--channel needs -i/--interface (no python-can configuration names" in r.err
+    r = cli("state", "1", "-o", "port=1")
+    assert r.code == 2 and "-o/--can-option needs -i/--interface" in r.err
+    r = cli("state", "1", "--sim", "1", "-c", "can0")
+    assert r.code == 2 and "-c/--channel: only with -i/--interface, not with --sim" in r.err
+
+
+def test_channel_and_options_add_to_the_python_can_configuration(
+    cli: Cli, virtual_channel: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    config = {"interface": "virtual", "channel": "drempower-cli-nowhere"}
+    monkeypatch.setattr(_connect, "_python_can_config", lambda: config)
+    r = cli("state", "2", "-c", virtual_channel, "-o", "receive_own_messages=false", "--json", *SLOW_LINK)
+    assert r.code == 0 and r.records()[0]["id"] == 2
+    assert r.err == f"drempower: using python-can configuration: virtual {virtual_channel}\n"
 
 
 def test_without_connection_or_configuration(cli: Cli, monkeypatch: pytest.MonkeyPatch) -> None:

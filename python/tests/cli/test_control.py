@@ -23,6 +23,22 @@ def test_stop_broadcasts_an_estop(cli: Cli, sim: SimBus) -> None:
     assert "then: drempower clear 1 && drempower enable 1" in r.out
 
 
+def test_stop_json(cli: Cli, sim: SimBus) -> None:
+    r = cli("stop", "--json", "--sim", "1,2,3")
+    assert r.code == 0 and r.records() == [{"id": 0, "broadcast": True, "command": "estop", "sent": True}]
+    r = cli("stop", "2", "3", "--json", "--sim", "2,3")
+    assert r.records() == [
+        {"id": 2, "broadcast": False, "command": "estop", "sent": True},
+        {"id": 3, "broadcast": False, "command": "estop", "sent": True},
+    ]
+
+
+@pytest.mark.parametrize("command", ["clear", "idle", "enable"])
+def test_broadcasts_json(cli: Cli, sim: SimBus, command: str) -> None:
+    r = cli(command, "all", "--json", "--sim", "1,2,3")
+    assert r.code == 0 and r.records() == [{"id": 0, "broadcast": True, "command": command, "sent": True}]
+
+
 def test_stop_some_motors(cli: Cli, sim: SimBus) -> None:
     assert cli("stop", "2", "--sim", "2").out == "emergency stop sent to motor 2\n"
     assert sim.motors[2].axis_error & AxisError.ESTOP_REQUESTED
@@ -60,9 +76,8 @@ def test_idle_and_enable_all(cli: Cli, sim: SimBus) -> None:
 
 
 def test_all_stands_alone(cli: Cli) -> None:
-    with pytest.raises(SystemExit) as exc:
-        cli("idle", "all", "2", "--sim", "2")
-    assert exc.value.code == 2
+    r = cli("idle", "all", "2", "--sim", "2")
+    assert r.code == 2 and "`all` stands alone" in r.err
 
 
 def test_zero_and_save(cli: Cli, sim: SimBus) -> None:

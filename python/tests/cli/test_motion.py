@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from drempower.client import Bus
+from drempower.protocol import Frame
 from drempower.protocol.enums import AxisState
 from drempower.sim import SimBus
 
@@ -53,18 +54,85 @@ def test_move_t_and_p_modes(cli: Cli, sim: SimBus, args: tuple[str, ...], target
 
 def test_options_of_another_mode_are_refused(cli: Cli) -> None:
     r = cli("move", "1", "90", "--mode", "t", "--accel", "5", "--sim", "1")
-    assert r.code == 1 and "--accel applies to mode q, not t" in r.err
+    assert r.code == 2 and "drempower move: error: --accel applies to mode q, not t" in r.err
 
 
-def test_value_count_must_match(cli: Cli) -> None:
-    r = cli("move", "1,2,3", "10,20", "--sim", "1,2,3")
-    assert r.code == 1 and "3 motors but 2 angle values" in r.err
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (("move", "1,2,3", "10,20", "--sim", "1,2,3"), "3 motors but 2 angle values"),
+        (("move", "1,2", "90,1,2", "--sim", "1,2"), "2 motors but 3 angle values"),
+        (("speed", "1,2", "1,2,3", "--sim", "1,2"), "2 motors but 3 speed values"),
+        (("impedance", "1,2,3", "1,2", "--kp", "1", "--kd", "1", "--sim", "1,2,3"), "3 motors but 2 position values"),
+    ],
+)
+def test_value_count_must_match(cli: Cli, host_frames: list[Frame], argv: tuple[str, ...], message: str) -> None:
+    r = cli(*argv)
+    assert r.code == 2
+    assert r.err.startswith(f"usage: drempower {argv[0]} ")
+    assert f"drempower {argv[0]}: error: {message}: give one for all or one each" in r.err
+    assert host_frames == []
 
 
-def test_out_of_range_values_are_refused_before_sending(cli: Cli, sim: SimBus) -> None:
+def test_out_of_range_values_are_refused_before_sending(cli: Cli, host_frames: list[Frame]) -> None:
     r = cli("move", "1", "90", "--speed", "400", "--sim", "1")
-    assert r.code == 1 and "speed" in r.err
-    assert sim.motors[1].position == 0
+    assert r.code == 2 and "argument --speed: expected a number 0.01..327.67, got '400'" in r.err
+    assert host_frames == []
+
+
+@pytest.mark.parametrize(
+    ("argv", "message"),
+    [
+        (("move", "1", "45", "--accel", "0.001"), "argument --accel: expected a number 0.01..327.67, got '0.001'"),
+        (("move", "1", "45", "--speed", "0.004"), "argument --speed: expected a number 0.01..327.67, got '0.004'"),
+        (("move", "1", "45", "--speed", "0.005"), "argument --speed: expected a number 0.01..327.67, got '0.005'"),
+        (
+            ("move", "1", "45", "--mode", "t", "--bandwidth", "0.001"),
+            "argument --bandwidth: expected a number 0.01..300",
+        ),
+        (("speed", "1", "10", "--ramp", "0.001"), "argument --ramp: expected a number 0.01..327.67, got '0.001'"),
+        (("torque", "1", "0.5", "--ramp", "0.0049"), "argument --ramp: expected a number 0.01..327.67, got '0.0049'"),
+        (("move", "1", "45", "--accel", "nan"), "argument --accel: expected a number 0.01..327.67, got 'nan'"),
+    ],
+)
+def test_rates_that_would_reach_the_motor_as_0_are_refused(
+    cli: Cli, host_frames: list[Frame], argv: tuple[str, ...], message: str
+) -> None:
+    """Speeds, accelerations, bandwidths and ramps travel as s16 x 0.01: anything that rounds to 0 is refused."""
+    r = cli(*argv, "--sim", "1")
+    assert r.code == 2 and message in r.err
+    assert host_frames == []
+
+
+def test_the_smallest_rate_that_reaches_the_motor_is_taken(cli: Cli, sim: SimBus) -> None:
+    r = cli("speed", "1", "1", "--ramp", "0.006", "--json", "--sim", "1")
+    assert r.code == 0 and r.records() == [{"id": 1, "speed_rpm": 1.0}]
+
+
+@pytest.mark.parametrize(
+    ("argv", "option", "field"),
+    [
+        (("speed", "1", "10", "--torque-ff", "400"), "--torque-ff", "param="),
+        (("speed", "1", "1e40"), "RPM", "speed="),
+        (("torque", "1", "-1e40"), "NM", "torque="),
+        (("move", "1", "1e40"), "ANGLES", "position="),
+        (("move", "1", "0", "--mode", "p", "--speed-ff", "400"), "--speed-ff", "speed="),
+        (("move", "1", "0", "--mode", "p", "--torque-ff", "-400"), "--torque-ff", "param="),
+        (("impedance", "1", "0", "--kp", "1", "--kd", "1", "--vel", "400"), "--vel", "speed="),
+        (("impedance", "1", "0", "--kp", "1", "--kd", "1", "--tff", "400"), "--tff", "torque_ff="),
+        (("impedance", "1", "0", "--kp", "400", "--kd", "1"), "--kp", "kp="),
+        (("impedance", "1", "0", "--kp", "1", "--kd", "-1"), "--kd", "kd="),
+        (("impedance", "1", "1e40", "--kp", "1", "--kd", "1"), "POS", "position="),
+    ],
+)
+def test_out_of_range_errors_name_the_option_typed(
+    cli: Cli, host_frames: list[Frame], argv: tuple[str, ...], option: str, field: str
+) -> None:
+    r = cli(*argv, "--sim", "1")
+    assert r.code == 2
+    assert f"drempower {argv[0]}: error: argument {option}: " in r.err and "is out of range: allowed" in r.err
+    assert field not in r.err
+    assert host_frames == []
 
 
 def test_motion_refused_while_estopped(cli: Cli, sim: SimBus) -> None:
@@ -99,7 +167,25 @@ def test_torque_and_impedance(cli: Cli, sim: SimBus) -> None:
     r = cli("impedance", "2", "-20", "--kp", "20", "--kd", "1", "--sim", "2")
     assert r.code == 0 and r.out.startswith("motor 2: position -20.00 deg (kp 20 Nm/rad, kd 1 Nm/(rad/s)")
     r = cli("impedance", "2", "0", "--kp", "400", "--kd", "1", "--sim", "2")
-    assert r.code == 1 and "kp" in r.err
+    assert r.code == 2 and "argument --kp: 400 is out of range: allowed 0..327.67" in r.err
+
+
+def test_impedance_checks_every_motor_before_sending_anything(cli: Cli, host_frames: list[Frame]) -> None:
+    r = cli("impedance", "1,2", "30,1e40", "--kp", "5", "--kd", "0.5", "--sim", "1,2")
+    assert r.code == 2 and "argument POS: 1e+40 is out of range" in r.err
+    assert host_frames == []
+
+
+def test_impedance_of_several_motors_starts_them_together(cli: Cli, sim: SimBus, host_frames: list[Frame]) -> None:
+    r = cli("impedance", "1,2", "20,-20", "--kp", "20", "--kd", "1", "--json", "--sim", "1,2")
+    assert r.code == 0 and r.records() == [{"id": 1, "position_deg": 20.0}, {"id": 2, "position_deg": -20.0}]
+    motion = [
+        (f.arbitration_id >> 5, f.arbitration_id & 0x1F, f.data[0])
+        for f in host_frames
+        if f.arbitration_id & 0x1F in (0x0C, 0x08)
+    ]
+    assert motion == [(1, 0x0C, motion[0][2]), (2, 0x0C, motion[1][2]), (0, 0x08, 0x15)]
+    cli("idle", "1,2", "--sim", "1,2")
 
 
 def test_ctrl_c_sets_the_commanded_motors_idle(cli: Cli, sim: SimBus, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -34,3 +34,7 @@ def test_a_silent_motor_exits_1_with_one_line() -> None:
 def test_usage_errors_exit_2() -> None:
     p = drempower("move", "1")
     assert p.returncode == 2 and "the following arguments are required: ANGLES" in p.stderr
+    p = drempower("move", "1,2", "90,1,2", "--sim", "1,2")
+    assert p.returncode == 2 and p.stdout == ""
+    assert p.stderr.startswith("usage: drempower move ")
+    assert p.stderr.endswith("drempower move: error: 2 motors but 3 angle values: give one for all or one each\n")

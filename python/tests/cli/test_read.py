@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import csv
+from collections.abc import Sequence
 from pathlib import Path
 
 import pytest
 
-from drempower.cli import _output
-from drempower.protocol import AxisError
+from drempower.cli import _output, _readings, monitor
+from drempower.client import Bus
+from drempower.protocol import AxisError, FastRead, Frame, decode_frame
 from drempower.sim import SimBus
 
 from .conftest import Cli
@@ -63,7 +65,7 @@ def test_monitor_plain_lines_and_csv(cli: Cli, sim: SimBus, tmp_path: Path) -> N
     lines = r.out.splitlines()
     assert lines[0].split()[:3] == ["time/s", "id", "position/deg"]
     assert "time/s" not in "".join(lines[1:])
-    assert len(lines) - 1 >= 4 and (len(lines) - 1) % 2 == 0
+    assert len(lines) - 1 >= 2 and (len(lines) - 1) % 2 == 0
     assert "OVER_TEMP" in lines[2]
     rows = list(csv.DictReader(log.open()))
     assert len(rows) == len(lines) - 1
@@ -81,6 +83,45 @@ def test_monitor_json(cli: Cli) -> None:
     recs = cli("monitor", "3", "--sim", "3", "--rate", "50", "--duration", "0.1", "--json").records()
     assert recs and all(rec["id"] == 3 for rec in recs)
     assert recs[0]["time_s"] <= recs[-1]["time_s"]
+
+
+class FakeClock:
+    """``time.monotonic`` and ``time.sleep`` of a clock that moves only when told."""
+
+    def __init__(self) -> None:
+        self.now = 0.0
+
+    def monotonic(self) -> float:
+        return self.now
+
+    def sleep(self, seconds: float) -> None:
+        self.now += seconds
+
+
+def test_monitor_duration_is_wall_clock_time(cli: Cli, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Readings that take longer than 1/RATE do not stretch --duration."""
+    clock = FakeClock()
+    read = _readings.read
+
+    def slow_read(bus: Bus, ids: Sequence[int], *, missing_ok: bool = False) -> list[_readings.Reading]:
+        clock.now += 0.4
+        return read(bus, ids, missing_ok=missing_ok)
+
+    monkeypatch.setattr(monitor, "time", clock)
+    monkeypatch.setattr(_readings, "read", slow_read)
+    recs = cli("monitor", "1", "--sim", "1", "--rate", "10", "--duration", "1", "--json").records()
+    assert [rec["time_s"] for rec in recs] == [0.0, 0.4, 0.8]
+
+
+def test_monitor_asks_a_silent_motor_only_for_its_state(cli: Cli, sim: SimBus, host_frames: list[Frame]) -> None:
+    r = cli("monitor", "1", "4", "--sim", "1,2,3", "--duration", "0.01", "--timeout", "0.25", "--json")
+    assert r.code == 0
+    assert [(rec["id"], rec["errors"], rec["state"]) for rec in r.records()] == [
+        (1, "", "closed_loop"),
+        (4, "no answer", None),
+    ]
+    to_4 = [decode_frame(f.arbitration_id, f.data, "host")[1] for f in host_frames if f.arbitration_id >> 5 == 4]
+    assert to_4 and all(isinstance(msg, FastRead) for msg in to_4)
 
 
 def test_get_shows_units(cli: Cli) -> None:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 import json
 import shutil
 import subprocess
@@ -9,7 +10,7 @@ import threading
 
 import pytest
 
-from drempower.cli import main
+from drempower.cli import build_parser, main
 
 from .conftest import SLOW_LINK, Cli
 
@@ -69,8 +70,35 @@ def test_bus_load_with_reply_state_and_overload(cli: Cli) -> None:
     assert quiet["bits_per_cycle"] < polled["bits_per_cycle"]
     r = cli("bus-load", "--motors", "20", "--rate", "500", "--bitrate", "500k")
     assert "over 100 %" in r.out
-    with pytest.raises(SystemExit):
-        cli("bus-load", "--motors", "64", "--rate", "100")
+    assert cli("bus-load", "--motors", "64", "--rate", "100").code == 2
+
+
+def test_every_subcommand_takes_json() -> None:
+    (commands,) = [a for a in build_parser()._actions if isinstance(a, argparse._SubParsersAction)]
+    without = [
+        name for name, p in commands.choices.items() if not any("--json" in a.option_strings for a in p._actions)
+    ]
+    assert without == []
+
+
+def test_params_finding_nothing_fails_with_json_too(cli: Cli) -> None:
+    r = cli("params", "no-such-parameter-word", "--json")
+    assert r.code == 1 and r.out == "" and "no parameter matches" in r.err
+
+
+def test_sim_json(cli: Cli) -> None:
+    channel = "drempower-cli-sim-json"
+    r = cli("sim", "--ids", "1,2", "--python-can", channel, "--duration", "0.05", "--json")
+    assert r.code == 0
+    start, attachment, running, stopped = r.records()
+    assert start == {"motors": [1, 2], "bitrate": None, "time_scale": 1.0}
+    assert attachment == {"attachment": "python-can", "interface": "virtual", "channel": channel}
+    assert running == {"running": True} and stopped["stopped"] is True and stopped["bus_load"] is None
+
+
+def test_sim_refuses_a_uart_of_another_motor(cli: Cli) -> None:
+    r = cli("sim", "--ids", "1", "--uart-pty", "2", "--duration", "0.1")
+    assert r.code == 2 and "drempower sim: error: --uart-pty 2 is not one of --ids" in r.err
 
 
 def test_completion_script(cli: Cli) -> None:
@@ -103,6 +131,19 @@ def test_demo(cli: Cli) -> None:
     assert "targets reached: 3/3" in r.out
     sync = next(line for line in lines if line.startswith("max sync error:"))
     assert float(sync.split()[3]) < 1.0
+
+
+def test_demo_json(cli: Cli) -> None:
+    r = cli("demo", "--motors", "2", "--json")
+    assert r.code == 0, r.err
+    (rec,) = r.records()
+    assert rec["motors"] == [1, 2] and rec["targets_deg"] == [90.0, -45.0] and rec["reached"] == 2
+    assert rec["move_time_s"] > 0 and rec["max_sync_error_deg"] < 1.0
+
+
+def test_completion_json(cli: Cli) -> None:
+    (rec,) = cli("completion", "bash", "--json").records()
+    assert rec["shell"] == "bash" and rec["script"] == cli("completion", "bash").out
 
 
 def test_demo_live_on_a_terminal(cli: Cli, monkeypatch: pytest.MonkeyPatch) -> None:

@@ -15,6 +15,7 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..errors import DrEmpowerError
+from ._usage import UsageError
 
 __all__ = ["main", "build_parser"]
 
@@ -34,6 +35,8 @@ def build_parser() -> argparse.ArgumentParser:
         register = getattr(mod, "register", None)
         if register is not None:
             register(sub)
+    for command in sub.choices.values():
+        command.set_defaults(command_parser=command)
     return parser
 
 
@@ -44,6 +47,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         code: int = args.func(args)
         return code
+    except UsageError as exc:  # reported as argparse reports its own errors, exit code included
+        command: argparse.ArgumentParser = args.command_parser
+        command.print_usage(sys.stderr)
+        print(f"{command.prog}: error: {exc}", file=sys.stderr)
+        return 2
     except DrEmpowerError as exc:
         print(f"drempower: error: {exc}", file=sys.stderr)
         return 1

@@ -5,7 +5,7 @@ The same flags everywhere: python-can's ``-i/--interface``, ``-c/--channel`` and
 ``--uart PORT`` for one motor's UART (11-byte frames); ``--sim IDS`` for the
 in-process simulator. With none of them, python-can's own configuration (config
 file or ``CAN_INTERFACE``/``CAN_CHANNEL``/``CAN_BITRATE``) is used if there is one,
-and the command says so on stderr.
+and the command says so on stderr; ``-c``, ``-b`` and ``-o`` then add to it.
 
 The simulator runs at real time unless ``DREMPOWER_SIM_TIME_SCALE`` (or the hidden
 ``--sim-time-scale``) says otherwise: 10 makes simulated time pass ten times faster.
@@ -17,9 +17,12 @@ import argparse
 import math
 import os
 import sys
+from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from ..errors import DrEmpowerError
+from ..protocol import S16_MAX
+from ._usage import UsageError
 
 if TYPE_CHECKING:
     from ..client import Bus
@@ -33,6 +36,7 @@ __all__ = [
     "connection_kwargs",
     "count",
     "motor_id",
+    "number",
     "open_from_args",
     "open_transport_from_args",
     "parse_ids",
@@ -40,6 +44,7 @@ __all__ = [
     "parse_targets",
     "positive",
     "sim_time_scale",
+    "wire_rate",
 ]
 
 TIME_SCALE_ENV = "DREMPOWER_SIM_TIME_SCALE"
@@ -141,6 +146,39 @@ def positive(text: str) -> float:
     return value
 
 
+def wire_rate(high: float = S16_MAX) -> Callable[[str], float]:
+    """An argument type: a speed, acceleration, bandwidth or ramp rate that travels as s16 x 0.01.
+
+    The motor gets the value rounded to 0.01, so it must round to at least 0.01
+    (a smaller one would reach the motor as 0) and be at most ``high``.
+    """
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not (math.isfinite(value) and round(value * 100) >= 1 and value <= high):
+            zero = math.isfinite(value) and 0 < value < 0.01
+            why = " (the motor takes steps of 0.01: it would get 0)" if zero else ""
+            raise argparse.ArgumentTypeError(f"expected a number 0.01..{high:g}, got {text!r}{why}")
+        return value
+
+    parse.__name__ = "rate"
+    return parse
+
+
+def number(text: str) -> float:
+    """An argument type: a finite number."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value):
+        raise argparse.ArgumentTypeError(f"expected a finite number, got {text!r}")
+    return value
+
+
 def count(text: str) -> int:
     """An argument type: a whole number >= 1."""
     if not (text.strip().isdigit() and int(text) >= 1):
@@ -207,13 +245,24 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
     )
 
 
+_FLAGS = {"serial": "--serial", "uart": "--uart", "sim": "--sim", "interface": "-i/--interface"}
+
+
 def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
-    """The ``open_bus`` keyword arguments for ``args``, and a sentence saying what is used."""
+    """The ``open_bus`` keyword arguments for ``args``, and a sentence saying what is used.
+
+    Raises :class:`UsageError` when the options contradict each other: two
+    connections, or python-can's ``-c``/``-o`` without a python-can interface.
+    """
     chosen = [name for name in ("serial", "uart", "sim") if getattr(args, name, None)]
     if args.interface:
         chosen.append("interface")
     if len(chosen) > 1:
-        raise DrEmpowerError("give one connection: " + ", ".join(f"--{c}" for c in chosen) + " conflict")
+        raise UsageError("give one connection: " + ", ".join(_FLAGS[c] for c in chosen) + " conflict")
+    can_only = ["-c/--channel"] if args.channel is not None else []
+    can_only += ["-o/--can-option"] if args.can_option else []
+    if can_only and chosen and chosen[0] != "interface":
+        raise UsageError(f"{' and '.join(can_only)}: only with -i/--interface, not with {_FLAGS[chosen[0]]}")
     kw: dict[str, Any]
     if args.sim:
         kw = {"interface": "sim", "motors": args.sim}
@@ -233,12 +282,16 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
     else:
         cfg = _python_can_config()
         if cfg is None:
+            if can_only:
+                raise UsageError(f"{can_only[0]} needs -i/--interface (no python-can configuration names an interface)")
             raise DrEmpowerError(
                 "no connection given and no python-can configuration found: "
                 "use --sim IDS, --serial PORT, --uart PORT or -i INTERFACE -c CHANNEL"
             )
-        kw = {"interface": cfg.get("interface"), "channel": cfg.get("channel")}
-        how = f"python-can configuration: {cfg.get('interface')} {cfg.get('channel') or ''}".rstrip()
+        # python-can fills in what is not given here (bitrate, ...) from the same configuration
+        channel = args.channel if args.channel is not None else cfg.get("channel")
+        kw = {"interface": cfg["interface"], "channel": channel, **dict(args.can_option)}
+        how = f"python-can configuration: {cfg['interface']} {channel or ''}".rstrip()
     if args.bitrate is not None:
         kw["bitrate"] = args.bitrate
     return kw, how

@@ -11,9 +11,9 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 
 from ..client import Bus
-from ..errors import ValidationError
 from ._connect import add_ids_arg, open_from_args, positive
 from ._output import motors_text
+from ._usage import UsageError
 
 __all__ = ["add_duration_arg", "add_motion_args", "driving", "hold", "number_list", "per_motor", "stop_commanded"]
 
@@ -60,7 +60,7 @@ def per_motor(ids: Sequence[int], values: Sequence[float], what: str) -> list[fl
     if len(values) == 1:
         return list(values) * len(ids)
     if len(values) != len(ids):
-        raise ValidationError(f"{len(ids)} motors but {len(values)} {what} values: give one for all or one each")
+        raise UsageError(f"{len(ids)} motors but {len(values)} {what} values: give one for all or one each")
     return list(values)
 
 

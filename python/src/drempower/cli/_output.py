@@ -18,6 +18,8 @@ __all__ = [
     "Progress",
     "LiveView",
     "render_table",
+    "report",
+    "sent",
     "significant",
 ]
 
@@ -105,6 +107,19 @@ def emit(
     elif records:
         for line in render_table(headers, [list(r.values()) for r in records], digits=digits):
             sys.stdout.write(line + "\n")
+
+
+def report(args: argparse.Namespace, text: str, records: Sequence[Mapping[str, Any]]) -> None:
+    """Print the line ``text``, or with ``--json`` the ``records`` (one JSON object per line)."""
+    if getattr(args, "json", False):
+        emit(args, (), records)
+    else:
+        sys.stdout.write(text + "\n")
+
+
+def sent(ids: Sequence[int], command: str, **fields: Any) -> list[dict[str, Any]]:
+    """Status records of ``command`` sent to ``ids``: one per motor, or one with id 0 for ``[0]`` (broadcast)."""
+    return [{"id": i, "broadcast": i == 0, "command": command, "sent": True, **fields} for i in ids]
 
 
 class Progress:

@@ -95,27 +95,40 @@ def _flags(bus: Bus, node: int) -> list[str] | None:
 
 
 def read(bus: Bus, ids: Sequence[int], *, missing_ok: bool = False) -> list[Reading]:
-    """Fast read, ``vbus_voltage`` and ``axis0.current_state`` of every motor in one exchange.
+    """Fast read, ``vbus_voltage`` and ``axis0.current_state`` of every motor.
 
     Error words are read for motors whose E bit is set. A motor that does not
-    answer raises :class:`~drempower.client.TimeoutError` naming it, or gives a
-    reading without state with ``missing_ok``.
+    answer raises :class:`~drempower.client.TimeoutError` naming it. With
+    ``missing_ok`` it gives a reading without state instead, and costs one
+    timeout: the fast reads go first, and only the motors that answered are
+    asked for the rest. Without it, everything goes in one exchange.
     """
-    n = len(ids)
-    msgs = (
-        [FastRead(i) for i in ids]
-        + [ReadParam(i, _VBUS, DataType.F32) for i in ids]
-        + [ReadParam(i, _CURRENT_STATE, DataType.U32) for i in ids]
-    )
-    replies = bus.request(msgs, missing_ok=missing_ok)
+    if missing_ok:
+        states: list[Any] = bus.request([FastRead(i) for i in ids], missing_ok=True)
+        there = [i for i, st in zip(ids, states, strict=True) if st is not None]
+        more = bus.request(_extra_reads(there), missing_ok=True) if there else []
+        extra = dict(zip(there, _pairs(more), strict=True))
+    else:
+        replies = bus.request([*(FastRead(i) for i in ids), *_extra_reads(ids)])
+        states, extra = replies[: len(ids)], dict(zip(ids, _pairs(replies[len(ids) :]), strict=True))
     out = []
-    for k, node in enumerate(ids):
-        st, vb, ax = replies[k], replies[n + k], replies[2 * n + k]
+    for node, st in zip(ids, states, strict=True):
+        vb, ax = extra.get(node, (None, None))
         flags = _flags(bus, node) if st is not None and st.error else None
         out.append(
             Reading(node, st, None if vb is None else float(vb.value), None if ax is None else int(ax.value), flags)
         )
     return out
+
+
+def _extra_reads(ids: Sequence[int]) -> list[ReadParam]:
+    """The supply voltage, then the axis state, of each motor: one request each, ids in order."""
+    return [ReadParam(i, a, t) for i in ids for a, t in ((_VBUS, DataType.F32), (_CURRENT_STATE, DataType.U32))]
+
+
+def _pairs(replies: Sequence[Any]) -> list[tuple[Any, Any]]:
+    """``[v1, s1, v2, s2...]`` -> ``[(v1, s1), (v2, s2)...]``."""
+    return list(zip(replies[::2], replies[1::2], strict=True))
 
 
 def require_ready(bus: Bus, ids: Sequence[int]) -> list[Reading]:

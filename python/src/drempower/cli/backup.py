@@ -10,7 +10,7 @@ from ..client import ConfigBackup, RestoreReport
 from ..errors import DrEmpowerError
 from ..protocol import find_parameter
 from ._connect import add_connection_args, motor_id, open_from_args
-from ._output import add_json_arg, emit, significant
+from ._output import add_json_arg, emit, report, significant
 
 
 def register(sub: Any) -> None:
@@ -21,6 +21,7 @@ def register(sub: Any) -> None:
     )
     b.add_argument("id", type=motor_id, metavar="ID", help="the motor's id")
     b.add_argument("file", metavar="FILE", help="JSON file to write")
+    add_json_arg(b)
     add_connection_args(b)
     b.set_defaults(func=run_backup)
 
@@ -58,7 +59,8 @@ def run_backup(args: argparse.Namespace) -> int:
         raise DrEmpowerError(f"cannot write {args.file}: {exc.strerror}") from None
     read = len(cfg.parameters) - len(cfg.failed)
     unread = f" ({len(cfg.failed)} unreadable: {', '.join(cfg.failed)})" if cfg.failed else ""
-    print(f"motor {args.id}: {read} parameters written to {args.file}{unread}")
+    record = {"id": args.id, "file": args.file, "parameters": read, "unreadable": list(cfg.failed)}
+    report(args, f"motor {args.id}: {read} parameters written to {args.file}{unread}", [record])
     return 0
 
 
@@ -76,33 +78,35 @@ def _restore(args: argparse.Namespace, dry_run: bool) -> RestoreReport:
 
 
 def run_diff(args: argparse.Namespace) -> int:
-    report = _restore(args, dry_run=True)
+    result = _restore(args, dry_run=True)
     records = [
         {"name": n, "motor": significant(old), "backup": significant(new), "unit": _unit(n)}
-        for n, old, new in report.written
+        for n, old, new in result.written
     ]
     emit(args, ("name", "motor", "backup", "unit"), records, digits=None)
+    if not records:
+        same = {"id": args.id, "file": args.file, "matches": True}
+        report(args, f"motor {args.id}: configuration matches {args.file}", [same])
     if not args.json:
-        if not records:
-            print(f"motor {args.id}: configuration matches {args.file}")
-        for name, why in report.failed:
+        for name, why in result.failed:
             print(f"{name}: not compared: {why}", file=sys.stderr)
     return 0
 
 
 def run_restore(args: argparse.Namespace) -> int:
-    report = _restore(args, dry_run=False)
+    result = _restore(args, dry_run=False)
     records = [
         {"name": n, "was": significant(old), "now": significant(new), "unit": _unit(n)}
-        for n, old, new in report.written
+        for n, old, new in result.written
     ]
     emit(args, ("name", "was", "now", "unit"), records, digits=None)
-    if not args.json:
-        saved = ", saved" if report.saved else ""
-        print(f"motor {args.id}: {len(report.written)} written, {len(report.unchanged)} unchanged{saved}")
-    if report.failed:
+    written, unchanged = len(result.written), len(result.unchanged)
+    summary = {"id": args.id, "file": args.file, "written": written, "unchanged": unchanged, "saved": result.saved}
+    saved = ", saved" if result.saved else ""
+    report(args, f"motor {args.id}: {written} written, {unchanged} unchanged{saved}", [summary])
+    if result.failed:
         raise DrEmpowerError(
-            f"motor {args.id}: {len(report.failed)} not restored: "
-            + "; ".join(f"{name}: {why}" for name, why in report.failed)
+            f"motor {args.id}: {len(result.failed)} not restored: "
+            + "; ".join(f"{name}: {why}" for name, why in result.failed)
         )
     return 0

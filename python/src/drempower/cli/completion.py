@@ -6,6 +6,7 @@ import argparse
 from typing import Any
 
 from ..protocol import parameters
+from ._output import json_line
 
 _FILE_OPTIONS = ("--serial", "--uart", "--csv")
 
@@ -52,6 +53,7 @@ def register(sub: Any) -> None:
         description="Print a bash completion script: `source <(drempower completion bash)`.",
     )
     p.add_argument("shell", choices=("bash",), help="the shell (bash; zsh can use it through bashcompinit)")
+    p.add_argument("--json", action="store_true", help='print {"shell": ..., "script": ...} instead of the script')
     p.set_defaults(func=run)
 
 
@@ -84,5 +86,9 @@ def bash_script(parser: argparse.ArgumentParser) -> str:
 def run(args: argparse.Namespace) -> int:
     from . import build_parser
 
-    print(bash_script(build_parser()), end="")
+    script = bash_script(build_parser())
+    if args.json:
+        print(json_line({"shell": args.shell, "script": script}))
+    else:
+        print(script, end="")
     return 0

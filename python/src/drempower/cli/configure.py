@@ -10,7 +10,7 @@ from ..client import Bus
 from ..client.errors import TimeoutError
 from ..protocol import FastRead
 from ._connect import add_connection_args, add_ids_arg, bitrate, motor_id, open_from_args, positive
-from ._output import motors_text
+from ._output import add_json_arg, motors_text, report, sent
 
 
 def register(sub: Any) -> None:
@@ -21,6 +21,7 @@ def register(sub: Any) -> None:
     )
     i.add_argument("id", type=motor_id, metavar="ID", help="the motor's id now")
     i.add_argument("new_id", type=motor_id, metavar="NEW_ID", help="its new id, 1..63")
+    add_json_arg(i)
     add_connection_args(i)
     i.set_defaults(func=run_set_id)
 
@@ -37,11 +38,13 @@ def register(sub: Any) -> None:
     b.add_argument("rate", type=bitrate, metavar="BITRATE", help="bit/s, e.g. 1M, 500k, 115200")
     b.add_argument("--link", choices=("can", "uart"), default="can", help="which rate to set (default can)")
     b.add_argument("--reboot", action="store_true", help="reboot the motor so the new rate applies now")
+    add_json_arg(b)
     add_connection_args(b)
     b.set_defaults(func=run_set_bitrate)
 
     s = sub.add_parser("save", help="store the configuration in flash", description="Store RAM settings in flash.")
     add_ids_arg(s, all_ok=True)
+    add_json_arg(s)
     add_connection_args(s)
     s.set_defaults(func=run_save)
 
@@ -53,6 +56,7 @@ def register(sub: Any) -> None:
     add_ids_arg(r, all_ok=True)
     r.add_argument("--wait", action="store_true", help="wait until every motor answers again")
     r.add_argument("--wait-timeout", type=positive, default=5.0, metavar="S", help="longest wait (default 5)")
+    add_json_arg(r)
     add_connection_args(r)
     r.set_defaults(func=run_reboot)
 
@@ -60,7 +64,8 @@ def register(sub: Any) -> None:
 def run_set_id(args: argparse.Namespace) -> int:
     with open_from_args(args) as bus:
         bus.motor(args.id).set_id(args.new_id)
-    print(f"motor {args.id} is now motor {args.new_id} (saved)")
+    record = {"id": args.id, "new_id": args.new_id, "saved": True}
+    report(args, f"motor {args.id} is now motor {args.new_id} (saved)", [record])
     return 0
 
 
@@ -75,7 +80,8 @@ def run_set_bitrate(args: argparse.Namespace) -> int:
             motor.reboot()
     what = "UART rate" if args.link == "uart" else "CAN bitrate"
     when = "now" if args.reboot else "after a reboot"
-    print(f"motor {args.id}: {what} {args.rate} bit/s saved; it applies {when}")
+    record = {"id": args.id, "link": args.link, "bitrate": args.rate, "saved": True, "applies": when}
+    report(args, f"motor {args.id}: {what} {args.rate} bit/s saved; it applies {when}", [record])
     return 0
 
 
@@ -83,7 +89,7 @@ def run_save(args: argparse.Namespace) -> int:
     with open_from_args(args) as bus:
         for node in args.ids:
             bus.motor(node).save_config()
-    print(f"{motors_text(args.ids)}: configuration saved")
+    report(args, f"{motors_text(args.ids)}: configuration saved", sent(args.ids, "save"))
     return 0
 
 
@@ -99,10 +105,12 @@ def _wait_answer(bus: Bus, ids: list[int], timeout: float) -> None:
 
 
 def run_reboot(args: argparse.Namespace) -> int:
+    waited = args.wait and args.ids != [0]
     with open_from_args(args) as bus:
         for node in args.ids:
             bus.motor(node).reboot()
-        if args.wait and args.ids != [0]:
+        if waited:
             _wait_answer(bus, args.ids, args.wait_timeout)
-    print(f"{motors_text(args.ids)}: rebooted" + (" and answering" if args.wait and args.ids != [0] else ""))
+    text = f"{motors_text(args.ids)}: rebooted" + (" and answering" if waited else "")
+    report(args, text, sent(args.ids, "reboot", answering=True if waited else None))
     return 0

@@ -12,7 +12,7 @@ from ..errors import DrEmpowerError
 from ..protocol.enums import AxisState
 from . import _readings
 from ._connect import add_connection_args, add_ids_arg, open_from_args
-from ._output import add_json_arg, emit, motors_text
+from ._output import add_json_arg, emit, motors_text, report, sent
 
 _SETTLE = 1.0
 """Longest wait (s) for motors to reach the state asked for."""
@@ -27,6 +27,7 @@ def register(sub: Any) -> None:
         description="Emergency stop (estop). Recover with `drempower clear IDS` then `drempower enable IDS`.",
     )
     add_ids_arg(p, all_ok=True, optional=True)
+    add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run_stop)
 
@@ -58,7 +59,7 @@ def run_stop(args: argparse.Namespace) -> int:
     ids: list[int] = args.ids or [0]
     with open_from_args(args) as bus:
         bus.estop(None if ids == [0] else ids)
-    print(f"emergency stop sent to {motors_text(ids)}")
+    report(args, f"emergency stop sent to {motors_text(ids)}", sent(ids, "estop"))
     return 0
 
 
@@ -73,12 +74,13 @@ def _apply(args: argparse.Namespace, action: Callable[[Motor], None], ok: Check,
     """Send ``action`` to every motor, wait until ``ok`` holds for each, show the motors.
 
     ``failure`` (with ``{ids}`` and ``{errors}``) is the error when some motor is not ``ok`` in time.
+    A broadcast (``all``) is sent only: which motors heard it is unknown.
     """
     with open_from_args(args) as bus:
         for node in args.ids:
             action(bus.motor(node))
         if args.ids == [0]:
-            print(f"sent to {motors_text(args.ids)}")
+            report(args, f"sent to {motors_text(args.ids)}", sent(args.ids, args.command))
             return 0
         readings = _settle(bus, args.ids, ok)
     emit(args, _readings.HEADERS, [r.record() for r in readings])

@@ -13,7 +13,7 @@ from .. import open_bus
 from ..client import Bus, MotorState, PositionMode
 from ..protocol import FastRead
 from ._connect import positive, sim_time_scale
-from ._output import LiveView, fmt, is_terminal
+from ._output import LiveView, fmt, is_terminal, json_line
 
 TARGETS = (90.0, -45.0, 180.0, -120.0, 60.0, -180.0, 135.0, -90.0)
 """Target angles (deg) of motors 1, 2, 3...; more motors reuse them."""
@@ -42,6 +42,7 @@ def register(sub: Any) -> None:
         "--motors", type=int, choices=range(1, 9), default=3, metavar="N", help="motors 1..N (1-8, default 3)"
     )
     p.add_argument("--time-scale", type=positive, metavar="X", help="simulated time runs X times faster (default 1)")
+    p.add_argument("--json", action="store_true", help="print only the summary, as one JSON object")
     p.set_defaults(func=run)
 
 
@@ -149,8 +150,13 @@ def run(args: argparse.Namespace) -> int:
     targets = [TARGETS[(i - 1) % len(TARGETS)] for i in ids]
     scale = args.time_scale or sim_time_scale(args) or 1.0
     out = sys.stdout
-    live = LiveView(out) if is_terminal(out) else None
-    print(
+    live = LiveView(out) if is_terminal(out) and not args.json else None
+
+    def say(text: str) -> None:
+        if not args.json:
+            print(text)
+
+    say(
         f"{len(ids)} simulated motors (time x{scale:g}): a synchronised Q move to "
         f"{', '.join(f'{a:g}' for a in targets)} deg at up to {SPEED:g} rpm, accel {ACCEL:g} rpm/s"
     )
@@ -158,7 +164,7 @@ def run(args: argparse.Namespace) -> int:
         tracker = Tracker({st.node: st.angle for st in _states(bus, ids)}, dict(zip(ids, targets, strict=True)))
         planned = bus.set_angles(ids, targets, SPEED, ACCEL, PositionMode.Q) or 0.0
         tracker.plan(planned, 6 * ACCEL)
-        print(f"presets sent, then one broadcast start; every motor takes {planned:g} s")
+        say(f"presets sent, then one broadcast start; every motor takes {planned:g} s")
         start = time.monotonic()
         shown = -_PLAIN_EVERY
         while True:
@@ -170,7 +176,7 @@ def run(args: argparse.Namespace) -> int:
                 live.draw(_table(tracker, states, t))
             elif finished or t - shown >= _PLAIN_EVERY * scale:
                 shown = t
-                print(f"t = {t:5.2f} s  " + "  ".join(f"motor {st.node} {fmt(st.angle):>7} deg" for st in states))
+                say(f"t = {t:5.2f} s  " + "  ".join(f"motor {st.node} {fmt(st.angle):>7} deg" for st in states))
             if finished:
                 break
             if t > 2 * planned + 5:
@@ -179,9 +185,20 @@ def run(args: argparse.Namespace) -> int:
             time.sleep(_POLL)
     misses = [abs(st.angle - tracker.targets[st.node]) for st in states]
     reached = sum(m <= TOLERANCE for m in misses)
-    print(f"targets reached: {reached}/{len(ids)} (largest miss {max(misses):.3f} deg)")
-    print(
-        f"max sync error: {tracker.max_sync_error:.3f} deg "
-        "(the furthest any motor strayed from its planned profile at the group's progress)"
-    )
+    if args.json:
+        summary = {
+            "motors": ids,
+            "targets_deg": targets,
+            "move_time_s": planned,
+            "reached": reached,
+            "largest_miss_deg": round(max(misses), 4),
+            "max_sync_error_deg": round(tracker.max_sync_error, 4),
+        }
+        print(json_line(summary))
+    else:
+        print(f"targets reached: {reached}/{len(ids)} (largest miss {max(misses):.3f} deg)")
+        print(
+            f"max sync error: {tracker.max_sync_error:.3f} deg "
+            "(the furthest any motor strayed from its planned profile at the group's progress)"
+        )
     return 0 if reached == len(ids) else 1

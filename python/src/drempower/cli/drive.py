@@ -6,10 +6,13 @@ import argparse
 from typing import Any
 
 from ..client import TorqueMode, VelocityMode
+from ..client.commands import make_impedance, make_speeds, make_torques
+from ..protocol import StartImpedance
 from . import _readings
-from ._connect import add_connection_args, positive
+from ._connect import add_connection_args, number, wire_rate
 from ._motion import add_duration_arg, add_motion_args, driving, hold, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
+from ._usage import options_named
 
 
 def register(sub: Any) -> None:
@@ -20,8 +23,10 @@ def register(sub: Any) -> None:
     )
     add_motion_args(s, "RPM", "speeds in r/min")
     ramp = s.add_mutually_exclusive_group()
-    ramp.add_argument("--ramp", type=positive, metavar="RPM/S", help="reach the speed at this rate, (r/min)/s")
-    ramp.add_argument("--torque-ff", type=float, default=0.0, metavar="NM", help="torque feed-forward (default 0)")
+    ramp.add_argument(
+        "--ramp", type=wire_rate(), metavar="RPM/S", help="reach the speed at this rate, 0.01-327.67 (r/min)/s"
+    )
+    ramp.add_argument("--torque-ff", type=number, default=0.0, metavar="NM", help="torque feed-forward (default 0)")
     add_duration_arg(s)
     add_json_arg(s)
     add_connection_args(s)
@@ -33,7 +38,7 @@ def register(sub: Any) -> None:
         description="Torque control: the torque is applied at once, or reached at --ramp Nm/s.",
     )
     add_motion_args(t, "NM", "torques in Nm")
-    t.add_argument("--ramp", type=positive, metavar="NM/S", help="reach the torque at this rate, Nm/s")
+    t.add_argument("--ramp", type=wire_rate(), metavar="NM/S", help="reach the torque at this rate, 0.01-327.67 Nm/s")
     add_duration_arg(t)
     add_json_arg(t)
     add_connection_args(t)
@@ -41,17 +46,18 @@ def register(sub: Any) -> None:
 
     i = sub.add_parser(
         "impedance",
-        help="impedance control: torque = tff + kp*(pos - P) + kd*(vel - V)",
+        help="impedance control: torque = tff + kp*(pos - P) + kd*(vel - V), all starting together",
         description=(
             "Impedance (MIT-style) control of each motor: torque = tff + kp*(pos - P) + kd*(vel - V), "
-            "with P and V the motor's position and speed. Each motor gets its own POS; the rest is shared."
+            "with P and V the motor's position and speed. Each motor gets its own POS; the rest is shared. "
+            "Every value is checked before anything is sent."
         ),
     )
     add_motion_args(i, "POS", "target positions in deg")
-    i.add_argument("--kp", type=float, required=True, metavar="NM/RAD", help="stiffness, 0-327.67 Nm/rad")
-    i.add_argument("--kd", type=float, required=True, metavar="NM/(RAD/S)", help="damping, 0-327.67 Nm/(rad/s)")
-    i.add_argument("--vel", type=float, default=0.0, metavar="RPM", help="target speed (default 0)")
-    i.add_argument("--tff", type=float, default=0.0, metavar="NM", help="torque feed-forward (default 0)")
+    i.add_argument("--kp", type=number, required=True, metavar="NM/RAD", help="stiffness, 0-327.67 Nm/rad")
+    i.add_argument("--kd", type=number, required=True, metavar="NM/(RAD/S)", help="damping, 0-327.67 Nm/(rad/s)")
+    i.add_argument("--vel", type=number, default=0.0, metavar="RPM", help="target speed (default 0)")
+    i.add_argument("--tff", type=number, default=0.0, metavar="NM", help="torque feed-forward (default 0)")
     add_duration_arg(i)
     add_json_arg(i)
     add_connection_args(i)
@@ -70,11 +76,13 @@ def _report(args: argparse.Namespace, what: str, unit: str, values: list[float],
 def run_speed(args: argparse.Namespace) -> int:
     speeds = per_motor(args.ids, args.values, "speed")
     if args.ramp is None:
-        mode, param, extra = VelocityMode.PASSTHROUGH, args.torque_ff, ""
+        mode, param, extra, option = VelocityMode.PASSTHROUGH, args.torque_ff, "", "--torque-ff"
         if param:
             extra = f" (torque feed-forward {param:g} Nm)"
     else:
-        mode, param, extra = VelocityMode.RAMP, args.ramp, f" (ramp {args.ramp:g} rpm/s)"
+        mode, param, extra, option = VelocityMode.RAMP, args.ramp, f" (ramp {args.ramp:g} rpm/s)", "--ramp"
+    with options_named({"speed": "RPM", "speed_list": "RPM", "param": option, "param (ramp rate)": "--ramp"}):
+        make_speeds(args.ids, speeds, param, mode)  # every value checked before connecting
     with driving(args) as bus:
         _readings.require_ready(bus, args.ids)
         bus.set_speeds(args.ids, speeds, param, mode)
@@ -89,6 +97,8 @@ def run_torque(args: argparse.Namespace) -> int:
         mode, param, extra = TorqueMode.DIRECT, 0.0, ""
     else:
         mode, param, extra = TorqueMode.RAMP, args.ramp, f" (ramp {args.ramp:g} Nm/s)"
+    with options_named({"torque": "NM", "torque_list": "NM", "param": "--ramp", "param (ramp rate)": "--ramp"}):
+        make_torques(args.ids, torques, param, mode)
     with driving(args) as bus:
         _readings.require_ready(bus, args.ids)
         bus.set_torques(args.ids, torques, param, mode)
@@ -97,12 +107,33 @@ def run_torque(args: argparse.Namespace) -> int:
     return 0
 
 
+_IMPEDANCE_OPTIONS = {
+    "pos": "POS",
+    "position": "POS",
+    "vel": "--vel",
+    "speed": "--vel",
+    "tff": "--tff",
+    "torque_ff": "--tff",
+    "kp": "--kp",
+    "kd": "--kd",
+}
+"""Fields of the impedance preset and start, by the option that sets them."""
+
+
 def run_impedance(args: argparse.Namespace) -> int:
     positions = per_motor(args.ids, args.values, "position")
+    with options_named(_IMPEDANCE_OPTIONS):
+        # every motor's command is built and encoded before the first frame is sent
+        commands = [
+            make_impedance(n, p, args.vel, args.tff, args.kp, args.kd) for n, p in zip(args.ids, positions, strict=True)
+        ]
+        presets = [preset for preset, _ in commands]
+        start = StartImpedance(0, args.kp, args.kd)
+        for msg in (*presets, start):
+            msg.encode()
     with driving(args) as bus:
         _readings.require_ready(bus, args.ids)
-        for node, pos in zip(args.ids, positions, strict=True):
-            bus.motor(node).impedance_control(pos, args.vel, args.tff, args.kp, args.kd)
+        bus.core.send_batch(presets, start)  # one start for all (see BusCore.start_policy)
         extra = f" (kp {args.kp:g} Nm/rad, kd {args.kd:g} Nm/(rad/s), vel {args.vel:g} rpm, tff {args.tff:g} Nm)"
         _report(args, "position", "deg", positions, extra)
         hold(bus, args.duration)

@@ -8,7 +8,8 @@ from typing import Any
 from ..errors import ValidationError
 from ..protocol import DataType, Parameter, find_parameter, parameter, parameters
 from ._connect import add_connection_args, add_ids_arg, open_from_args
-from ._output import add_json_arg, emit, motors_text, significant
+from ._output import add_json_arg, emit, motors_text, report, sent, significant
+from ._usage import UsageError
 
 _ELSEWHERE = {
     31001: "drempower set-id",
@@ -101,7 +102,7 @@ def run_get(args: argparse.Namespace) -> int:
 
 def run_set(args: argparse.Namespace) -> int:
     if len(args.items) % 2:
-        raise ValidationError("give NAME VALUE pairs; the last name has no value")
+        raise UsageError("give NAME VALUE pairs; the last name has no value")
     wanted = []
     for name, text in zip(args.items[::2], args.items[1::2], strict=True):
         p = lookup(name)
@@ -118,6 +119,6 @@ def run_set(args: argparse.Namespace) -> int:
             if args.save:
                 motor.save_config()
     emit(args, ("id", "name", "was", "value", "unit"), records, digits=None)
-    if args.save and not args.json:
-        print(f"{motors_text(args.ids)}: configuration saved")
+    if args.save:
+        report(args, f"{motors_text(args.ids)}: configuration saved", sent(args.ids, "save"))
     return 0

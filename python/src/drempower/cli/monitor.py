@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import math
 import sys
 import time
 from contextlib import ExitStack
@@ -52,10 +53,12 @@ def run(args: argparse.Namespace) -> int:
             writer.writeheader()
         bus = stack.enter_context(open_from_args(args))
         start = time.monotonic()
+        deadline = None if args.duration is None else start + args.duration
         k = 0
         try:
             while True:
                 t = round(time.monotonic() - start, 3)
+                # a motor that misses its fast read is shown as not answering, and costs one timeout
                 records = [{"time_s": t, **r.record()} for r in _readings.read(bus, args.ids, missing_ok=True)]
                 if writer is not None:
                     writer.writerows(records)
@@ -68,11 +71,13 @@ def run(args: argparse.Namespace) -> int:
                     else:
                         out.write("\n".join(lines if k == 0 else lines[1:]) + "\n")
                 out.flush()
-                k += 1
-                due = k / args.rate
-                if args.duration is not None and due > args.duration:
+                now = time.monotonic()
+                # the next reading on the RATE grid; readings that a slow round missed are skipped
+                k = max(k + 1, math.ceil((now - start) * args.rate))
+                due = start + k / args.rate
+                if deadline is not None and (now >= deadline or due > deadline):
                     break
-                time.sleep(max(0.0, start + due - time.monotonic()))
+                time.sleep(max(0.0, due - now))
         except KeyboardInterrupt:
             pass
     return 0

@@ -6,11 +6,12 @@ import argparse
 from typing import Any
 
 from ..client import DEFAULT_MOVE_TIMEOUT, PositionMode
-from ..errors import ValidationError
+from ..client.commands import MAX_BANDWIDTH, make_angles
 from . import _readings
-from ._connect import add_connection_args, positive
+from ._connect import add_connection_args, number, positive, wire_rate
 from ._motion import add_motion_args, driving, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
+from ._usage import UsageError, options_named
 
 _MODES = {"t": PositionMode.T, "q": PositionMode.Q, "p": PositionMode.P}
 _OPTIONS = {
@@ -19,6 +20,17 @@ _OPTIONS = {
     PositionMode.P: {"speed_ff": 0.0, "torque_ff": 0.0},
 }
 """The options each mode takes, with their defaults."""
+_FIELDS = {
+    PositionMode.T: {"param (bandwidth)": "--bandwidth", "bandwidth": "--bandwidth"},
+    PositionMode.Q: {"speed": "--speed", "param (accel)": "--accel", "accel": "--accel"},
+    PositionMode.P: {
+        "speed": "--speed-ff",
+        "speed_ff": "--speed-ff",
+        "param": "--torque-ff",
+        "torque_ff": "--torque-ff",
+    },
+}
+"""The library's field names of each mode, by the option that sets them (and ANGLES for the positions)."""
 
 
 def register(sub: Any) -> None:
@@ -34,11 +46,23 @@ def register(sub: Any) -> None:
     )
     add_motion_args(p, "ANGLES", "target angles in deg, e.g. 90 or 90,-45,180")
     p.add_argument("--mode", type=str.lower, choices=_MODES, default="q", help="q (default), t or p")
-    p.add_argument("--speed", type=positive, metavar="RPM", help="q: cruise speed of the furthest mover (default 10)")
-    p.add_argument("--accel", type=positive, metavar="RPM/S", help="q: acceleration in (r/min)/s (default 10)")
-    p.add_argument("--bandwidth", type=positive, metavar="1/S", help="t: input filter bandwidth, 0-300 (default 20)")
-    p.add_argument("--speed-ff", type=float, metavar="RPM", help="p: speed feed-forward (default 0)")
-    p.add_argument("--torque-ff", type=float, metavar="NM", help="p: torque feed-forward (default 0)")
+    p.add_argument(
+        "--speed",
+        type=wire_rate(),
+        metavar="RPM",
+        help="q: cruise speed of the furthest mover, 0.01-327.67 (default 10)",
+    )
+    p.add_argument(
+        "--accel", type=wire_rate(), metavar="RPM/S", help="q: acceleration, 0.01-327.67 (r/min)/s (default 10)"
+    )
+    p.add_argument(
+        "--bandwidth",
+        type=wire_rate(MAX_BANDWIDTH),
+        metavar="1/S",
+        help="t: input filter bandwidth, 0.01-300 (default 20)",
+    )
+    p.add_argument("--speed-ff", type=number, metavar="RPM", help="p: speed feed-forward (default 0)")
+    p.add_argument("--torque-ff", type=number, metavar="NM", help="p: torque feed-forward (default 0)")
     p.add_argument("--relative", action="store_true", help="angles are offsets from where the motors are")
     p.add_argument("--wait", action="store_true", help="wait until every motor reports its move done")
     p.add_argument("--wait-timeout", type=positive, metavar="S", help="longest wait (default: from the move time)")
@@ -53,7 +77,7 @@ def _params(args: argparse.Namespace, mode: PositionMode) -> tuple[float, float]
         stray = [name for name in options if other is not mode and getattr(args, name) is not None]
         if stray:
             flag = "--" + stray[0].replace("_", "-")
-            raise ValidationError(f"{flag} applies to mode {other.name.lower()}, not {mode.name.lower()}")
+            raise UsageError(f"{flag} applies to mode {other.name.lower()}, not {mode.name.lower()}")
     values = [default if (v := getattr(args, name)) is None else v for name, default in _OPTIONS[mode].items()]
     return (0.0, values[0]) if mode is PositionMode.T else (values[0], values[1])
 
@@ -63,6 +87,9 @@ def run(args: argparse.Namespace) -> int:
     mode = _MODES[args.mode]
     angles = per_motor(ids, args.values, "angle")
     speed, param = _params(args, mode)
+    with options_named({"position": "ANGLES", "angle": "ANGLES", "angle_list": "ANGLES", **_FIELDS[mode]}):
+        # every value checked before connecting (the Q move time needs the positions: it is checked when sent)
+        make_angles(ids, angles, speed, param, mode, move_time=1.0, relative=args.relative)
     with driving(args) as bus:
         start = {r.id: r.state.angle for r in _readings.require_ready(bus, ids) if r.state is not None}
         move = bus.step_angles if args.relative else bus.set_angles

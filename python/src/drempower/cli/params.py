@@ -43,6 +43,9 @@ def select(args: argparse.Namespace) -> list[Parameter]:
 
 def run(args: argparse.Namespace) -> int:
     rows = select(args)
+    if not rows:
+        print("no parameter matches", file=sys.stderr)
+        return 1
     if args.json:
         for p in rows:
             rec = {
@@ -58,9 +61,6 @@ def run(args: argparse.Namespace) -> int:
             }
             sys.stdout.write(json.dumps(rec) + "\n")
         return 0
-    if not rows:
-        print("no parameter matches", file=sys.stderr)
-        return 1
     width = max(len(p.name) for p in rows)
     print(f"{'address':>7}  {'name':<{width}}  type  access  {'unit':<13}  description")
     for p in rows:

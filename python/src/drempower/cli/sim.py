@@ -18,6 +18,8 @@ from ..sim import (
     attach_uart_pty,
 )
 from ._connect import bitrate, parse_ids, positive
+from ._output import json_line
+from ._usage import UsageError
 
 
 def register(sub: Any) -> None:
@@ -53,6 +55,11 @@ def register(sub: Any) -> None:
         "--serial-garbage", type=_rate, default=0.0, metavar="P", help="probability of garbage before a pty frame"
     )
     f.add_argument("--seed", type=int, default=0, help="seed of the fault generator (default 0)")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="one JSON object per line: the motors, each attachment, running, and the summary when stopped",
+    )
     p.set_defaults(func=run)
 
 
@@ -68,10 +75,15 @@ def _rate(text: str) -> float:
 
 def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Event | None = None) -> int:
     """Run the simulator; ``stop`` (set by the caller) ends it early, as Ctrl-C does."""
-    out = out or sys.stdout
+    stream = out or sys.stdout
     if args.uart_pty is not None and args.uart_pty not in args.ids:
-        print(f"drempower sim: --uart-pty {args.uart_pty} is not one of --ids", file=sys.stderr)
-        return 2
+        raise UsageError(f"--uart-pty {args.uart_pty} is not one of --ids")
+
+    def show(record: dict[str, Any], *lines: str) -> None:
+        text = [json_line(record)] if getattr(args, "json", False) else lines
+        for line in text:
+            print(line, file=stream)
+
     faults = Faults(
         drop_rate=args.drop_rate,
         corrupt_rate=args.corrupt_rate,
@@ -84,37 +96,55 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
     timing = f"{args.bitrate} bit/s" if args.bitrate else "instant delivery"
     with ExitStack() as stack:
         stack.enter_context(SimRunner(bus, args.time_scale))
-        print(f"drempower sim: motors {ids} ({timing}, time x{args.time_scale:g})", file=out)
+        show(
+            {"motors": list(args.ids), "bitrate": args.bitrate, "time_scale": args.time_scale},
+            f"drempower sim: motors {ids} ({timing}, time x{args.time_scale:g})",
+        )
         if args.adapter_pty or default:
             path = stack.enter_context(attach_adapter_pty(bus)).path
-            print(f"USB-CAN adapter (0xAA frames and slcan): {path}", file=out)
-            print(f"    drempower state {ids} --serial {path}", file=out)
-            print(f"    can.Bus(interface='slcan', channel='{path}', sleep_after_open=0)", file=out)
+            show(
+                {"attachment": "adapter", "path": path},
+                f"USB-CAN adapter (0xAA frames and slcan): {path}",
+                f"    drempower state {ids} --serial {path}",
+                f"    can.Bus(interface='slcan', channel='{path}', sleep_after_open=0)",
+            )
         if args.uart_pty is not None:
             path = stack.enter_context(attach_uart_pty(bus, args.uart_pty)).path
-            print(f"UART of motor {args.uart_pty} (11-byte frames): {path}", file=out)
-            print(f"    drempower state {args.uart_pty} --uart {path}", file=out)
+            show(
+                {"attachment": "uart", "id": args.uart_pty, "path": path},
+                f"UART of motor {args.uart_pty} (11-byte frames): {path}",
+                f"    drempower state {args.uart_pty} --uart {path}",
+            )
         if args.socketcand_port is not None or default:
             server = stack.enter_context(attach_socketcand(bus, args.socketcand_port or 0))
-            print(f"socketcand: {server.host} port {server.port}, bus {server.channel}", file=out)
             ids = ",".join(str(i) for i in bus.motors)
-            print(
-                f"    drempower state {ids} -i socketcand -c can0 -o host={server.host} -o port={server.port}", file=out
-            )
-            print(
+            show(
+                {"attachment": "socketcand", "host": server.host, "port": server.port, "channel": server.channel},
+                f"socketcand: {server.host} port {server.port}, bus {server.channel}",
+                f"    drempower state {ids} -i socketcand -c can0 -o host={server.host} -o port={server.port}",
                 f"    can.Bus(interface='socketcand', host='{server.host}', port={server.port}, channel='can0')",
-                file=out,
             )
         if args.python_can:
             stack.enter_context(attach_python_can(bus, args.python_can, args.python_can_interface))
-            print(f"python-can: interface {args.python_can_interface}, channel {args.python_can}", file=out)
-        print("running; Ctrl-C stops", file=out)
-        out.flush()
+            show(
+                {"attachment": "python-can", "interface": args.python_can_interface, "channel": args.python_can},
+                f"python-can: interface {args.python_can_interface}, channel {args.python_can}",
+            )
+        show({"running": True}, "running; Ctrl-C stops")
+        stream.flush()
         try:
             (stop or threading.Event()).wait(args.duration)
         except KeyboardInterrupt:
             pass
     s = bus.stats
     load = f", bus load {s.utilisation:.1%}" if args.bitrate else ""
-    print(f"drempower sim: stopped after {s.elapsed:.1f} s simulated, {s.frames} frames{load}", file=out)
+    show(
+        {
+            "stopped": True,
+            "simulated_s": round(s.elapsed, 3),
+            "frames": s.frames,
+            "bus_load": round(s.utilisation, 4) if args.bitrate else None,
+        },
+        f"drempower sim: stopped after {s.elapsed:.1f} s simulated, {s.frames} frames{load}",
+    )
     return 0
