@@ -97,7 +97,7 @@ const dre_error_word *dre_error_word_find(uint16_t address)
 
 const char *dre_error_flag_name(const dre_error_word *word, uint8_t bit)
 {
-    return bit < word->count ? word->flags[bit] : NULL;
+    return word != NULL && bit < word->count ? word->flags[bit] : NULL;
 }
 
 /* Append `text` at *len, writing only what fits before the terminator. */

@@ -76,7 +76,7 @@ static void test_errors(void)
 {
     static const uint16_t order[DRE_ERROR_WORD_COUNT] = {30001u, 33001u, 34001u, 32001u, 20001u, 36001u, 37001u};
     const dre_error_word *axis = dre_error_word_find(30001u);
-    char small[12];
+    char small[12], buf[64];
     unsigned i;
 
     for (i = 0u; i < DRE_ERROR_WORD_COUNT; i++) {
@@ -96,6 +96,12 @@ static void test_errors(void)
           strlen("ESTOP_REQUESTED|OVER_TEMP"));
     CHECK(strcmp(small, "ESTOP_REQUE") == 0);
     CHECK(dre_error_format(axis, 1u, NULL, 0u) == strlen("INVALID_STATE"));
+
+    /* an address that is no error word: every set bit is unknown, nothing is dereferenced */
+    CHECK(dre_error_flag_name(dre_error_word_find(30002u), 0u) == NULL);
+    CHECK(dre_error_format(dre_error_word_find(30002u), 0x4001u, buf, sizeof buf) ==
+          strlen("UNKNOWN_0x00000001|UNKNOWN_0x00004000"));
+    CHECK(strcmp(buf, "UNKNOWN_0x00000001|UNKNOWN_0x00004000") == 0);
 }
 
 int main(void)

@@ -114,7 +114,9 @@ const char *dre_error_flag_name(const dre_error_word *word, uint8_t bit);
  * Write the names of the flags set in `value`, separated by '|', known flags
  * first, then unknown bits as UNKNOWN_0x%08X; "" when `value` is 0. Writes at
  * most `cap` bytes including the terminating NUL (truncating if needed, as
- * snprintf does) and returns the length of the full text.
+ * snprintf does) and returns the length of the full text. A NULL `word` (what
+ * dre_error_word_find() gives for an address that is no error word) names
+ * every set bit UNKNOWN_0x%08X.
  */
 size_t dre_error_format(const dre_error_word *word, uint32_t value, char *buf, size_t cap);
 
