@@ -15,7 +15,8 @@ static int f32_finite(float v)
 /*
  * value x 100 rounded to the nearest integer, ties to even, computed exactly
  * from the binary32 bits (the product of a 24-bit mantissa and 100 fits in 31
- * bits). This is what Python's round(value * 100) gives for the same float.
+ * bits). This is what Python's round(value * 100) gives for the same binary32
+ * value (see dre_codec.h for decimals that are not binary32 values).
  * Returns 0 when the result does not fit s16 or the value is not finite.
  */
 static int s16_scaled(float v, int16_t *out)
@@ -532,7 +533,7 @@ const char *dre_field_name(dre_field field)
     static const char *const names[] = {
         "",         "node",      "type", "position", "speed", "accel", "bandwidth", "speed_ff", "torque_ff",
         "torque",   "param",     "mode", "p1",       "p2",    "p3",    "time",      "op",       "kind",
-        "relative", "kp",        "kd",   "address",  "dtype", "value", "spare_bits"};
+        "relative", "kp",        "kd",   "address",  "dtype", "value", "spare_bits", "from"};
     return (unsigned)field < sizeof names / sizeof names[0] ? names[field] : "?";
 }
 
@@ -557,6 +558,10 @@ const char *dre_status_name(dre_status status)
         return "timeout";
     case DRE_E_ACCESS:
         return "read-only";
+    case DRE_E_FAULT:
+        return "fault";
+    case DRE_E_VERIFY:
+        return "verify";
     default:
         return "?";
     }

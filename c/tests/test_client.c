@@ -8,9 +8,10 @@
 /* ------------------------------------------------------------------ fake bus */
 
 typedef struct {
-    dre_frame sent[32];
+    dre_frame sent[48];
     unsigned nsent;
     int fail_from; /* sends from this index on fail; -1 = never */
+    int room;      /* what tx_free reports; -1 = no tx_free callback */
     uint32_t now;
     dre_msg unmatched[8];
     unsigned nunmatched;
@@ -22,7 +23,7 @@ static int fake_send(void *user, const dre_frame *f)
     if (k->fail_from >= 0 && k->nsent >= (unsigned)k->fail_from) {
         return -1;
     }
-    if (k->nsent < 32u) {
+    if (k->nsent < 48u) {
         k->sent[k->nsent] = *f;
     }
     k->nsent++;
@@ -32,6 +33,11 @@ static int fake_send(void *user, const dre_frame *f)
 static uint32_t fake_tick(void *user)
 {
     return ((fake *)user)->now;
+}
+
+static unsigned fake_tx_free(void *user)
+{
+    return (unsigned)((fake *)user)->room;
 }
 
 static void fake_unmatched(void *user, const dre_msg *m)
@@ -45,20 +51,29 @@ static void fake_unmatched(void *user, const dre_msg *m)
 
 static fake bus_fake;
 static dre_bus bus;
-static dre_request slots[4];
+static dre_request slots[8];
 static dre_frame rxq[4];
 
-static void setup(void)
+/* A bus with 4 request slots (8 with `many`), start policy `start`, and a tx_free callback when room >= 0. */
+static void setup_with(uint8_t start, int room, int many)
 {
     dre_bus_config cfg;
     memset(&bus_fake, 0, sizeof bus_fake);
     bus_fake.fail_from = -1;
+    bus_fake.room = room;
     memset(&cfg, 0, sizeof cfg);
     cfg.send = fake_send;
     cfg.tick = fake_tick;
     cfg.user = &bus_fake;
     cfg.on_unmatched = fake_unmatched;
-    CHECK(dre_bus_init(&bus, &cfg, slots, 4u, rxq, 4u) == DRE_OK);
+    cfg.tx_free = room >= 0 ? fake_tx_free : NULL;
+    cfg.start = start;
+    CHECK(dre_bus_init(&bus, &cfg, slots, many ? 8u : 4u, rxq, 4u) == DRE_OK);
+}
+
+static void setup(void)
+{
+    setup_with(DRE_START_TO_AUTO, -1, 0);
 }
 
 static dre_frame frame_of(uint16_t id, const char *hex)
@@ -132,6 +147,7 @@ static void test_read_matching(void)
     CHECK(reply.type == DRE_MSG_PARAM_VALUE && reply.u.param.address == 38007u && reply.u.param.dtype == DRE_F32 &&
           reply.u.param.value.f32 == -92.46917724609375f);
     CHECK(bus.stats.rx_unmatched == 3u);
+    CHECK(dre_read_property(&m, 0u, DRE_F32, &req) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_ADDRESS);
 }
 
 static void test_oldest_first_and_broadcast(void)
@@ -144,9 +160,12 @@ static void test_oldest_first_and_broadcast(void)
     CHECK(dre_read_property(&m1, 1u, DRE_F32, &a) == DRE_OK);
     bus_fake.now = 3u;
     CHECK(dre_read_property(&m1, 1u, DRE_F32, &b) == DRE_OK);
+    CHECK(bus_fake.nsent == 1u); /* the second read to motor 1 waits for the first */
     feed(0x03E, "010000000000803F"); /* 1.0 V */
     CHECK(dre_result(&bus, a, &reply) == DRE_OK && reply.u.param.value.f32 == 1.0f);
     CHECK(dre_result(&bus, b, &reply) == DRE_PENDING);
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 2u && sent_is(1u, 0x03E, "0100000000000000"));
     feed(0x03E, "0100000000000040");
     CHECK(dre_result(&bus, b, &reply) == DRE_OK && reply.u.param.value.f32 == 2.0f);
 
@@ -188,21 +207,49 @@ static void test_timeouts(void)
     CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.u.state.position == 1.0f);
 }
 
-static void test_slots_and_send_failure(void)
+/* The interrupt queues a reply while dre_bus_poll reads the tick, and the tick passes the deadline then. */
+static uint32_t racing_tick(void *user)
+{
+    fake *k = (fake *)user;
+    if (k->now == 19u) {
+        dre_frame reply = frame_of(0x021, "0000000000000000");
+        CHECK(dre_bus_isr_push(&bus, &reply) == 1);
+        k->now = 20u;
+    }
+    return k->now;
+}
+
+static void test_poll_reads_tick_first(void)
 {
     dre_motor m = {&bus, 1u};
+    dre_req req = 0u;
+    dre_msg reply;
+
+    setup();
+    bus.cfg.timeout_ms = 20u;
+    bus.cfg.tick = racing_tick;
+    CHECK(dre_get_state(&m, &req) == DRE_OK); /* sent at 0 ms */
+    bus_fake.now = 19u;
+    dre_bus_poll(&bus); /* the reply arrived at 19 ms, before the 20 ms deadline */
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.node == 1u);
+    CHECK(bus.stats.timeouts == 0u && bus.rx_head == bus.rx_tail);
+}
+
+static void test_slots_and_send_failure(void)
+{
+    dre_motor m[5] = {{&bus, 1u}, {&bus, 2u}, {&bus, 3u}, {&bus, 4u}, {&bus, 5u}};
     dre_req reqs[5], old;
     dre_msg reply;
     unsigned i;
 
     setup();
     for (i = 0u; i < 4u; i++) {
-        CHECK(dre_get_state(&m, &reqs[i]) == DRE_OK);
+        CHECK(dre_get_state(&m[i], &reqs[i]) == DRE_OK);
     }
-    CHECK(dre_get_state(&m, &reqs[4]) == DRE_E_BUSY && bus_fake.nsent == 4u);
+    CHECK(dre_get_state(&m[4], &reqs[4]) == DRE_E_BUSY && bus_fake.nsent == 4u);
     dre_cancel(&bus, reqs[2]);
     CHECK(dre_result(&bus, reqs[2], &reply) == DRE_E_ARG);
-    CHECK(dre_get_state(&m, &reqs[4]) == DRE_OK);
+    CHECK(dre_get_state(&m[4], &reqs[4]) == DRE_OK);
 
     /* a handle of a finished request does not reach the request now using its slot */
     old = reqs[2];
@@ -212,11 +259,53 @@ static void test_slots_and_send_failure(void)
     setup();
     bus_fake.fail_from = 0;
     for (i = 0u; i < 6u; i++) {
-        CHECK(dre_get_state(&m, &reqs[0]) == DRE_E_SEND); /* never takes a slot */
+        CHECK(dre_get_state(&m[0], &reqs[0]) == DRE_E_SEND); /* never takes a slot */
     }
     bus_fake.fail_from = -1;
-    CHECK(dre_get_state(&m, &reqs[0]) == DRE_OK);
+    CHECK(dre_get_state(&m[0], &reqs[0]) == DRE_OK);
     CHECK(dre_result(&bus, 0u, &reply) == DRE_E_ARG && dre_result(&bus, 0xFFFFFFFFu, &reply) == DRE_E_ARG);
+}
+
+static void test_one_request_per_motor(void)
+{
+    dre_motor m1 = {&bus, 1u}, m2 = {&bus, 2u};
+    dre_req a, b, c, d;
+    dre_msg reply;
+
+    setup();
+    CHECK(dre_get_state(&m1, &a) == DRE_OK && dre_read_param(&m1, DRE_P_VBUS_VOLTAGE, &b) == DRE_OK);
+    CHECK(dre_get_state(&m2, &c) == DRE_OK); /* another motor goes out at once */
+    CHECK(bus_fake.nsent == 2u && sent_is(0u, 0x03E, "0000000000000000") && sent_is(1u, 0x05E, "0000000000000000"));
+    CHECK(dre_result(&bus, b, &reply) == DRE_PENDING);
+
+    /* the waiting request is not expired while it waits, and its timeout starts when it is sent */
+    bus_fake.now = 40u;
+    feed(0x021, "0000000000000000");
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, a, &reply) == DRE_OK && bus_fake.nsent == 3u && sent_is(2u, 0x03E, "0100000000000000"));
+    bus_fake.now = 89u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, b, &reply) == DRE_PENDING && dre_result(&bus, c, &reply) == DRE_E_TIMEOUT);
+    bus_fake.now = 90u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, b, &reply) == DRE_E_TIMEOUT);
+
+    /* cancelling the request in flight lets the next one go */
+    CHECK(dre_get_state(&m1, &a) == DRE_OK && dre_get_state(&m1, &d) == DRE_OK && bus_fake.nsent == 4u);
+    dre_cancel(&bus, a);
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 5u && dre_result(&bus, d, &reply) == DRE_PENDING);
+
+    /* a waiting request whose turn came but that cannot be sent expires after a timeout */
+    setup();
+    CHECK(dre_get_state(&m1, &a) == DRE_OK && dre_get_state(&m1, &b) == DRE_OK);
+    bus_fake.fail_from = 1;
+    feed(0x021, "0000000000000000");
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, b, &reply) == DRE_PENDING);
+    bus_fake.now = 50u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, b, &reply) == DRE_E_TIMEOUT && bus_fake.nsent == 1u);
 }
 
 static void test_isr_queue(void)
@@ -268,6 +357,13 @@ static void test_init(void)
         dre_frame f = frame_of(0x021, "0000000000000000");
         CHECK(dre_bus_isr_push(&b, &f) == 0); /* no queue configured */
     }
+    cfg.start = 3u;
+    CHECK(dre_bus_init(&b, &cfg, slots, 4u, NULL, 0u) == DRE_E_ARG);
+    cfg.start = DRE_START_TO_NODE;
+    cfg.traj_mode = 3u;
+    CHECK(dre_bus_init(&b, &cfg, slots, 4u, NULL, 0u) == DRE_E_ARG);
+    cfg.traj_mode = DRE_TRAJ_S_CURVE;
+    CHECK(dre_bus_init(&b, &cfg, slots, 4u, NULL, 0u) == DRE_OK);
     cfg.tick = NULL;
     CHECK(dre_bus_init(&b, &cfg, slots, 4u, NULL, 0u) == DRE_E_ARG);
 }
@@ -294,24 +390,23 @@ static void test_single_motor_commands(void)
     CHECK(dre_save_config(&m1) == DRE_OK && sent_is(11u, 0x028, "0100000000000000"));
     CHECK(dre_reboot(&m1) == DRE_OK && sent_is(12u, 0x028, "0300000000000000"));
     CHECK(dre_set_zero_position(&m1) == DRE_OK && sent_is(13u, 0x028, "0500000000000000"));
-    CHECK(dre_set_id(&m1, 5u) == DRE_OK && sent_is(14u, 0x03F, "1979030005000000") &&
-          sent_is(15u, 0x0A8, "0100000000000000"));
     v.i = 1;
     CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE, v) == DRE_OK &&
-          sent_is(16u, 0x03F, "EE79030001000000"));
+          sent_is(14u, 0x03F, "EE79030001000000"));
     v.f32 = -1.5f;
-    CHECK(dre_write_property(&m2, 38012u, DRE_F32, v) == DRE_OK && sent_is(17u, 0x05F, "7C9400000000C0BF"));
-    CHECK(bus_fake.nsent == 18u);
+    CHECK(dre_write_property(&m2, 38012u, DRE_F32, v) == DRE_OK && sent_is(15u, 0x05F, "7C9400000000C0BF"));
+    CHECK(bus_fake.nsent == 16u);
 
     /* refusals send nothing and name the field */
     CHECK(dre_set_angle(&m1, 0.0f, 0.0f, 5.0f, DRE_ANGLE_Q) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_SPEED);
     CHECK(dre_set_angle(&m1, 0.0f, 5.0f, -1.0f, DRE_ANGLE_Q) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_ACCEL);
+    CHECK(dre_set_angle(&m1, 0.0f, 5.0f, 0.005f, DRE_ANGLE_Q) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_ACCEL);
     CHECK(dre_set_angle(&m1, 0.0f, 5.0f, 1.0f, 3u) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_MODE);
     CHECK(dre_set_angle(&m1, NAN, 5.0f, 1.0f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_POSITION);
+    CHECK(dre_set_angle(&m1, NAN, 0.0f, 0.0f, DRE_ANGLE_P) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_POSITION);
     CHECK(dre_set_speed(&m1, 1.0f, 400.0f, DRE_VEL_RAMP) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
     CHECK(dre_set_torque(&m1, 1.0f, 0.0f, 2u) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_MODE);
     CHECK(dre_set_mode(&m1, 3u) == DRE_E_RANGE);
-    CHECK(dre_set_id(&m1, 64u) == DRE_E_RANGE && dre_set_id(&m1, 0u) == DRE_E_RANGE);
     v.i = 2;
     CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE, v) == DRE_E_RANGE);
     v.f32 = 1.0f;
@@ -324,10 +419,88 @@ static void test_single_motor_commands(void)
         CHECK(dre_estop(&bad) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_NODE);
         CHECK(dre_get_state(&bad, &req) == DRE_E_RANGE);
     }
-    CHECK(bus_fake.nsent == 18u);
+    CHECK(bus_fake.nsent == 16u);
 
-    bus_fake.fail_from = 18;
+    bus_fake.fail_from = 16;
     CHECK(dre_estop(&m1) == DRE_E_SEND);
+}
+
+/* T mode as the vendor and the Python client: 0 < |bandwidth| <= 300, absolute values sent. */
+static void test_t_mode_bandwidth(void)
+{
+    static const uint8_t ids[2] = {1u, 2u};
+    static const float angles[2] = {10.0f, 20.0f};
+    dre_motor m1 = {&bus, 1u};
+
+    setup();
+    CHECK(dre_set_angle(&m1, 10.0f, -3.0f, -5.0f, DRE_ANGLE_T) == DRE_OK && sent_is(0u, 0x039, "000020412C01F401"));
+    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, 300.0f, DRE_ANGLE_T) == DRE_OK && sent_is(1u, 0x039, "0000204100003075"));
+    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, -300.0f, DRE_ANGLE_T) == DRE_OK);
+    CHECK(bus_fake.nsent == 3u);
+    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, 0.0f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
+    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, 0.004f, DRE_ANGLE_T) == DRE_E_RANGE);
+    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, 300.5f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
+    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, -1000.0f, DRE_ANGLE_T) == DRE_E_RANGE);
+    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, NAN, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
+    CHECK(dre_set_angle(&m1, 10.0f, INFINITY, 5.0f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_SPEED);
+    CHECK(bus_fake.nsent == 3u);
+
+    /* the same rule for T presets */
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, -3.0f, -5.0f, DRE_ANGLE_T) == DRE_OK);
+    CHECK(sent_is(3u, 0x02C, "000020412C01F401") && sent_is(5u, 0x008, "1000000000000000"));
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, 0.0f, 0.0f, DRE_ANGLE_T) == DRE_E_RANGE &&
+          bus.bad_field == DRE_FIELD_BANDWIDTH);
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, 0.0f, 301.0f, DRE_ANGLE_T) == DRE_E_RANGE);
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, NAN, 5.0f, DRE_ANGLE_T) == DRE_E_RANGE &&
+          bus.bad_field == DRE_FIELD_SPEED);
+    CHECK(bus_fake.nsent == 6u);
+}
+
+/* set_speed(s) / set_torque(s) parameters as the vendor and the Python client send them. */
+static void test_speed_torque_params(void)
+{
+    static const uint8_t ids[3] = {1u, 2u, 3u};
+    static const float speeds[3] = {10.0f, 0.0f, -0.0f}, torques[2] = {1.5f, -1.5f};
+    dre_motor m1 = {&bus, 1u};
+
+    setup();
+    /* passthrough at speed 0: no feed-forward torque, whatever param says */
+    CHECK(dre_set_speed(&m1, 0.0f, 1.5f, DRE_VEL_PASSTHROUGH) == DRE_OK && sent_is(0u, 0x03C, "0000000000000100"));
+    CHECK(dre_set_speed(&m1, 0.0f, NAN, DRE_VEL_PASSTHROUGH) == DRE_OK && sent_is(1u, 0x03C, "0000000000000100"));
+    /* mode 0 is the ramp, as the vendor's docs use it */
+    CHECK(dre_set_speed(&m1, 20.0f, 5.0f, 0u) == DRE_OK && sent_is(2u, 0x03C, "0000A041F4010200"));
+    /* direct torque: param is not sent */
+    CHECK(dre_set_torque(&m1, 1.5f, 5.0f, DRE_TORQUE_DIRECT) == DRE_OK && sent_is(3u, 0x03D, "0000C03F00000100"));
+    CHECK(dre_set_torque(&m1, 1.5f, 5.0f, 0u) == DRE_OK && sent_is(4u, 0x03D, "0000C03FF4010600"));
+    CHECK(bus_fake.nsent == 5u);
+
+    /* a ramp rate must be > 0 on the wire; a feed-forward torque finite */
+    CHECK(dre_set_speed(&m1, 20.0f, 0.0f, DRE_VEL_RAMP) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
+    CHECK(dre_set_speed(&m1, 20.0f, 0.004f, 0u) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
+    CHECK(dre_set_speed(&m1, 20.0f, NAN, DRE_VEL_PASSTHROUGH) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
+    CHECK(dre_set_speed(&m1, NAN, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_SPEED);
+    CHECK(dre_set_speed(&m1, 1.0f, 0.0f, 3u) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_MODE);
+    CHECK(dre_set_torque(&m1, 1.0f, -2.0f, DRE_TORQUE_RAMP) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
+    CHECK(dre_set_torque(&m1, INFINITY, 0.0f, DRE_TORQUE_DIRECT) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_TORQUE);
+    CHECK(bus_fake.nsent == 5u);
+
+    /* the batch forms: per motor for speeds, for all for torques */
+    CHECK(dre_set_speeds(&bus, 3u, ids, speeds, 1.5f, DRE_VEL_PASSTHROUGH) == DRE_OK);
+    CHECK(sent_is(5u, 0x02C, "0000204196006400") && sent_is(6u, 0x04C, "0000000000006400") &&
+          sent_is(7u, 0x06C, "0000008000006400") && sent_is(8u, 0x008, "1300000000000000"));
+    CHECK(dre_set_speeds(&bus, 1u, ids, speeds, 5.0f, 0u) == DRE_OK && sent_is(9u, 0x02C, "00002041F401C800"));
+    CHECK(dre_set_torques(&bus, 2u, ids, torques, 5.0f, DRE_TORQUE_DIRECT) == DRE_OK);
+    CHECK(sent_is(11u, 0x02C, "0000C03F00006400") && sent_is(12u, 0x04C, "0000C0BF00006400"));
+    CHECK(dre_set_torques(&bus, 2u, ids, torques, NAN, DRE_TORQUE_DIRECT) == DRE_OK);
+    CHECK(dre_set_torques(&bus, 1u, ids, torques, 5.0f, 0u) == DRE_OK && sent_is(17u, 0x02C, "0000C03FF4015802"));
+    CHECK(bus_fake.nsent == 19u);
+    CHECK(dre_set_speeds(&bus, 3u, ids, speeds, 0.0f, DRE_VEL_RAMP) == DRE_E_RANGE &&
+          bus.bad_field == DRE_FIELD_PARAM);
+    CHECK(dre_set_speeds(&bus, 3u, ids, speeds, NAN, DRE_VEL_PASSTHROUGH) == DRE_E_RANGE);
+    CHECK(dre_set_torques(&bus, 2u, ids, torques, 0.0f, DRE_TORQUE_RAMP) == DRE_E_RANGE &&
+          bus.bad_field == DRE_FIELD_PARAM);
+    CHECK(dre_set_torques(&bus, 2u, ids, torques, 1.0f, 2u) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_MODE);
+    CHECK(bus_fake.nsent == 19u);
 }
 
 /* ------------------------------------------------------------------ several motors */
@@ -340,8 +513,9 @@ static void test_batches(void)
     float bad_angles[3] = {1.0f, 2.0f, 0.0f};
     dre_motor m1 = {&bus, 1u};
 
-    setup();
-    /* PROTOCOL.md 1.7: set_angles([1,2],[90,-90],10,20,1) from 0 deg gives T = 2.0 s */
+    /* the vendor's frames (PROTOCOL.md 1.7), which broadcast every start */
+    setup_with(DRE_START_TO_BROADCAST, -1, 0);
+    /* set_angles([1,2],[90,-90],10,20,1) from 0 deg gives T = 2.0 s */
     CHECK(dre_set_angles(&bus, 2u, ids, angles, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_OK);
     CHECK(bus_fake.nsent == 3u && sent_is(0u, 0x02C, "0000B442C800D007") && sent_is(1u, 0x04C, "0000B4C2C800D007") &&
           sent_is(2u, 0x008, "1100000000000000"));
@@ -359,7 +533,19 @@ static void test_batches(void)
     CHECK(sent_is(16u, 0x02C, "0000B44206FF4B00") && sent_is(17u, 0x008, "1200000000000000"));
     CHECK(bus_fake.nsent == 18u);
 
+    /* by default (as the Python client) a one-motor batch starts that motor only */
+    setup();
+    CHECK(dre_set_speeds(&bus, 1u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_OK);
+    CHECK(sent_is(0u, 0x02C, "0000204100006400") && sent_is(1u, 0x028, "1300000000000000"));
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_OK);
+    CHECK(bus_fake.nsent == 5u && sent_is(4u, 0x008, "1100000000000000"));
+    /* DRE_START_TO_NODE: one start per motor */
+    setup_with(DRE_START_TO_NODE, -1, 0);
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_OK);
+    CHECK(bus_fake.nsent == 4u && sent_is(2u, 0x028, "1100000000000000") && sent_is(3u, 0x048, "1100000000000000"));
+
     /* validation happens before anything is sent */
+    setup();
     bad_angles[2] = NAN;
     CHECK(dre_set_angles(&bus, 3u, ids, bad_angles, NULL, 5.0f, 50.0f, DRE_ANGLE_T) == DRE_E_RANGE);
     CHECK(bus.bad_field == DRE_FIELD_POSITION && bus.bad_index == 2u);
@@ -367,6 +553,8 @@ static void test_batches(void)
     CHECK(bus.bad_field == DRE_FIELD_SPEED_FF && bus.bad_index == 0u);
     CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_E_ARG);
     CHECK(dre_set_angles(&bus, 2u, ids, angles, from, 0.0f, 20.0f, DRE_ANGLE_Q) == DRE_E_RANGE);
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, from, 400.0f, 20.0f, DRE_ANGLE_Q) == DRE_E_RANGE &&
+          bus.bad_field == DRE_FIELD_SPEED);
     CHECK(dre_set_angles(&bus, 2u, ids, angles, from, 10.0f, 20.0f, 7u) == DRE_E_RANGE);
     /* a move of 100 turns at 1 r/min takes far longer than the 327.67 s a preset can carry */
     {
@@ -377,14 +565,141 @@ static void test_batches(void)
     CHECK(dre_set_speeds(&bus, 1u, ids, speeds, 0.0f, 5u) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_MODE);
     CHECK(dre_set_torques(&bus, 1u, ids, torques, 1000.0f, DRE_TORQUE_RAMP) == DRE_E_RANGE);
     CHECK(dre_set_speeds(&bus, 0u, ids, speeds, 0.0f, DRE_VEL_RAMP) == DRE_E_ARG);
-    CHECK(dre_impedance_control(&m1, 0.0f, 0.0f, 0.0f, 1000.0f, 0.0f) == DRE_E_RANGE);
-    CHECK(bus.bad_field == DRE_FIELD_KP && bus.bad_index == 1u); /* index n: the start frame */
-    CHECK(bus_fake.nsent == 18u);
+    CHECK(bus_fake.nsent == 0u);
 
     /* a failed send stops the batch before the start */
-    bus_fake.fail_from = 19;
+    bus_fake.fail_from = 1;
     CHECK(dre_set_angles(&bus, 3u, ids, angles, NULL, 5.0f, 50.0f, DRE_ANGLE_T) == DRE_E_SEND);
-    CHECK(bus_fake.nsent == 19u && bus_fake.sent[18].id == 0x02C);
+    CHECK(bus_fake.nsent == 1u && bus_fake.sent[0].id == 0x02C);
+}
+
+/* Q moves: the slowest motor's time, each motor with its own profile, rounded up to 0.01 s. */
+static void test_q_batch_time(void)
+{
+    static const uint8_t ids[2] = {1u, 2u};
+    const float angles[2] = {90.0f, -90.0f}, from[2] = {0.0f, 0.0f}, near_move[1] = {16.0f};
+    dre_motor m2 = {&bus, 2u};
+    dre_req req;
+    dre_msg reply;
+
+    setup();
+    /* 16 deg at 10 r/min, 20 (r/min)/s: 2 sqrt(16/120) = 0.7303 s, sent as 0.74 (nearest would be 0.73) */
+    CHECK(dre_set_angles(&bus, 1u, ids, near_move, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_OK);
+    CHECK(sent_is(0u, 0x02C, "000080414A00D007"));
+    /* no distance: the shortest time a preset carries */
+    CHECK(dre_step_angles(&bus, 1u, ids, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_OK);
+    CHECK(sent_is(2u, 0x02C, "000000000100D007"));
+
+    /* motor 2 reports the S-curve: 90 deg then take 1.5 + 1.0 = 2.5 s (trapezoid: 2.0 s) */
+    CHECK(dre_get_traj_mode(&m2, &req) == DRE_OK && sent_is(4u, 0x05E, "2089030000000000"));
+    feed(0x05E, "2089030002000000");
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.u.param.value.i == 2);
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_OK);
+    CHECK(sent_is(5u, 0x02C, "0000B442FA00D007") && sent_is(6u, 0x04C, "0000B4C2FA00D007"));
+    /* motor 1 alone keeps the trapezoid of cfg.traj_mode */
+    CHECK(dre_set_angles(&bus, 1u, ids, angles, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_OK);
+    CHECK(sent_is(8u, 0x02C, "0000B442C800D007"));
+    /* a reboot forgets the profile (it is not saved) */
+    CHECK(dre_reboot(&m2) == DRE_OK);
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_OK);
+    CHECK(sent_is(11u, 0x02C, "0000B442C800D007"));
+    /* so does a broadcast write of it */
+    CHECK(dre_set_traj_mode(&m2, DRE_TRAJ_S_CURVE, &req) == DRE_OK);
+    CHECK(sent_is(14u, 0x05F, "2089030002000000") && sent_is(15u, 0x05E, "2089030000000000"));
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_OK);
+    CHECK(sent_is(16u, 0x02C, "0000B442FA00D007"));
+    {
+        dre_motor all = {&bus, 0u};
+        dre_value v;
+        v.i = 2;
+        CHECK(dre_write_param(&all, DRE_P_AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE, v) == DRE_OK);
+    }
+    CHECK(bus.traj_known == 0u);
+}
+
+/* A non-finite current position, target or delta is refused, naming it and its index. */
+static void test_q_non_finite(void)
+{
+    static const uint8_t ids[3] = {1u, 2u, 3u};
+    float target[3] = {90.0f, 3000.0f, 0.0f}, from[3] = {0.0f, NAN, 0.0f};
+
+    setup();
+    CHECK(dre_set_angles(&bus, 3u, ids, target, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_E_RANGE);
+    CHECK(bus.bad_field == DRE_FIELD_FROM && bus.bad_index == 1u);
+    from[1] = 0.0f;
+    from[2] = -INFINITY;
+    CHECK(dre_set_angles(&bus, 3u, ids, target, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_E_RANGE);
+    CHECK(bus.bad_field == DRE_FIELD_FROM && bus.bad_index == 2u);
+    from[2] = 0.0f;
+    target[0] = INFINITY;
+    CHECK(dre_set_angles(&bus, 3u, ids, target, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_E_RANGE);
+    CHECK(bus.bad_field == DRE_FIELD_POSITION && bus.bad_index == 0u);
+    target[0] = 90.0f;
+    target[2] = NAN;
+    CHECK(dre_step_angles(&bus, 3u, ids, target, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_E_RANGE);
+    CHECK(bus.bad_field == DRE_FIELD_POSITION && bus.bad_index == 2u);
+    CHECK(bus_fake.nsent == 0u);
+}
+
+/* Motor ids of every batch: distinct, 1..63. */
+static void test_batch_ids(void)
+{
+    static const uint8_t twice[3] = {1u, 2u, 1u}, zero[2] = {2u, 0u}, high[1] = {64u};
+    static const float v[3] = {1.0f, 2.0f, 3.0f}, from[3] = {0.0f, 0.0f, 0.0f};
+    dre_msg presets[2], start;
+    dre_motor all = {&bus, 0u};
+
+    setup();
+    CHECK(dre_set_speeds(&bus, 3u, twice, v, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_E_ARG && bus.bad_index == 2u &&
+          bus.bad_field == DRE_FIELD_NODE);
+    CHECK(dre_set_torques(&bus, 3u, twice, v, 0.0f, DRE_TORQUE_DIRECT) == DRE_E_ARG);
+    CHECK(dre_set_angles(&bus, 3u, twice, v, from, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_E_ARG);
+    CHECK(dre_step_angles(&bus, 3u, twice, v, 0.0f, 10.0f, DRE_ANGLE_T) == DRE_E_ARG);
+    CHECK(dre_set_speeds(&bus, 2u, zero, v, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_E_RANGE &&
+          bus.bad_field == DRE_FIELD_NODE && bus.bad_index == 1u);
+    CHECK(dre_set_angles(&bus, 1u, high, v, NULL, 0.0f, 0.0f, DRE_ANGLE_P) == DRE_E_RANGE &&
+          bus.bad_field == DRE_FIELD_NODE && bus.bad_index == 0u);
+    CHECK(dre_step_angle(&all, 10.0f, 0.0f, 0.0f, DRE_ANGLE_P) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_NODE);
+
+    memset(presets, 0, sizeof presets);
+    memset(&start, 0, sizeof start);
+    presets[0].type = presets[1].type = DRE_MSG_PRESET;
+    presets[0].node = presets[1].node = 3u;
+    start.type = DRE_MSG_START;
+    start.u.start.kind = DRE_START_P;
+    CHECK(dre_preset_start(&bus, presets, 2u, &start) == DRE_E_ARG && bus.bad_index == 1u);
+    presets[1].node = 0u;
+    CHECK(dre_preset_start(&bus, presets, 2u, &start) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_NODE);
+    CHECK(bus_fake.nsent == 0u);
+}
+
+static void test_impedance(void)
+{
+    dre_motor m1 = {&bus, 1u};
+
+    setup();
+    /* the start goes to the motor by default, as in the Python client */
+    CHECK(dre_impedance_control(&m1, 180.0f, 0.0f, 0.0f, 0.5f, 0.2f) == DRE_OK);
+    CHECK(bus_fake.nsent == 2u && sent_is(0u, 0x02C, "0000344300000000") && sent_is(1u, 0x028, "1500000032001400"));
+    CHECK(dre_impedance_control(&m1, 0.0f, 0.0f, 0.0f, 0.0f, 327.67f) == DRE_OK);
+    CHECK(sent_is(3u, 0x028, "150000000000FF7F"));
+
+    /* gains are 0..327.67 */
+    CHECK(dre_impedance_control(&m1, 0.0f, 0.0f, 0.0f, -50.0f, 2.0f) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_KP);
+    CHECK(bus.bad_index == 1u); /* index n: the start frame */
+    CHECK(dre_impedance_control(&m1, 0.0f, 0.0f, 0.0f, 50.0f, -2.0f) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_KD);
+    CHECK(dre_impedance_control(&m1, 0.0f, 0.0f, 0.0f, -0.001f, 0.0f) == DRE_E_RANGE);
+    CHECK(dre_impedance_control(&m1, 0.0f, 0.0f, 0.0f, 327.674f, 0.0f) == DRE_E_RANGE);
+    CHECK(dre_impedance_control(&m1, 0.0f, 0.0f, 0.0f, NAN, 0.0f) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_KP);
+    CHECK(dre_impedance_control(&m1, 0.0f, 0.0f, 0.0f, 1000.0f, 0.0f) == DRE_E_RANGE);
+    CHECK(dre_impedance_control(&m1, NAN, 0.0f, 0.0f, 1.0f, 1.0f) == DRE_E_RANGE &&
+          bus.bad_field == DRE_FIELD_POSITION && bus.bad_index == 0u);
+    CHECK(bus_fake.nsent == 4u);
+
+    /* the vendor's broadcast start as an option */
+    setup_with(DRE_START_TO_BROADCAST, -1, 0);
+    CHECK(dre_impedance_control(&m1, 180.0f, 0.0f, 0.0f, 0.5f, 0.2f) == DRE_OK);
+    CHECK(sent_is(1u, 0x008, "1500000032001400"));
 }
 
 static void test_preset_start(void)
@@ -416,7 +731,331 @@ static void test_preset_start(void)
     start.type = DRE_MSG_SYSTEM;
     presets[0].type = DRE_MSG_PRESET;
     CHECK(dre_preset_start(&bus, presets, 2u, &start) == DRE_E_ARG);
+    start.type = DRE_MSG_START_IMPEDANCE;
+    start.u.start_impedance.kp = -1.0f;
+    presets[0].type = presets[1].type = DRE_MSG_PRESET_D;
+    CHECK(dre_preset_start(&bus, presets, 2u, &start) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_KP &&
+          bus.bad_index == 2u);
     CHECK(bus_fake.nsent == 3u);
+}
+
+/* ------------------------------------------------------------------ transmit room */
+
+/* Three hardware mailboxes and no software queue: a batch that does not fit sends nothing. */
+static void test_tx_room(void)
+{
+    static const uint8_t ids[6] = {1u, 2u, 3u, 4u, 5u, 6u};
+    static const float speeds[6] = {10.0f, 10.0f, 10.0f, 10.0f, 10.0f, 10.0f};
+    dre_motor m1 = {&bus, 1u};
+    dre_req req[3];
+
+    setup_with(DRE_START_TO_AUTO, 3, 0);
+    CHECK(dre_set_speeds(&bus, 6u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_E_BUSY && bus_fake.nsent == 0u);
+    CHECK(bus.presets_pending == 0u);
+    CHECK(dre_set_speeds(&bus, 2u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_OK && bus_fake.nsent == 3u);
+    bus_fake.room = 2;
+    CHECK(dre_set_speeds(&bus, 2u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_E_BUSY);
+    CHECK(dre_impedance_control(&m1, 0.0f, 0.0f, 0.0f, 1.0f, 1.0f) == DRE_OK && bus_fake.nsent == 5u);
+    /* other operations of several frames: a verified write needs the write and the read */
+    bus_fake.room = 1;
+    CHECK(dre_set_traj_mode(&m1, DRE_TRAJ_TRAPEZOID, req) == DRE_E_BUSY);
+    bus_fake.room = 3;
+    CHECK(dre_set_angle_range(&m1, -90.0f, 90.0f, 0.0f, req) == DRE_E_BUSY);
+    CHECK(bus_fake.nsent == 5u);
+    bus_fake.room = 7;
+    CHECK(dre_set_speeds(&bus, 6u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_OK && bus_fake.nsent == 12u);
+    CHECK(sent_is(11u, 0x008, "1300000000000000"));
+}
+
+/* A port's transmit ring: the send callback pushes, the "TX-complete interrupt" drains into 3 mailboxes. */
+static dre_txq txq;
+static dre_frame txq_storage[8];
+
+static int ring_send(void *user, const dre_frame *f)
+{
+    (void)user;
+    return dre_txq_send(&txq, f);
+}
+
+static unsigned ring_free(void *user)
+{
+    (void)user;
+    return dre_txq_free(&txq);
+}
+
+/* The hardware takes up to `n` frames, in order. */
+static void drain(unsigned n)
+{
+    dre_frame f;
+    while (n-- > 0u && dre_txq_peek(&txq, &f)) {
+        CHECK(fake_send(&bus_fake, &f) == 0);
+        dre_txq_pop(&txq);
+    }
+}
+
+static void test_txq(void)
+{
+    static const uint8_t ids[6] = {1u, 2u, 3u, 4u, 5u, 6u};
+    static const float speeds[6] = {10.0f, 10.0f, 10.0f, 10.0f, 10.0f, 10.0f};
+    dre_frame f = frame_of(0x028, "0600000000000000"), g;
+    unsigned i;
+
+    CHECK(dre_txq_init(&txq, txq_storage, 6u) == DRE_E_ARG && dre_txq_init(&txq, NULL, 8u) == DRE_E_ARG);
+    CHECK(dre_txq_init(&txq, txq_storage, 1u) == DRE_E_ARG);
+    CHECK(dre_txq_init(&txq, txq_storage, 8u) == DRE_OK && dre_txq_free(&txq) == 8u);
+    CHECK(dre_txq_peek(&txq, &g) == 0);
+    dre_txq_pop(&txq); /* popping an empty ring does nothing */
+    CHECK(dre_txq_free(&txq) == 8u);
+    for (i = 0u; i < 8u; i++) {
+        f.data[1] = (uint8_t)i;
+        CHECK(dre_txq_send(&txq, &f) == 0);
+    }
+    CHECK(dre_txq_send(&txq, &f) == -1 && dre_txq_free(&txq) == 0u);
+    for (i = 0u; i < 300u; i++) { /* the indices wrap many times */
+        CHECK(dre_txq_peek(&txq, &g) == 1 && g.data[1] == (uint8_t)i);
+        dre_txq_pop(&txq);
+        f.data[1] = (uint8_t)(i + 8u);
+        CHECK(dre_txq_send(&txq, &f) == 0 && dre_txq_free(&txq) == 0u);
+    }
+
+    /* a port wired to it: a 6-motor batch goes into the ring whole and leaves in order */
+    setup_with(DRE_START_TO_AUTO, -1, 0);
+    CHECK(dre_txq_init(&txq, txq_storage, 8u) == DRE_OK);
+    bus.cfg.send = ring_send;
+    bus.cfg.tx_free = ring_free;
+    CHECK(dre_set_speeds(&bus, 6u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_OK && dre_txq_free(&txq) == 1u);
+    CHECK(dre_set_speeds(&bus, 6u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_E_BUSY); /* no room for 7 more */
+    drain(3u);
+    drain(3u);
+    drain(3u);
+    CHECK(bus_fake.nsent == 7u && sent_is(0u, 0x02C, "0000204100006400") && sent_is(5u, 0x0CC, "0000204100006400") &&
+          sent_is(6u, 0x008, "1300000000000000"));
+    CHECK(dre_txq_free(&txq) == 8u);
+}
+
+/* A send failing midway: the motors left holding a preset are started by id, never by a broadcast. */
+static void test_stale_presets(void)
+{
+    static const uint8_t ids[5] = {1u, 2u, 3u, 4u, 5u};
+    static const float speeds[5] = {10.0f, 10.0f, 10.0f, 10.0f, 10.0f};
+
+    setup();
+    bus_fake.fail_from = 2; /* presets of motors 1 and 2 go out, the third fails */
+    CHECK(dre_set_speeds(&bus, 3u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_E_SEND);
+    CHECK(bus.presets_pending == ((1u << 1) | (1u << 2)));
+    bus_fake.fail_from = -1;
+
+    /* motors 4 and 5: a broadcast would start 1 and 2 too */
+    CHECK(dre_set_speeds(&bus, 2u, ids + 3, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_OK);
+    CHECK(bus_fake.nsent == 6u && sent_is(4u, 0x088, "1300000000000000") && sent_is(5u, 0x0A8, "1300000000000000"));
+    CHECK(bus.presets_pending == ((1u << 1) | (1u << 2)));
+    /* motor 2 alone is started by its id, and forgotten */
+    CHECK(dre_set_speeds(&bus, 1u, ids + 1, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_OK);
+    CHECK(sent_is(7u, 0x048, "1300000000000000") && bus.presets_pending == (1u << 1));
+    /* a batch holding motor 1 may broadcast: every pending preset belongs to it */
+    CHECK(dre_set_speeds(&bus, 2u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_OK);
+    CHECK(sent_is(10u, 0x008, "1300000000000000") && bus.presets_pending == 0u);
+    CHECK(dre_set_speeds(&bus, 2u, ids + 3, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_OK);
+    CHECK(bus_fake.nsent == 14u && sent_is(13u, 0x008, "1300000000000000"));
+
+    /* a failed start leaves every motor of the batch pending; starts by id clear them one by one */
+    setup();
+    bus_fake.fail_from = 3;
+    CHECK(dre_set_speeds(&bus, 3u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_E_SEND);
+    CHECK(bus.presets_pending == ((1u << 1) | (1u << 2) | (1u << 3)));
+    setup_with(DRE_START_TO_NODE, -1, 0);
+    bus_fake.fail_from = 3; /* both presets and the first start go out */
+    CHECK(dre_set_speeds(&bus, 2u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_E_SEND);
+    CHECK(bus.presets_pending == (1u << 2));
+}
+
+/* ------------------------------------------------------------------ vendor functions */
+
+static void test_reads(void)
+{
+    static const char *const words[DRE_ERROR_WORDS] = {"3175030000000000", "E980030000000000", "D184030000000000",
+                                                       "017D030000000000", "214E030000000000", "A18C030000000000",
+                                                       "8990030000000000"};
+    dre_motor m1 = {&bus, 1u}, m2 = {&bus, 2u};
+    dre_req req[DRE_ERROR_WORDS], id, other;
+    dre_msg reply;
+    unsigned i;
+
+    setup_with(DRE_START_TO_AUTO, -1, 1);
+    CHECK(dre_get_id(&m2, &id) == DRE_OK && sent_is(0u, 0x05E, "1979030000000000"));
+    feed(0x05E, "1979030002000000");
+    CHECK(dre_result(&bus, id, &reply) == DRE_OK && reply.u.param.value.i == 2);
+
+    /* get_volcur: two reads, the second once the first is answered */
+    CHECK(dre_get_volcur(&m1, req) == DRE_OK && bus_fake.nsent == 2u && sent_is(1u, 0x03E, "0100000000000000"));
+    feed(0x03E, "010000000000C041"); /* 24 V */
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 3u && sent_is(2u, 0x03E, "B681000000000000"));
+    feed(0x03E, "B681000000000040"); /* 2 A */
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_OK && reply.u.param.value.f32 == 24.0f);
+    CHECK(dre_result(&bus, req[1], &reply) == DRE_OK && reply.u.param.value.f32 == 2.0f);
+
+    /* dump_error: the seven words in the vendor's order, needing seven free slots */
+    CHECK(dre_get_state(&m2, &id) == DRE_OK && dre_get_state(&m2, &other) == DRE_OK);
+    CHECK(dre_dump_error(&m1, req) == DRE_E_BUSY && bus_fake.nsent == 4u);
+    dre_cancel(&bus, id);
+    dre_cancel(&bus, other);
+    CHECK(dre_dump_error(&m1, req) == DRE_OK);
+    for (i = 0u; i < DRE_ERROR_WORDS; i++) {
+        dre_frame f;
+        CHECK(bus_fake.nsent == 5u + i && sent_is(4u + i, 0x03E, words[i]));
+        f = frame_of(0x03E, words[i]);
+        f.data[4] = (uint8_t)(i + 1u);
+        CHECK(dre_bus_feed(&bus, &f) == DRE_OK);
+        dre_bus_poll(&bus);
+    }
+    for (i = 0u; i < DRE_ERROR_WORDS; i++) {
+        CHECK(dre_result(&bus, req[i], &reply) == DRE_OK && reply.u.param.value.i == (int64_t)(i + 1u));
+    }
+    CHECK(bus_fake.nsent == 11u);
+}
+
+static void test_verified_writes(void)
+{
+    dre_motor m1 = {&bus, 1u}, m3 = {&bus, 3u};
+    dre_req req[3];
+    dre_msg reply;
+
+    /* set_traj_mode: write, read back, remembered, not saved */
+    setup();
+    CHECK(dre_set_traj_mode(&m1, DRE_TRAJ_S_CURVE, req) == DRE_OK);
+    CHECK(bus_fake.nsent == 2u && sent_is(0u, 0x03F, "2089030002000000") && sent_is(1u, 0x03E, "2089030000000000"));
+    feed(0x03E, "2089030002000000");
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_OK && bus_fake.nsent == 2u);
+    CHECK(bus.traj_known == (1u << 1) && bus.traj_scurve == (1u << 1));
+    CHECK(dre_set_traj_mode(&m1, DRE_TRAJ_TRAPEZOID, req) == DRE_OK);
+    feed(0x03E, "2089030002000000"); /* the motor kept the S-curve */
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_E_VERIFY && reply.u.param.value.i == 2);
+    CHECK(dre_set_traj_mode(&m1, 0u, req) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_MODE);
+
+    /* set_can_baud_rate: save only after the value reads back */
+    setup();
+    CHECK(dre_set_can_baud_rate(&m1, 1000000u, req) == DRE_OK);
+    CHECK(sent_is(0u, 0x03F, "0952030040420F00") && sent_is(1u, 0x03E, "0952030000000000"));
+    feed(0x03E, "0952030040420F00");
+    CHECK(bus_fake.nsent == 3u && sent_is(2u, 0x028, "0100000000000000"));
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_OK);
+    CHECK(dre_set_can_baud_rate(&m1, 1000001u, req) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_VALUE);
+    CHECK(dre_set_uart_baud_rate(&m1, 115200u, req) == DRE_OK && sent_is(3u, 0x03F, "1127030000C20100"));
+    feed(0x03E, "1127030080250000"); /* 9600: not what was written */
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_E_VERIFY && bus_fake.nsent == 5u);
+    CHECK(dre_set_uart_baud_rate(&m1, 1000000u, req) == DRE_E_RANGE);
+
+    /* set_id: the motor must answer at its new id before it is saved there */
+    setup();
+    CHECK(dre_set_id(&m1, 5u, req) == DRE_OK);
+    CHECK(bus_fake.nsent == 2u && sent_is(0u, 0x03F, "1979030005000000") && sent_is(1u, 0x0BE, "1979030000000000"));
+    feed(0x0BE, "1979030005000000");
+    CHECK(bus_fake.nsent == 3u && sent_is(2u, 0x0A8, "0100000000000000"));
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_OK);
+    CHECK(dre_set_id(&m1, 6u, req) == DRE_OK);
+    bus_fake.now = 50u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_E_TIMEOUT && bus_fake.nsent == 5u); /* nothing saved */
+    CHECK(dre_set_id(&m1, 64u, req) == DRE_E_RANGE && dre_set_id(&m1, 0u, req) == DRE_E_RANGE);
+
+    /* set_angle_range: three verified writes, saved once all three read back */
+    setup();
+    CHECK(dre_set_angle_range(&m1, -90.0f, 90.0f, 0.0f, req) == DRE_OK);
+    CHECK(bus_fake.nsent == 4u && sent_is(0u, 0x03F, "7A9400000000B4C2") && sent_is(1u, 0x03F, "7B9400000000B442") &&
+          sent_is(2u, 0x03F, "E279030001000000") && sent_is(3u, 0x03E, "7A94000000000000"));
+    feed(0x03E, "7A9400000000B4C2");
+    dre_bus_poll(&bus);
+    CHECK(sent_is(4u, 0x03E, "7B94000000000000"));
+    feed(0x03E, "7B9400000000B442");
+    dre_bus_poll(&bus);
+    CHECK(sent_is(5u, 0x03E, "E279030000000000") && bus_fake.nsent == 6u);
+    feed(0x03E, "E279030001000000");
+    CHECK(bus_fake.nsent == 7u && sent_is(6u, 0x028, "0100000000000000"));
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_OK && dre_result(&bus, req[1], &reply) == DRE_OK &&
+          dre_result(&bus, req[2], &reply) == DRE_OK);
+    /* a limit that does not read back: nothing saved */
+    CHECK(dre_set_angle_range(&m3, -90.0f, 90.0f, 0.0f, req) == DRE_OK && bus_fake.nsent == 11u);
+    feed(0x07E, "7A9400000000B4C2");
+    dre_bus_poll(&bus);
+    feed(0x07E, "7B9400000000B443"); /* 360, not 90 */
+    dre_bus_poll(&bus);
+    feed(0x07E, "E279030001000000");
+    CHECK(bus_fake.nsent == 13u);
+    CHECK(dre_result(&bus, req[1], &reply) == DRE_E_VERIFY && dre_result(&bus, req[2], &reply) == DRE_OK);
+    /* refusals */
+    CHECK(dre_set_angle_range(&m1, 90.0f, -90.0f, 0.0f, req) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_VALUE &&
+          bus.bad_index == 1u);
+    CHECK(dre_set_angle_range(&m1, NAN, 90.0f, 0.0f, req) == DRE_E_RANGE && bus.bad_index == 0u);
+    CHECK(dre_set_angle_range(&m1, -90.0f, 90.0f, 91.0f, req) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_POSITION);
+    CHECK(dre_set_angle_range(&m1, -90.0f, 90.0f, NAN, req) == DRE_E_RANGE);
+    CHECK(bus_fake.nsent == 13u);
+}
+
+static void test_step_angle(void)
+{
+    dre_motor m2 = {&bus, 2u};
+
+    setup();
+    CHECK(dre_step_angle(&m2, 30.0f, 10.0f, 20.0f, DRE_ANGLE_P) == DRE_OK);
+    CHECK(bus_fake.nsent == 2u && sent_is(0u, 0x04C, "0000F041E803D007") && sent_is(1u, 0x048, "1200000001000000"));
+    /* Q: |delta| sets the time; 90 deg at 10 r/min, 20 (r/min)/s = 2.0 s */
+    CHECK(dre_step_angle(&m2, -90.0f, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_OK);
+    CHECK(sent_is(2u, 0x04C, "0000B4C2C800D007") && sent_is(3u, 0x048, "1100000001000000"));
+    CHECK(dre_step_angle(&m2, NAN, 10.0f, 20.0f, DRE_ANGLE_Q) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_POSITION);
+}
+
+static void test_position_done(void)
+{
+    static const uint8_t ids[2] = {1u, 2u};
+    dre_motor m1 = {&bus, 1u};
+    dre_done d, dd[2];
+
+    setup();
+    memset(&d, 0, sizeof d);
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING && bus_fake.nsent == 1u);
+    CHECK(sent_is(0u, 0x03E, "0000000000000000"));
+    feed(0x021, "0000A04100000000"); /* moving, at 20 deg */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING && d.state.u.state.position == 20.0f);
+    CHECK(bus_fake.nsent == 1u); /* the next read waits for the poll interval */
+    bus_fake.now = DRE_POLL_INTERVAL_MS;
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING && bus_fake.nsent == 2u);
+    feed(0x023, "0000B44200000000"); /* T bit: done at 90 deg */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_OK && d.state.u.state.position == 90.0f);
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_OK && bus_fake.nsent == 2u);
+
+    /* an error bit ends the wait at once */
+    memset(&d, 0, sizeof d);
+    CHECK(dre_position_done(&m1, &d, 0u) == DRE_PENDING);
+    feed(0x025, "0000000000000000");
+    CHECK(dre_position_done(&m1, &d, 0u) == DRE_E_FAULT && d.phase == 0u);
+    /* an unanswered fast read, and the overall limit */
+    CHECK(dre_position_done(&m1, &d, 0u) == DRE_PENDING);
+    bus_fake.now += 50u;
+    dre_bus_poll(&bus);
+    CHECK(dre_position_done(&m1, &d, 0u) == DRE_E_TIMEOUT);
+    CHECK(dre_position_done(&m1, &d, 100u) == DRE_PENDING);
+    bus_fake.now += 100u;
+    CHECK(dre_position_done(&m1, &d, 100u) == DRE_E_TIMEOUT);
+    CHECK(dre_result(&bus, d.req, &d.state) == DRE_E_ARG); /* its read was cancelled */
+
+    /* several motors: done when all are; a fault names the motor */
+    setup();
+    memset(dd, 0, sizeof dd);
+    CHECK(dre_positions_done(&bus, 2u, ids, dd, 0u) == DRE_PENDING && bus_fake.nsent == 2u);
+    feed(0x023, "0000000000000000");
+    feed(0x041, "0000000000000000");
+    CHECK(dre_positions_done(&bus, 2u, ids, dd, 0u) == DRE_PENDING);
+    bus_fake.now = 20u;
+    CHECK(dre_positions_done(&bus, 2u, ids, dd, 0u) == DRE_PENDING && bus_fake.nsent == 3u &&
+          sent_is(2u, 0x05E, "0000000000000000"));
+    feed(0x043, "0000000000000000");
+    CHECK(dre_positions_done(&bus, 2u, ids, dd, 0u) == DRE_OK);
+    memset(dd, 0, sizeof dd);
+    CHECK(dre_positions_done(&bus, 2u, ids, dd, 0u) == DRE_PENDING);
+    feed(0x045, "0000000000000000");
+    CHECK(dre_positions_done(&bus, 2u, ids, dd, 0u) == DRE_E_FAULT && bus.bad_index == 1u);
+    CHECK(dre_positions_done(&bus, 0u, ids, dd, 0u) == DRE_E_ARG);
 }
 
 static int near(float a, float b)
@@ -447,12 +1086,27 @@ int main(void)
     test_read_matching();
     test_oldest_first_and_broadcast();
     test_timeouts();
+    test_poll_reads_tick_first();
     test_slots_and_send_failure();
+    test_one_request_per_motor();
     test_isr_queue();
     test_init();
     test_single_motor_commands();
+    test_t_mode_bandwidth();
+    test_speed_torque_params();
     test_batches();
+    test_q_batch_time();
+    test_q_non_finite();
+    test_batch_ids();
+    test_impedance();
     test_preset_start();
+    test_tx_room();
+    test_txq();
+    test_stale_presets();
+    test_reads();
+    test_verified_writes();
+    test_step_angle();
+    test_position_done();
     test_q_move_time();
     return check_report("test_client");
 }

@@ -45,7 +45,11 @@ static void test_rounding(void)
 {
     /* ties go to even, as Python's round(): 12.5 -> 12, 37.5 -> 38, 62.5 -> 62, 87.5 -> 88 */
     CHECK(raw_p2(0.125f) == 12L && raw_p2(0.375f) == 38L && raw_p2(0.625f) == 62L && raw_p2(0.875f) == 88L);
-    CHECK(raw_p2(-0.125f) == -12L && raw_p2(-0.375f) == -38L);
+    CHECK(raw_p2(-0.125f) == -12L && raw_p2(-0.375f) == -38L && raw_p2(1.125f) == 112L);
+    /* decimals that are no binary32 round as the float nearest to them (dre_codec.h):
+     * 0.015f is 0.01499999966 and 2.675f is 2.67499995, where Python's double gives 2 and 268 */
+    CHECK(raw_p2(0.015f) == 1L && raw_p2(2.675f) == 267L);
+    CHECK(raw_p2(0.005f) == 0L && raw_p2(0.0050001f) == 1L);
     /* nearest, not truncation (the vendor C library's int(x/0.01) bug) */
     CHECK(raw_p2(0.29f) == 29L && raw_p2(1.15f) == 115L && raw_p2(0.57f) == 57L && raw_p2(-0.29f) == -29L);
     CHECK(raw_p2(0.004f) == 0L && raw_p2(0.006f) == 1L && raw_p2(-0.006f) == -1L);
@@ -269,6 +273,8 @@ static void test_names(void)
     CHECK(strcmp(dre_field_name((dre_field)99), "?") == 0);
     CHECK(strcmp(dre_status_name(DRE_E_TIMEOUT), "timeout") == 0);
     CHECK(strcmp(dre_status_name(DRE_PENDING), "pending") == 0);
+    CHECK(strcmp(dre_status_name(DRE_E_FAULT), "fault") == 0 && strcmp(dre_status_name(DRE_E_VERIFY), "verify") == 0);
+    CHECK(strcmp(dre_field_name(DRE_FIELD_FROM), "from") == 0);
     CHECK(strcmp(dre_status_name((dre_status)-99), "?") == 0);
 }
 

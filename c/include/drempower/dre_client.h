@@ -7,8 +7,10 @@
  * frames in, and polls requests for their replies.
  *
  * Concurrency: dre_bus_isr_push() is the one function that may run in an
- * interrupt (one producer). Every other function belongs to the main loop
- * (one consumer), including dre_bus_feed() and dre_bus_poll().
+ * interrupt (one producer). Every other dre_bus / dre_motor function belongs
+ * to the main loop (one consumer), including dre_bus_feed() and dre_bus_poll().
+ * The transmit ring (dre_txq) has the mirror split: the send callback pushes
+ * from the main loop, the TX-complete interrupt (or the poll loop) drains.
  *
  *     CAN RX interrupt:  dre_bus_isr_push(&bus, &frame);
  *     main loop:         dre_bus_poll(&bus);   // drains the queue, expires requests
@@ -16,7 +18,14 @@
  *
  * Functions that validate set bus->bad_field (and bus->bad_index for the
  * motor index in a batch) when they return DRE_E_RANGE. Nothing is sent
- * when a function returns DRE_E_RANGE, DRE_E_ARG or DRE_E_ACCESS.
+ * when a function returns DRE_E_RANGE, DRE_E_ARG, DRE_E_ACCESS or DRE_E_BUSY.
+ *
+ * Requests to the same motor go out one at a time, as in the Python client: a
+ * read reply carries the same CAN id as every read request to that motor, so a
+ * second request sent while the reply is due could collide with it on the
+ * wire. A request to a motor that already has one in flight waits in its slot
+ * (dre_result() says DRE_PENDING) and dre_bus_poll() sends it when its turn
+ * comes; its timeout runs from then.
  */
 #ifndef DRE_CLIENT_H
 #define DRE_CLIENT_H
@@ -45,20 +54,24 @@ extern "C" {
 #endif
 
 #define DRE_DEFAULT_TIMEOUT_MS 50u /**< request timeout when the config gives 0 */
+#define DRE_POLL_INTERVAL_MS 10u   /**< pause between the fast reads of dre_positions_done() */
+#define DRE_ERROR_WORDS 7u         /**< requests of dre_dump_error() */
 
-/** Queue one frame for transmission; return 0 on success, nonzero if it could not be queued. */
+/** Queue one frame for transmission; return 0 on success, nonzero if it could not be queued. Never wait. */
 typedef int (*dre_send_fn)(void *user, const dre_frame *frame);
 /** A free-running millisecond counter (may wrap at 2^32). */
 typedef uint32_t (*dre_tick_fn)(void *user);
 /** A valid motor frame that completed no request (heartbeat, state after a control frame, late reply). */
 typedef void (*dre_msg_fn)(void *user, const dre_msg *msg);
+/** How many frames the send callback can take right now without failing. */
+typedef unsigned (*dre_tx_free_fn)(void *user);
 
 /** Velocity profile of Q moves (axis0.trap_traj.config.traj_mode, 35104). */
 typedef enum { DRE_TRAJ_TRAPEZOID = 1, DRE_TRAJ_S_CURVE = 2 } dre_traj_mode;
 
 /** The vendor's set_angle modes. */
 typedef enum {
-    DRE_ANGLE_T = 0, /**< trajectory tracking: speed carried, param = filter bandwidth 1/s */
+    DRE_ANGLE_T = 0, /**< trajectory tracking: param = filter bandwidth 0 < |bw| <= 300 1/s, |speed| carried */
     DRE_ANGLE_Q = 1, /**< trapezoid/S-curve: speed = cruise r/min (> 0), param = accel (r/min)/s (> 0) */
     DRE_ANGLE_P = 2  /**< feed-forward: speed = speed FF r/min, param = torque FF Nm */
 } dre_angle_mode;
@@ -66,23 +79,49 @@ typedef enum {
 /** dre_set_mode() states. */
 enum { DRE_MODE_IDLE = 1, DRE_MODE_CLOSED_LOOP = 2 };
 
+/**
+ * Where the start command of a preset batch goes (dre_bus_config.start), as
+ * the Python client's `start` option.
+ */
+typedef enum {
+    /** One motor: to that motor. Several: broadcast, unless a motor outside the
+     *  batch may still hold a preset from this bus; then to each motor. */
+    DRE_START_TO_AUTO = 0,
+    DRE_START_TO_BROADCAST = 1, /**< always broadcast (the vendor libraries' behaviour) */
+    DRE_START_TO_NODE = 2       /**< always one start per motor, to its own id */
+} dre_start_to;
+
+#define DRE_MAX_BANDWIDTH 300.0f /**< largest T-mode filter bandwidth (1/s) the vendor documents */
+
 typedef struct {
     dre_send_fn send;        /**< required */
     dre_tick_fn tick;        /**< required */
     void *user;              /**< passed to the callbacks */
     dre_msg_fn on_unmatched; /**< optional */
-    uint32_t timeout_ms;     /**< per request; 0 = DRE_DEFAULT_TIMEOUT_MS */
-    uint8_t traj_mode;       /**< dre_traj_mode of the motors, for synchronised Q moves; 0 = trapezoid */
+    /**
+     * Optional: how many frames the port can queue now. Every operation that
+     * sends several frames (batches, set_id, verified writes...) checks for
+     * room for all of them first and returns DRE_E_BUSY, sending nothing,
+     * when there is too little. NULL = unlimited (a deep software queue).
+     */
+    dre_tx_free_fn tx_free;
+    uint32_t timeout_ms; /**< per request; 0 = DRE_DEFAULT_TIMEOUT_MS */
+    /** Q-move profile (dre_traj_mode) assumed for motors whose profile the bus
+     *  has not learned (see dre_get_traj_mode); 0 = trapezoid. */
+    uint8_t traj_mode;
+    uint8_t start; /**< dre_start_to; 0 = DRE_START_TO_AUTO */
 } dre_bus_config;
 
 /** A request slot; the caller provides an array of them. Opaque. */
 typedef struct {
-    dre_msg reply;
+    dre_msg reply; /**< the reply; before it arrives, the value a verified write expects */
     uint32_t sent_ms;
     uint16_t address; /**< 0 for a fast read */
     uint16_t seq;
     uint8_t node;
+    uint8_t dtype;
     uint8_t state;
+    uint8_t flags;
 } dre_request;
 
 /** Handle of a pending request; 0 is never a valid handle. */
@@ -96,7 +135,10 @@ typedef struct {
     uint32_t timeouts;     /**< requests that expired */
 } dre_bus_stats;
 
-/** One CAN bus. Fields are private except bad_field, bad_index and stats. */
+/**
+ * One CAN bus. Fields are private except bad_field, bad_index, stats,
+ * rx_overflows and presets_pending, which the caller may read.
+ */
 typedef struct {
     dre_bus_config cfg;
     dre_request *slots;
@@ -104,12 +146,26 @@ typedef struct {
     uint16_t seq;
     dre_frame *rx_buf;
     uint8_t rx_mask;
-    volatile uint8_t rx_head;         /**< written by the producer only */
-    volatile uint8_t rx_tail;         /**< written by the consumer only */
-    volatile uint16_t rx_overflows;   /**< frames lost because the queue was full */
+    volatile uint8_t rx_head; /**< written by the producer only */
+    volatile uint8_t rx_tail; /**< written by the consumer only */
+    /**
+     * Frames lost because the receive queue was full; written by the
+     * interrupt. A 16-bit counter: on an 8-bit target the main loop can read
+     * it torn while the interrupt increments it, so read it with the receive
+     * interrupt masked there (or read it twice until two reads agree).
+     */
+    volatile uint16_t rx_overflows;
     dre_field bad_field;
     uint8_t bad_index;
     dre_bus_stats stats;
+    /**
+     * Bit n set: motor n holds a preset this bus sent and has not started yet
+     * (a batch stopped by a send failure). While such a motor is outside a
+     * batch, DRE_START_TO_AUTO starts the batch's motors by their own ids.
+     */
+    uint64_t presets_pending;
+    uint64_t traj_known;  /**< bit n: the Q profile of motor n is known */
+    uint64_t traj_scurve; /**< bit n: motor n runs the S-curve profile */
 } dre_bus;
 
 /** A motor on a bus. Initialise as {&bus, node} or with dre_motor_init(). */
@@ -124,7 +180,7 @@ typedef struct {
  * Initialise `bus`. `slots` holds up to `nslots` (1..255) requests in flight.
  * `rx_storage` is the receive queue for dre_bus_isr_push(), `rx_capacity` a
  * power of two 2..128; pass NULL and 0 when frames are only given to
- * dre_bus_feed(). DRE_E_ARG when a callback or size is invalid.
+ * dre_bus_feed(). DRE_E_ARG when a callback, size or option is invalid.
  */
 dre_status dre_bus_init(dre_bus *bus, const dre_bus_config *cfg, dre_request *slots, uint8_t nslots,
                         dre_frame *rx_storage, uint8_t rx_capacity);
@@ -139,36 +195,88 @@ int dre_bus_isr_push(dre_bus *bus, const dre_frame *frame);
  */
 dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame);
 
-/** Main loop: feed every queued frame, then expire requests older than the timeout. */
+/**
+ * Main loop: read the tick, feed every queued frame, expire requests older
+ * than the timeout at that tick, then send the requests whose turn has come.
+ */
 void dre_bus_poll(dre_bus *bus);
 
 /**
  * The outcome of request `req`: DRE_PENDING; DRE_OK with the reply in `reply`
  * (DRE_MSG_PARAM_VALUE, or DRE_MSG_STATE for dre_get_state); DRE_E_TIMEOUT;
- * DRE_E_ARG for an unknown handle. A finished request's slot is freed here.
+ * DRE_E_VERIFY when a verified write reads back another value (the reply
+ * holds what was read); DRE_E_SEND when a frame the request had to send later
+ * could not be sent; DRE_E_ARG for an unknown handle. A finished request's
+ * slot is freed here.
  */
 dre_status dre_result(dre_bus *bus, dre_req req, dre_msg *reply);
 
-/** Forget request `req` (a late reply then goes to on_unmatched). */
+/** Forget request `req` (a late reply then goes to on_unmatched; a save it would trigger is not sent). */
 void dre_cancel(dre_bus *bus, dre_req req);
 
 /** Encode and send any message. */
 dre_status dre_send(dre_bus *bus, const dre_msg *msg);
+
+/* ----------------------------------------------------------------- transmit ring */
+
+/**
+ * A transmit ring for ports whose hardware queue is short (3 mailboxes on
+ * bxCAN, FDCAN and MCP2515). The send callback pushes with dre_txq_send()
+ * (main loop, one producer); the TX-complete interrupt or the poll loop moves
+ * frames to the hardware with dre_txq_peek() / dre_txq_pop() (one consumer);
+ * dre_txq_free() is what the bus config's tx_free returns. Caller-owned, like
+ * the receive queue.
+ */
+typedef struct {
+    dre_frame *buf;
+    uint8_t mask;
+    volatile uint8_t head; /**< written by the producer only */
+    volatile uint8_t tail; /**< written by the consumer only */
+} dre_txq;
+
+/** `capacity` frames of `storage`, a power of two 2..128; DRE_E_ARG otherwise. */
+dre_status dre_txq_init(dre_txq *q, dre_frame *storage, uint8_t capacity);
+/** Producer: queue a copy of `frame`; 0, or -1 when the ring is full (the send-callback convention). */
+int dre_txq_send(dre_txq *q, const dre_frame *frame);
+/** Producer: how many frames dre_txq_send() can take now. */
+unsigned dre_txq_free(const dre_txq *q);
+/** Consumer: copy the oldest frame to `out` and return 1, or return 0 when the ring is empty. */
+int dre_txq_peek(dre_txq *q, dre_frame *out);
+/** Consumer: drop the oldest frame (once the hardware has taken it). */
+void dre_txq_pop(dre_txq *q);
 
 /* ----------------------------------------------------------------- motor */
 
 /** Bind `m` to `bus` and `node` (checked when a frame is built: 0..63). */
 void dre_motor_init(dre_motor *m, dre_bus *bus, uint8_t node);
 
-/** Move to `angle` deg; `mode` is a dre_angle_mode (what speed and param mean is there). */
+/**
+ * Move to `angle` deg; `mode` is a dre_angle_mode (what speed and param mean
+ * is there). T: the filter bandwidth must be 0 < |param| <= 300 and the
+ * absolute values of speed and bandwidth are sent, as the vendor does.
+ */
 dre_status dre_set_angle(const dre_motor *m, float angle, float speed, float param, uint8_t mode);
-/** Run at `speed` r/min; mode DRE_VEL_PASSTHROUGH (param = torque FF Nm) or DRE_VEL_RAMP (param = (r/min)/s). */
+/**
+ * Move by `delta` deg from where the motor is: a preset and a relative start
+ * (dre_step_angles for one motor; the start goes to this motor unless
+ * cfg.start is DRE_START_TO_BROADCAST). The motor id must be 1..63.
+ */
+dre_status dre_step_angle(const dre_motor *m, float delta, float speed, float param, uint8_t mode);
+/**
+ * Run at `speed` r/min. mode 1 (DRE_VEL_PASSTHROUGH): param = torque FF Nm,
+ * sent as 0 when speed is 0, as the vendor does; mode 2 (DRE_VEL_RAMP, or 0 as
+ * the vendor's docs use it): param = ramp rate (r/min)/s.
+ */
 dre_status dre_set_speed(const dre_motor *m, float speed, float param, uint8_t mode);
-/** Apply `torque` Nm; mode DRE_TORQUE_DIRECT (param unused) or DRE_TORQUE_RAMP (param = Nm/s). */
+/**
+ * Apply `torque` Nm. mode 1 (DRE_TORQUE_DIRECT): param is ignored and sent as
+ * 0; mode 6 (DRE_TORQUE_RAMP, or 0): param = ramp rate Nm/s.
+ */
 dre_status dre_set_torque(const dre_motor *m, float torque, float param, uint8_t mode);
 /**
  * Impedance control: preset (pos deg, vel r/min, tff Nm) to this motor, then a
- * broadcast start carrying kp Nm/rad and kd Nm/(rad/s).
+ * start carrying kp Nm/rad and kd Nm/(rad/s), both 0..327.67. The start goes
+ * to this motor (broadcast when cfg.start is DRE_START_TO_BROADCAST).
  */
 dre_status dre_impedance_control(const dre_motor *m, float pos, float vel, float tff, float kp, float kd);
 
@@ -181,8 +289,6 @@ dre_status dre_reboot(const dre_motor *m);
 dre_status dre_set_zero_position(const dre_motor *m);
 /** DRE_MODE_IDLE or DRE_MODE_CLOSED_LOOP (writes axis0.requested_state 1 or 8). */
 dre_status dre_set_mode(const dre_motor *m, uint8_t mode);
-/** Write can_node_id = new_id (1..63), then save_config addressed to new_id. */
-dre_status dre_set_id(const dre_motor *m, uint8_t new_id);
 
 /** Write `value` to `address` as `dtype` (RAM only; save_config to keep it). */
 dre_status dre_write_property(const dre_motor *m, uint16_t address, uint8_t dtype, dre_value value);
@@ -195,21 +301,107 @@ dre_status dre_read_param(const dre_motor *m, dre_param_t param, dre_req *req);
 /** Start a fast read; the reply is a DRE_MSG_STATE (position deg, speed r/min, torque Nm, flags). */
 dre_status dre_get_state(const dre_motor *m, dre_req *req);
 
+/* Operations with more than one frame. Each needs room for the frames it
+ * sends at once (cfg.tx_free) and free slots for its requests, or returns
+ * DRE_E_BUSY having sent nothing. A verified write reads the value back; its
+ * request ends DRE_OK when the motor holds what was written, DRE_E_VERIFY
+ * when not; "then save" means save_config goes out only after that check
+ * succeeded (of every value, for set_angle_range). */
+
+/** Start reading the id the motor reports (axis0.config.can_node_id); reply value in .i. */
+dre_status dre_get_id(const dre_motor *m, dre_req *req);
+/**
+ * Give the motor `new_id` (1..63): write can_node_id, read it back at the new
+ * id (`req`), then save_config addressed to the new id. A motor that does not
+ * answer at its new id is not saved (DRE_E_TIMEOUT). Check first that the id
+ * is free, so that two motors never share it: a dre_get_state() to `new_id`
+ * must end DRE_E_TIMEOUT (and one to this motor DRE_OK).
+ */
+dre_status dre_set_id(const dre_motor *m, uint8_t new_id, dre_req *req);
+/** Start reading the supply voltage (req[0], V, .f32) and q-axis current (req[1], A, .f32). */
+dre_status dre_get_volcur(const dre_motor *m, dre_req req[2]);
+/**
+ * Start reading the seven error words, in the vendor's dump_error order:
+ * axis0.error, motor, encoder, controller, can, fet thermistor, motor
+ * thermistor. Each reply is a DRE_MSG_PARAM_VALUE (u32 in .i); decode it with
+ * dre_error_format(dre_error_word_find(reply.u.param.address), ...).
+ */
+dre_status dre_dump_error(const dre_motor *m, dre_req req[DRE_ERROR_WORDS]);
+/** Start reading the Q-move profile (35104, reply .i: 1 trapezoid, 2 S-curve); the bus remembers it. */
+dre_status dre_get_traj_mode(const dre_motor *m, dre_req *req);
+/** Set the Q-move profile (DRE_TRAJ_TRAPEZOID or DRE_TRAJ_S_CURVE): verified write, remembered, not saved. */
+dre_status dre_set_traj_mode(const dre_motor *m, uint8_t mode, dre_req *req);
+/**
+ * Enable software limits [angle_min, angle_max] deg: verified writes of
+ * axis0.output_shaft.circular_setpoint_min/_max and
+ * enable_circular_setpoint_limit = 1 (req[0..2]), then save. `position` is the
+ * motor's current position (deg, from a fresh dre_get_state), which must lie
+ * inside the limits. DRE_E_RANGE names DRE_FIELD_VALUE with bad_index 0 (min)
+ * or 1 (max) for a non-finite or reversed limit, DRE_FIELD_POSITION for the
+ * position.
+ */
+dre_status dre_set_angle_range(const dre_motor *m, float angle_min, float angle_max, float position,
+                               dre_req req[3]);
+/** CAN bitrate 125000, 250000, 500000 or 1000000: verified write, then save (applies after a reboot). */
+dre_status dre_set_can_baud_rate(const dre_motor *m, uint32_t baud_rate, dre_req *req);
+/** UART rate of an M-series motor, 9600, 19200, 57600 or 115200: verified write, then save. */
+dre_status dre_set_uart_baud_rate(const dre_motor *m, uint32_t baud_rate, dre_req *req);
+
+/* ----------------------------------------------------------------- waiting for moves */
+
+/** Caller-owned progress of one motor in dre_position_done(); zero it (or {0}) before the first call. */
+typedef struct {
+    dre_msg state;     /**< the latest state read (the final one once done) */
+    dre_req req;       /**< the fast read in flight, 0 = none */
+    uint32_t start_ms; /**< tick of the first call */
+    uint32_t sent_ms;  /**< tick of the latest fast read */
+    uint8_t phase;     /**< 0 = not started, 1 = polling, 2 = done */
+} dre_done;
+
+/**
+ * Poll until the motor reports its move done (vendor position_done, without
+ * blocking): call it each main-loop pass with the same `d` (zeroed before the
+ * first call). It sends a fast read every DRE_POLL_INTERVAL_MS and returns
+ * DRE_PENDING until the state's T bit is set (DRE_OK, final state in
+ * d->state); DRE_E_FAULT as soon as the motor reports an error (read the
+ * words with dre_dump_error); DRE_E_TIMEOUT when a fast read goes unanswered
+ * or `timeout_ms` (0 = no limit) has passed since the first call. After an
+ * error `d` is reset, so the next call starts again.
+ */
+dre_status dre_position_done(const dre_motor *m, dre_done *d, uint32_t timeout_ms);
+/**
+ * dre_position_done for motors ids[0..n-1] (d[] one per motor): DRE_OK when
+ * every one is done; on DRE_E_FAULT or DRE_E_TIMEOUT bus->bad_index is the
+ * motor's index and every d[] is reset (fast reads in flight are cancelled).
+ */
+dre_status dre_positions_done(dre_bus *bus, uint8_t n, const uint8_t *ids, dre_done *d, uint32_t timeout_ms);
+
 /* ----------------------------------------------------------------- several motors */
+
+/*
+ * Batches: n presets, then the start (where to: cfg.start). Every value and
+ * the motor ids (distinct, 1..63) are checked before anything is sent
+ * (DRE_E_RANGE naming DRE_FIELD_NODE for an id outside 1..63, DRE_E_ARG with
+ * bad_index at the second use of an id). With cfg.tx_free set, a batch needs
+ * room for all its frames at once, or returns DRE_E_BUSY having sent nothing.
+ * If a send fails midway (DRE_E_SEND), the motors that got a preset but no
+ * start are remembered in presets_pending (see DRE_START_TO_AUTO).
+ */
 
 /**
  * Send `n` presets (DRE_MSG_PRESET or typed presets matching `start`), then
- * `start` (DRE_MSG_START or DRE_MSG_START_IMPEDANCE), after validating all of
- * them. If a send fails midway the start is not sent (DRE_E_SEND).
+ * `start` (DRE_MSG_START or DRE_MSG_START_IMPEDANCE, whose Kp and Kd must be
+ * 0..327.67; its node is set by cfg.start).
  */
 dre_status dre_preset_start(dre_bus *bus, const dre_msg *presets, uint8_t n, const dre_msg *start);
 
 /**
- * Move motors ids[0..n-1] to angles[] deg together (broadcast start).
- * speed and param as in dre_set_angle. In DRE_ANGLE_Q mode every motor gets
- * the time the biggest move |angles[i] - from[i]| takes at `speed` and accel
- * `param` (cfg.traj_mode profile); `from` holds fresh positions (deg) and is
- * required in that mode only.
+ * Move motors ids[0..n-1] to angles[] deg together. speed and param as in
+ * dre_set_angle. In DRE_ANGLE_Q mode every motor gets the time the slowest
+ * move |angles[i] - from[i]| takes at `speed` and accel `param` with that
+ * motor's profile (learned, or cfg.traj_mode), rounded up to the 0.01 s the
+ * preset carries; `from` holds fresh positions (deg) and is required in that
+ * mode only (a non-finite one is refused as DRE_FIELD_FROM at its index).
  */
 dre_status dre_set_angles(dre_bus *bus, uint8_t n, const uint8_t *ids, const float *angles, const float *from,
                           float speed, float param, uint8_t mode);

@@ -12,9 +12,17 @@
  * Nm/rad and Kd in Nm/(rad/s).
  *
  * Fields sent as s16 scaled by 0.01 hold -327.68..327.67. Encoding rounds
- * value x 100 to the nearest integer (ties to even, exactly as the Python
- * core) and refuses anything outside the range; NaN and infinity are refused
+ * the binary32 value x 100, computed exactly, to the nearest integer (ties to
+ * even) and refuses anything outside the range; NaN and infinity are refused
  * in every float field. Nothing is clipped.
+ *
+ * The Python core rounds the double value x 100 (also ties to even). The two
+ * agree for every value that is exactly a binary32 (x 100 is then exact in
+ * double, ties included: 0.125 -> 12, 0.375 -> 38) and for every value with at
+ * most two decimals. They can differ for a decimal with more digits that is
+ * not a binary32, because C sees the float nearest to it: 0.015 x 100 is 1.5
+ * in double (Python: 2) but 0.015f is 0.01499999966 (C: 1); 2.675 gives 268
+ * in Python and 267 in C.
  */
 #ifndef DRE_CODEC_H
 #define DRE_CODEC_H
@@ -37,10 +45,12 @@ typedef enum {
     DRE_E_RANGE = -1,    /**< a field cannot be put on the wire (see dre_field) */
     DRE_E_PROTOCOL = -2, /**< a frame or byte stream does not follow the protocol */
     DRE_E_ARG = -3,      /**< bad argument: NULL, unknown handle, empty batch, wrong message type */
-    DRE_E_BUSY = -4,     /**< no free request slot */
+    DRE_E_BUSY = -4,     /**< no free request slot, or no room to send every frame of an operation */
     DRE_E_SEND = -5,     /**< the send callback reported a failure */
     DRE_E_TIMEOUT = -6,  /**< no reply arrived in time */
-    DRE_E_ACCESS = -7    /**< write to a read-only parameter */
+    DRE_E_ACCESS = -7,   /**< write to a read-only parameter */
+    DRE_E_FAULT = -8,    /**< the motor reports an error (E bit of its state) */
+    DRE_E_VERIFY = -9    /**< a value read back differs from the one written */
 } dre_status;
 
 /** Command field (low 5 bits of the id) of host frames. */
@@ -144,7 +154,8 @@ typedef enum {
     DRE_FIELD_ADDRESS,
     DRE_FIELD_DTYPE,
     DRE_FIELD_VALUE,
-    DRE_FIELD_SPARE_BITS
+    DRE_FIELD_SPARE_BITS,
+    DRE_FIELD_FROM /**< a current position given to dre_set_angles */
 } dre_field;
 
 /** One CAN frame: 11-bit id and its data bytes (always 8 for DrEmpower). */
