@@ -348,11 +348,11 @@ class BusCore:
         if data[4:] == _ZERO4:
             # A reply of value 0 has the bytes of a read request: another host's read
             # of the same parameter looks exactly like it. With other hosts about, hold
-            # it back briefly: a second such frame or a non-zero reply settles it.
+            # it back for the grace: a non-zero reply in the meantime is the answer.
             key = (node, address)
-            if self._provisional.pop(key, None) is not None:
-                pass  # the second such frame: the value is 0 either way
-            elif self.other_hosts and self.matcher.waiting(node, address):
+            if key in self._provisional:
+                return  # another such frame: the first one's grace runs on
+            if self.other_hosts and self.matcher.waiting(node, address):
                 self._provisional[key] = (_monotonic() + self.zero_reply_grace, reply)
                 return
             if not self.matcher.resolve(node, address, reply):

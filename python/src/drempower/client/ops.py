@@ -181,14 +181,13 @@ def get_traj_mode(core: BusCore, node: int, timeout: float | None = None) -> Op[
     return _reported_traj_mode(node, value)
 
 
-def _reported_traj_mode(node: int, value: object) -> TrajMode:
-    try:
-        return TrajMode(value)
-    except ValueError:
-        raise DrEmpowerError(
-            f"motor {node} reports axis0.trap_traj.config.traj_mode={value!r}, which is neither "
-            "1 (trapezoid) nor 2 (S-curve); set it with set_traj_mode"
-        ) from None
+def _reported_traj_mode(node: int, value: float) -> TrajMode:
+    if value in (1, 2):
+        return TrajMode(int(value))
+    raise DrEmpowerError(
+        f"motor {node} reports axis0.trap_traj.config.traj_mode={value!r}, which is neither "
+        "1 (trapezoid) nor 2 (S-curve); set it with set_traj_mode"
+    )
 
 
 def set_traj_mode(node: int, mode: int, timeout: float | None = None) -> Op[None]:
