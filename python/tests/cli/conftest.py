@@ -14,6 +14,7 @@ from drempower.cli import main
 from drempower.cli._connect import TIME_SCALE_ENV
 from drempower.protocol import Frame
 from drempower.sim import SimBus, SimRunner, attach_python_can
+from drempower.sim.bus import Listener
 from drempower.transports import sim as sim_transport
 
 TIME_SCALE = 20.0
@@ -87,9 +88,9 @@ def host_frames(sim: SimBus, monkeypatch: pytest.MonkeyPatch) -> list[Frame]:
     frames: list[Frame] = []
     send = sim.send
 
-    def recording(frame: Frame) -> None:
+    def recording(frame: Frame, origin: Listener | None = None) -> None:
         frames.append(frame)
-        send(frame)
+        send(frame, origin)
 
     monkeypatch.setattr(sim, "send", recording)
     return frames

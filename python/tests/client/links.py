@@ -17,6 +17,7 @@ from drempower.sim import (
     attach_socketcand,
     attach_uart_pty,
 )
+from drempower.sim.bus import Listener
 
 TRANSPORTS = ("inprocess", "virtual", "slcan", "adapter", "uart", "socketcand")
 """Every way the client reaches the simulator."""
@@ -29,11 +30,11 @@ class Recorder:
 
     def __init__(self, sim: SimBus) -> None:
         self.frames: list[Frame] = []
-        send: Callable[[Frame], None] = sim.send
+        send: Callable[[Frame, Listener | None], None] = sim.send
 
-        def recording_send(frame: Frame) -> None:
+        def recording_send(frame: Frame, origin: Listener | None = None) -> None:
             self.frames.append(frame)
-            send(frame)
+            send(frame, origin)
 
         sim.send = recording_send  # type: ignore[method-assign]
 

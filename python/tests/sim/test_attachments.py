@@ -201,3 +201,31 @@ def test_nobody_reading_the_adapter_pty_does_not_hold_the_bus_up() -> None:
             assert len(AADecoder().feed(backlog)) > 0
             before = sim.now
             assert _eventually(lambda: sim.now > before + 0.2)
+
+
+def test_every_attachment_sees_the_other_hosts_frames_but_not_its_own() -> None:
+    """As on a CAN bus: a sniffer on python-can sees what a host sends through the adapter pty."""
+    from drempower.transports.sim import SimTransport
+
+    sim = SimBus([1])
+    with attach_python_can(sim, "drempower-sim-hosts"), attach_adapter_pty(sim) as pty:
+        sniffer = can.Bus(interface="virtual", channel="drempower-sim-hosts")
+        local = SimTransport(bus=sim, time_scale=0)
+        adapter = open_transport("adapter", pty.path)
+        try:
+            adapter.send(FastRead(1).encode())
+            seen = [sniffer.recv(2.0) for _ in range(2)]
+            assert [m.arbitration_id for m in seen if m is not None] == [0x03E, 0x023]
+            got = adapter.recv(2.0)
+            assert got is not None and got.arbitration_id == 0x023  # the reply, not its own request
+            assert adapter.recv(0.2) is None
+            heard = [local.recv(1.0), local.recv(1.0), local.recv(0.05)]
+            assert [f.arbitration_id if f else None for f in heard] == [0x03E, 0x023, None]
+            local.send(FastRead(1).encode())
+            assert [local.recv(1.0), local.recv(0.05)] == [Frame(0x023, got.data), None]
+            heard = [adapter.recv(2.0), adapter.recv(2.0)]
+            assert [f.arbitration_id if f else None for f in heard] == [0x03E, 0x023]  # the other host's
+        finally:
+            adapter.close()
+            local.close()
+            sniffer.shutdown()

@@ -35,7 +35,7 @@ class AdapterPty(PtyLink):
         self.slcan = SlcanSession()
         self.dropped = 0
         self._buf = bytearray()
-        bus.add_listener(self._out)
+        bus.add_listener(self._out, host_frames=True)
         self._start()
 
     def _out(self, frame: Frame) -> None:
@@ -62,7 +62,7 @@ class AdapterPty(PtyLink):
                     return
                 frame = Frame(int.from_bytes(buf[4:8], "big"), bytes(buf[8:total]), bool(buf[1]), buf[2] == 1)
                 del buf[:total]
-                self.sim.send(frame)
+                self.sim.send(frame, self._out)
             elif 0x20 < first < 0x7F:
                 end = buf.find(b"\r")
                 line = bytes(buf[: end if end >= 0 else _MAX_LINE + 1])
@@ -75,7 +75,7 @@ class AdapterPty(PtyLink):
                 answer, sent = self.slcan.handle(line.decode("ascii"))
                 self.write(answer)
                 if sent is not None:
-                    self.sim.send(sent)
+                    self.sim.send(sent, self._out)
             elif first in (0x0D, 0x0A):
                 del buf[:1]
             else:

@@ -33,7 +33,7 @@ class PythonCanAttachment:
         self.can_bus = can.Bus(channel=channel, interface=interface, **kwargs)
         """The python-can bus on the simulator's side."""
         self._stop = threading.Event()
-        bus.add_listener(self._out)
+        bus.add_listener(self._out, host_frames=True)
         self._thread = threading.Thread(target=self._pump, name="drempower-sim-python-can", daemon=True)
         self._thread.start()
 
@@ -58,7 +58,8 @@ class PythonCanAttachment:
                     return
                 raise
             if msg is not None and not msg.is_error_frame:
-                self.sim.send(Frame(msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame))
+                frame = Frame(msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame)
+                self.sim.send(frame, self._out)
 
     def close(self) -> None:
         """Detach from the SimBus and shut the python-can bus down (idempotent)."""

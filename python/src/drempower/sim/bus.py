@@ -87,11 +87,12 @@ class SimBus:
             m.emit = self._heartbeat_sink(m)
         self._order = list(self.motors.values())
         self._listeners: tuple[Listener, ...] = ()
+        self._taps: tuple[Listener, ...] = ()
         self._steps = 0
         self._seq = itertools.count()
         self._events: list[tuple[float, int, Callable[[], None]]] = []
-        self._ready: list[tuple[int, int, Frame, SimMotor | None]] = []
-        self._tx: tuple[float, Frame, SimMotor | None] | None = None
+        self._ready: list[tuple[int, int, Frame, SimMotor | None, Listener | None]] = []
+        self._tx: tuple[float, Frame, SimMotor | None, Listener | None] | None = None
         self._stats = BusStats()
 
     # ------------------------------------------------------------------ public
@@ -103,20 +104,32 @@ class SimBus:
             s = self._stats
             return BusStats(s.frames, s.bits, s.busy, self.now)
 
-    def add_listener(self, listener: Listener) -> None:
-        """Call ``listener(frame)`` for every frame a motor puts on the bus."""
+    def add_listener(self, listener: Listener, *, host_frames: bool = False) -> None:
+        """Call ``listener(frame)`` for every frame a motor puts on the bus.
+
+        With ``host_frames`` it also gets the frames of hosts, except those it sent
+        itself (see :meth:`send`), as a CAN node sees every frame on the bus: for
+        attachments through which a host reaches the bus.
+        """
         with self.lock:
             self._listeners = (*self._listeners, listener)
+            if host_frames:
+                self._taps = (*self._taps, listener)
 
     def remove_listener(self, listener: Listener) -> None:
         """Stop calling ``listener`` (no error when it is not registered)."""
         with self.lock:
             self._listeners = tuple(x for x in self._listeners if x != listener)
+            self._taps = tuple(x for x in self._taps if x != listener)
 
-    def send(self, frame: Frame) -> None:
-        """A host puts ``frame`` on the bus at ``now``."""
+    def send(self, frame: Frame, origin: Listener | None = None) -> None:
+        """A host puts ``frame`` on the bus at ``now``.
+
+        ``origin`` is the listener of the attachment the host sent it through: the
+        frame goes to every other listener registered with ``host_frames``, not back.
+        """
         with self.lock:
-            self._enter(frame, None)
+            self._enter(frame, None, origin)
 
     def schedule(self, at: float, action: Callable[[], None]) -> None:
         """Run ``action()`` when simulated time reaches ``at`` (s), e.g. to raise an error mid-move."""
@@ -201,7 +214,7 @@ class SimBus:
         else:
             self._enter(frame, m)
 
-    def _enter(self, frame: Frame, source: SimMotor | None) -> None:
+    def _enter(self, frame: Frame, source: SimMotor | None, origin: Listener | None = None) -> None:
         """A frame is offered to the bus by the host (``source`` None) or a motor."""
         f = self.faults
         if f.drop_rate > 0 and self.rng.random() < f.drop_rate:
@@ -213,14 +226,14 @@ class SimBus:
             frame = frame._replace(data=bytes(data))
         if self.bitrate is None:
             self._stats.frames += 1
-            self._deliver(frame, source)
+            self._deliver(frame, source, origin)
             return
-        heapq.heappush(self._ready, (frame.arbitration_id, next(self._seq), frame, source))
+        heapq.heappush(self._ready, (frame.arbitration_id, next(self._seq), frame, source, origin))
         if self._tx is None:
             self._start_tx()
 
     def _start_tx(self) -> None:
-        _, _, frame, source = heapq.heappop(self._ready)
+        _, _, frame, source, origin = heapq.heappop(self._ready)
         bits = frame_bits(frame.arbitration_id, frame.data, frame.is_extended)
         assert self.bitrate is not None
         duration = bits / self.bitrate
@@ -228,17 +241,17 @@ class SimBus:
         s.frames += 1
         s.bits += bits
         s.busy += duration
-        self._tx = (self.now + duration, frame, source)
+        self._tx = (self.now + duration, frame, source, origin)
 
     def _finish_tx(self) -> None:
         assert self._tx is not None
-        _, frame, source = self._tx
+        _, frame, source, origin = self._tx
         self._tx = None
         if self._ready:
             self._start_tx()
-        self._deliver(frame, source)
+        self._deliver(frame, source, origin)
 
-    def _deliver(self, frame: Frame, source: SimMotor | None) -> None:
+    def _deliver(self, frame: Frame, source: SimMotor | None, origin: Listener | None = None) -> None:
         if source is not None:
             node = frame.arbitration_id >> 5
             for m in self._order:
@@ -247,6 +260,9 @@ class SimBus:
             for listener in self._listeners:
                 listener(frame)
             return
+        for tap in self._taps:
+            if tap != origin:
+                tap(frame)
         msg = _decode(frame)
         if msg is None:
             return

@@ -114,7 +114,7 @@ class _Client:
             self.out.put(b"< ok >" if ok else b"< error could not open bus >")
         elif word == "rawmode":
             self.raw = True
-            sim.add_listener(self.frame)
+            sim.add_listener(self.frame, host_frames=True)
             self.out.put(b"< ok >")
         elif word == "echo":
             self.out.put(b"< echo >")
@@ -124,7 +124,7 @@ class _Client:
             except ValueError:
                 self.out.put(b"< error bad send command >")
                 return
-            sim.send(frame)
+            sim.send(frame, self.frame)
         else:
             self.out.put(f"< error unknown command {word} >".encode())
 

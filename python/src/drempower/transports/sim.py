@@ -39,7 +39,7 @@ class SimTransport(Transport):
         """The simulated bus."""
         self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
         self._closed = False
-        self.bus.add_listener(self._queue.put)
+        self.bus.add_listener(self._queue.put, host_frames=True)
         self._runner = SimRunner(self.bus, time_scale).start() if time_scale > 0 else None
         ids = ",".join(str(m.node_id) for m in self.bus.motors.values())
         pace = f"time x{time_scale:g}" if time_scale > 0 else "manual clock"
@@ -50,7 +50,7 @@ class SimTransport(Transport):
         return self
 
     def send(self, frame: Frame) -> None:
-        self.bus.send(frame)
+        self.bus.send(frame, self._queue.put)
 
     def recv(self, timeout: float | None = None) -> Frame | None:
         if self._closed:
