@@ -172,7 +172,7 @@ def test_torque_and_impedance(cli: Cli, sim: SimBus) -> None:
 
 def test_impedance_checks_every_motor_before_sending_anything(cli: Cli, host_frames: list[Frame]) -> None:
     r = cli("impedance", "1,2", "30,1e40", "--kp", "5", "--kd", "0.5", "--sim", "1,2")
-    assert r.code == 2 and "argument POS: 1e+40 is out of range" in r.err
+    assert r.code == 2 and "argument POS: 1e+40 (motor 2) is out of range" in r.err
     assert host_frames == []
 
 

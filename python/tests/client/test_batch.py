@@ -241,3 +241,23 @@ def test_presets_are_presets(bus: Bus, scripted: ScriptedTransport) -> None:
     bus.set_angles([1, 2], [10, 20], 10, 20, 1)
     presets = [c.as_kind(StartKind.Q) for c in scripted.commands() if c.cmd == 0x0C]
     assert all(isinstance(p, PresetQ) for p in presets)
+
+
+def test_impedance_of_several_motors_has_one_start() -> None:
+    from drempower.protocol import Preset, PresetD, StartImpedance, StartKind, decode_command
+    from drempower.sim import SimBus
+
+    from .links import Recorder, link
+
+    sim = SimBus(ids=[1, 2])
+    rec = Recorder(sim)
+    with link("inprocess", sim, timeout=1.0) as bus:
+        with pytest.raises(drempower.ValidationError, match=r"pos_list \(motor 2\)"):
+            bus.impedance_controls([1, 2], [10, 1e40], kp=5, kd=0.5)
+        assert rec.frames == []
+        bus.impedance_controls([1, 2], [10, -10], kp=5, kd=0.5)
+        sent = [decode_command(f.arbitration_id, f.data) for f in rec.frames]
+        assert [type(m) for m in sent] == [Preset, Preset, StartImpedance]
+        assert sent[2] == StartImpedance(0, 5.0, 0.5)
+        assert [m.as_kind(StartKind.D) for m in sent[:2]] == [PresetD(1, 10.0), PresetD(2, -10.0)]  # type: ignore[attr-defined]
+        bus.estop()

@@ -6,8 +6,7 @@ import argparse
 from typing import Any
 
 from ..client import TorqueMode, VelocityMode
-from ..client.commands import make_impedance, make_speeds, make_torques
-from ..protocol import StartImpedance
+from ..client.commands import make_impedances, make_speeds, make_torques
 from . import _readings
 from ._connect import add_connection_args, number, wire_rate
 from ._motion import add_duration_arg, add_motion_args, driving, hold, per_motor
@@ -109,6 +108,7 @@ def run_torque(args: argparse.Namespace) -> int:
 
 _IMPEDANCE_OPTIONS = {
     "pos": "POS",
+    "pos_list": "POS",
     "position": "POS",
     "vel": "--vel",
     "speed": "--vel",
@@ -123,17 +123,11 @@ _IMPEDANCE_OPTIONS = {
 def run_impedance(args: argparse.Namespace) -> int:
     positions = per_motor(args.ids, args.values, "position")
     with options_named(_IMPEDANCE_OPTIONS):
-        # every motor's command is built and encoded before the first frame is sent
-        commands = [
-            make_impedance(n, p, args.vel, args.tff, args.kp, args.kd) for n, p in zip(args.ids, positions, strict=True)
-        ]
-        presets = [preset for preset, _ in commands]
-        start = StartImpedance(0, args.kp, args.kd)
-        for msg in (*presets, start):
-            msg.encode()
+        # every motor's command is built and encoded before the bus is even opened
+        make_impedances(args.ids, positions, args.vel, args.tff, args.kp, args.kd)
     with driving(args) as bus:
         _readings.require_ready(bus, args.ids)
-        bus.core.send_batch(presets, start)  # one start for all (see BusCore.start_policy)
+        bus.impedance_controls(args.ids, positions, args.vel, args.tff, args.kp, args.kd)  # one start
         extra = f" (kp {args.kp:g} Nm/rad, kd {args.kd:g} Nm/(rad/s), vel {args.vel:g} rpm, tff {args.tff:g} Nm)"
         _report(args, "position", "deg", positions, extra)
         hold(bus, args.duration)

@@ -179,6 +179,18 @@ class AsyncBus(BusBase["AsyncMotor"]):
         """Synchronised torques (see :meth:`Bus.set_torques`)."""
         await self.run(batch.set_torques(id_list, torque_list, param, mode))
 
+    async def impedance_controls(
+        self,
+        id_list: Sequence[int],
+        pos_list: Sequence[float],
+        vel: float = 0.0,
+        tff: float = 0.0,
+        kp: float = 0.0,
+        kd: float = 0.0,
+    ) -> None:
+        """Impedance control of several motors started together (see :meth:`Bus.impedance_controls`)."""
+        await self.run(batch.impedance_controls(id_list, pos_list, vel, tff, kp, kd))
+
     async def positions_done(
         self,
         id_list: Sequence[int],

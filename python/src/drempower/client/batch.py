@@ -8,7 +8,16 @@ from collections.abc import Iterable, Sequence
 from ..errors import FieldRangeError, ValidationError
 from ..protocol.messages import S16_MAX, FastRead, Message, ReadParam
 from ..protocol.parameters import DataType
-from .commands import PositionMode, check_ids, make_angles, make_speeds, make_torques, position_mode, q_move_time
+from .commands import (
+    PositionMode,
+    check_ids,
+    make_angles,
+    make_impedances,
+    make_speeds,
+    make_torques,
+    position_mode,
+    q_move_time,
+)
 from .core import MOTION_CMDS, BusCore
 from .effects import Batch, Op, read_states, request
 from .ops import traj_modes
@@ -70,6 +79,14 @@ def set_speeds(ids: Sequence[int], speeds: Sequence[float], param: float, mode: 
 def set_torques(ids: Sequence[int], torques: Sequence[float], param: float, mode: int) -> Op[None]:
     """Synchronised torque change (vendor ``set_torques``)."""
     presets, start = make_torques(ids, torques, param, mode)
+    yield Batch(presets, start)
+
+
+def impedance_controls(
+    ids: Sequence[int], positions: Sequence[float], vel: float, tff: float, kp: float, kd: float
+) -> Op[None]:
+    """Impedance control of several motors, started together."""
+    presets, start = make_impedances(ids, positions, vel, tff, kp, kd)
     yield Batch(presets, start)
 
 

@@ -173,6 +173,19 @@ class Bus(BusBase[Motor]):
         """Synchronised torques (Nm); mode 1: direct, mode 6: ramp ``param`` Nm/s."""
         self.run(batch.set_torques(id_list, torque_list, param, mode))
 
+    def impedance_controls(
+        self,
+        id_list: Sequence[int],
+        pos_list: Sequence[float],
+        vel: float = 0.0,
+        tff: float = 0.0,
+        kp: float = 0.0,
+        kd: float = 0.0,
+    ) -> None:
+        """Impedance control of several motors started together: each holds its ``pos_list`` deg;
+        ``vel`` r/min, ``tff`` Nm, ``kp`` Nm/rad and ``kd`` Nm/(rad/s) are shared (one start)."""
+        self.run(batch.impedance_controls(id_list, pos_list, vel, tff, kp, kd))
+
     def positions_done(
         self,
         id_list: Sequence[int],

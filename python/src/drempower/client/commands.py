@@ -46,6 +46,7 @@ __all__ = [
     "make_angles",
     "make_speeds",
     "make_torques",
+    "make_impedances",
     "q_move_time",
     "position_mode",
     "velocity_mode",
@@ -230,6 +231,32 @@ def make_impedance(
     start = StartImpedance(node, float(kp), float(kd))
     _encoded([preset, start], {"position": "pos", "speed": "vel", "torque_ff": "tff"})
     return preset, start
+
+
+def make_impedances(
+    ids: Sequence[int],
+    positions: Sequence[float],
+    vel: float = 0.0,
+    tff: float = 0.0,
+    kp: float = 0.0,
+    kd: float = 0.0,
+) -> tuple[list[Message], StartImpedance]:
+    """Presets and the one start of impedance control of several motors at once.
+
+    Each motor holds its own ``positions`` deg; ``vel`` r/min, ``tff`` Nm and the
+    gains ``kp`` Nm/rad, ``kd`` Nm/(rad/s) (0..327.67, carried by the start) are shared.
+    """
+    nodes = check_ids(ids, positions, "pos_list")
+    presets: list[Message] = []
+    for n, p in zip(nodes, positions, strict=True):
+        try:
+            preset, _ = make_impedance(n, p, vel, tff, kp, kd)
+        except FieldRangeError as exc:
+            if exc.field == "pos":
+                raise exc.renamed(f"pos_list (motor {n})") from None
+            raise
+        presets.append(preset)
+    return presets, StartImpedance(0, float(kp), float(kd))
 
 
 def q_move_time(distance: float, speed: float, accel: float, traj_mode: int = TrajMode.TRAPEZOID) -> float:
