@@ -5,11 +5,34 @@
 #include <math.h>
 #include <string.h>
 
-enum { SLOT_FREE = 0, SLOT_QUEUED, SLOT_PENDING, SLOT_DONE, SLOT_TIMEOUT, SLOT_MISMATCH, SLOT_SEND_FAILED };
+/* Slot states. SLOT_WAIT: a dre_set_id probe is over and dre_bus_poll() takes
+ * the request to its next step. SLOT_TAKEN and SLOT_ABSENT end dre_set_id. */
+enum {
+    SLOT_FREE = 0,
+    SLOT_QUEUED,
+    SLOT_PENDING,
+    SLOT_WAIT,
+    SLOT_DONE,
+    SLOT_TIMEOUT,
+    SLOT_MISMATCH,
+    SLOT_SEND_FAILED,
+    SLOT_TAKEN,
+    SLOT_ABSENT
+};
 
 /* Request flags: compare the reply with the written value; send save_config
  * when it matches; a failure cancels the save of the next request (seq + 1). */
 enum { FLAG_VERIFY = 1, FLAG_SAVE = 2, FLAG_CHAIN = 4 };
+
+/*
+ * Steps of dre_set_id before its write (dre_request.step). STEP_ID_FREE: the
+ * caller's request, a fast read of the new id, which must go unanswered; its
+ * helper (STEP_ID_HELPER, a slot the caller has no handle for, `link` = the
+ * request's slot index) fast-reads the current id, which must answer.
+ * STEP_ID_HERE: the new id is the current one, whose fast read must answer.
+ * The request's `link` holds the current id, where the write goes.
+ */
+enum { STEP_NONE = 0, STEP_ID_FREE, STEP_ID_HERE, STEP_ID_HELPER };
 
 enum { DONE_IDLE = 0, DONE_POLLING, DONE_FINISHED };
 
@@ -43,6 +66,63 @@ static dre_status range_error(dre_bus *bus, dre_field field, uint8_t index)
 {
     bus->bad_field = field;
     bus->bad_index = index;
+    bus->bad_address = 0u;
+    return DRE_E_RANGE;
+}
+
+/* ----------------------------------------------------------------- parameters with a fixed set of values */
+
+/*
+ * The modes and states that take only the values of an enum, from the Python
+ * client (python/src/drempower/protocol/parameters.py, _CHOICES, with the
+ * enums of protocol/enums.py); each set is a contiguous range. Constant, so
+ * it stays in flash; tests/test_tables.c checks it against the Python table.
+ */
+typedef struct {
+    uint16_t address;
+    uint8_t lo, hi;
+} choice_range;
+
+static const choice_range choices[] = {
+    {DRE_PARAM_ADDRESS(DRE_P_AXIS0_REQUESTED_STATE), 0u, 11u},               /* AxisState */
+    {DRE_PARAM_ADDRESS(DRE_P_AXIS0_CONTROLLER_CONFIG_CONTROL_MODE), 0u, 4u}, /* ControlMode */
+    {DRE_PARAM_ADDRESS(DRE_P_AXIS0_CONTROLLER_CONFIG_INPUT_MODE), 0u, 7u},   /* InputMode */
+    {DRE_PARAM_ADDRESS(DRE_P_AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE), 1u, 2u},     /* TrajMode */
+};
+
+int dre_param_choices(uint16_t address, uint8_t *lo, uint8_t *hi)
+{
+    unsigned i;
+    for (i = 0u; i < sizeof choices / sizeof choices[0]; i++) {
+        if (choices[i].address == address) {
+            *lo = choices[i].lo;
+            *hi = choices[i].hi;
+            return 1;
+        }
+    }
+    return 0;
+}
+
+/* DRE_OK, or DRE_E_RANGE naming the parameter when `msg` writes a value it does not take. */
+static dre_status check_choice(dre_bus *bus, const dre_msg *msg)
+{
+    uint16_t address = (uint16_t)msg->u.param.address;
+    uint8_t lo, hi;
+    dre_field bad;
+
+    /* an address beyond 16 bits is no parameter: dre_encode refuses it */
+    if (msg->type != DRE_MSG_WRITE_PARAM || msg->u.param.address > 0xFFFFu || !dre_param_choices(address, &lo, &hi)) {
+        return DRE_OK;
+    }
+    if (msg->u.param.dtype == DRE_F32) {
+        bad = DRE_FIELD_DTYPE; /* the sets are integers */
+    } else if (msg->u.param.value.i < lo || msg->u.param.value.i > hi) {
+        bad = DRE_FIELD_VALUE;
+    } else {
+        return DRE_OK;
+    }
+    (void)range_error(bus, bad, 0u);
+    bus->bad_address = address;
     return DRE_E_RANGE;
 }
 
@@ -148,9 +228,13 @@ static int rx_pop(dre_bus *bus, dre_frame *out)
     return 1;
 }
 
+/* Encode what the bus sends; parameter writes are checked against their fixed sets first. */
 static dre_status encode(dre_bus *bus, const dre_msg *msg, dre_frame *f)
 {
     dre_field bad;
+    if (check_choice(bus, msg) != DRE_OK) {
+        return DRE_E_RANGE;
+    }
     if (dre_encode(msg, f, &bad) != DRE_OK) {
         return range_error(bus, bad, 0u);
     }
@@ -201,17 +285,17 @@ static int older(const dre_bus *bus, const dre_request *a, const dre_request *b)
 
 static int active(const dre_request *r)
 {
-    return r->state == SLOT_PENDING || r->state == SLOT_QUEUED;
+    return r->state == SLOT_PENDING || r->state == SLOT_QUEUED || r->state == SLOT_WAIT;
 }
 
-/* Must `r` wait: has its motor a request in flight, or an older one waiting? */
+/* Must `r` wait: has its motor a request in flight (or between two steps), or an older one waiting? */
 static int must_wait(const dre_bus *bus, const dre_request *r)
 {
     uint8_t i;
     for (i = 0u; i < bus->nslots; i++) {
         const dre_request *s = &bus->slots[i];
         if (s != r && s->node == r->node &&
-            (s->state == SLOT_PENDING || (s->state == SLOT_QUEUED && older(bus, s, r)))) {
+            (s->state == SLOT_PENDING || s->state == SLOT_WAIT || (s->state == SLOT_QUEUED && older(bus, s, r)))) {
             return 1;
         }
     }
@@ -273,23 +357,59 @@ static void break_chain(dre_bus *bus, const dre_request *r)
     }
 }
 
+/* The helper probe of a dre_set_id request `r` in STEP_ID_FREE, or NULL. */
+static dre_request *helper_of(dre_bus *bus, const dre_request *r)
+{
+    uint8_t i;
+    for (i = 0u; i < bus->nslots; i++) {
+        dre_request *s = &bus->slots[i];
+        if (s->state != SLOT_FREE && s->step == STEP_ID_HELPER && s->link == (uint8_t)(r - bus->slots)) {
+            return s;
+        }
+    }
+    return NULL;
+}
+
+/* Free the helper of `r`, if it has one (a late reply to it then goes to on_unmatched). */
+static void release_helper(dre_bus *bus, const dre_request *r)
+{
+    if (r->step == STEP_ID_FREE) {
+        dre_request *h = helper_of(bus, r);
+        if (h != NULL) {
+            h->state = SLOT_FREE;
+        }
+    }
+}
+
 static void fail(dre_bus *bus, dre_request *r, uint8_t state)
 {
     break_chain(bus, r);
+    release_helper(bus, r);
     r->state = state;
 }
 
-/*
- * Put a read of `address` (0: fast read) from `node` in a free slot: sent at
- * once when the motor has no other request in flight or waiting, otherwise
- * queued for dre_bus_poll(). When sending fails, `may_queue` leaves it queued
- * (an operation that already sent frames); otherwise the slot is released and
- * DRE_E_SEND returned. `flags` and `expect` as for verified writes.
- */
-static dre_status issue(dre_bus *bus, uint8_t node, uint16_t address, uint8_t dtype, uint8_t flags,
-                        dre_value expect, int may_queue, dre_req *req)
+/* A request for a read of `address` (0: fast read) from `node`, to fill in and give to issue(). */
+static dre_request request(uint8_t node, uint16_t address, uint8_t dtype)
 {
-    dre_msg msg = read_msg(node, address, dtype);
+    dre_request r;
+    memset(&r, 0, sizeof r);
+    r.node = node;
+    r.address = address;
+    r.dtype = dtype;
+    return r;
+}
+
+/*
+ * Put request `want` (its read, flags, step, link and in reply.u.param.value
+ * the value a verified write expects) in a free slot: sent at once when the
+ * motor has no other request in flight or waiting, otherwise queued for
+ * dre_bus_poll(). When sending fails, `may_queue` leaves it queued (an
+ * operation that already sent frames); otherwise the slot is released and
+ * DRE_E_SEND returned.
+ */
+static dre_status issue(dre_bus *bus, const dre_request *want, int may_queue, dre_req *req)
+{
+    dre_msg msg = read_msg(want->node, want->address, want->dtype);
     dre_request *r = NULL;
     dre_frame f;
     dre_status st;
@@ -307,13 +427,9 @@ static dre_status issue(dre_bus *bus, uint8_t node, uint16_t address, uint8_t dt
     if (r == NULL) {
         return DRE_E_BUSY;
     }
-    memset(&r->reply, 0, sizeof r->reply);
-    r->reply.u.param.value = expect;
-    r->node = node;
-    r->address = address;
-    r->dtype = dtype;
-    r->flags = flags;
-    if (!node_idle(bus, node)) {
+    *r = *want;
+    r->state = SLOT_FREE;
+    if (!node_idle(bus, want->node)) {
         r->state = SLOT_QUEUED;
     } else if (transmit(bus, &f) == DRE_OK) {
         r->state = SLOT_PENDING;
@@ -334,17 +450,15 @@ static dre_status issue(dre_bus *bus, uint8_t node, uint16_t address, uint8_t dt
 /* Start reading `k` parameters of one motor; each request waits for the one before. */
 static dre_status read_params(const dre_motor *m, uint8_t k, const dre_param_t *params, dre_req *req)
 {
-    dre_value none;
     dre_status st = DRE_OK;
     uint8_t i;
 
-    none.i = 0;
     if (free_slots(m->bus) < k) {
         return DRE_E_BUSY;
     }
     for (i = 0u; i < k && st == DRE_OK; i++) {
-        st = issue(m->bus, m->node, DRE_PARAM_ADDRESS(params[i]), DRE_PARAM_DTYPE(params[i]), 0u, none, i > 0u,
-                   &req[i]);
+        dre_request r = request(m->node, DRE_PARAM_ADDRESS(params[i]), DRE_PARAM_DTYPE(params[i]));
+        st = issue(m->bus, &r, i > 0u, &req[i]);
     }
     return st;
 }
@@ -372,7 +486,12 @@ static int answers(const dre_request *r, const dre_msg *msg)
 
 static void complete(dre_bus *bus, dre_request *r, const dre_msg *msg)
 {
-    if ((r->flags & FLAG_VERIFY) != 0u && !same_value(r, msg)) {
+    if (r->step == STEP_ID_FREE) {
+        fail(bus, r, SLOT_TAKEN); /* a motor answers at the new id */
+    } else if (r->step == STEP_ID_HERE) {
+        r->state = SLOT_WAIT; /* the motor answers: on to the write */
+        r->sent_ms = bus->cfg.tick(bus->cfg.user);
+    } else if ((r->flags & FLAG_VERIFY) != 0u && !same_value(r, msg)) {
         fail(bus, r, SLOT_MISMATCH);
     } else if ((r->flags & FLAG_SAVE) != 0u && system_op(bus, r->node, DRE_SYS_SAVE_CONFIG) != DRE_OK) {
         fail(bus, r, SLOT_SEND_FAILED);
@@ -414,6 +533,64 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
     return DRE_OK;
 }
 
+/*
+ * Step 2 of dre_set_id, once its probes are over (SLOT_WAIT): with the current
+ * id answering and the new one silent, send the write and turn `r` into the
+ * verified read of the new id (step 3, saved when it matches: step 4).
+ */
+static void set_id_write(dre_bus *bus, dre_request *r, uint32_t now)
+{
+    uint8_t old = r->link, new_id = r->node;
+    dre_value id;
+    dre_msg w;
+    dre_frame f;
+
+    if (r->step == STEP_ID_FREE) {
+        dre_request *h = helper_of(bus, r);
+        uint8_t hs = h == NULL ? (uint8_t)SLOT_SEND_FAILED : h->state;
+        if (hs == SLOT_PENDING || hs == SLOT_QUEUED) {
+            r->sent_ms = now; /* the current id has yet to answer */
+            return;
+        }
+        if (hs != SLOT_DONE) {
+            fail(bus, r, hs == SLOT_TIMEOUT ? (uint8_t)SLOT_ABSENT : (uint8_t)SLOT_SEND_FAILED);
+            return;
+        }
+    }
+    if (!room(bus, 2u)) {
+        if ((uint32_t)(now - r->sent_ms) >= bus->cfg.timeout_ms) {
+            fail(bus, r, SLOT_SEND_FAILED);
+        }
+        return;
+    }
+    release_helper(bus, r);
+    id.i = new_id;
+    memset(&w, 0, sizeof w);
+    w.type = DRE_MSG_WRITE_PARAM;
+    w.node = old;
+    w.u.param.address = DRE_PARAM_ADDRESS(DRE_P_AXIS0_CONFIG_CAN_NODE_ID);
+    w.u.param.dtype = DRE_PARAM_DTYPE(DRE_P_AXIS0_CONFIG_CAN_NODE_ID);
+    w.u.param.value = id;
+    if (encode(bus, &w, &f) != DRE_OK || transmit(bus, &f) != DRE_OK) {
+        r->step = STEP_NONE;
+        r->state = SLOT_SEND_FAILED;
+        return;
+    }
+    if (old != new_id) {
+        traj_forget(bus, old);
+        traj_forget(bus, new_id);
+    }
+    r->step = STEP_NONE;
+    r->link = 0u;
+    r->address = DRE_PARAM_ADDRESS(DRE_P_AXIS0_CONFIG_CAN_NODE_ID);
+    r->dtype = w.u.param.dtype;
+    r->flags = FLAG_VERIFY | FLAG_SAVE;
+    memset(&r->reply, 0, sizeof r->reply);
+    r->reply.u.param.value = id;
+    r->state = SLOT_QUEUED; /* sent below once the new id has no other request in flight */
+    r->sent_ms = now;
+}
+
 void dre_bus_poll(dre_bus *bus)
 {
     dre_frame f;
@@ -426,8 +603,18 @@ void dre_bus_poll(dre_bus *bus)
     for (i = 0u; i < bus->nslots; i++) {
         dre_request *r = &bus->slots[i];
         if (r->state == SLOT_PENDING && (uint32_t)(now - r->sent_ms) >= bus->cfg.timeout_ms) {
-            fail(bus, r, SLOT_TIMEOUT);
-            bus->stats.timeouts++;
+            if (r->step == STEP_ID_FREE) {
+                r->state = SLOT_WAIT; /* nobody answers at the new id: it is free */
+                r->sent_ms = now;
+            } else {
+                fail(bus, r, r->step == STEP_ID_HERE ? (uint8_t)SLOT_ABSENT : (uint8_t)SLOT_TIMEOUT);
+                bus->stats.timeouts++;
+            }
+        }
+    }
+    for (i = 0u; i < bus->nslots; i++) {
+        if (bus->slots[i].state == SLOT_WAIT) {
+            set_id_write(bus, &bus->slots[i], now);
         }
     }
     /* Send the requests whose turn has come; one that cannot be sent for a
@@ -445,8 +632,12 @@ void dre_bus_poll(dre_bus *bus)
                 r->state = SLOT_PENDING;
                 r->sent_ms = now;
             } else if ((uint32_t)(now - r->sent_ms) >= bus->cfg.timeout_ms) {
-                fail(bus, r, SLOT_TIMEOUT);
-                bus->stats.timeouts++;
+                if (r->step != STEP_NONE) {
+                    fail(bus, r, SLOT_SEND_FAILED); /* a probe of dre_set_id that never went out */
+                } else {
+                    fail(bus, r, SLOT_TIMEOUT);
+                    bus->stats.timeouts++;
+                }
             }
         }
     }
@@ -475,6 +666,7 @@ dre_status dre_result(dre_bus *bus, dre_req req, dre_msg *reply)
     switch (r->state) {
     case SLOT_QUEUED:
     case SLOT_PENDING:
+    case SLOT_WAIT:
         return DRE_PENDING;
     case SLOT_DONE:
         st = DRE_OK;
@@ -485,6 +677,12 @@ dre_status dre_result(dre_bus *bus, dre_req req, dre_msg *reply)
     case SLOT_SEND_FAILED:
         st = DRE_E_SEND;
         break;
+    case SLOT_TAKEN:
+        st = DRE_E_ID_TAKEN;
+        break;
+    case SLOT_ABSENT:
+        r->state = SLOT_FREE;
+        return DRE_E_NO_MOTOR;
     default:
         r->state = SLOT_FREE;
         return DRE_E_TIMEOUT;
@@ -500,6 +698,7 @@ void dre_cancel(dre_bus *bus, dre_req req)
     if (r != NULL) {
         if (active(r)) {
             break_chain(bus, r);
+            release_helper(bus, r);
         }
         r->state = SLOT_FREE;
     }
@@ -766,12 +965,11 @@ dre_status dre_write_param(const dre_motor *m, dre_param_t param, dre_value valu
 
 dre_status dre_read_property(const dre_motor *m, uint16_t address, uint8_t dtype, dre_req *req)
 {
-    dre_value none;
-    none.i = 0;
+    dre_request r = request(m->node, address, dtype);
     if (address == 0u) {
         return range_error(m->bus, DRE_FIELD_ADDRESS, 0u); /* address 0 is the fast read */
     }
-    return issue(m->bus, m->node, address, dtype, 0u, none, 0, req);
+    return issue(m->bus, &r, 0, req);
 }
 
 dre_status dre_read_param(const dre_motor *m, dre_param_t param, dre_req *req)
@@ -781,9 +979,8 @@ dre_status dre_read_param(const dre_motor *m, dre_param_t param, dre_req *req)
 
 dre_status dre_get_state(const dre_motor *m, dre_req *req)
 {
-    dre_value none;
-    none.i = 0;
-    return issue(m->bus, m->node, 0u, DRE_F32, 0u, none, 0, req);
+    dre_request r = request(m->node, 0u, DRE_F32);
+    return issue(m->bus, &r, 0, req);
 }
 
 /* ----------------------------------------------------------------- operations */
@@ -814,17 +1011,17 @@ dre_status dre_get_traj_mode(const dre_motor *m, dre_req *req)
 }
 
 /*
- * Write params[i] = values[i] (i < k) to motor m, then read each back from
- * motor `read_node` to verify it; with `save`, save_config goes to read_node
- * once every value matched. Checks room for the frames sent at once and free
- * slots before sending anything.
+ * Write params[i] = values[i] (i < k) to motor m, then read each back to
+ * verify it; with `save`, save_config goes out once every value matched.
+ * Checks room for the frames sent at once and free slots before sending
+ * anything.
  */
-static dre_status verified_writes(const dre_motor *m, uint8_t read_node, uint8_t k, const dre_param_t *params,
-                                  const dre_value *values, int save, dre_req *req)
+static dre_status verified_writes(const dre_motor *m, uint8_t k, const dre_param_t *params, const dre_value *values,
+                                  int save, dre_req *req)
 {
     dre_bus *bus = m->bus;
-    dre_frame f[3], pf;
-    dre_msg w[3], probe = read_msg(read_node, 0u, DRE_F32);
+    dre_frame f[3];
+    dre_msg w[3];
     dre_status st;
     uint8_t i;
 
@@ -836,11 +1033,7 @@ static dre_status verified_writes(const dre_motor *m, uint8_t read_node, uint8_t
             return st;
         }
     }
-    st = encode(bus, &probe, &pf); /* is the reading node valid? */
-    if (st != DRE_OK) {
-        return st;
-    }
-    if (free_slots(bus) < k || !room(bus, k + (node_idle(bus, read_node) ? 1u : 0u))) {
+    if (free_slots(bus) < k || !room(bus, k + (node_idle(bus, m->node) ? 1u : 0u))) {
         return DRE_E_BUSY;
     }
     for (i = 0u; i < k; i++) {
@@ -852,29 +1045,55 @@ static dre_status verified_writes(const dre_motor *m, uint8_t read_node, uint8_t
     }
     for (i = 0u; i < k; i++) {
         uint8_t last = i + 1u == k;
-        uint8_t flags = (uint8_t)(FLAG_VERIFY | (last ? (save ? FLAG_SAVE : 0u) : FLAG_CHAIN));
-        (void)issue(bus, read_node, DRE_PARAM_ADDRESS(params[i]), DRE_PARAM_DTYPE(params[i]), flags, values[i], 1,
-                    &req[i]);
+        dre_request r = request(m->node, DRE_PARAM_ADDRESS(params[i]), DRE_PARAM_DTYPE(params[i]));
+        r.flags = (uint8_t)(FLAG_VERIFY | (last ? (save ? FLAG_SAVE : 0u) : FLAG_CHAIN));
+        r.reply.u.param.value = values[i];
+        (void)issue(bus, &r, 1, &req[i]);
     }
     return DRE_OK;
 }
 
+/*
+ * Step 1 of set_id: the fast reads of the current id (the helper, sent first
+ * as the Python client does) and of the new id (the caller's request). Steps
+ * 2 to 4 follow in dre_bus_poll() (set_id_write) and complete().
+ */
 dre_status dre_set_id(const dre_motor *m, uint8_t new_id, dre_req *req)
 {
-    static const dre_param_t param = DRE_P_AXIS0_CONFIG_CAN_NODE_ID;
-    dre_value id;
+    dre_bus *bus = m->bus;
+    uint8_t node = m->node, apart = node != new_id;
+    dre_request here = request(node, 0u, DRE_F32), probe = request(new_id, 0u, DRE_F32);
+    unsigned frames;
+    dre_req helper = 0u;
+    dre_msg read_here = read_msg(node, 0u, DRE_F32);
     dre_status st;
+    dre_frame f;
 
     if (new_id == DRE_BROADCAST || new_id > DRE_MAX_NODE) {
-        return range_error(m->bus, DRE_FIELD_VALUE, 0u);
+        return range_error(bus, DRE_FIELD_VALUE, 0u);
     }
-    id.i = new_id;
-    st = verified_writes(m, new_id, 1u, &param, &id, 1, req);
-    if (st == DRE_OK) {
-        traj_forget(m->bus, m->node);
-        traj_forget(m->bus, new_id);
+    st = encode(bus, &read_here, &f); /* is the current id valid? */
+    if (st != DRE_OK) {
+        return st;
     }
-    return st;
+    frames = (node_idle(bus, new_id) ? 1u : 0u) + (apart && node_idle(bus, node) ? 1u : 0u);
+    if (free_slots(bus) < (apart ? 2u : 1u) || !room(bus, frames)) {
+        return DRE_E_BUSY;
+    }
+    probe.link = node;
+    if (!apart) {
+        probe.step = STEP_ID_HERE;
+        return issue(bus, &probe, 0, req);
+    }
+    here.step = STEP_ID_HELPER;
+    st = issue(bus, &here, 0, &helper);
+    if (st != DRE_OK) {
+        return st;
+    }
+    probe.step = STEP_ID_FREE;
+    (void)issue(bus, &probe, 1, req); /* a free slot was checked: queued at worst */
+    bus->slots[helper & 0xFFu].link = (uint8_t)(*req & 0xFFu);
+    return DRE_OK;
 }
 
 dre_status dre_set_traj_mode(const dre_motor *m, uint8_t mode, dre_req *req)
@@ -886,7 +1105,7 @@ dre_status dre_set_traj_mode(const dre_motor *m, uint8_t mode, dre_req *req)
         return range_error(m->bus, DRE_FIELD_MODE, 0u);
     }
     v.i = mode;
-    return verified_writes(m, m->node, 1u, &param, &v, 0, req);
+    return verified_writes(m, 1u, &param, &v, 0, req);
 }
 
 dre_status dre_set_angle_range(const dre_motor *m, float angle_min, float angle_max, float position,
@@ -911,7 +1130,7 @@ dre_status dre_set_angle_range(const dre_motor *m, float angle_min, float angle_
     v[0].f32 = angle_min;
     v[1].f32 = angle_max;
     v[2].i = 1;
-    return verified_writes(m, m->node, 3u, params, v, 1, req);
+    return verified_writes(m, 3u, params, v, 1, req);
 }
 
 static dre_status set_baud(const dre_motor *m, dre_param_t param, const uint32_t *rates, uint32_t rate,
@@ -928,7 +1147,7 @@ static dre_status set_baud(const dre_motor *m, dre_param_t param, const uint32_t
         return range_error(m->bus, DRE_FIELD_VALUE, 0u);
     }
     v.i = rate;
-    return verified_writes(m, m->node, 1u, &param, &v, 1, req);
+    return verified_writes(m, 1u, &param, &v, 1, req);
 }
 
 dre_status dre_set_can_baud_rate(const dre_motor *m, uint32_t baud_rate, dre_req *req)

@@ -562,6 +562,10 @@ const char *dre_status_name(dre_status status)
         return "fault";
     case DRE_E_VERIFY:
         return "verify";
+    case DRE_E_ID_TAKEN:
+        return "id taken";
+    case DRE_E_NO_MOTOR:
+        return "no motor";
     default:
         return "?";
     }

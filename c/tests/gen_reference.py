@@ -6,7 +6,8 @@ Usage: gen_reference.py OUT.c PYTHON_SRC_DIR
 * Serial streams (random frames, garbage, cut frames; fixed seeds) and what
   the Python stream decoders make of them: frames, dropped bytes, pending bytes.
 * Error words: flag names the Python core gives for chosen values.
-* The parameter registry: name, address, type and flags of every parameter.
+* The parameter registry: name, address, type and flags of every parameter,
+  and the range of values of those with a fixed set (modes and states).
 """
 
 from __future__ import annotations
@@ -126,7 +127,14 @@ def main() -> int:
             flags.append("DRE_PF_BOOL")
         if p.series:
             flags.append(f"DRE_PF_SERIES_{p.series}")
-        param_rows.append(f'    {{"{p.name}", "{p.unit}", {p.address}u, {int(p.dtype)}, {" | ".join(flags)}}},')
+        choices = sorted(int(c) for c in p.choices) if p.choices is not None else []
+        if choices and choices != list(range(choices[0], choices[-1] + 1)):
+            raise SystemExit(f"{p.name}: the values {choices} are no range; the C table holds ranges")
+        lo, hi = (choices[0], choices[-1]) if choices else (0, 0)
+        param_rows.append(
+            f'    {{"{p.name}", "{p.unit}", {p.address}u, {int(p.dtype)}, {" | ".join(flags)}, '
+            f"{int(bool(choices))}, {lo}u, {hi}u}},"
+        )
 
     text = "\n".join(
         [

@@ -37,6 +37,8 @@ typedef struct {
     uint16_t address;
     uint8_t dtype;
     uint8_t flags;
+    int choices; /* 1: only the values lo..hi */
+    uint8_t lo, hi;
 } ref_param;
 
 extern const ref_stream ref_streams[];

@@ -946,19 +946,6 @@ static void test_verified_writes(void)
     CHECK(dre_result(&bus, req[0], &reply) == DRE_E_VERIFY && bus_fake.nsent == 5u);
     CHECK(dre_set_uart_baud_rate(&m1, 1000000u, req) == DRE_E_RANGE);
 
-    /* set_id: the motor must answer at its new id before it is saved there */
-    setup();
-    CHECK(dre_set_id(&m1, 5u, req) == DRE_OK);
-    CHECK(bus_fake.nsent == 2u && sent_is(0u, 0x03F, "1979030005000000") && sent_is(1u, 0x0BE, "1979030000000000"));
-    feed(0x0BE, "1979030005000000");
-    CHECK(bus_fake.nsent == 3u && sent_is(2u, 0x0A8, "0100000000000000"));
-    CHECK(dre_result(&bus, req[0], &reply) == DRE_OK);
-    CHECK(dre_set_id(&m1, 6u, req) == DRE_OK);
-    bus_fake.now = 50u;
-    dre_bus_poll(&bus);
-    CHECK(dre_result(&bus, req[0], &reply) == DRE_E_TIMEOUT && bus_fake.nsent == 5u); /* nothing saved */
-    CHECK(dre_set_id(&m1, 64u, req) == DRE_E_RANGE && dre_set_id(&m1, 0u, req) == DRE_E_RANGE);
-
     /* set_angle_range: three verified writes, saved once all three read back */
     setup();
     CHECK(dre_set_angle_range(&m1, -90.0f, 90.0f, 0.0f, req) == DRE_OK);
@@ -990,6 +977,271 @@ static void test_verified_writes(void)
     CHECK(dre_set_angle_range(&m1, -90.0f, 90.0f, 91.0f, req) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_POSITION);
     CHECK(dre_set_angle_range(&m1, -90.0f, 90.0f, NAN, req) == DRE_E_RANGE);
     CHECK(bus_fake.nsent == 13u);
+}
+
+/* Request slots in use (the helper probe of set_id included). */
+static unsigned busy_slots(void)
+{
+    unsigned i, n = 0u;
+    for (i = 0u; i < sizeof slots / sizeof slots[0]; i++) {
+        n += slots[i].state != 0u ? 1u : 0u;
+    }
+    return n;
+}
+
+/* set_id as the Python client: the current id must answer and the new one must not before the write. */
+static void test_set_id(void)
+{
+    dre_motor m1 = {&bus, 1u}, m2 = {&bus, 2u}, m3 = {&bus, 3u}, m4 = {&bus, 4u}, all = {&bus, 0u};
+    dre_req req, other[3];
+    dre_msg reply;
+
+    /* the whole way: both fast reads at once, the write once 5 stayed silent, the read at 5, the save there */
+    setup();
+    feed(0x03E, "2089030002000000"); /* motor 1 runs the S-curve (learned) */
+    CHECK(bus.traj_known == (1u << 1));
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_OK);
+    CHECK(bus_fake.nsent == 2u && sent_is(0u, 0x03E, "0000000000000000") && sent_is(1u, 0x0BE, "0000000000000000"));
+    CHECK(busy_slots() == 2u);
+    feed(0x021, "0000000000000000"); /* motor 1 answers */
+    bus_fake.now = 49u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_PENDING && bus_fake.nsent == 2u);
+    bus_fake.now = 50u; /* nobody answers at 5 */
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 4u && sent_is(2u, 0x03F, "1979030005000000") && sent_is(3u, 0x0BE, "1979030000000000"));
+    CHECK(busy_slots() == 1u && bus.traj_known == 0u);
+    CHECK(dre_result(&bus, req, &reply) == DRE_PENDING);
+    feed(0x0BE, "1979030005000000");
+    CHECK(bus_fake.nsent == 5u && sent_is(4u, 0x0A8, "0100000000000000"));
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.node == 5u && reply.u.param.value.i == 5);
+    CHECK(bus.stats.timeouts == 0u && busy_slots() == 0u);
+
+    /* a motor at the new id: refused at once, nothing written, the other probe dropped */
+    setup();
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_OK);
+    feed(0x0A1, "0000B44200000000"); /* motor 5 answers (motor 1 does not: a taken id is reported first) */
+    CHECK(dre_result(&bus, req, &reply) == DRE_E_ID_TAKEN && reply.type == DRE_MSG_STATE && reply.node == 5u &&
+          reply.u.state.position == 90.0f);
+    CHECK(busy_slots() == 0u);
+    feed(0x021, "0000000000000000"); /* motor 1, late: answers nothing */
+    CHECK(bus_fake.nunmatched == 1u);
+    bus_fake.now = 100u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 2u);
+
+    /* no motor at the current id: refused once the new id's read has timed out, nothing written */
+    setup();
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_OK);
+    bus_fake.now = 50u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_E_NO_MOTOR && bus_fake.nsent == 2u && busy_slots() == 0u);
+    bus_fake.now = 200u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 2u);
+
+    /* the current id busy: its read waits its turn, and the write waits for its answer */
+    setup();
+    CHECK(dre_get_state(&m1, &other[0]) == DRE_OK);
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_OK && bus_fake.nsent == 2u && sent_is(1u, 0x0BE, "0000000000000000"));
+    bus_fake.now = 30u;
+    feed(0x021, "0000000000000000");
+    CHECK(dre_result(&bus, other[0], &reply) == DRE_OK);
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 3u && sent_is(2u, 0x03E, "0000000000000000"));
+    bus_fake.now = 50u; /* 5 is free, 1 has not answered yet */
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 3u && dre_result(&bus, req, &reply) == DRE_PENDING);
+    feed(0x021, "0000000000000000");
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 5u && sent_is(3u, 0x03F, "1979030005000000") && sent_is(4u, 0x0BE, "1979030000000000"));
+    /* after the write: no answer at the new id, or another id reported: nothing saved */
+    bus_fake.now = 100u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_E_TIMEOUT && bus_fake.nsent == 5u);
+    CHECK(dre_get_state(&m1, &other[0]) == DRE_OK);
+    CHECK(dre_set_id(&m1, 6u, &req) == DRE_OK && bus_fake.nsent == 7u); /* 1 busy again: only 6 is read */
+    feed(0x021, "0000000000000000");
+    CHECK(dre_result(&bus, other[0], &reply) == DRE_OK);
+    dre_bus_poll(&bus); /* the read of 1 goes out now */
+    feed(0x021, "0000000000000000");
+    bus_fake.now = 150u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 10u && sent_is(8u, 0x03F, "1979030006000000"));
+    feed(0x0DE, "1979030001000000"); /* the motor at 6 says 1 */
+    CHECK(dre_result(&bus, req, &reply) == DRE_E_VERIFY && reply.u.param.value.i == 1 && bus_fake.nsent == 10u);
+    /* the current id answering while the new one's read is still due: the write waits for that read */
+    CHECK(dre_set_id(&m1, 7u, &req) == DRE_OK && bus_fake.nsent == 12u);
+    bus_fake.now = 160u;
+    feed(0x021, "0000000000000000");
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 12u);
+    bus_fake.now = 200u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 14u && sent_is(12u, 0x03F, "1979030007000000"));
+    dre_cancel(&bus, req);
+    CHECK(busy_slots() == 0u);
+
+    /* the id it already has: only its own read, which must be answered */
+    setup();
+    CHECK(dre_set_id(&m1, 1u, &req) == DRE_OK && bus_fake.nsent == 1u && sent_is(0u, 0x03E, "0000000000000000"));
+    CHECK(busy_slots() == 1u);
+    feed(0x021, "0000000000000000");
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 3u && sent_is(1u, 0x03F, "1979030001000000") && sent_is(2u, 0x03E, "1979030000000000"));
+    feed(0x03E, "1979030001000000");
+    CHECK(bus_fake.nsent == 4u && sent_is(3u, 0x028, "0100000000000000"));
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK);
+    CHECK(dre_set_id(&m1, 1u, &req) == DRE_OK);
+    bus_fake.now = 50u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_E_NO_MOTOR && bus_fake.nsent == 5u);
+
+    /* broadcast: any motor answering at 0 will do; the write goes to 0, the save to the new id */
+    setup();
+    CHECK(dre_set_id(&all, 7u, &req) == DRE_OK);
+    CHECK(sent_is(0u, 0x01E, "0000000000000000") && sent_is(1u, 0x0FE, "0000000000000000"));
+    feed(0x061, "0000000000000000"); /* motor 3 */
+    bus_fake.now = 50u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 4u && sent_is(2u, 0x01F, "1979030007000000") && sent_is(3u, 0x0FE, "1979030000000000"));
+    feed(0x0FE, "1979030007000000");
+    CHECK(bus_fake.nsent == 5u && sent_is(4u, 0x0E8, "0100000000000000"));
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK);
+
+    /* cancelled during the reads: both slots are freed, nothing is written */
+    setup();
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_OK);
+    feed(0x021, "0000000000000000");
+    dre_cancel(&bus, req);
+    CHECK(busy_slots() == 0u);
+    bus_fake.now = 50u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 2u && dre_result(&bus, req, &reply) == DRE_E_ARG);
+
+    /* refusals send nothing; two free slots are needed, one for the id it has */
+    setup();
+    CHECK(dre_set_id(&m1, 64u, &req) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_VALUE);
+    CHECK(dre_set_id(&m1, 0u, &req) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_VALUE);
+    {
+        dre_motor bad = {&bus, 64u};
+        CHECK(dre_set_id(&bad, 5u, &req) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_NODE);
+    }
+    CHECK(dre_get_state(&m2, &other[0]) == DRE_OK && dre_get_state(&m3, &other[1]) == DRE_OK &&
+          dre_get_state(&m4, &other[2]) == DRE_OK);
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_E_BUSY && bus_fake.nsent == 3u && busy_slots() == 3u);
+    CHECK(dre_set_id(&m1, 1u, &req) == DRE_OK && bus_fake.nsent == 4u);
+    setup();
+    bus_fake.fail_from = 0;
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_E_SEND && busy_slots() == 0u);
+
+    /* the write not sent: DRE_E_SEND, and nothing was written */
+    setup();
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_OK);
+    feed(0x021, "0000000000000000");
+    bus_fake.fail_from = 2;
+    bus_fake.now = 50u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_E_SEND && bus_fake.nsent == 2u && busy_slots() == 0u);
+    CHECK(reply.type != DRE_MSG_PARAM_VALUE);
+    /* the save not sent: DRE_E_SEND with the id read back, changed but not saved */
+    setup();
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_OK);
+    feed(0x021, "0000000000000000");
+    bus_fake.now = 50u;
+    dre_bus_poll(&bus);
+    bus_fake.fail_from = 4;
+    feed(0x0BE, "1979030005000000");
+    CHECK(dre_result(&bus, req, &reply) == DRE_E_SEND && bus_fake.nsent == 4u);
+    CHECK(reply.type == DRE_MSG_PARAM_VALUE && reply.u.param.value.i == 5);
+
+    /* with tx_free: room for the reads at once, and later for the write and its read together */
+    setup_with(DRE_START_TO_AUTO, 1, 0);
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_E_BUSY && bus_fake.nsent == 0u);
+    bus_fake.room = 2;
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_OK && bus_fake.nsent == 2u);
+    feed(0x021, "0000000000000000");
+    bus_fake.room = 1;
+    bus_fake.now = 50u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 2u && dre_result(&bus, req, &reply) == DRE_PENDING);
+    bus_fake.room = 2;
+    bus_fake.now = 60u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 4u && sent_is(2u, 0x03F, "1979030005000000"));
+    dre_cancel(&bus, req);
+    bus_fake.room = 1;
+    CHECK(dre_set_id(&m1, 1u, &req) == DRE_OK);
+    feed(0x021, "0000000000000000");
+    bus_fake.now = 109u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_PENDING);
+    bus_fake.now = 110u; /* no room for a whole timeout */
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_E_SEND && bus_fake.nsent == 5u);
+}
+
+/* Modes and states take only the values of their enums, as in the Python client; refusals name the parameter. */
+static void test_mode_params(void)
+{
+    dre_motor m1 = {&bus, 1u}, all = {&bus, 0u};
+    dre_value v;
+    dre_msg w;
+    uint8_t lo = 0xFFu, hi = 0xFFu;
+
+    setup();
+    v.i = 11;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_REQUESTED_STATE, v) == DRE_OK && sent_is(0u, 0x03F, "337503000B000000"));
+    v.i = 4;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONTROLLER_CONFIG_CONTROL_MODE, v) == DRE_OK &&
+          sent_is(1u, 0x03F, "697D030004000000"));
+    v.i = 7;
+    CHECK(dre_write_property(&all, 32106u, DRE_U32, v) == DRE_OK && sent_is(2u, 0x01F, "6A7D030007000000"));
+    v.i = 2;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE, v) == DRE_OK &&
+          sent_is(3u, 0x03F, "2089030002000000"));
+    CHECK(bus_fake.nsent == 4u);
+
+    v.i = 12;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_REQUESTED_STATE, v) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_VALUE &&
+          bus.bad_address == 30003u && bus.bad_index == 0u);
+    v.i = -1;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_REQUESTED_STATE, v) == DRE_E_RANGE);
+    v.i = 5;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONTROLLER_CONFIG_CONTROL_MODE, v) == DRE_E_RANGE &&
+          bus.bad_address == 32105u);
+    v.i = 8;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONTROLLER_CONFIG_INPUT_MODE, v) == DRE_E_RANGE &&
+          bus.bad_address == 32106u);
+    CHECK(dre_write_property(&m1, 32106u, DRE_U16, v) == DRE_E_RANGE && bus.bad_address == 32106u);
+    v.i = 0;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE, v) == DRE_E_RANGE &&
+          bus.bad_address == 35104u);
+    v.i = 3;
+    CHECK(dre_write_property(&all, 35104u, DRE_S32, v) == DRE_E_RANGE && bus.bad_address == 35104u);
+    v.i = 0;
+    v.f32 = 1.0f; /* the sets are integers */
+    CHECK(dre_write_property(&m1, 35104u, DRE_F32, v) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_DTYPE &&
+          bus.bad_address == 35104u);
+    /* dre_send checks a raw write the same way */
+    memset(&w, 0, sizeof w);
+    w.type = DRE_MSG_WRITE_PARAM;
+    w.node = 1u;
+    w.u.param.address = 30003u;
+    w.u.param.dtype = DRE_U32;
+    w.u.param.value.i = 12;
+    CHECK(dre_send(&bus, &w) == DRE_E_RANGE && bus.bad_address == 30003u);
+    w.u.param.value.i = 8;
+    CHECK(dre_send(&bus, &w) == DRE_OK && sent_is(4u, 0x03F, "3375030008000000"));
+    CHECK(bus_fake.nsent == 5u && bus.traj_known == (1u << 1)); /* refused writes teach nothing */
+    /* any other refusal leaves no parameter named */
+    CHECK(dre_set_angle(&m1, 0.0f, 0.0f, 5.0f, DRE_ANGLE_Q) == DRE_E_RANGE && bus.bad_address == 0u);
+
+    CHECK(dre_param_choices(30003u, &lo, &hi) == 1 && lo == 0u && hi == 11u);
+    CHECK(dre_param_choices(32105u, &lo, &hi) == 1 && lo == 0u && hi == 4u);
+    CHECK(dre_param_choices(32106u, &lo, &hi) == 1 && lo == 0u && hi == 7u);
+    CHECK(dre_param_choices(35104u, &lo, &hi) == 1 && lo == 1u && hi == 2u);
+    CHECK(dre_param_choices(31001u, &lo, &hi) == 0 && dre_param_choices(0u, &lo, &hi) == 0);
 }
 
 static void test_step_angle(void)
@@ -1105,6 +1357,8 @@ int main(void)
     test_stale_presets();
     test_reads();
     test_verified_writes();
+    test_set_id();
+    test_mode_params();
     test_step_angle();
     test_position_done();
     test_q_move_time();

@@ -2,6 +2,7 @@
 #include <string.h>
 
 #include "check.h"
+#include "drempower/dre_client.h"
 #include "drempower/dre_codec.h"
 #include "drempower/dre_errors.h"
 #include "drempower/dre_params.h"
@@ -21,6 +22,22 @@ static void test_params_match_python(void)
                    DRE_PARAM_FLAGS(p->param) == r->flags,
                "parameter %u (%s) differs from the Python registry", i, r->name);
     }
+}
+
+/* The client's parameters with a fixed set of values are those of the Python client, with its ranges. */
+static void test_choices_match_python(void)
+{
+    unsigned i, n = 0u;
+
+    for (i = 0u; i < ref_param_count; i++) {
+        const ref_param *r = &ref_params[i];
+        uint8_t lo = 0u, hi = 0u;
+        int c = dre_param_choices(r->address, &lo, &hi);
+        CHECKF(c == r->choices && (!c || (lo == r->lo && hi == r->hi)), "%s: C %d %u..%u, Python %d %u..%u", r->name,
+               c, (unsigned)lo, (unsigned)hi, r->choices, (unsigned)r->lo, (unsigned)r->hi);
+        n += (unsigned)r->choices;
+    }
+    CHECK(n == 4u);
 }
 
 static void test_param_lookup(void)
@@ -107,6 +124,7 @@ static void test_errors(void)
 int main(void)
 {
     test_params_match_python();
+    test_choices_match_python();
     test_param_lookup();
     test_errors_match_python();
     test_errors();

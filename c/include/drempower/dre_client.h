@@ -20,6 +20,12 @@
  * motor index in a batch) when they return DRE_E_RANGE. Nothing is sent
  * when a function returns DRE_E_RANGE, DRE_E_ARG, DRE_E_ACCESS or DRE_E_BUSY.
  *
+ * Every parameter write the bus sends (dre_write_param, dre_write_property,
+ * dre_send, the verified writes) is checked against the parameters whose
+ * values form a fixed set (see dre_param_choices): a value outside it is
+ * refused before anything is sent, with DRE_E_RANGE, DRE_FIELD_VALUE
+ * (DRE_FIELD_DTYPE for an f32) and bus->bad_address naming the parameter.
+ *
  * Requests to the same motor go out one at a time, as in the Python client: a
  * read reply carries the same CAN id as every read request to that motor, so a
  * second request sent while the reply is due could collide with it on the
@@ -122,6 +128,8 @@ typedef struct {
     uint8_t dtype;
     uint8_t state;
     uint8_t flags;
+    uint8_t step; /**< the step of a multi-step request (dre_set_id), 0 for others */
+    uint8_t link; /**< dre_set_id: the current id; its helper probe: the slot index of the request */
 } dre_request;
 
 /** Handle of a pending request; 0 is never a valid handle. */
@@ -132,20 +140,20 @@ typedef struct {
     uint32_t rx_frames;    /**< frames fed or drained */
     uint32_t rx_malformed; /**< frames that are not valid motor replies */
     uint32_t rx_unmatched; /**< valid replies that completed no request */
-    uint32_t timeouts;     /**< requests that expired */
+    uint32_t timeouts;     /**< requests that expired (not the probe of a free id in dre_set_id) */
 } dre_bus_stats;
 
 /**
- * One CAN bus. Fields are private except bad_field, bad_index, stats,
- * rx_overflows and presets_pending, which the caller may read.
+ * One CAN bus. Fields are private except bad_field, bad_index, bad_address,
+ * stats, rx_overflows and presets_pending, which the caller may read.
  */
 typedef struct {
     dre_bus_config cfg;
     dre_request *slots;
-    uint8_t nslots;
-    uint16_t seq;
     dre_frame *rx_buf;
+    uint8_t nslots;
     uint8_t rx_mask;
+    uint16_t seq;
     volatile uint8_t rx_head; /**< written by the producer only */
     volatile uint8_t rx_tail; /**< written by the consumer only */
     /**
@@ -155,6 +163,12 @@ typedef struct {
      * interrupt masked there (or read it twice until two reads agree).
      */
     volatile uint16_t rx_overflows;
+    /**
+     * After DRE_E_RANGE for a write of a value the parameter does not take
+     * (dre_param_choices): its address, for dre_param_by_address() and
+     * dre_param_choices(); 0 after any other DRE_E_RANGE.
+     */
+    uint16_t bad_address;
     dre_field bad_field;
     uint8_t bad_index;
     dre_bus_stats stats;
@@ -197,7 +211,8 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame);
 
 /**
  * Main loop: read the tick, feed every queued frame, expire requests older
- * than the timeout at that tick, then send the requests whose turn has come.
+ * than the timeout at that tick, take dre_set_id requests to their next step,
+ * then send the requests whose turn has come.
  */
 void dre_bus_poll(dre_bus *bus);
 
@@ -206,16 +221,32 @@ void dre_bus_poll(dre_bus *bus);
  * (DRE_MSG_PARAM_VALUE, or DRE_MSG_STATE for dre_get_state); DRE_E_TIMEOUT;
  * DRE_E_VERIFY when a verified write reads back another value (the reply
  * holds what was read); DRE_E_SEND when a frame the request had to send later
- * could not be sent; DRE_E_ARG for an unknown handle. A finished request's
- * slot is freed here.
+ * could not be sent; DRE_E_ID_TAKEN (the reply is the state of the motor
+ * answering at the new id) or DRE_E_NO_MOTOR from dre_set_id; DRE_E_ARG for
+ * an unknown handle. A finished request's slot is freed here.
  */
 dre_status dre_result(dre_bus *bus, dre_req req, dre_msg *reply);
 
 /** Forget request `req` (a late reply then goes to on_unmatched; a save it would trigger is not sent). */
 void dre_cancel(dre_bus *bus, dre_req req);
 
-/** Encode and send any message. */
+/** Encode and send any message (a parameter write is checked as by dre_write_property). */
 dre_status dre_send(dre_bus *bus, const dre_msg *msg);
+
+/**
+ * Does the parameter at `address` take only the values lo..hi? Returns 1
+ * and sets *lo and *hi for the modes and states with a fixed set, as the
+ * Python client's parameters (_CHOICES):
+ *
+ *     30003 axis0.requested_state                   0..11 (AXIS_STATE_*)
+ *     32105 axis0.controller.config.control_mode    0..4
+ *     32106 axis0.controller.config.input_mode      0..7
+ *     35104 axis0.trap_traj.config.traj_mode        1..2 (dre_traj_mode)
+ *
+ * and 0 for every other address. Writes of other values, or of an f32, are
+ * refused (DRE_E_RANGE; bad_field DRE_FIELD_VALUE or DRE_FIELD_DTYPE).
+ */
+int dre_param_choices(uint16_t address, uint8_t *lo, uint8_t *hi);
 
 /* ----------------------------------------------------------------- transmit ring */
 
@@ -290,9 +321,16 @@ dre_status dre_set_zero_position(const dre_motor *m);
 /** DRE_MODE_IDLE or DRE_MODE_CLOSED_LOOP (writes axis0.requested_state 1 or 8). */
 dre_status dre_set_mode(const dre_motor *m, uint8_t mode);
 
-/** Write `value` to `address` as `dtype` (RAM only; save_config to keep it). */
+/**
+ * Write `value` to `address` as `dtype` (RAM only; save_config to keep it).
+ * DRE_E_RANGE, sending nothing, for a value outside the fixed set of a mode
+ * parameter (dre_param_choices; bus->bad_address names it).
+ */
 dre_status dre_write_property(const dre_motor *m, uint16_t address, uint8_t dtype, dre_value value);
-/** Write a parameter from the table; DRE_E_ACCESS if read-only, DRE_E_RANGE if a bool is not 0/1. */
+/**
+ * Write a parameter from the table; DRE_E_ACCESS if read-only, DRE_E_RANGE if
+ * a bool is not 0/1 or a mode parameter is given a value it does not take.
+ */
 dre_status dre_write_param(const dre_motor *m, dre_param_t param, dre_value value);
 /** Start reading `address` as `dtype`; the reply is a DRE_MSG_PARAM_VALUE. */
 dre_status dre_read_property(const dre_motor *m, uint16_t address, uint8_t dtype, dre_req *req);
@@ -311,11 +349,30 @@ dre_status dre_get_state(const dre_motor *m, dre_req *req);
 /** Start reading the id the motor reports (axis0.config.can_node_id); reply value in .i. */
 dre_status dre_get_id(const dre_motor *m, dre_req *req);
 /**
- * Give the motor `new_id` (1..63): write can_node_id, read it back at the new
- * id (`req`), then save_config addressed to the new id. A motor that does not
- * answer at its new id is not saved (DRE_E_TIMEOUT). Check first that the id
- * is free, so that two motors never share it: a dre_get_state() to `new_id`
- * must end DRE_E_TIMEOUT (and one to this motor DRE_OK).
+ * Give the motor `new_id` (1..63), so that two motors never share an id, as
+ * the Python client's set_id. One request (`req`) that dre_bus_poll() takes
+ * through its steps:
+ *
+ *  1. Fast reads at the current id (m->node; 0: any motor) and at `new_id`,
+ *     sent together. A motor answering at `new_id` ends the request
+ *     DRE_E_ID_TAKEN at once (the reply is its state); once that read has
+ *     timed out, no answer at the current id ends it DRE_E_NO_MOTOR. Both
+ *     leave the motor untouched: no write is sent. When `new_id` is the
+ *     current id, only the motor's own read goes out, and it must answer.
+ *  2. The write of axis0.config.can_node_id = new_id to the current id.
+ *  3. A read of can_node_id at `new_id`: DRE_E_TIMEOUT when the motor does not
+ *     answer there, DRE_E_VERIFY when it reports another id (in the reply).
+ *  4. save_config to `new_id`, and DRE_OK. Nothing is saved after an error.
+ *
+ * It takes two free slots (one when `new_id` is the current id) and room for
+ * the reads of step 1, or returns DRE_E_BUSY having sent nothing. Step 2
+ * waits, up to a timeout, for room for the write and the read. DRE_E_SEND
+ * when a read of step 1 or the write could not be sent (nothing was written),
+ * or the save of step 4 (the reply is then the DRE_MSG_PARAM_VALUE read back:
+ * the motor answers at `new_id` until it reboots). DRE_E_RANGE for `new_id`
+ * outside 1..63 (DRE_FIELD_VALUE) or a current id outside 0..63
+ * (DRE_FIELD_NODE). dre_cancel() stops it at any step; before step 2 nothing
+ * has been written.
  */
 dre_status dre_set_id(const dre_motor *m, uint8_t new_id, dre_req *req);
 /** Start reading the supply voltage (req[0], V, .f32) and q-axis current (req[1], A, .f32). */

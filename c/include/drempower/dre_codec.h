@@ -41,16 +41,18 @@ extern "C" {
 /** Result of every library call. Negative values are errors. */
 typedef enum {
     DRE_OK = 0,
-    DRE_PENDING = 1,     /**< the request still waits for its reply */
-    DRE_E_RANGE = -1,    /**< a field cannot be put on the wire (see dre_field) */
-    DRE_E_PROTOCOL = -2, /**< a frame or byte stream does not follow the protocol */
-    DRE_E_ARG = -3,      /**< bad argument: NULL, unknown handle, empty batch, wrong message type */
-    DRE_E_BUSY = -4,     /**< no free request slot, or no room to send every frame of an operation */
-    DRE_E_SEND = -5,     /**< the send callback reported a failure */
-    DRE_E_TIMEOUT = -6,  /**< no reply arrived in time */
-    DRE_E_ACCESS = -7,   /**< write to a read-only parameter */
-    DRE_E_FAULT = -8,    /**< the motor reports an error (E bit of its state) */
-    DRE_E_VERIFY = -9    /**< a value read back differs from the one written */
+    DRE_PENDING = 1,       /**< the request still waits for its reply */
+    DRE_E_RANGE = -1,      /**< a field does not fit the wire (dre_field), or a value a parameter does not take */
+    DRE_E_PROTOCOL = -2,   /**< a frame or byte stream does not follow the protocol */
+    DRE_E_ARG = -3,        /**< bad argument: NULL, unknown handle, empty batch, wrong message type */
+    DRE_E_BUSY = -4,       /**< no free request slot, or no room to send every frame of an operation */
+    DRE_E_SEND = -5,       /**< the send callback reported a failure */
+    DRE_E_TIMEOUT = -6,    /**< no reply arrived in time */
+    DRE_E_ACCESS = -7,     /**< write to a read-only parameter */
+    DRE_E_FAULT = -8,      /**< the motor reports an error (E bit of its state) */
+    DRE_E_VERIFY = -9,     /**< a value read back differs from the one written */
+    DRE_E_ID_TAKEN = -10,  /**< dre_set_id: a motor already answers at the new id; nothing was written */
+    DRE_E_NO_MOTOR = -11   /**< dre_set_id: no motor answers at the current id; nothing was written */
 } dre_status;
 
 /** Command field (low 5 bits of the id) of host frames. */
