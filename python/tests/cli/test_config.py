@@ -97,7 +97,7 @@ def test_set_bitrate(cli: Cli, sim: SimBus) -> None:
     assert r.code == 0 and r.out == "motor 2: CAN bitrate 500000 bit/s saved; it applies after a reboot\n"
     assert sim.motors[2].param("can.config.baud_rate") == 500000
     r = cli("set-bitrate", "2", "300k", "--sim", "2")
-    assert r.code == 1 and "CAN bitrates are 125000, 250000, 500000, 1000000" in r.err
+    assert r.code == 2 and "CAN bitrates are 125000, 250000, 500000, 1000000" in r.err
     assert cli("set-bitrate", "2", "fast", "--sim", "2").code == 2
 
 
@@ -144,3 +144,10 @@ def test_restore_of_a_bad_file(cli: Cli, tmp_path: Path) -> None:
     assert r.code == 1 and "not a drempower-config-backup" in r.err
     r = cli("backup", "1", str(tmp_path / "missing" / "x.json"), "--sim", "1")
     assert r.code == 1 and "cannot write" in r.err
+
+
+def test_set_bitrate_refuses_a_rate_the_motor_lacks_before_connecting(cli: Cli) -> None:
+    r = cli("set-bitrate", "1", "300k", "--serial", "/nonexistent/ttyACM9")  # never opened
+    assert r.code == 2 and "argument BITRATE: 300000: CAN bitrates are 125000, 250000, 500000, 1000000" in r.err
+    r = cli("set-bitrate", "1", "1M", "--link", "uart", "--serial", "/nonexistent/ttyACM9")
+    assert r.code == 2 and "UART rates are 9600, 19200, 57600, 115200" in r.err

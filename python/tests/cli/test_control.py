@@ -88,3 +88,12 @@ def test_zero_and_save(cli: Cli, sim: SimBus) -> None:
     assert rec["position_deg"] == pytest.approx(0, abs=0.05)
     cli("reboot", "2", "--wait", "--sim", "2")
     assert sim.motors[2].position == pytest.approx(0, abs=0.05)
+
+
+def test_errors_tells_to_set_the_zero_before_clearing_encoder_errors(cli: Cli, sim: SimBus) -> None:
+    from drempower.protocol.flags import EncoderError
+
+    sim.motors[2].inject_error(EncoderError.EDR_BATTERY_LOW)
+    r = cli("errors", "2", "--sim", "2")
+    assert "EDR_BATTERY_LOW" in r.out
+    assert "then, with the motor at rest: drempower zero 2 && drempower clear 2 && drempower enable 2" in r.out

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from drempower.protocol import CaptureDecoder, DataType, ParamValue, ReadParam, decode_frame
+from drempower.protocol import CaptureDecoder, DataType, FastRead, ParamValue, ReadParam, decode_frame
 
 
 def _frame(msg: ReadParam | ParamValue) -> tuple[int, bytes]:
@@ -56,3 +56,10 @@ def test_a_forced_direction_is_kept() -> None:
     read = _frame(ReadParam(4, 30001, DataType.U32))
     assert cap.decode(*read, direction="host")[0] == "host"
     assert cap.decode(*read, direction="host")[0] == "host"
+
+
+def test_repeated_fast_reads_stay_fast_reads() -> None:
+    """A fast read (address 0) is answered by a state frame, never by an identical frame."""
+    cap = CaptureDecoder()
+    f = FastRead(2).encode()
+    assert [cap.decode(f.arbitration_id, f.data, time=t) for t in (1.0, 1.1, 1.2)] == [("host", FastRead(2))] * 3

@@ -8,9 +8,11 @@ from typing import Any
 
 from ..client import Bus
 from ..client.errors import TimeoutError
+from ..client.ops import CAN_BAUD_RATES, UART_BAUD_RATES
 from ..protocol import FastRead
 from ._connect import add_connection_args, add_ids_arg, bitrate, motor_id, open_from_args, positive
 from ._output import add_json_arg, motors_text, report, sent
+from ._usage import UsageError
 
 
 def register(sub: Any) -> None:
@@ -70,6 +72,10 @@ def run_set_id(args: argparse.Namespace) -> int:
 
 
 def run_set_bitrate(args: argparse.Namespace) -> int:
+    rates = UART_BAUD_RATES if args.link == "uart" else CAN_BAUD_RATES
+    if args.rate not in rates:  # before connecting: a usage error
+        what = "UART rates" if args.link == "uart" else "CAN bitrates"
+        raise UsageError(f"argument BITRATE: {args.rate}: {what} are {', '.join(map(str, rates))}")
     with open_from_args(args) as bus:
         motor = bus.motor(args.id)
         if args.link == "uart":

@@ -56,5 +56,12 @@ def run(args: argparse.Namespace) -> int:
                 word = f["word"]
                 out.write(f"  {word} = 0x{f['value']:08X}\n")
             out.write(f"    {f['flag']}: {f['meaning']}\n      what to do: {f['action']}\n")
-        out.write(f"  then: drempower clear {report.node} && drempower enable {report.node}\n")
+        n = report.node
+        if report.words.get("axis0.encoder.error"):
+            # these come back after a plain clear: set the zero first (PROTOCOL.md 3.2)
+            out.write(
+                f"  then, with the motor at rest: drempower zero {n} && drempower clear {n} && drempower enable {n}\n"
+            )
+        else:
+            out.write(f"  then: drempower clear {n} && drempower enable {n}\n")
     return 0

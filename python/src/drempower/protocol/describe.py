@@ -121,8 +121,8 @@ class CaptureDecoder:
         self, arb_id: int, data: bytes, time: float | None = None, direction: Direction = "auto"
     ) -> tuple[str, m.Command | m.Reply]:
         """Like :func:`decode_frame`; ``time`` (s) is the frame's capture time, if known."""
-        if direction != "auto" or arb_id & 0x1F != 0x1E:
-            return decode_frame(arb_id, data, direction)
+        if direction != "auto" or arb_id & 0x1F != 0x1E or not any(data[:2]):
+            return decode_frame(arb_id, data, direction)  # address 0 is the fast read: no value reply
         key = (arb_id, bytes(data[:4]))
         who, msg = decode_frame(arb_id, data)
         if who == "motor":
