@@ -105,3 +105,15 @@ def test_decode_pairs_a_zero_reply_with_its_read(
     recs = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert [(r["direction"], r["command"]) for r in recs] == [("host", "read_param"), ("motor", "param_value")] * 2
     assert recs[1]["parameter"] == "axis0.error" and recs[1]["fields"]["value"] == 0
+
+
+def test_decode_json_is_strict_json_for_nan_and_infinity(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A motor can report a NaN position; JSON has no NaN, so it is written as a string."""
+    import io
+
+    monkeypatch.setattr(sys, "stdin", io.StringIO("021#0000C07F00000000\n"))
+    assert main(["decode", "--json"]) == 0
+    rec = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"non-strict JSON: {c}"))
+    assert rec["command"] == "state" and rec["fields"]["position"] == "nan"

@@ -183,3 +183,13 @@ def test_error_words() -> None:
     assert flag_info("motor", "ADC_FAILED").meaning  # generic text for unrecorded flags
     with pytest.raises(KeyError):
         decode_error_word("vbus_voltage", 1)
+
+
+def test_error_word_values_are_u32() -> None:
+    from drempower.errors import FieldRangeError
+    from drempower.protocol import decode_error_word
+
+    for bad in (-1, 1 << 32, 1.5):
+        with pytest.raises(FieldRangeError):
+            decode_error_word("axis", bad)  # type: ignore[arg-type]
+    assert decode_error_word("axis", 0x4000) == ["ESTOP_REQUESTED"]

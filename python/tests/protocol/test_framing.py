@@ -114,3 +114,26 @@ def test_aa_frame_length() -> None:
     assert aa_frame_length(b"\xaa\x00\x00\x09") == 0  # 9 bytes in a classic CAN frame
     assert aa_frame_length(b"\xaa\x00\x00\x08\x00\x00\x08\x00") == 0  # id above 11 bits
     assert aa_frame_length(b"\x08") == 0
+
+
+def _states(*positions: float) -> list[Frame]:
+    from drempower.protocol import State
+
+    return [State(1, p, 1.5, 0.2, True, False).encode() for p in positions]
+
+
+def test_a_frame_that_lost_a_byte_is_dropped_not_misread() -> None:
+    """Taking the short frame would swallow the start of the next one and misread both."""
+    frames = _states(90.0, 91.0, 92.0)
+    for encode, decoder in ((lambda f: encode_uart11(*f[:2]), Uart11Decoder()), (encode_aa, AADecoder())):
+        first = encode(frames[0])
+        stream = first[:6] + first[7:] + b"".join(encode(f) for f in frames[1:])
+        assert decoder.feed(stream) == frames[1:]
+        assert decoder.dropped == len(first) - 1
+
+
+def test_stray_header_bytes_before_a_frame_do_not_hide_it() -> None:
+    frames = _states(10.0, 20.0)
+    dec = Uart11Decoder()
+    stream = b"\x08\x03" + b"".join(encode_uart11(*f[:2]) for f in frames)
+    assert dec.feed(stream) == frames and dec.dropped == 2

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any, TextIO
@@ -80,8 +81,23 @@ def render_table(
     return [line(list(headers))] + [line(r) for r in cells]
 
 
+def _finite(value: Any) -> Any:
+    """``value`` with NaN and infinities (which JSON cannot hold) as the strings "nan", "inf", "-inf"."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    if isinstance(value, dict):
+        return {k: _finite(v) for k, v in value.items()}
+    if isinstance(value, (list, tuple)):
+        return [_finite(v) for v in value]
+    return value
+
+
 def json_line(record: Mapping[str, Any]) -> str:
-    return json.dumps(record)
+    """One line of strict JSON (a motor can report NaN or infinity: they become strings)."""
+    try:
+        return json.dumps(record, allow_nan=False)
+    except ValueError:
+        return json.dumps(_finite(record), allow_nan=False)
 
 
 def significant(value: int | float) -> int | float:

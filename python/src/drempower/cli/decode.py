@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import json
 import sys
 from collections.abc import Iterable
 from typing import Any, TextIO
@@ -21,6 +20,7 @@ from ..protocol import (
 )
 from ..protocol.candump import parse_candump_line
 from ..protocol.parameters import find_parameter
+from ._output import json_line
 
 
 def register(sub: Any) -> None:
@@ -111,7 +111,7 @@ def run(args: argparse.Namespace, out: TextIO | None = None) -> int:
         if "error" in rec:
             bad += 1
         if args.json:
-            out.write(json.dumps(rec) + "\n")
+            out.write(json_line(rec) + "\n")
         elif "error" in rec:
             out.write(f"{rec['line'].strip()}  !! {rec['error']}\n")
         else:

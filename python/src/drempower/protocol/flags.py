@@ -10,6 +10,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import IntFlag
 
+from ..errors import FieldRangeError
+
 __all__ = [
     "AxisError",
     "MotorError",
@@ -168,6 +170,8 @@ def decode_error_word(word: str | int, value: int) -> list[str]:
         ew = _BY_KEY[word]
     except KeyError:
         raise KeyError(f"{word!r} is not an error word") from None
+    if not isinstance(value, int) or not 0 <= value <= 0xFFFFFFFF:
+        raise FieldRangeError("value", value, 0, 0xFFFFFFFF, "error words are u32")
     names: list[str] = []
     rest = value
     for flag in ew.flags:

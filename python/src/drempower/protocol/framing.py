@@ -11,6 +11,13 @@ skip garbage one byte at a time until a plausible header lines up again, and
 count what they dropped in ``dropped``. They have no clock: a transport that
 sees a long gap inside a frame may call ``flush()`` to discard a stale partial
 frame.
+
+Neither framing has a checksum, so a frame that lost a byte on the line would
+complete with the first byte of the next frame and swallow that one too. When
+the bytes after a complete frame are already at hand (they arrived in the same
+chunk) and are no header while a whole frame followed by a header starts inside
+it, the decoders drop the short frame and keep the one inside. Fed one byte at
+a time they decide as each frame completes, as the C library does.
 """
 
 from __future__ import annotations
@@ -103,7 +110,7 @@ class Uart11Decoder:
                 break
             arb = (buf[i + 1] << 8) | buf[i + 2]
             data = bytes(buf[i + 3 : i + 11])
-            if accept is not None and not accept(arb, data):  # type: ignore[operator]
+            if (accept is not None and not accept(arb, data)) or self._overlaps(buf, i, n):  # type: ignore[operator]
                 i += 1
                 self.dropped += 1
                 continue
@@ -113,6 +120,29 @@ class Uart11Decoder:
             del buf[:i]
         self.frames += len(out)
         return out
+
+    def _overlaps(self, buf: bytearray, i: int, n: int) -> bool:
+        """True when the frame at ``i`` is not followed by a header (or the end of what
+        arrived) while a whole frame that is followed by one starts inside it: bytes were
+        lost, and taking the frame at ``i`` would also lose the one inside."""
+        if _u11_header(buf, i + UART11_LEN, n):
+            return False
+        accept = self._accept
+        for j in range(i + 1, i + UART11_LEN):
+            if not (j + UART11_LEN <= n and buf[j + 1] <= 0x07 and _u11_header(buf, j, n)):
+                continue
+            if not _u11_header(buf, j + UART11_LEN, n):
+                continue
+            if accept is None or accept((buf[j + 1] << 8) | buf[j + 2], bytes(buf[j + 3 : j + 11])):  # type: ignore[operator]
+                return True
+        return False
+
+
+def _u11_header(buf: bytearray, k: int, n: int) -> bool:
+    """A frame may start at ``k`` (true at the end of the bytes, where anything may follow)."""
+    if k >= n:
+        return True
+    return buf[k] == 0x08 and (k + 1 >= n or buf[k + 1] <= 0x07)
 
 
 def encode_aa(frame: Frame | tuple[int, bytes]) -> bytes:
@@ -212,6 +242,10 @@ class AADecoder:
                 continue
             if total < 0 or n - i < total:
                 break
+            if _aa_overlaps(buf, i, total, n):
+                i += 1
+                self.dropped += 1
+                continue
             flag = buf[i + 2]
             out.append(
                 Frame(
@@ -228,3 +262,16 @@ class AADecoder:
             del buf[:i]
         self.frames += len(out)
         return out
+
+
+def _aa_overlaps(buf: bytearray, i: int, total: int, n: int) -> bool:
+    """True when the frame at ``i`` (``total`` bytes) is not followed by a plausible header
+    (or the end of what arrived) while a whole frame followed by one starts inside it."""
+    end = i + total
+    if end >= n or aa_frame_length(buf, end) != 0:
+        return False
+    for j in range(i + 1, end):
+        t = aa_frame_length(buf, j)
+        if t > 0 and j + t <= n and (j + t == n or aa_frame_length(buf, j + t) != 0):
+            return True
+    return False

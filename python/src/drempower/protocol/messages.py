@@ -250,7 +250,7 @@ class Velocity(Message):
         mode = self.mode
         if mode != 1 and mode != 2:
             raise FieldRangeError("mode", mode, 1, 2, "1 = passthrough, 2 = ramp")
-        return _fsu(self.node, 0x1C, self.speed, "speed", self.param, "param", mode)
+        return _fsu(self.node, 0x1C, self.speed, "speed", self.param, "param", int(mode))
 
 
 @dataclass(slots=True)
@@ -270,7 +270,7 @@ class Torque(Message):
         mode = self.mode
         if mode != 1 and mode != 6:
             raise FieldRangeError("mode", mode, 1, 6, "1 = direct, 6 = ramp")
-        return _fsu(self.node, 0x1D, self.torque, "torque", self.param, "param", mode)
+        return _fsu(self.node, 0x1D, self.torque, "torque", self.param, "param", int(mode))
 
 
 # --------------------------------------------------------------------------- presets
