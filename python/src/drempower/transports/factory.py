@@ -18,11 +18,9 @@ SIMULATOR = frozenset({"sim"})
 _PYTHON_CAN_PREFIX = "python-can:"
 
 
-def _serial_args(interface: str, channel: str | int | None, bitrate: int | None, kwargs: dict[str, Any]) -> str:
+def _serial_port(interface: str, channel: str | int | None) -> str:
     if channel is None:
         raise TransportError(f"interface {interface!r} needs channel=<serial port>, e.g. '/dev/ttyACM0', 'COM5'")
-    if bitrate is not None:
-        kwargs.setdefault("baudrate", bitrate)
     return str(channel)
 
 
@@ -35,7 +33,9 @@ def open_transport(
     """Open the transport named by ``interface``.
 
     * ``"adapter"`` or ``"serial"``: the vendor USB-CAN adapter, ``channel`` = serial
-      port or pyserial URL; keyword arguments go to pyserial.
+      port or pyserial URL; keyword arguments go to pyserial (``baudrate`` is the
+      serial rate). ``bitrate`` is refused: the adapter's CAN bitrate is set with
+      the vendor's configuration tool.
     * ``"uart"``: a G-series motor's UART, ``channel`` = serial port or URL,
       ``bitrate`` (or ``baudrate``) = UART rate, 115200 by default.
     * ``"sim"``: the in-process simulator; ``motors=[1, 2, 3]``, ``time_scale``
@@ -44,7 +44,8 @@ def open_transport(
       ``"slcan"``, ``"virtual"``...) with ``channel``, ``bitrate`` and keyword
       arguments passed on; ``"python-can:serial"`` reaches python-can's own
       ``serial`` interface. ``interface=None`` lets python-can's configuration
-      (config file, ``CAN_*`` environment variables) decide.
+      (config file, ``CAN_*`` environment variables) decide. ``send_timeout``
+      (s, default 1) bounds a send.
 
     Raises :class:`TransportError` at once, naming what was tried, when the bus
     cannot be opened.
@@ -52,11 +53,26 @@ def open_transport(
     if interface in SERIAL_ADAPTER:
         from .serial_adapter import AdapterTransport
 
-        return AdapterTransport(_serial_args(interface, channel, bitrate, kwargs), **kwargs)
+        port = _serial_port(interface, channel)
+        if bitrate is not None:
+            raise TransportError(
+                f"cannot open vendor USB-CAN adapter on {port} with bitrate={bitrate}: the adapter's CAN "
+                "bitrate is set with the vendor's configuration tool, not by the host; leave bitrate out "
+                "(baudrate= sets the serial rate, which a USB adapter does not need)"
+            )
+        return AdapterTransport(port, **kwargs)
     if interface in MOTOR_UART:
         from .uart import UartTransport
 
-        return UartTransport(_serial_args(interface, channel, bitrate, kwargs), **kwargs)
+        port = _serial_port(interface, channel)
+        if bitrate is not None:
+            baudrate = kwargs.setdefault("baudrate", bitrate)
+            if baudrate != bitrate:
+                raise TransportError(
+                    f"cannot open motor UART on {port}: bitrate={bitrate} and baudrate={baudrate} "
+                    "both give the UART rate; give one"
+                )
+        return UartTransport(port, **kwargs)
     if interface in SIMULATOR:
         from .sim import SimTransport
 

@@ -2,21 +2,74 @@
 
 from __future__ import annotations
 
+import socket
 import threading
 import time
 from typing import Any
 
 import can
+import can.util
+import serial
 from can.interfaces import VALID_INTERFACES
 
 from ..protocol.ids import Frame
 from .base import Transport
 from .errors import TransportError
 
-__all__ = ["PythonCanTransport"]
+__all__ = ["PythonCanTransport", "SEND_TIMEOUT", "CONNECT_TIMEOUT"]
 
 _SLICE = 0.1
 """Longest single wait inside ``recv`` (s), so that ``close`` is noticed promptly."""
+SEND_TIMEOUT = 1.0
+"""Default bound (s) of one send: a device that does not take the frame in this time fails the send."""
+CONNECT_TIMEOUT = 2.0
+"""How long (s) a socketcand server gets to accept the connection and greet."""
+_CLOSE_WRITE_TIMEOUT = 0.25
+"""Bound (s) of what an interface writes while shutting down (slcan's close command)."""
+_SERIAL_PORTS = ("serialPortOrig", "_ser")
+"""Where python-can's serial-port interfaces keep their pyserial port (slcan, serial)."""
+_KEYS = ("interface", "channel", "bitrate")
+_TIMEOUTS = (serial.SerialTimeoutException, TimeoutError)
+
+
+def _why(exc: BaseException) -> str:
+    text = str(exc)
+    return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
+
+
+def _probe_socketcand(host: object, port: object, timeout: float) -> None:
+    """Connect to a socketcand server and wait for its greeting, or raise TransportError naming host:port.
+
+    python-can itself retries a refused connection for 10 s, logging a warning
+    each time, and waits for the greeting without a timeout.
+    """
+    where = f"{host}:{port}"
+    if host is None or port is None:
+        raise TransportError(f"cannot open python-can socketcand bus: give host= and port= of the server (got {where})")
+    try:
+        conn = socket.create_connection((str(host), int(str(port))), timeout=timeout)
+    except TimeoutError as exc:
+        raise TransportError(f"cannot reach socketcand at {where}: no connection in {timeout:g} s") from exc
+    except (OSError, ValueError) as exc:
+        raise TransportError(f"cannot reach socketcand at {where}: {_why(exc)}") from exc
+    greeting = b""
+    with conn:
+        deadline = time.monotonic() + timeout
+        try:
+            while b">" not in greeting and len(greeting) < 256:
+                conn.settimeout(max(0.001, deadline - time.monotonic()))
+                chunk = conn.recv(256)
+                if not chunk:
+                    break
+                greeting += chunk
+        except OSError:
+            pass
+    if not greeting.strip().startswith(b"< hi >"):
+        got = f"got {greeting!r}" if greeting else f"got nothing in {timeout:g} s"
+        raise TransportError(
+            f"cannot open python-can socketcand bus at {where}: the server did not greet with '< hi >' ({got}); "
+            "is it a socketcand server?"
+        )
 
 
 class PythonCanTransport(Transport):
@@ -25,8 +78,16 @@ class PythonCanTransport(Transport):
     ``interface``, ``channel`` and ``bitrate`` follow python-can; any that are
     None are left out, so python-can's own configuration (its config file and
     ``CAN_INTERFACE``/``CAN_CHANNEL``/``CAN_BITRATE`` environment variables)
-    fills them in. Other keyword arguments go to :class:`can.Bus` unchanged.
-    Error frames are skipped.
+    fills them in. The configuration is resolved first, so an error names the
+    interface, channel and bitrate actually tried. Other keyword arguments go
+    to :class:`can.Bus` unchanged. Error frames are skipped.
+
+    A send that the device does not take within ``send_timeout`` seconds
+    raises :class:`TransportError` (the timeout goes to ``bus.send`` and, for
+    interfaces on a serial port such as slcan and python-can's ``serial``, to
+    the port's write timeout; for socketcand to the socket). A socketcand
+    server is probed first (connection and greeting within
+    :data:`CONNECT_TIMEOUT`), so a missing one fails at once naming host:port.
     """
 
     def __init__(
@@ -34,24 +95,97 @@ class PythonCanTransport(Transport):
         interface: str | None = None,
         channel: str | int | None = None,
         bitrate: int | None = None,
+        *,
+        send_timeout: float = SEND_TIMEOUT,
         **kwargs: Any,
     ) -> None:
-        if bitrate is not None:
-            kwargs["bitrate"] = bitrate
-        given = {"interface": interface, "channel": channel, "bitrate": bitrate}
-        tried = ", ".join(f"{k}={v!r}" for k, v in given.items() if v is not None) or "python-can's configuration"
+        if isinstance(send_timeout, bool) or not isinstance(send_timeout, int | float) or not send_timeout > 0:
+            raise TransportError(f"send_timeout={send_timeout!r}: give a number of seconds > 0 (a send must not hang)")
+        self._send_timeout = float(send_timeout)
+        given = dict(kwargs)
+        for key, value in zip(_KEYS, (interface, channel, bitrate), strict=True):
+            if value is not None:
+                given[key] = value
+        cfg = self._resolve(given)
+        tried = ", ".join(f"{k}={cfg.get(k)!r}" for k in _KEYS if cfg.get(k) is not None)
+        configured = [k for k in _KEYS if k not in given and cfg.get(k) is not None]
+        if configured:
+            tried += f"; {', '.join(configured)} from python-can's configuration"
+        name = cfg["interface"]
+        if name == "socketcand":
+            _probe_socketcand(cfg.get("host"), cfg.get("port"), CONNECT_TIMEOUT)
         try:
-            self._bus = can.Bus(channel=channel, interface=interface, **kwargs)
+            self._bus = can.Bus(ignore_config=True, **cfg)
         except can.CanInterfaceNotImplementedError as exc:
-            raise TransportError(
-                f"cannot open python-can bus ({tried}): {exc}. Interfaces python-can knows: "
-                f"{', '.join(sorted(VALID_INTERFACES))}; drempower adds 'adapter', 'serial', 'uart' and 'sim'"
-            ) from exc
-        except (can.CanError, ImportError, OSError, ValueError, TypeError) as exc:
             raise TransportError(f"cannot open python-can bus ({tried}): {exc}") from exc
+        except Exception as exc:  # drivers fail in many ways (a missing vendor library can raise NameError)
+            raise TransportError(f"cannot open python-can bus ({tried}): {_why(exc)}") from exc
+        self._bound_writes(self._send_timeout)
         self._closing = threading.Event()
         self._recv_lock = threading.Lock()
-        self.description = f"python-can {self._bus.channel_info}"
+        self._send_lock = threading.Lock()
+        info = str(getattr(self._bus, "channel_info", "") or "")
+        chan = cfg.get("channel")
+        if info and info != "unknown" and (chan is None or str(chan) in info):
+            self.description = f"python-can {info}"
+        else:
+            self.description = f"python-can {name} {chan}" if chan is not None else f"python-can {name}"
+
+    @staticmethod
+    def _resolve(given: dict[str, Any]) -> dict[str, Any]:
+        """python-can's configuration (what is given, can.rc, CAN_* variables, config files) as can.Bus resolves it."""
+        context = given.pop("config_context", None)
+        if given.pop("ignore_config", False):
+            cfg = dict(given)
+            cfg.setdefault("interface", None)
+            cfg.setdefault("channel", None)
+        else:
+            try:
+                cfg = dict(can.util.load_config(config=dict(given), context=context))
+            except can.CanInterfaceNotImplementedError as exc:  # the interface is missing or unknown
+                if "interface" in given or '"None"' in str(exc):
+                    cfg = {"interface": given.get("interface")}
+                else:
+                    raise TransportError(
+                        f"cannot open python-can bus: python-can's configuration names an unknown interface: {exc}. "
+                        f"Interfaces python-can knows: {', '.join(sorted(VALID_INTERFACES))}"
+                    ) from exc
+            except Exception as exc:
+                shown = ", ".join(f"{k}={given[k]!r}" for k in _KEYS if k in given) or "nothing given"
+                raise TransportError(
+                    f"cannot open python-can bus ({shown}): python-can's configuration is invalid: {_why(exc)}"
+                ) from exc
+        name = cfg.get("interface")
+        if name is None:
+            raise TransportError(
+                "cannot open python-can bus: no interface given, and python-can's configuration names "
+                "no interface (config file ~/.canrc, ~/.can or /etc/can.conf, or CAN_INTERFACE). "
+                "Give interface= (and channel=), e.g. 'socketcan' 'can0'"
+            )
+        if name not in VALID_INTERFACES:
+            shown = ", ".join(f"{k}={given[k]!r}" for k in _KEYS if k in given)
+            raise TransportError(
+                f"cannot open python-can bus ({shown}): unknown interface {name!r}. Interfaces "
+                f"python-can knows: {', '.join(sorted(VALID_INTERFACES))}; drempower adds 'adapter', 'serial', "
+                "'uart' and 'sim'"
+            )
+        return cfg
+
+    def _bound_writes(self, seconds: float) -> None:
+        """Give the interface's own serial port or socket a write timeout, where it has one."""
+        for attr in _SERIAL_PORTS:
+            port = getattr(self._bus, attr, None)
+            if port is not None and hasattr(port, "write_timeout"):
+                try:
+                    port.write_timeout = seconds
+                except (OSError, ValueError):
+                    pass
+        sock = getattr(self._bus, "_SocketCanDaemonBus__socket", None)
+        if isinstance(sock, socket.socket):
+            try:
+                sock.settimeout(seconds)
+            except OSError:
+                pass
 
     @property
     def bus(self) -> can.BusABC:
@@ -65,10 +199,20 @@ class PythonCanTransport(Transport):
             is_extended_id=frame[2],
             is_remote_frame=frame[3],
         )
-        try:
-            self._bus.send(msg)
-        except (can.CanError, OSError, ValueError) as exc:
-            raise TransportError(f"{self.description}: send failed: {exc}") from exc
+        with self._send_lock:
+            if self._closing.is_set():
+                raise TransportError(f"{self.description}: closed, frame not sent")
+            try:
+                self._bus.send(msg, timeout=self._send_timeout)
+            except (can.CanError, OSError, ValueError) as exc:
+                cause = exc.__cause__
+                if isinstance(exc, can.CanTimeoutError | TimeoutError) or isinstance(cause, _TIMEOUTS):
+                    raise TransportError(
+                        f"{self.description}: send did not complete in {self._send_timeout:g} s "
+                        "(the device is not taking data)"
+                    ) from exc
+                why = _why(exc) if cause is None else f"{_why(exc)} ({_why(cause)})"
+                raise TransportError(f"{self.description}: send failed: {why}") from exc
 
     def recv(self, timeout: float | None = None) -> Frame | None:
         deadline = None if timeout is None else time.monotonic() + timeout
@@ -93,8 +237,26 @@ class PythonCanTransport(Transport):
         return None
 
     def close(self) -> None:
+        """Shut the python-can bus down; bounded even when the device stopped reading."""
         if self._closing.is_set():
             return
         self._closing.set()
-        with self._recv_lock:  # let a receive in progress end first: some interfaces fail loudly otherwise
+        self._bound_writes(min(self._send_timeout, _CLOSE_WRITE_TIMEOUT))
+        # let a send or a receive in progress end first: some interfaces fail loudly otherwise
+        sending = self._send_lock.acquire(timeout=self._send_timeout + 0.5)
+        receiving = self._recv_lock.acquire(timeout=1.0)
+        try:
             self._bus.shutdown()
+        except Exception:  # e.g. slcan's close command timing out: release the port anyway
+            for attr in _SERIAL_PORTS:
+                port = getattr(self._bus, attr, None)
+                if port is not None and hasattr(port, "close"):
+                    try:
+                        port.close()
+                    except Exception:  # closing what is left, best effort
+                        pass
+        finally:
+            if receiving:
+                self._recv_lock.release()
+            if sending:
+                self._send_lock.release()

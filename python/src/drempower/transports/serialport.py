@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import errno
+import os
+import select
 import threading
 import time
 from collections import deque
@@ -14,12 +17,22 @@ from ..protocol.ids import Frame
 from .base import Transport
 from .errors import TransportError
 
-__all__ = ["SerialFrameTransport", "StreamDecoder"]
+try:
+    from serial.serialposix import Serial as _PosixSerial
+except ImportError:  # not a POSIX system: pyserial's own write (with its write timeout) is used
+    _PosixSerial = None  # type: ignore[assignment,misc]
+
+__all__ = ["SerialFrameTransport", "StreamDecoder", "READ_TIMEOUT", "WRITE_TIMEOUT"]
 
 READ_TIMEOUT = 0.02
-"""Timeout of one blocking read of the port (s); a partial frame older than this is dropped."""
+"""Timeout of one blocking read of the port (s); a partial frame followed by this much silence is dropped."""
 WRITE_TIMEOUT = 1.0
-"""A write that cannot complete in this time (s) fails instead of hanging."""
+"""A frame the device does not take in this time (s) fails instead of hanging (``write_timeout=`` changes it)."""
+_WRITE_SLICE = 0.05
+"""Longest single wait of a write (s), so that ``close`` is noticed promptly."""
+_MAX_REST_WAIT = 0.1
+"""Longest wait (s) for the rest of a partial frame before reading again."""
+_BUSY = (errno.EAGAIN, errno.EWOULDBLOCK, errno.EBUSY)
 
 
 class StreamDecoder(Protocol):
@@ -36,10 +49,23 @@ class StreamDecoder(Protocol):
 class SerialFrameTransport(Transport):
     """Frames over a serial port (pyserial; URLs such as ``loop://`` work).
 
+    The port is opened exclusively (pyserial's ``exclusive=True``; pass
+    ``exclusive=False`` to share it), so a second program cannot open it and
+    take half the frames.
+
     Reads block on the port with a short timeout and take everything that has
-    arrived, so a frame costs one or two system calls and no CPU is spent
+    arrived. When part of a frame has arrived, the reader waits the time the
+    rest takes on the line (bytes x 10 / baud rate) and takes it in one read, so
+    a byte-paced UART costs about two reads a frame and no CPU is spent
     waiting. A read that times out with part of a frame buffered drops that
     partial frame (the line went quiet mid-frame: it was garbage or truncated).
+
+    Writes go out whole or not at all, within ``write_timeout`` seconds: a
+    frame the device took none of raises ``TransportError`` ("not sent") and
+    the transport stays usable; a frame the device took only part of is
+    finished if the device reads again before the deadline, otherwise the
+    transport is marked broken (the device's framing is out of step) and every
+    later send fails saying so.
     """
 
     def __init__(
@@ -51,31 +77,107 @@ class SerialFrameTransport(Transport):
         what: str,
         **serial_kwargs: Any,
     ) -> None:
+        write_timeout = serial_kwargs.pop("write_timeout", WRITE_TIMEOUT)
+        if isinstance(write_timeout, bool) or not isinstance(write_timeout, int | float) or not write_timeout > 0:
+            raise TransportError(
+                f"cannot open {what} on serial port {port!r}: write_timeout={write_timeout!r} "
+                "must be a number of seconds > 0 (a write must not hang)"
+            )
+        serial_kwargs.setdefault("exclusive", True)
         try:
             self._ser = serial.serial_for_url(
-                port, baudrate=baudrate, timeout=READ_TIMEOUT, write_timeout=WRITE_TIMEOUT, **serial_kwargs
+                port, baudrate=baudrate, timeout=READ_TIMEOUT, write_timeout=write_timeout, **serial_kwargs
             )
         except (serial.SerialException, OSError, ValueError, TypeError) as exc:
-            raise TransportError(f"cannot open {what} on serial port {port!r}: {exc}") from exc
+            hint = ""
+            if getattr(exc, "errno", None) in _BUSY or "lock" in str(exc).lower():
+                hint = " (another program, or another bus in this one, has the port open)"
+            raise TransportError(f"cannot open {what} on serial port {port!r}: {exc}{hint}") from exc
+        self._write_timeout = float(write_timeout)
         self._decoder = decoder
         self._encode = encode
         self._frames: deque[Frame] = deque()
+        self._tail = b""
+        """The bytes the decoder holds (the start of a partial frame)."""
+        self._byte_time = 10.0 / (self._ser.baudrate or 115200)
         self._wlock = threading.Lock()
         self._closing = threading.Event()
-        self.description = f"{what} on {port} at {baudrate} Bd"
+        self._broken: str | None = None
+        self._fd: int | None = None
+        posix = _PosixSerial is not None and isinstance(self._ser, _PosixSerial)
+        if posix and type(self._ser).write is _PosixSerial.write:
+            self._fd = self._ser.fileno()
+            os.set_blocking(self._fd, False)  # pyserial opens it so already; the write loop relies on it
+        self.description = f"{what} on {port} at {self._ser.baudrate} Bd"
 
     @property
     def decoder(self) -> StreamDecoder:
         """The stream decoder (its ``dropped`` count tells how much garbage was skipped)."""
         return self._decoder
 
+    # ------------------------------------------------------------------ sending
+
     def send(self, frame: Frame) -> None:
         data = self._encode(frame)
         with self._wlock:
+            if self._closing.is_set():
+                raise TransportError(f"{self.description}: closed, frame not sent")
+            if self._broken is not None:
+                raise TransportError(f"{self.description}: frame not sent: {self._broken}; close and reopen the bus")
+            if self._fd is not None:
+                self._write_fd(self._fd, data)
+            else:
+                self._write_pyserial(data)
+
+    def _write_fd(self, fd: int, data: bytes) -> None:
+        """Write ``data`` whole, counting what the device took; never longer than the write timeout."""
+        total = len(data)
+        sent = 0
+        deadline = time.monotonic() + self._write_timeout
+        while True:
             try:
-                self._ser.write(data)
-            except (serial.SerialException, OSError, ValueError) as exc:
-                raise TransportError(f"{self.description}: write failed: {exc}") from exc
+                sent += os.write(fd, data[sent:] if sent else data)
+            except (BlockingIOError, InterruptedError):
+                pass
+            except OSError as exc:
+                raise self._failed(sent, total, f"write failed: {exc}") from exc
+            if sent >= total:
+                return
+            left = deadline - time.monotonic()
+            if left <= 0:
+                break
+            if self._closing.is_set():
+                raise self._failed(sent, total, "closed while writing")
+            try:
+                select.select([], [fd], [], min(left, _WRITE_SLICE))
+            except (OSError, ValueError) as exc:
+                raise self._failed(sent, total, f"write failed: {exc}") from exc
+        raise self._failed(sent, total, f"the device took no data for {self._write_timeout:g} s (not reading?)")
+
+    def _failed(self, sent: int, total: int, why: str) -> TransportError:
+        if sent == 0:
+            return TransportError(f"{self.description}: frame not sent: {why}")
+        self._broken = f"a frame was cut off after {sent} of {total} bytes ({why}); the device's framing is out of step"
+        return TransportError(f"{self.description}: {self._broken}; close and reopen the bus")
+
+    def _write_pyserial(self, data: bytes) -> None:
+        """Ports without a file descriptor (URLs, Windows): pyserial's write and write timeout."""
+        try:
+            self._ser.write(data)
+        except serial.SerialTimeoutException as exc:  # pyserial does not tell how much went out
+            self._broken = (
+                f"a write timed out after {self._write_timeout:g} s with part of a frame possibly sent, "
+                "so the device's framing may be out of step"
+            )
+            raise TransportError(f"{self.description}: {self._broken}; close and reopen the bus") from exc
+        except (serial.SerialException, OSError, ValueError) as exc:
+            raise TransportError(f"{self.description}: frame not sent: write failed: {exc}") from exc
+
+    # ------------------------------------------------------------------ receiving
+
+    def _needed(self, head: bytes) -> int:
+        """How many more bytes the partial frame starting with ``head`` needs (at least 1)."""
+        return 1
 
     def recv(self, timeout: float | None = None) -> Frame | None:
         frames = self._frames
@@ -84,23 +186,41 @@ class SerialFrameTransport(Transport):
         deadline = None if timeout is None else time.monotonic() + timeout
         ser = self._ser
         decoder = self._decoder
-        while not self._closing.is_set():
+        closing = self._closing
+        while not closing.is_set():
             try:
-                chunk = ser.read(ser.in_waiting or 1)
+                waiting = ser.in_waiting
+                if self._tail:
+                    # part of a frame is here: give the rest its time on the line, then take it in one read
+                    need = self._needed(self._tail) - waiting
+                    if need > 0:
+                        closing.wait(min(need * self._byte_time, _MAX_REST_WAIT))
+                        waiting = ser.in_waiting
+                chunk = ser.read(waiting or 1)
             except (serial.SerialException, OSError, ValueError, TypeError, AttributeError) as exc:
-                if self._closing.is_set():
+                if closing.is_set():
                     return None
                 raise TransportError(f"{self.description}: read failed: {exc}") from exc
             if chunk:
                 got = decoder.feed(chunk)
+                pending = decoder.pending
+                if not pending:
+                    self._tail = b""
+                elif pending <= len(chunk):
+                    self._tail = chunk[-pending:]
+                else:
+                    self._tail = (self._tail + chunk)[-pending:]
                 if got:
                     frames.extend(got)
                     return frames.popleft()
             elif decoder.pending:
                 decoder.flush()
+                self._tail = b""
             if deadline is not None and time.monotonic() >= deadline:
                 return None
         return None
+
+    # ------------------------------------------------------------------ closing
 
     def close(self) -> None:
         if self._closing.is_set():
@@ -112,4 +232,10 @@ class SerialFrameTransport(Transport):
                 cancel()
             except (serial.SerialException, OSError):
                 pass
-        self._ser.close()
+        # a send in progress notices the close within one write slice; do not close its descriptor under it
+        locked = self._wlock.acquire(timeout=max(1.0, 4 * _WRITE_SLICE))
+        try:
+            self._ser.close()
+        finally:
+            if locked:
+                self._wlock.release()
