@@ -126,3 +126,8 @@ def test_socketcand_through_python_can_options(cli: Cli) -> None:
         assert r.code == 0, r.err
         assert r.records()[0]["position_deg"] == pytest.approx(30.0, abs=0.05)
     assert bus.motors[4].position == pytest.approx(30.0, abs=0.05)
+
+
+def test_bitrate_is_refused_with_the_adapter(cli: Cli) -> None:
+    r = cli("state", "1", "--serial", "/nonexistent/ttyACM9", "-b", "1M")
+    assert r.code == 2 and "-b/--bitrate: not with --serial" in r.err and "vendor's configuration tool" in r.err

@@ -263,6 +263,11 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
     can_only += ["-o/--can-option"] if args.can_option else []
     if can_only and chosen and chosen[0] != "interface":
         raise UsageError(f"{' and '.join(can_only)}: only with -i/--interface, not with {_FLAGS[chosen[0]]}")
+    if args.bitrate is not None and args.serial:
+        raise UsageError(
+            "-b/--bitrate: not with --serial; the USB-CAN adapter's CAN bitrate is set with the vendor's "
+            "configuration tool (the serial line's rate needs no setting)"
+        )
     kw: dict[str, Any]
     if args.sim:
         kw = {"interface": "sim", "motors": args.sim}
