@@ -34,10 +34,5 @@ class FieldRangeError(ValidationError):
         self.value = value
         self.low = low
         self.high = high
-        self.detail = detail
         extra = f" ({detail})" if detail else ""
         super().__init__(f"{field}={value!r} is out of range: allowed {low:g}..{high:g}{extra}")
-
-    def renamed(self, field: str) -> FieldRangeError:
-        """The same error for ``field``, as the caller named the value."""
-        return FieldRangeError(field, self.value, self.low, self.high, self.detail)

@@ -30,6 +30,8 @@ from ..protocol.messages import (
     StartImpedance,
     Torque,
     Velocity,
+    check_f32,
+    check_s16,
 )
 
 __all__ = [
@@ -119,35 +121,21 @@ def _positive(value: float, field: str, high: float = S16_MAX) -> float:
     return v
 
 
-_NAMES = {
-    "position": "angle",
-    "speed_ff": "speed",
-    "torque_ff": "param",
-    "bandwidth": "param (bandwidth)",
-    "accel": "param (accel)",
-    "time": "move time (s)",
-}
-"""Message fields under the names of the vendor-style arguments they come from."""
-
-
-def _encoded(msgs: Sequence[Message], names: dict[str, str] = _NAMES, per_motor: tuple[str, str] | None = None) -> None:
-    """Encode every message now, so a bad value raises before anything is sent, naming the
-    argument the caller gave. ``per_motor``: (message field, list argument) of a value given
-    per motor, named with the motor, e.g. ``angle_list (motor 3)``."""
-    for msg in msgs:
-        try:
-            msg.encode()
-        except FieldRangeError as exc:
-            if per_motor is not None and exc.field == per_motor[0]:
-                raise exc.renamed(f"{per_motor[1]} (motor {msg.node})") from None
-            field = names.get(exc.field, exc.field)
-            if field == exc.field:
-                raise
-            raise exc.renamed(field) from None
-
-
 def _bandwidth(param: float) -> float:
     return _positive(abs(_finite(param, "param (bandwidth)")), "param (bandwidth)", MAX_BANDWIDTH)
+
+
+def _t_speed(speed: float) -> float:
+    """The speed a T-mode frame carries (unused by the motor): its magnitude, in range."""
+    return check_s16(abs(_finite(speed, "speed")), "speed")
+
+
+def _gains(kp: float, kd: float) -> tuple[float, float]:
+    """Impedance gains Kp Nm/rad and Kd Nm/(rad/s), each 0..327.67."""
+    for value, field in ((kp, "kp"), (kd, "kd")):
+        if not 0 <= _finite(value, field) <= S16_MAX:
+            raise FieldRangeError(field, value, 0, S16_MAX, "impedance gains are >= 0")
+    return float(kp), float(kd)
 
 
 def check_ids(ids: Sequence[int], values: Sequence[float] | None = None, what: str = "values") -> list[int]:
@@ -178,16 +166,12 @@ def make_angle(
     mode P: ``speed`` = speed feed-forward r/min, ``param`` = torque feed-forward Nm.
     """
     m = position_mode(mode)
-    angle = _finite(angle, "angle")
-    msg: PositionT | PositionQ | PositionP
+    angle = check_f32(angle, "angle")
     if m is PositionMode.T:
-        msg = PositionT(node, angle, _bandwidth(param), abs(_finite(speed, "speed")))
-    elif m is PositionMode.Q:
-        msg = PositionQ(node, angle, _positive(speed, "speed"), _positive(param, "param (accel)"))
-    else:
-        msg = PositionP(node, angle, _finite(speed, "speed"), _finite(param, "param"))
-    _encoded([msg])
-    return msg
+        return PositionT(node, angle, _bandwidth(param), _t_speed(speed))
+    if m is PositionMode.Q:
+        return PositionQ(node, angle, _positive(speed, "speed"), _positive(param, "param (accel)"))
+    return PositionP(node, angle, check_s16(speed, "speed"), check_s16(param, "param"))
 
 
 def make_speed(node: int, speed: float, param: float = 0.0, mode: int = VelocityMode.PASSTHROUGH) -> Velocity:
@@ -197,23 +181,19 @@ def make_speed(node: int, speed: float, param: float = 0.0, mode: int = Velocity
     vendor does); mode 2: ``param`` = ramp rate (r/min)/s.
     """
     m = velocity_mode(mode)
-    speed = _finite(speed, "speed")
+    speed = check_f32(speed, "speed")
     if m is VelocityMode.RAMP:
         param = _positive(param, "param (ramp rate)")
     else:
-        param = 0.0 if speed == 0 else _finite(param, "param")
-    msg = Velocity(node, speed, param, m)
-    _encoded([msg])
-    return msg
+        param = 0.0 if speed == 0 else check_s16(param, "param")
+    return Velocity(node, speed, param, m)
 
 
 def make_torque(node: int, torque: float, param: float = 0.0, mode: int = TorqueMode.DIRECT) -> Torque:
     """Apply ``torque`` Nm (vendor ``set_torque``). mode 1: direct; mode 6: ramp at ``param`` Nm/s."""
     m = torque_mode(mode)
-    torque = _finite(torque, "torque")
-    msg = Torque(node, torque, 0.0 if m is TorqueMode.DIRECT else _positive(param, "param (ramp rate)"), m)
-    _encoded([msg])
-    return msg
+    torque = check_f32(torque, "torque")
+    return Torque(node, torque, 0.0 if m is TorqueMode.DIRECT else _positive(param, "param (ramp rate)"), m)
 
 
 def make_impedance(
@@ -224,13 +204,8 @@ def make_impedance(
     ``pos`` deg, ``vel`` r/min, ``tff`` Nm; ``kp`` Nm/rad and ``kd`` Nm/(rad/s),
     both 0..327.67. The control law is ``tff + kp*(pos - P) + kd*(vel - V)``.
     """
-    preset = PresetD(node, _finite(pos, "pos"), _finite(vel, "vel"), _finite(tff, "tff"))
-    for value, field in ((kp, "kp"), (kd, "kd")):
-        if not 0 <= _finite(value, field) <= S16_MAX:
-            raise FieldRangeError(field, value, 0, S16_MAX, "impedance gains are >= 0")
-    start = StartImpedance(node, float(kp), float(kd))
-    _encoded([preset, start], {"position": "pos", "speed": "vel", "torque_ff": "tff"})
-    return preset, start
+    preset = PresetD(node, check_f32(pos, "pos"), check_s16(vel, "vel"), check_s16(tff, "tff"))
+    return preset, StartImpedance(node, *_gains(kp, kd))
 
 
 def make_impedances(
@@ -247,16 +222,12 @@ def make_impedances(
     gains ``kp`` Nm/rad, ``kd`` Nm/(rad/s) (0..327.67, carried by the start) are shared.
     """
     nodes = check_ids(ids, positions, "pos_list")
-    presets: list[Message] = []
-    for n, p in zip(nodes, positions, strict=True):
-        try:
-            preset, _ = make_impedance(n, p, vel, tff, kp, kd)
-        except FieldRangeError as exc:
-            if exc.field == "pos":
-                raise exc.renamed(f"pos_list (motor {n})") from None
-            raise
-        presets.append(preset)
-    return presets, StartImpedance(0, float(kp), float(kd))
+    v, t = check_s16(vel, "vel"), check_s16(tff, "tff")
+    start = StartImpedance(0, *_gains(kp, kd))
+    presets: list[Message] = [
+        PresetD(n, check_f32(p, f"pos_list (motor {n})"), v, t) for n, p in zip(nodes, positions, strict=True)
+    ]
+    return presets, start
 
 
 def q_move_time(distance: float, speed: float, accel: float, traj_mode: int = TrajMode.TRAPEZOID) -> float:
@@ -293,15 +264,16 @@ def make_angles(
     mode T: ``speed`` unused, ``param`` = bandwidth; mode Q: every motor gets
     ``move_time`` (s, required) and accel ``param``; mode P: ``speed`` = speed
     feed-forward r/min, ``param`` = torque feed-forward Nm. ``relative`` makes
-    the angles offsets from the current positions. Everything is encoded here,
-    so an out-of-range value raises before a single frame exists.
+    the angles offsets from the current positions. Every value is checked here,
+    so an out-of-range one raises before a single frame exists.
     """
     nodes = check_ids(ids, angles, "angle_list")
+    targets = [check_f32(a, f"angle_list (motor {n})") for n, a in zip(nodes, angles, strict=True)]
     m = position_mode(mode)
     presets: list[Message]
     if m is PositionMode.T:
-        bw, sp = _bandwidth(param), abs(_finite(speed, "speed"))
-        presets = [PresetT(n, float(a), bw, sp) for n, a in zip(nodes, angles, strict=True)]
+        bw, sp = _bandwidth(param), _t_speed(speed)
+        presets = [PresetT(n, a, bw, sp) for n, a in zip(nodes, targets, strict=True)]
         kind = StartKind.T
     elif m is PositionMode.Q:
         if move_time is None:
@@ -309,15 +281,13 @@ def make_angles(
         _positive(speed, "speed")
         accel = _positive(param, "param (accel)")
         t = _positive(move_time, "move time (s)")
-        presets = [PresetQ(n, float(a), t, accel) for n, a in zip(nodes, angles, strict=True)]
+        presets = [PresetQ(n, a, t, accel) for n, a in zip(nodes, targets, strict=True)]
         kind = StartKind.Q
     else:
-        sff, tff = _finite(speed, "speed"), _finite(param, "param")
-        presets = [PresetP(n, float(a), sff, tff) for n, a in zip(nodes, angles, strict=True)]
+        sff, tff = check_s16(speed, "speed"), check_s16(param, "param")
+        presets = [PresetP(n, a, sff, tff) for n, a in zip(nodes, targets, strict=True)]
         kind = StartKind.P
-    start = Start(0, kind, relative)
-    _encoded([*presets, start], per_motor=("position", "angle_list"))
-    return presets, start
+    return presets, Start(0, kind, relative)
 
 
 def make_speeds(
@@ -326,14 +296,12 @@ def make_speeds(
     """Presets and start of a synchronised speed change (vendor ``set_speeds``); one param/mode for all."""
     nodes = check_ids(ids, speeds, "speed_list")
     m = velocity_mode(mode)
-    prm = _positive(param, "param (ramp rate)") if m is VelocityMode.RAMP else _finite(param, "param")
-    presets: list[Message] = [
-        PresetV(n, float(s), 0.0 if (m is VelocityMode.PASSTHROUGH and s == 0) else prm, m)
-        for n, s in zip(nodes, speeds, strict=True)
-    ]
-    start = Start(0, StartKind.V)
-    _encoded([*presets, start], per_motor=("speed", "speed_list"))
-    return presets, start
+    prm = _positive(param, "param (ramp rate)") if m is VelocityMode.RAMP else check_s16(param, "param")
+    presets: list[Message] = []
+    for n, s in zip(nodes, speeds, strict=True):
+        v = check_f32(s, f"speed_list (motor {n})")
+        presets.append(PresetV(n, v, 0.0 if (m is VelocityMode.PASSTHROUGH and v == 0) else prm, m))
+    return presets, Start(0, StartKind.V)
 
 
 def make_torques(
@@ -343,7 +311,7 @@ def make_torques(
     nodes = check_ids(ids, torques, "torque_list")
     m = torque_mode(mode)
     prm = 0.0 if m is TorqueMode.DIRECT else _positive(param, "param (ramp rate)")
-    presets: list[Message] = [PresetC(n, float(t), prm, m) for n, t in zip(nodes, torques, strict=True)]
-    start = Start(0, StartKind.C)
-    _encoded([*presets, start], per_motor=("torque", "torque_list"))
-    return presets, start
+    presets: list[Message] = [
+        PresetC(n, check_f32(t, f"torque_list (motor {n})"), prm, m) for n, t in zip(nodes, torques, strict=True)
+    ]
+    return presets, Start(0, StartKind.C)

@@ -53,6 +53,8 @@ __all__ = [
     "decode_reply",
     "S16_MIN",
     "S16_MAX",
+    "check_s16",
+    "check_f32",
 ]
 
 S16_MIN = -327.68
@@ -106,6 +108,17 @@ def _f32(value: float, field: str) -> float:
     except TypeError:
         pass
     raise FieldRangeError(field, value, -F32_MAX, F32_MAX, "finite float32; NaN and infinity cannot be sent")
+
+
+def check_s16(value: float, field: str) -> float:
+    """``value`` if an s16 field scaled by 0.01 holds it once rounded; else a FieldRangeError for ``field``."""
+    _s16(value, field)
+    return float(value)
+
+
+def check_f32(value: float, field: str) -> float:
+    """``value`` if a float32 field holds it (finite, in range); else a FieldRangeError for ``field``."""
+    return float(_f32(value, field))
 
 
 def _diagnose(node: int, *checks: tuple[str, float, str]) -> NoReturn:
