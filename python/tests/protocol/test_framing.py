@@ -137,3 +137,15 @@ def test_stray_header_bytes_before_a_frame_do_not_hide_it() -> None:
     dec = Uart11Decoder()
     stream = b"\x08\x03" + b"".join(encode_uart11(*f[:2]) for f in frames)
     assert dec.feed(stream) == frames and dec.dropped == 2
+
+
+def test_decoders_say_how_many_bytes_a_partial_frame_still_needs() -> None:
+    f = _states(5.0)[0]
+    for stream, decoder in ((encode_uart11(*f[:2]), Uart11Decoder()), (encode_aa(f), AADecoder())):
+        assert decoder.needed == 0
+        for k in range(1, len(stream)):
+            decoder.feed(stream[k - 1 : k])
+            assert decoder.needed >= 1
+            if k >= 8:  # the 0xAA length byte and id are in: the count is exact
+                assert decoder.needed == len(stream) - k
+        assert decoder.feed(stream[-1:]) == [f] and decoder.needed == 0

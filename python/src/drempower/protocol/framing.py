@@ -80,6 +80,12 @@ class Uart11Decoder:
         """Bytes held waiting for the rest of a frame."""
         return len(self._buf)
 
+    @property
+    def needed(self) -> int:
+        """Bytes still to come to complete the partial frame held (0 when none is)."""
+        n = len(self._buf)
+        return UART11_LEN - n if n else 0
+
     def flush(self) -> int:
         """Drop a partial frame (e.g. after a gap on the line); returns how many bytes were dropped."""
         n = len(self._buf)
@@ -220,6 +226,18 @@ class AADecoder:
     @property
     def pending(self) -> int:
         return len(self._buf)
+
+    @property
+    def needed(self) -> int:
+        """Bytes still to come to complete the partial frame held (0 when none is; an estimate
+        of at least 1 while its length byte or id is still to come)."""
+        buf = self._buf
+        if not buf:
+            return 0
+        total = aa_frame_length(buf)
+        if total <= 0:
+            total = 8 + (buf[3] if len(buf) > 3 else 8)
+        return max(1, total - len(buf))
 
     def flush(self) -> int:
         n = len(self._buf)

@@ -4,13 +4,10 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..protocol.framing import AADecoder, aa_frame_length, encode_aa
+from ..protocol.framing import AADecoder, encode_aa
 from .serialport import SerialFrameTransport
 
 __all__ = ["AdapterTransport"]
-
-_AA_HEAD = 8
-"""Length of a 0xAA frame without its data (header, flags, length, 4-byte id)."""
 
 
 class AdapterTransport(SerialFrameTransport):
@@ -24,9 +21,3 @@ class AdapterTransport(SerialFrameTransport):
 
     def __init__(self, port: str, baudrate: int = 115200, **serial_kwargs: Any) -> None:
         super().__init__(port, baudrate, AADecoder(), encode_aa, "vendor USB-CAN adapter (0xAA)", **serial_kwargs)
-
-    def _needed(self, head: bytes) -> int:
-        total = aa_frame_length(head)
-        if total <= 0:  # the id (or the length byte) is still to come
-            total = _AA_HEAD + (head[3] if len(head) > 3 else 8)
-        return max(1, total - len(head))

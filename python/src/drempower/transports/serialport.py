@@ -41,6 +41,9 @@ class StreamDecoder(Protocol):
     @property
     def pending(self) -> int: ...
 
+    @property
+    def needed(self) -> int: ...
+
     def feed(self, chunk: bytes) -> list[Frame]: ...
 
     def flush(self) -> int: ...
@@ -97,8 +100,6 @@ class SerialFrameTransport(Transport):
         self._decoder = decoder
         self._encode = encode
         self._frames: deque[Frame] = deque()
-        self._tail = b""
-        """The bytes the decoder holds (the start of a partial frame)."""
         self._byte_time = 10.0 / (self._ser.baudrate or 115200)
         self._wlock = threading.Lock()
         self._closing = threading.Event()
@@ -175,10 +176,6 @@ class SerialFrameTransport(Transport):
 
     # ------------------------------------------------------------------ receiving
 
-    def _needed(self, head: bytes) -> int:
-        """How many more bytes the partial frame starting with ``head`` needs (at least 1)."""
-        return 1
-
     def recv(self, timeout: float | None = None) -> Frame | None:
         frames = self._frames
         if frames:
@@ -190,9 +187,9 @@ class SerialFrameTransport(Transport):
         while not closing.is_set():
             try:
                 waiting = ser.in_waiting
-                if self._tail:
+                if decoder.pending:
                     # part of a frame is here: give the rest its time on the line, then take it in one read
-                    need = self._needed(self._tail) - waiting
+                    need = decoder.needed - waiting
                     if need > 0:
                         closing.wait(min(need * self._byte_time, _MAX_REST_WAIT))
                         waiting = ser.in_waiting
@@ -203,19 +200,11 @@ class SerialFrameTransport(Transport):
                 raise TransportError(f"{self.description}: read failed: {exc}") from exc
             if chunk:
                 got = decoder.feed(chunk)
-                pending = decoder.pending
-                if not pending:
-                    self._tail = b""
-                elif pending <= len(chunk):
-                    self._tail = chunk[-pending:]
-                else:
-                    self._tail = (self._tail + chunk)[-pending:]
                 if got:
                     frames.extend(got)
                     return frames.popleft()
             elif decoder.pending:
                 decoder.flush()
-                self._tail = b""
             if deadline is not None and time.monotonic() >= deadline:
                 return None
         return None

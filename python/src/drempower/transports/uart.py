@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from typing import Any
 
-from ..protocol.framing import UART11_LEN, Uart11Decoder, encode_uart11
+from ..protocol.framing import Uart11Decoder, encode_uart11
 from ..protocol.ids import Frame
 from .serialport import SerialFrameTransport
 
@@ -25,6 +25,3 @@ class UartTransport(SerialFrameTransport):
 
     def __init__(self, port: str, baudrate: int = 115200, **serial_kwargs: Any) -> None:
         super().__init__(port, baudrate, Uart11Decoder(), _encode, "motor UART (11-byte frames)", **serial_kwargs)
-
-    def _needed(self, head: bytes) -> int:
-        return max(1, UART11_LEN - len(head))
