@@ -32,6 +32,11 @@ _KEYS = ("interface", "channel", "bitrate")
 _TIMEOUTS = (serial.SerialTimeoutException, TimeoutError)
 
 
+def _shown(settings: dict[str, Any]) -> str:
+    """``interface=..., channel=..., bitrate=...`` of those in ``settings``."""
+    return ", ".join(f"{k}={settings[k]!r}" for k in _KEYS if k in settings)
+
+
 def _why(exc: BaseException) -> str:
     text = str(exc)
     return f"{type(exc).__name__}: {text}" if text else type(exc).__name__
@@ -107,7 +112,7 @@ class PythonCanTransport(Transport):
             if value is not None:
                 given[key] = value
         cfg = self._resolve(given)
-        tried = ", ".join(f"{k}={cfg.get(k)!r}" for k in _KEYS if cfg.get(k) is not None)
+        tried = _shown({k: v for k, v in cfg.items() if v is not None})
         configured = [k for k in _KEYS if k not in given and cfg.get(k) is not None]
         if configured:
             tried += f"; {', '.join(configured)} from python-can's configuration"
@@ -151,9 +156,9 @@ class PythonCanTransport(Transport):
                         f"Interfaces python-can knows: {', '.join(sorted(VALID_INTERFACES))}"
                     ) from exc
             except Exception as exc:
-                shown = ", ".join(f"{k}={given[k]!r}" for k in _KEYS if k in given) or "nothing given"
                 raise TransportError(
-                    f"cannot open python-can bus ({shown}): python-can's configuration is invalid: {_why(exc)}"
+                    f"cannot open python-can bus ({_shown(given) or 'nothing given'}): "
+                    f"python-can's configuration is invalid: {_why(exc)}"
                 ) from exc
         name = cfg.get("interface")
         if name is None:
@@ -163,9 +168,8 @@ class PythonCanTransport(Transport):
                 "Give interface= (and channel=), e.g. 'socketcan' 'can0'"
             )
         if name not in VALID_INTERFACES:
-            shown = ", ".join(f"{k}={given[k]!r}" for k in _KEYS if k in given)
             raise TransportError(
-                f"cannot open python-can bus ({shown}): unknown interface {name!r}. Interfaces "
+                f"cannot open python-can bus ({_shown(given)}): unknown interface {name!r}. Interfaces "
                 f"python-can knows: {', '.join(sorted(VALID_INTERFACES))}; drempower adds 'adapter', 'serial', "
                 "'uart' and 'sim'"
             )
