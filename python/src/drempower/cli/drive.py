@@ -80,7 +80,7 @@ def run_speed(args: argparse.Namespace) -> int:
             extra = f" (torque feed-forward {param:g} Nm)"
     else:
         mode, param, extra, option = VelocityMode.RAMP, args.ramp, f" (ramp {args.ramp:g} rpm/s)", "--ramp"
-    with options_named({"speed": "RPM", "speed_list": "RPM", "param": option, "param (ramp rate)": "--ramp"}):
+    with options_named({"speed_list": "RPM", "param": option, "param (ramp rate)": "--ramp"}):
         make_speeds(args.ids, speeds, param, mode)  # every value checked before connecting
     with driving(args) as bus:
         _readings.require_ready(bus, args.ids)
@@ -96,7 +96,7 @@ def run_torque(args: argparse.Namespace) -> int:
         mode, param, extra = TorqueMode.DIRECT, 0.0, ""
     else:
         mode, param, extra = TorqueMode.RAMP, args.ramp, f" (ramp {args.ramp:g} Nm/s)"
-    with options_named({"torque": "NM", "torque_list": "NM", "param": "--ramp", "param (ramp rate)": "--ramp"}):
+    with options_named({"torque_list": "NM", "param": "--ramp", "param (ramp rate)": "--ramp"}):
         make_torques(args.ids, torques, param, mode)
     with driving(args) as bus:
         _readings.require_ready(bus, args.ids)
@@ -106,17 +106,7 @@ def run_torque(args: argparse.Namespace) -> int:
     return 0
 
 
-_IMPEDANCE_OPTIONS = {
-    "pos": "POS",
-    "pos_list": "POS",
-    "position": "POS",
-    "vel": "--vel",
-    "speed": "--vel",
-    "tff": "--tff",
-    "torque_ff": "--tff",
-    "kp": "--kp",
-    "kd": "--kd",
-}
+_IMPEDANCE_OPTIONS = {"pos_list": "POS", "vel": "--vel", "tff": "--tff", "kp": "--kp", "kd": "--kd"}
 """Fields of the impedance preset and start, by the option that sets them."""
 
 

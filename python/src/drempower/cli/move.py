@@ -21,14 +21,9 @@ _OPTIONS = {
 }
 """The options each mode takes, with their defaults."""
 _FIELDS = {
-    PositionMode.T: {"param (bandwidth)": "--bandwidth", "bandwidth": "--bandwidth"},
-    PositionMode.Q: {"speed": "--speed", "param (accel)": "--accel", "accel": "--accel"},
-    PositionMode.P: {
-        "speed": "--speed-ff",
-        "speed_ff": "--speed-ff",
-        "param": "--torque-ff",
-        "torque_ff": "--torque-ff",
-    },
+    PositionMode.T: {"param (bandwidth)": "--bandwidth"},
+    PositionMode.Q: {"speed": "--speed", "param (accel)": "--accel"},
+    PositionMode.P: {"speed": "--speed-ff", "param": "--torque-ff"},
 }
 """The library's field names of each mode, by the option that sets them (and ANGLES for the positions)."""
 
@@ -87,7 +82,7 @@ def run(args: argparse.Namespace) -> int:
     mode = _MODES[args.mode]
     angles = per_motor(ids, args.values, "angle")
     speed, param = _params(args, mode)
-    with options_named({"position": "ANGLES", "angle": "ANGLES", "angle_list": "ANGLES", **_FIELDS[mode]}):
+    with options_named({"angle_list": "ANGLES", **_FIELDS[mode]}):
         # every value checked before connecting (the Q move time needs the positions: it is checked when sent)
         make_angles(ids, angles, speed, param, mode, move_time=1.0, relative=args.relative)
     with driving(args) as bus:
