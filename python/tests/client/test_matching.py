@@ -206,3 +206,27 @@ def test_invalid_options() -> None:
         Bus(ScriptedTransport(), start="sometimes")  # type: ignore[arg-type]
     with pytest.raises(drempower.ValidationError):
         Bus(ScriptedTransport(), timeout=0)
+
+
+@pytest.mark.parametrize(("dtype", "value"), [(DataType.S16, 0), (DataType.S16, 7), (DataType.U32, 24)])
+def test_reply_of_another_data_type_is_an_anomaly_not_an_answer(dtype: DataType, value: int) -> None:
+    """vbus_voltage is f32: an s16 (or u32) reply for it answers nothing and is counted."""
+
+    def wrong_type(f: Frame) -> list[Frame]:
+        return [ParamValue(f.arbitration_id >> 5, 1, dtype, value).encode()]
+
+    t = ScriptedTransport(wrong_type)
+    with Bus(t, timeout=0.1, stop_on_close=False) as bus:
+        with pytest.raises(drempower.TimeoutError):
+            bus.motor(1).read_property("vbus_voltage")
+        assert bus.stats["anomalies"] == 1 and bus.stats["unmatched"] == 1
+
+
+def test_wrong_type_reply_leaves_the_request_waiting_for_the_right_one() -> None:
+    def both(f: Frame) -> list[Frame]:
+        node = f.arbitration_id >> 5
+        return [ParamValue(node, 1, DataType.S16, 0).encode(), ParamValue(node, 1, DataType.F32, 24.5).encode()]
+
+    with Bus(ScriptedTransport(both), timeout=0.5, stop_on_close=False) as bus:
+        assert bus.motor(1).read_property("vbus_voltage") == 24.5
+        assert bus.stats["anomalies"] == 1

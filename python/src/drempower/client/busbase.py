@@ -92,9 +92,19 @@ class BusBase(ABC, Generic[M]):
 
     @property
     def stats(self) -> dict[str, int]:
-        """Frames received, malformed ones, and those that were no reply and no state."""
+        """Frames received, malformed ones, those that were no reply and no state, and anomalies.
+
+        An anomaly is a reply for a waiting request whose echoed fields (data
+        type) differ from the request's: it answers nothing (the request keeps
+        waiting or times out) and also counts as unmatched.
+        """
         c = self._core
-        return {"frames_received": c.frames_received, "malformed": c.malformed, "unmatched": c.unmatched}
+        return {
+            "frames_received": c.frames_received,
+            "malformed": c.malformed,
+            "unmatched": c.unmatched,
+            "anomalies": c.anomalies,
+        }
 
     @property
     def on_unsolicited(self) -> Callable[[Frame], None] | None:

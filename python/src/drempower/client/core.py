@@ -35,7 +35,7 @@ from ..protocol.messages import (
 from ..protocol.parameters import DataType, find_parameter
 from ..transports.base import Transport
 from .errors import BusClosedError, TimeoutError
-from .requests import Matcher, Waiter, request_key
+from .requests import MATCHED, MISMATCHED, Matcher, Waiter, request_dtype, request_key
 from .state import MotorState, StateCache
 
 __all__ = [
@@ -147,6 +147,8 @@ class BusCore:
         self.frames_received = 0
         self.malformed = 0
         self.unmatched = 0
+        self.anomalies = 0
+        """Replies for a waiting request whose echoed fields (data type) differ from it: never taken as answers."""
         self.other_hosts = False
         """True once frames of another host were seen (see :meth:`_dispatch`)."""
         self.zero_reply_grace = ZERO_REPLY_GRACE
@@ -344,7 +346,7 @@ class BusCore:
             self.malformed += 1
             self._unsolicited(frame)
             return
-        node, address = reply.node, reply.address  # type: ignore[union-attr]
+        node, address, dtype = reply.node, reply.address, reply.dtype  # type: ignore[union-attr]
         if data[4:] == _ZERO4:
             # A reply of value 0 has the bytes of a read request: another host's read
             # of the same parameter looks exactly like it. With other hosts about, hold
@@ -352,15 +354,22 @@ class BusCore:
             key = (node, address)
             if key in self._provisional:
                 return  # another such frame: the first one's grace runs on
-            if self.other_hosts and self.matcher.waiting(node, address):
+            if self.other_hosts and self.matcher.waiting(node, address, dtype):
                 self._provisional[key] = (_monotonic() + self.zero_reply_grace, reply)
                 return
-            if not self.matcher.resolve(node, address, reply):
+            outcome = self.matcher.resolve_reply(node, address, dtype, reply)
+            if outcome != MATCHED:
+                if outcome == MISMATCHED:
+                    self.anomalies += 1
                 self.other_hosts = True  # most likely another host's read request
                 self._unsolicited(frame)
             return
         self._provisional.pop((node, address), None)
-        if not self.matcher.resolve(node, address, reply):
+        outcome = self.matcher.resolve_reply(node, address, dtype, reply)
+        if outcome != MATCHED:
+            if outcome == MISMATCHED:
+                self.anomalies += 1
+                _log.warning("reply %r does not match the request waiting for it (data type): ignored", reply)
             self._unsolicited(frame)
 
     def _settle(self, now: float, keys: Sequence[tuple[int, int]] | None = None) -> None:
@@ -368,8 +377,12 @@ class BusCore:
         provisional = self._provisional
         for key, (due, reply) in list(provisional.items()):
             wanted = due <= now if keys is None else key in keys or (0, key[1]) in keys
-            if wanted and provisional.pop(key, None) is not None:
-                self.matcher.resolve(key[0], key[1], reply)
+            if (
+                wanted
+                and provisional.pop(key, None) is not None
+                and self.matcher.resolve_reply(key[0], key[1], reply.dtype, reply) == MISMATCHED  # type: ignore[attr-defined]
+            ):
+                self.anomalies += 1
 
     def settle_for(self, waiter_keys: Sequence[int]) -> None:
         """Before a request gives up: take the held-back replies it was waiting for."""
@@ -480,6 +493,13 @@ class Exchange:
         self._tries = [0] * n
         self._batch: list[int] = []
 
+    def _dtypes(self, batch: Sequence[int]) -> list[DataType | None] | None:
+        """The data type each awaited reply must echo (None when the exchange expects state frames)."""
+        if self._serial is None:
+            return None
+        msgs = self.msgs
+        return [request_dtype(msgs[i]) for i in batch]
+
     def _next_batch(self) -> list[int]:
         serial = self._serial
         if serial is None:
@@ -498,7 +518,7 @@ class Exchange:
         core = self.core
         core.check_open()
         batch = self._batch = self._next_batch()
-        w = Waiter([self.keys[i] for i in batch], notify)
+        w = Waiter([self.keys[i] for i in batch], notify, self._dtypes(batch))
         core.matcher.register(w)
         try:
             core._send_frames(self.frames if self._serial is None else [self.frames[i] for i in batch])

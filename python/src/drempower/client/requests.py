@@ -3,9 +3,11 @@
 Every request that expects an answer is registered under a key before its
 frame is sent: ``node << 16 | address`` for a parameter read and
 ``node << 16`` for a fast read (address 0), whose answer is the motor's next
-state frame. A reply resolves the oldest request waiting on its key; a request
-to node 0 (broadcast) is answered by any node. Replies that match nothing are
-left to the caller (state cache, unsolicited-frame hook).
+state frame. A reply resolves the oldest request waiting on its key whose
+echoed fields all match: a parameter read also names its data type, and a
+reply of another data type answers nothing (it is an anomaly, counted by the
+caller). A request to node 0 (broadcast) is answered by any node. Replies that
+match nothing are left to the caller (state cache, unsolicited-frame hook).
 """
 
 from __future__ import annotations
@@ -14,8 +16,16 @@ import threading
 from collections.abc import Callable, Sequence
 
 from ..protocol.messages import FastRead, Message, ReadParam
+from ..protocol.parameters import DataType
 
-__all__ = ["Waiter", "Matcher", "reply_key", "request_key"]
+__all__ = ["Waiter", "Matcher", "MATCHED", "MISMATCHED", "UNMATCHED", "reply_key", "request_dtype", "request_key"]
+
+UNMATCHED = 0
+"""No request waits for a reply of this node and address."""
+MATCHED = 1
+"""The reply answered a request."""
+MISMATCHED = 2
+"""Requests wait for this node and address, but an echoed field (the data type) differs: an anomaly."""
 
 
 def reply_key(node: int, address: int) -> int:
@@ -32,6 +42,11 @@ def request_key(msg: Message) -> int:
     raise TypeError(f"{type(msg).__name__} has no reply to wait for")
 
 
+def request_dtype(msg: Message) -> DataType | None:
+    """The data type the reply to ``msg`` must echo (None when the reply has none: a fast read)."""
+    return msg.dtype if isinstance(msg, ReadParam) else None
+
+
 class Waiter:
     """The answers awaited by one call: ``results[i]`` answers ``keys[i]``.
 
@@ -39,10 +54,17 @@ class Waiter:
     once, from the receive thread or from :meth:`Matcher.fail_all`.
     """
 
-    __slots__ = ("error", "event", "keys", "notify", "remaining", "results")
+    __slots__ = ("dtypes", "error", "event", "keys", "notify", "remaining", "results")
 
-    def __init__(self, keys: Sequence[int], notify: Callable[[], None] | None = None) -> None:
+    def __init__(
+        self,
+        keys: Sequence[int],
+        notify: Callable[[], None] | None = None,
+        dtypes: Sequence[DataType | None] | None = None,
+    ) -> None:
         self.keys = keys
+        self.dtypes = dtypes
+        """The data type each reply must echo (None: any); None for the whole waiter: no check."""
         self.results: list[object | None] = [None] * len(keys)
         self.remaining = len(keys)
         self.error: BaseException | None = None
@@ -83,7 +105,16 @@ class Matcher:
                     lst.append(entry)
 
     def resolve(self, node: int, address: int, value: object) -> bool:
-        """Hand ``value`` to the oldest request waiting for it; False if none is."""
+        """Hand ``value`` to the oldest request waiting for it; False if none is (no data-type check)."""
+        return self.resolve_reply(node, address, None, value) == MATCHED
+
+    def resolve_reply(self, node: int, address: int, dtype: DataType | None, value: object) -> int:
+        """Hand ``value`` to the oldest request waiting for it whose expected data type is ``dtype``.
+
+        Returns :data:`MATCHED`, :data:`UNMATCHED` (nobody waits for this node
+        and address) or :data:`MISMATCHED` (requests wait, but for another data
+        type: they keep waiting). ``dtype`` None skips the check.
+        """
         table = self._table
         key = (node << 16) | address
         with self._lock:
@@ -92,8 +123,14 @@ class Matcher:
                 key = address  # a request sent to broadcast (node 0)
                 lst = table.get(key)
                 if lst is None:
-                    return False
-            waiter, i = lst.pop(0)
+                    return UNMATCHED
+            for j, (waiter, i) in enumerate(lst):  # noqa: B007 (j is used after the loop)
+                want = None if dtype is None or waiter.dtypes is None else waiter.dtypes[i]
+                if want is None or want == dtype:
+                    break
+            else:
+                return MISMATCHED
+            del lst[j]
             if not lst:
                 del table[key]
             waiter.results[i] = value
@@ -101,12 +138,17 @@ class Matcher:
             done = waiter.remaining == 0
         if done:
             waiter._complete()
-        return True
+        return MATCHED
 
-    def waiting(self, node: int, address: int) -> bool:
-        """True when a request waits for this reply (from ``node``, or sent to broadcast)."""
+    def waiting(self, node: int, address: int, dtype: DataType | None = None) -> bool:
+        """True when a request waits for this reply (from ``node``, or sent to broadcast), of ``dtype`` if given."""
         table = self._table
-        return ((node << 16) | address) in table or address in table
+        with self._lock:
+            for key in ((node << 16) | address, address):
+                for waiter, i in table.get(key, ()):
+                    if dtype is None or waiter.dtypes is None or waiter.dtypes[i] in (None, dtype):
+                        return True
+        return False
 
     def cancel(self, waiter: Waiter) -> None:
         """Stop waiting for the unanswered keys of ``waiter``."""
