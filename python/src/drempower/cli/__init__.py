@@ -14,6 +14,7 @@ import sys
 from collections.abc import Sequence
 
 from .. import __version__
+from ..client.signals import Terminated, exit_code, signals_interrupt
 from ..errors import DrEmpowerError
 from ._usage import UsageError
 
@@ -45,7 +46,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        code: int = args.func(args)
+        with signals_interrupt():  # SIGTERM and SIGHUP end a command as Ctrl-C does
+            code: int = args.func(args)
         return code
     except UsageError as exc:  # reported as argparse reports its own errors, exit code included
         command: argparse.ArgumentParser = args.command_parser
@@ -55,9 +57,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except DrEmpowerError as exc:
         print(f"drempower: error: {exc}", file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print("drempower: interrupted", file=sys.stderr)
-        return 130
+    except KeyboardInterrupt as exc:
+        how = f"terminated ({exc})" if isinstance(exc, Terminated) else "interrupted"
+        print(f"drempower: {how}", file=sys.stderr)
+        return exit_code(exc)
     except BrokenPipeError:
         return 0
 

@@ -11,11 +11,24 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 
 from ..client import Bus
+from ..client.signals import Terminated
+from ..errors import DrEmpowerError
 from ._connect import add_ids_arg, open_from_args, positive
 from ._output import motors_text
 from ._usage import UsageError
 
-__all__ = ["add_duration_arg", "add_motion_args", "driving", "hold", "number_list", "per_motor", "stop_commanded"]
+__all__ = [
+    "add_duration_arg",
+    "add_motion_args",
+    "add_watchdog_arg",
+    "arm_watchdog",
+    "driving",
+    "hold",
+    "number_list",
+    "per_motor",
+    "restore_watchdog",
+    "stop_commanded",
+]
 
 _UNSIGNED = r"(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?"
 _NEGATIVE_LIST = re.compile(rf"^-{_UNSIGNED}(?:,[-+]?{_UNSIGNED})*$")
@@ -64,29 +77,135 @@ def per_motor(ids: Sequence[int], values: Sequence[float], what: str) -> list[fl
     return list(values)
 
 
+COASTING_RPM = 0.5
+"""Above this speed (r/min) an idle motor is reported as still coasting."""
+
+
 def stop_commanded(bus: Bus, why: str) -> None:
-    """Set every motor this bus commanded to idle, and say so on stderr."""
+    """Set every motor this bus commanded to idle, and say on stderr what each is doing then.
+
+    Idle stops driving, not turning: a motor that still moves is reported as
+    coasting at its speed (r/min), so nobody takes "idle" for "at rest".
+    """
     nodes = sorted(bus.core.commanded)
     for node in nodes:
         bus.motor(node).set_mode(1)
     if nodes:
-        print(f"drempower: {why}: {motors_text(nodes)} set to idle", file=sys.stderr)
+        print(f"drempower: {why}: {motors_text(nodes)} set to idle{_motion_text(bus, nodes)}", file=sys.stderr)
+
+
+def _motion_text(bus: Bus, nodes: Sequence[int]) -> str:
+    """``"; motor 1 still coasting at 66 rpm, motor 2 at rest"`` from a fresh state of each motor."""
+    if nodes == [0]:
+        return ""
+    parts = []
+    for node in nodes:
+        name = f"motor {node}"
+        try:
+            st = bus.motor(node).get_state()
+        except DrEmpowerError:
+            parts.append(f"{name}: motion unknown (no state)")
+            continue
+        if abs(st.speed) > COASTING_RPM:
+            parts.append(f"{name} still coasting at {st.speed:.0f} rpm")
+        else:
+            parts.append(f"{name} at rest")
+    return "; " + ", ".join(parts)
+
+
+WATCHDOG_PARAMETER = "can.config.timeout_ms"
+"""The motor's CAN timeout (ms, 0 = off): no frame for that long and it goes idle with damping."""
+_U32_MAX = 0xFFFFFFFF
+
+
+def _watchdog_ms(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected whole milliseconds 1..{_U32_MAX}, got {text!r}") from None
+    if not 1 <= value <= _U32_MAX:
+        raise argparse.ArgumentTypeError(f"{value} is out of range: allowed 1..{_U32_MAX} ms")
+    return value
+
+
+def add_watchdog_arg(parser: argparse.ArgumentParser) -> None:
+    """``--watchdog MS``: arm the motors' CAN timeout while the command runs (see :func:`driving`)."""
+    parser.add_argument(
+        "--watchdog",
+        type=_watchdog_ms,
+        metavar="MS",
+        help=(
+            f"while the command runs, set {WATCHDOG_PARAMETER} to MS so that a motor goes idle MS ms "
+            "after this program stops talking to it, even if it is killed (SIGKILL); "
+            "the previous value is restored at the end"
+        ),
+    )
+
+
+def arm_watchdog(bus: Bus, ids: Sequence[int], ms: int) -> dict[int, int]:
+    """Set the CAN timeout of each motor to ``ms``; returns the previous value of each."""
+    previous: dict[int, int] = {}
+    try:
+        for node in ids:
+            m = bus.motor(node)
+            previous[node] = int(m.read_property(WATCHDOG_PARAMETER))
+            m.write_property(WATCHDOG_PARAMETER, ms, verify=True)
+    except BaseException:
+        restore_watchdog(bus, previous)
+        raise
+    return previous
+
+
+def restore_watchdog(bus: Bus, previous: dict[int, int]) -> None:
+    """Put back each motor's CAN timeout; a failure is reported on stderr, not raised."""
+    for node, ms in previous.items():
+        try:
+            bus.motor(node).write_property(WATCHDOG_PARAMETER, ms, verify=True)
+        except DrEmpowerError as exc:
+            print(f"drempower: motor {node}: could not restore {WATCHDOG_PARAMETER} to {ms}: {exc}", file=sys.stderr)
 
 
 @contextmanager
 def driving(args: argparse.Namespace) -> Iterator[Bus]:
-    """The bus of a motion command: on Ctrl-C the motors it commanded go idle (unless --no-stop-on-exit)."""
+    """The bus of a motion command.
+
+    On Ctrl-C, SIGTERM or SIGHUP the motors it commanded go idle (unless
+    --no-stop-on-exit). With ``--watchdog MS`` each motor's CAN timeout is
+    armed before anything moves and restored when the command ends, however
+    it ends (after the motors were stopped).
+    """
     with open_from_args(args) as bus:
+        watchdog: int | None = getattr(args, "watchdog", None)
+        previous = arm_watchdog(bus, args.ids, watchdog) if watchdog else {}
         try:
             yield bus
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM or SIGHUP
             if args.stop_on_exit:
-                stop_commanded(bus, "interrupted")
+                stop_commanded(bus, f"terminated ({exc})" if isinstance(exc, Terminated) else "interrupted")
             raise
+        finally:
+            restore_watchdog(bus, previous)
 
 
-def hold(bus: Bus, seconds: float | None) -> None:
-    """With ``--duration``: wait, then set the commanded motors idle."""
-    if seconds is not None:
+def hold(bus: Bus, seconds: float | None, ids: Sequence[int] = (), watchdog: int | None = None) -> None:
+    """With ``--duration``: wait, then set the commanded motors idle.
+
+    With a ``watchdog`` (ms) armed, each motor of ``ids`` gets a fast read
+    every third of it meanwhile, so the timeout fires only when this program
+    is gone.
+    """
+    if seconds is None:
+        return
+    if not watchdog:
         time.sleep(seconds)
-        stop_commanded(bus, f"after {seconds:g} s")
+    else:
+        end = time.monotonic() + seconds
+        step = watchdog / 3000.0
+        while (left := end - time.monotonic()) > 0:
+            time.sleep(min(step, left))
+            for node in ids:
+                try:
+                    bus.motor(node).get_state()
+                except DrEmpowerError:
+                    pass  # one missed reply; the next read retries
+    stop_commanded(bus, f"after {seconds:g} s")

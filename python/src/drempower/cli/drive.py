@@ -9,7 +9,7 @@ from ..client import TorqueMode, VelocityMode
 from ..client.commands import make_impedances, make_speeds, make_torques
 from . import _readings
 from ._connect import add_connection_args, number, wire_rate
-from ._motion import add_duration_arg, add_motion_args, driving, hold, per_motor
+from ._motion import add_duration_arg, add_motion_args, add_watchdog_arg, driving, hold, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
 from ._usage import options_named
 
@@ -26,6 +26,7 @@ def register(sub: Any) -> None:
         "--ramp", type=wire_rate(), metavar="RPM/S", help="reach the speed at this rate, 0.01-327.67 (r/min)/s"
     )
     ramp.add_argument("--torque-ff", type=number, default=0.0, metavar="NM", help="torque feed-forward (default 0)")
+    add_watchdog_arg(s)
     add_duration_arg(s)
     add_json_arg(s)
     add_connection_args(s)
@@ -38,6 +39,7 @@ def register(sub: Any) -> None:
     )
     add_motion_args(t, "NM", "torques in Nm")
     t.add_argument("--ramp", type=wire_rate(), metavar="NM/S", help="reach the torque at this rate, 0.01-327.67 Nm/s")
+    add_watchdog_arg(t)
     add_duration_arg(t)
     add_json_arg(t)
     add_connection_args(t)
@@ -57,6 +59,7 @@ def register(sub: Any) -> None:
     i.add_argument("--kd", type=number, required=True, metavar="NM/(RAD/S)", help="damping, 0-327.67 Nm/(rad/s)")
     i.add_argument("--vel", type=number, default=0.0, metavar="RPM", help="target speed (default 0)")
     i.add_argument("--tff", type=number, default=0.0, metavar="NM", help="torque feed-forward (default 0)")
+    add_watchdog_arg(i)
     add_duration_arg(i)
     add_json_arg(i)
     add_connection_args(i)
@@ -86,7 +89,7 @@ def run_speed(args: argparse.Namespace) -> int:
         _readings.require_ready(bus, args.ids)
         bus.set_speeds(args.ids, speeds, param, mode)
         _report(args, "speed", "rpm", speeds, extra)
-        hold(bus, args.duration)
+        hold(bus, args.duration, args.ids, args.watchdog)
     return 0
 
 
@@ -102,7 +105,7 @@ def run_torque(args: argparse.Namespace) -> int:
         _readings.require_ready(bus, args.ids)
         bus.set_torques(args.ids, torques, param, mode)
         _report(args, "torque", "Nm", torques, extra)
-        hold(bus, args.duration)
+        hold(bus, args.duration, args.ids, args.watchdog)
     return 0
 
 
@@ -120,5 +123,5 @@ def run_impedance(args: argparse.Namespace) -> int:
         bus.impedance_controls(args.ids, positions, args.vel, args.tff, args.kp, args.kd)  # one start
         extra = f" (kp {args.kp:g} Nm/rad, kd {args.kd:g} Nm/(rad/s), vel {args.vel:g} rpm, tff {args.tff:g} Nm)"
         _report(args, "position", "deg", positions, extra)
-        hold(bus, args.duration)
+        hold(bus, args.duration, args.ids, args.watchdog)
     return 0

@@ -10,6 +10,7 @@ import time
 from contextlib import ExitStack
 from typing import Any
 
+from ..client.signals import exit_code
 from ..errors import DrEmpowerError
 from . import _readings
 from ._connect import add_connection_args, add_ids_arg, open_from_args, positive
@@ -40,6 +41,7 @@ def register(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    ended = 0
     out = sys.stdout
     live = LiveView(out) if is_terminal(out) and not args.json else None
     with ExitStack() as stack:
@@ -78,6 +80,6 @@ def run(args: argparse.Namespace) -> int:
                 if deadline is not None and (now >= deadline or due > deadline):
                     break
                 time.sleep(max(0.0, due - now))
-        except KeyboardInterrupt:
-            pass
-    return 0
+        except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP: stop, then exit 128 + n
+            ended = exit_code(exc)
+    return ended

@@ -8,6 +8,7 @@ import threading
 from contextlib import ExitStack
 from typing import Any, TextIO
 
+from ..client.signals import exit_code
 from ..sim import (
     Faults,
     SimBus,
@@ -75,6 +76,7 @@ def _rate(text: str) -> float:
 
 def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Event | None = None) -> int:
     """Run the simulator; ``stop`` (set by the caller) ends it early, as Ctrl-C does."""
+    ended = 0
     stream = out or sys.stdout
     if args.uart_pty is not None and args.uart_pty not in args.ids:
         raise UsageError(f"--uart-pty {args.uart_pty} is not one of --ids")
@@ -134,8 +136,8 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
         stream.flush()
         try:
             (stop or threading.Event()).wait(args.duration)
-        except KeyboardInterrupt:
-            pass
+        except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP: stop, then exit 128 + n
+            ended = exit_code(exc)
     s = bus.stats
     load = f", bus load {s.utilisation:.1%}" if args.bitrate else ""
     show(
@@ -147,4 +149,4 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
         },
         f"drempower sim: stopped after {s.elapsed:.1f} s simulated, {s.frames} frames{load}",
     )
-    return 0
+    return ended

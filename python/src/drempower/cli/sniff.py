@@ -7,6 +7,7 @@ import sys
 import time
 from typing import Any
 
+from ..client.signals import exit_code
 from ..protocol.describe import CaptureDecoder
 from ..protocol.ids import Frame
 from ._connect import add_connection_args, count, open_transport_from_args, positive
@@ -44,6 +45,7 @@ def candump_line(frame: Frame, timestamp: float) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
+    ended = 0
     out = sys.stdout
     transport, how = open_transport_from_args(args)
     start = time.monotonic()
@@ -69,7 +71,7 @@ def run(args: argparse.Namespace) -> int:
                 else:
                     out.write(f"{t:10.6f}  {rec['id']:>5} {rec['data']:<16}  {rec['direction']:<5} {rec['text']}\n")
                 out.flush()
-        except KeyboardInterrupt:
-            pass
+        except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP: stop, then exit 128 + n
+            ended = exit_code(exc)
     print(f"{seen} frame{'' if seen == 1 else 's'} on {how}", file=sys.stderr)
-    return 0
+    return ended

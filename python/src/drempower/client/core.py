@@ -34,6 +34,7 @@ from ..protocol.messages import (
 )
 from ..protocol.parameters import DataType, find_parameter
 from ..transports.base import Transport
+from . import signals
 from .errors import BusClosedError, TimeoutError
 from .requests import MATCHED, MISMATCHED, Matcher, Waiter, request_dtype, request_key
 from .state import MotorState, StateCache
@@ -79,6 +80,8 @@ _RESETS = frozenset((SysCmd.INIT_CONFIG, SysCmd.ERASE_CONFIG, SysCmd.REBOOT))
 _new_state = tuple.__new__
 _monotonic = time.monotonic
 _open_cores: weakref.WeakSet[BusCore] = weakref.WeakSet()
+_SIGNAL_LOCK_WAIT = 0.2
+"""Longest wait (s) for a lock when a signal handler closes a bus: the interrupted code may hold it."""
 
 
 @atexit.register
@@ -86,6 +89,16 @@ def _close_open_buses() -> None:
     """Close (and so apply ``stop_on_close`` to) every bus still open when Python exits."""
     for core in list(_open_cores):
         core.close()
+
+
+def _close_stopping_buses() -> None:
+    """From a signal handler: close every open bus with ``stop_on_close``, never waiting long on a lock."""
+    for core in list(_open_cores):
+        if core.stop_on_close:
+            core.close(lock_timeout=_SIGNAL_LOCK_WAIT)
+
+
+signals.register_stopper(_close_stopping_buses)
 
 
 def describe_request(msg: Message) -> str:
@@ -110,7 +123,9 @@ class BusCore:
     behaviour); ``"node"`` always addresses each motor. ``stop_on_close``:
     ``True`` or ``"idle"`` puts every motor this bus sent a motion command or
     a state request (set_mode) to into IDLE when the bus closes, ``"estop"``
-    sends them an emergency stop, ``False`` leaves them as they are.
+    sends them an emergency stop, ``False`` leaves them as they are. With
+    ``stop_on_close`` a bus opened in the main thread also makes SIGTERM and
+    SIGHUP close it (see :mod:`drempower.client.signals`).
     """
 
     def __init__(
@@ -167,6 +182,8 @@ class BusCore:
         )
         self._thread.start()
         _open_cores.add(self)
+        if stop_on_close:
+            signals.install_stop_handlers()
 
     # ------------------------------------------------------------------ state
 
@@ -251,6 +268,17 @@ class BusCore:
         for f in frames:
             with lock:  # per frame, so an estop from another thread waits one frame at most
                 send(f)
+
+    def _send_now(self, frames: Sequence[Frame], lock_timeout: float) -> None:
+        """Send ``frames``, waiting at most ``lock_timeout`` (s) for the send lock, then sending anyway."""
+        lock, send = self._send_lock, self.transport.send
+        for f in frames:
+            held = lock.acquire(timeout=lock_timeout)
+            try:
+                send(f)
+            finally:
+                if held:
+                    lock.release()
 
     def estop(self, nodes: Sequence[int]) -> None:
         """Emergency stop: one frame per node (0 = every motor), sent at once, no reply awaited.
@@ -409,19 +437,32 @@ class BusCore:
             return [SystemCommand(n, SysCmd.ESTOP).encode() for n in nodes]
         return [WriteParam(n, _REQUESTED_STATE, DataType.U32, _IDLE).encode() for n in nodes]
 
-    def close(self) -> None:
-        """Apply ``stop_on_close``, stop the receive loop, close the transport. Idempotent."""
-        with self._close_lock:
+    def close(self, *, lock_timeout: float = -1) -> None:
+        """Apply ``stop_on_close``, stop the receive loop, close the transport. Idempotent.
+
+        ``lock_timeout`` (s) bounds the waits for locks (a signal handler may
+        run while the code it interrupted holds one): when another close holds
+        the bus that long, it is left to finish; the stop frames go out even if
+        a send still holds the transport.
+        """
+        if not self._close_lock.acquire(timeout=lock_timeout):
+            return
+        try:
             if self._closed:
                 return
             stops = self.stop_frames() if self._failure is None else []
             try:
-                self._send_frames(stops)
+                if lock_timeout < 0:
+                    self._send_frames(stops)
+                else:
+                    self._send_now(stops, lock_timeout)
             except Exception as exc:
                 _log.warning("stopping the motors on close failed: %s", exc)
             self._closed = True
             self.closed_event.set()
             _open_cores.discard(self)
+        finally:
+            self._close_lock.release()
         try:
             self.transport.close()
         finally:

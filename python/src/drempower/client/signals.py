@@ -1,0 +1,139 @@
+"""Termination signals (SIGTERM, SIGHUP) stop what this process started, like Ctrl-C.
+
+Two policies, one per kind of program:
+
+* The Python API (:func:`install_stop_handlers`, called when a bus with
+  ``stop_on_close`` opens): on SIGTERM or SIGHUP every open bus with
+  ``stop_on_close`` is closed at once (its commanded motors go idle, or get an
+  emergency stop), then the handler that was installed before is called; when
+  there was none (the default action) the process exits with 128 + the signal
+  number (``SystemExit``). Handlers are installed only from the main thread
+  (Python allows no other) and never over a signal that is ignored (``nohup``
+  ignores SIGHUP: the program keeps running and so do its motors). A handler
+  the program installs later replaces this one: call
+  :func:`stop_open_buses` from it to keep the guarantee.
+* Commands (:func:`signals_interrupt`): SIGTERM and SIGHUP raise
+  :class:`Terminated`, a :class:`KeyboardInterrupt`, so every path that
+  handles Ctrl-C handles them too; :func:`exit_code` turns it into 128 + the
+  signal number.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+from types import FrameType
+from typing import Any
+
+__all__ = [
+    "TERMINATING_SIGNALS",
+    "Terminated",
+    "exit_code",
+    "install_stop_handlers",
+    "signals_interrupt",
+    "stop_open_buses",
+]
+
+TERMINATING_SIGNALS: tuple[signal.Signals, ...] = tuple(
+    s for s in (getattr(signal, "SIGTERM", None), getattr(signal, "SIGHUP", None)) if s is not None
+)
+"""The signals that end a process politely: systemd and docker stop (SIGTERM), a closed terminal (SIGHUP)."""
+
+_Handler = Callable[[int, FrameType | None], Any] | int | None
+
+_previous: dict[int, _Handler] = {}
+"""Per signal, the handler that was installed before :func:`_stop_and_chain`."""
+_stoppers: list[Callable[[], None]] = []
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM or SIGHUP received by a command: handled as Ctrl-C is, then exit 128 + ``signum``."""
+
+    def __init__(self, signum: int) -> None:
+        super().__init__(signum)
+        self.signum = signum
+
+    def __str__(self) -> str:
+        return signal.Signals(self.signum).name
+
+
+def exit_code(exc: KeyboardInterrupt) -> int:
+    """128 + the signal number that ended the process (SIGINT, 2, for a plain Ctrl-C)."""
+    return 128 + (exc.signum if isinstance(exc, Terminated) else signal.SIGINT)
+
+
+def register_stopper(stop: Callable[[], None]) -> None:
+    """Called (once) by the client core: ``stop()`` closes every open bus with ``stop_on_close``."""
+    if stop not in _stoppers:
+        _stoppers.append(stop)
+
+
+def stop_open_buses() -> None:
+    """Close every open bus with ``stop_on_close`` now (for a program's own signal handler)."""
+    for stop in list(_stoppers):
+        stop()
+
+
+def _stop_and_chain(signum: int, frame: FrameType | None) -> None:
+    stop_open_buses()
+    previous = _previous.get(signum)
+    if callable(previous):
+        previous(signum, frame)
+        return
+    raise SystemExit(128 + signum)
+
+
+_stop_and_chain._drempower_stops = True  # type: ignore[attr-defined]
+
+
+def install_stop_handlers() -> None:
+    """Make SIGTERM and SIGHUP close the open buses first (see the module docstring). Idempotent."""
+    if threading.current_thread() is not threading.main_thread():
+        return
+    for signum in TERMINATING_SIGNALS:
+        current = signal.getsignal(signum)
+        if current is signal.SIG_IGN or current is None or getattr(current, "_drempower_stops", False):
+            continue  # ignored on purpose, set outside Python, or already stopping the buses
+        _previous[signum] = current
+        signal.signal(signum, _stop_and_chain)
+
+
+_terminating = threading.Event()
+
+
+def _raise_terminated(signum: int, frame: FrameType | None) -> None:
+    if _terminating.is_set():
+        return  # a repeated signal must not interrupt the stopping the first one started
+    _terminating.set()
+    raise Terminated(signum)
+
+
+_raise_terminated._drempower_stops = True  # type: ignore[attr-defined]
+
+
+@contextmanager
+def signals_interrupt() -> Iterator[None]:
+    """While inside: SIGTERM and SIGHUP raise :class:`Terminated` in the main thread (restored afterwards).
+
+    A signal that is ignored (SIGHUP under ``nohup``) stays ignored. Outside
+    the main thread this does nothing.
+    """
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    saved: dict[int, _Handler] = {}
+    for signum in TERMINATING_SIGNALS:
+        current = signal.getsignal(signum)
+        if current is signal.SIG_IGN:
+            continue
+        saved[signum] = current
+        signal.signal(signum, _raise_terminated)
+    _terminating.clear()
+    try:
+        yield
+    finally:
+        for number, handler in saved.items():
+            signal.signal(number, handler if handler is not None else signal.SIG_DFL)
+        _terminating.clear()
