@@ -33,11 +33,13 @@ def test_backup_and_restore(bus: Bus, motors: FakeMotors, tmp_path: Path) -> Non
     assert b.failed == [] and b.values()["vbus_voltage"] == 24.0
 
     motors.params[2].update({38012: 50.0, 35104: 1})
-    dry = bus.motor(2).restore(path, dry_run=True)
+    dry = bus.motor(2).restore(path, dry_run=True, force=True)
     assert ("axis0.output_shaft.vel_limit", 50.0, 200.0) in dry.written
     assert motors.params[2][38012] == 50.0
 
-    report = bus.motor(2).restore(ConfigBackup.load(path), save=True)
+    with pytest.raises(drempower.ValidationError, match="the backup is of motor 1, not motor 2"):
+        bus.motor(2).restore(path)
+    report = bus.motor(2).restore(ConfigBackup.load(path), save=True, force=True)
     assert report.ok and report.saved
     written = {name for name, _, _ in report.written}
     assert {"axis0.output_shaft.vel_limit", "axis0.controller.config.pos_gain"} <= written
@@ -45,7 +47,7 @@ def test_backup_and_restore(bus: Bus, motors: FakeMotors, tmp_path: Path) -> Non
     assert motors.params[2][38012] == 200.0 and motors.params[2][31001] == 2  # the id is not restored
     for skipped in ("vbus_voltage", "axis0.config.can_node_id", "axis0.requested_state", "axis0.controller.input_pos"):
         assert skipped in report.skipped
-    again = bus.motor(2).restore(path)
+    again = bus.motor(2).restore(path, force=True)
     assert again.written == [] and again.ok
 
 

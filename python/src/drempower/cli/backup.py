@@ -42,7 +42,14 @@ def register(sub: Any) -> None:
     for p in (r, d):
         p.add_argument("id", type=motor_id, metavar="ID", help="the motor's id")
         p.add_argument("file", metavar="FILE", help="backup file (written by `drempower backup`)")
-        p.add_argument("--include-link", action="store_true", help="also the id and bitrates")
+        p.add_argument(
+            "--include-link",
+            action="store_true",
+            help="also the id and bitrates: written last, after everything else is verified",
+        )
+        p.add_argument(
+            "--force", action="store_true", help="accept a backup of another motor id or with duplicated records"
+        )
         add_json_arg(p)
         add_connection_args(p)
     r.add_argument("--save", action="store_true", help="store the configuration in flash when all went well")
@@ -73,7 +80,7 @@ def _restore(args: argparse.Namespace, dry_run: bool) -> RestoreReport:
     cfg = ConfigBackup.load(args.file)
     with open_from_args(args) as bus:
         return bus.motor(args.id).restore(
-            cfg, include_link=args.include_link, save=getattr(args, "save", False), dry_run=dry_run
+            cfg, include_link=args.include_link, save=getattr(args, "save", False), dry_run=dry_run, force=args.force
         )
 
 
@@ -103,7 +110,10 @@ def run_restore(args: argparse.Namespace) -> int:
     written, unchanged = len(result.written), len(result.unchanged)
     summary = {"id": args.id, "file": args.file, "written": written, "unchanged": unchanged, "saved": result.saved}
     saved = ", saved" if result.saved else ""
-    report(args, f"motor {args.id}: {written} written, {unchanged} unchanged{saved}", [summary])
+    moved = f", now motor {result.node}" if result.node != args.id else ""
+    if moved:
+        summary["now_id"] = result.node
+    report(args, f"motor {args.id}: {written} written, {unchanged} unchanged{saved}{moved}", [summary])
     if result.failed:
         raise DrEmpowerError(
             f"motor {args.id}: {len(result.failed)} not restored: "

@@ -379,10 +379,11 @@ class AsyncMotor(MotorBase):
         include_link: bool = False,
         save: bool = False,
         dry_run: bool = False,
+        force: bool = False,
         timeout: float | None = None,
     ) -> _backup.RestoreReport:
         op = _backup.restore(
-            self._core, self._id, source, timeout, include_link=include_link, save=save, dry_run=dry_run
+            self._core, self._id, source, timeout, include_link=include_link, save=save, dry_run=dry_run, force=force
         )
         return await self._bus.run(op)
 

@@ -289,10 +289,11 @@ class Motor(MotorBase):
         include_link: bool = False,
         save: bool = False,
         dry_run: bool = False,
+        force: bool = False,
         timeout: float | None = None,
     ) -> _backup.RestoreReport:
         """Write a backup (object or JSON file) back; see :func:`drempower.client.backup.restore`."""
         op = _backup.restore(
-            self._core, self._id, source, timeout, include_link=include_link, save=save, dry_run=dry_run
+            self._core, self._id, source, timeout, include_link=include_link, save=save, dry_run=dry_run, force=force
         )
         return self._bus.run(op)
