@@ -167,14 +167,50 @@ class SimBus:
                 self.now = target
 
     def uart_request(self, ident: int, frame: Frame) -> list[Frame]:
-        """Deliver ``frame`` through the UART of motor ``ident`` only; returns its answers."""
+        """Deliver ``frame`` through the UART of motor ``ident`` only; returns its answers.
+
+        ``drop_rate`` and ``corrupt_rate`` apply to the request here; a UART
+        attachment sends the answers through :meth:`uart_reply` for the rest.
+        """
         out: list[Frame] = []
         with self.lock:
-            msg = _decode(frame)
+            faulty = self._fault(frame)
+            if faulty is None:
+                return out
+            msg = _decode(faulty)
             m = self.motors[ident]
             if msg is not None and (msg.node == 0 or msg.node == m.node_id):
                 m.receive(msg, out.append)
             return [] if ident in self.faults.silent else out
+
+    def uart_reply(self, frame: Frame, sink: Listener) -> None:
+        """Send a motor frame out of a UART attachment as the faults allow: lost, corrupted, or late.
+
+        ``sink(frame)`` runs now, or after ``reply_delay`` (+ jitter) of
+        simulated time; not at all when the frame is dropped.
+        """
+        with self.lock:
+            f = self.faults
+            faulty = self._fault(frame)
+            if faulty is None:
+                return
+            delay = f.reply_delay + (self.rng.uniform(0.0, f.reply_jitter) if f.reply_jitter > 0 else 0.0)
+            if delay > 0:
+                heapq.heappush(self._events, (self.now + delay, next(self._seq), lambda: sink(faulty)))
+                return
+        sink(faulty)
+
+    def _fault(self, frame: Frame) -> Frame | None:
+        """``frame`` as the random faults leave it: None when lost, or with one bit flipped."""
+        f = self.faults
+        if f.drop_rate > 0 and self.rng.random() < f.drop_rate:
+            return None
+        if f.corrupt_rate > 0 and frame.data and self.rng.random() < f.corrupt_rate:
+            bit = self.rng.randrange(len(frame.data) * 8)
+            data = bytearray(frame.data)
+            data[bit >> 3] ^= 1 << (bit & 7)
+            frame = frame._replace(data=bytes(data))
+        return frame
 
     def add_uart_tap(self, ident: int, listener: Listener) -> None:
         """Also send the heartbeats of motor ``ident`` to ``listener`` (its UART)."""
@@ -216,14 +252,10 @@ class SimBus:
 
     def _enter(self, frame: Frame, source: SimMotor | None, origin: Listener | None = None) -> None:
         """A frame is offered to the bus by the host (``source`` None) or a motor."""
-        f = self.faults
-        if f.drop_rate > 0 and self.rng.random() < f.drop_rate:
+        faulty = self._fault(frame)
+        if faulty is None:
             return
-        if f.corrupt_rate > 0 and frame.data and self.rng.random() < f.corrupt_rate:
-            bit = self.rng.randrange(len(frame.data) * 8)
-            data = bytearray(frame.data)
-            data[bit >> 3] ^= 1 << (bit & 7)
-            frame = frame._replace(data=bytes(data))
+        frame = faulty
         if self.bitrate is None:
             self._stats.frames += 1
             self._deliver(frame, source, origin)

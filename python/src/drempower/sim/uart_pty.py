@@ -3,8 +3,11 @@
 Only the motor wired to the UART is reachable: frames from the host go to that
 motor alone (not onto the CAN bus), and its answers, and its heartbeats, come
 back as 11-byte frames. Bytes that do not line up with a frame are skipped until
-a header does (:class:`~drempower.protocol.framing.Uart11Decoder`). The UART's
-own timing (about 1 ms per frame at 115200 baud) is not modelled.
+a header does (:class:`~drempower.protocol.framing.Uart11Decoder`). The bus's
+faults apply as on CAN: ``drop_rate`` and ``corrupt_rate`` to frames both ways,
+``reply_delay`` (and jitter) to every frame of the motor, ``serial_garbage``
+before frames sent. The UART's own timing (about 1 ms per frame at 115200
+baud) is not modelled.
 """
 
 from __future__ import annotations
@@ -28,8 +31,12 @@ class UartPty(PtyLink):
         self.ident = ident
         self.decoder = Uart11Decoder()
         """Decodes what the host sends; its ``dropped`` counts garbage bytes."""
-        bus.add_uart_tap(ident, self._out)
+        bus.add_uart_tap(ident, self._reply)
         self._start()
+
+    def _reply(self, frame: Frame) -> None:
+        """A frame of the motor: through the faults, then out."""
+        self.sim.uart_reply(frame, self._out)
 
     def _out(self, frame: Frame) -> None:
         f = self.sim.faults
@@ -42,10 +49,10 @@ class UartPty(PtyLink):
         for frame in self.decoder.feed(data):
             with self.sim.lock:
                 for answer in self.sim.uart_request(self.ident, frame):
-                    self._out(answer)
+                    self._reply(answer)
 
     def close(self) -> None:
-        self.sim.remove_uart_tap(self.ident, self._out)
+        self.sim.remove_uart_tap(self.ident, self._reply)
         super().close()
 
 
