@@ -13,10 +13,21 @@ import json
 import os
 from pathlib import Path
 
-from ..protocol.parameters import DataType, Parameter, parameter, parameters
+from ..errors import DrEmpowerError
+from ..protocol.parameters import DataType, Parameter, encode_value, parameter, parameters
 from .defaults import FACTORY, READ_ONLY_CONSTANTS
 
-__all__ = ["ANGLE", "SPEED", "TORQUE", "OUTPUT_VIEWS", "RUNTIME", "CONFIG", "ParamStore", "view_factor"]
+__all__ = [
+    "ANGLE",
+    "SPEED",
+    "TORQUE",
+    "OUTPUT_VIEWS",
+    "RUNTIME",
+    "CONFIG",
+    "ParamStore",
+    "SavedConfigError",
+    "view_factor",
+]
 
 ANGLE, SPEED, TORQUE = 0, 1, 2
 """Kinds of output view: degrees per rotor turn, r/min per rotor turn/s, output Nm per rotor Nm."""
@@ -118,13 +129,49 @@ class ParamStore:
     def _load(self) -> dict[int, int | float] | None:
         if self.path is None or not self.path.exists():
             return None
-        doc = json.loads(self.path.read_text(encoding="utf-8"))
+        problems: list[str] = []
+        try:
+            doc = json.loads(self.path.read_text(encoding="utf-8"))
+        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            raise SavedConfigError(self.path, [f"cannot be read: {exc}"]) from None
+        values = doc.get("parameters") if isinstance(doc, dict) and doc.get("format") == _FORMAT else None
+        if not isinstance(values, dict):
+            raise SavedConfigError(self.path, [f"is not a {_FORMAT} file (an object with its parameters)"])
         saved = dict(self.factory)
-        for name, value in doc.get("parameters", {}).items():
+        for name, value in values.items():
             try:
                 p = parameter(name)
             except ValueError:
+                continue  # a parameter of another version: ignored
+            if p.address not in CONFIG:
                 continue
-            if p.address in CONFIG and isinstance(value, (int, float)):
-                saved[p.address] = _typed(p, value)
+            if isinstance(value, bool) or not isinstance(value, (int, float)):
+                problems.append(f"{name}: {value!r} is not a number")
+                continue
+            if p.dtype is not DataType.F32 and value != int(value):
+                problems.append(f"{name}: {value!r} is not a whole number")
+                continue
+            try:
+                encode_value(p.dtype, value, field=name)
+            except DrEmpowerError as exc:
+                problems.append(str(exc))
+                continue
+            saved[p.address] = _typed(p, value)
+        node = saved[31001]
+        if not 1 <= node <= 63:
+            problems.append(f"axis0.config.can_node_id={node}: a motor id is 1..63 (0 is the broadcast address)")
+        if problems:
+            raise SavedConfigError(self.path, problems)
         return saved
+
+
+class SavedConfigError(DrEmpowerError):
+    """A saved configuration file of a simulated motor that cannot be loaded; names the file and a way out."""
+
+    def __init__(self, path: Path, problems: list[str]) -> None:
+        self.path = path
+        self.problems = problems
+        super().__init__(
+            f"saved configuration {os.fspath(path)}: {'; '.join(problems)} "
+            "(delete the file, or use another --config-dir, to start from the factory configuration)"
+        )
