@@ -6,6 +6,14 @@ uses: the server greets with ``< hi >``; the client sends ``< open can0 >`` and
 ``< rawmode >``, each answered ``< ok >``; then the client sends
 ``< send ID LEN B0 B1 ... >`` and receives ``< frame ID SECS.USECS DATA >``
 (simulated time, data as one hex string). ``< echo >`` is echoed.
+
+What one local client can cost is bounded: its input is parsed in one pass
+and a command longer than :data:`MAX_COMMAND` is refused (and skipped) without
+being kept; its output waits in a queue of at most ``max_queue`` messages, and
+a client that does not read them is disconnected (counted in
+``SocketcandServer.disconnected_slow``); at most ``max_clients`` connections
+are served at once (two threads each), further ones are refused with an
+error message (counted in ``SocketcandServer.refused``).
 """
 
 from __future__ import annotations
@@ -20,12 +28,60 @@ from types import TracebackType
 from ..protocol.ids import Frame
 from .bus import SimBus
 
-__all__ = ["SocketcandServer", "attach_socketcand", "parse_send", "format_frame"]
+__all__ = ["CommandParser", "SocketcandServer", "attach_socketcand", "parse_send", "format_frame"]
 
 _SETTLE = 0.02
 """Pause after the ``< ok >`` that ends the handshake, so that the client reads it on its own (s)."""
 _POLL = 0.2
 """Longest wait of the server threads (s), so that close() is noticed promptly."""
+MAX_COMMAND = 256
+"""Longest command accepted between ``<`` and ``>`` (bytes); the longest valid one is about 40."""
+MAX_QUEUE = 4096
+"""Default bound of each client's output queue (messages)."""
+MAX_CLIENTS = 16
+"""Default number of connections served at once."""
+
+
+class CommandParser:
+    """Splits a socketcand byte stream into the commands between ``<`` and ``>``, in one pass.
+
+    Bytes outside ``< >`` are skipped; a command longer than ``limit`` bytes is
+    reported as None (too long) when its ``>`` arrives, and its bytes are not kept.
+    """
+
+    __slots__ = ("_body", "_too_long", "limit")
+
+    def __init__(self, limit: int = MAX_COMMAND) -> None:
+        self.limit = limit
+        self._body: bytearray | None = None
+        self._too_long = False
+
+    def feed(self, chunk: bytes) -> list[str | None]:
+        """The commands completed by ``chunk`` (text between the brackets, stripped; None when too long)."""
+        out: list[str | None] = []
+        pos, n = 0, len(chunk)
+        while pos < n:
+            if self._body is None:
+                start = chunk.find(b"<", pos)
+                if start < 0:
+                    break
+                self._body = bytearray()
+                self._too_long = False
+                pos = start + 1
+            end = chunk.find(b">", pos)
+            stop = n if end < 0 else end
+            if not self._too_long:
+                if len(self._body) + stop - pos > self.limit:
+                    self._too_long = True
+                    self._body.clear()
+                else:
+                    self._body += chunk[pos:stop]
+            if end < 0:
+                break
+            out.append(None if self._too_long else self._body.decode("ascii", "replace").strip())
+            self._body = None
+            pos = end + 1
+        return out
 
 
 def parse_send(body: str) -> Frame:
@@ -52,26 +108,39 @@ class _Client:
     def __init__(self, server: SocketcandServer, conn: socket.socket) -> None:
         self.server = server
         self.conn = conn
-        self.out: queue.SimpleQueue[bytes | None] = queue.SimpleQueue()
+        self.out: queue.Queue[bytes] = queue.Queue(server.max_queue)
         self.raw = False
-        self.buf = ""
+        self.closed = False
+        self.parser = CommandParser()
         self.reader = threading.Thread(target=self._read, name="drempower-sim-socketcand-client", daemon=True)
         self.writer = threading.Thread(target=self._write, name="drempower-sim-socketcand-writer", daemon=True)
-        self.out.put(b"< hi >")
+        self.put(b"< hi >")
         self.reader.start()
         self.writer.start()
 
+    def put(self, message: bytes) -> None:
+        """Queue ``message``; a client whose queue is full does not read: it is disconnected."""
+        if self.closed:
+            return
+        try:
+            self.out.put_nowait(message)
+        except queue.Full:
+            self.server.count_slow()
+            self.close()
+
     def frame(self, frame: Frame) -> None:
-        self.out.put(format_frame(frame, self.server.sim.now))
+        self.put(format_frame(frame, self.server.sim.now))
 
     def _write(self) -> None:
-        while True:
-            data = self.out.get()
-            if data is None:
-                return
+        while not self.closed:
+            try:
+                data = self.out.get(timeout=_POLL)
+            except queue.Empty:
+                continue
             try:
                 self.conn.sendall(data)
             except OSError:
+                self.close()
                 return
             if data == b"< ok >" and self.raw:
                 time.sleep(_SETTLE)
@@ -80,57 +149,55 @@ class _Client:
         conn = self.conn
         conn.settimeout(_POLL)
         try:
-            while not self.server.closed:
+            while not self.server.closed and not self.closed:
                 try:
-                    chunk = conn.recv(4096)
+                    chunk = conn.recv(65536)
                 except TimeoutError:
                     continue
                 if not chunk:
                     break
-                self.buf += chunk.decode("ascii", "replace")
-                self._commands()
+                for body in self.parser.feed(chunk):
+                    if body is None:
+                        self.put(f"< error command longer than {MAX_COMMAND} bytes >".encode())
+                    else:
+                        self._command(body)
         except OSError:
             pass
         finally:
             self.close()
-
-    def _commands(self) -> None:
-        while True:
-            start = self.buf.find("<")
-            end = self.buf.find(">", start + 1)
-            if start < 0 or end < 0:
-                if start < 0:
-                    self.buf = ""
-                return
-            body = self.buf[start + 1 : end].strip()
-            self.buf = self.buf[end + 1 :]
-            self._command(body)
 
     def _command(self, body: str) -> None:
         word = body.split(" ", 1)[0]
         sim = self.server.sim
         if word == "open":
             ok = body.split()[1:] == [self.server.channel]
-            self.out.put(b"< ok >" if ok else b"< error could not open bus >")
+            self.put(b"< ok >" if ok else b"< error could not open bus >")
         elif word == "rawmode":
             self.raw = True
             sim.add_listener(self.frame, host_frames=True)
-            self.out.put(b"< ok >")
+            self.put(b"< ok >")
         elif word == "echo":
-            self.out.put(b"< echo >")
+            self.put(b"< echo >")
         elif word == "send" and self.raw:
             try:
                 frame = parse_send(body)
             except ValueError:
-                self.out.put(b"< error bad send command >")
+                self.put(b"< error bad send command >")
                 return
             sim.send(frame, self.frame)
         else:
-            self.out.put(f"< error unknown command {word} >".encode())
+            self.put(f"< error unknown command {word[:32]} >".encode())
 
     def close(self) -> None:
+        """Drop the connection (idempotent; the threads end within one poll)."""
+        if self.closed:
+            return
+        self.closed = True
         self.server.sim.remove_listener(self.frame)
-        self.out.put(None)
+        try:
+            self.conn.shutdown(socket.SHUT_RDWR)  # wakes a writer blocked in sendall
+        except OSError:
+            pass
         try:
             self.conn.close()
         except OSError:
@@ -140,14 +207,36 @@ class _Client:
 
 class SocketcandServer:
     """Serves ``bus`` to socketcand clients on ``host`` (a loopback address) and ``port``
-    (0 picks a free one; see ``.port``), as bus ``channel``."""
+    (0 picks a free one; see ``.port``), as bus ``channel``.
 
-    def __init__(self, bus: SimBus, port: int = 0, host: str = "127.0.0.1", channel: str = "can0") -> None:
+    ``max_clients`` connections at most; each client's output queue holds
+    ``max_queue`` messages at most. ``refused`` counts the connections turned
+    away, ``disconnected_slow`` the clients dropped for not reading.
+    """
+
+    def __init__(
+        self,
+        bus: SimBus,
+        port: int = 0,
+        host: str = "127.0.0.1",
+        channel: str = "can0",
+        *,
+        max_clients: int = MAX_CLIENTS,
+        max_queue: int = MAX_QUEUE,
+    ) -> None:
         if not ipaddress.ip_address(host).is_loopback:
             raise ValueError(f"the simulator serves loopback addresses only, not {host}")
+        if max_clients < 1 or max_queue < 1:
+            raise ValueError(f"max_clients={max_clients}, max_queue={max_queue}: both must be >= 1")
         self.sim = bus
         self.channel = channel
         self.closed = False
+        self.max_clients = max_clients
+        self.max_queue = max_queue
+        self.refused = 0
+        """Connections turned away because ``max_clients`` were being served."""
+        self.disconnected_slow = 0
+        """Clients disconnected because they did not read what was queued for them."""
         family = socket.AF_INET6 if ":" in host else socket.AF_INET
         self._sock = socket.socket(family, socket.SOCK_STREAM)
         self._sock.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
@@ -171,11 +260,21 @@ class SocketcandServer:
                 return
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
             with self._lock:
-                self._clients.add(_Client(self, conn))
+                full = len(self._clients) >= self.max_clients
+                if full:
+                    self.refused += 1
+                else:
+                    self._clients.add(_Client(self, conn))
+            if full:
+                _refuse(conn, f"< error too many connections ({self.max_clients}) >".encode())
 
     def forget(self, client: _Client) -> None:
         with self._lock:
             self._clients.discard(client)
+
+    def count_slow(self) -> None:
+        with self._lock:
+            self.disconnected_slow += 1
 
     def close(self) -> None:
         """Stop serving and drop every connection (idempotent)."""
@@ -197,6 +296,17 @@ class SocketcandServer:
         self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
     ) -> None:
         self.close()
+
+
+def _refuse(conn: socket.socket, message: bytes) -> None:
+    """Tell a connection it is not served, without waiting on it, and close it."""
+    try:
+        conn.setblocking(False)
+        conn.send(message)
+    except OSError:
+        pass
+    finally:
+        conn.close()
 
 
 def attach_socketcand(bus: SimBus, port: int = 0, host: str = "127.0.0.1", channel: str = "can0") -> SocketcandServer:
