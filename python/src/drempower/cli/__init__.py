@@ -12,17 +12,26 @@ import importlib
 import pkgutil
 import sys
 from collections.abc import Sequence
+from typing import NoReturn
 
 from .. import __version__
 from ..client.signals import Terminated, exit_code, signals_interrupt
 from ..errors import DrEmpowerError
+from ._output import clean
 from ._usage import UsageError
 
 __all__ = ["main", "build_parser"]
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse, with control characters of the arguments it quotes escaped in its errors."""
+
+    def error(self, message: str) -> NoReturn:
+        super().error(clean(message))
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="drempower",
         description="Work with DrEmpower servo joint motors: decode, simulate, drive, configure.",
     )
@@ -52,10 +61,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UsageError as exc:  # reported as argparse reports its own errors, exit code included
         command: argparse.ArgumentParser = args.command_parser
         command.print_usage(sys.stderr)
-        print(f"{command.prog}: error: {exc}", file=sys.stderr)
+        print(clean(f"{command.prog}: error: {exc}"), file=sys.stderr)
         return 2
     except DrEmpowerError as exc:
-        print(f"drempower: error: {exc}", file=sys.stderr)
+        print(clean(f"drempower: error: {exc}"), file=sys.stderr)
         return 1
     except KeyboardInterrupt as exc:
         how = f"terminated ({exc})" if isinstance(exc, Terminated) else "interrupted"

@@ -22,6 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import DrEmpowerError
 from ..protocol import S16_MAX
+from ._output import clean
 from ._usage import UsageError
 
 if TYPE_CHECKING:
@@ -316,7 +317,7 @@ def _connect(args: argparse.Namespace, quiet: bool) -> tuple[dict[str, Any], str
     kw, how = connection_kwargs(args)
     chosen = args.sim or args.serial or args.uart or args.interface
     if not (chosen or quiet):
-        print(f"drempower: using {how}", file=sys.stderr)
+        print(clean(f"drempower: using {how}"), file=sys.stderr)
     return kw, how
 
 

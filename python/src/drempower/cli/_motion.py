@@ -14,7 +14,7 @@ from ..client import Bus
 from ..client.signals import Terminated
 from ..errors import DrEmpowerError
 from ._connect import add_ids_arg, open_from_args, positive
-from ._output import motors_text
+from ._output import clean, motors_text
 from ._usage import UsageError
 
 __all__ = [
@@ -162,7 +162,10 @@ def restore_watchdog(bus: Bus, previous: dict[int, int]) -> None:
         try:
             bus.motor(node).write_property(WATCHDOG_PARAMETER, ms, verify=True)
         except DrEmpowerError as exc:
-            print(f"drempower: motor {node}: could not restore {WATCHDOG_PARAMETER} to {ms}: {exc}", file=sys.stderr)
+            print(
+                clean(f"drempower: motor {node}: could not restore {WATCHDOG_PARAMETER} to {ms}: {exc}"),
+                file=sys.stderr,
+            )
 
 
 @contextmanager

@@ -5,12 +5,14 @@ from __future__ import annotations
 import argparse
 import json
 import math
+import re
 import sys
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any, TextIO
 
 __all__ = [
     "add_json_arg",
+    "clean",
     "emit",
     "fmt",
     "is_terminal",
@@ -23,6 +25,26 @@ __all__ = [
     "sent",
     "significant",
 ]
+
+
+_CONTROL = re.compile("[\x00-\x1f\x7f-\x9f\u2028\u2029\u202a-\u202e\u2066-\u2069]")
+_NAMED = {"\n": "\\n", "\r": "\\r", "\t": "\\t"}
+
+
+def _escape(m: re.Match[str]) -> str:
+    c = m.group()
+    return _NAMED.get(c) or (f"\\x{ord(c):02x}" if ord(c) < 0x100 else f"\\u{ord(c):04x}")
+
+
+def clean(text: str) -> str:
+    """``text`` with control characters (C0, DEL, C1, line and direction overrides) escaped as ``\\x1b``...
+
+    Everything a command prints that came from its input (file lines, names,
+    arguments, error messages quoting them) goes through this, so input can
+    never move the cursor, ring the bell or retitle the terminal. JSON output
+    escapes them by itself.
+    """
+    return _CONTROL.sub(_escape, text)
 
 
 def add_json_arg(parser: argparse.ArgumentParser) -> None:
@@ -43,8 +65,8 @@ def fmt(value: object, digits: int | None = 2) -> str:
     if isinstance(value, float):
         return f"{value:.7g}" if digits is None else f"{value:.{digits}f}"
     if isinstance(value, (list, tuple)):
-        return " ".join(map(str, value)) or "-"
-    return str(value)
+        return clean(" ".join(map(str, value))) or "-"
+    return clean(str(value))
 
 
 def motors_text(ids: Sequence[int]) -> str:
@@ -130,7 +152,7 @@ def report(args: argparse.Namespace, text: str, records: Sequence[Mapping[str, A
     if getattr(args, "json", False):
         emit(args, (), records)
     else:
-        sys.stdout.write(text + "\n")
+        sys.stdout.write(clean(text) + "\n")
 
 
 def sent(ids: Sequence[int], command: str, **fields: Any) -> list[dict[str, Any]]:

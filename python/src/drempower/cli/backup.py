@@ -10,7 +10,7 @@ from ..client import ConfigBackup, RestoreReport
 from ..errors import DrEmpowerError
 from ..protocol import find_parameter
 from ._connect import add_connection_args, motor_id, open_from_args
-from ._output import add_json_arg, emit, report, significant
+from ._output import add_json_arg, clean, emit, report, significant
 
 
 def register(sub: Any) -> None:
@@ -96,7 +96,7 @@ def run_diff(args: argparse.Namespace) -> int:
         report(args, f"motor {args.id}: configuration matches {args.file}", [same])
     if not args.json:
         for name, why in result.failed:
-            print(f"{name}: not compared: {why}", file=sys.stderr)
+            print(clean(f"{name}: not compared: {why}"), file=sys.stderr)
     return 0
 
 

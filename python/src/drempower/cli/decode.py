@@ -20,7 +20,7 @@ from ..protocol import (
 )
 from ..protocol.candump import parse_candump_line
 from ..protocol.parameters import find_parameter
-from ._output import json_line
+from ._output import clean, json_line
 
 
 def register(sub: Any) -> None:
@@ -29,7 +29,8 @@ def register(sub: Any) -> None:
         help="decode candump lines (from files or stdin) into DrEmpower messages",
         description=(
             "Decode candump-format lines, e.g. '(ts) can0 039#0000B4420000E803' or '039#0000B4420000E803', "
-            "one message per frame. Lines that are not frames or do not decode are reported, never fatal."
+            "one message per frame. Lines that are not frames or do not decode are reported, never fatal; "
+            "exits 1 when no line is a frame."
         ),
     )
     p.add_argument("files", nargs="*", help="candump files (default: stdin; '-' is stdin)")
@@ -102,19 +103,22 @@ def _lines(files: list[str]) -> Iterable[str]:
 
 def run(args: argparse.Namespace, out: TextIO | None = None) -> int:
     out = out or sys.stdout
-    bad = 0
+    frames = 0
     capture = CaptureDecoder()
     for line in _lines(args.files):
         if not line.strip() or line.lstrip().startswith("#"):
             continue
         rec = decode_line(line, args.direction, capture)
-        if "error" in rec:
-            bad += 1
+        if "id" in rec:
+            frames += 1
         if args.json:
             out.write(json_line(rec) + "\n")
         elif "error" in rec:
-            out.write(f"{rec['line'].strip()}  !! {rec['error']}\n")
+            out.write(clean(f"{rec['line'].strip()}  !! {rec['error']}") + "\n")
         else:
-            out.write(f"{rec['id']:>5} {rec['data']:<16}  {rec['direction']:<5} {rec['text']}\n")
+            out.write(clean(f"{rec['id']:>5} {rec['data']:<16}  {rec['direction']:<5} {rec['text']}") + "\n")
         out.flush()
+    if not frames:
+        print("drempower decode: no line of the input was a CAN frame", file=sys.stderr)
+        return 1
     return 0

@@ -19,7 +19,7 @@ from ..sim import (
     attach_uart_pty,
 )
 from ._connect import bitrate, parse_ids, positive
-from ._output import json_line
+from ._output import clean, json_line
 from ._usage import UsageError
 
 
@@ -84,7 +84,7 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
     def show(record: dict[str, Any], *lines: str) -> None:
         text = [json_line(record)] if getattr(args, "json", False) else lines
         for line in text:
-            print(line, file=stream)
+            print(clean(line), file=stream)
 
     faults = Faults(
         drop_rate=args.drop_rate,

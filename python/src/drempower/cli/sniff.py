@@ -11,7 +11,7 @@ from ..client.signals import exit_code
 from ..protocol.describe import CaptureDecoder
 from ..protocol.ids import Frame
 from ._connect import add_connection_args, count, open_transport_from_args, positive
-from ._output import add_json_arg, json_line
+from ._output import add_json_arg, clean, json_line
 from .decode import decode_line
 
 
@@ -67,11 +67,13 @@ def run(args: argparse.Namespace) -> int:
                 if args.json:
                     out.write(json_line({"time_s": round(t, 6), **rec}) + "\n")
                 elif "error" in rec:
-                    out.write(f"{t:10.6f}  {rec.get('id', '?'):>5} {rec.get('data', ''):<16}  !! {rec['error']}\n")
+                    line = f"{t:10.6f}  {rec.get('id', '?'):>5} {rec.get('data', ''):<16}  !! {rec['error']}"
+                    out.write(clean(line) + "\n")
                 else:
-                    out.write(f"{t:10.6f}  {rec['id']:>5} {rec['data']:<16}  {rec['direction']:<5} {rec['text']}\n")
+                    line = f"{t:10.6f}  {rec['id']:>5} {rec['data']:<16}  {rec['direction']:<5} {rec['text']}"
+                    out.write(clean(line) + "\n")
                 out.flush()
         except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP: stop, then exit 128 + n
             ended = exit_code(exc)
-    print(f"{seen} frame{'' if seen == 1 else 's'} on {how}", file=sys.stderr)
+    print(clean(f"{seen} frame{'' if seen == 1 else 's'} on {how}"), file=sys.stderr)
     return ended
