@@ -1,0 +1,83 @@
+"""The stop-on-close signal handlers: installed once, chained, never over an ignored signal or off the main thread."""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+from collections.abc import Iterator
+from types import FrameType
+
+import pytest
+
+from drempower.client import Bus
+from drempower.client import signals as sig
+from drempower.protocol import DataType, WriteParam
+
+from .scripted import FakeMotors, ScriptedTransport
+
+pytestmark = pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
+
+IDLE = WriteParam(1, 30003, DataType.U32, 1).encode()
+
+
+@pytest.fixture(autouse=True)
+def _restore_handlers() -> Iterator[None]:
+    saved = {s: signal.getsignal(s) for s in sig.TERMINATING_SIGNALS}
+    previous = dict(sig._previous)
+    try:
+        yield
+    finally:
+        for s, h in saved.items():
+            signal.signal(s, h)
+        sig._previous.clear()
+        sig._previous.update(previous)
+
+
+def test_sigterm_closes_the_bus_then_calls_the_previous_handler() -> None:
+    calls: list[int] = []
+
+    def own(signum: int, frame: FrameType | None) -> None:
+        calls.append(signum)
+
+    signal.signal(signal.SIGTERM, own)
+    t = ScriptedTransport(FakeMotors([1]))
+    bus = Bus(t, timeout=0.5)
+    bus.motor(1).set_speed(30)
+    os.kill(os.getpid(), signal.SIGTERM)
+    assert calls == [signal.SIGTERM]  # the program's own handler still runs
+    assert bus.closed and t.sent[-1] == IDLE  # after the motor was set idle
+
+
+def test_without_a_previous_handler_the_process_exits_128_plus_n() -> None:
+    signal.signal(signal.SIGHUP, signal.SIG_DFL)
+    t = ScriptedTransport(FakeMotors([1]))
+    bus = Bus(t, timeout=0.5)
+    bus.motor(1).set_speed(30)
+    with pytest.raises(SystemExit) as info:
+        os.kill(os.getpid(), signal.SIGHUP)
+    assert info.value.code == 128 + signal.SIGHUP and bus.closed and t.sent[-1] == IDLE
+
+
+def test_an_ignored_signal_stays_ignored_and_stop_on_close_false_installs_nothing() -> None:
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    with Bus(ScriptedTransport(), stop_on_close=False):
+        assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+    with Bus(ScriptedTransport()):
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+        assert signal.getsignal(signal.SIGTERM) is sig._stop_and_chain
+
+
+def test_a_bus_opened_in_another_thread_installs_nothing() -> None:
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    done = threading.Event()
+
+    def open_one() -> None:
+        with Bus(ScriptedTransport()):
+            done.set()
+
+    th = threading.Thread(target=open_one)
+    th.start()
+    th.join(5)
+    assert done.is_set() and signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
