@@ -85,7 +85,7 @@ def test_a_signal_idles_the_motors_of_a_running_command(pty: str, sig: signal.Si
     p.send_signal(sig)
     _, err = p.communicate(timeout=20)
     assert p.returncode == 128 + sig, err
-    assert "motors 1, 2 set to idle" in err and "Traceback" not in err
+    assert "motors 1, 2 set to idle; motor 1 still coasting at" in err and "Traceback" not in err
     for node in (1, 2):
         assert _state(pty, node)["state"] == "idle"
 
