@@ -14,7 +14,7 @@ from drempower.cli import main
 
 from ..cli.conftest import SLOW_LINK, Cli
 
-mcap_reader = pytest.importorskip("mcap_ros2.reader")
+highlevel = pytest.importorskip("rosbags.highlevel")
 
 
 def _sniff_while_reading(channel: str, log: Path, capsys: pytest.CaptureFixture[str]) -> str:
@@ -34,11 +34,13 @@ def _sniff_while_reading(channel: str, log: Path, capsys: pytest.CaptureFixture[
 
 def _independent_frames(log: Path) -> list[tuple[float, int, bytes]]:
     if log.suffix == ".mcap":
-        return [
-            (m.log_time_ns / 1e9, m.ros_msg.id, bytes(m.ros_msg.data)[: m.ros_msg.dlc])
-            for m in mcap_reader.read_ros2_messages(str(log))
-            if m.channel.topic in ("/can/rx", "/can/tx")
-        ]
+        with highlevel.AnyReader([log]) as reader:  # rosbags: nothing of drempower's code
+            out = []
+            for c, t, raw in reader.messages():
+                if c.topic in ("/can/rx", "/can/tx"):
+                    f = reader.deserialize(raw, c.msgtype)
+                    out.append((t / 1e9, f.id, bytes(f.data)[: f.dlc]))
+            return out
     return [(m.timestamp, m.arbitration_id, bytes(m.data)) for m in can.LogReader(log)]
 
 

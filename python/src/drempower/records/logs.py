@@ -52,18 +52,20 @@ def is_binary_log(path: str | os.PathLike[str]) -> bool:
 
 def _mcap(path: Path) -> Iterator[LogRecord]:
     try:
-        from mcap_ros2.reader import read_ros2_messages
+        from mcap.reader import make_reader
+        from mcap_ros2.decoder import DecoderFactory
     except ImportError:
         raise missing_extra("mcap-ros2-support") from None
-    for m in read_ros2_messages(str(path), topics=["/can/tx", "/can/rx"]):
-        f = m.ros_msg
-        data = bytes(f.data)[: f.dlc]
-        yield LogRecord(
-            m.log_time_ns / 1e9,
-            Frame(f.id, data, bool(f.is_extended), bool(f.is_rtr)),
-            m.channel.topic == "/can/tx",
-            f.header.frame_id or None,
-        )
+    with open(path, "rb") as fh:
+        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+        for _, channel, message, f in reader.iter_decoded_messages(topics=["/can/tx", "/can/rx"]):
+            data = bytes(f.data)[: f.dlc]
+            yield LogRecord(
+                message.log_time / 1e9,
+                Frame(f.id, data, bool(f.is_extended), bool(f.is_rtr)),
+                channel.topic == "/can/tx",
+                f.header.frame_id or None,
+            )
 
 
 def _candump_text(path: Path) -> Iterator[LogRecord]:
