@@ -7,7 +7,6 @@ The file follows the ROS 2 MCAP profile (CDR messages, ``ros2msg`` schemas), so
 
 from __future__ import annotations
 
-import math
 import os
 import queue
 import threading
@@ -16,20 +15,22 @@ from collections.abc import Mapping
 from types import TracebackType
 from typing import Any
 
-from ..errors import DrEmpowerError, ProtocolError
-from ..protocol.flags import ERROR_WORDS, decode_error_word
+from ..errors import DrEmpowerError
 from ..protocol.ids import Frame
-from ..protocol.messages import ParamValue, State, decode_reply
-from ..protocol.parameters import find_parameter
 from . import missing_extra
+from .events import FrameEvents
 from .ros2_types import DEFINITIONS, TOPICS
 
 __all__ = ["Recorder", "RecorderStats"]
 
-_DEG = math.pi / 180.0
-_RPM = 2.0 * math.pi / 60.0
-_ERROR_WORDS = {w.address: w for w in ERROR_WORDS}
 _STOP = None
+_COUNTERS = {
+    "/can/tx": "frames_written",
+    "/can/rx": "frames_written",
+    "/joint_states": "states",
+    "/drempower/parameters": "parameters",
+    "/drempower/errors": "errors",
+}
 
 
 class RecorderStats:
@@ -52,10 +53,6 @@ class RecorderStats:
 
     def as_dict(self) -> dict[str, int]:
         return {k: getattr(self, k) for k in (*self.__slots__, "frames_lost")}
-
-
-def _stamp(ns: int) -> dict[str, Any]:
-    return {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}
 
 
 class Recorder:
@@ -93,12 +90,10 @@ class Recorder:
             raise DrEmpowerError(f"cannot write {self.path}: {exc.strerror}") from None
         self._writer = Writer(self._fh, compression=comp)
         self._schemas = {t: self._writer.register_msgdef(t, d) for t, d in DEFINITIONS.items()}
-        self.names: dict[int, str] = dict(names or {})
-        self.channel = channel
+        self._events = FrameEvents(names, channel)
         self.stats = RecorderStats()
         self._queue: queue.SimpleQueue[tuple[int, Frame, bool] | None] = queue.SimpleQueue()
         self._cores: list[Any] = []
-        self._error_bit: dict[int, bool] = {}
         self._closed = False
         self._failure: BaseException | None = None
         self._thread = threading.Thread(target=self._run, name="drempower recorder", daemon=True)
@@ -145,83 +140,12 @@ class Recorder:
         except BaseException as exc:  # keep the bus running; close() reports it
             self._failure = exc
 
-    def _msg(self, topic: str, ns: int, message: dict[str, Any]) -> None:
-        self._writer.write_message(topic, self._schemas[TOPICS[topic]], message, log_time=ns, publish_time=ns)
-
     def _write(self, ns: int, frame: Frame, tx: bool) -> None:
-        arb, data, ext, rtr = frame
-        header = {"stamp": _stamp(ns), "frame_id": self.channel}
-        raw = bytes(data).ljust(8, b"\0")[:8]
-        self._msg(
-            "/can/tx" if tx else "/can/rx",
-            ns,
-            {
-                "header": header,
-                "id": arb,
-                "is_rtr": rtr,
-                "is_extended": ext,
-                "is_error": False,
-                "dlc": len(data),
-                "data": list(raw),
-            },
-        )
-        self.stats.frames_written += 1
-        if tx:
-            return
-        node = arb >> 5
-        if ext or rtr or len(data) != 8 or not (arb & 1 or arb & 0x1F == 0x1E):
-            self._error(ns, header, node, "frame", 0, f"not a DrEmpower reply: id 0x{arb:X} data {bytes(data).hex()}")
-            return
-        try:
-            reply = decode_reply(arb, bytes(data))
-        except ProtocolError as exc:
-            self._error(ns, header, node, "frame", 0, str(exc))
-            return
-        if isinstance(reply, State):
-            name = self.names.get(node) or f"motor{node}"
-            self._msg(
-                "/joint_states",
-                ns,
-                {
-                    "header": header,
-                    "name": [name],
-                    "position": [reply.position * _DEG],
-                    "velocity": [reply.speed * _RPM],
-                    "effort": [reply.torque],
-                },
-            )
-            self.stats.states += 1
-            if reply.error != self._error_bit.get(node, False):
-                self._error_bit[node] = reply.error
-                text = "axis error set (E bit)" if reply.error else "axis error cleared (E bit)"
-                self._error(ns, header, node, "state", int(reply.error), text)
-        elif isinstance(reply, ParamValue):
-            p = find_parameter(reply.address)
-            self._msg(
-                "/drempower/parameters",
-                ns,
-                {
-                    "header": header,
-                    "node": node,
-                    "address": reply.address,
-                    "name": p.name if p else "",
-                    "unit": (p.unit or "") if p else "",
-                    "value": float(reply.value),
-                },
-            )
-            self.stats.parameters += 1
-            word = _ERROR_WORDS.get(reply.address)
-            if word is not None and isinstance(reply.value, int) and reply.value:
-                flags = ", ".join(decode_error_word(word.name, reply.value & 0xFFFFFFFF))
-                self._error(ns, header, node, word.name, reply.value & 0xFFFFFFFF, flags)
-
-    def _error(self, ns: int, header: dict[str, Any], node: int, source: str, code: int, text: str) -> None:
-        self._msg(
-            "/drempower/errors",
-            ns,
-            {"header": header, "node": node, "source": source, "code": code, "text": text},
-        )
-        self.stats.errors += 1
+        stats = self.stats
+        for topic, message in self._events(ns, frame, tx):
+            self._writer.write_message(topic, self._schemas[TOPICS[topic]], message, log_time=ns, publish_time=ns)
+            kind = _COUNTERS[topic]
+            setattr(stats, kind, getattr(stats, kind) + 1)
 
     # ------------------------------------------------------------------ closing
 
