@@ -27,6 +27,12 @@ def _names(text: str) -> dict[int, str]:
     return out
 
 
+def _port(text: str) -> int:
+    if not text.isdigit() or not 0 <= int(text) <= 65535:
+        raise argparse.ArgumentTypeError(f"{text!r} is out of range: allowed 0..65535 (0: a free port)")
+    return int(text)
+
+
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "record",
@@ -52,6 +58,12 @@ def register(sub: Any) -> None:
         help="have the motors IDS send their state every MS ms (can.config.heartbeat_ms, set back to 0 at the end)",
     )
     how.add_argument("--poll", type=positive, metavar="HZ", help="read the state of the motors IDS HZ times a second")
+    p.add_argument(
+        "--foxglove",
+        type=_port,
+        metavar="PORT",
+        help="also serve the bus live to Foxglove on ws://127.0.0.1:PORT (0: a free port; needs drempower[foxglove])",
+    )
     p.add_argument("--names", type=_names, default={}, metavar="ID=NAME,...", help="joint names, e.g. 1=hip,2=knee")
     p.set_defaults(func=run)
 
@@ -69,8 +81,19 @@ def run(args: argparse.Namespace) -> int:
     started = time.monotonic()
     with ExitStack() as stack:
         rec = stack.enter_context(Recorder(args.output, names=args.names))
+        live = None
+        if args.foxglove is not None:
+            from ..records.foxglove_live import FoxgloveLive
+
+            try:
+                live = stack.enter_context(FoxgloveLive(port=args.foxglove, names=args.names))
+            except ImportError as exc:
+                raise DrEmpowerError(str(exc)) from None
+            print(f"drempower: Foxglove: open {live.url}", file=sys.stderr, flush=True)
         bus = stack.enter_context(open_from_args(args))
         rec.attach(bus)
+        if live is not None:
+            live.attach(bus)
         beating: list[int] = []
         try:
             if args.heartbeat_ms:
@@ -96,6 +119,8 @@ def run(args: argparse.Namespace) -> int:
                     print(f"drempower: motor {i}: could not stop its heartbeat: {exc}", file=sys.stderr)
             time.sleep(0.05)  # the last frames in flight
             rec.detach()
+            if live is not None:
+                live.detach()
     s = rec.stats
     took = max(time.monotonic() - started, 1e-9)
     rate = f", {s.states / took / len(ids):.0f} states/s per motor" if ids else ""
