@@ -55,3 +55,25 @@ def test_record_usage_errors(
     r = cli("record", *argv)
     assert r.code == 2 and message in r.err and "Traceback" not in r.err
     assert not (tmp_path / "x.mcap").exists()
+
+
+def test_record_serves_foxglove_on_a_free_port(sim: SimBus, tmp_path: Path, cli: Cli) -> None:
+    pytest.importorskip("foxglove")
+    r = cli(
+        "record",
+        "1",
+        "-o",
+        str(tmp_path / "f.mcap"),
+        "--poll",
+        "20",
+        "--duration",
+        "0.3",
+        "--foxglove",
+        "0",
+        "--sim",
+        "1",
+    )
+    assert r.code == 0, r.err
+    port = int(r.err.split("ws://127.0.0.1:")[1].split()[0])
+    assert 0 < port < 65536
+    assert cli("record", "-o", str(tmp_path / "g.mcap"), "--foxglove", "70000", "--sim", "1").code == 2
