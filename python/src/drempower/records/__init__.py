@@ -1,15 +1,25 @@
 """Records of a bus: MCAP recording, reading every log format back, and a DBC of the protocol.
 
-Needs the ``records`` extra (``pip install drempower[records]``) for MCAP and DBC
-work; python-can's own log formats need nothing more. Nothing here is imported by
-``import drempower``.
+MCAP needs the ``records`` extra (``pip install 'drempower[records]'``) and the
+live Foxglove sink the ``foxglove`` extra; python-can's log formats and the DBC
+need nothing more. Nothing here is imported by ``import drempower``.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["Recorder", "LogRecord", "read_log", "decode_log", "write_dbc", "dbc_text", "missing_extra"]
+__all__ = [
+    "Recorder",
+    "FoxgloveLive",
+    "LogRecord",
+    "Decoded",
+    "read_log",
+    "decode_log",
+    "write_dbc",
+    "dbc_text",
+    "missing_extra",
+]
 
 
 def missing_extra(module: str) -> ImportError:
@@ -22,7 +32,11 @@ def __getattr__(name: str) -> Any:
         from .recorder import Recorder
 
         return Recorder
-    if name in ("LogRecord", "read_log", "decode_log"):
+    if name == "FoxgloveLive":
+        from .foxglove_live import FoxgloveLive
+
+        return FoxgloveLive
+    if name in ("LogRecord", "Decoded", "read_log", "decode_log"):
         from . import logs
 
         return getattr(logs, name)
