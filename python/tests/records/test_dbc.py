@@ -140,3 +140,9 @@ def test_nodes_option(cli: Cli, tmp_path: Path) -> None:
     assert "BO_ 94 READ_2: 8 HOST" in out and "_1:" not in out
     r = cli("dbc", "--nodes", "1-64")
     assert r.code == 2 and "allowed 0..63" in r.err
+
+
+def test_json_summary(cli: Cli, tmp_path: Path) -> None:
+    (rec,) = cli("dbc", "--nodes", "1,2", "-o", str(tmp_path / "x.dbc"), "--json").records()
+    assert rec == {"output": str(tmp_path / "x.dbc"), "messages": 2 * 21, "nodes": [1, 2]}
+    assert cli("dbc", "--json").code == 2

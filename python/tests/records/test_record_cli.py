@@ -32,10 +32,13 @@ def test_record_heartbeats_with_joint_names(sim: SimBus, tmp_path: Path, cli: Cl
 
 def test_record_polls_states(sim: SimBus, tmp_path: Path, cli: Cli) -> None:
     out = tmp_path / "poll.mcap"
-    assert cli("record", "3", "-o", str(out), "--poll", "50", "--duration", "0.3", "--sim", "3").code == 0
+    r = cli("record", "3", "-o", str(out), "--poll", "50", "--duration", "0.3", "--json", "--sim", "3")
+    (summary,) = r.records()
+    assert r.code == 0 and summary["frames_lost"] == 0 and summary["output"] == str(out)
     recs = cli("decode", "--json", str(out)).records()
     kinds = Counter((x["direction"], x["command"]) for x in recs)
     assert kinds[("host", "fast_read")] >= 5 and kinds[("motor", "state")] == kinds[("host", "fast_read")]
+    assert summary["states"] == kinds[("motor", "state")] and summary["frames_written"] == len(recs)
 
 
 @pytest.mark.parametrize(

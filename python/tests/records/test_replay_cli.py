@@ -67,3 +67,10 @@ def test_sigterm_ends_replay_and_reports(tmp_path: Path) -> None:
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=20)
     assert proc.returncode == 130 and "replay interrupted after" in err and "Traceback" not in err
+
+
+def test_json_summary(sim: SimBus, tmp_path: Path, cli: Cli) -> None:
+    log = tmp_path / "j.log"
+    log.write_text(_line(1.0, FastRead(1).encode()) + "(1.000200) can0 023#0000000000000000\n")
+    (rec,) = cli("replay", str(log), "--json", "--sim", "1").records()
+    assert rec == {"file": str(log), "frames_sent": 1, "frames_in_log": 2}

@@ -8,6 +8,8 @@ from typing import Any
 
 from ..errors import DrEmpowerError
 from ..records.dbc import dbc_text, parse_nodes
+from ._output import add_json_arg, json_line
+from ._usage import UsageError
 
 
 def _nodes(text: str) -> list[int]:
@@ -35,10 +37,13 @@ def register(sub: Any) -> None:
         metavar="IDS",
         help="node ids to describe, e.g. 1-6 or 0,1,2 (0 = broadcast; default 0-63, all)",
     )
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.json and args.output is None:
+        raise UsageError("--json needs -o FILE (without it the DBC itself goes to standard output)")
     text = dbc_text(args.nodes)
     if args.output is None:
         sys.stdout.write(text)
@@ -48,5 +53,9 @@ def run(args: argparse.Namespace) -> int:
             fh.write(text)
     except OSError as exc:
         raise DrEmpowerError(f"cannot write {args.output}: {exc.strerror}") from None
-    print(f"{args.output}: {text.count(chr(10) + 'BO_ ')} messages for {len(args.nodes)} nodes", file=sys.stderr)
+    messages = text.count("\nBO_ ")
+    if args.json:
+        sys.stdout.write(json_line({"output": args.output, "messages": messages, "nodes": args.nodes}) + "\n")
+    else:
+        print(f"{args.output}: {messages} messages for {len(args.nodes)} nodes", file=sys.stderr)
     return 0

@@ -12,6 +12,7 @@ from typing import Any
 from ..errors import DrEmpowerError
 from ..protocol import FastRead
 from ._connect import add_connection_args, add_ids_arg, count, open_from_args, positive
+from ._output import add_json_arg, json_line
 from ._usage import UsageError
 
 _HEARTBEAT = "can.config.heartbeat_ms"
@@ -65,6 +66,7 @@ def register(sub: Any) -> None:
         help="also serve the bus live to Foxglove on ws://127.0.0.1:PORT (0: a free port; needs drempower[foxglove])",
     )
     p.add_argument("--names", type=_names, default={}, metavar="ID=NAME,...", help="joint names, e.g. 1=hip,2=knee")
+    add_json_arg(p)
     p.set_defaults(func=run)
 
 
@@ -124,6 +126,11 @@ def run(args: argparse.Namespace) -> int:
     s = rec.stats
     took = max(time.monotonic() - started, 1e-9)
     rate = f", {s.states / took / len(ids):.0f} states/s per motor" if ids else ""
+    if args.json:
+        summary = {"output": args.output, "seconds": round(took, 3), **s.as_dict()}
+        if ids:
+            summary["states_per_s_per_motor"] = round(s.states / took / len(ids), 1)
+        sys.stdout.write(json_line(summary) + "\n")
     print(
         f"{args.output}: {s.frames_written} frames, {s.states} states, {s.parameters} parameter values, "
         f"{s.errors} errors in {took:.1f} s{rate}; {s.frames_lost} frames lost",

@@ -15,6 +15,7 @@ from ..protocol.describe import CaptureDecoder
 from ..protocol.messages import Message, decode_command
 from ..records.logs import LogRecord, direction_of, read_log
 from ._connect import add_connection_args, open_from_args, positive
+from ._output import add_json_arg, json_line
 
 
 def register(sub: Any) -> None:
@@ -34,6 +35,7 @@ def register(sub: Any) -> None:
     p.add_argument("--speed", type=positive, default=1.0, metavar="X", help="play the recorded pace X times faster")
     p.add_argument("--all-frames", action="store_true", help="also send the motors' frames (replies, states)")
     p.add_argument("--leave-running", action="store_true", help="do not put replayed motors into IDLE at the end")
+    add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run)
 
@@ -105,5 +107,7 @@ def run(args: argparse.Namespace) -> int:
         except KeyboardInterrupt:
             print(f"drempower: replay interrupted after {sent} frames", file=sys.stderr)
             return 130
+    if args.json:
+        sys.stdout.write(json_line({"file": args.file, "frames_sent": sent, "frames_in_log": len(records)}) + "\n")
     print(f"{sent} frame{'' if sent == 1 else 's'} replayed from {args.file}", file=sys.stderr)
     return 0
