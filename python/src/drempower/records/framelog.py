@@ -31,7 +31,7 @@ class FrameLog:
 
         try:
             self._logger = can.Logger(self.path)
-        except ValueError as exc:
+        except (ValueError, NotImplementedError, ImportError) as exc:  # unknown format, or .mf4 without asammdf
             raise DrEmpowerError(f"--log {self.path}: {exc}") from None
         except OSError as exc:
             raise DrEmpowerError(f"cannot write {self.path}: {exc.strerror}") from None

@@ -118,7 +118,7 @@ def read_log(path: str | os.PathLike[str]) -> Iterator[LogRecord]:
             yield from _python_can(p)
         else:
             yield from _candump_text(p)
-    except (OSError, ValueError) as exc:
+    except (OSError, ValueError, NotImplementedError, ImportError) as exc:  # .mf4 without asammdf too
         if isinstance(exc, DrEmpowerError):
             raise
         raise DrEmpowerError(f"cannot read {p}: {exc}") from None
