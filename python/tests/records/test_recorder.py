@@ -104,3 +104,23 @@ def test_missing_directory_is_a_clear_error(tmp_path: Path) -> None:
 
     with pytest.raises(DrEmpowerError, match="cannot write"):
         Recorder(tmp_path / "no" / "such.mcap")
+
+
+async def test_an_async_bus_records_too(tmp_path: Path) -> None:
+    from drempower import open_bus_async
+
+    path = tmp_path / "async.mcap"
+    async with open_bus_async("sim", motors=[1]) as bus:
+        with Recorder(path) as rec:
+            rec.attach(bus)
+            await bus.motor(1).get_state()
+    assert rec.stats.as_dict() == {
+        "errors": 0,
+        "frames_in": 2,
+        "frames_written": 2,
+        "parameters": 0,
+        "states": 1,
+        "frames_lost": 0,
+    }
+    topics = [topic for topic, _, _ in _rosbags_messages(path)]
+    assert topics == ["/can/tx", "/can/rx", "/joint_states"]
