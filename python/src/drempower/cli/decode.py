@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import sys
-from collections.abc import Iterable
 from typing import Any, TextIO
 
 from ..errors import DrEmpowerError
@@ -20,6 +19,7 @@ from ..protocol import (
 )
 from ..protocol.candump import parse_candump_line
 from ..protocol.parameters import find_parameter
+from ._inputs import input_lines
 from ._output import clean, json_line
 
 
@@ -29,11 +29,16 @@ def register(sub: Any) -> None:
         help="decode candump lines (from files or stdin) into DrEmpower messages",
         description=(
             "Decode candump-format lines, e.g. '(ts) can0 039#0000B4420000E803' or '039#0000B4420000E803', "
-            "one message per frame. Lines that are not frames or do not decode are reported, never fatal; "
-            "exits 1 when no line is a frame."
+            "the lines sniff prints, MCAP files written by record, and python-can logs (by extension), "
+            "one message per frame, with its timestamp when the input has one. "
+            "Lines that are not frames or do not decode are reported, never fatal; exits 1 when no line is a frame."
         ),
     )
-    p.add_argument("files", nargs="*", help="candump files (default: stdin; '-' is stdin)")
+    p.add_argument(
+        "files",
+        nargs="*",
+        help="candump text, .mcap recordings or python-can logs (.asc .blf .csv .db .mf4 .trc) (default: stdin)",
+    )
     p.add_argument("--json", action="store_true", help="one JSON object per line")
     p.add_argument(
         "--direction",
@@ -87,28 +92,14 @@ def decode_line(line: str, direction: str = "auto", capture: CaptureDecoder | No
     return out
 
 
-def _lines(files: list[str]) -> Iterable[str]:
-    if not files:
-        files = ["-"]
-    for name in files:
-        if name == "-":
-            yield from sys.stdin
-        else:
-            try:
-                with open(name, encoding="utf-8", errors="replace") as fh:
-                    yield from fh
-            except OSError as exc:
-                raise DrEmpowerError(f"cannot read {name}: {exc.strerror}") from None
-
-
 def run(args: argparse.Namespace, out: TextIO | None = None) -> int:
     out = out or sys.stdout
     frames = 0
     capture = CaptureDecoder()
-    for line in _lines(args.files):
+    for line, direction in input_lines(args.files, args.direction):
         if not line.strip() or line.lstrip().startswith("#"):
             continue
-        rec = decode_line(line, args.direction, capture)
+        rec = decode_line(line, direction, capture)
         if "id" in rec:
             frames += 1
         if args.json:
@@ -116,7 +107,8 @@ def run(args: argparse.Namespace, out: TextIO | None = None) -> int:
         elif "error" in rec:
             out.write(clean(f"{rec['line'].strip()}  !! {rec['error']}") + "\n")
         else:
-            out.write(clean(f"{rec['id']:>5} {rec['data']:<16}  {rec['direction']:<5} {rec['text']}") + "\n")
+            stamp = f"({rec['timestamp']:.6f}) " if "timestamp" in rec else ""
+            out.write(clean(f"{stamp}{rec['id']:>5} {rec['data']:<16}  {rec['direction']:<5} {rec['text']}") + "\n")
         out.flush()
     if not frames:
         print("drempower decode: no line of the input was a CAN frame", file=sys.stderr)

@@ -14,6 +14,7 @@ from ..client.signals import exit_code
 from ..errors import DrEmpowerError
 from . import _readings
 from ._connect import add_connection_args, add_ids_arg, open_from_args, positive
+from ._fields import SOURCES, parse_fields, run_fields
 from ._output import LiveView, add_json_arg, is_terminal, json_line, render_table
 
 _HEADERS = ("time/s", *_readings.HEADERS)
@@ -35,6 +36,20 @@ def register(sub: Any) -> None:
     p.add_argument("--rate", type=positive, default=10.0, metavar="HZ", help="readings per second (default 10)")
     p.add_argument("--duration", type=positive, metavar="S", help="stop after S seconds (default: at Ctrl-C)")
     p.add_argument("--csv", metavar="FILE", help="also record every reading to FILE")
+    p.add_argument(
+        "--fields",
+        type=parse_fields,
+        metavar="F,...",
+        help="columns: state channels (position, speed, torque, done, error) and any parameter names; "
+        "one record per state sample, the achieved rate shown",
+    )
+    p.add_argument(
+        "--source",
+        choices=SOURCES,
+        default="poll",
+        help="how states are captured with --fields: poll (fast reads at RATE, default), heartbeat (the motors "
+        "send them every 1/RATE s; set back at the end) or replies (only those other programs' commands cause)",
+    )
     add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run)
@@ -43,6 +58,11 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     ended = 0
     out = sys.stdout
+    if args.fields is not None or args.source != "poll":
+        if args.fields is None:
+            args.fields = parse_fields("position,speed,torque")
+        with open_from_args(args) as bus:
+            return run_fields(args, bus, out)
     live = LiveView(out) if is_terminal(out) and not args.json else None
     with ExitStack() as stack:
         writer: csv.DictWriter[str] | None = None

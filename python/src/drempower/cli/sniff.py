@@ -5,11 +5,13 @@ from __future__ import annotations
 import argparse
 import sys
 import time
+from contextlib import ExitStack
 from typing import Any
 
 from ..client.signals import exit_code
 from ..protocol.describe import CaptureDecoder
 from ..protocol.ids import Frame
+from ..records.framelog import FrameLog
 from ._connect import add_connection_args, count, open_transport_from_args, positive
 from ._output import add_json_arg, clean, json_line
 from .decode import decode_line
@@ -32,6 +34,12 @@ def register(sub: Any) -> None:
         default="auto",
         help="who sends the frames: host commands, motor replies, or guess per frame (default)",
     )
+    p.add_argument(
+        "--log",
+        metavar="FILE",
+        help="also write every frame to FILE, in the format of its extension: "
+        ".log (candump), .asc, .blf, .csv, .db, .mf4, .trc (python-can) or .mcap; decode reads it back",
+    )
     add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run)
@@ -47,11 +55,13 @@ def candump_line(frame: Frame, timestamp: float) -> str:
 def run(args: argparse.Namespace) -> int:
     ended = 0
     out = sys.stdout
-    transport, how = open_transport_from_args(args)
-    start = time.monotonic()
-    seen = 0
-    capture = CaptureDecoder()
-    with transport:
+    with ExitStack() as stack:
+        log = stack.enter_context(FrameLog(args.log)) if args.log else None
+        transport, how = open_transport_from_args(args)
+        stack.enter_context(transport)
+        start = time.monotonic()
+        seen = 0
+        capture = CaptureDecoder()
         try:
             while args.count is None or seen < args.count:
                 left = None if args.duration is None else args.duration - (time.monotonic() - start)
@@ -62,7 +72,10 @@ def run(args: argparse.Namespace) -> int:
                     continue
                 seen += 1
                 t = time.monotonic() - start
-                rec = decode_line(candump_line(frame, time.time()), args.direction, capture)
+                now = time.time()
+                if log is not None:
+                    log.write(frame, now)
+                rec = decode_line(candump_line(frame, now), args.direction, capture)
                 rec.pop("line")
                 if args.json:
                     out.write(json_line({"time_s": round(t, 6), **rec}) + "\n")

@@ -42,6 +42,7 @@ from .state import MotorState, StateCache
 __all__ = [
     "BusCore",
     "Exchange",
+    "FrameTap",
     "StartPolicy",
     "StopOnClose",
     "DEFAULT_TIMEOUT",
@@ -82,6 +83,8 @@ _monotonic = time.monotonic
 _open_cores: weakref.WeakSet[BusCore] = weakref.WeakSet()
 _SIGNAL_LOCK_WAIT = 0.2
 """Longest wait (s) for a lock when a signal handler closes a bus: the interrupted code may hold it."""
+FrameTap = Callable[[Frame, bool], None]
+"""``tap(frame, tx)``: a frame this bus sent (``tx`` True) or received (False)."""
 
 
 @atexit.register
@@ -153,6 +156,9 @@ class BusCore:
         self.start_policy: StartPolicy = start
         self.on_unsolicited = on_unsolicited
         """Called in the receive thread with every frame that is no reply to a request and no state frame."""
+        self.frame_taps: tuple[FrameTap, ...] = ()
+        """Called with every frame this bus sends (``tx`` True, in the sending thread) or receives
+        (``tx`` False, in the receive thread) as it passes the transport: for recorders. See :meth:`add_tap`."""
         self.states = StateCache()
         self.matcher = Matcher()
         self.traj_mode: dict[int, int] = {}
@@ -243,6 +249,21 @@ class BusCore:
         elif cmd == 0x08 and frame[1][0] in _RESETS:
             self.forget(msg.node)
 
+    def add_tap(self, tap: FrameTap) -> None:
+        """Call ``tap(frame, tx)`` with every frame sent or received from now on (keep it short)."""
+        self.frame_taps = (*self.frame_taps, tap)
+
+    def remove_tap(self, tap: FrameTap) -> None:
+        """Stop calling ``tap`` (no error when it is not registered)."""
+        self.frame_taps = tuple(t for t in self.frame_taps if t is not tap)
+
+    def _tap(self, frame: Frame, tx: bool) -> None:
+        for tap in self.frame_taps:
+            try:
+                tap(frame, tx)
+            except Exception:
+                _log.exception("frame tap %r failed", tap)
+
     # ------------------------------------------------------------------ sending
 
     def send(self, msg: Message) -> None:
@@ -253,6 +274,8 @@ class BusCore:
             self._note(msg, frame)
         with self._send_lock:
             self.transport.send(frame)
+            if self.frame_taps:
+                self._tap(frame, True)
 
     def send_many(self, msgs: Sequence[Message]) -> None:
         """Encode every message first (nothing is sent if one is invalid), then send them in order."""
@@ -268,6 +291,8 @@ class BusCore:
         for f in frames:
             with lock:  # per frame, so an estop from another thread waits one frame at most
                 send(f)
+                if self.frame_taps:
+                    self._tap(f, True)
 
     def _send_now(self, frames: Sequence[Frame], lock_timeout: float) -> None:
         """Send ``frames``, waiting at most ``lock_timeout`` (s) for the send lock, then sending anyway."""
@@ -331,6 +356,8 @@ class BusCore:
                         wait = max(0.0, min(wait, min(dues) - _monotonic()))
                 frame = recv(wait)
                 if frame is not None:
+                    if self.frame_taps:
+                        self._tap(frame, False)
                     try:
                         dispatch(frame)
                     except Exception:

@@ -8,7 +8,9 @@ default screen format)::
       can0  039   [8]  00 00 B4 42 00 00 E8 03
 
 Remote frames (``039#R``) and CAN-FD frames (``039##1...``) are recognised and
-reported as such; ids of 8 hex digits are extended.
+reported as such; ids of 8 hex digits are extended. The lines ``drempower sniff``
+prints (``  0.012345   0x039 0000B4420000E803  host ...``, time since the sniff
+began) and those ``drempower decode`` prints are read too.
 """
 
 from __future__ import annotations
@@ -40,6 +42,10 @@ _LOG = re.compile(
 )
 _SCREEN = re.compile(
     r"^\s*(?:\((?P<ts>\d+(?:\.\d+)?)\)\s+)?(?P<ch>\S+)\s+(?P<id>[0-9A-Fa-f]{1,8})\s+\[(?P<dlc>\d+)\]\s*(?P<rest>.*)$"
+)
+
+_SNIFF = re.compile(
+    r"^\s*(?:\((?P<pts>\d+(?:\.\d+)?)\)|(?P<ts>\d+\.\d+))?\s*0x(?P<id>[0-9A-Fa-f]{1,8})\s+(?P<data>(?:[0-9A-Fa-f]{2})*)\s+(?:host|motor|!!)\b"
 )
 
 
@@ -90,4 +96,9 @@ def parse_candump_line(line: str) -> CandumpLine:
             raise ProtocolError(f"[{s['dlc']}] does not match {len(data)} data bytes")
         ts = float(s["ts"]) if s["ts"] else None
         return CandumpLine(arb, data, ts, s["ch"], ext)
+    w = _SNIFF.match(line)
+    if w is not None:
+        arb, ext = _id(w["id"]) if len(w["id"]) in (3, 8) else (int(w["id"], 16), False)
+        stamp = w["pts"] or w["ts"]
+        return CandumpLine(arb, bytes.fromhex(w["data"]), float(stamp) if stamp else None, None, ext)
     raise ProtocolError("not a candump frame line")

@@ -1,0 +1,113 @@
+"""``drempower replay``: play a recorded log onto a bus (the simulator by default)."""
+
+from __future__ import annotations
+
+import argparse
+import signal
+import sys
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from typing import Any
+
+from ..errors import DrEmpowerError, ProtocolError
+from ..protocol.describe import CaptureDecoder
+from ..protocol.messages import Message, decode_command
+from ..records.logs import LogRecord, direction_of, read_log
+from ._connect import add_connection_args, open_from_args, positive
+from ._output import add_json_arg, json_line
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "replay",
+        help="play a log (MCAP, candump, python-can formats) onto a bus, by default the simulator",
+        description=(
+            "Send the host commands of a log onto a bus at the recorded pace (or --rate frames per second). "
+            "Frames the log marks as sent by the recording host are host frames; in logs that do not say, "
+            "frames that decode as host commands are. Motors replay commanded are put into IDLE when it ends "
+            "(Ctrl-C or SIGTERM too) unless --leave-running. Default connection: simulated motors with the "
+            "ids of the log."
+        ),
+    )
+    p.add_argument("file", help="the log: .mcap, .log (candump), .asc, .blf, .csv, .db, .mf4, .trc")
+    p.add_argument("--rate", type=positive, metavar="HZ", help="send HZ frames per second instead of the recorded pace")
+    p.add_argument("--speed", type=positive, default=1.0, metavar="X", help="play the recorded pace X times faster")
+    p.add_argument("--all-frames", action="store_true", help="also send the motors' frames (replies, states)")
+    p.add_argument("--leave-running", action="store_true", help="do not put replayed motors into IDLE at the end")
+    add_json_arg(p)
+    add_connection_args(p)
+    p.set_defaults(func=run)
+
+
+def _host_frames(records: list[LogRecord], every: bool) -> list[tuple[LogRecord, Message | None]]:
+    capture = CaptureDecoder()
+    out: list[tuple[LogRecord, Message | None]] = []
+    for rec in records:
+        arb, data, ext, rtr = rec.frame
+        msg: Message | None = None
+        who = None
+        if not (ext or rtr):
+            try:
+                who, _ = capture.decode(arb, data, rec.timestamp, direction_of(rec))
+                msg = decode_command(arb, data) if who == "host" else None
+            except ProtocolError:
+                msg = None
+        if who == "host" or every:
+            out.append((rec, msg))
+    return out
+
+
+@contextmanager
+def _sigterm_interrupts() -> Iterator[None]:
+    """SIGTERM (and SIGHUP) end the replay like Ctrl-C, so that the motors are stopped."""
+
+    def stop(signum: int, frame: object) -> None:
+        raise KeyboardInterrupt
+
+    old = {s: signal.signal(s, stop) for s in (signal.SIGTERM, getattr(signal, "SIGHUP", signal.SIGTERM))}
+    try:
+        yield
+    finally:
+        for s, h in old.items():
+            signal.signal(s, h)
+
+
+def run(args: argparse.Namespace) -> int:
+    records = list(read_log(args.file))
+    frames = _host_frames(records, args.all_frames)
+    if not frames:
+        raise DrEmpowerError(f"{args.file}: no frames to replay")
+    if args.rate is None and any(r.timestamp is None for r, _ in frames):
+        raise DrEmpowerError(f"{args.file}: the log has no timestamps; give --rate HZ")
+    if not (args.sim or args.serial or args.uart or args.interface):
+        nodes = sorted({r.frame.arbitration_id >> 5 for r, _ in frames} - {0}) or [1]
+        args.sim = nodes
+        print(f"drempower: replaying onto simulated motors {','.join(map(str, nodes))}", file=sys.stderr)
+    sent = 0
+    with open_from_args(args, quiet=True) as bus, _sigterm_interrupts():
+        bus.core.stop_on_close = not args.leave_running
+        start = time.monotonic()
+        t0 = frames[0][0].timestamp
+        try:
+            for i, (rec, msg) in enumerate(frames):
+                if args.rate is not None:
+                    due = start + i / args.rate
+                else:
+                    assert rec.timestamp is not None and t0 is not None
+                    due = start + (rec.timestamp - t0) / args.speed
+                pause = due - time.monotonic()
+                if pause > 0:
+                    time.sleep(pause)
+                if msg is not None:
+                    bus.send(msg)  # the bus remembers the motors it commanded, to stop them at the end
+                else:
+                    bus.transport.send(rec.frame)
+                sent += 1
+        except KeyboardInterrupt:
+            print(f"drempower: replay interrupted after {sent} frames", file=sys.stderr)
+            return 130
+    if args.json:
+        sys.stdout.write(json_line({"file": args.file, "frames_sent": sent, "frames_in_log": len(records)}) + "\n")
+    print(f"{sent} frame{'' if sent == 1 else 's'} replayed from {args.file}", file=sys.stderr)
+    return 0

@@ -1,0 +1,107 @@
+"""What one frame means for a recording: the messages it becomes, topic by topic (pure, no I/O).
+
+A frame becomes its raw copy on ``/can/tx`` or ``/can/rx``; a received state
+frame also a ``/joint_states`` message, a parameter reply a
+``/drempower/parameters`` message, and a change of the E bit, an error word with
+flags set or a frame that is no DrEmpower reply a ``/drempower/errors`` message.
+The messages are dicts in the layout of :mod:`drempower.records.ros2_types`.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping
+from typing import Any
+
+from ..errors import ProtocolError
+from ..protocol.flags import ERROR_WORDS, decode_error_word
+from ..protocol.ids import Frame
+from ..protocol.messages import ParamValue, State, decode_reply
+from ..protocol.parameters import find_parameter
+
+__all__ = ["FrameEvents"]
+
+_DEG = math.pi / 180.0
+_RPM = 2.0 * math.pi / 60.0
+_ERROR_WORDS = {w.address: w for w in ERROR_WORDS}
+
+Event = tuple[str, dict[str, Any]]
+
+
+class FrameEvents:
+    """Turns frames into ``(topic, message)`` pairs; remembers each motor's E bit to report changes.
+
+    ``names`` maps motor ids to joint names (default ``motor<id>``); ``channel`` is the headers' ``frame_id``.
+    """
+
+    def __init__(self, names: Mapping[int, str] | None = None, channel: str = "can") -> None:
+        self.names = dict(names or {})
+        self.channel = channel
+        self._error_bit: dict[int, bool] = {}
+
+    def __call__(self, ns: int, frame: Frame, tx: bool) -> list[Event]:
+        """The messages of ``frame`` seen at ``ns`` (Unix ns); ``tx`` when this host sent it."""
+        arb, data, ext, rtr = frame
+        header = {"stamp": {"sec": ns // 1_000_000_000, "nanosec": ns % 1_000_000_000}, "frame_id": self.channel}
+        raw = {
+            "header": header,
+            "id": arb,
+            "is_rtr": rtr,
+            "is_extended": ext,
+            "is_error": False,
+            "dlc": len(data),
+            "data": list(bytes(data).ljust(8, b"\0")[:8]),
+        }
+        out: list[Event] = [("/can/tx" if tx else "/can/rx", raw)]
+        if tx:
+            return out
+        node = arb >> 5
+        if ext or rtr or len(data) != 8 or not (arb & 1 or arb & 0x1F == 0x1E):
+            out.append(self._error(header, node, "frame", 0, f"not a DrEmpower reply: id 0x{arb:X} data {data.hex()}"))
+            return out
+        try:
+            reply = decode_reply(arb, bytes(data))
+        except ProtocolError as exc:
+            out.append(self._error(header, node, "frame", 0, str(exc)))
+            return out
+        if isinstance(reply, State):
+            out.append(
+                (
+                    "/joint_states",
+                    {
+                        "header": header,
+                        "name": [self.names.get(node) or f"motor{node}"],
+                        "position": [reply.position * _DEG],
+                        "velocity": [reply.speed * _RPM],
+                        "effort": [reply.torque],
+                    },
+                )
+            )
+            if reply.error != self._error_bit.get(node, False):
+                self._error_bit[node] = reply.error
+                text = "axis error set (E bit)" if reply.error else "axis error cleared (E bit)"
+                out.append(self._error(header, node, "state", int(reply.error), text))
+        elif isinstance(reply, ParamValue):
+            p = find_parameter(reply.address)
+            out.append(
+                (
+                    "/drempower/parameters",
+                    {
+                        "header": header,
+                        "node": node,
+                        "address": reply.address,
+                        "name": p.name if p else "",
+                        "unit": (p.unit or "") if p else "",
+                        "value": float(reply.value),
+                    },
+                )
+            )
+            word = _ERROR_WORDS.get(reply.address)
+            if word is not None and isinstance(reply.value, int) and reply.value:
+                code = reply.value & 0xFFFFFFFF
+                out.append(self._error(header, node, word.name, code, ", ".join(decode_error_word(word.name, code))))
+        return out
+
+    @staticmethod
+    def _error(header: dict[str, Any], node: int, source: str, code: int, text: str) -> Event:
+        return ("/drempower/errors", {"header": header, "node": node, "source": source, "code": code, "text": text})

@@ -1,0 +1,142 @@
+"""The common part of every frame sink: taps on buses, a queue, and one writer thread."""
+
+from __future__ import annotations
+
+import queue
+import threading
+import time
+from abc import ABC, abstractmethod
+from collections.abc import Mapping
+from types import TracebackType
+from typing import Any, TypeVar
+
+from ..errors import DrEmpowerError
+from ..protocol.ids import Frame
+from .events import FrameEvents
+
+__all__ = ["FrameSink", "SinkStats"]
+
+_S = TypeVar("_S", bound="FrameSink")
+_COUNTERS = {
+    "/can/tx": "frames_written",
+    "/can/rx": "frames_written",
+    "/joint_states": "states",
+    "/drempower/parameters": "parameters",
+    "/drempower/errors": "errors",
+}
+
+
+class SinkStats:
+    """Counters of a sink: frames handed to it and messages written, by kind."""
+
+    __slots__ = ("errors", "frames_in", "frames_written", "parameters", "states")
+
+    def __init__(self) -> None:
+        self.frames_in = 0
+        """Frames taken from the sink's queue (from taps and :meth:`FrameSink.record`)."""
+        self.frames_written = 0
+        """Raw frames written (on ``/can/tx`` and ``/can/rx``)."""
+        self.states = 0
+        self.parameters = 0
+        self.errors = 0
+
+    @property
+    def frames_lost(self) -> int:
+        return self.frames_in - self.frames_written
+
+    def as_dict(self) -> dict[str, int]:
+        return {k: getattr(self, k) for k in (*self.__slots__, "frames_lost")}
+
+
+class FrameSink(ABC):
+    """Takes the frames of attached buses and writes their messages (see :mod:`.events`) in its own thread.
+
+    The buses' threads only queue each frame with the wall clock, so a sink never
+    slows a bus down; :meth:`close` writes what is queued, then finishes.
+    """
+
+    what = "sink"
+
+    def __init__(self, names: Mapping[int, str] | None, channel: str) -> None:
+        self._events = FrameEvents(names, channel)
+        self.stats = SinkStats()
+        self._queue: queue.SimpleQueue[tuple[int, Frame, bool] | None] = queue.SimpleQueue()
+        self._cores: list[Any] = []
+        self._closed = False
+        self._failure: BaseException | None = None
+        self._thread = threading.Thread(target=self._run, name=f"drempower {self.what}", daemon=True)
+        self._thread.start()
+
+    @abstractmethod
+    def _emit(self, topic: str, ns: int, message: dict[str, Any]) -> None:
+        """Write one message of ``topic`` stamped ``ns`` (Unix ns)."""
+
+    @abstractmethod
+    def _finish(self) -> None:
+        """Finish the output once everything queued is written."""
+
+    # ------------------------------------------------------------------ input
+
+    def attach(self: _S, bus: Any) -> _S:
+        """Take every frame ``bus`` (a Bus, AsyncBus or BusCore) sends and receives from now on."""
+        core = getattr(bus, "core", bus)
+        core.add_tap(self.tap)
+        self._cores.append(core)
+        return self
+
+    def detach(self) -> None:
+        """Stop taking the frames of the attached buses (the output stays open)."""
+        for core in self._cores:
+            core.remove_tap(self.tap)
+        self._cores.clear()
+
+    def tap(self, frame: Frame, tx: bool) -> None:
+        """A bus's frame tap: queue ``frame`` stamped with the wall clock now."""
+        self._queue.put((time.time_ns(), frame, tx))
+
+    def record(self, frame: Frame, tx: bool, timestamp: float | None = None) -> None:
+        """Queue one frame seen elsewhere; ``timestamp`` is Unix time (s), default now."""
+        if self._closed:
+            raise DrEmpowerError(f"the {self.what} is closed")
+        ns = time.time_ns() if timestamp is None else round(timestamp * 1e9)
+        self._queue.put((ns, frame, tx))
+
+    # ------------------------------------------------------------------ writing
+
+    def _run(self) -> None:
+        get, events, emit, stats = self._queue.get, self._events, self._emit, self.stats
+        try:
+            while True:
+                item = get()
+                if item is None:
+                    return
+                stats.frames_in += 1
+                ns = item[0]
+                for topic, message in events(*item):
+                    emit(topic, ns, message)
+                    kind = _COUNTERS[topic]
+                    setattr(stats, kind, getattr(stats, kind) + 1)
+        except BaseException as exc:  # keep the bus running; close() reports it
+            self._failure = exc
+
+    # ------------------------------------------------------------------ closing
+
+    def close(self) -> None:
+        """Detach, write every queued frame and finish. Idempotent."""
+        if self._closed:
+            return
+        self._closed = True
+        self.detach()
+        self._queue.put(None)
+        self._thread.join()
+        self._finish()
+        if self._failure is not None:
+            raise DrEmpowerError(f"the {self.what} failed: {self._failure}") from self._failure
+
+    def __enter__(self: _S) -> _S:
+        return self
+
+    def __exit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        self.close()

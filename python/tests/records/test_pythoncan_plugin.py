@@ -1,0 +1,97 @@
+"""The adapter as a python-can interface: python-can's own logger and player through the simulated adapter's pty."""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import can
+import pytest
+
+from drempower.protocol import DataType, PositionQ, WriteParam, decode_reply
+from drempower.protocol.messages import State
+from drempower.sim import SimBus, SimRunner, attach_adapter_pty
+from drempower.sim.adapter_pty import AdapterPty
+
+
+@pytest.fixture
+def adapter() -> Iterator[tuple[SimBus, AdapterPty]]:
+    bus = SimBus([1, 2])
+    with SimRunner(bus), attach_adapter_pty(bus) as pty:
+        yield bus, pty
+
+
+def _eventually(check: object, limit: float = 5.0) -> bool:
+    deadline = time.monotonic() + limit
+    while time.monotonic() < deadline:
+        if check():  # type: ignore[operator]
+            return True
+        time.sleep(0.02)
+    return False
+
+
+def test_entry_point_is_registered() -> None:
+    assert "drempower_adapter" in can.interfaces.VALID_INTERFACES
+
+
+def test_python_can_bus_through_the_adapter(adapter: tuple[SimBus, AdapterPty]) -> None:
+    sim, pty = adapter
+    with can.Bus(interface="drempower_adapter", channel=pty.path) as bus:
+        f = PositionQ(1, 30.0, 60.0, 300.0).encode()
+        bus.send(can.Message(arbitration_id=f.arbitration_id, data=f.data, is_extended_id=False))
+        assert _eventually(lambda: abs(sim.motors[1].position - 30.0) <= 0.05)
+        bus.send(can.Message(arbitration_id=0x03E, data=bytes(8), is_extended_id=False))  # fast read
+        msg = bus.recv(2.0)
+        assert msg is not None and msg.arbitration_id & 0x1F in (1, 3) and msg.timestamp > 1e9
+        assert isinstance(decode_reply(msg.arbitration_id, bytes(msg.data)), State)
+
+
+def test_bitrate_and_missing_port_are_refused(tmp_path: Path) -> None:
+    with pytest.raises(can.CanInitializationError, match="vendor's configuration tool"):
+        can.Bus(interface="drempower_adapter", channel="loop://", bitrate=500_000)
+    with pytest.raises(can.CanInitializationError, match="no-such-port"):
+        can.Bus(interface="drempower_adapter", channel=str(tmp_path / "no-such-port"))
+
+
+def test_python_can_logger_and_player(adapter: tuple[SimBus, AdapterPty], tmp_path: Path) -> None:
+    sim, pty = adapter
+    for node in (1, 2):  # heartbeats every 20 ms
+        sim.send(WriteParam(node, 21004, DataType.U32, 20).encode())
+    log = tmp_path / "heartbeats.asc"
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    logger = subprocess.Popen(
+        [sys.executable, "-m", "can.logger", "-i", "drempower_adapter", "-c", pty.path, "-f", str(log)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        env=env,
+    )
+    try:
+        time.sleep(1.5)
+    finally:
+        logger.send_signal(signal.SIGINT)
+        _, err = logger.communicate(timeout=20)
+    assert logger.returncode in (0, 130, -signal.SIGINT), err
+    states = [decode_reply(m.arbitration_id, bytes(m.data)) for m in can.LogReader(log)]
+    assert {s.node for s in states} == {1, 2} and all(isinstance(s, State) for s in states)
+    assert len(states) >= 10
+
+    # the player sends a recorded command through the adapter: the motor moves
+    for node in (1, 2):
+        sim.send(WriteParam(node, 21004, DataType.U32, 0).encode())
+    cmd = tmp_path / "move.log"
+    f = PositionQ(2, -45.0, 60.0, 300.0).encode()
+    cmd.write_text(f"(1700000000.000000) can0 {f.arbitration_id:03X}#{f.data.hex().upper()} T\n")
+    r = subprocess.run(
+        [sys.executable, "-m", "can.player", "-i", "drempower_adapter", "-c", pty.path, str(cmd)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=env,
+    )
+    assert r.returncode == 0, r.stderr
+    assert _eventually(lambda: abs(sim.motors[2].position + 45.0) <= 0.05)
