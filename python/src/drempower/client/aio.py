@@ -35,6 +35,7 @@ from .commands import (
 from .core import (
     DEFAULT_MOVE_TIMEOUT,
     DEFAULT_POLL_INTERVAL,
+    MOVE_TOLERANCE,
     Exchange,
     StartPolicy,
     StopOnClose,
@@ -102,7 +103,7 @@ class AsyncBus(BusBase["AsyncMotor"]):
             core.send_many(effect.messages)
             return None
         if isinstance(effect, Batch):
-            return core.send_batch(effect.presets, effect.start)
+            return core.send_batch(effect.presets, effect.start, effect.targets, effect.move_time)
         assert isinstance(effect, Sleep)
         await asyncio.sleep(effect.seconds)
         core.check_open()
@@ -197,9 +198,10 @@ class AsyncBus(BusBase["AsyncMotor"]):
         timeout: float = DEFAULT_MOVE_TIMEOUT,
         *,
         poll_interval: float = DEFAULT_POLL_INTERVAL,
+        tolerance: float = MOVE_TOLERANCE,
     ) -> dict[int, MotorState]:
         """Wait until every listed motor reports its move done."""
-        return await self.run(ops.wait_done(list(id_list), timeout, poll_interval))
+        return await self.run(ops.wait_done(self._core, list(id_list), timeout, poll_interval, tolerance=tolerance))
 
     wait_positions_done = positions_done
 
@@ -281,14 +283,24 @@ class AsyncMotor(MotorBase):
         self._core.estop([self._id])
 
     async def position_done(
-        self, timeout: float = DEFAULT_MOVE_TIMEOUT, *, poll_interval: float = DEFAULT_POLL_INTERVAL
+        self,
+        timeout: float = DEFAULT_MOVE_TIMEOUT,
+        *,
+        poll_interval: float = DEFAULT_POLL_INTERVAL,
+        tolerance: float = MOVE_TOLERANCE,
     ) -> MotorState:
-        return await self.wait_position_done(timeout, poll_interval=poll_interval)
+        return await self.wait_position_done(timeout, poll_interval=poll_interval, tolerance=tolerance)
 
     async def wait_position_done(
-        self, timeout: float = DEFAULT_MOVE_TIMEOUT, *, poll_interval: float = DEFAULT_POLL_INTERVAL
+        self,
+        timeout: float = DEFAULT_MOVE_TIMEOUT,
+        *,
+        poll_interval: float = DEFAULT_POLL_INTERVAL,
+        tolerance: float = MOVE_TOLERANCE,
     ) -> MotorState:
-        return (await self._bus.run(ops.wait_done([self._id], timeout, poll_interval)))[self._id]
+        return (
+            await self._bus.run(ops.wait_done(self._core, [self._id], timeout, poll_interval, tolerance=tolerance))
+        )[self._id]
 
     async def wait_state(self, timeout: float) -> MotorState:
         return await self._bus.wait_state(self._id, timeout)

@@ -39,6 +39,7 @@ class SimTransport(Transport):
         """The simulated bus."""
         self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
         self._closed = False
+        self.wire_bitrate = self.bus.bitrate
         self.bus.add_listener(self._queue.put, host_frames=True)
         self._runner = SimRunner(self.bus, time_scale).start() if time_scale > 0 else None
         ids = ",".join(str(m.node_id) for m in self.bus.motors.values())
