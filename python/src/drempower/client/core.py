@@ -85,14 +85,15 @@ class MoveRecord:
 
     ``target`` deg (None when unknown), ``sent`` the :func:`time.monotonic`
     time just before its command or start was sent, ``move_time`` the planned
-    duration (s, Q-mode synchronised moves) and ``took`` whether a state with
-    T = 0 arrived after ``sent`` (the motor showed it took the move).
+    duration (s, Q-mode synchronised moves) and ``took`` the arrival time of
+    the first state with T = 0 after ``sent`` (the motor showed it took the
+    move; None until then).
     """
 
     target: float | None
     sent: float
     move_time: float | None = None
-    took: bool = False
+    took: float | None = None
 
 
 _RX_SLICE = 0.25
@@ -425,8 +426,8 @@ class BusCore:
             )
             if not cmd & 2:
                 mv = self.moves.get(node)
-                if mv is not None and st.timestamp > mv.sent:
-                    mv.took = True
+                if mv is not None and mv.took is None and st.timestamp > mv.sent:
+                    mv.took = st.timestamp
             self.states.update(st)
             self.matcher.resolve(node, 0, st)
             return

@@ -297,7 +297,9 @@ def _finished(st: MotorState, mv: MoveRecord | None, tolerance: float) -> bool:
         return True
     if st.timestamp <= mv.sent:
         return False
-    if mv.took or (mv.move_time is not None and st.timestamp >= mv.sent + mv.move_time):
+    if mv.took is not None and st.timestamp > mv.took:
+        return True
+    if mv.move_time is not None and st.timestamp >= mv.sent + mv.move_time:
         return True
     return mv.target is not None and abs(st.angle - mv.target) <= tolerance
 
@@ -357,7 +359,7 @@ def wait_done(
             n = waiting[0]
             mv = moves.get(n)
             st = last.get(n)
-            took = mv is None or mv.took or (st is not None and not st.trajectory_done)
+            took = mv is None or mv.took is not None or (st is not None and not st.trajectory_done)
             why = "still moving" if took else "no sign that it took the move"
             raise MoveTimeoutError(
                 n,
