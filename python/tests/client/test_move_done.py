@@ -117,9 +117,8 @@ def test_a_move_the_motor_never_took_times_out_naming_it() -> None:
 
 def test_tolerance_is_checked() -> None:
     sim = SimBus(ids=[1])
-    with link("inprocess", sim, time_scale=2, timeout=1.0) as bus:
-        with pytest.raises(drempower.ValidationError, match="tolerance"):
-            bus.motor(1).wait_position_done(1, tolerance=-1)
+    with link("inprocess", sim, time_scale=2, timeout=1.0) as bus, pytest.raises(drempower.ValidationError):
+        bus.motor(1).wait_position_done(1, tolerance=-1)
 
 
 def _estop() -> drempower.protocol.SystemCommand:
