@@ -9,7 +9,7 @@ import pytest
 import drempower
 from drempower import compat
 from drempower.client import Bus, MoveError, MoveFaultError, MoveTimeoutError, open_bus_async
-from drempower.sim import SimBus
+from drempower.sim import Faults, SimBus
 
 from .links import link
 
@@ -28,8 +28,9 @@ def _chatty(bus: Bus, ids: list[int], source: str) -> None:
 
 @pytest.mark.parametrize("source", STATE_SOURCES)
 def test_positions_done_waits_for_the_move_despite_stale_states(source: str) -> None:
-    sim = SimBus(ids=[1, 2, 3])
-    with link("inprocess", sim, time_scale=2, timeout=1.0) as bus:
+    """Every motor frame takes 20 ms to arrive: states sent before the start are still in flight after it."""
+    sim = SimBus(ids=[1, 2, 3], faults=Faults(reply_delay=0.02))
+    with link("inprocess", sim, time_scale=1, timeout=1.0) as bus:
         _chatty(bus, [1, 2, 3], source)
         t = bus.set_angles([1, 2, 3], TARGETS, speed=60, param=200, mode=1)
         assert t is not None and t > 0.1
@@ -41,8 +42,8 @@ def test_positions_done_waits_for_the_move_despite_stale_states(source: str) -> 
 @pytest.mark.parametrize("source", STATE_SOURCES)
 def test_single_motor_waits_t_mode(source: str) -> None:
     """T mode has no planned time: the wait needs T = 0 after the command, or the motor at its target."""
-    sim = SimBus(ids=[1])
-    with link("inprocess", sim, time_scale=2, timeout=1.0) as bus:
+    sim = SimBus(ids=[1], faults=Faults(reply_delay=0.02))
+    with link("inprocess", sim, time_scale=1, timeout=1.0) as bus:
         _chatty(bus, [1], source)
         m = bus.motor(1)
         m.set_angle(45, 0, 5, 0)  # a slow filter: the T bit stays 1 for a moment after the command
