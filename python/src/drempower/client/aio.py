@@ -102,8 +102,10 @@ class AsyncBus(BusBase["AsyncMotor"]):
         if isinstance(effect, Send):
             core.send_many(effect.messages)
             return None
-        if isinstance(effect, Batch):
-            return core.send_batch(effect.presets, effect.start, effect.targets, effect.move_time)
+        if isinstance(effect, Batch):  # in a thread: the start waits until the presets are on the wire
+            return await asyncio.to_thread(
+                core.send_batch, effect.presets, effect.start, effect.targets, effect.move_time
+            )
         assert isinstance(effect, Sleep)
         await asyncio.sleep(effect.seconds)
         core.check_open()
@@ -277,7 +279,7 @@ class AsyncMotor(MotorBase):
         self, pos: float, vel: float = 0.0, tff: float = 0.0, kp: float = 0.0, kd: float = 0.0
     ) -> None:
         preset, start = make_impedance(self._id, pos, vel, tff, kp, kd)
-        self._core.send_batch([preset], start)
+        await asyncio.to_thread(self._core.send_batch, [preset], start)
 
     async def estop(self) -> None:
         self._core.estop([self._id])
