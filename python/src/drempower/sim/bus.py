@@ -106,12 +106,12 @@ class SimBus:
         self.host_queue = host_queue
         self._host_slots = parse_host_queue(host_queue)
         self._hosts: dict[Listener | None, _HostQueue] = {}
-        self.tx_done = threading.Condition(threading.Lock())
-        """Notified each time a host frame has left its host (end of its transmission)."""
         self.faults = faults if faults is not None else Faults()
         self.rng = random.Random(seed)
         """The generator of every random fault."""
         self.lock = threading.RLock()
+        self.tx_done = threading.Condition(self.lock)
+        """Notified (under ``lock``) each time a host frame has left its host (end of its transmission)."""
         self.now = 0.0
         """Simulated time (s)."""
         folder = Path(config_dir) if config_dir is not None else None
