@@ -591,6 +591,8 @@ static void set_id_write(dre_bus *bus, dre_request *r, uint32_t now)
     r->sent_ms = now;
 }
 
+static void release_start(dre_bus *bus, uint32_t now);
+
 void dre_bus_poll(dre_bus *bus)
 {
     dre_frame f;
@@ -600,6 +602,7 @@ void dre_bus_poll(dre_bus *bus)
     while (rx_pop(bus, &f)) {
         (void)dre_bus_feed(bus, &f);
     }
+    release_start(bus, now);
     for (i = 0u; i < bus->nslots; i++) {
         dre_request *r = &bus->slots[i];
         if (r->state == SLOT_PENDING && (uint32_t)(now - r->sent_ms) >= bus->cfg.timeout_ms) {
@@ -1341,6 +1344,55 @@ static dre_status check_ids(dre_bus *bus, uint8_t n, const uint8_t *ids)
 }
 
 /*
+ * Send the start of a batch (bus->held_start) to broadcast (held_nodes == 1)
+ * or to each motor of held_nodes; a motor leaves presets_pending when its
+ * start (or the broadcast) went out.
+ */
+static dre_status send_starts(dre_bus *bus)
+{
+    dre_msg s = bus->held_start;
+    uint64_t nodes = bus->held_nodes;
+    dre_frame f;
+    uint8_t node;
+
+    bus->held_nodes = 0u;
+    for (node = 0u; node <= 63u; node++) {
+        if ((nodes & ((uint64_t)1u << node)) == 0u) {
+            continue;
+        }
+        s.node = node == 0u ? (uint8_t)DRE_BROADCAST : node;
+        (void)dre_encode(&s, &f, NULL);
+        if (transmit(bus, &f) != DRE_OK) {
+            bus->held_status = (int8_t)DRE_E_SEND;
+            return DRE_E_SEND;
+        }
+        bus->presets_pending &= node == 0u ? 0u : ~motor_bits(node);
+    }
+    bus->held_status = (int8_t)DRE_OK;
+    return DRE_OK;
+}
+
+/* With cfg.tx_done: send a held start once the presets are on the wire, or give it up after the timeout. */
+static void release_start(dre_bus *bus, uint32_t now)
+{
+    if (bus->held_status != (int8_t)DRE_PENDING) {
+        return;
+    }
+    if (bus->cfg.tx_done(bus->cfg.user)) {
+        (void)send_starts(bus);
+    } else if ((uint32_t)(now - bus->held_ms) >= bus->cfg.timeout_ms) {
+        bus->held_nodes = 0u;
+        bus->held_status = (int8_t)DRE_E_TIMEOUT;
+        bus->stats.timeouts++;
+    }
+}
+
+dre_status dre_batch_status(const dre_bus *bus)
+{
+    return (dre_status)bus->held_status;
+}
+
+/*
  * Validate every preset and the start, choose where the start goes (cfg.start),
  * check there is room for every frame, then send. Motors holding a preset
  * without a start are tracked in presets_pending.
@@ -1385,7 +1437,7 @@ static dre_status run_batch(dre_bus *bus, const batch *b, uint8_t n, const dre_m
     }
     broadcast = bus->cfg.start == DRE_START_TO_BROADCAST ||
                 (bus->cfg.start == DRE_START_TO_AUTO && n > 1u && (bus->presets_pending & ~mask) == 0u);
-    if (!room(bus, (unsigned)n + (broadcast ? 1u : n))) {
+    if (bus->held_status == (int8_t)DRE_PENDING || !room(bus, (unsigned)n + (broadcast ? 1u : n))) {
         return DRE_E_BUSY;
     }
     for (i = 0u; i < n; i++) {
@@ -1396,17 +1448,14 @@ static dre_status run_batch(dre_bus *bus, const batch *b, uint8_t n, const dre_m
         }
         bus->presets_pending |= motor_bits(m.node);
     }
-    for (i = 0u; i < (broadcast ? 1u : n); i++) {
-        if (!broadcast) {
-            s.node = batch_msg(b, i).node;
-        }
-        (void)dre_encode(&s, &f, NULL);
-        if (transmit(bus, &f) != DRE_OK) {
-            return DRE_E_SEND;
-        }
-        bus->presets_pending &= ~motor_bits(s.node);
+    bus->held_start = s;
+    bus->held_nodes = broadcast ? 1u : mask;
+    if (bus->cfg.tx_done != NULL && !bus->cfg.tx_done(bus->cfg.user)) {
+        bus->held_status = (int8_t)DRE_PENDING; /* dre_bus_poll() sends the start once the presets are out */
+        bus->held_ms = bus->cfg.tick(bus->cfg.user);
+        return DRE_PENDING;
     }
-    return DRE_OK;
+    return send_starts(bus);
 }
 
 dre_status dre_preset_start(dre_bus *bus, const dre_msg *presets, uint8_t n, const dre_msg *start)

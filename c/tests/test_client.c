@@ -869,6 +869,118 @@ static void test_stale_presets(void)
     CHECK(bus.presets_pending == (1u << 2));
 }
 
+/* ------------------------------------------------------------------ start after presets */
+
+/* A bxCAN-like port: frames wait in a FIFO (txq), fill three mailboxes in order, and the
+ * mailboxes arbitrate by identifier: the lowest id goes on the wire first. */
+static dre_frame mbox[3];
+static int mbox_full[3];
+
+static int mb_send(void *user, const dre_frame *f)
+{
+    (void)user;
+    return dre_txq_send(&txq, f);
+}
+
+static int mb_done(void *user)
+{
+    (void)user;
+    return dre_txq_free(&txq) == 8u && !mbox_full[0] && !mbox_full[1] && !mbox_full[2];
+}
+
+/* Put up to `n` frames on the wire (recorded as sent by the fake). */
+static void mb_wire(unsigned n)
+{
+    while (n-- > 0u) {
+        int k, best = -1;
+        for (k = 0; k < 3; k++) {
+            if (!mbox_full[k] && dre_txq_peek(&txq, &mbox[k])) {
+                dre_txq_pop(&txq);
+                mbox_full[k] = 1;
+            }
+        }
+        for (k = 0; k < 3; k++) {
+            if (mbox_full[k] && (best < 0 || mbox[k].id < mbox[best].id)) {
+                best = k;
+            }
+        }
+        if (best < 0) {
+            return;
+        }
+        CHECK(fake_send(&bus_fake, &mbox[best]) == 0);
+        mbox_full[best] = 0;
+    }
+}
+
+static void setup_mailboxes(int with_tx_done)
+{
+    setup();
+    memset(mbox_full, 0, sizeof mbox_full);
+    CHECK(dre_txq_init(&txq, txq_storage, 8u) == DRE_OK);
+    bus.cfg.send = mb_send;
+    bus.cfg.tx_done = with_tx_done ? mb_done : NULL;
+}
+
+/* The scripted cases of the Python client's start-after-presets rule, on a three-mailbox port. */
+static void test_start_after_presets(void)
+{
+    static const uint8_t ids[5] = {1u, 2u, 3u, 4u, 5u};
+    static const float speeds[5] = {10.0f, 10.0f, 10.0f, 10.0f, 10.0f};
+    static const char *preset = "0000204100006400";
+    static const char *start = "1300000000000000";
+
+    /* without tx_done the broadcast start takes the first freed mailbox and wins over two presets */
+    setup_mailboxes(0);
+    CHECK(dre_set_speeds(&bus, 3u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_OK);
+    mb_wire(8u);
+    CHECK(bus_fake.nsent == 4u && sent_is(0u, 0x02C, preset) && sent_is(1u, 0x008, start) &&
+          sent_is(2u, 0x04C, preset) && sent_is(3u, 0x06C, preset));
+
+    /* with tx_done the start is held until every preset is on the wire */
+    setup_mailboxes(1);
+    CHECK(dre_batch_status(&bus) == DRE_OK);
+    CHECK(dre_set_speeds(&bus, 3u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_PENDING);
+    CHECK(dre_batch_status(&bus) == DRE_PENDING && dre_txq_free(&txq) == 5u);
+    CHECK(dre_set_speeds(&bus, 2u, ids + 3, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_E_BUSY);
+    CHECK(dre_txq_free(&txq) == 5u); /* the refused batch sent nothing */
+    dre_bus_poll(&bus);
+    CHECK(dre_batch_status(&bus) == DRE_PENDING && dre_txq_free(&txq) == 5u);
+    mb_wire(2u);
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 2u && dre_batch_status(&bus) == DRE_PENDING);
+    mb_wire(1u);
+    dre_bus_poll(&bus);
+    CHECK(dre_batch_status(&bus) == DRE_OK && bus.presets_pending == 0u && dre_txq_free(&txq) == 7u);
+    mb_wire(8u);
+    CHECK(bus_fake.nsent == 4u && sent_is(0u, 0x02C, preset) && sent_is(1u, 0x04C, preset) &&
+          sent_is(2u, 0x06C, preset) && sent_is(3u, 0x008, start));
+
+    /* a port whose presets leave at once: the start follows without waiting */
+    setup_mailboxes(1);
+    bus.cfg.send = fake_send; /* straight to the wire */
+    bus.cfg.user = &bus_fake;
+    CHECK(dre_set_speeds(&bus, 2u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_OK);
+    CHECK(bus_fake.nsent == 3u && sent_is(2u, 0x008, start) && dre_batch_status(&bus) == DRE_OK);
+
+    /* the wire stays busy: after the timeout the start is given up, its presets stay pending and
+     * the next batch starts its own motors by id, so the stale presets never fire */
+    setup_mailboxes(1);
+    CHECK(dre_set_speeds(&bus, 3u, ids, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_PENDING);
+    bus_fake.now += bus.cfg.timeout_ms;
+    dre_bus_poll(&bus);
+    CHECK(dre_batch_status(&bus) == DRE_E_TIMEOUT && bus.stats.timeouts == 1u);
+    CHECK(bus.presets_pending == ((1u << 1) | (1u << 2) | (1u << 3)));
+    mb_wire(8u);
+    CHECK(bus_fake.nsent == 3u); /* three presets, no start */
+    CHECK(dre_set_speeds(&bus, 2u, ids + 3, speeds, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_PENDING);
+    mb_wire(2u);
+    dre_bus_poll(&bus);
+    CHECK(dre_batch_status(&bus) == DRE_OK);
+    mb_wire(8u);
+    CHECK(bus_fake.nsent == 7u && sent_is(5u, 0x088, start) && sent_is(6u, 0x0A8, start));
+    CHECK(bus.presets_pending == ((1u << 1) | (1u << 2) | (1u << 3)));
+}
+
 /* ------------------------------------------------------------------ vendor functions */
 
 static void test_reads(void)
@@ -1355,6 +1467,7 @@ int main(void)
     test_tx_room();
     test_txq();
     test_stale_presets();
+    test_start_after_presets();
     test_reads();
     test_verified_writes();
     test_set_id();

@@ -71,6 +71,12 @@ typedef uint32_t (*dre_tick_fn)(void *user);
 typedef void (*dre_msg_fn)(void *user, const dre_msg *msg);
 /** How many frames the send callback can take right now without failing. */
 typedef unsigned (*dre_tx_free_fn)(void *user);
+/**
+ * Nonzero once every frame handed to the send callback has been transmitted
+ * on the bus (bxCAN: every transmit mailbox empty, TXOKx set; SocketCAN: the
+ * echo of the last frame seen). See dre_bus_config.tx_done.
+ */
+typedef int (*dre_tx_done_fn)(void *user);
 
 /** Velocity profile of Q moves (axis0.trap_traj.config.traj_mode, 35104). */
 typedef enum { DRE_TRAJ_TRAPEZOID = 1, DRE_TRAJ_S_CURVE = 2 } dre_traj_mode;
@@ -111,6 +117,19 @@ typedef struct {
      * when there is too little. NULL = unlimited (a deep software queue).
      */
     dre_tx_free_fn tx_free;
+    /**
+     * Optional, required when the controller arbitrates its transmit mailboxes
+     * by identifier (bxCAN and most CAN peripherals with several mailboxes):
+     * a batch's start (id node*32+8) would overtake its presets (id
+     * node*32+12) still waiting in the mailboxes, and the motors whose preset
+     * was overtaken would keep it for the next start. With tx_done set, a
+     * batch sends its presets and, unless tx_done() says they have all left
+     * already, holds the start and returns DRE_PENDING: dre_bus_poll() sends
+     * it once tx_done() is nonzero; dre_batch_status() reports the outcome.
+     * NULL: the port transmits in the order given (one mailbox, or a FIFO
+     * such as dre_txq feeding one mailbox at a time), so the start follows at once.
+     */
+    dre_tx_done_fn tx_done;
     uint32_t timeout_ms; /**< per request; 0 = DRE_DEFAULT_TIMEOUT_MS */
     /** Q-move profile (dre_traj_mode) assumed for motors whose profile the bus
      *  has not learned (see dre_get_traj_mode); 0 = trapezoid. */
@@ -178,6 +197,10 @@ typedef struct {
      * batch, DRE_START_TO_AUTO starts the batch's motors by their own ids.
      */
     uint64_t presets_pending;
+    uint64_t held_nodes; /**< with cfg.tx_done: motors whose start is held (bit 0: one broadcast start) */
+    dre_msg held_start;  /**< the held start */
+    uint32_t held_ms;    /**< tick when the start was held */
+    int8_t held_status;  /**< DRE_PENDING while held, then DRE_OK, DRE_E_TIMEOUT or DRE_E_SEND */
     uint64_t traj_known;  /**< bit n: the Q profile of motor n is known */
     uint64_t traj_scurve; /**< bit n: motor n runs the S-curve profile */
 } dre_bus;
@@ -443,7 +466,20 @@ dre_status dre_positions_done(dre_bus *bus, uint8_t n, const uint8_t *ids, dre_d
  * room for all its frames at once, or returns DRE_E_BUSY having sent nothing.
  * If a send fails midway (DRE_E_SEND), the motors that got a preset but no
  * start are remembered in presets_pending (see DRE_START_TO_AUTO).
+ * With cfg.tx_done set, a batch whose presets are not yet all on the wire
+ * returns DRE_PENDING and holds its start (see dre_batch_status); another
+ * batch meanwhile returns DRE_E_BUSY, sending nothing.
  */
+
+/**
+ * Outcome of the last batch whose start was held (cfg.tx_done): DRE_PENDING
+ * while dre_bus_poll() waits for tx_done(); DRE_OK once the start was sent;
+ * DRE_E_TIMEOUT when tx_done() stayed 0 for cfg.timeout_ms (the start was
+ * never sent: its motors stay in presets_pending, so no later broadcast start
+ * fires their presets); DRE_E_SEND when the start could not be sent. DRE_OK
+ * when no start was ever held.
+ */
+dre_status dre_batch_status(const dre_bus *bus);
 
 /**
  * Send `n` presets (DRE_MSG_PRESET or typed presets matching `start`), then

@@ -20,8 +20,10 @@ Differences from the vendor library (see docs/client.md):
   needs no host setting, a state reply never disturbs a read.
 * ``set_angles`` reads the motors' positions and ``traj_mode`` every time
   (no stale cache); ``step_angle`` and ``impedance_control`` start only their motor.
-* ``position_done``/``positions_done`` give up after a timeout (60 s by default)
-  and raise when a motor reports an error; ``dump_error`` returns the decoded
+* ``position_done``/``positions_done`` wait until the move has happened (stale
+  state frames do not end them), give up after a timeout (60 s by default) and
+  raise ``MoveError`` when a motor reports an error or ends away from its
+  target; ``dump_error`` returns the decoded
   flags per error word, not the sum of the words.
 * ``set_mode`` refuses modes other than 1 and 2 instead of ignoring them;
   ``set_id`` checks that the motor answers at its new id before saving.

@@ -30,6 +30,9 @@ async def test_async_queries_and_moves(motors: FakeMotors) -> None:
         assert set(await bus.cycle([bus.motor(n).make_speed(1) for n in (1, 3)], reply_state=False)) == {1, 3}
         assert [i.id for i in await bus.scan(range(1, 8))] == [1, 2, 3]
         assert not await m.dump_error()
+        with pytest.raises(drempower.MoveTimeoutError, match="motor 2: no sign that it took the move"):
+            await m.wait_position_done(0.05)  # motor 2 never left 5 deg for its target, 15
+        motors.positions[2] = 15.0
         assert (await m.wait_position_done(1)).node == 2
         await m.set_traj_mode(2)
         assert bus.core.traj_mode[2] == 2

@@ -79,6 +79,8 @@ def test_single_motor_moves_never_start_other_motors() -> None:
         bus.motor(1).impedance_control(20, 0, 0, 1, 0.05)
         bus.positions_done([1], timeout=5)
         assert bus.motor(2).get_state().angle == pytest.approx(0, abs=0.01)
+        bus.motor(1).set_angle(20, 60, 300, 1)  # hold still: the relative move below starts from 20
+        bus.positions_done([1], timeout=5)
     with link("inprocess", sim, time_scale=50, start="broadcast") as bus:  # the vendor library's way
         bus.motor(1).step_angle(20, 60, 300, 1)
         bus.positions_done([1, 2], timeout=5)

@@ -59,7 +59,11 @@ def register(sub: Any) -> None:
     p.add_argument("--speed-ff", type=number, metavar="RPM", help="p: speed feed-forward (default 0)")
     p.add_argument("--torque-ff", type=number, metavar="NM", help="p: torque feed-forward (default 0)")
     p.add_argument("--relative", action="store_true", help="angles are offsets from where the motors are")
-    p.add_argument("--wait", action="store_true", help="wait until every motor reports its move done")
+    p.add_argument(
+        "--wait",
+        action="store_true",
+        help="wait until every motor has reached its target; exit 1 saying why when one stops elsewhere",
+    )
     p.add_argument("--wait-timeout", type=positive, metavar="S", help="longest wait (default: from the move time)")
     add_watchdog_arg(p)
     add_json_arg(p)

@@ -18,6 +18,7 @@ from ..sim import (
     attach_socketcand,
     attach_uart_pty,
 )
+from ..sim.bus import DEFAULT_HOST_QUEUE, parse_host_queue
 from ._connect import bitrate, parse_ids, positive
 from ._output import clean, json_line
 from ._usage import UsageError
@@ -45,6 +46,14 @@ def register(sub: Any) -> None:
         help="python-can interface of --python-can (default virtual, in-process only; e.g. socketcan for vcan0)",
     )
     p.add_argument("--bitrate", type=bitrate, help="simulate bus timing at this bit rate, e.g. 1M (default instant)")
+    p.add_argument(
+        "--host-queue",
+        type=_host_queue,
+        default=DEFAULT_HOST_QUEUE,
+        metavar="MODEL",
+        help="transmit queue of each host with --bitrate: fifo, or priority:N mailboxes arbitrating by id "
+        f"like bxCAN (default {DEFAULT_HOST_QUEUE})",
+    )
     p.add_argument("--time-scale", type=positive, default=1.0, help="simulated seconds per second (default 1)")
     p.add_argument("--config-dir", metavar="DIR", help="keep each motor's saved configuration in DIR")
     p.add_argument("--duration", type=positive, metavar="S", help="stop after S seconds of wall time")
@@ -62,6 +71,14 @@ def register(sub: Any) -> None:
         help="one JSON object per line: the motors, each attachment, running, and the summary when stopped",
     )
     p.set_defaults(func=run)
+
+
+def _host_queue(text: str) -> str:
+    try:
+        parse_host_queue(text)
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc).split(": ", 1)[1]) from None
+    return text
 
 
 def _rate(text: str) -> float:
@@ -92,10 +109,17 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
         reply_delay=args.reply_delay,
         serial_garbage=args.serial_garbage,
     )
-    bus = SimBus(args.ids, bitrate=args.bitrate, faults=faults, seed=args.seed, config_dir=args.config_dir)
+    bus = SimBus(
+        args.ids,
+        bitrate=args.bitrate,
+        host_queue=args.host_queue,
+        faults=faults,
+        seed=args.seed,
+        config_dir=args.config_dir,
+    )
     default = not (args.adapter_pty or args.uart_pty is not None or args.socketcand_port is not None or args.python_can)
     ids = ",".join(map(str, args.ids))
-    timing = f"{args.bitrate} bit/s" if args.bitrate else "instant delivery"
+    timing = f"{args.bitrate} bit/s, host queue {args.host_queue}" if args.bitrate else "instant delivery"
     with ExitStack() as stack:
         stack.enter_context(SimRunner(bus, args.time_scale))
         show(

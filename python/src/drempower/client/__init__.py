@@ -26,8 +26,16 @@ from .commands import (
     make_torques,
     q_move_time,
 )
-from .core import DEFAULT_TIMEOUT
-from .errors import BusClosedError, MotorFaultError, TimeoutError, VerifyError
+from .core import DEFAULT_TIMEOUT, MOVE_TOLERANCE
+from .errors import (
+    BusClosedError,
+    MotorFaultError,
+    MoveError,
+    MoveFaultError,
+    MoveTimeoutError,
+    TimeoutError,
+    VerifyError,
+)
 from .motor import Motor
 from .results import ErrorReport, GpioMode, MotorInfo
 from .state import MotorState, Subscription
@@ -47,6 +55,10 @@ __all__ = [
     "Motor",
     "MotorFaultError",
     "MotorInfo",
+    "MOVE_TOLERANCE",
+    "MoveError",
+    "MoveFaultError",
+    "MoveTimeoutError",
     "MotorState",
     "ParamRecord",
     "PositionMode",

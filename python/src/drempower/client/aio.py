@@ -35,6 +35,7 @@ from .commands import (
 from .core import (
     DEFAULT_MOVE_TIMEOUT,
     DEFAULT_POLL_INTERVAL,
+    MOVE_TOLERANCE,
     Exchange,
     StartPolicy,
     StopOnClose,
@@ -101,8 +102,10 @@ class AsyncBus(BusBase["AsyncMotor"]):
         if isinstance(effect, Send):
             core.send_many(effect.messages)
             return None
-        if isinstance(effect, Batch):
-            return core.send_batch(effect.presets, effect.start)
+        if isinstance(effect, Batch):  # in a thread: the start waits until the presets are on the wire
+            return await asyncio.to_thread(
+                core.send_batch, effect.presets, effect.start, effect.targets, effect.move_time
+            )
         assert isinstance(effect, Sleep)
         await asyncio.sleep(effect.seconds)
         core.check_open()
@@ -197,9 +200,10 @@ class AsyncBus(BusBase["AsyncMotor"]):
         timeout: float = DEFAULT_MOVE_TIMEOUT,
         *,
         poll_interval: float = DEFAULT_POLL_INTERVAL,
+        tolerance: float = MOVE_TOLERANCE,
     ) -> dict[int, MotorState]:
         """Wait until every listed motor reports its move done."""
-        return await self.run(ops.wait_done(list(id_list), timeout, poll_interval))
+        return await self.run(ops.wait_done(self._core, list(id_list), timeout, poll_interval, tolerance=tolerance))
 
     wait_positions_done = positions_done
 
@@ -275,20 +279,30 @@ class AsyncMotor(MotorBase):
         self, pos: float, vel: float = 0.0, tff: float = 0.0, kp: float = 0.0, kd: float = 0.0
     ) -> None:
         preset, start = make_impedance(self._id, pos, vel, tff, kp, kd)
-        self._core.send_batch([preset], start)
+        await asyncio.to_thread(self._core.send_batch, [preset], start)
 
     async def estop(self) -> None:
         self._core.estop([self._id])
 
     async def position_done(
-        self, timeout: float = DEFAULT_MOVE_TIMEOUT, *, poll_interval: float = DEFAULT_POLL_INTERVAL
+        self,
+        timeout: float = DEFAULT_MOVE_TIMEOUT,
+        *,
+        poll_interval: float = DEFAULT_POLL_INTERVAL,
+        tolerance: float = MOVE_TOLERANCE,
     ) -> MotorState:
-        return await self.wait_position_done(timeout, poll_interval=poll_interval)
+        return await self.wait_position_done(timeout, poll_interval=poll_interval, tolerance=tolerance)
 
     async def wait_position_done(
-        self, timeout: float = DEFAULT_MOVE_TIMEOUT, *, poll_interval: float = DEFAULT_POLL_INTERVAL
+        self,
+        timeout: float = DEFAULT_MOVE_TIMEOUT,
+        *,
+        poll_interval: float = DEFAULT_POLL_INTERVAL,
+        tolerance: float = MOVE_TOLERANCE,
     ) -> MotorState:
-        return (await self._bus.run(ops.wait_done([self._id], timeout, poll_interval)))[self._id]
+        return (
+            await self._bus.run(ops.wait_done(self._core, [self._id], timeout, poll_interval, tolerance=tolerance))
+        )[self._id]
 
     async def wait_state(self, timeout: float) -> MotorState:
         return await self._bus.wait_state(self._id, timeout)

@@ -47,18 +47,24 @@ def move_angles(
     time follows PROTOCOL.md 3.4.3 for the biggest mover, from freshly read
     positions (absolute moves) and each motor's real ``traj_mode``, rounded up
     to the 0.01 s the preset carries; it is returned (None in T and P modes).
+    Relative moves read the positions first too, so every target is known:
+    the bus records each target (and the move time) for the waits.
     """
     m = position_mode(mode)
     nodes = check_ids(ids, angles, "angle_list")
     make_angles(nodes, angles, speed, param, m, move_time=1.0, relative=relative)  # validate all but the time
     move_time: float | None = None
+    here: list[float] | None = None
+    if relative or m is PositionMode.Q:
+        states = yield from read_states(nodes, timeout)
+        here = [st.angle for st in states if st is not None]
     if m is PositionMode.Q:
         modes = yield from traj_modes(core, nodes, timeout)
         if relative:
             dists = [abs(a) for a in angles]
         else:
-            states = yield from read_states(nodes, timeout)
-            dists = [abs(a - st.angle) for a, st in zip(angles, states, strict=True) if st is not None]
+            assert here is not None
+            dists = [abs(a - p) for a, p in zip(angles, here, strict=True)]
         t = max(q_move_time(d, speed, param, modes[n]) for n, d in zip(nodes, dists, strict=True))
         move_time = max(0.01, math.ceil(round(t * 100, 6)) / 100)
         if move_time > S16_MAX:
@@ -66,7 +72,8 @@ def move_angles(
                 "move time", move_time, 0.01, S16_MAX, "s; the Q preset carries at most 327.67 s: raise speed or accel"
             )
     presets, start = make_angles(nodes, angles, speed, param, m, move_time=move_time, relative=relative)
-    yield Batch(presets, start)
+    targets = [float(a) + p for a, p in zip(angles, here, strict=True)] if relative and here else list(angles)
+    yield Batch(presets, start, targets, move_time)
     return move_time
 
 

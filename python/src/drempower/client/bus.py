@@ -16,6 +16,7 @@ from .commands import PositionMode, TorqueMode, VelocityMode
 from .core import (
     DEFAULT_MOVE_TIMEOUT,
     DEFAULT_POLL_INTERVAL,
+    MOVE_TOLERANCE,
     Exchange,
     StartPolicy,
     StopOnClose,
@@ -76,7 +77,7 @@ class Bus(BusBase[Motor]):
             core.send_many(effect.messages)
             return None
         if isinstance(effect, Batch):
-            return core.send_batch(effect.presets, effect.start)
+            return core.send_batch(effect.presets, effect.start, effect.targets, effect.move_time)
         assert isinstance(effect, Sleep)
         if core.closed_event.wait(effect.seconds):
             core.check_open()
@@ -192,12 +193,17 @@ class Bus(BusBase[Motor]):
         timeout: float = DEFAULT_MOVE_TIMEOUT,
         *,
         poll_interval: float = DEFAULT_POLL_INTERVAL,
+        tolerance: float = MOVE_TOLERANCE,
     ) -> dict[int, MotorState]:
-        """Wait until every listed motor reports its move done; returns their final states.
+        """Wait until every listed motor has finished its move; returns their final states.
 
-        Raises TimeoutError after ``timeout`` s and MotorFaultError when one reports an error.
+        Only states received after the move was sent count, once the motor showed
+        it took the move; each final position must be within ``tolerance`` deg of
+        its target. Raises MoveError (motor, target, position, error flags) on a
+        miss, MoveFaultError (a MotorFaultError) when one reports an error and
+        MoveTimeoutError (a TimeoutError) after ``timeout`` s: see :func:`ops.wait_done`.
         """
-        return self.run(ops.wait_done(list(id_list), timeout, poll_interval))
+        return self.run(ops.wait_done(self._core, list(id_list), timeout, poll_interval, tolerance=tolerance))
 
     wait_positions_done = positions_done
 

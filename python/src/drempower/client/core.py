@@ -25,6 +25,9 @@ from ..protocol.ids import Frame, SysCmd
 from ..protocol.messages import (
     FastRead,
     Message,
+    PositionP,
+    PositionQ,
+    PositionT,
     ReadParam,
     Start,
     StartImpedance,
@@ -43,6 +46,8 @@ __all__ = [
     "BusCore",
     "Exchange",
     "FrameTap",
+    "MoveRecord",
+    "MOVE_TOLERANCE",
     "StartPolicy",
     "StopOnClose",
     "DEFAULT_TIMEOUT",
@@ -65,6 +70,33 @@ StartPolicy = Literal["auto", "broadcast", "node"]
 """Where start commands go: see :class:`BusCore`."""
 StopOnClose = bool | Literal["idle", "estop"]
 """What closing the bus does to the motors it commanded: see :class:`BusCore`."""
+
+MOVE_TOLERANCE = 0.5
+"""Default largest distance (deg) between a finished move's position and its target."""
+ASSUMED_BITRATE = 125_000
+"""Bit rate (bit/s) assumed when the transport does not know the bus's: the slowest the motors use."""
+_WORST_FRAME_BITS = 135
+"""Longest standard 8-byte CAN data frame with stuff bits and interframe space."""
+_POSITION_CMDS = (PositionT, PositionQ, PositionP)
+_POSITION_STARTS = frozenset((0x10, 0x11, 0x12))
+
+
+@dataclasses.dataclass(slots=True)
+class MoveRecord:
+    """The last position move this bus commanded to one motor (what a wait for it checks).
+
+    ``target`` deg (None when unknown), ``sent`` the :func:`time.monotonic`
+    time just before its command or start was sent, ``move_time`` the planned
+    duration (s, Q-mode synchronised moves) and ``took`` the arrival time of
+    the first state with T = 0 after ``sent`` (the motor showed it took the
+    move; None until then).
+    """
+
+    target: float | None
+    sent: float
+    move_time: float | None = None
+    took: float | None = None
+
 
 _RX_SLICE = 0.25
 ZERO_REPLY_GRACE = 0.01
@@ -165,6 +197,9 @@ class BusCore:
         """Known ``traj_mode`` (35104) per motor: read from it or set through this bus."""
         self.reply_state: dict[int, bool] = {}
         """Known ``enable_reply_state`` (31214) per motor."""
+        self.moves: dict[int, MoveRecord] = {}
+        """The last position move per motor (see :class:`MoveRecord`); other motion commands drop it."""
+        self._wire_free = 0.0
         self.frames_received = 0
         self.malformed = 0
         self.unmatched = 0
@@ -241,6 +276,8 @@ class BusCore:
         cmd = msg.cmd
         if cmd in MOTION_CMDS:
             self._commanded.add(msg.node)
+            if cmd != 0x0C:  # a preset changes nothing until its start
+                self._new_move(msg)
         elif isinstance(msg, WriteParam):
             if msg.address == _REQUESTED_STATE:
                 self._commanded.add(msg.node)
@@ -263,6 +300,16 @@ class BusCore:
                 tap(frame, tx)
             except Exception:
                 _log.exception("frame tap %r failed", tap)
+
+    def _new_move(self, msg: Message) -> None:
+        """Record the position move a direct command starts; any other motion command ends the record."""
+        node = msg.node
+        if node == 0:
+            self.moves.clear()
+        elif isinstance(msg, _POSITION_CMDS):
+            self.moves[node] = MoveRecord(msg.position, _monotonic())
+        else:
+            self.moves.pop(node, None)
 
     # ------------------------------------------------------------------ sending
 
@@ -288,6 +335,9 @@ class BusCore:
 
     def _send_frames(self, frames: Sequence[Frame]) -> None:
         lock, send = self._send_lock, self.transport.send
+        rate = getattr(self.transport, "wire_bitrate", None) or ASSUMED_BITRATE
+        now = _monotonic()
+        self._wire_free = max(now, self._wire_free) + len(frames) * _WORST_FRAME_BITS / rate
         for f in frames:
             with lock:  # per frame, so an estop from another thread waits one frame at most
                 send(f)
@@ -315,11 +365,23 @@ class BusCore:
             raise BusClosedError(f"the bus ({self.transport.description}) is closed")
         self._send_frames(frames)
 
-    def send_batch(self, presets: Sequence[Message], start: Start | StartImpedance) -> list[int]:
+    def send_batch(
+        self,
+        presets: Sequence[Message],
+        start: Start | StartImpedance,
+        targets: Sequence[float | None] | None = None,
+        move_time: float | None = None,
+    ) -> list[int]:
         """Send presets and their start as one atomic batch; returns where the start(s) went.
 
-        Every frame is encoded before the first is sent. See the class
-        docstring for the start addressing.
+        Every frame is encoded before the first is sent. The start is sent only
+        once every preset is known to be on the wire (:meth:`presets_on_wire`).
+        For a position move, ``targets`` (deg per preset) and ``move_time`` (s)
+        are recorded in :attr:`moves` for the waits. See the class docstring for
+        the start addressing. When a batch fails before its start, its motors
+        stay marked as holding a preset: later starts then go to each motor of
+        their own batch, never to broadcast, until those motors get a new preset
+        and start, so a stale preset never fires.
         """
         nodes = [p.node for p in presets]
         frames = [p.encode() for p in presets]
@@ -330,16 +392,50 @@ class BusCore:
             broadcast = policy == "broadcast" or (
                 policy == "auto" and len(nodes) > 1 and self._pending_presets.issubset(nodes)
             )
-            targets = [0] if broadcast else nodes
-            frames += [dataclasses.replace(start, node=n).encode() for n in targets]
+            where = [0] if broadcast else nodes
+            starts = [dataclasses.replace(start, node=n).encode() for n in where]
             self._pending_presets.update(nodes)
             self._commanded.update(nodes)
             self._send_frames(frames)
+            self.presets_on_wire(nodes)
+            sent = _monotonic()
+            moves = self.moves
+            if isinstance(start, Start) and start.kind in _POSITION_STARTS:
+                goals = targets if targets is not None else [None] * len(nodes)
+                for n, goal in zip(nodes, goals, strict=True):
+                    moves[n] = MoveRecord(goal, sent, move_time)
+            else:
+                for n in nodes:
+                    moves.pop(n, None)
+            self._send_frames(starts)
             if broadcast:
                 self._pending_presets.clear()
             else:
                 self._pending_presets.difference_update(nodes)
-        return targets
+        return where
+
+    def presets_on_wire(self, nodes: Sequence[int]) -> None:
+        """Return once every frame sent so far (the presets of a batch) is on the wire.
+
+        A transport that delivers in order (``in_order``, the UART) needs no wait;
+        one that confirms transmission (``wait_sent``, the in-process simulator)
+        is asked, and a refusal within the bus timeout raises :class:`TimeoutError`;
+        otherwise the wait lasts the bus time of everything sent and not yet on
+        the wire (worst-case frame length at the transport's ``wire_bitrate``, or
+        125 kbit/s when unknown) plus the transport's ``tx_latency``.
+        """
+        t = self.transport
+        if getattr(t, "in_order", False):
+            return
+        wait_sent = getattr(t, "wait_sent", None)
+        confirmed = wait_sent(max(self.timeout, 0.1)) if wait_sent is not None else None
+        if confirmed:
+            return
+        if confirmed is False:
+            raise TimeoutError(nodes, "the transmission of the presets", max(self.timeout, 0.1))
+        delay = self._wire_free + getattr(t, "tx_latency", 0.005) - _monotonic()
+        if delay > 0 and self.closed_event.wait(delay):
+            self.check_open()
 
     # ------------------------------------------------------------------ receiving
 
@@ -385,6 +481,10 @@ class BusCore:
             st: MotorState = _new_state(
                 MotorState, (node, pos, vel / 100, tq / 100, bool(cmd & 2), bool(cmd & 4), _monotonic())
             )
+            if not cmd & 2:
+                mv = self.moves.get(node)
+                if mv is not None and mv.took is None and st.timestamp > mv.sent:
+                    mv.took = st.timestamp
             self.states.update(st)
             self.matcher.resolve(node, 0, st)
             return

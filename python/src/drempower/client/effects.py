@@ -36,6 +36,10 @@ class Batch:
 
     presets: Sequence[Message]
     start: Start | StartImpedance
+    targets: Sequence[float | None] | None = None
+    """Target angle (deg) per preset of a position move, recorded for the waits."""
+    move_time: float | None = None
+    """Planned move time (s) of a Q-mode move."""
 
 
 @dataclass(frozen=True, slots=True)

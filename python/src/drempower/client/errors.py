@@ -7,7 +7,15 @@ from collections.abc import Sequence
 
 from ..errors import DrEmpowerError
 
-__all__ = ["TimeoutError", "BusClosedError", "MotorFaultError", "VerifyError"]
+__all__ = [
+    "TimeoutError",
+    "BusClosedError",
+    "MotorFaultError",
+    "VerifyError",
+    "MoveError",
+    "MoveFaultError",
+    "MoveTimeoutError",
+]
 
 
 def motors(nodes: Sequence[int]) -> str:
@@ -53,3 +61,65 @@ class MotorFaultError(DrEmpowerError):
 
 class VerifyError(DrEmpowerError):
     """A value read back after writing it differs from what was written (the write was lost or refused)."""
+
+
+def _flags_text(flags: dict[str, list[str]]) -> str:
+    return "; ".join(f"{word}: {', '.join(names)}" for word, names in flags.items()) or "no error flags"
+
+
+class MoveError(DrEmpowerError):
+    """A position move did not end at its target (angle limits, stall, estop, a fault or a timeout).
+
+    ``node`` is the motor, ``target`` the commanded angle (deg), ``position`` the
+    angle it reported last (deg, None when it never answered), ``flags`` its
+    decoded error words (empty when none is set or they could not be read) and
+    ``reason`` says what went wrong. :class:`MoveFaultError` (the motor
+    reported an error) and :class:`MoveTimeoutError` (still moving when the wait
+    ended) are the two kinds that are also :class:`MotorFaultError` and
+    :class:`TimeoutError`.
+    """
+
+    def __init__(
+        self,
+        node: int,
+        target: float | None,
+        position: float | None,
+        flags: dict[str, list[str]],
+        reason: str,
+    ) -> None:
+        self.node = node
+        self.target = target
+        self.position = position
+        self.flags = flags
+        self.reason = reason
+        goal = "unknown" if target is None else f"{target:.2f} deg"
+        where = "unknown" if position is None else f"{position:.2f} deg"
+        DrEmpowerError.__init__(self, f"motor {node}: {reason}: target {goal}, reached {where} ({_flags_text(flags)})")
+
+
+class MoveFaultError(MoveError, MotorFaultError):
+    """The motor reported an error (E bit) while a wait for its move was running."""
+
+    def __init__(
+        self, node: int, target: float | None, position: float | None, flags: dict[str, list[str]], reason: str
+    ) -> None:
+        MoveError.__init__(self, node, target, position, flags, reason)
+
+
+class MoveTimeoutError(MoveError, TimeoutError):
+    """The motor had not finished its move when the wait's ``timeout`` (s) ended."""
+
+    def __init__(
+        self,
+        node: int,
+        target: float | None,
+        position: float | None,
+        flags: dict[str, list[str]],
+        reason: str,
+        timeout: float,
+        nodes: Sequence[int] = (),
+    ) -> None:
+        self.nodes = tuple(nodes) or (node,)
+        self.request = "wait_position_done"
+        self.timeout = timeout
+        MoveError.__init__(self, node, target, position, flags, reason)

@@ -28,7 +28,7 @@ from .commands import (
     make_speed,
     make_torque,
 )
-from .core import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, BusCore
+from .core import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE, BusCore
 from .results import ErrorReport, GpioMode
 from .state import MotorState, StateCallback, Subscription
 
@@ -153,20 +153,32 @@ class Motor(MotorBase):
         self._core.estop([self._id])
 
     def position_done(
-        self, timeout: float = DEFAULT_MOVE_TIMEOUT, *, poll_interval: float = DEFAULT_POLL_INTERVAL
+        self,
+        timeout: float = DEFAULT_MOVE_TIMEOUT,
+        *,
+        poll_interval: float = DEFAULT_POLL_INTERVAL,
+        tolerance: float = MOVE_TOLERANCE,
     ) -> MotorState:
         """Wait until the move is done (vendor name of :meth:`wait_position_done`)."""
-        return self.wait_position_done(timeout, poll_interval=poll_interval)
+        return self.wait_position_done(timeout, poll_interval=poll_interval, tolerance=tolerance)
 
     def wait_position_done(
-        self, timeout: float = DEFAULT_MOVE_TIMEOUT, *, poll_interval: float = DEFAULT_POLL_INTERVAL
+        self,
+        timeout: float = DEFAULT_MOVE_TIMEOUT,
+        *,
+        poll_interval: float = DEFAULT_POLL_INTERVAL,
+        tolerance: float = MOVE_TOLERANCE,
     ) -> MotorState:
-        """Wait until the motor reports its move done; returns the final state.
+        """Wait until the motor has finished its move; returns the final state.
 
-        Raises TimeoutError after ``timeout`` s and MotorFaultError (with the
-        decoded error flags) as soon as the motor reports an error.
+        The final position must be within ``tolerance`` deg of the target: raises
+        MoveError on a miss (angle limits, stall, estop), MoveFaultError (a
+        MotorFaultError, with the decoded error flags) as soon as the motor
+        reports an error and MoveTimeoutError (a TimeoutError) after ``timeout`` s.
         """
-        return self._bus.run(ops.wait_done([self._id], timeout, poll_interval))[self._id]
+        return self._bus.run(ops.wait_done(self._core, [self._id], timeout, poll_interval, tolerance=tolerance))[
+            self._id
+        ]
 
     def wait_state(self, timeout: float) -> MotorState:
         """Wait for the next state frame of this motor (heartbeat, reply...) without sending anything."""

@@ -12,9 +12,9 @@ from ..protocol.ids import MAX_NODE, SysCmd
 from ..protocol.messages import ReadParam, SystemCommand, WriteParam
 from ..protocol.parameters import DataType, Parameter, parameter
 from .commands import AxisMode, TrajMode
-from .core import BusCore
+from .core import MOVE_TOLERANCE, BusCore, MoveRecord
 from .effects import Op, Send, read_params, read_states, request, sleep
-from .errors import MotorFaultError, TimeoutError, VerifyError, motors
+from .errors import MotorFaultError, MoveError, MoveFaultError, MoveTimeoutError, TimeoutError, VerifyError, motors
 from .results import ERROR_WORD_NAMES, ErrorReport, GpioMode
 from .state import MotorState
 
@@ -276,41 +276,106 @@ def set_gpio_mode(node: int, mode: str, param: float, timeout: float | None = No
 
 
 def _fault(node: int, doing: str, timeout: float | None) -> Op[MotorFaultError]:
-    try:
-        report = yield from dump_error(node, timeout)
-        flags = report.flags
-    except TimeoutError:
-        flags = {}
+    flags = yield from _flags(node, timeout)
     return MotorFaultError(node, doing, flags)
 
 
-def wait_done(
-    nodes: Sequence[int], timeout: float, poll_interval: float, request_timeout: float | None = None
-) -> Op[dict[int, MotorState]]:
-    """Poll the motors (fast reads, one exchange per round) until each reports trajectory done.
+def _flags(node: int, timeout: float | None) -> Op[dict[str, list[str]]]:
+    """The motor's decoded error flags, or {} when they cannot be read."""
+    try:
+        report = yield from dump_error(node, timeout)
+    except TimeoutError:
+        return {}
+    return report.flags
 
-    Raises :class:`TimeoutError` naming the motors still moving after
-    ``timeout`` s, and :class:`MotorFaultError` as soon as one reports an error.
+
+def _finished(st: MotorState, mv: MoveRecord | None, tolerance: float) -> bool:
+    """Whether ``st`` shows that the move ``mv`` is over (see :func:`wait_done`)."""
+    if not st.trajectory_done:
+        return False
+    if mv is None:
+        return True
+    if st.timestamp <= mv.sent:
+        return False
+    if mv.took is not None and st.timestamp > mv.took:
+        return True
+    if mv.move_time is not None and st.timestamp >= mv.sent + mv.move_time:
+        return True
+    return mv.target is not None and abs(st.angle - mv.target) <= tolerance
+
+
+def wait_done(
+    core: BusCore,
+    nodes: Sequence[int],
+    timeout: float,
+    poll_interval: float,
+    request_timeout: float | None = None,
+    tolerance: float = MOVE_TOLERANCE,
+) -> Op[dict[int, MotorState]]:
+    """Poll the motors (fast reads, one exchange per round) until each has finished its move,
+    then check that each is within ``tolerance`` deg of its target.
+
+    A state counts as the end of a move this bus commanded (see
+    :attr:`BusCore.moves`) only when it arrived after the move's command or
+    start was sent, has the T bit set, and the motor has shown it took the
+    move: a state with T = 0 arrived after the start, or the planned Q move
+    time has passed, or it is at the new target. For a motor this bus did not
+    move, the first state with T = 1 ends the wait.
+
+    Raises :class:`MoveError` when a motor ended away from its target (angle
+    limits, a stall, an estop), :class:`MoveFaultError` (also a
+    :class:`MotorFaultError`) as soon as one reports an error, and
+    :class:`MoveTimeoutError` (also a :class:`TimeoutError`) naming the motors
+    still moving after ``timeout`` s; each names the motor, its target, the
+    position reached and its decoded error flags.
     """
     if not timeout > 0 or not poll_interval > 0:
         raise ValidationError(f"timeout={timeout!r} and poll_interval={poll_interval!r} must be > 0 s")
+    if not (isinstance(tolerance, (int, float)) and tolerance >= 0 and math.isfinite(tolerance)):
+        raise ValidationError(f"tolerance={tolerance!r}: expected a finite number of degrees >= 0")
     deadline = time.monotonic() + timeout
     waiting = list(dict.fromkeys(nodes))
+    moves = core.moves
     done: dict[int, MotorState] = {}
+    last: dict[int, MotorState] = {}
     while True:
         states = yield from read_states(waiting, request_timeout)
         for st in states:
             assert st is not None
+            node = st.node
+            last[node] = st
+            mv = moves.get(node)
             if st.error:
-                raise (yield from _fault(st.node, "while moving", request_timeout))
-            if st.trajectory_done:
-                done[st.node] = st
+                flags = yield from _flags(node, request_timeout)
+                target = None if mv is None else mv.target
+                raise MoveFaultError(node, target, st.angle, flags, "reported an error while moving")
+            if _finished(st, mv, tolerance):
+                done[node] = st
         waiting = [n for n in waiting if n not in done]
         if not waiting:
-            return done
+            break
         left = deadline - time.monotonic()
         if left <= 0:
-            raise TimeoutError(
-                waiting, "wait_position_done", timeout, f"{motors(waiting)}: still moving after {timeout:g} s"
+            n = waiting[0]
+            mv = moves.get(n)
+            st = last.get(n)
+            took = mv is None or mv.took is not None or (st is not None and not st.trajectory_done)
+            why = "still moving" if took else "no sign that it took the move"
+            raise MoveTimeoutError(
+                n,
+                None if mv is None else mv.target,
+                None if st is None else st.angle,
+                {},
+                f"{why} after {timeout:g} s" + ("" if len(waiting) == 1 else f" ({motors(waiting)} not done)"),
+                timeout,
+                waiting,
             )
         yield from sleep(min(poll_interval, left))
+    for node, st in done.items():
+        mv = moves.get(node)
+        if mv is not None and mv.target is not None and abs(st.angle - mv.target) > tolerance:
+            flags = yield from _flags(node, request_timeout)
+            raise MoveError(
+                node, mv.target, st.angle, flags, f"the move ended {st.angle - mv.target:+.2f} deg off its target"
+            )
+    return done

@@ -9,12 +9,20 @@ Without a bit rate, delivery is instant: the motors handle a host frame inside
 bit rate, frames are serialised one at a time in arbitration order (lowest id
 first) and each occupies the bus for :func:`~drempower.sim.timing.frame_bits`
 bit times; a frame takes effect when its transmission ends, during ``advance``.
+
+Each host (each attachment, and the in-process client) has its own transmit
+queue, modelled as ``host_queue``: ``"fifo"`` (one buffer: the host's frames
+leave in the order sent) or ``"priority:N"`` (N transmit mailboxes, filled in
+the order sent, that arbitrate by identifier like bxCAN, so a later frame with
+a lower id may overtake earlier ones still waiting). Motors send in order.
 """
 
 from __future__ import annotations
 
+import collections
 import heapq
 import itertools
+import math
 import os
 import random
 import threading
@@ -29,12 +37,37 @@ from .faults import Faults
 from .motor import SimMotor
 from .timing import BusStats, frame_bits
 
-__all__ = ["SimBus", "Listener"]
+__all__ = ["SimBus", "Listener", "DEFAULT_HOST_QUEUE", "HOST_QUEUES", "parse_host_queue"]
 
 Listener = Callable[[Frame], None]
 """Called with every frame a motor puts on the bus."""
 
 _EPS = 1e-9
+HOST_QUEUES = ("fifo", "priority:N")
+"""The host transmit-queue models (N = 1..32 mailboxes)."""
+DEFAULT_HOST_QUEUE = "priority:3"
+"""A bxCAN-style controller (STM32, candleLight/gs_usb, most USB-CAN dongles): three mailboxes."""
+
+
+def parse_host_queue(text: str) -> int:
+    """Mailboxes of a host queue model: ``"fifo"`` is 1, ``"priority:N"`` is N (1..32)."""
+    if text == "fifo":
+        return 1
+    kind, _, count = text.partition(":")
+    if kind == "priority" and count.isdigit() and 1 <= int(count) <= 32:
+        return int(count)
+    raise ValueError(f"host_queue={text!r}: 'fifo' or 'priority:N' with N mailboxes 1..32, e.g. 'priority:3'")
+
+
+class _HostQueue:
+    """One host's transmit queue: frames wait in ``backlog`` until one of ``slots`` mailboxes is free."""
+
+    __slots__ = ("backlog", "in_flight", "slots")
+
+    def __init__(self, slots: int) -> None:
+        self.slots = slots
+        self.in_flight = 0
+        self.backlog: collections.deque[tuple[int, int, Frame, SimMotor | None, Listener | None]] = collections.deque()
 
 
 class SimBus:
@@ -45,7 +78,9 @@ class SimBus:
     :class:`~drempower.sim.faults.Faults`) draw from a generator seeded with
     ``seed``. ``config_dir`` keeps each motor's saved configuration in
     ``motor-<id>.json`` (by the id the motor was created with). ``model`` sets
-    the physical properties of every motor.
+    the physical properties of every motor. ``host_queue`` models each host's
+    transmit queue when there is a bit rate: ``"fifo"`` or ``"priority:N"``
+    (default ``"priority:3"``, see the module docstring).
     """
 
     STEP = 0.001
@@ -60,6 +95,7 @@ class SimBus:
         seed: int = 0,
         config_dir: str | os.PathLike[str] | None = None,
         model: MotorModel | None = None,
+        host_queue: str = DEFAULT_HOST_QUEUE,
     ) -> None:
         ids = list(ids)
         if not ids or any(not 1 <= i <= MAX_NODE for i in ids) or len(set(ids)) != len(ids):
@@ -67,10 +103,15 @@ class SimBus:
         if bitrate is not None and bitrate <= 0:
             raise ValueError(f"bitrate must be > 0 (or None for instant delivery), got {bitrate}")
         self.bitrate = bitrate
+        self.host_queue = host_queue
+        self._host_slots = parse_host_queue(host_queue)
+        self._hosts: dict[Listener | None, _HostQueue] = {}
         self.faults = faults if faults is not None else Faults()
         self.rng = random.Random(seed)
         """The generator of every random fault."""
         self.lock = threading.RLock()
+        self.tx_done = threading.Condition(self.lock)
+        """Notified (under ``lock``) each time a host frame has left its host (end of its transmission)."""
         self.now = 0.0
         """Simulated time (s)."""
         folder = Path(config_dir) if config_dir is not None else None
@@ -94,6 +135,10 @@ class SimBus:
         self._ready: list[tuple[int, int, Frame, SimMotor | None, Listener | None]] = []
         self._tx: tuple[float, Frame, SimMotor | None, Listener | None] | None = None
         self._stats = BusStats()
+        self.clock_sync: Callable[[], None] | None = None
+        """Called (under the lock) before a host frame enters: a runner brings ``now`` up to wall time."""
+        self.on_activity: Callable[[], None] | None = None
+        """Called after a host frame entered: a runner wakes to deliver it at its completion time."""
 
     # ------------------------------------------------------------------ public
 
@@ -129,7 +174,30 @@ class SimBus:
         frame goes to every other listener registered with ``host_frames``, not back.
         """
         with self.lock:
+            sync = self.clock_sync
+            if sync is not None:
+                sync()
             self._enter(frame, None, origin)
+        wake = self.on_activity
+        if wake is not None:
+            wake()
+
+    def next_due(self) -> float:
+        """Simulated time (s) of the next thing that must happen at its own time: the end of the
+        frame on the wire, a scheduled event or a motor timer (heartbeat, watchdog...); inf if none."""
+        with self.lock:
+            due = min((m.next_wake for m in self._order), default=math.inf)
+            if self._tx is not None:
+                due = min(due, self._tx[0])
+            if self._events:
+                due = min(due, self._events[0][0])
+            return due
+
+    def host_pending(self, origin: Listener | None = None) -> int:
+        """Frames the host sending through ``origin`` has queued that are not yet fully on the wire."""
+        with self.lock:
+            q = self._hosts.get(origin)
+            return 0 if q is None else q.in_flight + len(q.backlog)
 
     def schedule(self, at: float, action: Callable[[], None]) -> None:
         """Run ``action()`` when simulated time reaches ``at`` (s), e.g. to raise an error mid-move."""
@@ -260,9 +328,23 @@ class SimBus:
             self._stats.frames += 1
             self._deliver(frame, source, origin)
             return
-        heapq.heappush(self._ready, (frame.arbitration_id, next(self._seq), frame, source, origin))
-        if self._tx is None:
+        entry = (frame.arbitration_id, next(self._seq), frame, source, origin)
+        if source is None:
+            q = self._hosts.get(origin)
+            if q is None:
+                q = self._hosts[origin] = _HostQueue(self._host_slots)
+            q.backlog.append(entry)
+            self._refill(q)
+        else:
+            heapq.heappush(self._ready, entry)
+        if self._tx is None and self._ready:
             self._start_tx()
+
+    def _refill(self, q: _HostQueue) -> None:
+        """Move a host's waiting frames into its free mailboxes, where they contend for the bus."""
+        while q.backlog and q.in_flight < q.slots:
+            heapq.heappush(self._ready, q.backlog.popleft())
+            q.in_flight += 1
 
     def _start_tx(self) -> None:
         _, _, frame, source, origin = heapq.heappop(self._ready)
@@ -279,6 +361,12 @@ class SimBus:
         assert self._tx is not None
         _, frame, source, origin = self._tx
         self._tx = None
+        if source is None:
+            q = self._hosts[origin]
+            q.in_flight -= 1
+            self._refill(q)
+            with self.tx_done:
+                self.tx_done.notify_all()
         if self._ready:
             self._start_tx()
         self._deliver(frame, source, origin)

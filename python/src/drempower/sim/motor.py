@@ -110,6 +110,11 @@ class SimMotor:
         self._sticky_cleared = True
         self._boot()
 
+    @property
+    def next_wake(self) -> float:
+        """Simulated time (s) of this motor's next timer (heartbeat, CAN timeout, end of calibration)."""
+        return self._wake
+
     # ------------------------------------------------------------------ readings
 
     @property

@@ -25,6 +25,17 @@ class Transport(ABC):
     """What this transport is connected to, e.g. ``"python-can socketcan can0"``."""
     default_timeout: float | None = None
     """Reply timeout (s) a bus should use on this transport when none is given (None: the bus's own)."""
+    in_order: bool = False
+    """True when frames reach the bus one at a time in the order sent (a UART to one motor)."""
+    wire_bitrate: int | None = None
+    """The bus's bit rate (bit/s) when this transport knows it; used to time what is queued."""
+    tx_latency: float = 0.005
+    """Longest time (s) a sent frame may wait in drivers, adapters or servers before it competes for the bus."""
+
+    def wait_sent(self, timeout: float) -> bool | None:
+        """Wait until every frame sent so far is on the wire: True once confirmed, False when
+        ``timeout`` s passed first, None when this transport cannot tell (the default)."""
+        return None
 
     @abstractmethod
     def send(self, frame: Frame) -> None:

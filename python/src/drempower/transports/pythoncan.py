@@ -129,6 +129,8 @@ class PythonCanTransport(Transport):
         self._closing = threading.Event()
         self._recv_lock = threading.Lock()
         self._send_lock = threading.Lock()
+        rate = cfg.get("bitrate")
+        self.wire_bitrate = rate if isinstance(rate, int) and rate > 0 else None
         info = str(getattr(self._bus, "channel_info", "") or "")
         chan = cfg.get("channel")
         if info and info != "unknown" and (chan is None or str(chan) in info):

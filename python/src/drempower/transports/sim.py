@@ -39,6 +39,7 @@ class SimTransport(Transport):
         """The simulated bus."""
         self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
         self._closed = False
+        self.wire_bitrate = self.bus.bitrate
         self.bus.add_listener(self._queue.put, host_frames=True)
         self._runner = SimRunner(self.bus, time_scale).start() if time_scale > 0 else None
         ids = ",".join(str(m.node_id) for m in self.bus.motors.values())
@@ -51,6 +52,21 @@ class SimTransport(Transport):
 
     def send(self, frame: Frame) -> None:
         self.bus.send(frame, self._queue.put)
+
+    def wait_sent(self, timeout: float) -> bool | None:
+        """Wait until every frame sent through this transport has been transmitted on the simulated bus.
+
+        True once they have, False when ``timeout`` s passed first, None with a manual
+        clock (nothing advances the bus while we wait).
+        """
+        bus = self.bus
+        if bus.bitrate is None:
+            return True
+        if self._runner is None:
+            return None
+        origin = self._queue.put
+        with bus.tx_done:
+            return bus.tx_done.wait_for(lambda: bus.host_pending(origin) == 0, timeout)
 
     def recv(self, timeout: float | None = None) -> Frame | None:
         if self._closed:

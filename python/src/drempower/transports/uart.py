@@ -23,5 +23,8 @@ class UartTransport(SerialFrameTransport):
     :func:`serial.serial_for_url` (``write_timeout`` bounds a send, 1 s by default).
     """
 
+    in_order = True
+    """A serial line carries the frames one after another, in the order sent, to one motor."""
+
     def __init__(self, port: str, baudrate: int = 115200, **serial_kwargs: Any) -> None:
         super().__init__(port, baudrate, Uart11Decoder(), _encode, "motor UART (11-byte frames)", **serial_kwargs)
