@@ -12,9 +12,18 @@ from .client import (
     open_bus,
     open_bus_async,
 )
-from .client.errors import TimeoutError as TimeoutError
-from .errors import DrEmpowerError, FieldRangeError, ProtocolError, ValidationError
-from .transports.errors import TransportError
+from .errors import (
+    ConfigError,
+    DrEmpowerError,
+    FieldRangeError,
+    IdTakenError,
+    NoMotorError,
+    ProtocolError,
+    TransportError,
+    ValidationError,
+    VerifyError,
+)
+from .errors import TimeoutError as TimeoutError
 
 __version__ = "0.1.0"
 
@@ -23,15 +32,19 @@ __all__ = [
     "AsyncMotor",
     "Bus",
     "BusClosedError",
+    "ConfigError",
     "DrEmpowerError",
     "FieldRangeError",
+    "IdTakenError",
     "Motor",
     "MotorFaultError",
     "MotorState",
+    "NoMotorError",
     "PositionMode",
     "ProtocolError",
     "TransportError",
     "ValidationError",
+    "VerifyError",
     "__version__",
     "open_bus",
     "open_bus_async",

@@ -27,7 +27,7 @@ from .commands import (
     q_move_time,
 )
 from .core import DEFAULT_TIMEOUT
-from .errors import BusClosedError, MotorFaultError, TimeoutError, VerifyError
+from .errors import BusClosedError, IdTakenError, MotorFaultError, NoMotorError, TimeoutError, VerifyError
 from .motor import Motor
 from .results import ErrorReport, GpioMode, MotorInfo
 from .state import MotorState, Subscription
@@ -44,9 +44,11 @@ __all__ = [
     "DEFAULT_TIMEOUT",
     "ErrorReport",
     "GpioMode",
+    "IdTakenError",
     "Motor",
     "MotorFaultError",
     "MotorInfo",
+    "NoMotorError",
     "MotorState",
     "ParamRecord",
     "PositionMode",

@@ -17,6 +17,7 @@ import threading
 import time
 from types import TracebackType
 
+from ..errors import ProtocolError, ValidationError
 from ..protocol.ids import Frame
 from .bus import SimBus
 
@@ -29,14 +30,18 @@ _POLL = 0.2
 
 
 def parse_send(body: str) -> Frame:
-    """``send ID LEN B0 ...`` (the text between ``<`` and ``>``) as a frame; raises ValueError."""
+    """``send ID LEN B0 ...`` (the text between ``<`` and ``>``) as a frame; raises :class:`ProtocolError`."""
     parts = body.split()
     if len(parts) < 3 or parts[0] != "send":
-        raise ValueError(f"not a send command: {body!r}")
-    ident, length, data = parts[1], int(parts[2]), bytes(int(b, 16) for b in parts[3:])
+        raise ProtocolError(f"not a send command: {body!r}")
+    try:
+        ident, length, data = parts[1], int(parts[2]), bytes(int(b, 16) for b in parts[3:])
+        arb = int(ident, 16)
+    except ValueError:
+        raise ProtocolError(f"bad send command: {body!r}") from None
     if length != len(data) or length > 8 or len(ident) not in (3, 8):
-        raise ValueError(f"bad send command: {body!r}")
-    return Frame(int(ident, 16), data, len(ident) == 8)
+        raise ProtocolError(f"bad send command: {body!r}")
+    return Frame(arb, data, len(ident) == 8)
 
 
 def format_frame(frame: Frame, seconds: float) -> bytes:
@@ -121,7 +126,7 @@ class _Client:
         elif word == "send" and self.raw:
             try:
                 frame = parse_send(body)
-            except ValueError:
+            except ProtocolError:
                 self.out.put(b"< error bad send command >")
                 return
             sim.send(frame, self.frame)
@@ -144,7 +149,7 @@ class SocketcandServer:
 
     def __init__(self, bus: SimBus, port: int = 0, host: str = "127.0.0.1", channel: str = "can0") -> None:
         if not ipaddress.ip_address(host).is_loopback:
-            raise ValueError(f"the simulator serves loopback addresses only, not {host}")
+            raise ValidationError(f"host={host!r}: the simulator serves loopback addresses only")
         self.sim = bus
         self.channel = channel
         self.closed = False

@@ -6,6 +6,7 @@ import queue
 from collections.abc import Iterable
 from typing import Any
 
+from ..errors import ValidationError
 from ..protocol.ids import Frame
 from ..sim import SimBus, SimRunner
 from .base import Transport
@@ -34,7 +35,7 @@ class SimTransport(Transport):
         **simbus_kwargs: Any,
     ) -> None:
         if time_scale < 0:
-            raise ValueError(f"time_scale must be >= 0, got {time_scale}")
+            raise ValidationError(f"time_scale={time_scale!r}: must be >= 0 (0: the caller advances the clock)")
         self.bus = bus if bus is not None else SimBus(ids=motors, **simbus_kwargs)
         """The simulated bus."""
         self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
