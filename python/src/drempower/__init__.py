@@ -1,5 +1,7 @@
 """drempower: the open toolkit for DrEmpower (Daran Robot) servo joint motors."""
 
+from typing import TYPE_CHECKING, Any
+
 from .client import (
     AsyncBus,
     AsyncMotor,
@@ -25,6 +27,9 @@ from .errors import (
 )
 from .errors import TimeoutError as TimeoutError
 
+if TYPE_CHECKING:
+    from .robot import AsyncRobot, Robot, open_robot, open_robot_async
+
 __version__ = "0.1.0"
 
 __all__ = [
@@ -48,4 +53,19 @@ __all__ = [
     "__version__",
     "open_bus",
     "open_bus_async",
+    "open_robot",
+    "open_robot_async",
+    "Robot",
+    "AsyncRobot",
 ]
+
+_ROBOT = frozenset(("open_robot", "open_robot_async", "Robot", "AsyncRobot"))
+
+
+def __getattr__(name: str) -> Any:
+    """The robot layer is imported on first use (it is not needed to drive one bus)."""
+    if name in _ROBOT:
+        from . import robot
+
+        return getattr(robot, name)
+    raise AttributeError(f"module 'drempower' has no attribute {name!r}")

@@ -138,6 +138,9 @@ class BusCore:
         self.start_policy: StartPolicy = start
         self.on_unsolicited = on_unsolicited
         """Called in the receive thread with every frame that is no reply to a request and no state frame."""
+        self.on_sent: Callable[[Frame, float], None] | None = None
+        """Called in the sending thread after each frame of a batch, exchange or estop is handed to the
+        transport, with the frame and :func:`time.monotonic` of the hand-over (s); keep it short."""
         self.states = StateCache()
         self.matcher = Matcher()
         self.traj_mode: dict[int, int] = {}
@@ -245,10 +248,12 @@ class BusCore:
         self._send_frames(frames)
 
     def _send_frames(self, frames: Sequence[Frame]) -> None:
-        lock, send = self._send_lock, self.transport.send
+        lock, send, sent = self._send_lock, self.transport.send, self.on_sent
         for f in frames:
             with lock:  # per frame, so an estop from another thread waits one frame at most
                 send(f)
+            if sent is not None:
+                sent(f, _monotonic())
 
     def estop(self, nodes: Sequence[int]) -> None:
         """Emergency stop: one frame per node (0 = every motor), sent at once, no reply awaited.
