@@ -15,6 +15,7 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..errors import DrEmpowerError
+from ._robot import apply_robot, run_command
 from ._usage import UsageError
 
 __all__ = ["main", "build_parser"]
@@ -45,7 +46,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
-        code: int = args.func(args)
+        apply_robot(args)  # --robot: joint names, the buses the command runs on
+        code: int = run_command(args) if getattr(args, "robot_groups", None) else args.func(args)
         return code
     except UsageError as exc:  # reported as argparse reports its own errors, exit code included
         command: argparse.ArgumentParser = args.command_parser
