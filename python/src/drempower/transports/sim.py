@@ -25,6 +25,8 @@ class SimTransport(Transport):
 
     default_timeout = 0.5
     """The simulator runs in the client's interpreter, so give replies a little more room than on a bus."""
+    recv_slice = None
+    """``close`` wakes a waiting receive itself (it queues None)."""
 
     def __init__(
         self,
@@ -53,11 +55,12 @@ class SimTransport(Transport):
     def send(self, frame: Frame) -> None:
         self.bus.send(frame, self._queue.put)
 
-    def recv(self, timeout: float | None = None) -> Frame | None:
-        if self._closed:
-            return None
+    def is_closed(self) -> bool:
+        return self._closed
+
+    def wait_frame(self, timeout: float) -> Frame | None:
         try:
-            frame = self._queue.get(timeout=timeout)
+            frame = self._queue.get(timeout=timeout) if timeout > 0 else self._queue.get_nowait()
         except queue.Empty:
             return None
         if frame is None:
