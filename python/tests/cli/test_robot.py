@@ -50,7 +50,12 @@ def test_state_get_set_idle_take_joint_names(cli: Cli, robot_file: str) -> None:
     r = cli("idle", "shoulder", "--robot", robot_file, "--json")
     assert r.code == 0 and r.records()[0]["state"] == "idle"
     r = cli("state", "shoulder", "elbow", "--robot", robot_file, "--json")  # two buses: one reading each
-    assert r.code == 0 and [rec["id"] for rec in r.records()] == [1, 1]
+    assert r.code == 0 and [(rec["bus"], rec["joint"], rec["id"]) for rec in r.records()] == [
+        ("left", "shoulder", 1),
+        ("right", "elbow", 1),
+    ]
+    r = cli("state", "shoulder", "elbow", "--robot", robot_file)
+    assert r.code == 0 and r.out.index("bus left (shoulder=1):") < r.out.index("bus right (elbow=1):")
 
 
 def test_monitor_takes_joints_of_one_bus(cli: Cli, robot_file: str) -> None:

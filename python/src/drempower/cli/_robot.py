@@ -11,12 +11,16 @@ order of the file.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import copy
+import io
+import json
+import sys
 from collections.abc import Callable
 from typing import Any
 
 from ..robot.config import JOINT_NAME, RobotSpec, load_robot
-from ._output import emit
+from ._output import emit, json_line
 from ._usage import UsageError
 
 __all__ = ["apply_robot", "joint_or_ids", "run_command"]
@@ -105,8 +109,27 @@ def run_command(args: argparse.Namespace) -> int:
     if args.command in _ONE_BUS:
         raise UsageError(f"{args.command} runs on one bus: name joints of one bus ({_joints_by_bus(args.robot_spec)})")
     worst = 0
+    spec: RobotSpec = args.robot_spec
     for bus, ids in groups.items():
-        worst = max(worst, args.func(_one(args, bus, ids)))
+        names = {j.id: j.name for j in spec.joints_on(bus)}
+        if not getattr(args, "json", False):
+            shown = ", ".join(f"{names[i]}={i}" if i in names else str(i) for i in ids)
+            print(f"bus {bus} ({shown}):", flush=True)
+            worst = max(worst, args.func(_one(args, bus, ids)))
+            continue
+        out = io.StringIO()
+        try:
+            with contextlib.redirect_stdout(out):
+                worst = max(worst, args.func(_one(args, bus, ids)))
+        finally:  # each JSON line says which bus and joint it is about
+            for line in out.getvalue().splitlines():
+                rec = json.loads(line)
+                if not isinstance(rec, dict):
+                    sys.stdout.write(line + "\n")
+                    continue
+                joint = names.get(rec["id"]) if isinstance(rec.get("id"), int) else None
+                extra: dict[str, Any] = {"bus": bus} | ({"joint": joint} if joint else {})
+                sys.stdout.write(json_line(extra | rec) + "\n")
     return worst
 
 
