@@ -86,6 +86,14 @@ def test_stop_reaches_every_bus(cli: Cli, robot_file: str) -> None:
     assert r.code == 0 and [(rec["bus"], rec["id"]) for rec in r.records()] == [("left", 2), ("right", 1)]
 
 
+def test_commands_without_joint_names(cli: Cli, robot_file: str, tmp_path: Path) -> None:
+    r = cli("scan", "--robot", robot_file, "--json")
+    assert r.code == 0, r.err
+    assert sorted((rec["bus"], rec["id"]) for rec in r.records()) == [("left", 1), ("left", 2), ("right", 1)]
+    r = cli("backup", "1", str(tmp_path / "b.json"), "--robot", robot_file)
+    assert r.code == 2 and "backup takes no joint names" in r.err and not (tmp_path / "b.json").exists()
+
+
 def test_joint_name_mistakes_are_usage_errors(cli: Cli, robot_file: str, tmp_path: Path) -> None:
     r = cli("state", "elbow", "--sim", "1")
     assert r.code == 2 and "need --robot FILE" in r.err

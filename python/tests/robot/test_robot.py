@@ -123,6 +123,17 @@ def test_estop_reaches_every_bus_even_when_one_failed(robot: Robot) -> None:
     )
 
 
+def test_a_closed_robot_refuses_work(sim_robot_file: Path) -> None:
+    robot = open_robot(sim_robot_file, sim={"time_scale": 20.0})
+    robot.close()
+    robot.close()  # idempotent
+    assert robot.closed and all(b.closed for b in robot.buses.values())
+    with pytest.raises(BusClosedError, match=r"robot .* is closed"):
+        robot.get_states()
+    with pytest.raises(BusClosedError):
+        robot.estop()
+
+
 def test_positions_done_times_out_naming_the_moving_joint(robot: Robot) -> None:
     robot.joint("elbow").set_angle(3000.0, 10.0, 10.0, 1)  # minutes of travel in Q mode
     with pytest.raises(drempower.TimeoutError, match="still moving") as info:

@@ -114,6 +114,7 @@ def add_ids_arg(
     what = "motor ids, e.g. 1 or 1,2,3 or 1-4" + (", or all (broadcast)" if all_ok else "")
     what += "; joint names with --robot"
     kind = joint_or_ids(parse_targets if all_ok else parse_ids)
+    parser.set_defaults(robot_ids=True)  # --robot: these words may be joint names
     if many:
         nargs = "*" if optional else "+"
         parser.add_argument("ids", nargs=nargs, type=kind, action=_Ids, default=[], metavar="IDS", help=what)

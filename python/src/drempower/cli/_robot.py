@@ -27,6 +27,8 @@ __all__ = ["apply_robot", "joint_or_ids", "run_command"]
 
 _ONE_BUS = frozenset(("monitor", "speed", "torque", "impedance"))
 """Commands that keep running (one bus at a time would never reach the next): their joints must share a bus."""
+_PER_BUS = frozenset(("scan",))
+"""Commands without joint names that still make sense once per bus."""
 _CONNECTIONS = {"sim": "--sim", "serial": "--serial", "uart": "--uart", "interface": "-i/--interface"}
 
 
@@ -69,7 +71,7 @@ def _groups(spec: RobotSpec, words: list[int | str]) -> dict[str, list[int]]:
 
 def apply_robot(args: argparse.Namespace) -> None:
     """Resolve joint names of ``args.ids`` with ``--robot``; refuse names without it. Sets ``args.robot_groups``."""
-    words: list[int | str] = list(getattr(args, "ids", None) or [])
+    words: list[int | str] = list(getattr(args, "ids", None) or []) if getattr(args, "robot_ids", False) else []
     robot = getattr(args, "robot", None)
     if robot is None:
         names = [w for w in words if isinstance(w, str)]
@@ -91,7 +93,8 @@ def _joints_by_bus(spec: RobotSpec) -> str:
 def _one(args: argparse.Namespace, bus: str, ids: list[int]) -> argparse.Namespace:
     part = copy.copy(args)
     part.robot_bus = bus
-    part.ids = ids
+    if getattr(args, "robot_ids", False):
+        part.ids = ids
     return part
 
 
@@ -106,6 +109,11 @@ def run_command(args: argparse.Namespace) -> int:
         return _stop(args, groups)
     if args.command == "move":
         return _move(args, groups)
+    if not getattr(args, "robot_ids", False) and args.command not in _PER_BUS:
+        raise UsageError(
+            f"{args.command} takes no joint names; with a robot of several buses, connect to one bus with its "
+            "own connection options"
+        )
     if args.command in _ONE_BUS:
         raise UsageError(f"{args.command} runs on one bus: name joints of one bus ({_joints_by_bus(args.robot_spec)})")
     worst = 0
@@ -162,6 +170,7 @@ def _stop(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
 
 def _move(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
     from ..client.core import DEFAULT_MOVE_TIMEOUT
+    from ._motion import stop_commanded
     from .move import _MODES, _params
 
     names = _names(args, groups)
@@ -173,16 +182,22 @@ def _move(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
     mode = _MODES[args.mode]
     speed, param = _params(args, mode)
     with _open(args) as robot:
-        move = robot.set_angles(dict(zip(names, angles, strict=True)), speed, param, mode, relative=args.relative)
-        records: list[dict[str, Any]] = [
-            {"joint": n, "angle": a, "move_time_s": move.move_time, "start_skew_us": round(move.skew * 1e6, 1)}
-            for n, a in zip(names, angles, strict=True)
-        ]
-        if args.wait:
-            timeout = args.wait_timeout or (DEFAULT_MOVE_TIMEOUT if move.move_time is None else 2 * move.move_time + 5)
-            final = robot.positions_done(names, timeout)
-            for r in records:
-                r["position_deg"] = round(final[r["joint"]].angle, 4)
+        try:
+            move = robot.set_angles(dict(zip(names, angles, strict=True)), speed, param, mode, relative=args.relative)
+            records: list[dict[str, Any]] = [
+                {"joint": n, "angle": a, "move_time_s": move.move_time, "start_skew_us": round(move.skew * 1e6, 1)}
+                for n, a in zip(names, angles, strict=True)
+            ]
+            if args.wait:
+                longest = DEFAULT_MOVE_TIMEOUT if move.move_time is None else 2 * move.move_time + 5
+                final = robot.positions_done(names, args.wait_timeout or longest)
+                for r in records:
+                    r["position_deg"] = round(final[r["joint"]].angle, 4)
+        except KeyboardInterrupt:  # as a move on one bus: the motors it commanded go idle
+            if args.stop_on_exit:
+                for bus in robot.buses.values():
+                    stop_commanded(bus, "interrupted")
+            raise
     if args.json or args.wait:
         emit(args, tuple(records[0]), records)
     else:

@@ -13,7 +13,7 @@ from ..client.bus import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL
 from ..client.commands import PositionMode
 from ..client.effects import read_states
 from ..client.state import MotorState
-from ..errors import DrEmpowerError, ValidationError
+from ..errors import BusClosedError, DrEmpowerError, ValidationError
 from ..protocol.messages import Message
 from .config import RobotSpec, load_robot
 from .joint import AsyncJoint, JointState
@@ -64,8 +64,15 @@ class AsyncRobot:
 
     async def _each(self, work: Mapping[str, Callable[[], Awaitable[T]]]) -> dict[str, T]:
         """Run each bus's part as a task; raise the first error (in bus order), noting its bus."""
+        if self._closed:
+            raise BusClosedError(f"the robot ({self.spec.source}) is closed")
         tasks = {bus: asyncio.ensure_future(fn()) for bus, fn in work.items()}
-        await asyncio.wait(tasks.values())
+        try:
+            await asyncio.wait(tasks.values())
+        except BaseException:  # cancelled: so are the buses' parts
+            for task in tasks.values():
+                task.cancel()
+            raise
         for bus, task in tasks.items():
             exc = task.exception()
             if exc is not None:

@@ -13,7 +13,7 @@ from ..client.bus import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, Bus, open_
 from ..client.commands import PositionMode
 from ..client.effects import read_states
 from ..client.state import MotorState
-from ..errors import DrEmpowerError, ValidationError
+from ..errors import BusClosedError, DrEmpowerError, ValidationError
 from ..protocol.messages import Message
 from .config import RobotSpec, load_robot
 from .joint import Joint, JointState
@@ -86,6 +86,8 @@ class Robot:
 
     def _each(self, work: Mapping[str, Callable[[], T]]) -> dict[str, T]:
         """Run each bus's part concurrently (inline for one bus); raise the first error, noting its bus."""
+        if self._closed:
+            raise BusClosedError(f"the robot ({self.spec.source}) is closed")
         if len(work) == 1:
             ((bus, fn),) = work.items()
             try:
