@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import threading
 from pathlib import Path
@@ -12,7 +13,8 @@ import drempower
 from drempower.client import Motor, MotorState
 from drempower.client.commands import q_move_time
 from drempower.errors import BusClosedError, FieldRangeError, TransportError, ValidationError
-from drempower.protocol import Preset, Start, SysCmd, SystemCommand, decode_command
+from drempower.protocol import Preset, ReadParam, Start, SysCmd, SystemCommand, decode_command
+from drempower.protocol.parameters import DataType
 from drempower.robot import Gearing, Joint, JointSpec, Robot, open_robot
 from drempower.sim import SimBus
 
@@ -108,6 +110,13 @@ def test_cycle_across_buses_returns_each_joints_state(robot: Robot) -> None:
     assert states["elbow"].node == 1 and states["shoulder"].node == 1
     with pytest.raises(ValidationError, match="joint 'elbow' is motor 1; the message is for 2"):
         robot.cycle({"elbow": robot.joint("hip").make_speed(1.0)})
+    recs = {name: Recorder(sim) for name, sim in _sims(robot).items()}
+    bad = dataclasses.replace(el.make_angle(10.0, 0.0, 20.0, 0), position=math.inf)
+    with pytest.raises(FieldRangeError, match=r"position \(joint elbow\)=inf"):
+        robot.cycle({"shoulder": sh.make_speed(1.0), "elbow": bad})
+    with pytest.raises(ValidationError, match="joint 'shoulder': a control cycle sends commands"):
+        robot.cycle({"shoulder": ReadParam(1, 31001, DataType.U32)})
+    assert all(rec.frames == [] for rec in recs.values())  # nothing sent on any bus
 
 
 def test_estop_reaches_every_bus_even_when_one_failed(robot: Robot) -> None:

@@ -17,7 +17,7 @@ from ..errors import BusClosedError, DrEmpowerError, ValidationError
 from ..protocol.messages import Message
 from .config import RobotSpec, load_robot
 from .joint import AsyncJoint, JointState
-from .names import by_bus, note_bus, opening_failed, per_bus
+from .names import by_bus, check_commands, note_bus, opening_failed, per_bus
 from .plan import StartClock, SyncMove, Target, bus_batch, check_targets, q_time, round_move_time
 from .threaded import bus_options
 
@@ -85,9 +85,7 @@ class AsyncRobot:
     ) -> dict[str, MotorState]:
         """Send one command per joint and return each joint's state (see :meth:`Robot.cycle`)."""
         groups = per_bus(self.spec, commands)
-        for name, msg in commands.items():
-            if msg.node != self.joints[name].id:
-                raise ValidationError(f"joint {name!r} is motor {self.joints[name].id}; the message is for {msg.node}")
+        check_commands(self.spec, commands)
 
         def part(bus: str, msgs: dict[str, Message]) -> Callable[[], Awaitable[dict[str, MotorState]]]:
             async def run() -> dict[str, MotorState]:

@@ -5,10 +5,11 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping
 from typing import TypeVar
 
-from ..errors import ConfigError, DrEmpowerError, TransportError, ValidationError
+from ..errors import ConfigError, DrEmpowerError, FieldRangeError, TransportError, ValidationError
+from ..protocol.messages import Message
 from .config import RobotSpec
 
-__all__ = ["by_bus", "per_bus", "note_bus", "opening_failed"]
+__all__ = ["by_bus", "per_bus", "note_bus", "opening_failed", "check_commands"]
 
 V = TypeVar("V")
 
@@ -58,3 +59,19 @@ def opening_failed(spec: RobotSpec, bus: str, exc: DrEmpowerError) -> DrEmpowerE
     if isinstance(exc, TransportError):
         return TransportError(f"{where}: {exc}")
     return ConfigError(f"{where}: {exc}")
+
+
+def check_commands(spec: RobotSpec, commands: Mapping[str, Message]) -> None:
+    """Check a control cycle's commands for every bus before any bus sends: each for its joint's motor, valid."""
+    for name, msg in commands.items():
+        j = spec.joints.get(name)
+        if j is not None and msg.node != j.id:
+            raise ValidationError(f"joint {name!r} is motor {j.id}; the message is for {msg.node}")
+        if msg.cmd == 0x1E:
+            raise ValidationError(f"joint {name!r}: a control cycle sends commands; reads are answered by the cycle")
+        try:
+            msg.encode()
+        except FieldRangeError as exc:
+            raise FieldRangeError(f"{exc.field} (joint {name})", exc.value, exc.low, exc.high) from None
+        except ValidationError as exc:
+            raise ValidationError(f"joint {name!r}: {exc}") from None

@@ -17,7 +17,7 @@ from ..errors import BusClosedError, DrEmpowerError, ValidationError
 from ..protocol.messages import Message
 from .config import RobotSpec, load_robot
 from .joint import Joint, JointState
-from .names import by_bus, note_bus, opening_failed, per_bus
+from .names import by_bus, check_commands, note_bus, opening_failed, per_bus
 from .plan import StartClock, SyncMove, Target, bus_batch, check_targets, q_time, round_move_time
 
 __all__ = ["Robot", "open_robot", "bus_options"]
@@ -92,16 +92,16 @@ class Robot:
             ((bus, fn),) = work.items()
             try:
                 return {bus: fn()}
-            except BaseException as exc:
+            except Exception as exc:
                 note_bus(exc, bus)
                 raise
         futures = {bus: self._pool.submit(fn) for bus, fn in work.items()}
         results: dict[str, T] = {}
-        first: BaseException | None = None
+        first: Exception | None = None
         for bus, fut in futures.items():
             try:
                 results[bus] = fut.result()
-            except BaseException as exc:
+            except Exception as exc:  # a bus's error; Ctrl-C while waiting goes on up
                 if first is None:
                     note_bus(exc, bus)
                     first = exc
@@ -117,9 +117,7 @@ class Robot:
         """Send one command per joint (``{name: message}``, e.g. from ``robot.joint(n).make_angle(...)``)
         and return each joint's state; the buses run their cycles at the same time."""
         groups = per_bus(self.spec, commands)
-        for name, msg in commands.items():
-            if msg.node != self.joints[name].id:
-                raise ValidationError(f"joint {name!r} is motor {self.joints[name].id}; the message is for {msg.node}")
+        check_commands(self.spec, commands)
 
         def part(bus: str, msgs: dict[str, Message]) -> Callable[[], dict[str, MotorState]]:
             def run() -> dict[str, MotorState]:
