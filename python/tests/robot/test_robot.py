@@ -100,6 +100,12 @@ def test_nothing_is_sent_on_any_bus_when_one_value_is_invalid(robot: Robot) -> N
         robot.set_angles({"shoulder": 10.0, "elbow": 1.0}, speed=10.0, param=-1.0)
     with pytest.raises(FieldRangeError, match=r"angle_list \(motor 1\) \(joint elbow\)=1e\+40"):
         robot.set_angles({"shoulder": 10.0, "elbow": 1e40}, speed=10.0, param=10.0)
+    with pytest.raises(ValidationError, match="joint shoulder: angle_list='x'"):
+        robot.set_angles({"shoulder": "x", "elbow": 1.0})  # type: ignore[dict-item]
+    with pytest.raises(ValidationError, match=r"position of joint elbow \(rad\)='x'"):
+        robot.move_joints({"elbow": "x"}, speed=1.0, accel=1.0)  # type: ignore[dict-item]
+    with pytest.raises(ValidationError, match=r"speed \(rad/s\)=nan"):
+        robot.move_joints({"elbow": 0.1}, speed=math.nan, accel=1.0)
     assert all(rec.frames == [] for rec in recs.values())
 
 

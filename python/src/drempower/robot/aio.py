@@ -18,7 +18,17 @@ from ..protocol.messages import Message
 from .config import RobotSpec, load_robot
 from .joint import AsyncJoint, JointState
 from .names import by_bus, check_commands, note_bus, opening_failed, per_bus
-from .plan import StartClock, SyncMove, Target, bus_batch, check_targets, q_time, round_move_time
+from .plan import (
+    StartClock,
+    SyncMove,
+    Target,
+    angle_targets,
+    bus_batch,
+    check_targets,
+    joint_targets,
+    q_time,
+    round_move_time,
+)
 from .threaded import bus_options
 
 __all__ = ["AsyncRobot", "open_robot_async"]
@@ -110,11 +120,7 @@ class AsyncRobot:
         timeout: float | None = None,
     ) -> SyncMove:
         """Synchronised move in wire units across buses (see :meth:`Robot.set_angles`)."""
-        groups = per_bus(self.spec, angles)
-        targets = {
-            bus: [Target(n, self.joints[n].id, float(a), speed, param) for n, a in group.items()]
-            for bus, group in groups.items()
-        }
+        targets = angle_targets(self.spec, angles, speed, param)
         return await self._move(targets, mode, relative, timeout)
 
     async def move_joints(
@@ -127,16 +133,7 @@ class AsyncRobot:
         timeout: float | None = None,
     ) -> SyncMove:
         """Synchronised Q-mode move in SI units at the joints (see :meth:`Robot.move_joints`)."""
-        groups = per_bus(self.spec, positions)
-        targets: dict[str, list[Target]] = {}
-        for bus, group in groups.items():
-            targets[bus] = []
-            for n, p in group.items():
-                g = self.joints[n].gearing
-                angle = g.motor_step(p) if relative else g.motor_angle(p)
-                targets[bus].append(
-                    Target(n, self.joints[n].id, angle, abs(g.motor_speed(speed)), abs(g.motor_speed(accel)))
-                )
+        targets = joint_targets(self.spec, positions, speed, accel, relative)
         return await self._move(targets, PositionMode.Q, relative, timeout)
 
     async def _move(

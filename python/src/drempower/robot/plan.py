@@ -22,8 +22,21 @@ from ..client.ops import traj_modes
 from ..errors import FieldRangeError, ValidationError
 from ..protocol.ids import Frame
 from ..protocol.messages import S16_MAX, Message, Start
+from .config import RobotSpec
+from .joint import Gearing
+from .names import per_bus
 
-__all__ = ["Target", "SyncMove", "StartClock", "check_targets", "q_time", "bus_batch", "round_move_time"]
+__all__ = [
+    "Target",
+    "SyncMove",
+    "StartClock",
+    "angle_targets",
+    "joint_targets",
+    "check_targets",
+    "q_time",
+    "bus_batch",
+    "round_move_time",
+]
 
 
 @dataclass(frozen=True)
@@ -74,6 +87,36 @@ def _batch(
     for m in presets:
         m.encode()
     return presets, start
+
+
+def _finite(value: object, what: str) -> None:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ValidationError(f"{what}={value!r}: expected a finite number")
+
+
+def angle_targets(spec: RobotSpec, angles: Mapping[str, float], speed: float, param: float) -> dict[str, list[Target]]:
+    """``{joint: motor deg}`` with one speed and param (wire units), as targets by bus."""
+    return {
+        bus: [Target(n, spec.joints[n].id, a, speed, param) for n, a in group.items()]
+        for bus, group in per_bus(spec, angles).items()
+    }
+
+
+def joint_targets(
+    spec: RobotSpec, positions: Mapping[str, float], speed: float, accel: float, relative: bool
+) -> dict[str, list[Target]]:
+    """``{joint: rad}`` with ``speed`` rad/s and ``accel`` rad/s² at each joint, as Q-mode targets by bus."""
+    _finite(speed, "speed (rad/s)")
+    _finite(accel, "accel (rad/s²)")
+    out: dict[str, list[Target]] = {}
+    for bus, group in per_bus(spec, positions).items():
+        out[bus] = []
+        for n, p in group.items():
+            _finite(p, f"position of joint {n} (rad)")
+            g = Gearing(spec.joints[n])
+            angle = g.motor_step(p) if relative else g.motor_angle(p)
+            out[bus].append(Target(n, spec.joints[n].id, angle, abs(g.motor_speed(speed)), abs(g.motor_speed(accel))))
+    return out
 
 
 def check_targets(per_bus: Mapping[str, Sequence[Target]], mode: int) -> PositionMode:

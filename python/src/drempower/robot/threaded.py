@@ -18,7 +18,17 @@ from ..protocol.messages import Message
 from .config import RobotSpec, load_robot
 from .joint import Joint, JointState
 from .names import by_bus, check_commands, note_bus, opening_failed, per_bus
-from .plan import StartClock, SyncMove, Target, bus_batch, check_targets, q_time, round_move_time
+from .plan import (
+    StartClock,
+    SyncMove,
+    Target,
+    angle_targets,
+    bus_batch,
+    check_targets,
+    joint_targets,
+    q_time,
+    round_move_time,
+)
 
 __all__ = ["Robot", "open_robot", "bus_options"]
 
@@ -148,11 +158,7 @@ class Robot:
         needs. Nothing is sent on any bus if a value is invalid. Returns the
         move time and the measured skew between the buses' start frames.
         """
-        groups = per_bus(self.spec, angles)
-        targets = {
-            bus: [Target(n, self.joints[n].id, float(a), speed, param) for n, a in group.items()]
-            for bus, group in groups.items()
-        }
+        targets = angle_targets(self.spec, angles, speed, param)
         return self._move(targets, mode, relative, timeout)
 
     def move_joints(
@@ -166,16 +172,7 @@ class Robot:
     ) -> SyncMove:
         """Synchronised Q-mode move in SI units at the joints: ``{name: rad}``; ``speed`` rad/s and ``accel``
         rad/s² at each joint (converted through its gear). Every joint arrives at the same time."""
-        groups = per_bus(self.spec, positions)
-        targets: dict[str, list[Target]] = {}
-        for bus, group in groups.items():
-            targets[bus] = []
-            for n, p in group.items():
-                g = self.joints[n].gearing
-                angle = g.motor_step(p) if relative else g.motor_angle(p)
-                targets[bus].append(
-                    Target(n, self.joints[n].id, angle, abs(g.motor_speed(speed)), abs(g.motor_speed(accel)))
-                )
+        targets = joint_targets(self.spec, positions, speed, accel, relative)
         return self._move(targets, PositionMode.Q, relative, timeout)
 
     def _move(self, targets: dict[str, list[Target]], mode: int, relative: bool, timeout: float | None) -> SyncMove:
