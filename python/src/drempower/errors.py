@@ -1,12 +1,58 @@
-"""Exception hierarchy shared by every layer of drempower."""
+"""Every error drempower raises, in one tree.
+
+Catch :class:`DrEmpowerError` to catch them all; each also derives from the
+builtin a caller would expect (``ValueError`` for bad input, ``OSError`` for a
+device, ``TimeoutError`` for a silent motor)::
+
+    DrEmpowerError (Exception)
+    ├── ProtocolError (ValueError)             a frame or byte stream that breaks the protocol
+    ├── ValidationError (ValueError)           a value or option that cannot be used; nothing was sent
+    │   ├── FieldRangeError                    a number outside the range its field holds
+    │   ├── ConfigError                        a robot file that cannot be used
+    │   └── BackupFileError                    a backup document that cannot be restored
+    ├── TransportError (OSError)               a bus that cannot be opened, a device that failed
+    ├── TimeoutError (builtins.TimeoutError)   a motor that did not answer in time
+    ├── BusClosedError                         the bus is closed or its receive loop stopped
+    ├── MotorFaultError                        a motor reported an error while a call waited on it
+    ├── MoveError                              a position move did not end at its target
+    │   ├── MoveFaultError                     (also a MotorFaultError) the motor reported an error
+    │   └── MoveTimeoutError                   (also a TimeoutError) the move was not over in time
+    ├── VerifyError                            a read-back differs from what was written
+    │   ├── IdTakenError                       set_id: another motor already answers at the new id
+    │   └── NoMotorError                       set_id: no motor answers where one was expected
+    ├── SavedConfigError                       a simulated motor's saved configuration cannot be loaded
+    └── UsageError                             a command line that cannot work (the CLI exits 2)
+
+The older import paths (``drempower.client.errors``,
+``drempower.transports.errors``, ``drempower.cli._usage``) name the same
+classes.
+"""
 
 from __future__ import annotations
+
+import builtins
+import os
+from collections.abc import Sequence
 
 __all__ = [
     "DrEmpowerError",
     "ProtocolError",
     "ValidationError",
     "FieldRangeError",
+    "ConfigError",
+    "TransportError",
+    "TimeoutError",
+    "BusClosedError",
+    "MotorFaultError",
+    "VerifyError",
+    "IdTakenError",
+    "NoMotorError",
+    "MoveError",
+    "MoveFaultError",
+    "MoveTimeoutError",
+    "UsageError",
+    "SavedConfigError",
+    "BackupFileError",
 ]
 
 
@@ -19,7 +65,7 @@ class ProtocolError(DrEmpowerError, ValueError):
 
 
 class ValidationError(DrEmpowerError, ValueError):
-    """A value that cannot be put on the wire (bad type, NaN, unknown name...)."""
+    """A value that cannot be put on the wire or an option that cannot be used (bad type, NaN, unknown name...)."""
 
 
 class FieldRangeError(ValidationError):
@@ -36,3 +82,159 @@ class FieldRangeError(ValidationError):
         self.high = high
         extra = f" ({detail})" if detail else ""
         super().__init__(f"{field}={value!r} is out of range: allowed {low:g}..{high:g}{extra}")
+
+
+class ConfigError(ValidationError):
+    """A robot description (TOML file) that cannot be used; the message names the file, the entry and the key."""
+
+
+class TransportError(DrEmpowerError, OSError):
+    """A bus that cannot be opened, or a device that failed while in use.
+
+    The message says what was tried (interface, channel or serial port) and why
+    it failed.
+    """
+
+
+def motors(nodes: Sequence[int]) -> str:
+    """``"motor 3"``, ``"motors 1, 2"``; node 0 reads "broadcast"."""
+    names = ["broadcast" if n == 0 else str(n) for n in nodes]
+    return ("motor " if len(names) == 1 else "motors ") + ", ".join(names)
+
+
+class TimeoutError(DrEmpowerError, builtins.TimeoutError):
+    """A motor did not answer a request in time.
+
+    ``nodes`` lists the silent motors, ``request`` names what was asked and
+    ``timeout`` is the time waited (s). Also an instance of the builtin
+    :class:`TimeoutError`.
+    """
+
+    def __init__(self, nodes: Sequence[int], request: str, timeout: float, message: str | None = None) -> None:
+        self.nodes = tuple(nodes)
+        self.request = request
+        self.timeout = timeout
+        if message is None:
+            message = f"{motors(nodes)}: no answer to {request} within {timeout:g} s"
+        super().__init__(message)
+
+
+class BusClosedError(DrEmpowerError):
+    """The bus was closed, or its receive loop stopped because the device failed."""
+
+
+class MotorFaultError(DrEmpowerError):
+    """A motor reported an error (the E bit of its state) while a call waited on it.
+
+    ``node`` is the motor, ``flags`` maps each error word that is set to its
+    flag names (empty when the words could not be read).
+    """
+
+    def __init__(self, node: int, doing: str, flags: dict[str, list[str]]) -> None:
+        self.node = node
+        self.flags = flags
+        named = "; ".join(f"{word}: {', '.join(names)}" for word, names in flags.items()) or "error words unread"
+        super().__init__(f"motor {node} reported an error {doing} ({named})")
+
+
+class VerifyError(DrEmpowerError):
+    """A value read back after writing it differs from what was written (the write was lost or refused)."""
+
+
+class IdTakenError(VerifyError):
+    """The id asked for is already answered by another motor; nothing was changed (C: ``DRE_E_ID_TAKEN``)."""
+
+
+class NoMotorError(VerifyError):
+    """No motor answered where one was expected (C: ``DRE_E_NO_MOTOR``); the message says what was left unchanged."""
+
+
+class UsageError(DrEmpowerError):
+    """A command line that cannot work as given; reported like argparse's own errors (exit 2)."""
+
+
+def _flags_text(flags: dict[str, list[str]]) -> str:
+    return "; ".join(f"{word}: {', '.join(names)}" for word, names in flags.items()) or "no error flags"
+
+
+class MoveError(DrEmpowerError):
+    """A position move did not end at its target (angle limits, stall, estop, a fault or a timeout).
+
+    ``node`` is the motor, ``target`` the commanded angle (deg), ``position`` the
+    angle it reported last (deg, None when it never answered), ``flags`` its
+    decoded error words (empty when none is set or they could not be read) and
+    ``reason`` says what went wrong. :class:`MoveFaultError` (the motor
+    reported an error) and :class:`MoveTimeoutError` (still moving when the wait
+    ended) are the two kinds that are also :class:`MotorFaultError` and
+    :class:`TimeoutError`.
+    """
+
+    def __init__(
+        self,
+        node: int,
+        target: float | None,
+        position: float | None,
+        flags: dict[str, list[str]],
+        reason: str,
+    ) -> None:
+        self.node = node
+        self.target = target
+        self.position = position
+        self.flags = flags
+        self.reason = reason
+        goal = "unknown" if target is None else f"{target:.2f} deg"
+        where = "unknown" if position is None else f"{position:.2f} deg"
+        DrEmpowerError.__init__(self, f"motor {node}: {reason}: target {goal}, reached {where} ({_flags_text(flags)})")
+
+
+class MoveFaultError(MoveError, MotorFaultError):
+    """The motor reported an error (E bit) while a wait for its move was running."""
+
+    def __init__(
+        self, node: int, target: float | None, position: float | None, flags: dict[str, list[str]], reason: str
+    ) -> None:
+        MoveError.__init__(self, node, target, position, flags, reason)
+
+
+class MoveTimeoutError(MoveError, TimeoutError):
+    """The motor had not finished its move when the wait's ``timeout`` (s) ended."""
+
+    def __init__(
+        self,
+        node: int,
+        target: float | None,
+        position: float | None,
+        flags: dict[str, list[str]],
+        reason: str,
+        timeout: float,
+        nodes: Sequence[int] = (),
+    ) -> None:
+        self.nodes = tuple(nodes) or (node,)
+        self.request = "wait_position_done"
+        self.timeout = timeout
+        MoveError.__init__(self, node, target, position, flags, reason)
+
+
+class SavedConfigError(DrEmpowerError):
+    """A saved configuration file of a simulated motor that cannot be loaded; names the file and a way out."""
+
+    def __init__(self, path: os.PathLike[str] | str, problems: list[str]) -> None:
+        self.path = path
+        self.problems = problems
+        super().__init__(
+            f"saved configuration {os.fspath(path)}: {'; '.join(problems)} "
+            "(delete the file, or use another --config-dir, to start from the factory configuration)"
+        )
+
+
+class BackupFileError(ValidationError):
+    """A backup document that cannot be restored: ``problems`` lists (parameter, reason) per bad record."""
+
+    def __init__(self, reason: str, problems: Sequence[tuple[str, str]] = ()) -> None:
+        self.reason = reason
+        self.problems = list(problems)
+        if problems:
+            n = len(problems)
+            listed = "; ".join(f"{name}: {why}" for name, why in problems)
+            reason = f"{reason + ': ' if reason else ''}{n} malformed record{'s' if n > 1 else ''}: {listed}"
+        super().__init__(reason)

@@ -15,6 +15,7 @@ EXAMPLES = {
     "trajectory_200hz.py": ["--seconds", "0.2"],
     "impedance.py": [],
     "scan_backup.py": [],
+    "robot.py": ["--time-scale", "10"],
 }
 
 

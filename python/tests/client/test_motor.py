@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 import drempower
-from drempower.client import AxisMode, Bus, VerifyError
+from drempower.client import AxisMode, Bus, IdTakenError, NoMotorError, VerifyError
 from drempower.protocol import SysCmd, SystemCommand, WriteParam
 
 from .scripted import FakeMotors, ScriptedTransport
@@ -22,7 +22,7 @@ def test_set_id_lost_write_saves_nothing(motors: FakeMotors) -> None:
         return [] if f.arbitration_id & 0x1F == 0x1F else motors(f)  # type: ignore[attr-defined]
 
     t = ScriptedTransport(lose_writes)  # type: ignore[arg-type]
-    with Bus(t, timeout=0.25, stop_on_close=False) as bus, pytest.raises(VerifyError, match="new id 9"):
+    with Bus(t, timeout=0.25, stop_on_close=False) as bus, pytest.raises(NoMotorError, match="new id 9"):
         bus.motor(3).set_id(9)
     assert not any(isinstance(c, SystemCommand) for c in t.commands())
 
@@ -155,9 +155,9 @@ def test_set_id_never_makes_two_motors_share_an_id() -> None:
     sim = SimBus(ids=[1, 2])
     rec = Recorder(sim)
     with link("inprocess", sim, timeout=0.5) as bus:
-        with pytest.raises(VerifyError, match="id 1 is already taken"):
+        with pytest.raises(IdTakenError, match="id 1 is already taken"):
             bus.motor(2).set_id(1)
-        with pytest.raises(VerifyError, match="no motor answers at id 3"):
+        with pytest.raises(NoMotorError, match="no motor answers at id 3"):
             bus.motor(3).set_id(5)
         assert not any(f.arbitration_id & 0x1F == 0x1F for f in rec.frames)  # nothing written
         bus.motor(2).set_id(7)

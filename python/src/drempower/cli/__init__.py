@@ -18,6 +18,7 @@ from .. import __version__
 from ..client.signals import Terminated, exit_code, signals_interrupt
 from ..errors import DrEmpowerError
 from ._output import clean
+from ._robot import apply_robot, run_command
 from ._usage import UsageError
 
 __all__ = ["main", "build_parser"]
@@ -55,8 +56,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     try:
+        apply_robot(args)  # --robot: joint names, the buses the command runs on
         with signals_interrupt():  # SIGTERM and SIGHUP end a command as Ctrl-C does
-            code: int = args.func(args)
+            code: int = run_command(args) if getattr(args, "robot_groups", None) else args.func(args)
         return code
     except UsageError as exc:  # reported as argparse reports its own errors, exit code included
         command: argparse.ArgumentParser = args.command_parser

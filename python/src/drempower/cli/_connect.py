@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 from ..errors import DrEmpowerError
 from ..protocol import S16_MAX
 from ._output import clean
+from ._robot import joint_or_ids
 from ._usage import UsageError
 
 if TYPE_CHECKING:
@@ -112,7 +113,9 @@ def add_ids_arg(
     ``optional``: may be left out (the list is then empty).
     """
     what = "motor ids, e.g. 1 or 1,2,3 or 1-4" + (", or all (broadcast)" if all_ok else "")
-    kind = parse_targets if all_ok else parse_ids
+    what += "; joint names with --robot"
+    kind = joint_or_ids(parse_targets if all_ok else parse_ids)
+    parser.set_defaults(robot_ids=True)  # --robot: these words may be joint names
     if many:
         nargs = "*" if optional else "+"
         parser.add_argument("ids", nargs=nargs, type=kind, action=_Ids, default=[], metavar="IDS", help=what)
@@ -228,6 +231,7 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--serial", metavar="PORT", help="vendor USB-CAN adapter on serial PORT (0xAA framing)")
     g.add_argument("--uart", metavar="PORT", help="a single motor's UART on serial PORT (11-byte frames)")
     g.add_argument("--sim", metavar="IDS", type=parse_ids, help="in-process simulated motors, e.g. 1,2,3")
+    g.add_argument("--robot", metavar="FILE", help="the buses and joints of a robot file (TOML); joints by name")
     g.add_argument(
         "-o",
         "--can-option",
@@ -329,7 +333,7 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
     """
     from .. import open_bus
 
-    kw, _ = _connect(args, quiet)
+    kw, _ = robot_bus_kwargs(args) if getattr(args, "robot_bus", None) else _connect(args, quiet)
     if args.timeout is not None:
         kw["timeout"] = args.timeout
     bus: Bus = open_bus(stop_on_close=False, **kw)
@@ -340,5 +344,14 @@ def open_transport_from_args(args: argparse.Namespace) -> tuple[Transport, str]:
     """Open the raw transport the connection options describe (for listening), and what it is."""
     from ..transports import open_transport
 
-    kw, how = _connect(args, False)
+    kw, how = robot_bus_kwargs(args) if getattr(args, "robot_bus", None) else _connect(args, False)
     return open_transport(**kw), how
+
+
+def robot_bus_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
+    """The ``open_bus`` arguments of the ``--robot`` file's bus this command runs on, and what it is."""
+    kw = dict(args.robot_spec.open_options(args.robot_bus))
+    scale = sim_time_scale(args)
+    if kw["interface"] == "sim" and scale is not None:
+        kw["time_scale"] = scale
+    return kw, f"bus {args.robot_bus} of {args.robot}"

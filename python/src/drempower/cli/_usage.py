@@ -13,13 +13,9 @@ import re
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 
-from ..errors import DrEmpowerError, FieldRangeError
+from ..errors import FieldRangeError, UsageError
 
 __all__ = ["UsageError", "options_named"]
-
-
-class UsageError(DrEmpowerError):
-    """A command line that cannot work as given; reported like argparse's own errors (exit 2)."""
 
 
 _PER_MOTOR = re.compile(r"^(?P<field>.+) \(motor (?P<node>\d+)\)$")

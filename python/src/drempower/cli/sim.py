@@ -21,6 +21,7 @@ from ..sim import (
 from ..sim.bus import DEFAULT_HOST_QUEUE, parse_host_queue
 from ._connect import bitrate, parse_ids, positive
 from ._output import clean, json_line
+from ._sim_robot import serve_robot
 from ._usage import UsageError
 
 
@@ -34,7 +35,10 @@ def register(sub: Any) -> None:
             "Prints where to connect, then runs until Ctrl-C (or --duration)."
         ),
     )
-    p.add_argument("--ids", type=parse_ids, default=[1], metavar="IDS", help="motor ids, e.g. 1,2,3 (default 1)")
+    p.add_argument("--ids", type=parse_ids, metavar="IDS", help="motor ids, e.g. 1,2,3 (default 1)")
+    p.add_argument(
+        "--robot", dest="robot_file", metavar="FILE", help="one simulated bus per bus of this robot file (TOML)"
+    )
     p.add_argument("--adapter-pty", action="store_true", help="a pty that behaves like the USB-CAN adapter")
     p.add_argument("--uart-pty", type=int, metavar="ID", help="a pty that behaves like motor ID's UART")
     p.add_argument("--socketcand-port", type=int, metavar="PORT", help="serve socketcand on 127.0.0.1 (0: free port)")
@@ -95,14 +99,17 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
     """Run the simulator; ``stop`` (set by the caller) ends it early, as Ctrl-C does."""
     ended = 0
     stream = out or sys.stdout
-    if args.uart_pty is not None and args.uart_pty not in args.ids:
-        raise UsageError(f"--uart-pty {args.uart_pty} is not one of --ids")
 
     def show(record: dict[str, Any], *lines: str) -> None:
         text = [json_line(record)] if getattr(args, "json", False) else lines
         for line in text:
-            print(clean(line), file=stream)
+            print(clean(line), file=stream, flush=True)
 
+    if getattr(args, "robot_file", None):
+        return serve_robot(args, show, stop)
+    args.ids = args.ids or [1]
+    if args.uart_pty is not None and args.uart_pty not in args.ids:
+        raise UsageError(f"--uart-pty {args.uart_pty} is not one of --ids")
     faults = Faults(
         drop_rate=args.drop_rate,
         corrupt_rate=args.corrupt_rate,

@@ -29,10 +29,12 @@ from .commands import (
 from .core import DEFAULT_TIMEOUT, MOVE_TOLERANCE
 from .errors import (
     BusClosedError,
+    IdTakenError,
     MotorFaultError,
     MoveError,
     MoveFaultError,
     MoveTimeoutError,
+    NoMotorError,
     TimeoutError,
     VerifyError,
 )
@@ -52,6 +54,7 @@ __all__ = [
     "DEFAULT_TIMEOUT",
     "ErrorReport",
     "GpioMode",
+    "IdTakenError",
     "Motor",
     "MotorFaultError",
     "MotorInfo",
@@ -59,6 +62,7 @@ __all__ = [
     "MoveError",
     "MoveFaultError",
     "MoveTimeoutError",
+    "NoMotorError",
     "MotorState",
     "ParamRecord",
     "PositionMode",

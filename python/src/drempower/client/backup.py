@@ -6,12 +6,11 @@ import datetime as _dt
 import json
 import os
 import struct
-from collections.abc import Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
-from ..errors import ValidationError
+from ..errors import BackupFileError, ValidationError
 from ..protocol.ids import SysCmd
 from ..protocol.messages import ParamValue, ReadParam, SystemCommand, WriteParam
 from ..protocol.parameters import Access, DataType, Parameter, encode_value, find_parameter, parameters
@@ -143,19 +142,6 @@ class ConfigBackup:
         except BackupFileError as exc:
             reason = f"backup {os.fspath(path)!r}" + (f": {exc.reason}" if exc.reason else "")
             raise BackupFileError(reason, exc.problems) from None
-
-
-class BackupFileError(ValidationError):
-    """A backup document that cannot be restored: ``problems`` lists (parameter, reason) per bad record."""
-
-    def __init__(self, reason: str, problems: Sequence[tuple[str, str]] = ()) -> None:
-        self.reason = reason
-        self.problems = list(problems)
-        if problems:
-            n = len(problems)
-            listed = "; ".join(f"{name}: {why}" for name, why in problems)
-            reason = f"{reason + ': ' if reason else ''}{n} malformed record{'s' if n > 1 else ''}: {listed}"
-        super().__init__(reason)
 
 
 def _json_type(value: object) -> str:

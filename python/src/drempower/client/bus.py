@@ -7,6 +7,7 @@ from collections.abc import Iterable, Sequence
 from types import TracebackType
 from typing import Any, TypeVar
 
+from ..errors import ValidationError
 from ..protocol.messages import Message
 from ..transports.base import Transport
 from ..transports.factory import open_transport
@@ -240,7 +241,7 @@ def connect(
     if transport is None:
         return open_transport(interface, channel, bitrate, **kwargs)
     if interface is not None or channel is not None or bitrate is not None or kwargs:
-        raise ValueError("pass either transport= or interface/channel/bitrate options, not both")
+        raise ValidationError("pass either transport= or interface/channel/bitrate options, not both")
     return transport
 
 

@@ -7,6 +7,7 @@ from abc import ABC, abstractmethod
 from collections.abc import Callable
 from typing import Generic, TypeVar
 
+from ..errors import ValidationError
 from ..protocol.ids import Frame, check_node
 from ..transports.base import Transport
 from .core import DEFAULT_TIMEOUT, BusCore, StartPolicy, StopOnClose
@@ -83,7 +84,7 @@ class BusBase(ABC, Generic[M]):
     @timeout.setter
     def timeout(self, value: float) -> None:
         if not value > 0:
-            raise ValueError(f"timeout={value!r}: must be > 0 s")
+            raise ValidationError(f"timeout={value!r}: must be > 0 s")
         self._core.timeout = float(value)
 
     @property

@@ -191,6 +191,9 @@ class BusCore:
         self.frame_taps: tuple[FrameTap, ...] = ()
         """Called with every frame this bus sends (``tx`` True, in the sending thread) or receives
         (``tx`` False, in the receive thread) as it passes the transport: for recorders. See :meth:`add_tap`."""
+        self.on_sent: Callable[[Frame, float], None] | None = None
+        """Called in the sending thread after each frame of a batch, exchange or estop is handed to the
+        transport, with the frame and :func:`time.monotonic` of the hand-over (s); keep it short."""
         self.states = StateCache()
         self.matcher = Matcher()
         self.traj_mode: dict[int, int] = {}
@@ -334,7 +337,7 @@ class BusCore:
         self._send_frames(frames)
 
     def _send_frames(self, frames: Sequence[Frame]) -> None:
-        lock, send = self._send_lock, self.transport.send
+        lock, send, sent = self._send_lock, self.transport.send, self.on_sent
         rate = getattr(self.transport, "wire_bitrate", None) or ASSUMED_BITRATE
         now = _monotonic()
         self._wire_free = max(now, self._wire_free) + len(frames) * _WORST_FRAME_BITS / rate
@@ -343,6 +346,8 @@ class BusCore:
                 send(f)
                 if self.frame_taps:
                     self._tap(f, True)
+            if sent is not None:
+                sent(f, _monotonic())
 
     def _send_now(self, frames: Sequence[Frame], lock_timeout: float) -> None:
         """Send ``frames``, waiting at most ``lock_timeout`` (s) for the send lock, then sending anyway."""

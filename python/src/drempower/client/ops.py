@@ -14,7 +14,17 @@ from ..protocol.parameters import DataType, Parameter, parameter
 from .commands import AxisMode, TrajMode
 from .core import MOVE_TOLERANCE, BusCore, MoveRecord
 from .effects import Op, Send, read_params, read_states, request, sleep
-from .errors import MotorFaultError, MoveError, MoveFaultError, MoveTimeoutError, TimeoutError, VerifyError, motors
+from .errors import (
+    IdTakenError,
+    MotorFaultError,
+    MoveError,
+    MoveFaultError,
+    MoveTimeoutError,
+    NoMotorError,
+    TimeoutError,
+    VerifyError,
+    motors,
+)
 from .results import ERROR_WORD_NAMES, ErrorReport, GpioMode
 from .state import MotorState
 
@@ -117,18 +127,18 @@ def set_id(core: BusCore, node: int, new_id: int, timeout: float | None = None) 
     if new_id == node:
         (present,) = yield from read_states([node], timeout, missing_ok=True)
         if present is None:
-            raise VerifyError(f"no motor answers at id {node}; nothing was changed")
+            raise NoMotorError(f"no motor answers at id {node}; nothing was changed")
     else:
         here, taken = yield from read_states([node, new_id], timeout, missing_ok=True)
         if taken is not None:
-            raise VerifyError(f"id {new_id} is already taken by another motor; nothing was changed")
+            raise IdTakenError(f"id {new_id} is already taken by another motor; nothing was changed")
         if here is None:
-            raise VerifyError(f"no motor answers at id {node}; nothing was changed")
+            raise NoMotorError(f"no motor answers at id {node}; nothing was changed")
     yield Send([write])
     try:
         answered = yield from get_id(new_id, timeout)
     except TimeoutError as exc:
-        raise VerifyError(f"motor {node} does not answer at its new id {new_id}; nothing was saved") from exc
+        raise NoMotorError(f"motor {node} does not answer at its new id {new_id}; nothing was saved") from exc
     if answered != new_id:
         raise VerifyError(f"motor at id {new_id} reports id {answered}; nothing was saved")
     yield _system(new_id, SysCmd.SAVE_CONFIG)

@@ -29,7 +29,7 @@ import threading
 from collections.abc import Callable, Iterable
 from pathlib import Path
 
-from ..errors import DrEmpowerError
+from ..errors import DrEmpowerError, ValidationError
 from ..protocol.ids import MAX_NODE, Frame
 from ..protocol.messages import Command, decode_command
 from .defaults import MotorModel
@@ -99,9 +99,9 @@ class SimBus:
     ) -> None:
         ids = list(ids)
         if not ids or any(not 1 <= i <= MAX_NODE for i in ids) or len(set(ids)) != len(ids):
-            raise ValueError(f"motor ids must be distinct and in 1..{MAX_NODE}, got {ids}")
+            raise ValidationError(f"ids={ids!r}: motor ids must be distinct and in 1..{MAX_NODE}")
         if bitrate is not None and bitrate <= 0:
-            raise ValueError(f"bitrate must be > 0 (or None for instant delivery), got {bitrate}")
+            raise ValidationError(f"bitrate={bitrate!r}: must be > 0 bit/s (or None for instant delivery)")
         self.bitrate = bitrate
         self.host_queue = host_queue
         self._host_slots = parse_host_queue(host_queue)

@@ -13,7 +13,7 @@ import json
 import os
 from pathlib import Path
 
-from ..errors import DrEmpowerError
+from ..errors import DrEmpowerError, SavedConfigError
 from ..protocol.parameters import DataType, Parameter, encode_value, parameter, parameters
 from .defaults import FACTORY, READ_ONLY_CONSTANTS
 
@@ -163,15 +163,3 @@ class ParamStore:
         if problems:
             raise SavedConfigError(self.path, problems)
         return saved
-
-
-class SavedConfigError(DrEmpowerError):
-    """A saved configuration file of a simulated motor that cannot be loaded; names the file and a way out."""
-
-    def __init__(self, path: Path, problems: list[str]) -> None:
-        self.path = path
-        self.problems = problems
-        super().__init__(
-            f"saved configuration {os.fspath(path)}: {'; '.join(problems)} "
-            "(delete the file, or use another --config-dir, to start from the factory configuration)"
-        )

@@ -14,6 +14,7 @@ import threading
 import time
 from types import TracebackType
 
+from ..errors import ValidationError
 from .bus import SimBus
 
 __all__ = ["SimRunner"]
@@ -33,7 +34,7 @@ class SimRunner:
 
     def __init__(self, bus: SimBus, time_scale: float = 1.0) -> None:
         if not time_scale > 0:
-            raise ValueError(f"time_scale must be > 0, got {time_scale}")
+            raise ValidationError(f"time_scale={time_scale!r}: must be > 0 simulated seconds per second")
         self.bus = bus
         self.time_scale = time_scale
         self._stop = False

@@ -10,6 +10,7 @@ flags, ``Z`` time stamps, ``M``/``m`` acceptance filter, and the frames ``tIIIL.
 
 from __future__ import annotations
 
+from ..errors import ProtocolError
 from ..protocol.ids import Frame
 
 __all__ = ["OK", "ERROR", "SlcanSession", "format_frame", "parse_frame"]
@@ -22,25 +23,31 @@ SERIAL = b"N0001\r"
 
 
 def parse_frame(line: str) -> Frame:
-    """A ``t``/``T``/``r``/``R`` command (without CR) as a frame; raises ValueError when malformed."""
+    """A ``t``/``T``/``r``/``R`` command (without CR) as a frame; raises :class:`ProtocolError` when malformed."""
     kind = line[:1]
     id_len = 8 if kind in ("T", "R") else 3
     if kind not in ("t", "T", "r", "R") or len(line) < 2 + id_len:
-        raise ValueError(f"not an slcan frame: {line!r}")
-    arb = int(line[1 : 1 + id_len], 16)
-    dlc = int(line[1 + id_len], 10)
+        raise ProtocolError(f"not an slcan frame: {line!r}")
+    try:
+        arb = int(line[1 : 1 + id_len], 16)
+        dlc = int(line[1 + id_len], 10)
+    except ValueError:
+        raise ProtocolError(f"bad id or length: {line!r}") from None
     if dlc > 8 or arb > (0x1FFFFFFF if id_len == 8 else 0x7FF):
-        raise ValueError(f"bad id or length: {line!r}")
+        raise ProtocolError(f"bad id or length: {line!r}")
     remote = kind in ("r", "R")
     hexdata = line[2 + id_len :]
     if remote:
         if hexdata:
-            raise ValueError(f"a remote frame carries no data: {line!r}")
+            raise ProtocolError(f"a remote frame carries no data: {line!r}")
         data = bytes(dlc)
     else:
         if len(hexdata) != 2 * dlc:
-            raise ValueError(f"length {dlc} does not match the data: {line!r}")
-        data = bytes.fromhex(hexdata)
+            raise ProtocolError(f"length {dlc} does not match the data: {line!r}")
+        try:
+            data = bytes.fromhex(hexdata)
+        except ValueError:
+            raise ProtocolError(f"bad data: {line!r}") from None
     return Frame(arb, data, id_len == 8, remote)
 
 
@@ -77,7 +84,7 @@ class SlcanSession:
                 return ERROR, None
             try:
                 frame = parse_frame(line)
-            except ValueError:
+            except ProtocolError:
                 return ERROR, None
             return (b"Z\r" if cmd in ("T", "R") else b"z\r"), frame
         if cmd in ("O", "L"):

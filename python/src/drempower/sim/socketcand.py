@@ -25,6 +25,7 @@ import threading
 import time
 from types import TracebackType
 
+from ..errors import ProtocolError, ValidationError
 from ..protocol.ids import Frame
 from .bus import SimBus
 
@@ -85,14 +86,18 @@ class CommandParser:
 
 
 def parse_send(body: str) -> Frame:
-    """``send ID LEN B0 ...`` (the text between ``<`` and ``>``) as a frame; raises ValueError."""
+    """``send ID LEN B0 ...`` (the text between ``<`` and ``>``) as a frame; raises :class:`ProtocolError`."""
     parts = body.split()
     if len(parts) < 3 or parts[0] != "send":
-        raise ValueError(f"not a send command: {body!r}")
-    ident, length, data = parts[1], int(parts[2]), bytes(int(b, 16) for b in parts[3:])
+        raise ProtocolError(f"not a send command: {body!r}")
+    try:
+        ident, length, data = parts[1], int(parts[2]), bytes(int(b, 16) for b in parts[3:])
+        arb = int(ident, 16)
+    except ValueError:
+        raise ProtocolError(f"bad send command: {body!r}") from None
     if length != len(data) or length > 8 or len(ident) not in (3, 8):
-        raise ValueError(f"bad send command: {body!r}")
-    return Frame(int(ident, 16), data, len(ident) == 8)
+        raise ProtocolError(f"bad send command: {body!r}")
+    return Frame(arb, data, len(ident) == 8)
 
 
 def format_frame(frame: Frame, seconds: float) -> bytes:
@@ -181,7 +186,7 @@ class _Client:
         elif word == "send" and self.raw:
             try:
                 frame = parse_send(body)
-            except ValueError:
+            except ProtocolError:
                 self.put(b"< error bad send command >")
                 return
             sim.send(frame, self.frame)
@@ -225,9 +230,9 @@ class SocketcandServer:
         max_queue: int = MAX_QUEUE,
     ) -> None:
         if not ipaddress.ip_address(host).is_loopback:
-            raise ValueError(f"the simulator serves loopback addresses only, not {host}")
+            raise ValidationError(f"host={host!r}: the simulator serves loopback addresses only")
         if max_clients < 1 or max_queue < 1:
-            raise ValueError(f"max_clients={max_clients}, max_queue={max_queue}: both must be >= 1")
+            raise ValidationError(f"max_clients={max_clients}, max_queue={max_queue}: both must be >= 1")
         self.sim = bus
         self.channel = channel
         self.closed = False

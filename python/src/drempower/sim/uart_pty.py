@@ -12,6 +12,7 @@ baud) is not modelled.
 
 from __future__ import annotations
 
+from ..errors import ValidationError
 from ..protocol.framing import Uart11Decoder, encode_uart11
 from ..protocol.ids import Frame
 from .bus import SimBus
@@ -25,7 +26,7 @@ class UartPty(PtyLink):
 
     def __init__(self, bus: SimBus, ident: int) -> None:
         if ident not in bus.motors:
-            raise ValueError(f"no simulated motor {ident} (motors: {sorted(bus.motors)})")
+            raise ValidationError(f"ident={ident!r}: no simulated motor {ident} (motors: {sorted(bus.motors)})")
         super().__init__(f"drempower-sim-uart-{ident}")
         self.sim = bus
         self.ident = ident

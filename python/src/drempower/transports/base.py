@@ -1,13 +1,20 @@
-"""The one small interface every transport implements."""
+"""The one small interface every transport implements, and the receive deadline loop they share."""
 
 from __future__ import annotations
 
+import time
 from abc import ABC, abstractmethod
 from types import TracebackType
+from typing import Any
 
 from ..protocol.ids import Frame
 
-__all__ = ["Transport"]
+__all__ = ["Transport", "RECV_SLICE"]
+
+RECV_SLICE = 0.1
+"""Default longest single wait inside :meth:`Transport.recv` (s), so that ``close`` is noticed promptly."""
+_LONG = 3600.0
+"""One wait of a transport whose ``close`` wakes its wait itself (s)."""
 
 
 class Transport(ABC):
@@ -19,6 +26,11 @@ class Transport(ABC):
     arrives or the transport is closed, then returns ``None``). A transport may
     be used by one sending thread and one receiving thread at the same time.
     ``close`` is idempotent and makes a blocked ``recv`` return.
+
+    A transport implements one wait, :meth:`wait_frame` (a frame, or None after
+    at most the given time), and :meth:`is_closed`; ``recv`` runs the deadline
+    loop over it in slices of :attr:`recv_slice`. (A transport may override
+    ``recv`` itself instead.)
     """
 
     description: str = "transport"
@@ -37,13 +49,49 @@ class Transport(ABC):
         ``timeout`` s passed first, None when this transport cannot tell (the default)."""
         return None
 
+    recv_slice: float | None = RECV_SLICE
+    """Longest single :meth:`wait_frame` of :meth:`recv` (s); None when ``close`` itself wakes a wait."""
+
+    def __init_subclass__(cls, **kwargs: Any) -> None:
+        super().__init_subclass__(**kwargs)
+        if cls.recv is Transport.recv and cls.wait_frame is Transport.wait_frame:
+            raise TypeError(f"{cls.__name__} must implement wait_frame() (or recv())")
+
     @abstractmethod
     def send(self, frame: Frame) -> None:
         """Transmit one frame."""
 
-    @abstractmethod
+    def wait_frame(self, timeout: float) -> Frame | None:
+        """The next received frame, or None after at most ``timeout`` s (>= 0) or once closed.
+
+        Returning None early is allowed (the loop in :meth:`recv` waits again).
+        """
+        raise NotImplementedError
+
+    def is_closed(self) -> bool:
+        """True once :meth:`close` was called (the loop in :meth:`recv` then returns None)."""
+        return False
+
     def recv(self, timeout: float | None = None) -> Frame | None:
         """Next received frame, or None after ``timeout`` seconds (or once closed)."""
+        if timeout is not None and timeout <= 0:
+            return None if self.is_closed() else self.wait_frame(0.0)
+        wait = self.wait_frame
+        clock = time.monotonic
+        step = _LONG if self.recv_slice is None else self.recv_slice
+        deadline = None if timeout is None else clock() + timeout
+        closed = self.is_closed
+        while not closed():
+            if deadline is None:
+                frame = wait(step)
+            else:
+                left = deadline - clock()
+                frame = wait(step if left > step else max(0.0, left))
+            if frame is not None:
+                return frame
+            if deadline is not None and clock() >= deadline:
+                return None
+        return None
 
     @abstractmethod
     def close(self) -> None:

@@ -1,15 +1,7 @@
-"""Errors raised by transports."""
+"""Errors raised by transports (defined in :mod:`drempower.errors`; this path keeps working)."""
 
 from __future__ import annotations
 
-from ..errors import DrEmpowerError
+from ..errors import TransportError
 
 __all__ = ["TransportError"]
-
-
-class TransportError(DrEmpowerError, OSError):
-    """A bus that cannot be opened, or a device that failed while in use.
-
-    The message says what was tried (interface, channel or serial port) and why
-    it failed.
-    """

@@ -18,8 +18,6 @@ from .errors import TransportError
 
 __all__ = ["PythonCanTransport", "SEND_TIMEOUT", "CONNECT_TIMEOUT"]
 
-_SLICE = 0.1
-"""Longest single wait inside ``recv`` (s), so that ``close`` is noticed promptly."""
 SEND_TIMEOUT = 1.0
 """Default bound (s) of one send: a device that does not take the frame in this time fails the send."""
 CONNECT_TIMEOUT = 2.0
@@ -220,27 +218,23 @@ class PythonCanTransport(Transport):
                 why = _why(exc) if cause is None else f"{_why(exc)} ({_why(cause)})"
                 raise TransportError(f"{self.description}: send failed: {why}") from exc
 
-    def recv(self, timeout: float | None = None) -> Frame | None:
-        deadline = None if timeout is None else time.monotonic() + timeout
-        recv = self._bus.recv
-        while not self._closing.is_set():
-            wait = _SLICE if deadline is None else min(_SLICE, max(0.0, deadline - time.monotonic()))
-            try:
-                with self._recv_lock:
-                    if self._closing.is_set():
-                        return None
-                    msg = recv(wait)
-            except (can.CanError, OSError, ValueError, AttributeError, TypeError) as exc:
+    def is_closed(self) -> bool:
+        return self._closing.is_set()
+
+    def wait_frame(self, timeout: float) -> Frame | None:
+        """One receive of the python-can bus (error frames are skipped: None, the loop waits again)."""
+        try:
+            with self._recv_lock:
                 if self._closing.is_set():
                     return None
-                raise TransportError(f"{self.description}: receive failed: {exc}") from exc
-            if msg is not None:
-                if msg.is_error_frame:
-                    continue
-                return Frame(msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame)
-            if deadline is not None and time.monotonic() >= deadline:
+                msg = self._bus.recv(timeout)
+        except (can.CanError, OSError, ValueError, AttributeError, TypeError) as exc:
+            if self._closing.is_set():
                 return None
-        return None
+            raise TransportError(f"{self.description}: receive failed: {exc}") from exc
+        if msg is None or msg.is_error_frame:
+            return None
+        return Frame(msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame)
 
     def close(self) -> None:
         """Shut the python-can bus down; bounded even when the device stopped reading."""

@@ -56,11 +56,11 @@ class SerialFrameTransport(Transport):
     ``exclusive=False`` to share it), so a second program cannot open it and
     take half the frames.
 
-    Reads block on the port with a short timeout and take everything that has
-    arrived. When part of a frame has arrived, the reader waits the time the
-    rest takes on the line (bytes x 10 / baud rate) and takes it in one read, so
-    a byte-paced UART costs about two reads a frame and no CPU is spent
-    waiting. A read that times out with part of a frame buffered drops that
+    A quiet line is waited on in ``select`` (a few wake-ups a second at most);
+    a read takes everything that has arrived. When part of a frame has arrived,
+    the reader waits the time the rest takes on the line (bytes x 10 / baud
+    rate) and takes it in one read, so a byte-paced UART costs about two reads a
+    frame and no CPU is spent waiting. A read that times out with part of a frame buffered drops that
     partial frame (the line went quiet mid-frame: it was garbage or truncated).
 
     Writes go out whole or not at all, within ``write_timeout`` seconds: a
@@ -70,6 +70,9 @@ class SerialFrameTransport(Transport):
     transport is marked broken (the device's framing is out of step) and every
     later send fails saying so.
     """
+
+    recv_slice = 0.25
+    """A quiet line costs at most four wake-ups a second; ``close`` is noticed within this time."""
 
     def __init__(
         self,
@@ -176,37 +179,46 @@ class SerialFrameTransport(Transport):
 
     # ------------------------------------------------------------------ receiving
 
-    def recv(self, timeout: float | None = None) -> Frame | None:
+    def is_closed(self) -> bool:
+        return self._closing.is_set()
+
+    def wait_frame(self, timeout: float) -> Frame | None:
+        """One read of the port: everything that has arrived, or what comes within ``timeout`` s.
+
+        While the line is quiet and no partial frame is buffered, the wait sleeps in
+        ``select`` on the port (no wake-ups); otherwise one read blocks at most
+        :data:`READ_TIMEOUT`.
+        """
         frames = self._frames
         if frames:
             return frames.popleft()
-        deadline = None if timeout is None else time.monotonic() + timeout
         ser = self._ser
         decoder = self._decoder
         closing = self._closing
-        while not closing.is_set():
-            try:
-                waiting = ser.in_waiting
-                if decoder.pending:
-                    # part of a frame is here: give the rest its time on the line, then take it in one read
-                    need = decoder.needed - waiting
-                    if need > 0:
-                        closing.wait(min(need * self._byte_time, _MAX_REST_WAIT))
-                        waiting = ser.in_waiting
-                chunk = ser.read(waiting or 1)
-            except (serial.SerialException, OSError, ValueError, TypeError, AttributeError) as exc:
-                if closing.is_set():
+        try:
+            waiting = ser.in_waiting
+            if decoder.pending:
+                # part of a frame is here: give the rest its time on the line, then take it in one read
+                need = decoder.needed - waiting
+                if need > 0:
+                    closing.wait(min(need * self._byte_time, _MAX_REST_WAIT))
+                    waiting = ser.in_waiting
+            elif not waiting and self._fd is not None and timeout > READ_TIMEOUT:
+                if not select.select([self._fd], [], [], timeout)[0]:
                     return None
-                raise TransportError(f"{self.description}: read failed: {exc}") from exc
-            if chunk:
-                got = decoder.feed(chunk)
-                if got:
-                    frames.extend(got)
-                    return frames.popleft()
-            elif decoder.pending:
-                decoder.flush()
-            if deadline is not None and time.monotonic() >= deadline:
+                waiting = ser.in_waiting
+            chunk = ser.read(waiting or 1)
+        except (serial.SerialException, OSError, ValueError, TypeError, AttributeError) as exc:
+            if closing.is_set():
                 return None
+            raise TransportError(f"{self.description}: read failed: {exc}") from exc
+        if chunk:
+            got = decoder.feed(chunk)
+            if got:
+                frames.extend(got)
+                return frames.popleft()
+        elif decoder.pending:
+            decoder.flush()
         return None
 
     # ------------------------------------------------------------------ closing

@@ -6,6 +6,7 @@ import queue
 from collections.abc import Iterable
 from typing import Any
 
+from ..errors import ValidationError
 from ..protocol.ids import Frame
 from ..sim import SimBus, SimRunner
 from .base import Transport
@@ -24,6 +25,8 @@ class SimTransport(Transport):
 
     default_timeout = 0.5
     """The simulator runs in the client's interpreter, so give replies a little more room than on a bus."""
+    recv_slice = None
+    """``close`` wakes a waiting receive itself (it queues None)."""
 
     def __init__(
         self,
@@ -34,7 +37,7 @@ class SimTransport(Transport):
         **simbus_kwargs: Any,
     ) -> None:
         if time_scale < 0:
-            raise ValueError(f"time_scale must be >= 0, got {time_scale}")
+            raise ValidationError(f"time_scale={time_scale!r}: must be >= 0 (0: the caller advances the clock)")
         self.bus = bus if bus is not None else SimBus(ids=motors, **simbus_kwargs)
         """The simulated bus."""
         self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
@@ -68,11 +71,12 @@ class SimTransport(Transport):
         with bus.tx_done:
             return bus.tx_done.wait_for(lambda: bus.host_pending(origin) == 0, timeout)
 
-    def recv(self, timeout: float | None = None) -> Frame | None:
-        if self._closed:
-            return None
+    def is_closed(self) -> bool:
+        return self._closed
+
+    def wait_frame(self, timeout: float) -> Frame | None:
         try:
-            frame = self._queue.get(timeout=timeout)
+            frame = self._queue.get(timeout=timeout) if timeout > 0 else self._queue.get_nowait()
         except queue.Empty:
             return None
         if frame is None:

@@ -1,0 +1,209 @@
+"""``--robot FILE``: joint names where motor ids go, and commands over the robot's buses.
+
+After parsing, :func:`apply_robot` turns the joint names of ``IDS`` into motor
+ids and groups them by bus. A command whose motors are all on one bus runs on
+that bus as usual. Across several buses, ``stop`` sends the emergency stop to
+every bus at once and ``move`` is one synchronised move (it reports the skew
+between the buses' start frames); other commands run once per bus, in the
+order of the file.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import copy
+import io
+import json
+import sys
+from collections.abc import Callable
+from typing import Any
+
+from ..robot.config import JOINT_NAME, RobotSpec, load_robot
+from ._output import emit, json_line
+from ._usage import UsageError
+
+__all__ = ["apply_robot", "joint_or_ids", "run_command"]
+
+_ONE_BUS = frozenset(("monitor", "speed", "torque", "impedance"))
+"""Commands that keep running (one bus at a time would never reach the next): their joints must share a bus."""
+_PER_BUS = frozenset(("scan",))
+"""Commands without joint names that still make sense once per bus."""
+_CONNECTIONS = {"sim": "--sim", "serial": "--serial", "uart": "--uart", "interface": "-i/--interface"}
+
+
+def joint_or_ids(parse: Callable[[str], list[int]]) -> Callable[[str], list[int | str]]:
+    """An IDS argument type that also takes joint names (``elbow``, ``shoulder,elbow``), kept as text."""
+
+    def parse_words(text: str) -> list[int | str]:
+        parts = [p for p in text.replace(" ", "").split(",") if p]
+        if parts and text.strip().lower() != "all" and all(JOINT_NAME.match(p) for p in parts):
+            return list(parts)
+        return list(parse(text))
+
+    parse_words.__name__ = getattr(parse, "__name__", "ids")
+    return parse_words
+
+
+def _groups(spec: RobotSpec, words: list[int | str]) -> dict[str, list[int]]:
+    """``{bus: [ids]}`` of the joint names and ids given (every bus with all its joints for none or ``all``)."""
+    if not words or words == [0]:
+        return {b: [0] if words else [j.id for j in spec.joints_on(b)] for b in spec.buses}
+    ids = [w for w in words if isinstance(w, int)]
+    if ids and len(spec.buses) > 1:
+        raise UsageError(
+            f"motor ids ({', '.join(map(str, ids))}) are ambiguous with a robot of several buses "
+            f"({', '.join(spec.buses)}): name joints ({', '.join(spec.joints)})"
+        )
+    out: dict[str, list[int]] = {}
+    for w in words:
+        if isinstance(w, int):
+            out.setdefault(next(iter(spec.buses)), []).append(w)
+            continue
+        j = spec.joints.get(w)
+        if j is None:
+            raise UsageError(f"joint {w!r}: not in {spec.source} (joints: {', '.join(spec.joints)})")
+        if j.id in out.get(j.bus, []):
+            raise UsageError(f"joint {w!r} named twice")
+        out.setdefault(j.bus, []).append(j.id)
+    return out
+
+
+def apply_robot(args: argparse.Namespace) -> None:
+    """Resolve joint names of ``args.ids`` with ``--robot``; refuse names without it. Sets ``args.robot_groups``."""
+    words: list[int | str] = list(getattr(args, "ids", None) or []) if getattr(args, "robot_ids", False) else []
+    robot = getattr(args, "robot", None)
+    if robot is None:
+        names = [w for w in words if isinstance(w, str)]
+        if names:
+            raise UsageError(f"joint names ({', '.join(names)}) need --robot FILE")
+        return
+    given = [flag for name, flag in _CONNECTIONS.items() if getattr(args, name, None)]
+    if given:
+        raise UsageError(f"give one connection: --robot and {given[0]} conflict")
+    spec = load_robot(robot)
+    args.robot_spec = spec
+    args.robot_groups = _groups(spec, words)
+
+
+def _joints_by_bus(spec: RobotSpec) -> str:
+    return "; ".join(f"{b}: {', '.join(j.name for j in spec.joints_on(b))}" for b in spec.buses)
+
+
+def _one(args: argparse.Namespace, bus: str, ids: list[int]) -> argparse.Namespace:
+    part = copy.copy(args)
+    part.robot_bus = bus
+    if getattr(args, "robot_ids", False):
+        part.ids = ids
+    return part
+
+
+def run_command(args: argparse.Namespace) -> int:
+    """Run the command over the robot's buses (see the module docstring)."""
+    groups: dict[str, list[int]] = args.robot_groups
+    if len(groups) == 1:
+        ((bus, ids),) = groups.items()
+        code: int = args.func(_one(args, bus, ids))
+        return code
+    if args.command == "stop":
+        return _stop(args, groups)
+    if args.command == "move":
+        return _move(args, groups)
+    if not getattr(args, "robot_ids", False) and args.command not in _PER_BUS:
+        raise UsageError(
+            f"{args.command} takes no joint names; with a robot of several buses, connect to one bus with its "
+            "own connection options"
+        )
+    if args.command in _ONE_BUS:
+        raise UsageError(f"{args.command} runs on one bus: name joints of one bus ({_joints_by_bus(args.robot_spec)})")
+    worst = 0
+    spec: RobotSpec = args.robot_spec
+    for bus, ids in groups.items():
+        names = {j.id: j.name for j in spec.joints_on(bus)}
+        if not getattr(args, "json", False):
+            shown = ", ".join(f"{names[i]}={i}" if i in names else str(i) for i in ids)
+            print(f"bus {bus} ({shown}):", flush=True)
+            worst = max(worst, args.func(_one(args, bus, ids)))
+            continue
+        out = io.StringIO()
+        try:
+            with contextlib.redirect_stdout(out):
+                worst = max(worst, args.func(_one(args, bus, ids)))
+        finally:  # each JSON line says which bus and joint it is about
+            for line in out.getvalue().splitlines():
+                rec = json.loads(line)
+                if not isinstance(rec, dict):
+                    sys.stdout.write(line + "\n")
+                    continue
+                joint = names.get(rec["id"]) if isinstance(rec.get("id"), int) else None
+                extra: dict[str, Any] = {"bus": bus} | ({"joint": joint} if joint else {})
+                sys.stdout.write(json_line(extra | rec) + "\n")
+    return worst
+
+
+def _open(args: argparse.Namespace) -> Any:
+    from ..robot import open_robot
+
+    return open_robot(args.robot_spec, timeout=args.timeout, stop_on_close=False)
+
+
+def _names(args: argparse.Namespace, groups: dict[str, list[int]]) -> list[str]:
+    spec: RobotSpec = args.robot_spec
+    return [j.name for j in spec.joints.values() if j.id in groups.get(j.bus, [])]
+
+
+def _stop(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
+    from ._output import report, sent
+
+    if not args.ids or args.ids == [0]:  # none named, or all: every motor of every bus
+        groups = {b: [0] for b in groups}
+    with _open(args) as robot:
+        if all(ids == [0] for ids in groups.values()):
+            robot.estop()
+            text = f"emergency stop sent to every motor on buses {', '.join(groups)}"
+        else:
+            robot.estop(_names(args, groups))
+            text = f"emergency stop sent to joints {', '.join(_names(args, groups))}"
+    report(args, text, [{"bus": b, **r} for b, ids in groups.items() for r in sent(ids, "estop")])
+    return 0
+
+
+def _move(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
+    from ..client.core import DEFAULT_MOVE_TIMEOUT
+    from ._motion import stop_commanded
+    from .move import _MODES, _params
+
+    names = _names(args, groups)
+    order = [w for w in args.ids if isinstance(w, str)]
+    names = order if sorted(order) == sorted(names) else names
+    angles = list(args.values) * len(names) if len(args.values) == 1 else list(args.values)
+    if len(angles) != len(names):
+        raise UsageError(f"{len(names)} joints but {len(args.values)} angle values: give one for all or one each")
+    mode = _MODES[args.mode]
+    speed, param = _params(args, mode)
+    with _open(args) as robot:
+        try:
+            move = robot.set_angles(dict(zip(names, angles, strict=True)), speed, param, mode, relative=args.relative)
+            records: list[dict[str, Any]] = [
+                {"joint": n, "angle": a, "move_time_s": move.move_time, "start_skew_us": round(move.skew * 1e6, 1)}
+                for n, a in zip(names, angles, strict=True)
+            ]
+            if args.wait:
+                longest = DEFAULT_MOVE_TIMEOUT if move.move_time is None else 2 * move.move_time + 5
+                final = robot.positions_done(names, args.wait_timeout or longest)
+                for r in records:
+                    r["position_deg"] = round(final[r["joint"]].angle, 4)
+        except KeyboardInterrupt:  # as a move on one bus: the motors it commanded go idle
+            if args.stop_on_exit:
+                for bus in robot.buses.values():
+                    stop_commanded(bus, "interrupted")
+            raise
+    if args.json or args.wait:
+        emit(args, tuple(records[0]), records)
+    else:
+        took = "" if move.move_time is None else f", about {move.move_time:g} s"
+        print(
+            f"joints {', '.join(names)}: moving on buses {', '.join(groups)} (mode {args.mode}{took}; "
+            f"start frames {move.skew * 1e6:.0f} us apart)"
+        )
+    return 0

@@ -1,0 +1,33 @@
+"""Several buses as one robot: joints by name, synchronised moves and stops across buses.
+
+>>> import drempower
+>>> with drempower.open_robot("robot.toml") as robot:          # doctest: +SKIP
+...     move = robot.move_joints({"shoulder": 0.5, "elbow": -0.2}, speed=1.0, accel=5.0)
+...     robot.positions_done()
+...     print(f"{move.move_time} s, start skew {move.skew * 1e6:.0f} us")
+
+The file format is described in :mod:`drempower.robot.config` and docs/robot.md.
+"""
+
+from .aio import AsyncRobot, open_robot_async
+from .config import BusSpec, JointSpec, RobotSpec, load_robot, parse_robot
+from .joint import AsyncJoint, Gearing, Joint, JointState
+from .plan import SyncMove
+from .threaded import Robot, open_robot
+
+__all__ = [
+    "AsyncJoint",
+    "AsyncRobot",
+    "BusSpec",
+    "Gearing",
+    "Joint",
+    "JointSpec",
+    "JointState",
+    "Robot",
+    "RobotSpec",
+    "SyncMove",
+    "load_robot",
+    "open_robot",
+    "open_robot_async",
+    "parse_robot",
+]

@@ -1,0 +1,170 @@
+"""The robot description: buses and the joints on them, read from a TOML file.
+
+::
+
+    [buses.left]
+    interface = "sim"          # any interface open_bus takes, with its options
+    [buses.right]
+    interface = "socketcan"
+    channel = "can1"
+    [joints.shoulder]
+    bus = "left"
+    id = 1
+    [joints.elbow]
+    bus = "right"
+    id = 1
+    gear = -1.0                # motor output turns per joint turn (sign: direction)
+    offset = 0.5               # joint position (rad) when the motor reads 0 deg
+
+Every key of a bus entry but ``interface`` goes to :func:`drempower.open_bus`
+(``channel``, ``bitrate``, ``host``, ``port``, ``timeout``, ``time_scale``...).
+A ``"sim"`` bus simulates the motors of its joints.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..errors import ConfigError
+from ..protocol.ids import MAX_NODE
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib  # type: ignore[import-not-found, no-redef, unused-ignore]
+
+__all__ = ["BusSpec", "JointSpec", "RobotSpec", "load_robot", "parse_robot", "JOINT_NAME"]
+
+JOINT_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
+"""What a joint or bus name looks like: it starts with a letter or ``_``, so it never reads as a motor id."""
+_JOINT_KEYS = frozenset(("bus", "id", "gear", "offset"))
+
+
+@dataclass(frozen=True)
+class BusSpec:
+    """One bus: its name, ``interface`` and the other :func:`~drempower.open_bus` options."""
+
+    name: str
+    interface: str
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class JointSpec:
+    """One joint: motor ``id`` on bus ``bus``; ``gear`` motor turns per joint turn, ``offset`` rad."""
+
+    name: str
+    bus: str
+    id: int
+    gear: float = 1.0
+    offset: float = 0.0
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """Buses and joints, in the order of the file; ``source`` names where they came from."""
+
+    buses: Mapping[str, BusSpec]
+    joints: Mapping[str, JointSpec]
+    source: str = "robot"
+
+    def joints_on(self, bus: str) -> list[JointSpec]:
+        """The joints of bus ``bus``, in file order."""
+        return [j for j in self.joints.values() if j.bus == bus]
+
+    def open_options(self, bus: str) -> dict[str, Any]:
+        """The :func:`~drempower.open_bus` keyword arguments of bus ``bus`` (a sim bus gets its joints' ids)."""
+        spec = self.buses[bus]
+        kw: dict[str, Any] = {"interface": spec.interface, **spec.options}
+        if spec.interface == "sim":
+            kw["motors"] = sorted(j.id for j in self.joints_on(bus))
+        return kw
+
+
+def _name(kind: str, name: str, where: str) -> str:
+    if not JOINT_NAME.match(name):
+        raise ConfigError(
+            f"{where}: {kind} name {name!r}: use letters, digits, '_', '.' or '-', starting with a letter or '_'"
+        )
+    return name
+
+
+def _table(value: object, where: str) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"{where}: expected a table, got {value!r}")
+    return value
+
+
+def _number(value: object, where: str, *, nonzero: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ConfigError(f"{where}={value!r}: expected a finite number")
+    if nonzero and value == 0:
+        raise ConfigError(f"{where}=0: a gear of 0 would make every joint position the same; use e.g. 1.0 or -1.0")
+    return float(value)
+
+
+def parse_robot(data: Mapping[str, Any], source: str = "robot") -> RobotSpec:
+    """Check a robot description (the TOML file as a dict); raises :class:`ConfigError` naming the entry and key."""
+    unknown = sorted(set(data) - {"buses", "joints"})
+    if unknown:
+        raise ConfigError(f"{source}: unknown section {unknown[0]!r}: a robot file has [buses.NAME] and [joints.NAME]")
+    buses: dict[str, BusSpec] = {}
+    for name, entry in _table(data.get("buses", {}), f"{source}: buses").items():
+        where = f"{source}: [buses.{name}]"
+        _name("bus", name, where)
+        opts = dict(_table(entry, where))
+        interface = opts.pop("interface", None)
+        if not isinstance(interface, str) or not interface:
+            raise ConfigError(f"{where}: interface={interface!r}: give the interface, e.g. 'sim', 'socketcan'")
+        if interface == "sim" and "motors" in opts:
+            raise ConfigError(f"{where}: motors: a sim bus simulates the motors of its joints; leave motors out")
+        buses[name] = BusSpec(name, interface, opts)
+    if not buses:
+        raise ConfigError(f"{source}: no [buses.NAME] entry: a robot needs at least one bus")
+    joints: dict[str, JointSpec] = {}
+    taken: dict[tuple[str, int], str] = {}
+    for name, entry in _table(data.get("joints", {}), f"{source}: joints").items():
+        where = f"{source}: [joints.{name}]"
+        _name("joint", name, where)
+        j = _table(entry, where)
+        extra = sorted(set(j) - _JOINT_KEYS)
+        if extra:
+            raise ConfigError(f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear and offset")
+        bus = j.get("bus")
+        if bus not in buses:
+            raise ConfigError(f"{where}: bus={bus!r}: not one of the buses ({', '.join(buses)})")
+        ident = j.get("id")
+        if ident.__class__ is not int or not 1 <= ident <= MAX_NODE:
+            raise ConfigError(f"{where}: id={ident!r}: motor ids are 1..{MAX_NODE}")
+        other = taken.get((bus, ident))
+        if other is not None:
+            raise ConfigError(f"{where}: id={ident}: joint {other!r} already is motor {ident} on bus {bus!r}")
+        taken[(bus, ident)] = name
+        gear = _number(j.get("gear", 1.0), f"{where}: gear", nonzero=True)
+        offset = _number(j.get("offset", 0.0), f"{where}: offset")
+        joints[name] = JointSpec(name, bus, ident, gear, offset)
+    if not joints:
+        raise ConfigError(f"{source}: no [joints.NAME] entry: a robot needs at least one joint")
+    empty = [b for b in buses if not any(j.bus == b for j in joints.values())]
+    if empty:
+        raise ConfigError(f"{source}: [buses.{empty[0]}] carries no joint: give it one or remove it")
+    return RobotSpec(buses, joints, source)
+
+
+def load_robot(path: str | os.PathLike[str]) -> RobotSpec:
+    """Read and check the robot file ``path``; raises :class:`ConfigError` naming the file and what is wrong."""
+    where = os.fspath(path)
+    try:
+        with open(where, "rb") as f:
+            data = tomllib.load(f)
+    except OSError as exc:
+        raise ConfigError(f"cannot read robot file {where}: {exc.strerror or exc}") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{where}: not valid TOML: {exc}") from exc
+    return parse_robot(data, where)
