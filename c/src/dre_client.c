@@ -103,20 +103,26 @@ int dre_param_choices(uint16_t address, uint8_t *lo, uint8_t *hi)
     return 0;
 }
 
-/* DRE_OK, or DRE_E_RANGE naming the parameter when `msg` writes a value it does not take. */
-static dre_status check_choice(dre_bus *bus, const dre_msg *msg)
+/*
+ * DRE_OK, or DRE_E_RANGE naming the parameter when `msg` writes a value it does
+ * not take: outside its fixed set, or outside its domain (dre_param_check; a
+ * soft bound only when `force` is 0).
+ */
+static dre_status check_write(dre_bus *bus, const dre_msg *msg, int force)
 {
     uint16_t address = (uint16_t)msg->u.param.address;
     uint8_t lo, hi;
     dre_field bad;
 
     /* an address beyond 16 bits is no parameter: dre_encode refuses it */
-    if (msg->type != DRE_MSG_WRITE_PARAM || msg->u.param.address > 0xFFFFu || !dre_param_choices(address, &lo, &hi)) {
+    if (msg->type != DRE_MSG_WRITE_PARAM || msg->u.param.address > 0xFFFFu) {
         return DRE_OK;
     }
-    if (msg->u.param.dtype == DRE_F32) {
+    if (dre_param_choices(address, &lo, &hi) && msg->u.param.dtype == DRE_F32) {
         bad = DRE_FIELD_DTYPE; /* the sets are integers */
-    } else if (msg->u.param.value.i < lo || msg->u.param.value.i > hi) {
+    } else if (dre_param_choices(address, &lo, &hi) && (msg->u.param.value.i < lo || msg->u.param.value.i > hi)) {
+        bad = DRE_FIELD_VALUE;
+    } else if (dre_param_check(address, msg->u.param.dtype, msg->u.param.value, force) != DRE_OK) {
         bad = DRE_FIELD_VALUE;
     } else {
         return DRE_OK;
@@ -228,11 +234,11 @@ static int rx_pop(dre_bus *bus, dre_frame *out)
     return 1;
 }
 
-/* Encode what the bus sends; parameter writes are checked against their fixed sets first. */
-static dre_status encode(dre_bus *bus, const dre_msg *msg, dre_frame *f)
+/* Encode what the bus sends; parameter writes are checked against their fixed sets and domains first. */
+static dre_status encode_as(dre_bus *bus, const dre_msg *msg, dre_frame *f, int force)
 {
     dre_field bad;
-    if (check_choice(bus, msg) != DRE_OK) {
+    if (check_write(bus, msg, force) != DRE_OK) {
         return DRE_E_RANGE;
     }
     if (dre_encode(msg, f, &bad) != DRE_OK) {
@@ -252,10 +258,15 @@ static int room(dre_bus *bus, unsigned frames)
     return bus->cfg.tx_free == NULL || bus->cfg.tx_free(bus->cfg.user) >= frames;
 }
 
-dre_status dre_send(dre_bus *bus, const dre_msg *msg)
+static dre_status encode(dre_bus *bus, const dre_msg *msg, dre_frame *f)
+{
+    return encode_as(bus, msg, f, 0);
+}
+
+static dre_status send_as(dre_bus *bus, const dre_msg *msg, int force)
 {
     dre_frame f;
-    dre_status st = encode(bus, msg, &f);
+    dre_status st = encode_as(bus, msg, &f, force);
     if (st == DRE_OK) {
         st = transmit(bus, &f);
     }
@@ -263,6 +274,11 @@ dre_status dre_send(dre_bus *bus, const dre_msg *msg)
         note(bus, msg);
     }
     return st;
+}
+
+dre_status dre_send(dre_bus *bus, const dre_msg *msg)
+{
+    return send_as(bus, msg, 0);
 }
 
 static dre_status system_op(dre_bus *bus, uint8_t node, uint8_t op)
@@ -948,6 +964,12 @@ dre_status dre_write_property(const dre_motor *m, uint16_t address, uint8_t dtyp
 {
     dre_msg msg = write_msg(m, address, dtype, value);
     return dre_send(m->bus, &msg);
+}
+
+dre_status dre_write_property_forced(const dre_motor *m, uint16_t address, uint8_t dtype, dre_value value)
+{
+    dre_msg msg = write_msg(m, address, dtype, value);
+    return send_as(m->bus, &msg, 1);
 }
 
 dre_status dre_write_param(const dre_motor *m, dre_param_t param, dre_value value)

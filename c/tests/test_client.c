@@ -394,7 +394,7 @@ static void test_single_motor_commands(void)
     CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE, v) == DRE_OK &&
           sent_is(14u, 0x03F, "EE79030001000000"));
     v.f32 = -1.5f;
-    CHECK(dre_write_property(&m2, 38012u, DRE_F32, v) == DRE_OK && sent_is(15u, 0x05F, "7C9400000000C0BF"));
+    CHECK(dre_write_property(&m2, 38023u, DRE_F32, v) == DRE_OK && sent_is(15u, 0x05F, "879400000000C0BF"));
     CHECK(bus_fake.nsent == 16u);
 
     /* refusals send nothing and name the field */
@@ -1190,8 +1190,8 @@ static void test_mode_params(void)
     uint8_t lo = 0xFFu, hi = 0xFFu;
 
     setup();
-    v.i = 11;
-    CHECK(dre_write_param(&m1, DRE_P_AXIS0_REQUESTED_STATE, v) == DRE_OK && sent_is(0u, 0x03F, "337503000B000000"));
+    v.i = 11; /* in AxisState, outside the soft domain {1, 8}: an expert forces it */
+    CHECK(dre_write_property_forced(&m1, 30003u, DRE_U32, v) == DRE_OK && sent_is(0u, 0x03F, "337503000B000000"));
     v.i = 4;
     CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONTROLLER_CONFIG_CONTROL_MODE, v) == DRE_OK &&
           sent_is(1u, 0x03F, "697D030004000000"));
@@ -1242,6 +1242,57 @@ static void test_mode_params(void)
     CHECK(dre_param_choices(32106u, &lo, &hi) == 1 && lo == 0u && hi == 7u);
     CHECK(dre_param_choices(35104u, &lo, &hi) == 1 && lo == 1u && hi == 2u);
     CHECK(dre_param_choices(31001u, &lo, &hi) == 0 && dre_param_choices(0u, &lo, &hi) == 0);
+}
+
+/* Writes outside a parameter's domain (spec/parameters.csv) are refused, naming it; force passes soft bounds only. */
+static void test_param_domains(void)
+{
+    dre_motor m1 = {&bus, 1u};
+    dre_value v;
+    const dre_param_domain *d;
+
+    setup();
+    v.i = 64;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_CAN_NODE_ID, v) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_VALUE &&
+          bus.bad_address == 31001u);
+    v.i = 0;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_CAN_NODE_ID, v) == DRE_E_RANGE);
+    CHECK(dre_write_property_forced(&m1, 31001u, DRE_U32, v) == DRE_E_RANGE); /* hard: never */
+    v.i = 3;                                                                   /* a calibration state */
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_REQUESTED_STATE, v) == DRE_E_RANGE && bus.bad_address == 30003u);
+    v.f32 = 1e30f;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONTROLLER_CONFIG_POS_GAIN, v) == DRE_E_RANGE && bus.bad_address == 32108u);
+    v.f32 = -5.0f;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_EXTRA_SETTING_STALL_CURRENT_LIMIT, v) == DRE_E_RANGE);
+    v.f32 = NAN;
+    CHECK(dre_write_property_forced(&m1, 32108u, DRE_F32, v) == DRE_E_RANGE);
+    v.i = 123456;
+    CHECK(dre_write_param(&m1, DRE_P_CAN_CONFIG_BAUD_RATE, v) == DRE_E_RANGE &&
+          dre_write_property_forced(&m1, 21001u, DRE_U32, v) == DRE_E_RANGE);
+    CHECK(bus_fake.nsent == 0u);
+
+    /* force: outside a soft bound, sent as given */
+    v.f32 = 1e30f;
+    CHECK(dre_write_property_forced(&m1, 32108u, DRE_F32, v) == DRE_OK && sent_is(0u, 0x03F, "6C7D0000CAF24971"));
+    v.i = 3;
+    CHECK(dre_write_property_forced(&m1, 30003u, DRE_U32, v) == DRE_OK && sent_is(1u, 0x03F, "3375030003000000"));
+    v.f32 = -5.0f;
+    CHECK(dre_write_property_forced(&m1, 31209u, DRE_F32, v) == DRE_OK && sent_is(2u, 0x03F, "E97900000000A0C0"));
+    /* at the bounds: sent */
+    v.i = 63;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_CAN_NODE_ID, v) == DRE_OK && bus_fake.nsent == 4u);
+    v.f32 = 0.0f;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_EXTRA_SETTING_STALL_CURRENT_LIMIT, v) == DRE_OK);
+    CHECK(bus_fake.nsent == 5u);
+
+    d = dre_param_domain_of(31001u);
+    CHECK(d != NULL && d->flags == (DRE_PD_MIN | DRE_PD_MAX | DRE_PD_HARD) && d->lo == 1.0f && d->hi == 63.0f);
+    d = dre_param_domain_of(30003u);
+    CHECK(d != NULL && (d->flags & DRE_PD_SET) != 0u && d->count == 2u && dre_param_allowed[d->first] == 1.0f &&
+          dre_param_allowed[d->first + 1u] == 8.0f);
+    d = dre_param_domain_of(32108u);
+    CHECK(d != NULL && (d->flags & (DRE_PD_HARD | DRE_PD_INFERRED)) == DRE_PD_INFERRED);
+    CHECK(dre_param_domain_of(38023u) == NULL && dre_param_domain_of(1u) == NULL); /* signed setpoint; read-only */
 }
 
 static void test_step_angle(void)
@@ -1359,6 +1410,7 @@ int main(void)
     test_verified_writes();
     test_set_id();
     test_mode_params();
+    test_param_domains();
     test_step_angle();
     test_position_done();
     test_q_move_time();

@@ -22,9 +22,12 @@
  *
  * Every parameter write the bus sends (dre_write_param, dre_write_property,
  * dre_send, the verified writes) is checked against the parameters whose
- * values form a fixed set (see dre_param_choices): a value outside it is
- * refused before anything is sent, with DRE_E_RANGE, DRE_FIELD_VALUE
- * (DRE_FIELD_DTYPE for an f32) and bus->bad_address naming the parameter.
+ * values form a fixed set (see dre_param_choices) and against each
+ * parameter's domain (dre_param_check, from spec/parameters.csv): a value
+ * outside them is refused before anything is sent, with DRE_E_RANGE,
+ * DRE_FIELD_VALUE (DRE_FIELD_DTYPE for an f32 to a fixed set) and
+ * bus->bad_address naming the parameter. Only dre_write_property_forced
+ * writes outside a soft bound.
  *
  * Requests to the same motor go out one at a time, as in the Python client: a
  * read reply carries the same CAN id as every read request to that motor, so a
@@ -165,8 +168,9 @@ typedef struct {
     volatile uint16_t rx_overflows;
     /**
      * After DRE_E_RANGE for a write of a value the parameter does not take
-     * (dre_param_choices): its address, for dre_param_by_address() and
-     * dre_param_choices(); 0 after any other DRE_E_RANGE.
+     * (dre_param_choices, dre_param_check): its address, for
+     * dre_param_by_address(), dre_param_choices() and dre_param_domain_of();
+     * 0 after any other DRE_E_RANGE.
      */
     uint16_t bad_address;
     dre_field bad_field;
@@ -328,8 +332,15 @@ dre_status dre_set_mode(const dre_motor *m, uint8_t mode);
  */
 dre_status dre_write_property(const dre_motor *m, uint16_t address, uint8_t dtype, dre_value value);
 /**
+ * dre_write_property for an expert: a value outside the parameter's soft
+ * bound (dre_param_domain without DRE_PD_HARD) is sent. Hard bounds, fixed
+ * sets and the wire range still refuse it (DRE_E_RANGE, nothing sent).
+ */
+dre_status dre_write_property_forced(const dre_motor *m, uint16_t address, uint8_t dtype, dre_value value);
+/**
  * Write a parameter from the table; DRE_E_ACCESS if read-only, DRE_E_RANGE if
- * a bool is not 0/1 or a mode parameter is given a value it does not take.
+ * a bool is not 0/1, a mode parameter is given a value it does not take, or
+ * the value is outside the parameter's domain (dre_param_check).
  */
 dre_status dre_write_param(const dre_motor *m, dre_param_t param, dre_value value);
 /** Start reading `address` as `dtype`; the reply is a DRE_MSG_PARAM_VALUE. */

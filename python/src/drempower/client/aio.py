@@ -327,9 +327,15 @@ class AsyncMotor(MotorBase):
         return await self._bus.run(ops.get_traj_mode(self._core, self._id, timeout))
 
     async def write_property(
-        self, property: str | int, value: float, *, verify: bool = False, timeout: float | None = None
+        self,
+        property: str | int,
+        value: float,
+        *,
+        verify: bool = False,
+        timeout: float | None = None,
+        force: bool = False,
     ) -> None:
-        await self._bus.run(ops.write_property(self._id, property, value, verify, timeout))
+        await self._bus.run(ops.write_property(self._id, property, value, verify, timeout, force))
 
     async def read_property(self, property: str | int, *, timeout: float | None = None) -> int | float:
         return await self._bus.run(ops.read_property(self._core, self._id, property, timeout))

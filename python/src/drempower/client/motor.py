@@ -218,10 +218,22 @@ class Motor(MotorBase):
         return self._bus.run(ops.get_traj_mode(self._core, self._id, timeout))
 
     def write_property(
-        self, property: str | int, value: float, *, verify: bool = False, timeout: float | None = None
+        self,
+        property: str | int,
+        value: float,
+        *,
+        verify: bool = False,
+        timeout: float | None = None,
+        force: bool = False,
     ) -> None:
-        """Write parameter ``property`` (name or address) in RAM; ``verify`` reads it back."""
-        self._bus.run(ops.write_property(self._id, property, value, verify, timeout))
+        """Write parameter ``property`` (name or address) in RAM; ``verify`` reads it back.
+
+        A value outside the parameter's domain (``spec/parameters.csv``) raises
+        :class:`~drempower.protocol.parameters.DomainError` naming parameter, value and
+        domain, and nothing is sent; ``force=True`` writes one outside a soft domain
+        (never outside a hard one, such as can_node_id 1..63, or the type's range).
+        """
+        self._bus.run(ops.write_property(self._id, property, value, verify, timeout, force))
 
     def read_property(self, property: str | int, *, timeout: float | None = None) -> int | float:
         """Read parameter ``property`` (name or address)."""

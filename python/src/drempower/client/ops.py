@@ -75,10 +75,14 @@ def read_property(core: BusCore, node: int, prop: str | int, timeout: float | No
 
 
 def write_property(
-    node: int, prop: str | int, value: float, verify: bool = False, timeout: float | None = None
+    node: int, prop: str | int, value: float, verify: bool = False, timeout: float | None = None, force: bool = False
 ) -> Op[None]:
-    """Write ``value`` to ``prop``; with ``verify`` read it back and raise :class:`VerifyError` if it differs."""
-    msg = WriteParam.of(node, prop, value)
+    """Write ``value`` to ``prop``; with ``verify`` read it back and raise :class:`VerifyError` if it differs.
+
+    A value outside the parameter's domain raises :class:`~drempower.protocol.parameters.DomainError`
+    before anything is sent; ``force`` lets one outside a soft domain through.
+    """
+    msg = WriteParam.of(node, prop, value, force=force)
     yield Send([msg])
     if verify:
         yield from _verify(node, [msg], timeout)
