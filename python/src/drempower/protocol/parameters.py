@@ -125,8 +125,8 @@ class Parameter:
         the fixed set of a mode or state, and the domain; ``force`` lets a value
         outside a soft domain through (never outside a hard one or the wire range).
         """
-        if value.__class__ is bool:
-            value = int(value)  # type: ignore[call-overload]
+        if isinstance(value, bool):
+            value = int(value)
         if not isinstance(value, (int, float)):
             raise ValidationError(f"{self.name}={value!r}: expected a number")
         if self.is_bool and value not in (0, 1):
