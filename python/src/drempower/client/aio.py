@@ -44,6 +44,7 @@ from .errors import TimeoutError
 from .motor import MotorBase
 from .results import ErrorReport, GpioMode, MotorInfo
 from .state import MotorState
+from .timeouts import checks_times
 
 __all__ = ["AsyncBus", "AsyncMotor", "open_bus_async"]
 
@@ -65,6 +66,7 @@ def _notifier(loop: asyncio.AbstractEventLoop, fut: asyncio.Future[Any]) -> Call
     return notify
 
 
+@checks_times
 class AsyncBus(BusBase["AsyncMotor"]):
     """The asyncio counterpart of :class:`~drempower.client.bus.Bus` (same options)."""
 
@@ -86,6 +88,7 @@ class AsyncBus(BusBase["AsyncMotor"]):
     async def _execute(self, effect: Effect) -> Any:
         core = self._core
         if isinstance(effect, Request):
+            self._check_broadcast_reads(effect.messages)
             ex = Exchange(core, effect.messages, effect.timeout, effect.missing_ok, effect.expect, effect.what)
             loop = asyncio.get_running_loop()
             while True:
@@ -127,7 +130,7 @@ class AsyncBus(BusBase["AsyncMotor"]):
 
     async def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor when None."""
-        self._core.estop([0] if id_list is None else list(id_list))
+        self._core.estop(self._estop_nodes(id_list))
 
     async def scan(
         self, ids: Iterable[int] = batch.ALL_IDS, *, timeout: float | None = None, versions: bool = False
@@ -237,6 +240,7 @@ class AsyncBus(BusBase["AsyncMotor"]):
         await self.close()
 
 
+@checks_times
 class AsyncMotor(MotorBase):
     """One motor on an :class:`AsyncBus`: the methods of :class:`~drempower.client.motor.Motor` as coroutines."""
 

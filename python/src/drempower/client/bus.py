@@ -25,12 +25,14 @@ from .errors import TimeoutError
 from .motor import Motor
 from .results import MotorInfo
 from .state import MotorState
+from .timeouts import checks_times
 
 __all__ = ["Bus", "open_bus", "DEFAULT_MOVE_TIMEOUT", "DEFAULT_POLL_INTERVAL"]
 
 T = TypeVar("T")
 
 
+@checks_times
 class Bus(BusBase[Motor]):
     """A DrEmpower bus: owns a transport and the receive thread; hands out :class:`Motor` handles.
 
@@ -61,6 +63,7 @@ class Bus(BusBase[Motor]):
     def _execute(self, effect: Effect) -> Any:
         core = self._core
         if isinstance(effect, Request):
+            self._check_broadcast_reads(effect.messages)
             ex = Exchange(core, effect.messages, effect.timeout, effect.missing_ok, effect.expect, effect.what)
             while True:
                 w = ex.start()
@@ -104,7 +107,7 @@ class Bus(BusBase[Motor]):
 
     def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor (one broadcast frame) when None."""
-        self._core.estop([0] if id_list is None else list(id_list))
+        self._core.estop(self._estop_nodes(id_list))
 
     def scan(
         self, ids: Iterable[int] = batch.ALL_IDS, *, timeout: float | None = None, versions: bool = False

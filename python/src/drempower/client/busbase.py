@@ -4,13 +4,16 @@ from __future__ import annotations
 
 import threading
 from abc import ABC, abstractmethod
-from collections.abc import Callable
+from collections.abc import Callable, Iterable, Sequence
 from typing import Generic, TypeVar
 
+from ..errors import ValidationError
 from ..protocol.ids import Frame, check_node
+from ..protocol.messages import FastRead, Message, ReadParam
 from ..transports.base import Transport
 from .core import DEFAULT_TIMEOUT, BusCore, StartPolicy, StopOnClose
 from .state import MotorState, StateCallback, Subscription
+from .timeouts import seconds
 
 __all__ = ["BusBase"]
 
@@ -52,6 +55,26 @@ class BusBase(ABC, Generic[M]):
     def _new_motor(self, id: int) -> M:
         """A new handle of motor ``id`` for this kind of bus."""
 
+    def known_motors(self) -> set[int]:
+        """The motors this bus knows are attached: handles made, motors heard from, and those
+        the transport declares (``motor_ids``, e.g. the in-process simulator's)."""
+        known = {n for n in self._motors if n != 0}
+        known.update(self._core.states.snapshot())
+        known.update(getattr(self._core.transport, "motor_ids", ()))
+        return known
+
+    def _check_broadcast_reads(self, msgs: Sequence[Message]) -> None:
+        """Refuse, before sending, a read addressed to every motor (id 0) when the bus knows several:
+        each would answer and the reply taken would be any one of them."""
+        if any(m.node == 0 and isinstance(m, (FastRead, ReadParam)) for m in msgs):
+            known = self.known_motors()
+            if len(known) > 1:
+                ids = ", ".join(map(str, sorted(known)))
+                raise ValidationError(
+                    f"a read addressed to every motor (id 0) is ambiguous on a bus with motors {ids}: "
+                    "read each motor by its id"
+                )
+
     def motor(self, id: int) -> M:
         """The handle of motor ``id`` (1..63; 0 addresses every motor, reads need a single motor)."""
         m = self._motors.get(id)
@@ -65,6 +88,18 @@ class BusBase(ABC, Generic[M]):
 
     def __getitem__(self, id: int) -> M:
         return self.motor(id)
+
+    @staticmethod
+    def _estop_nodes(id_list: Iterable[int] | None) -> list[int]:
+        """The nodes an estop goes to: [0] (broadcast) for None; an empty list is refused, not a no-op."""
+        if id_list is None:
+            return [0]
+        if isinstance(id_list, (str, bytes)) or not isinstance(id_list, Iterable):
+            raise ValidationError(f"id_list={id_list!r}: a list of motor ids, or None for every motor")
+        nodes = [check_node(n, "id_list") for n in id_list]
+        if not nodes:
+            raise ValidationError("id_list is empty: nothing would be stopped; give motor ids, or None for every motor")
+        return nodes
 
     @property
     def core(self) -> BusCore:
@@ -82,9 +117,7 @@ class BusBase(ABC, Generic[M]):
 
     @timeout.setter
     def timeout(self, value: float) -> None:
-        if not value > 0:
-            raise ValueError(f"timeout={value!r}: must be > 0 s")
-        self._core.timeout = float(value)
+        self._core.timeout = seconds(value)
 
     @property
     def closed(self) -> bool:

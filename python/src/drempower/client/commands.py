@@ -122,7 +122,16 @@ def _positive(value: float, field: str, high: float = S16_MAX) -> float:
 
 
 def _bandwidth(param: float) -> float:
-    return _positive(abs(_finite(param, "param (bandwidth)")), "param (bandwidth)", MAX_BANDWIDTH)
+    """The T-mode input-filter bandwidth, 0 < bw <= 300 1/s (a negative one is refused, not made positive)."""
+    return _positive(param, "param (bandwidth)", MAX_BANDWIDTH)
+
+
+def _torque_param(param: float, mode: TorqueMode) -> float:
+    """The ramp rate of mode 6 (> 0 Nm/s); mode 1 ignores ``param`` and sends 0, but it must still be a number."""
+    if mode is TorqueMode.DIRECT:
+        _finite(param, "param")
+        return 0.0
+    return _positive(param, "param (ramp rate)")
 
 
 def _t_speed(speed: float) -> float:
@@ -185,7 +194,8 @@ def make_speed(node: int, speed: float, param: float = 0.0, mode: int = Velocity
     if m is VelocityMode.RAMP:
         param = _positive(param, "param (ramp rate)")
     else:
-        param = 0.0 if speed == 0 else check_s16(param, "param")
+        ff = check_s16(param, "param")  # checked even when speed 0 makes it unused
+        param = 0.0 if speed == 0 else ff
     return Velocity(node, speed, param, m)
 
 
@@ -193,7 +203,7 @@ def make_torque(node: int, torque: float, param: float = 0.0, mode: int = Torque
     """Apply ``torque`` Nm (vendor ``set_torque``). mode 1: direct; mode 6: ramp at ``param`` Nm/s."""
     m = torque_mode(mode)
     torque = check_f32(torque, "torque")
-    return Torque(node, torque, 0.0 if m is TorqueMode.DIRECT else _positive(param, "param (ramp rate)"), m)
+    return Torque(node, torque, _torque_param(param, m), m)
 
 
 def make_impedance(
@@ -310,7 +320,7 @@ def make_torques(
     """Presets and start of a synchronised torque change (vendor ``set_torques``); one param/mode for all."""
     nodes = check_ids(ids, torques, "torque_list")
     m = torque_mode(mode)
-    prm = 0.0 if m is TorqueMode.DIRECT else _positive(param, "param (ramp rate)")
+    prm = _torque_param(param, m)
     presets: list[Message] = [
         PresetC(n, check_f32(t, f"torque_list (motor {n})"), prm, m) for n, t in zip(nodes, torques, strict=True)
     ]

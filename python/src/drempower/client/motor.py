@@ -31,6 +31,7 @@ from .commands import (
 from .core import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, BusCore
 from .results import ErrorReport, GpioMode
 from .state import MotorState, StateCallback, Subscription
+from .timeouts import checks_times
 
 if TYPE_CHECKING:
     from .bus import Bus
@@ -88,6 +89,7 @@ class MotorBase:
         return f"<{type(self).__name__} {self._id}>"
 
 
+@checks_times
 class Motor(MotorBase):
     """One motor on a :class:`~drempower.client.bus.Bus` (get it with ``bus.motor(id)``).
 
