@@ -15,13 +15,14 @@ from collections.abc import Sequence
 
 from .. import __version__
 from ..errors import DrEmpowerError
+from ._parser import Parser
 from ._usage import UsageError
 
 __all__ = ["main", "build_parser"]
 
 
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = Parser(
         prog="drempower",
         description="Work with DrEmpower servo joint motors: decode, simulate, drive, configure.",
     )

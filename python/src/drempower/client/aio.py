@@ -100,7 +100,7 @@ class AsyncBus(BusBase["AsyncMotor"]):
                     core.matcher.cancel(w)
                     raise
                 if ex.collect(w):
-                    return ex.result()
+                    return self._heard_from(ex.result())
         if isinstance(effect, Send):
             core.send_many(effect.messages)
             return None

@@ -74,7 +74,7 @@ class Bus(BusBase[Motor]):
                     core.matcher.cancel(w)
                     raise
                 if ex.collect(w):
-                    return ex.result()
+                    return self._heard_from(ex.result())
         if isinstance(effect, Send):
             core.send_many(effect.messages)
             return None

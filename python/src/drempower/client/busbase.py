@@ -5,7 +5,7 @@ from __future__ import annotations
 import threading
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Sequence
-from typing import Generic, TypeVar
+from typing import Any, Generic, TypeVar
 
 from ..errors import ValidationError
 from ..protocol.ids import Frame, check_node
@@ -49,6 +49,7 @@ class BusBase(ABC, Generic[M]):
             on_unsolicited=on_unsolicited,
         )
         self._motors: dict[int, M] = {}
+        self._heard: set[int] = set()
         self._motors_lock = threading.Lock()
 
     @abstractmethod
@@ -58,10 +59,18 @@ class BusBase(ABC, Generic[M]):
     def known_motors(self) -> set[int]:
         """The motors this bus knows are attached: handles made, motors heard from, and those
         the transport declares (``motor_ids``, e.g. the in-process simulator's)."""
-        known = {n for n in self._motors if n != 0}
+        known = {n for n in self._motors if n != 0} | self._heard
         known.update(self._core.states.snapshot())
         known.update(getattr(self._core.transport, "motor_ids", ()))
         return known
+
+    def _heard_from(self, replies: Any) -> Any:
+        """Note the motors that answered a request (the replies, returned as they are)."""
+        for r in replies:
+            node = getattr(r, "node", 0)
+            if node:
+                self._heard.add(node)
+        return replies
 
     def _check_broadcast_reads(self, msgs: Sequence[Message]) -> None:
         """Refuse, before sending, a read addressed to every motor (id 0) when the bus knows several:

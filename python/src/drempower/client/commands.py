@@ -41,6 +41,7 @@ __all__ = [
     "TorqueMode",
     "TrajMode",
     "MAX_BANDWIDTH",
+    "MAX_ANGLE",
     "make_angle",
     "make_speed",
     "make_torque",
@@ -58,6 +59,9 @@ __all__ = [
 
 MAX_BANDWIDTH = 300.0
 """Largest T-mode input-filter bandwidth (1/s) the vendor documents."""
+MAX_ANGLE = 720_000.0
+"""Largest target or step magnitude (deg): the vendor's (-360~360)*n, n < 2000; the domain of
+``axis0.output_shaft.input_pos`` in ``spec/parameters.csv``."""
 
 
 class PositionMode(IntEnum):
@@ -126,6 +130,14 @@ def _bandwidth(param: float) -> float:
     return _positive(param, "param (bandwidth)", MAX_BANDWIDTH)
 
 
+def _angle(value: float, field: str) -> float:
+    """An angle (deg) within +-MAX_ANGLE, named ``field`` when refused."""
+    v = check_f32(value, field)
+    if not -MAX_ANGLE <= v <= MAX_ANGLE:
+        raise FieldRangeError(field, value, -MAX_ANGLE, MAX_ANGLE, "deg; the vendor's (-360~360)*n, n < 2000")
+    return v
+
+
 def _torque_param(param: float, mode: TorqueMode) -> float:
     """The ramp rate of mode 6 (> 0 Nm/s); mode 1 ignores ``param`` and sends 0, but it must still be a number."""
     if mode is TorqueMode.DIRECT:
@@ -175,7 +187,7 @@ def make_angle(
     mode P: ``speed`` = speed feed-forward r/min, ``param`` = torque feed-forward Nm.
     """
     m = position_mode(mode)
-    angle = check_f32(angle, "angle")
+    angle = _angle(angle, "angle")
     if m is PositionMode.T:
         return PositionT(node, angle, _bandwidth(param), _t_speed(speed))
     if m is PositionMode.Q:
@@ -214,7 +226,7 @@ def make_impedance(
     ``pos`` deg, ``vel`` r/min, ``tff`` Nm; ``kp`` Nm/rad and ``kd`` Nm/(rad/s),
     both 0..327.67. The control law is ``tff + kp*(pos - P) + kd*(vel - V)``.
     """
-    preset = PresetD(node, check_f32(pos, "pos"), check_s16(vel, "vel"), check_s16(tff, "tff"))
+    preset = PresetD(node, _angle(pos, "pos"), check_s16(vel, "vel"), check_s16(tff, "tff"))
     return preset, StartImpedance(node, *_gains(kp, kd))
 
 
@@ -235,7 +247,7 @@ def make_impedances(
     v, t = check_s16(vel, "vel"), check_s16(tff, "tff")
     start = StartImpedance(0, *_gains(kp, kd))
     presets: list[Message] = [
-        PresetD(n, check_f32(p, f"pos_list (motor {n})"), v, t) for n, p in zip(nodes, positions, strict=True)
+        PresetD(n, _angle(p, f"pos_list (motor {n})"), v, t) for n, p in zip(nodes, positions, strict=True)
     ]
     return presets, start
 
@@ -278,7 +290,7 @@ def make_angles(
     so an out-of-range one raises before a single frame exists.
     """
     nodes = check_ids(ids, angles, "angle_list")
-    targets = [check_f32(a, f"angle_list (motor {n})") for n, a in zip(nodes, angles, strict=True)]
+    targets = [_angle(a, f"angle_list (motor {n})") for n, a in zip(nodes, angles, strict=True)]
     m = position_mode(mode)
     presets: list[Message]
     if m is PositionMode.T:
