@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from enum import Enum, IntEnum
 
 from ..errors import FieldRangeError, ProtocolError, ValidationError
+from . import addresses as A
 from .enums import AxisState, ControlMode, InputMode, TrajMode
 
 __all__ = [
@@ -164,10 +165,10 @@ class DomainError(FieldRangeError):
 
 
 _CHOICES: dict[int, type[IntEnum]] = {
-    30003: AxisState,  # axis0.requested_state
-    32105: ControlMode,  # axis0.controller.config.control_mode
-    32106: InputMode,  # axis0.controller.config.input_mode
-    35104: TrajMode,  # axis0.trap_traj.config.traj_mode
+    A.AXIS0_REQUESTED_STATE: AxisState,
+    A.AXIS0_CONTROLLER_CONFIG_CONTROL_MODE: ControlMode,
+    A.AXIS0_CONTROLLER_CONFIG_INPUT_MODE: InputMode,
+    A.AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE: TrajMode,
 }
 """Parameters whose values form a fixed set (PROTOCOL.md section 5)."""
 
