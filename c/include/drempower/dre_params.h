@@ -630,13 +630,13 @@ const dre_param_domain dre_param_domains[DRE_PARAM_DOMAIN_COUNT] = {
     {33106u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.phase_resistance */
     {33107u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.torque_constant */
     {33108u, DRE_PD_SET | DRE_PD_INFERRED, 2u, 13u, 0.0f, 0.0f}, /* axis0.motor.config.direction */
-    {33109u, DRE_PD_SET | DRE_PD_HARD, 3u, 15u, 0.0f, 0.0f}, /* axis0.motor.config.motor_type */
+    {33109u, DRE_PD_SET, 3u, 15u, 0.0f, 0.0f}, /* axis0.motor.config.motor_type */
     {33110u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.current_lim */
     {33111u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.current_lim_margin */
     {33112u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.torque_lim */
     {33113u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.requested_current_range */
     {33114u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.current_control_bandwidth */
-    {34101u, DRE_PD_SET | DRE_PD_HARD, 8u, 18u, 0.0f, 0.0f}, /* axis0.encoder.config.mode */
+    {34101u, DRE_PD_SET, 8u, 18u, 0.0f, 0.0f}, /* axis0.encoder.config.mode */
     {34102u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.encoder.config.use_index */
     {34103u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 1.0f, 0.0f}, /* axis0.encoder.config.cpr */
     {34104u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.encoder.config.pre_calibrated */

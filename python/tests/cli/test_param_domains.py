@@ -42,6 +42,6 @@ def test_set_force_does_not_pass_a_hard_bound(cli: Cli, host_frames: list[Frame]
     r = cli("set", "1", "can.config.protocol", "1", "controller.config.control_mode", "9", "--force", "--sim", "1")
     assert r.code == 2 and "control_mode=9 is out of range: allowed 0..4" in r.err
     assert host_frames == []
-    r = cli("set", "1", "axis0.motor.config.motor_type", "1", "--force", "--sim", "1")
-    assert r.code == 2 and "motor_type=1 is outside its domain: one of 0, 2, 3 (hard)" in r.err
+    r = cli("set", "1", "axis0.trap_traj.config.traj_mode", "3", "--force", "--sim", "1")
+    assert r.code == 2 and "traj_mode=3 is out of range: allowed 1..2" in r.err
     assert host_frames == []

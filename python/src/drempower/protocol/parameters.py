@@ -138,8 +138,10 @@ class Parameter:
             low, high = min(choices), max(choices)
             names = ", ".join(f"{int(c)} {c.name}" for c in choices)
             raise FieldRangeError(self.name, value, low, high, f"{choices.__name__}: {names}")
-        if self.has_domain and not self.in_domain(value) and (self.hard or not force):
-            raise DomainError(self, value)
+        if self.has_domain and not (force and not self.hard):
+            sent = _F32.unpack(_F32.pack(value))[0] if self.dtype is DataType.F32 else value
+            if not self.in_domain(sent):  # the value as the frame carries it (as the C check sees it)
+                raise DomainError(self, value)
         return float(value) if self.dtype is DataType.F32 else int(value)
 
     def encode(self, value: int | float | bool, force: bool = False) -> bytes:
