@@ -173,7 +173,6 @@ def render_python(rows: list[Row]) -> str:
 
 def ident(name: str) -> str:
     """The constant's name without the C prefix: ``axis0.config.can_node_id`` -> ``AXIS0_CONFIG_CAN_NODE_ID``."""
-
     return re.sub(r"[^A-Za-z0-9]", "_", name).upper()
 
 
