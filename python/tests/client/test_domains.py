@@ -140,3 +140,29 @@ def test_every_writable_parameter_has_a_domain_source_and_the_factory_values_lie
     assert "axis0.controller.config.pos_gain" not in hard
     assert parameter("axis0.controller.config.pos_gain").inferred
     assert not parameter("axis0.config.can_node_id").inferred
+
+
+def test_raw_writes_sent_with_send_are_checked_too() -> None:
+    from drempower.protocol import DataType
+
+    t = ScriptedTransport(FakeMotors([1]))
+    with Bus(t, timeout=0.25, stop_on_close=False) as bus:
+        with pytest.raises(DomainError, match="can_node_id=64"):
+            bus.send(WriteParam(1, AXIS0_CONFIG_CAN_NODE_ID, DataType.U32, 64))
+        with pytest.raises(DomainError, match="pos_gain=-1"):
+            bus.send_many([WriteParam(1, 31209, DataType.F32, 1.0), WriteParam(1, 32108, DataType.F32, -1.0)])
+        assert t.sent == []
+        bus.send(WriteParam(1, 40000, DataType.U32, 7))  # an address outside the table goes as given
+    assert len(t.sent) == 1
+
+
+async def test_raw_writes_are_checked_in_the_async_api() -> None:
+    from drempower.protocol import DataType
+
+    t = ScriptedTransport(FakeMotors([1]))
+    async with AsyncBus(t, timeout=0.25, stop_on_close=False) as bus:
+        with pytest.raises(DomainError, match="requested_state=3"):
+            await bus.send(WriteParam(1, AXIS0_REQUESTED_STATE, DataType.U32, 3))
+        with pytest.raises(DomainError):
+            await bus.send_many([WriteParam(1, AXIS0_CONFIG_CAN_NODE_ID, DataType.U32, 0)])
+    assert t.sent == []

@@ -113,10 +113,12 @@ class AsyncBus(BusBase["AsyncMotor"]):
 
     async def send(self, msg: Message) -> None:
         """Send one message (validated first); never waits for a reply."""
+        self._check_writes([msg])
         self._core.send(msg)
 
     async def send_many(self, msgs: Sequence[Message]) -> None:
         """Send several messages; if any is invalid, none is sent."""
+        self._check_writes(msgs)
         self._core.send_many(msgs)
 
     async def request(

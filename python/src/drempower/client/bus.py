@@ -87,10 +87,12 @@ class Bus(BusBase[Motor]):
 
     def send(self, msg: Message) -> None:
         """Send one message (validated first); never waits for a reply."""
+        self._check_writes([msg])
         self._core.send(msg)
 
     def send_many(self, msgs: Sequence[Message]) -> None:
         """Send several messages; if any is invalid, none is sent."""
+        self._check_writes(msgs)
         self._core.send_many(msgs)
 
     def request(self, msgs: Sequence[Message], timeout: float | None = None, *, missing_ok: bool = False) -> list[Any]:

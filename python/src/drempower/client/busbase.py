@@ -9,7 +9,8 @@ from typing import Any, Generic, TypeVar
 
 from ..errors import ValidationError
 from ..protocol.ids import Frame, check_node
-from ..protocol.messages import FastRead, Message, ReadParam
+from ..protocol.messages import FastRead, Message, ReadParam, WriteParam
+from ..protocol.parameters import find_parameter
 from ..transports.base import Transport
 from .core import DEFAULT_TIMEOUT, BusCore, StartPolicy, StopOnClose
 from .state import MotorState, StateCallback, Subscription
@@ -71,6 +72,16 @@ class BusBase(ABC, Generic[M]):
             if node:
                 self._heard.add(node)
         return replies
+
+    @staticmethod
+    def _check_writes(msgs: Sequence[Message]) -> None:
+        """Check raw parameter writes (``send``) against their parameter's domain, as ``write_property`` does
+        (without force); writes to addresses outside the table are sent as given."""
+        for m in msgs:
+            if isinstance(m, WriteParam):
+                p = find_parameter(m.address)
+                if p is not None:
+                    p.check(m.value)
 
     def _check_broadcast_reads(self, msgs: Sequence[Message]) -> None:
         """Refuse, before sending, a read addressed to every motor (id 0) when the bus knows several:
