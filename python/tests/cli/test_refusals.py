@@ -62,3 +62,20 @@ def test_zero_refuses_a_motor_in_the_middle_of_a_move(cli: Cli, sim: SimBus, hos
     r = cli("zero", "2", "--sim", "2")
     assert r.code == 1 and "motor 2 is" in r.err and "zero needs it at rest" in r.err
     assert _zeroes(host_frames) == []
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (("state", "1", "--timeout", "inf"), "argument --timeout: expected a finite number > 0, got 'inf'"),
+        (("state", "1", "--timeout", "1e12"), "argument --timeout: expected at most 86400 s (one day), got '1e12'"),
+        (("move", "1", "10", "--wait", "--wait-timeout", "1e12"), "argument --wait-timeout: expected at most 86400 s"),
+        (("move", "1", "10", "--wait", "--wait-timeout", "nan"), "argument --wait-timeout: expected a finite number"),
+    ],
+)
+def test_times_are_refused_before_anything_is_sent(
+    cli: Cli, host_frames: list[Frame], args: tuple[str, ...], message: str
+) -> None:
+    r = cli(*args, "--sim", "1")
+    assert r.code == 2 and message in r.err
+    assert host_frames == []

@@ -8,7 +8,7 @@ from typing import Any
 from ..client import DEFAULT_MOVE_TIMEOUT, PositionMode
 from ..client.commands import MAX_BANDWIDTH, make_angles
 from . import _readings
-from ._connect import add_connection_args, number, positive, wire_rate
+from ._connect import add_connection_args, number, seconds, wire_rate
 from ._motion import add_motion_args, driving, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
 from ._usage import UsageError, options_named
@@ -60,7 +60,7 @@ def register(sub: Any) -> None:
     p.add_argument("--torque-ff", type=number, metavar="NM", help="p: torque feed-forward (default 0)")
     p.add_argument("--relative", action="store_true", help="angles are offsets from where the motors are")
     p.add_argument("--wait", action="store_true", help="wait until every motor reports its move done")
-    p.add_argument("--wait-timeout", type=positive, metavar="S", help="longest wait (default: from the move time)")
+    p.add_argument("--wait-timeout", type=seconds, metavar="S", help="longest wait (default: from the move time)")
     add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run)
