@@ -791,10 +791,10 @@ static dre_msg msg_for(const dre_motor *m, uint8_t type)
     return msg;
 }
 
-/* The T-mode filter bandwidth |param| (0 < bw <= 300), or DRE_E_RANGE. */
+/* The T-mode filter bandwidth (0 < bw <= 300; a negative one is refused, as in Python), or DRE_E_RANGE. */
 static dre_status bandwidth(dre_bus *bus, float param, float *bw)
 {
-    *bw = fabsf(param);
+    *bw = param;
     return wire_positive(*bw) && *bw <= DRE_MAX_BANDWIDTH ? DRE_OK : range_error(bus, DRE_FIELD_BANDWIDTH, 0u);
 }
 
@@ -880,6 +880,9 @@ dre_status dre_set_speed(const dre_motor *m, float speed, float param, uint8_t m
     if (!is_finite(speed)) {
         return range_error(m->bus, DRE_FIELD_SPEED, 0u);
     }
+    if (!is_finite(param)) {
+        return range_error(m->bus, DRE_FIELD_PARAM, 0u); /* even where it is unused: NaN is a mistake */
+    }
     if (wire == DRE_VEL_PASSTHROUGH && speed == 0.0f) {
         param = 0.0f; /* no feed-forward torque for a motor told to stand still, as the vendor does */
     } else if (wire == DRE_VEL_RAMP ? !wire_positive(param) : !is_finite(param)) {
@@ -902,8 +905,8 @@ dre_status dre_set_torque(const dre_motor *m, float torque, float param, uint8_t
     if (!is_finite(torque)) {
         return range_error(m->bus, DRE_FIELD_TORQUE, 0u);
     }
-    if (wire == DRE_TORQUE_RAMP && !wire_positive(param)) {
-        return range_error(m->bus, DRE_FIELD_PARAM, 0u);
+    if (!is_finite(param) || (wire == DRE_TORQUE_RAMP && !wire_positive(param))) {
+        return range_error(m->bus, DRE_FIELD_PARAM, 0u); /* a NaN param is refused even in direct mode */
     }
     msg.u.torque.torque = torque;
     msg.u.torque.param = wire == DRE_TORQUE_DIRECT ? 0.0f : param;
@@ -1617,6 +1620,9 @@ static dre_status speeds_or_torques(dre_bus *bus, uint8_t type, uint8_t n, const
     wire = velocity ? velocity_mode(mode) : torque_mode(mode);
     if (wire == 0u) {
         return range_error(bus, DRE_FIELD_MODE, 0u);
+    }
+    if (!is_finite(param)) {
+        return range_error(bus, DRE_FIELD_PARAM, 0u); /* even where it is unused: NaN is a mistake */
     }
     if (!velocity && wire == DRE_TORQUE_DIRECT) {
         param = 0.0f; /* direct torque has no parameter */

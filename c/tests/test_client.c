@@ -425,7 +425,7 @@ static void test_single_motor_commands(void)
     CHECK(dre_estop(&m1) == DRE_E_SEND);
 }
 
-/* T mode as the vendor and the Python client: 0 < |bandwidth| <= 300, absolute values sent. */
+/* T mode as the Python client: 0 < bandwidth <= 300 (a negative one is refused), |speed| sent. */
 static void test_t_mode_bandwidth(void)
 {
     static const uint8_t ids[2] = {1u, 2u};
@@ -433,27 +433,30 @@ static void test_t_mode_bandwidth(void)
     dre_motor m1 = {&bus, 1u};
 
     setup();
-    CHECK(dre_set_angle(&m1, 10.0f, -3.0f, -5.0f, DRE_ANGLE_T) == DRE_OK && sent_is(0u, 0x039, "000020412C01F401"));
+    CHECK(dre_set_angle(&m1, 10.0f, -3.0f, 5.0f, DRE_ANGLE_T) == DRE_OK && sent_is(0u, 0x039, "000020412C01F401"));
     CHECK(dre_set_angle(&m1, 10.0f, 0.0f, 300.0f, DRE_ANGLE_T) == DRE_OK && sent_is(1u, 0x039, "0000204100003075"));
-    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, -300.0f, DRE_ANGLE_T) == DRE_OK);
-    CHECK(bus_fake.nsent == 3u);
+    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, -300.0f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
+    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, -20.0f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
+    CHECK(bus_fake.nsent == 2u);
     CHECK(dre_set_angle(&m1, 10.0f, 0.0f, 0.0f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
     CHECK(dre_set_angle(&m1, 10.0f, 0.0f, 0.004f, DRE_ANGLE_T) == DRE_E_RANGE);
     CHECK(dre_set_angle(&m1, 10.0f, 0.0f, 300.5f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
     CHECK(dre_set_angle(&m1, 10.0f, 0.0f, -1000.0f, DRE_ANGLE_T) == DRE_E_RANGE);
     CHECK(dre_set_angle(&m1, 10.0f, 0.0f, NAN, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
     CHECK(dre_set_angle(&m1, 10.0f, INFINITY, 5.0f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_SPEED);
-    CHECK(bus_fake.nsent == 3u);
+    CHECK(bus_fake.nsent == 2u);
 
     /* the same rule for T presets */
-    CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, -3.0f, -5.0f, DRE_ANGLE_T) == DRE_OK);
-    CHECK(sent_is(3u, 0x02C, "000020412C01F401") && sent_is(5u, 0x008, "1000000000000000"));
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, -3.0f, -5.0f, DRE_ANGLE_T) == DRE_E_RANGE &&
+          bus.bad_field == DRE_FIELD_BANDWIDTH);
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, -3.0f, 5.0f, DRE_ANGLE_T) == DRE_OK);
+    CHECK(sent_is(2u, 0x02C, "000020412C01F401") && sent_is(4u, 0x008, "1000000000000000"));
     CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, 0.0f, 0.0f, DRE_ANGLE_T) == DRE_E_RANGE &&
           bus.bad_field == DRE_FIELD_BANDWIDTH);
     CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, 0.0f, 301.0f, DRE_ANGLE_T) == DRE_E_RANGE);
     CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, NAN, 5.0f, DRE_ANGLE_T) == DRE_E_RANGE &&
           bus.bad_field == DRE_FIELD_SPEED);
-    CHECK(bus_fake.nsent == 6u);
+    CHECK(bus_fake.nsent == 5u);
 }
 
 /* set_speed(s) / set_torque(s) parameters as the vendor and the Python client send them. */
@@ -464,15 +467,16 @@ static void test_speed_torque_params(void)
     dre_motor m1 = {&bus, 1u};
 
     setup();
-    /* passthrough at speed 0: no feed-forward torque, whatever param says */
+    /* passthrough at speed 0: no feed-forward torque, whatever param says (a NaN is refused all the same) */
     CHECK(dre_set_speed(&m1, 0.0f, 1.5f, DRE_VEL_PASSTHROUGH) == DRE_OK && sent_is(0u, 0x03C, "0000000000000100"));
-    CHECK(dre_set_speed(&m1, 0.0f, NAN, DRE_VEL_PASSTHROUGH) == DRE_OK && sent_is(1u, 0x03C, "0000000000000100"));
+    CHECK(dre_set_speed(&m1, 0.0f, NAN, DRE_VEL_PASSTHROUGH) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
     /* mode 0 is the ramp, as the vendor's docs use it */
-    CHECK(dre_set_speed(&m1, 20.0f, 5.0f, 0u) == DRE_OK && sent_is(2u, 0x03C, "0000A041F4010200"));
-    /* direct torque: param is not sent */
-    CHECK(dre_set_torque(&m1, 1.5f, 5.0f, DRE_TORQUE_DIRECT) == DRE_OK && sent_is(3u, 0x03D, "0000C03F00000100"));
-    CHECK(dre_set_torque(&m1, 1.5f, 5.0f, 0u) == DRE_OK && sent_is(4u, 0x03D, "0000C03FF4010600"));
-    CHECK(bus_fake.nsent == 5u);
+    CHECK(dre_set_speed(&m1, 20.0f, 5.0f, 0u) == DRE_OK && sent_is(1u, 0x03C, "0000A041F4010200"));
+    /* direct torque: param is not sent, but must be a number */
+    CHECK(dre_set_torque(&m1, 1.5f, 5.0f, DRE_TORQUE_DIRECT) == DRE_OK && sent_is(2u, 0x03D, "0000C03F00000100"));
+    CHECK(dre_set_torque(&m1, 1.5f, NAN, DRE_TORQUE_DIRECT) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
+    CHECK(dre_set_torque(&m1, 1.5f, 5.0f, 0u) == DRE_OK && sent_is(3u, 0x03D, "0000C03FF4010600"));
+    CHECK(bus_fake.nsent == 4u);
 
     /* a ramp rate must be > 0 on the wire; a feed-forward torque finite */
     CHECK(dre_set_speed(&m1, 20.0f, 0.0f, DRE_VEL_RAMP) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
@@ -482,25 +486,26 @@ static void test_speed_torque_params(void)
     CHECK(dre_set_speed(&m1, 1.0f, 0.0f, 3u) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_MODE);
     CHECK(dre_set_torque(&m1, 1.0f, -2.0f, DRE_TORQUE_RAMP) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
     CHECK(dre_set_torque(&m1, INFINITY, 0.0f, DRE_TORQUE_DIRECT) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_TORQUE);
-    CHECK(bus_fake.nsent == 5u);
+    CHECK(bus_fake.nsent == 4u);
 
     /* the batch forms: per motor for speeds, for all for torques */
     CHECK(dre_set_speeds(&bus, 3u, ids, speeds, 1.5f, DRE_VEL_PASSTHROUGH) == DRE_OK);
-    CHECK(sent_is(5u, 0x02C, "0000204196006400") && sent_is(6u, 0x04C, "0000000000006400") &&
-          sent_is(7u, 0x06C, "0000008000006400") && sent_is(8u, 0x008, "1300000000000000"));
-    CHECK(dre_set_speeds(&bus, 1u, ids, speeds, 5.0f, 0u) == DRE_OK && sent_is(9u, 0x02C, "00002041F401C800"));
+    CHECK(sent_is(4u, 0x02C, "0000204196006400") && sent_is(5u, 0x04C, "0000000000006400") &&
+          sent_is(6u, 0x06C, "0000008000006400") && sent_is(7u, 0x008, "1300000000000000"));
+    CHECK(dre_set_speeds(&bus, 1u, ids, speeds, 5.0f, 0u) == DRE_OK && sent_is(8u, 0x02C, "00002041F401C800"));
     CHECK(dre_set_torques(&bus, 2u, ids, torques, 5.0f, DRE_TORQUE_DIRECT) == DRE_OK);
-    CHECK(sent_is(11u, 0x02C, "0000C03F00006400") && sent_is(12u, 0x04C, "0000C0BF00006400"));
-    CHECK(dre_set_torques(&bus, 2u, ids, torques, NAN, DRE_TORQUE_DIRECT) == DRE_OK);
-    CHECK(dre_set_torques(&bus, 1u, ids, torques, 5.0f, 0u) == DRE_OK && sent_is(17u, 0x02C, "0000C03FF4015802"));
-    CHECK(bus_fake.nsent == 19u);
+    CHECK(sent_is(10u, 0x02C, "0000C03F00006400") && sent_is(11u, 0x04C, "0000C0BF00006400"));
+    CHECK(dre_set_torques(&bus, 2u, ids, torques, NAN, DRE_TORQUE_DIRECT) == DRE_E_RANGE &&
+          bus.bad_field == DRE_FIELD_PARAM);
+    CHECK(dre_set_torques(&bus, 1u, ids, torques, 5.0f, 0u) == DRE_OK && sent_is(13u, 0x02C, "0000C03FF4015802"));
+    CHECK(bus_fake.nsent == 15u);
     CHECK(dre_set_speeds(&bus, 3u, ids, speeds, 0.0f, DRE_VEL_RAMP) == DRE_E_RANGE &&
           bus.bad_field == DRE_FIELD_PARAM);
     CHECK(dre_set_speeds(&bus, 3u, ids, speeds, NAN, DRE_VEL_PASSTHROUGH) == DRE_E_RANGE);
     CHECK(dre_set_torques(&bus, 2u, ids, torques, 0.0f, DRE_TORQUE_RAMP) == DRE_E_RANGE &&
           bus.bad_field == DRE_FIELD_PARAM);
     CHECK(dre_set_torques(&bus, 2u, ids, torques, 1.0f, 2u) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_MODE);
-    CHECK(bus_fake.nsent == 19u);
+    CHECK(bus_fake.nsent == 15u);
 }
 
 /* ------------------------------------------------------------------ several motors */

@@ -80,7 +80,7 @@ typedef enum { DRE_TRAJ_TRAPEZOID = 1, DRE_TRAJ_S_CURVE = 2 } dre_traj_mode;
 
 /** The vendor's set_angle modes. */
 typedef enum {
-    DRE_ANGLE_T = 0, /**< trajectory tracking: param = filter bandwidth 0 < |bw| <= 300 1/s, |speed| carried */
+    DRE_ANGLE_T = 0, /**< trajectory tracking: param = filter bandwidth 0 < bw <= 300 1/s, |speed| carried */
     DRE_ANGLE_Q = 1, /**< trapezoid/S-curve: speed = cruise r/min (> 0), param = accel (r/min)/s (> 0) */
     DRE_ANGLE_P = 2  /**< feed-forward: speed = speed FF r/min, param = torque FF Nm */
 } dre_angle_mode;
@@ -287,8 +287,9 @@ void dre_motor_init(dre_motor *m, dre_bus *bus, uint8_t node);
 
 /**
  * Move to `angle` deg; `mode` is a dre_angle_mode (what speed and param mean
- * is there). T: the filter bandwidth must be 0 < |param| <= 300 and the
- * absolute values of speed and bandwidth are sent, as the vendor does.
+ * is there). T: the filter bandwidth must be 0 < param <= 300 (the vendor
+ * sends |param|; a negative bandwidth is refused here, as in the Python
+ * client) and the absolute value of speed is sent, as the vendor does.
  */
 dre_status dre_set_angle(const dre_motor *m, float angle, float speed, float param, uint8_t mode);
 /**
@@ -300,12 +301,14 @@ dre_status dre_step_angle(const dre_motor *m, float delta, float speed, float pa
 /**
  * Run at `speed` r/min. mode 1 (DRE_VEL_PASSTHROUGH): param = torque FF Nm,
  * sent as 0 when speed is 0, as the vendor does; mode 2 (DRE_VEL_RAMP, or 0 as
- * the vendor's docs use it): param = ramp rate (r/min)/s.
+ * the vendor's docs use it): param = ramp rate (r/min)/s. A non-finite param
+ * is refused (DRE_FIELD_PARAM) even where it is not sent.
  */
 dre_status dre_set_speed(const dre_motor *m, float speed, float param, uint8_t mode);
 /**
  * Apply `torque` Nm. mode 1 (DRE_TORQUE_DIRECT): param is ignored and sent as
- * 0; mode 6 (DRE_TORQUE_RAMP, or 0): param = ramp rate Nm/s.
+ * 0, but a non-finite one is refused (DRE_FIELD_PARAM); mode 6
+ * (DRE_TORQUE_RAMP, or 0): param = ramp rate Nm/s.
  */
 dre_status dre_set_torque(const dre_motor *m, float torque, float param, uint8_t mode);
 /**
