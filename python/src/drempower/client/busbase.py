@@ -60,9 +60,10 @@ class BusBase(ABC, Generic[M]):
     def known_motors(self) -> set[int]:
         """The motors this bus knows are attached: handles made, motors heard from, and those
         the transport declares (``motor_ids``, e.g. the in-process simulator's)."""
-        known = {n for n in self._motors if n != 0} | self._heard
+        known = set(self._motors) | self._heard  # set() copies in one step: safe while other threads add
         known.update(self._core.states.snapshot())
         known.update(getattr(self._core.transport, "motor_ids", ()))
+        known.discard(0)
         return known
 
     def _heard_from(self, replies: Any) -> Any:
