@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from .conftest import REPO_ROOT
 
 
@@ -85,3 +87,34 @@ def test_address_constants_match_the_table() -> None:
         assert f"#define DRE_P_{name} DRE_PARAM({p.address}u," in header
     assert addresses.AXIS0_CONFIG_CAN_NODE_ID == 31001
     assert len(addresses.__all__) == len(list(parameters()))
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (",,1,63,,hard,", ",,63,1,,hard,", "min > max"),
+        (",,1,63,,hard,", ",,1,63,,,", "bound must be hard or soft exactly when a domain is given"),
+        (",,1,63,,hard,", ",,1,63.5,,hard,", "is not whole (uint32)"),
+        (",,1,63,,hard,", ",,1,1e10,,hard,", "outside the wire range of uint32"),
+        (
+            "DC bus (supply) voltage.,,,,,,",
+            "DC bus (supply) voltage.,,0,,,soft,doc: x",
+            "a read-only parameter has no domain",
+        ),
+    ],
+)
+def test_a_malformed_domain_is_refused(tmp_path: Path, old: str, new: str, message: str) -> None:
+    for rel in _PARTS[:2]:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(REPO_ROOT / rel, tmp_path / rel)
+    csv_path = tmp_path / "spec/parameters.csv"
+    text = csv_path.read_text()
+    assert text.count(old) == 1
+    csv_path.write_text(text.replace(old, new))
+    r = subprocess.run(
+        [sys.executable, str(tmp_path / "tools" / "generate.py"), "--check"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert r.returncode != 0 and message in r.stderr
