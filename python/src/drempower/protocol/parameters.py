@@ -15,7 +15,12 @@ from dataclasses import dataclass
 from enum import Enum, IntEnum
 
 from ..errors import FieldRangeError, ProtocolError, ValidationError
-from . import addresses as A
+from .addresses import (
+    AXIS0_CONTROLLER_CONFIG_CONTROL_MODE,
+    AXIS0_CONTROLLER_CONFIG_INPUT_MODE,
+    AXIS0_REQUESTED_STATE,
+    AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE,
+)
 from .enums import AxisState, ControlMode, InputMode, TrajMode
 
 __all__ = [
@@ -167,10 +172,10 @@ class DomainError(FieldRangeError):
 
 
 _CHOICES: dict[int, type[IntEnum]] = {
-    A.AXIS0_REQUESTED_STATE: AxisState,
-    A.AXIS0_CONTROLLER_CONFIG_CONTROL_MODE: ControlMode,
-    A.AXIS0_CONTROLLER_CONFIG_INPUT_MODE: InputMode,
-    A.AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE: TrajMode,
+    AXIS0_REQUESTED_STATE: AxisState,
+    AXIS0_CONTROLLER_CONFIG_CONTROL_MODE: ControlMode,
+    AXIS0_CONTROLLER_CONFIG_INPUT_MODE: InputMode,
+    AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE: TrajMode,
 }
 """Parameters whose values form a fixed set (PROTOCOL.md section 5)."""
 
