@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterable, Sequence
 from types import TracebackType
 from typing import Any, TypeVar
 
-from ..protocol.ids import SysCmd
+from ..protocol.ids import SysCmd, check_node
 from ..protocol.messages import Message
 from ..transports.base import Transport
 from . import backup as _backup
@@ -27,6 +27,7 @@ from .commands import (
     TorqueMode,
     TrajMode,
     VelocityMode,
+    as_list,
     make_angle,
     make_impedance,
     make_speed,
@@ -138,13 +139,13 @@ class AsyncBus(BusBase["AsyncMotor"]):
         self, ids: Iterable[int] = batch.ALL_IDS, *, timeout: float | None = None, versions: bool = False
     ) -> list[MotorInfo]:
         """Find the motors that answer."""
-        return await self.run(batch.scan(ids, timeout, versions))
+        return await self.run(batch.scan(as_list(ids, "ids"), timeout, versions))
 
     async def cycle(
         self, commands: Iterable[Message], *, timeout: float | None = None, reply_state: bool | None = None
     ) -> dict[int, MotorState]:
         """Send one command per motor and return each motor's state."""
-        return await self.run(batch.cycle(self._core, commands, timeout, reply_state))
+        return await self.run(batch.cycle(self._core, self._commands(commands), timeout, reply_state))
 
     async def set_angles(
         self,
@@ -204,12 +205,13 @@ class AsyncBus(BusBase["AsyncMotor"]):
         poll_interval: float = DEFAULT_POLL_INTERVAL,
     ) -> dict[int, MotorState]:
         """Wait until every listed motor reports its move done."""
-        return await self.run(ops.wait_done(list(id_list), timeout, poll_interval))
+        return await self.run(ops.wait_done(as_list(id_list, "id_list"), timeout, poll_interval))
 
     wait_positions_done = positions_done
 
     async def wait_state(self, id: int, timeout: float, newer_than: float | None = None) -> MotorState:
         """Wait for a state of motor ``id`` newer than ``newer_than`` (monotonic s; default: now)."""
+        check_node(id, "id")
         since = time.monotonic() if newer_than is None else newer_than
         cache = self._core.states
         loop = asyncio.get_running_loop()

@@ -7,12 +7,13 @@ from collections.abc import Iterable, Sequence
 from types import TracebackType
 from typing import Any, TypeVar
 
+from ..protocol.ids import check_node
 from ..protocol.messages import Message
 from ..transports.base import Transport
 from ..transports.factory import open_transport
 from . import batch, ops
 from .busbase import BusBase
-from .commands import PositionMode, TorqueMode, VelocityMode
+from .commands import PositionMode, TorqueMode, VelocityMode, as_list
 from .core import (
     DEFAULT_MOVE_TIMEOUT,
     DEFAULT_POLL_INTERVAL,
@@ -115,13 +116,13 @@ class Bus(BusBase[Motor]):
         self, ids: Iterable[int] = batch.ALL_IDS, *, timeout: float | None = None, versions: bool = False
     ) -> list[MotorInfo]:
         """Find the motors that answer (ids 1..63 by default), with hardware/firmware versions on request."""
-        return self.run(batch.scan(ids, timeout, versions))
+        return self.run(batch.scan(as_list(ids, "ids"), timeout, versions))
 
     def cycle(
         self, commands: Iterable[Message], *, timeout: float | None = None, reply_state: bool | None = None
     ) -> dict[int, MotorState]:
         """Send one command per motor and return each motor's state (see :func:`batch.cycle`)."""
-        return self.run(batch.cycle(self._core, commands, timeout, reply_state))
+        return self.run(batch.cycle(self._core, self._commands(commands), timeout, reply_state))
 
     # ------------------------------------------------------------------ multi-motor (vendor names)
 
@@ -202,7 +203,7 @@ class Bus(BusBase[Motor]):
 
         Raises TimeoutError after ``timeout`` s and MotorFaultError when one reports an error.
         """
-        return self.run(ops.wait_done(list(id_list), timeout, poll_interval))
+        return self.run(ops.wait_done(as_list(id_list, "id_list"), timeout, poll_interval))
 
     wait_positions_done = positions_done
 
@@ -210,6 +211,7 @@ class Bus(BusBase[Motor]):
 
     def wait_state(self, id: int, timeout: float, newer_than: float | None = None) -> MotorState:
         """Wait for a state of motor ``id`` newer than ``newer_than`` (monotonic s; default: now)."""
+        check_node(id, "id")
         since = time.monotonic() if newer_than is None else newer_than
         st = self._core.states.wait(id, since, timeout)
         if st is None:

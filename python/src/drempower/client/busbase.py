@@ -75,6 +75,17 @@ class BusBase(ABC, Generic[M]):
         return replies
 
     @staticmethod
+    def _commands(commands: object) -> list[Message]:
+        """The commands of a cycle as a list of protocol messages; :class:`ValidationError` otherwise."""
+        if isinstance(commands, (str, bytes)) or not isinstance(commands, Iterable):
+            raise ValidationError(f"commands={commands!r}: expected a list of messages (make_angle, make_speed...)")
+        out = list(commands)
+        for c in out:
+            if not isinstance(c, Message):
+                raise ValidationError(f"commands: {c!r} is no protocol message (make_angle, make_speed...)")
+        return out
+
+    @staticmethod
     def _check_writes(msgs: Sequence[Message]) -> None:
         """Check raw parameter writes (``send``) against their parameter's domain, as ``write_property`` does
         (without force); writes to addresses outside the table are sent as given."""
@@ -98,7 +109,10 @@ class BusBase(ABC, Generic[M]):
 
     def motor(self, id: int) -> M:
         """The handle of motor ``id`` (1..63; 0 addresses every motor, reads need a single motor)."""
-        m = self._motors.get(id)
+        try:
+            m = self._motors.get(id)
+        except TypeError:  # unhashable: no id at all
+            m = None
         if m is None:
             check_node(id, "id")
             with self._motors_lock:

@@ -8,8 +8,9 @@ the bus and motor ``set_*`` methods send them. Units: degrees, r/min, Nm,
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from enum import IntEnum
+from typing import Any
 
 from ..errors import FieldRangeError, ValidationError
 from ..protocol.enums import TorqueMode, TrajMode, VelocityMode
@@ -55,6 +56,7 @@ __all__ = [
     "velocity_mode",
     "torque_mode",
     "check_ids",
+    "as_list",
 ]
 
 MAX_BANDWIDTH = 300.0
@@ -159,9 +161,16 @@ def _gains(kp: float, kd: float) -> tuple[float, float]:
     return float(kp), float(kd)
 
 
+def as_list(values: object, field: str) -> list[Any]:
+    """``values`` (any iterable but a string) as a list; :class:`ValidationError` naming ``field`` otherwise."""
+    if isinstance(values, (str, bytes)) or not isinstance(values, Iterable):
+        raise ValidationError(f"{field}={values!r}: expected a list")
+    return list(values)
+
+
 def check_ids(ids: Sequence[int], values: Sequence[float] | None = None, what: str = "values") -> list[int]:
     """Validate a list of motor ids (1..63, distinct) and, if given, a same-length value list."""
-    out = list(ids)
+    out = as_list(ids, "id_list")
     if not out:
         raise ValidationError("id_list is empty")
     for i in out:
