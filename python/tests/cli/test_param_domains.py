@@ -20,6 +20,8 @@ GAIN = "axis0.controller.config.pos_gain"
         ((GAIN, "1e30"), f"{GAIN}=1e+30 is outside its domain: 0..1000 (soft, inferred)"),
         (("heartbeat_ms", "100000"), "can.config.heartbeat_ms=100000 is outside its domain: 0..60000"),
         (("input_filter_bandwidth", "-1"), "input_filter_bandwidth=-1.0 is outside its domain: 0..300 (soft)"),
+        ((GAIN, "nan"), f"{GAIN}=nan: NaN and infinity cannot be sent"),
+        ((GAIN, "-inf"), f"{GAIN}=-inf: NaN and infinity cannot be sent"),
     ],
 )
 def test_set_refuses_values_outside_the_domain_before_connecting(

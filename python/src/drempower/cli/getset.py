@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from ..errors import FieldRangeError, ValidationError
+from ..errors import ValidationError
 from ..protocol import DataType, Parameter, find_parameter, parameter, parameters
 from ._connect import add_connection_args, add_ids_arg, open_from_args
 from ._output import add_json_arg, emit, motors_text, report, sent, significant
@@ -111,9 +111,10 @@ def run_set(args: argparse.Namespace) -> int:
     for name, text in zip(args.items[::2], args.items[1::2], strict=True):
         p = lookup(name)
         _writable(p, args.force)
+        value = parse_value(p, text)
         try:
-            wanted.append((p, p.check(parse_value(p, text), args.force)))
-        except FieldRangeError as exc:  # outside the domain or the type's range: a usage error, nothing sent
+            wanted.append((p, p.check(value, args.force)))
+        except ValidationError as exc:  # outside the domain or the type's range, NaN: a usage error, nothing sent
             raise UsageError(f"argument NAME VALUE: {exc}") from None
     records = []
     with open_from_args(args) as bus:
