@@ -103,20 +103,26 @@ int dre_param_choices(uint16_t address, uint8_t *lo, uint8_t *hi)
     return 0;
 }
 
-/* DRE_OK, or DRE_E_RANGE naming the parameter when `msg` writes a value it does not take. */
-static dre_status check_choice(dre_bus *bus, const dre_msg *msg)
+/*
+ * DRE_OK, or DRE_E_RANGE naming the parameter when `msg` writes a value it does
+ * not take: outside its fixed set, or outside its domain (dre_param_check; a
+ * soft bound only when `force` is 0).
+ */
+static dre_status check_write(dre_bus *bus, const dre_msg *msg, int force)
 {
     uint16_t address = (uint16_t)msg->u.param.address;
     uint8_t lo, hi;
     dre_field bad;
 
     /* an address beyond 16 bits is no parameter: dre_encode refuses it */
-    if (msg->type != DRE_MSG_WRITE_PARAM || msg->u.param.address > 0xFFFFu || !dre_param_choices(address, &lo, &hi)) {
+    if (msg->type != DRE_MSG_WRITE_PARAM || msg->u.param.address > 0xFFFFu) {
         return DRE_OK;
     }
-    if (msg->u.param.dtype == DRE_F32) {
+    if (dre_param_choices(address, &lo, &hi) && msg->u.param.dtype == DRE_F32) {
         bad = DRE_FIELD_DTYPE; /* the sets are integers */
-    } else if (msg->u.param.value.i < lo || msg->u.param.value.i > hi) {
+    } else if (dre_param_choices(address, &lo, &hi) && (msg->u.param.value.i < lo || msg->u.param.value.i > hi)) {
+        bad = DRE_FIELD_VALUE;
+    } else if (dre_param_check(address, msg->u.param.dtype, msg->u.param.value, force) != DRE_OK) {
         bad = DRE_FIELD_VALUE;
     } else {
         return DRE_OK;
@@ -228,11 +234,11 @@ static int rx_pop(dre_bus *bus, dre_frame *out)
     return 1;
 }
 
-/* Encode what the bus sends; parameter writes are checked against their fixed sets first. */
-static dre_status encode(dre_bus *bus, const dre_msg *msg, dre_frame *f)
+/* Encode what the bus sends; parameter writes are checked against their fixed sets and domains first. */
+static dre_status encode_as(dre_bus *bus, const dre_msg *msg, dre_frame *f, int force)
 {
     dre_field bad;
-    if (check_choice(bus, msg) != DRE_OK) {
+    if (check_write(bus, msg, force) != DRE_OK) {
         return DRE_E_RANGE;
     }
     if (dre_encode(msg, f, &bad) != DRE_OK) {
@@ -252,10 +258,15 @@ static int room(dre_bus *bus, unsigned frames)
     return bus->cfg.tx_free == NULL || bus->cfg.tx_free(bus->cfg.user) >= frames;
 }
 
-dre_status dre_send(dre_bus *bus, const dre_msg *msg)
+static dre_status encode(dre_bus *bus, const dre_msg *msg, dre_frame *f)
+{
+    return encode_as(bus, msg, f, 0);
+}
+
+static dre_status send_as(dre_bus *bus, const dre_msg *msg, int force)
 {
     dre_frame f;
-    dre_status st = encode(bus, msg, &f);
+    dre_status st = encode_as(bus, msg, &f, force);
     if (st == DRE_OK) {
         st = transmit(bus, &f);
     }
@@ -263,6 +274,11 @@ dre_status dre_send(dre_bus *bus, const dre_msg *msg)
         note(bus, msg);
     }
     return st;
+}
+
+dre_status dre_send(dre_bus *bus, const dre_msg *msg)
+{
+    return send_as(bus, msg, 0);
 }
 
 static dre_status system_op(dre_bus *bus, uint8_t node, uint8_t op)
@@ -778,10 +794,10 @@ static dre_msg msg_for(const dre_motor *m, uint8_t type)
     return msg;
 }
 
-/* The T-mode filter bandwidth |param| (0 < bw <= 300), or DRE_E_RANGE. */
+/* The T-mode filter bandwidth (0 < bw <= 300; a negative one is refused, as in Python), or DRE_E_RANGE. */
 static dre_status bandwidth(dre_bus *bus, float param, float *bw)
 {
-    *bw = fabsf(param);
+    *bw = param;
     return wire_positive(*bw) && *bw <= DRE_MAX_BANDWIDTH ? DRE_OK : range_error(bus, DRE_FIELD_BANDWIDTH, 0u);
 }
 
@@ -867,6 +883,9 @@ dre_status dre_set_speed(const dre_motor *m, float speed, float param, uint8_t m
     if (!is_finite(speed)) {
         return range_error(m->bus, DRE_FIELD_SPEED, 0u);
     }
+    if (!is_finite(param)) {
+        return range_error(m->bus, DRE_FIELD_PARAM, 0u); /* even where it is unused: NaN is a mistake */
+    }
     if (wire == DRE_VEL_PASSTHROUGH && speed == 0.0f) {
         param = 0.0f; /* no feed-forward torque for a motor told to stand still, as the vendor does */
     } else if (wire == DRE_VEL_RAMP ? !wire_positive(param) : !is_finite(param)) {
@@ -889,8 +908,8 @@ dre_status dre_set_torque(const dre_motor *m, float torque, float param, uint8_t
     if (!is_finite(torque)) {
         return range_error(m->bus, DRE_FIELD_TORQUE, 0u);
     }
-    if (wire == DRE_TORQUE_RAMP && !wire_positive(param)) {
-        return range_error(m->bus, DRE_FIELD_PARAM, 0u);
+    if (!is_finite(param) || (wire == DRE_TORQUE_RAMP && !wire_positive(param))) {
+        return range_error(m->bus, DRE_FIELD_PARAM, 0u); /* a NaN param is refused even in direct mode */
     }
     msg.u.torque.torque = torque;
     msg.u.torque.param = wire == DRE_TORQUE_DIRECT ? 0.0f : param;
@@ -951,6 +970,12 @@ dre_status dre_write_property(const dre_motor *m, uint16_t address, uint8_t dtyp
 {
     dre_msg msg = write_msg(m, address, dtype, value);
     return dre_send(m->bus, &msg);
+}
+
+dre_status dre_write_property_forced(const dre_motor *m, uint16_t address, uint8_t dtype, dre_value value)
+{
+    dre_msg msg = write_msg(m, address, dtype, value);
+    return send_as(m->bus, &msg, 1);
 }
 
 dre_status dre_write_param(const dre_motor *m, dre_param_t param, dre_value value)
@@ -1644,6 +1669,9 @@ static dre_status speeds_or_torques(dre_bus *bus, uint8_t type, uint8_t n, const
     wire = velocity ? velocity_mode(mode) : torque_mode(mode);
     if (wire == 0u) {
         return range_error(bus, DRE_FIELD_MODE, 0u);
+    }
+    if (!is_finite(param)) {
+        return range_error(bus, DRE_FIELD_PARAM, 0u); /* even where it is unused: NaN is a mistake */
     }
     if (!velocity && wire == DRE_TORQUE_DIRECT) {
         param = 0.0f; /* direct torque has no parameter */

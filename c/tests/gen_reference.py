@@ -8,6 +8,8 @@ Usage: gen_reference.py OUT.c PYTHON_SRC_DIR
 * Error words: flag names the Python core gives for chosen values.
 * The parameter registry: name, address, type and flags of every parameter,
   and the range of values of those with a fixed set (modes and states).
+* Writes the Python client accepts or refuses: values at and beyond each
+  writable parameter's domain (``spec/parameters.csv``), with and without force.
 """
 
 from __future__ import annotations
@@ -18,10 +20,11 @@ from pathlib import Path
 
 sys.path.insert(0, sys.argv[2])
 
+from drempower.errors import ValidationError
 from drempower.protocol.flags import ERROR_WORDS, decode_error_word
 from drempower.protocol.framing import FD_LENGTHS, AADecoder, Uart11Decoder, encode_aa, encode_uart11
 from drempower.protocol.ids import Frame
-from drempower.protocol.parameters import parameters
+from drempower.protocol.parameters import DataType, Parameter, parameters
 
 
 def c_bytes(data: bytes) -> str:
@@ -100,6 +103,35 @@ def streams(rows: list[str], defs: list[str]) -> None:
         )
 
 
+def probes(p: Parameter) -> list[float]:
+    """Values at, inside and just beyond the domain, and a few that fit every type."""
+    values: set[float] = {0, 1, -1, 2, 64, 1000, 1e6}
+    for v in (p.minimum, p.maximum, *p.allowed):
+        if v is not None:
+            values |= {v, v - 1, v + 1, v - 0.5, v + 0.5}
+    if p.dtype is DataType.F32:
+        values |= {-1e30, 1e30}
+        return sorted(values)
+    return sorted(int(v) for v in values if v == int(v) and (p.dtype is not DataType.U32 or v >= 0))
+
+
+def write_rows() -> list[str]:
+    rows = []
+    for p in parameters():
+        if not p.writable:
+            continue
+        for v in probes(p):
+            for force in (0, 1):
+                try:
+                    p.check(v, bool(force))
+                    ok = 1
+                except ValidationError:
+                    ok = 0
+                f, i = (f"{float(v)!r}f", "0") if p.dtype is DataType.F32 else ("0.0f", f"INT64_C({int(v)})")
+                rows.append(f"    {{{p.address}u, {int(p.dtype)}u, {f}, {i}, {force}, {ok}}},")
+    return rows
+
+
 def main() -> int:
     out = Path(sys.argv[1])
     stream_rows: list[str] = []
@@ -156,6 +188,11 @@ def main() -> int:
             *param_rows,
             "};",
             "const unsigned ref_param_count = sizeof ref_params / sizeof ref_params[0];",
+            "",
+            "const ref_write ref_writes[] = {",
+            *write_rows(),
+            "};",
+            "const unsigned ref_write_count = sizeof ref_writes / sizeof ref_writes[0];",
             "",
         ]
     )

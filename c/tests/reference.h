@@ -41,11 +41,23 @@ typedef struct {
     uint8_t lo, hi;
 } ref_param;
 
+/* One write the Python client accepts or refuses (wire range, fixed set, domain). */
+typedef struct {
+    uint16_t address;
+    uint8_t dtype;
+    float f;   /* the value of an f32 parameter */
+    int64_t i; /* the value of an integer parameter */
+    int force;
+    int ok; /* 1: Python sends it */
+} ref_write;
+
 extern const ref_stream ref_streams[];
 extern const unsigned ref_stream_count;
 extern const ref_error ref_errors[];
 extern const unsigned ref_error_count;
 extern const ref_param ref_params[];
 extern const unsigned ref_param_count;
+extern const ref_write ref_writes[];
+extern const unsigned ref_write_count;
 
 #endif /* REFERENCE_H */

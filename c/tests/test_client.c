@@ -394,7 +394,7 @@ static void test_single_motor_commands(void)
     CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE, v) == DRE_OK &&
           sent_is(14u, 0x03F, "EE79030001000000"));
     v.f32 = -1.5f;
-    CHECK(dre_write_property(&m2, 38012u, DRE_F32, v) == DRE_OK && sent_is(15u, 0x05F, "7C9400000000C0BF"));
+    CHECK(dre_write_property(&m2, 38023u, DRE_F32, v) == DRE_OK && sent_is(15u, 0x05F, "879400000000C0BF"));
     CHECK(bus_fake.nsent == 16u);
 
     /* refusals send nothing and name the field */
@@ -425,7 +425,7 @@ static void test_single_motor_commands(void)
     CHECK(dre_estop(&m1) == DRE_E_SEND);
 }
 
-/* T mode as the vendor and the Python client: 0 < |bandwidth| <= 300, absolute values sent. */
+/* T mode as the Python client: 0 < bandwidth <= 300 (a negative one is refused), |speed| sent. */
 static void test_t_mode_bandwidth(void)
 {
     static const uint8_t ids[2] = {1u, 2u};
@@ -433,27 +433,30 @@ static void test_t_mode_bandwidth(void)
     dre_motor m1 = {&bus, 1u};
 
     setup();
-    CHECK(dre_set_angle(&m1, 10.0f, -3.0f, -5.0f, DRE_ANGLE_T) == DRE_OK && sent_is(0u, 0x039, "000020412C01F401"));
+    CHECK(dre_set_angle(&m1, 10.0f, -3.0f, 5.0f, DRE_ANGLE_T) == DRE_OK && sent_is(0u, 0x039, "000020412C01F401"));
     CHECK(dre_set_angle(&m1, 10.0f, 0.0f, 300.0f, DRE_ANGLE_T) == DRE_OK && sent_is(1u, 0x039, "0000204100003075"));
-    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, -300.0f, DRE_ANGLE_T) == DRE_OK);
-    CHECK(bus_fake.nsent == 3u);
+    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, -300.0f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
+    CHECK(dre_set_angle(&m1, 10.0f, 0.0f, -20.0f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
+    CHECK(bus_fake.nsent == 2u);
     CHECK(dre_set_angle(&m1, 10.0f, 0.0f, 0.0f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
     CHECK(dre_set_angle(&m1, 10.0f, 0.0f, 0.004f, DRE_ANGLE_T) == DRE_E_RANGE);
     CHECK(dre_set_angle(&m1, 10.0f, 0.0f, 300.5f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
     CHECK(dre_set_angle(&m1, 10.0f, 0.0f, -1000.0f, DRE_ANGLE_T) == DRE_E_RANGE);
     CHECK(dre_set_angle(&m1, 10.0f, 0.0f, NAN, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_BANDWIDTH);
     CHECK(dre_set_angle(&m1, 10.0f, INFINITY, 5.0f, DRE_ANGLE_T) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_SPEED);
-    CHECK(bus_fake.nsent == 3u);
+    CHECK(bus_fake.nsent == 2u);
 
     /* the same rule for T presets */
-    CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, -3.0f, -5.0f, DRE_ANGLE_T) == DRE_OK);
-    CHECK(sent_is(3u, 0x02C, "000020412C01F401") && sent_is(5u, 0x008, "1000000000000000"));
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, -3.0f, -5.0f, DRE_ANGLE_T) == DRE_E_RANGE &&
+          bus.bad_field == DRE_FIELD_BANDWIDTH);
+    CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, -3.0f, 5.0f, DRE_ANGLE_T) == DRE_OK);
+    CHECK(sent_is(2u, 0x02C, "000020412C01F401") && sent_is(4u, 0x008, "1000000000000000"));
     CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, 0.0f, 0.0f, DRE_ANGLE_T) == DRE_E_RANGE &&
           bus.bad_field == DRE_FIELD_BANDWIDTH);
     CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, 0.0f, 301.0f, DRE_ANGLE_T) == DRE_E_RANGE);
     CHECK(dre_set_angles(&bus, 2u, ids, angles, NULL, NAN, 5.0f, DRE_ANGLE_T) == DRE_E_RANGE &&
           bus.bad_field == DRE_FIELD_SPEED);
-    CHECK(bus_fake.nsent == 6u);
+    CHECK(bus_fake.nsent == 5u);
 }
 
 /* set_speed(s) / set_torque(s) parameters as the vendor and the Python client send them. */
@@ -464,15 +467,16 @@ static void test_speed_torque_params(void)
     dre_motor m1 = {&bus, 1u};
 
     setup();
-    /* passthrough at speed 0: no feed-forward torque, whatever param says */
+    /* passthrough at speed 0: no feed-forward torque, whatever param says (a NaN is refused all the same) */
     CHECK(dre_set_speed(&m1, 0.0f, 1.5f, DRE_VEL_PASSTHROUGH) == DRE_OK && sent_is(0u, 0x03C, "0000000000000100"));
-    CHECK(dre_set_speed(&m1, 0.0f, NAN, DRE_VEL_PASSTHROUGH) == DRE_OK && sent_is(1u, 0x03C, "0000000000000100"));
+    CHECK(dre_set_speed(&m1, 0.0f, NAN, DRE_VEL_PASSTHROUGH) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
     /* mode 0 is the ramp, as the vendor's docs use it */
-    CHECK(dre_set_speed(&m1, 20.0f, 5.0f, 0u) == DRE_OK && sent_is(2u, 0x03C, "0000A041F4010200"));
-    /* direct torque: param is not sent */
-    CHECK(dre_set_torque(&m1, 1.5f, 5.0f, DRE_TORQUE_DIRECT) == DRE_OK && sent_is(3u, 0x03D, "0000C03F00000100"));
-    CHECK(dre_set_torque(&m1, 1.5f, 5.0f, 0u) == DRE_OK && sent_is(4u, 0x03D, "0000C03FF4010600"));
-    CHECK(bus_fake.nsent == 5u);
+    CHECK(dre_set_speed(&m1, 20.0f, 5.0f, 0u) == DRE_OK && sent_is(1u, 0x03C, "0000A041F4010200"));
+    /* direct torque: param is not sent, but must be a number */
+    CHECK(dre_set_torque(&m1, 1.5f, 5.0f, DRE_TORQUE_DIRECT) == DRE_OK && sent_is(2u, 0x03D, "0000C03F00000100"));
+    CHECK(dre_set_torque(&m1, 1.5f, NAN, DRE_TORQUE_DIRECT) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
+    CHECK(dre_set_torque(&m1, 1.5f, 5.0f, 0u) == DRE_OK && sent_is(3u, 0x03D, "0000C03FF4010600"));
+    CHECK(bus_fake.nsent == 4u);
 
     /* a ramp rate must be > 0 on the wire; a feed-forward torque finite */
     CHECK(dre_set_speed(&m1, 20.0f, 0.0f, DRE_VEL_RAMP) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
@@ -482,25 +486,26 @@ static void test_speed_torque_params(void)
     CHECK(dre_set_speed(&m1, 1.0f, 0.0f, 3u) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_MODE);
     CHECK(dre_set_torque(&m1, 1.0f, -2.0f, DRE_TORQUE_RAMP) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_PARAM);
     CHECK(dre_set_torque(&m1, INFINITY, 0.0f, DRE_TORQUE_DIRECT) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_TORQUE);
-    CHECK(bus_fake.nsent == 5u);
+    CHECK(bus_fake.nsent == 4u);
 
     /* the batch forms: per motor for speeds, for all for torques */
     CHECK(dre_set_speeds(&bus, 3u, ids, speeds, 1.5f, DRE_VEL_PASSTHROUGH) == DRE_OK);
-    CHECK(sent_is(5u, 0x02C, "0000204196006400") && sent_is(6u, 0x04C, "0000000000006400") &&
-          sent_is(7u, 0x06C, "0000008000006400") && sent_is(8u, 0x008, "1300000000000000"));
-    CHECK(dre_set_speeds(&bus, 1u, ids, speeds, 5.0f, 0u) == DRE_OK && sent_is(9u, 0x02C, "00002041F401C800"));
+    CHECK(sent_is(4u, 0x02C, "0000204196006400") && sent_is(5u, 0x04C, "0000000000006400") &&
+          sent_is(6u, 0x06C, "0000008000006400") && sent_is(7u, 0x008, "1300000000000000"));
+    CHECK(dre_set_speeds(&bus, 1u, ids, speeds, 5.0f, 0u) == DRE_OK && sent_is(8u, 0x02C, "00002041F401C800"));
     CHECK(dre_set_torques(&bus, 2u, ids, torques, 5.0f, DRE_TORQUE_DIRECT) == DRE_OK);
-    CHECK(sent_is(11u, 0x02C, "0000C03F00006400") && sent_is(12u, 0x04C, "0000C0BF00006400"));
-    CHECK(dre_set_torques(&bus, 2u, ids, torques, NAN, DRE_TORQUE_DIRECT) == DRE_OK);
-    CHECK(dre_set_torques(&bus, 1u, ids, torques, 5.0f, 0u) == DRE_OK && sent_is(17u, 0x02C, "0000C03FF4015802"));
-    CHECK(bus_fake.nsent == 19u);
+    CHECK(sent_is(10u, 0x02C, "0000C03F00006400") && sent_is(11u, 0x04C, "0000C0BF00006400"));
+    CHECK(dre_set_torques(&bus, 2u, ids, torques, NAN, DRE_TORQUE_DIRECT) == DRE_E_RANGE &&
+          bus.bad_field == DRE_FIELD_PARAM);
+    CHECK(dre_set_torques(&bus, 1u, ids, torques, 5.0f, 0u) == DRE_OK && sent_is(13u, 0x02C, "0000C03FF4015802"));
+    CHECK(bus_fake.nsent == 15u);
     CHECK(dre_set_speeds(&bus, 3u, ids, speeds, 0.0f, DRE_VEL_RAMP) == DRE_E_RANGE &&
           bus.bad_field == DRE_FIELD_PARAM);
     CHECK(dre_set_speeds(&bus, 3u, ids, speeds, NAN, DRE_VEL_PASSTHROUGH) == DRE_E_RANGE);
     CHECK(dre_set_torques(&bus, 2u, ids, torques, 0.0f, DRE_TORQUE_RAMP) == DRE_E_RANGE &&
           bus.bad_field == DRE_FIELD_PARAM);
     CHECK(dre_set_torques(&bus, 2u, ids, torques, 1.0f, 2u) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_MODE);
-    CHECK(bus_fake.nsent == 19u);
+    CHECK(bus_fake.nsent == 15u);
 }
 
 /* ------------------------------------------------------------------ several motors */
@@ -1302,8 +1307,8 @@ static void test_mode_params(void)
     uint8_t lo = 0xFFu, hi = 0xFFu;
 
     setup();
-    v.i = 11;
-    CHECK(dre_write_param(&m1, DRE_P_AXIS0_REQUESTED_STATE, v) == DRE_OK && sent_is(0u, 0x03F, "337503000B000000"));
+    v.i = 11; /* in AxisState, outside the soft domain {1, 8}: an expert forces it */
+    CHECK(dre_write_property_forced(&m1, 30003u, DRE_U32, v) == DRE_OK && sent_is(0u, 0x03F, "337503000B000000"));
     v.i = 4;
     CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONTROLLER_CONFIG_CONTROL_MODE, v) == DRE_OK &&
           sent_is(1u, 0x03F, "697D030004000000"));
@@ -1354,6 +1359,57 @@ static void test_mode_params(void)
     CHECK(dre_param_choices(32106u, &lo, &hi) == 1 && lo == 0u && hi == 7u);
     CHECK(dre_param_choices(35104u, &lo, &hi) == 1 && lo == 1u && hi == 2u);
     CHECK(dre_param_choices(31001u, &lo, &hi) == 0 && dre_param_choices(0u, &lo, &hi) == 0);
+}
+
+/* Writes outside a parameter's domain (spec/parameters.csv) are refused, naming it; force passes soft bounds only. */
+static void test_param_domains(void)
+{
+    dre_motor m1 = {&bus, 1u};
+    dre_value v;
+    const dre_param_domain *d;
+
+    setup();
+    v.i = 64;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_CAN_NODE_ID, v) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_VALUE &&
+          bus.bad_address == 31001u);
+    v.i = 0;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_CAN_NODE_ID, v) == DRE_E_RANGE);
+    CHECK(dre_write_property_forced(&m1, 31001u, DRE_U32, v) == DRE_E_RANGE); /* hard: never */
+    v.i = 3;                                                                   /* a calibration state */
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_REQUESTED_STATE, v) == DRE_E_RANGE && bus.bad_address == 30003u);
+    v.f32 = 1e30f;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONTROLLER_CONFIG_POS_GAIN, v) == DRE_E_RANGE && bus.bad_address == 32108u);
+    v.f32 = -5.0f;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_EXTRA_SETTING_STALL_CURRENT_LIMIT, v) == DRE_E_RANGE);
+    v.f32 = NAN;
+    CHECK(dre_write_property_forced(&m1, 32108u, DRE_F32, v) == DRE_E_RANGE);
+    v.i = 123456;
+    CHECK(dre_write_param(&m1, DRE_P_CAN_CONFIG_BAUD_RATE, v) == DRE_E_RANGE &&
+          dre_write_property_forced(&m1, 21001u, DRE_U32, v) == DRE_E_RANGE);
+    CHECK(bus_fake.nsent == 0u);
+
+    /* force: outside a soft bound, sent as given */
+    v.f32 = 1e30f;
+    CHECK(dre_write_property_forced(&m1, 32108u, DRE_F32, v) == DRE_OK && sent_is(0u, 0x03F, "6C7D0000CAF24971"));
+    v.i = 3;
+    CHECK(dre_write_property_forced(&m1, 30003u, DRE_U32, v) == DRE_OK && sent_is(1u, 0x03F, "3375030003000000"));
+    v.f32 = -5.0f;
+    CHECK(dre_write_property_forced(&m1, 31209u, DRE_F32, v) == DRE_OK && sent_is(2u, 0x03F, "E97900000000A0C0"));
+    /* at the bounds: sent */
+    v.i = 63;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_CAN_NODE_ID, v) == DRE_OK && bus_fake.nsent == 4u);
+    v.f32 = 0.0f;
+    CHECK(dre_write_param(&m1, DRE_P_AXIS0_CONFIG_EXTRA_SETTING_STALL_CURRENT_LIMIT, v) == DRE_OK);
+    CHECK(bus_fake.nsent == 5u);
+
+    d = dre_param_domain_of(31001u);
+    CHECK(d != NULL && d->flags == (DRE_PD_MIN | DRE_PD_MAX | DRE_PD_HARD) && d->lo == 1.0f && d->hi == 63.0f);
+    d = dre_param_domain_of(30003u);
+    CHECK(d != NULL && (d->flags & DRE_PD_SET) != 0u && d->count == 2u && dre_param_allowed[d->first] == 1.0f &&
+          dre_param_allowed[d->first + 1u] == 8.0f);
+    d = dre_param_domain_of(32108u);
+    CHECK(d != NULL && (d->flags & (DRE_PD_HARD | DRE_PD_INFERRED)) == DRE_PD_INFERRED);
+    CHECK(dre_param_domain_of(38023u) == NULL && dre_param_domain_of(1u) == NULL); /* signed setpoint; read-only */
 }
 
 static void test_step_angle(void)
@@ -1472,6 +1528,7 @@ int main(void)
     test_verified_writes();
     test_set_id();
     test_mode_params();
+    test_param_domains();
     test_step_angle();
     test_position_done();
     test_q_move_time();

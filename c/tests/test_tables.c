@@ -40,6 +40,34 @@ static void test_choices_match_python(void)
     CHECK(n == 4u);
 }
 
+/* A write the Python client sends passes the C checks (fixed set, then domain), and one it refuses does not. */
+static void test_domains_match_python(void)
+{
+    unsigned i, refused = 0u, forced = 0u;
+
+    for (i = 0u; i < ref_write_count; i++) {
+        const ref_write *r = &ref_writes[i];
+        dre_value v;
+        uint8_t lo, hi;
+        int ok;
+        if (r->dtype == DRE_F32) {
+            v.f32 = r->f;
+        } else {
+            v.i = r->i;
+        }
+        ok = dre_param_check(r->address, r->dtype, v, r->force) == DRE_OK;
+        if (dre_param_choices(r->address, &lo, &hi) && (r->i < lo || r->i > hi)) {
+            ok = 0;
+        }
+        CHECKF(ok == r->ok, "%u = %g / %lld (force %d): C %d, Python %d", (unsigned)r->address, (double)r->f,
+               (long long)r->i, r->force, ok, r->ok);
+        refused += (unsigned)!r->ok;
+        forced += (unsigned)(r->force && r->ok && i > 0u && !ref_writes[i - 1u].ok);
+    }
+    /* the cases cover refusals and soft bounds that force lets through */
+    CHECK(ref_write_count > 500u && refused > 100u && forced > 20u);
+}
+
 static void test_param_lookup(void)
 {
     unsigned i;
@@ -125,6 +153,7 @@ int main(void)
 {
     test_params_match_python();
     test_choices_match_python();
+    test_domains_match_python();
     test_param_lookup();
     test_errors_match_python();
     test_errors();

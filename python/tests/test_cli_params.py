@@ -35,8 +35,11 @@ def test_params_json_and_flags(capsys: pytest.CaptureFixture[str]) -> None:
             "unit": "",
             "series": "",
             "description": reply[0]["description"],
+            "domain": "one of 0, 1 (hard)",
         }
     ]
+    gains = [r for r in recs if r["name"] == "axis0.controller.config.pos_gain"]
+    assert gains[0]["domain"] == "0..1000 (soft, inferred)"
 
 
 def test_params_no_match(capsys: pytest.CaptureFixture[str]) -> None:

@@ -7,6 +7,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 from .conftest import REPO_ROOT
 
 
@@ -26,21 +28,93 @@ def test_vectors_are_fresh() -> None:
     assert r.returncode == 0, r.stderr
 
 
+_PARTS = [
+    Path("tools/generate.py"),
+    Path("spec/parameters.csv"),
+    Path("python/src/drempower/protocol/_parameter_table.py"),
+    Path("c/include/drempower/dre_params.h"),
+    Path("python/src/drempower/protocol/addresses.py"),
+]
+
+
 def test_staleness_is_detected(tmp_path: Path) -> None:
     """A hand edit of a generated file fails the check (run on a copy, not on the working tree)."""
-    parts = [
-        Path("tools/generate.py"),
-        Path("spec/parameters.csv"),
-        Path("python/src/drempower/protocol/_parameter_table.py"),
-        Path("c/include/drempower/dre_params.h"),
-    ]
+    parts = _PARTS
     for rel in parts:
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(REPO_ROOT / rel, tmp_path / rel)
     script = [sys.executable, str(tmp_path / "tools" / "generate.py"), "--check"]
     assert subprocess.run(script, capture_output=True, text=True, check=False).returncode == 0
-    target = tmp_path / parts[2]
-    target.write_text(target.read_text() + "# edited by hand\n")
-    r = subprocess.run(script, capture_output=True, text=True, check=False)
+    for rel in (parts[2], parts[4]):
+        target = tmp_path / rel
+        text = target.read_text()
+        target.write_text(text + "# edited by hand\n")
+        r = subprocess.run(script, capture_output=True, text=True, check=False)
+        assert r.returncode == 1
+        assert rel.name in r.stderr
+        target.write_text(text)
+
+
+def test_domain_change_makes_the_tables_stale(tmp_path: Path) -> None:
+    """A domain changed in the CSV alone leaves the Python table and the C header stale."""
+    for rel in _PARTS:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(REPO_ROOT / rel, tmp_path / rel)
+    csv_path = tmp_path / "spec/parameters.csv"
+    text = csv_path.read_text()
+    assert ",,1,63,,hard," in text
+    csv_path.write_text(text.replace(",,1,63,,hard,", ",,1,62,,hard,"))
+    script = [sys.executable, str(tmp_path / "tools" / "generate.py")]
+    r = subprocess.run([*script, "--check"], capture_output=True, text=True, check=False)
     assert r.returncode == 1
-    assert "_parameter_table.py" in r.stderr
+    assert "_parameter_table.py" in r.stderr and "dre_params.h" in r.stderr and "addresses.py" not in r.stderr
+    assert subprocess.run(script, capture_output=True, text=True, check=False).returncode == 0
+    table = (tmp_path / _PARTS[2]).read_text()
+    header = (tmp_path / _PARTS[3]).read_text()
+    assert "'CAN bus node ID (motor ID).', 1, 62, (), True, False)" in table
+    assert "{31001u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_HARD, 0u, 0u, 1.0f, 62.0f}" in header
+
+
+def test_address_constants_match_the_table() -> None:
+    """Every parameter has its address constant, named as the C DRE_P_* constant without the prefix."""
+    from drempower.protocol import addresses
+    from drempower.protocol.parameters import parameters
+
+    header = (REPO_ROOT / "c/include/drempower/dre_params.h").read_text()
+    for p in parameters():
+        name = p.name.replace(".", "_").upper()
+        assert getattr(addresses, name) == p.address
+        assert f"#define DRE_P_{name} DRE_PARAM({p.address}u," in header
+    assert addresses.AXIS0_CONFIG_CAN_NODE_ID == 31001
+    assert len(addresses.__all__) == len(list(parameters()))
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (",,1,63,,hard,", ",,63,1,,hard,", "min > max"),
+        (",,1,63,,hard,", ",,1,63,,,", "bound must be hard or soft exactly when a domain is given"),
+        (",,1,63,,hard,", ",,1,63.5,,hard,", "is not whole (uint32)"),
+        (",,1,63,,hard,", ",,1,1e10,,hard,", "outside the wire range of uint32"),
+        (
+            "DC bus (supply) voltage.,,,,,,",
+            "DC bus (supply) voltage.,,0,,,soft,doc: x",
+            "a read-only parameter has no domain",
+        ),
+    ],
+)
+def test_a_malformed_domain_is_refused(tmp_path: Path, old: str, new: str, message: str) -> None:
+    for rel in _PARTS[:2]:
+        (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
+        shutil.copyfile(REPO_ROOT / rel, tmp_path / rel)
+    csv_path = tmp_path / "spec/parameters.csv"
+    text = csv_path.read_text()
+    assert text.count(old) == 1
+    csv_path.write_text(text.replace(old, new))
+    r = subprocess.run(
+        [sys.executable, str(tmp_path / "tools" / "generate.py"), "--check"],
+        capture_output=True,
+        text=True,
+        check=False,
+    )
+    assert r.returncode != 0 and message in r.stderr

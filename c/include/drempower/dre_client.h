@@ -22,9 +22,12 @@
  *
  * Every parameter write the bus sends (dre_write_param, dre_write_property,
  * dre_send, the verified writes) is checked against the parameters whose
- * values form a fixed set (see dre_param_choices): a value outside it is
- * refused before anything is sent, with DRE_E_RANGE, DRE_FIELD_VALUE
- * (DRE_FIELD_DTYPE for an f32) and bus->bad_address naming the parameter.
+ * values form a fixed set (see dre_param_choices) and against each
+ * parameter's domain (dre_param_check, from spec/parameters.csv): a value
+ * outside them is refused before anything is sent, with DRE_E_RANGE,
+ * DRE_FIELD_VALUE (DRE_FIELD_DTYPE for an f32 to a fixed set) and
+ * bus->bad_address naming the parameter. Only dre_write_property_forced
+ * writes outside a soft bound.
  *
  * Requests to the same motor go out one at a time, as in the Python client: a
  * read reply carries the same CAN id as every read request to that motor, so a
@@ -83,7 +86,7 @@ typedef enum { DRE_TRAJ_TRAPEZOID = 1, DRE_TRAJ_S_CURVE = 2 } dre_traj_mode;
 
 /** The vendor's set_angle modes. */
 typedef enum {
-    DRE_ANGLE_T = 0, /**< trajectory tracking: param = filter bandwidth 0 < |bw| <= 300 1/s, |speed| carried */
+    DRE_ANGLE_T = 0, /**< trajectory tracking: param = filter bandwidth 0 < bw <= 300 1/s, |speed| carried */
     DRE_ANGLE_Q = 1, /**< trapezoid/S-curve: speed = cruise r/min (> 0), param = accel (r/min)/s (> 0) */
     DRE_ANGLE_P = 2  /**< feed-forward: speed = speed FF r/min, param = torque FF Nm */
 } dre_angle_mode;
@@ -184,8 +187,9 @@ typedef struct {
     volatile uint16_t rx_overflows;
     /**
      * After DRE_E_RANGE for a write of a value the parameter does not take
-     * (dre_param_choices): its address, for dre_param_by_address() and
-     * dre_param_choices(); 0 after any other DRE_E_RANGE.
+     * (dre_param_choices, dre_param_check): its address, for
+     * dre_param_by_address(), dre_param_choices() and dre_param_domain_of();
+     * 0 after any other DRE_E_RANGE.
      */
     uint16_t bad_address;
     dre_field bad_field;
@@ -306,8 +310,9 @@ void dre_motor_init(dre_motor *m, dre_bus *bus, uint8_t node);
 
 /**
  * Move to `angle` deg; `mode` is a dre_angle_mode (what speed and param mean
- * is there). T: the filter bandwidth must be 0 < |param| <= 300 and the
- * absolute values of speed and bandwidth are sent, as the vendor does.
+ * is there). T: the filter bandwidth must be 0 < param <= 300 (the vendor
+ * sends |param|; a negative bandwidth is refused here, as in the Python
+ * client) and the absolute value of speed is sent, as the vendor does.
  */
 dre_status dre_set_angle(const dre_motor *m, float angle, float speed, float param, uint8_t mode);
 /**
@@ -319,12 +324,14 @@ dre_status dre_step_angle(const dre_motor *m, float delta, float speed, float pa
 /**
  * Run at `speed` r/min. mode 1 (DRE_VEL_PASSTHROUGH): param = torque FF Nm,
  * sent as 0 when speed is 0, as the vendor does; mode 2 (DRE_VEL_RAMP, or 0 as
- * the vendor's docs use it): param = ramp rate (r/min)/s.
+ * the vendor's docs use it): param = ramp rate (r/min)/s. A non-finite param
+ * is refused (DRE_FIELD_PARAM) even where it is not sent.
  */
 dre_status dre_set_speed(const dre_motor *m, float speed, float param, uint8_t mode);
 /**
  * Apply `torque` Nm. mode 1 (DRE_TORQUE_DIRECT): param is ignored and sent as
- * 0; mode 6 (DRE_TORQUE_RAMP, or 0): param = ramp rate Nm/s.
+ * 0, but a non-finite one is refused (DRE_FIELD_PARAM); mode 6
+ * (DRE_TORQUE_RAMP, or 0): param = ramp rate Nm/s.
  */
 dre_status dre_set_torque(const dre_motor *m, float torque, float param, uint8_t mode);
 /**
@@ -351,8 +358,15 @@ dre_status dre_set_mode(const dre_motor *m, uint8_t mode);
  */
 dre_status dre_write_property(const dre_motor *m, uint16_t address, uint8_t dtype, dre_value value);
 /**
+ * dre_write_property for an expert: a value outside the parameter's soft
+ * bound (dre_param_domain without DRE_PD_HARD) is sent. Hard bounds, fixed
+ * sets and the wire range still refuse it (DRE_E_RANGE, nothing sent).
+ */
+dre_status dre_write_property_forced(const dre_motor *m, uint16_t address, uint8_t dtype, dre_value value);
+/**
  * Write a parameter from the table; DRE_E_ACCESS if read-only, DRE_E_RANGE if
- * a bool is not 0/1 or a mode parameter is given a value it does not take.
+ * a bool is not 0/1, a mode parameter is given a value it does not take, or
+ * the value is outside the parameter's domain (dre_param_check).
  */
 dre_status dre_write_param(const dre_motor *m, dre_param_t param, dre_value value);
 /** Start reading `address` as `dtype`; the reply is a DRE_MSG_PARAM_VALUE. */

@@ -12,6 +12,8 @@
 
 #include <stdint.h>
 
+#include "dre_codec.h"
+
 #ifdef __cplusplus
 extern "C" {
 #endif
@@ -368,6 +370,44 @@ const dre_param_info *dre_param_find(const char *name);
 /** The parameter at `address`, or NULL. */
 const dre_param_info *dre_param_by_address(uint16_t address);
 
+/* ---- domains: the values each writable parameter takes (spec/parameters.csv) */
+
+#define DRE_PD_MIN 0x01u      /**< lo bounds the value (inclusive) */
+#define DRE_PD_MAX 0x02u      /**< hi bounds the value (inclusive) */
+#define DRE_PD_SET 0x04u      /**< the value is one of count values at dre_param_allowed[first] */
+#define DRE_PD_HARD 0x08u     /**< no force writes outside it (otherwise a soft bound) */
+#define DRE_PD_INFERRED 0x10u /**< inferred (name, physics, ODrive), not documented by the vendor */
+
+/** The domain of one parameter; parameters without a row take any value of their type. */
+typedef struct {
+    uint16_t address;
+    uint8_t flags; /**< DRE_PD_* */
+    uint8_t count; /**< DRE_PD_SET: number of allowed values */
+    uint8_t first; /**< DRE_PD_SET: index of the first in dre_param_allowed */
+    float lo;      /**< DRE_PD_MIN */
+    float hi;      /**< DRE_PD_MAX */
+} dre_param_domain;
+
+#define DRE_PARAM_DOMAIN_COUNT 95u
+#define DRE_PARAM_ALLOWED_COUNT 26u
+
+/** Every domain, sorted by address. */
+extern const dre_param_domain dre_param_domains[DRE_PARAM_DOMAIN_COUNT];
+/** The allowed values of the DRE_PD_SET domains. */
+extern const float dre_param_allowed[DRE_PARAM_ALLOWED_COUNT];
+
+/** The domain of the parameter at `address`, or NULL when it takes any value of its type. */
+const dre_param_domain *dre_param_domain_of(uint16_t address);
+
+/**
+ * Does `value` (of data type `dtype`) lie in the domain of the parameter at
+ * `address`? DRE_OK when it does, when the parameter has no domain, or when
+ * `force` is non-zero and only a soft bound is exceeded; DRE_E_RANGE
+ * otherwise (a NaN is outside every domain). The wire range of the data type
+ * is the encoder's check (dre_encode), force or not.
+ */
+dre_status dre_param_check(uint16_t address, uint8_t dtype, dre_value value, int force);
+
 #ifdef DRE_PARAMS_IMPLEMENTATION
 const dre_param_info dre_param_table[DRE_PARAM_COUNT] = {
     {"vbus_voltage", "V", DRE_P_VBUS_VOLTAGE},
@@ -529,6 +569,109 @@ const dre_param_info dre_param_table[DRE_PARAM_COUNT] = {
     {"axis0.output_shaft.homing_vel_limit", "rpm", DRE_P_AXIS0_OUTPUT_SHAFT_HOMING_VEL_LIMIT},
     {"axis0.output_shaft.homing_pos_setpoint", "deg", DRE_P_AXIS0_OUTPUT_SHAFT_HOMING_POS_SETPOINT},
     {"axis0.output_shaft.homing_move_range", "deg", DRE_P_AXIS0_OUTPUT_SHAFT_HOMING_MOVE_RANGE},
+};
+const dre_param_domain dre_param_domains[DRE_PARAM_DOMAIN_COUNT] = {
+    {10001u, DRE_PD_SET | DRE_PD_HARD, 4u, 0u, 0.0f, 0.0f}, /* config.uart_baudrate */
+    {10002u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 100.0f}, /* config.dc_bus_undervoltage_trip_level */
+    {10003u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 100.0f}, /* config.dc_bus_overvoltage_trip_level */
+    {10004u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* config.dc_max_positive_current */
+    {10005u, DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* config.dc_max_negative_current */
+    {10006u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* config.max_regen_current */
+    {10007u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* config.brake_resistance */
+    {10008u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* config.enable_uart */
+    {21001u, DRE_PD_SET | DRE_PD_HARD, 4u, 6u, 0.0f, 0.0f}, /* can.config.baud_rate */
+    {21003u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 60000.0f}, /* can.config.timeout_ms */
+    {21004u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 60000.0f}, /* can.config.heartbeat_ms */
+    {30003u, DRE_PD_SET, 2u, 10u, 0.0f, 0.0f}, /* axis0.requested_state */
+    {31001u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_HARD, 0u, 0u, 1.0f, 63.0f}, /* axis0.config.can_node_id */
+    {31002u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.startup_motor_calibration */
+    {31003u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.startup_encoder_index_search */
+    {31004u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.startup_encoder_offset_calibration */
+    {31005u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.startup_closed_loop_control */
+    {31006u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.enable_step_dir */
+    {31007u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.config.turns_per_step */
+    {31101u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.config.calibration_lockin.current */
+    {31102u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.config.calibration_lockin.ramp_time */
+    {31201u, DRE_PD_SET | DRE_PD_INFERRED, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.extra_setting.enable_120r */
+    {31202u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.extra_setting.enable_circular_setpoint_limit */
+    {31207u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.extra_setting.enable_multi_circle */
+    {31208u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 1.0f, 1000.0f}, /* axis0.config.extra_setting.gear_ratio */
+    {31209u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.config.extra_setting.stall_current_limit */
+    {31210u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.config.extra_setting.stall_time_limit */
+    {31211u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.extra_setting.enable_stall_limit */
+    {31212u, DRE_PD_SET | DRE_PD_INFERRED, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.extra_setting.enable_adaptive_gain */
+    {31213u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.extra_setting.encoder_offset_calibrated */
+    {31214u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.extra_setting.enable_reply_state */
+    {31215u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.config.extra_setting.enable_damp_idle */
+    {32101u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.controller.config.enable_gain_scheduling */
+    {32102u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.controller.config.enable_vel_limit */
+    {32103u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.controller.config.enable_current_mode_vel_limit */
+    {32104u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.controller.config.enable_overspeed_error */
+    {32105u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_HARD, 0u, 0u, 0.0f, 4.0f}, /* axis0.controller.config.control_mode */
+    {32106u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_HARD, 0u, 0u, 0.0f, 7.0f}, /* axis0.controller.config.input_mode */
+    {32107u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.controller.config.gain_scheduling_width */
+    {32108u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 1000.0f}, /* axis0.controller.config.pos_gain */
+    {32109u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 100.0f}, /* axis0.controller.config.vel_gain */
+    {32110u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 1000.0f}, /* axis0.controller.config.vel_integrator_gain */
+    {32111u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 1000.0f}, /* axis0.controller.config.vel_limit */
+    {32112u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.controller.config.vel_limit_tolerance */
+    {32113u, DRE_PD_MIN, 0u, 0u, 0.0f, 0.0f}, /* axis0.controller.config.vel_ramp_rate */
+    {32114u, DRE_PD_MIN, 0u, 0u, 0.0f, 0.0f}, /* axis0.controller.config.torque_ramp_rate */
+    {32115u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.controller.config.circular_setpoints */
+    {32116u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.controller.config.circular_setpoint_range */
+    {32117u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.controller.config.inertia */
+    {32118u, DRE_PD_MIN | DRE_PD_MAX, 0u, 0u, 0.0f, 300.0f}, /* axis0.controller.config.input_filter_bandwidth */
+    {33001u, DRE_PD_SET | DRE_PD_INFERRED, 1u, 12u, 0.0f, 0.0f}, /* axis0.motor.error */
+    {33101u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.motor.config.pre_calibrated */
+    {33102u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 1.0f, 100.0f}, /* axis0.motor.config.pole_pairs */
+    {33103u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.calibration_current */
+    {33104u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.resistance_calib_max_voltage */
+    {33105u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.phase_inductance */
+    {33106u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.phase_resistance */
+    {33107u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.torque_constant */
+    {33108u, DRE_PD_SET | DRE_PD_INFERRED, 2u, 13u, 0.0f, 0.0f}, /* axis0.motor.config.direction */
+    {33109u, DRE_PD_SET, 3u, 15u, 0.0f, 0.0f}, /* axis0.motor.config.motor_type */
+    {33110u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.current_lim */
+    {33111u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.current_lim_margin */
+    {33112u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.torque_lim */
+    {33113u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.requested_current_range */
+    {33114u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.motor.config.current_control_bandwidth */
+    {34101u, DRE_PD_SET, 8u, 18u, 0.0f, 0.0f}, /* axis0.encoder.config.mode */
+    {34102u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.encoder.config.use_index */
+    {34103u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 1.0f, 0.0f}, /* axis0.encoder.config.cpr */
+    {34104u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.encoder.config.pre_calibrated */
+    {34105u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.encoder.config.bandwidth */
+    {35101u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.trap_traj.config.vel_limit */
+    {35102u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.trap_traj.config.accel_limit */
+    {35103u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.trap_traj.config.decel_limit */
+    {35104u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_HARD, 0u, 0u, 1.0f, 2.0f}, /* axis0.trap_traj.config.traj_mode */
+    {36101u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.fet_thermistor.config.enabled */
+    {36102u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 150.0f}, /* axis0.fet_thermistor.config.temp_limit_lower */
+    {36103u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 150.0f}, /* axis0.fet_thermistor.config.temp_limit_upper */
+    {37101u, DRE_PD_SET | DRE_PD_HARD, 2u, 4u, 0.0f, 0.0f}, /* axis0.motor_thermistor.config.enabled */
+    {37102u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 150.0f}, /* axis0.motor_thermistor.config.temp_limit_lower */
+    {37103u, DRE_PD_MIN | DRE_PD_MAX | DRE_PD_INFERRED, 0u, 0u, 0.0f, 150.0f}, /* axis0.motor_thermistor.config.temp_limit_upper */
+    {38001u, DRE_PD_MIN | DRE_PD_MAX, 0u, 0u, -720000.0f, 720000.0f}, /* axis0.output_shaft.input_pos */
+    {38010u, DRE_PD_MIN | DRE_PD_MAX, 0u, 0u, -720000.0f, 720000.0f}, /* axis0.output_shaft.circular_setpoint_min */
+    {38011u, DRE_PD_MIN | DRE_PD_MAX, 0u, 0u, -720000.0f, 720000.0f}, /* axis0.output_shaft.circular_setpoint_max */
+    {38012u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.output_shaft.vel_limit */
+    {38013u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.output_shaft.torque_lim */
+    {38014u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.output_shaft.trap_traj_vel_limit */
+    {38015u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.output_shaft.trap_traj_accel_limit */
+    {38016u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.output_shaft.trap_traj_decel_limit */
+    {38017u, DRE_PD_MIN, 0u, 0u, 0.0f, 0.0f}, /* axis0.output_shaft.vel_ramp_rate */
+    {38018u, DRE_PD_MIN, 0u, 0u, 0.0f, 0.0f}, /* axis0.output_shaft.torque_ramp_rate */
+    {38019u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.output_shaft.steps_per_turn */
+    {38020u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.output_shaft.torque_constant */
+    {38021u, DRE_PD_MIN, 0u, 0u, 0.0f, 0.0f}, /* axis0.output_shaft.load_inertia */
+    {38022u, DRE_PD_MIN, 0u, 0u, 0.0f, 0.0f}, /* axis0.output_shaft.homing_torque_lim */
+    {38025u, DRE_PD_MIN | DRE_PD_INFERRED, 0u, 0u, 0.0f, 0.0f}, /* axis0.output_shaft.homing_move_range */
+};
+const float dre_param_allowed[DRE_PARAM_ALLOWED_COUNT] = {
+    9600.0f, 19200.0f, 57600.0f, 115200.0f, 0.0f, 1.0f, 125000.0f, 250000.0f,
+    500000.0f, 1000000.0f, 1.0f, 8.0f, 0.0f, -1.0f, 1.0f, 0.0f,
+    2.0f, 3.0f, 0.0f, 1.0f, 2.0f, 256.0f, 257.0f, 258.0f,
+    259.0f, 271.0f,
 };
 #endif /* DRE_PARAMS_IMPLEMENTATION */
 

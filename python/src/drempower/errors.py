@@ -8,6 +8,7 @@ device, ``TimeoutError`` for a silent motor)::
     ├── ProtocolError (ValueError)             a frame or byte stream that breaks the protocol
     ├── ValidationError (ValueError)           a value or option that cannot be used; nothing was sent
     │   ├── FieldRangeError                    a number outside the range its field holds
+    │   │   └── DomainError                    a value outside a parameter's domain (spec/parameters.csv)
     │   ├── ConfigError                        a robot file that cannot be used
     │   └── BackupFileError                    a backup document that cannot be restored
     ├── TransportError (OSError)               a bus that cannot be opened, a device that failed
@@ -33,12 +34,17 @@ from __future__ import annotations
 import builtins
 import os
 from collections.abc import Sequence
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from .protocol.parameters import Parameter
 
 __all__ = [
     "DrEmpowerError",
     "ProtocolError",
     "ValidationError",
     "FieldRangeError",
+    "DomainError",
     "ConfigError",
     "TransportError",
     "TimeoutError",
@@ -238,3 +244,20 @@ class BackupFileError(ValidationError):
             listed = "; ".join(f"{name}: {why}" for name, why in problems)
             reason = f"{reason + ': ' if reason else ''}{n} malformed record{'s' if n > 1 else ''}: {listed}"
         super().__init__(reason)
+
+
+class DomainError(FieldRangeError):
+    """A value outside a parameter's domain (``spec/parameters.csv``).
+
+    ``parameter`` is the :class:`Parameter`; ``hard`` says whether ``force=True``
+    could write it anyway (it cannot when hard).
+    """
+
+    def __init__(self, p: Parameter, value: object) -> None:
+        low = p.minimum if p.minimum is not None else (min(p.allowed) if p.allowed else float("-inf"))
+        high = p.maximum if p.maximum is not None else (max(p.allowed) if p.allowed else float("inf"))
+        super().__init__(p.name, value, low, high)
+        self.parameter = p
+        self.hard = p.hard
+        hint = "" if p.hard else "; force=True (--force) writes it anyway"
+        self.args = (f"{p.name}={value!r} is outside its domain: {p.domain_text()}{hint}",)

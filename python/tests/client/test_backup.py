@@ -10,6 +10,7 @@ import pytest
 import drempower
 from drempower.client import Bus, ConfigBackup
 from drempower.protocol import parameters
+from drempower.protocol.parameters import parameter
 
 from .scripted import FakeMotors, ScriptedTransport
 
@@ -58,6 +59,14 @@ def test_backup_of_a_silent_motor_fails_fast(bus: Bus) -> None:
 
 def test_restore_reports_failures(motors: FakeMotors, tmp_path: Path) -> None:
     t = ScriptedTransport(motors)
+    realistic = {
+        "axis0.config.extra_setting.gear_ratio": 10.0,
+        "axis0.motor.config.pole_pairs": 14,
+        "axis0.motor.config.direction": 1,
+        "axis0.encoder.config.cpr": 32768,
+    }
+    for name, value in realistic.items():  # the fake motor reads 0 where a real one holds these
+        motors.params[1][parameter(name).address] = value
     with Bus(t, timeout=0.25, stop_on_close=False) as bus:
         motors.params[1][38013] = 9.0
         b = bus.motor(1).backup()

@@ -4,7 +4,18 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-from drempower.protocol import FastRead, Message, ParamValue, ReadParam, Reply, State, WriteParam, decode_reply
+from drempower.protocol import (
+    DataType,
+    FastRead,
+    Message,
+    ParamValue,
+    ReadParam,
+    Reply,
+    State,
+    WriteParam,
+    decode_reply,
+    parameter,
+)
 from drempower.protocol.ids import Frame
 from drempower.sim import SimBus
 
@@ -44,8 +55,16 @@ def read(bus: SimBus, node: int, name: str | int) -> int | float:
 
 
 def write(bus: SimBus, node: int, name: str | int, value: float) -> None:
-    """Write a parameter over the simulated bus with its table type (no answer expected)."""
-    assert exchange(bus, WriteParam.of(node, name, value, allow_read_only=True)) == []
+    """Write a parameter over the simulated bus with its table type (no answer expected).
+
+    The frame is built raw, without the client's domain check: a motor must cope with
+    whatever arrives on the wire (only the type's range applies).
+    """
+    p = parameter(name)
+    assert (
+        exchange(bus, WriteParam(node, p.address, p.dtype, float(value) if p.dtype is DataType.F32 else int(value)))
+        == []
+    )
 
 
 def fast_read(bus: SimBus, node: int) -> State:

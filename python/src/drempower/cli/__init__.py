@@ -18,13 +18,14 @@ from .. import __version__
 from ..client.signals import Terminated, exit_code, signals_interrupt
 from ..errors import DrEmpowerError
 from ._output import clean
+from ._parser import Parser
 from ._robot import apply_robot, run_command
 from ._usage import UsageError
 
 __all__ = ["main", "build_parser"]
 
 
-class _Parser(argparse.ArgumentParser):
+class _Parser(Parser):
     """argparse, with control characters of the arguments it quotes escaped in its errors."""
 
     def error(self, message: str) -> NoReturn:

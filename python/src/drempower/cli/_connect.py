@@ -20,6 +20,7 @@ import sys
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from ..client.timeouts import MAX_TIMEOUT
 from ..errors import DrEmpowerError
 from ..protocol import S16_MAX
 from ._output import clean
@@ -140,13 +141,21 @@ def bitrate(text: str) -> int:
 
 
 def positive(text: str) -> float:
-    """An argument type: a number > 0."""
+    """An argument type: a finite number > 0."""
     try:
         value = float(text)
     except ValueError:
         value = 0.0
-    if not value > 0:
-        raise argparse.ArgumentTypeError(f"expected a number > 0, got {text!r}")
+    if not 0 < value < math.inf:
+        raise argparse.ArgumentTypeError(f"expected a finite number > 0, got {text!r}")
+    return value
+
+
+def seconds(text: str) -> float:
+    """An argument type: a time to wait, > 0 s and at most a day (as every ``timeout=`` of the client)."""
+    value = positive(text)
+    if value > MAX_TIMEOUT:
+        raise argparse.ArgumentTypeError(f"expected at most {MAX_TIMEOUT:g} s (one day), got {text!r}")
     return value
 
 
@@ -244,7 +253,7 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument("--sim-time-scale", type=positive, help=argparse.SUPPRESS)
     g.add_argument(
         "--timeout",
-        type=positive,
+        type=seconds,
         metavar="S",
         help="reply timeout per request in seconds (default 0.1; 0.5 with --sim)",
     )

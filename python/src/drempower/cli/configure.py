@@ -10,7 +10,7 @@ from ..client import Bus
 from ..client.errors import TimeoutError
 from ..client.ops import CAN_BAUD_RATES, UART_BAUD_RATES
 from ..protocol import FastRead
-from ._connect import add_connection_args, add_ids_arg, bitrate, motor_id, open_from_args, positive
+from ._connect import add_connection_args, add_ids_arg, bitrate, motor_id, open_from_args, seconds
 from ._output import add_json_arg, motors_text, report, sent
 from ._usage import UsageError
 
@@ -57,7 +57,7 @@ def register(sub: Any) -> None:
     )
     add_ids_arg(r, all_ok=True)
     r.add_argument("--wait", action="store_true", help="wait until every motor answers again")
-    r.add_argument("--wait-timeout", type=positive, default=5.0, metavar="S", help="longest wait (default 5)")
+    r.add_argument("--wait-timeout", type=seconds, default=5.0, metavar="S", help="longest wait (default 5)")
     add_json_arg(r)
     add_connection_args(r)
     r.set_defaults(func=run_reboot)

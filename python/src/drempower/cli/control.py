@@ -18,6 +18,8 @@ _SETTLE = 1.0
 """Longest wait (s) for motors to reach the state asked for."""
 _ZERO_TOLERANCE = 0.5
 """How close to 0 deg (deg) a motor must read after zeroing."""
+_AT_REST = 0.5
+"""The fastest a motor may turn (r/min) and still count as at rest for ``zero``."""
 
 
 def register(sub: Any) -> None:
@@ -50,6 +52,7 @@ def register(sub: Any) -> None:
     )
     add_ids_arg(z)
     z.add_argument("--save", action="store_true", help="store the configuration in flash afterwards")
+    z.add_argument("--force", action="store_true", help="zero even a motor that is moving")
     add_json_arg(z)
     add_connection_args(z)
     z.set_defaults(func=run_zero)
@@ -70,13 +73,22 @@ def _error(r: _readings.Reading) -> bool:
     return r.state is not None and r.state.error
 
 
-def _apply(args: argparse.Namespace, action: Callable[[Motor], None], ok: Check, failure: str) -> int:
+def _apply(
+    args: argparse.Namespace,
+    action: Callable[[Motor], None],
+    ok: Check,
+    failure: str,
+    first: Callable[[Bus], None] | None = None,
+) -> int:
     """Send ``action`` to every motor, wait until ``ok`` holds for each, show the motors.
 
     ``failure`` (with ``{ids}`` and ``{errors}``) is the error when some motor is not ``ok`` in time.
-    A broadcast (``all``) is sent only: which motors heard it is unknown.
+    A broadcast (``all``) is sent only: which motors heard it is unknown. ``first``
+    runs on the open bus before anything is sent (and may refuse by raising).
     """
     with open_from_args(args) as bus:
+        if first is not None:
+            first(bus)
         for node in args.ids:
             action(bus.motor(node))
         if args.ids == [0]:
@@ -132,9 +144,21 @@ def run_zero(args: argparse.Namespace) -> int:
         if args.save:
             m.save_config()
 
+    def at_rest(bus: Bus) -> None:
+        """Refuse (nothing sent) while a motor turns or has a move under way: its zero would be wherever it passed."""
+        for r in _readings.read(bus, args.ids):
+            st = r.state
+            if st is not None and (abs(st.speed) > _AT_REST or not st.trajectory_done):
+                doing = f"turning at {st.speed:g} r/min" if abs(st.speed) > _AT_REST else "in the middle of a move"
+                raise DrEmpowerError(
+                    f"motor {r.id} is {doing} (at {st.angle:.2f} deg): zero needs it at rest; "
+                    "stop it first, or add --force to zero it anyway"
+                )
+
     return _apply(
         args,
         zero,
         lambda r: r.state is not None and abs(r.state.angle) < _ZERO_TOLERANCE,
         "motor {ids} does not read 0 deg after zeroing: was it moving?",
+        None if args.force else at_rest,
     )

@@ -46,7 +46,11 @@ def register(sub: Any) -> None:
     add_ids_arg(s, many=False)
     s.add_argument("items", nargs="+", metavar="NAME VALUE", help="parameter name (or address) and value, repeated")
     s.add_argument("--save", action="store_true", help="store the configuration in flash afterwards")
-    s.add_argument("--force", action="store_true", help="also write parameters not meant for users to change")
+    s.add_argument(
+        "--force",
+        action="store_true",
+        help="also write parameters not meant for users to change, and values outside a soft domain",
+    )
     add_json_arg(s)
     add_connection_args(s)
     s.set_defaults(func=run_set)
@@ -107,14 +111,18 @@ def run_set(args: argparse.Namespace) -> int:
     for name, text in zip(args.items[::2], args.items[1::2], strict=True):
         p = lookup(name)
         _writable(p, args.force)
-        wanted.append((p, parse_value(p, text)))
+        value = parse_value(p, text)
+        try:
+            wanted.append((p, p.check(value, args.force)))
+        except ValidationError as exc:  # outside the domain or the type's range, NaN: a usage error, nothing sent
+            raise UsageError(f"argument NAME VALUE: {exc}") from None
     records = []
     with open_from_args(args) as bus:
         for node in args.ids:
             motor = bus.motor(node)
             for p, value in wanted:
                 was = significant(motor.read_property(p.address))
-                motor.write_property(p.address, value, verify=True)
+                motor.write_property(p.address, value, verify=True, force=args.force)
                 records.append({"id": node, "name": p.name, "was": was, "value": significant(value), "unit": p.unit})
             if args.save:
                 motor.save_config()

@@ -8,7 +8,7 @@ from typing import Any
 from ..client import DEFAULT_MOVE_TIMEOUT, PositionMode
 from ..client.commands import MAX_BANDWIDTH, make_angles
 from . import _readings
-from ._connect import add_connection_args, number, positive, wire_rate
+from ._connect import add_connection_args, number, seconds, wire_rate
 from ._motion import add_motion_args, add_watchdog_arg, driving, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
 from ._usage import UsageError, options_named
@@ -64,7 +64,7 @@ def register(sub: Any) -> None:
         action="store_true",
         help="wait until every motor has reached its target; exit 1 saying why when one stops elsewhere",
     )
-    p.add_argument("--wait-timeout", type=positive, metavar="S", help="longest wait (default: from the move time)")
+    p.add_argument("--wait-timeout", type=seconds, metavar="S", help="longest wait (default: from the move time)")
     add_watchdog_arg(p)
     add_json_arg(p)
     add_connection_args(p)

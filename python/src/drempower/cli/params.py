@@ -21,7 +21,7 @@ def register(sub: Any) -> None:
     p.add_argument("--writable", action="store_true", help="only parameters that can be written")
     p.add_argument("--user", action="store_true", help="only parameters meant for users to change")
     p.add_argument("--series", choices=("G", "M"), help="only parameters that exist on this motor series")
-    p.add_argument("--json", action="store_true", help="one JSON object per parameter")
+    p.add_argument("--json", action="store_true", help="one JSON object per parameter (with its domain)")
     p.set_defaults(func=run)
 
 
@@ -58,6 +58,7 @@ def run(args: argparse.Namespace) -> int:
                 "unit": p.unit,
                 "series": p.series,
                 "description": p.description,
+                "domain": p.domain_text() if p.writable else None,
             }
             sys.stdout.write(json.dumps(rec) + "\n")
         return 0

@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterable, Sequence
 from types import TracebackType
 from typing import Any, TypeVar
 
-from ..protocol.ids import SysCmd
+from ..protocol.ids import SysCmd, check_node
 from ..protocol.messages import Message
 from ..transports.base import Transport
 from . import backup as _backup
@@ -27,6 +27,7 @@ from .commands import (
     TorqueMode,
     TrajMode,
     VelocityMode,
+    as_list,
     make_angle,
     make_impedance,
     make_speed,
@@ -45,6 +46,7 @@ from .errors import TimeoutError
 from .motor import MotorBase
 from .results import ErrorReport, GpioMode, MotorInfo
 from .state import MotorState
+from .timeouts import checks_times
 
 __all__ = ["AsyncBus", "AsyncMotor", "open_bus_async"]
 
@@ -66,6 +68,7 @@ def _notifier(loop: asyncio.AbstractEventLoop, fut: asyncio.Future[Any]) -> Call
     return notify
 
 
+@checks_times
 class AsyncBus(BusBase["AsyncMotor"]):
     """The asyncio counterpart of :class:`~drempower.client.bus.Bus` (same options)."""
 
@@ -87,6 +90,7 @@ class AsyncBus(BusBase["AsyncMotor"]):
     async def _execute(self, effect: Effect) -> Any:
         core = self._core
         if isinstance(effect, Request):
+            self._check_broadcast_reads(effect.messages)
             ex = Exchange(core, effect.messages, effect.timeout, effect.missing_ok, effect.expect, effect.what)
             loop = asyncio.get_running_loop()
             while True:
@@ -98,7 +102,7 @@ class AsyncBus(BusBase["AsyncMotor"]):
                     core.matcher.cancel(w)
                     raise
                 if ex.collect(w):
-                    return ex.result()
+                    return self._heard_from(ex.result())
         if isinstance(effect, Send):
             core.send_many(effect.messages)
             return None
@@ -113,10 +117,12 @@ class AsyncBus(BusBase["AsyncMotor"]):
 
     async def send(self, msg: Message) -> None:
         """Send one message (validated first); never waits for a reply."""
+        self._check_writes([msg])
         self._core.send(msg)
 
     async def send_many(self, msgs: Sequence[Message]) -> None:
         """Send several messages; if any is invalid, none is sent."""
+        self._check_writes(msgs)
         self._core.send_many(msgs)
 
     async def request(
@@ -130,19 +136,19 @@ class AsyncBus(BusBase["AsyncMotor"]):
 
     async def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor when None."""
-        self._core.estop([0] if id_list is None else list(id_list))
+        self._core.estop(self._estop_nodes(id_list))
 
     async def scan(
         self, ids: Iterable[int] = batch.ALL_IDS, *, timeout: float | None = None, versions: bool = False
     ) -> list[MotorInfo]:
         """Find the motors that answer."""
-        return await self.run(batch.scan(ids, timeout, versions))
+        return await self.run(batch.scan(as_list(ids, "ids"), timeout, versions))
 
     async def cycle(
         self, commands: Iterable[Message], *, timeout: float | None = None, reply_state: bool | None = None
     ) -> dict[int, MotorState]:
         """Send one command per motor and return each motor's state."""
-        return await self.run(batch.cycle(self._core, commands, timeout, reply_state))
+        return await self.run(batch.cycle(self._core, self._commands(commands), timeout, reply_state))
 
     async def set_angles(
         self,
@@ -203,12 +209,15 @@ class AsyncBus(BusBase["AsyncMotor"]):
         tolerance: float = MOVE_TOLERANCE,
     ) -> dict[int, MotorState]:
         """Wait until every listed motor reports its move done."""
-        return await self.run(ops.wait_done(self._core, list(id_list), timeout, poll_interval, tolerance=tolerance))
+        return await self.run(
+            ops.wait_done(self._core, as_list(id_list, "id_list"), timeout, poll_interval, tolerance=tolerance)
+        )
 
     wait_positions_done = positions_done
 
     async def wait_state(self, id: int, timeout: float, newer_than: float | None = None) -> MotorState:
         """Wait for a state of motor ``id`` newer than ``newer_than`` (monotonic s; default: now)."""
+        check_node(id, "id")
         since = time.monotonic() if newer_than is None else newer_than
         cache = self._core.states
         loop = asyncio.get_running_loop()
@@ -241,6 +250,7 @@ class AsyncBus(BusBase["AsyncMotor"]):
         await self.close()
 
 
+@checks_times
 class AsyncMotor(MotorBase):
     """One motor on an :class:`AsyncBus`: the methods of :class:`~drempower.client.motor.Motor` as coroutines."""
 
@@ -341,9 +351,15 @@ class AsyncMotor(MotorBase):
         return await self._bus.run(ops.get_traj_mode(self._core, self._id, timeout))
 
     async def write_property(
-        self, property: str | int, value: float, *, verify: bool = False, timeout: float | None = None
+        self,
+        property: str | int,
+        value: float,
+        *,
+        verify: bool = False,
+        timeout: float | None = None,
+        force: bool = False,
     ) -> None:
-        await self._bus.run(ops.write_property(self._id, property, value, verify, timeout))
+        await self._bus.run(ops.write_property(self._id, property, value, verify, timeout, force))
 
     async def read_property(self, property: str | int, *, timeout: float | None = None) -> int | float:
         return await self._bus.run(ops.read_property(self._core, self._id, property, timeout))

@@ -291,7 +291,7 @@ def _plan(
             report.skipped.append(p.name)
             continue
         try:
-            WriteParam.of(node, p, rec.value)
+            WriteParam.of(node, p, rec.value, force=force)
         except ValidationError as exc:
             problems.append((p.name, str(exc)))
             continue
@@ -317,7 +317,7 @@ def _write_verified(
     """Write, then read back (at ``verify_at`` when the write moves the motor); True when all verified."""
     if not writes:
         return True
-    yield Send([WriteParam.of(node, p, new) for p, _, new in writes])
+    yield Send([WriteParam(node, p.address, p.dtype, new) for p, _, new in writes])  # checked by _plan
     at = node if verify_at is None else verify_at
     if at != node:
         core.forget(node)
@@ -362,7 +362,8 @@ def restore(
     Every value is checked before the first frame: a value the parameter
     cannot take refuses the whole restore (:class:`BackupFileError`, one
     entry per parameter), and so does a backup of another motor id or one
-    with duplicated records, unless ``force``. With ``include_link`` the bit
+    with duplicated records, unless ``force`` (which also lets values outside
+    a soft domain through, never outside a hard one or the wire range). With ``include_link`` the bit
     rates are written only after every other parameter was verified, and
     ``can_node_id`` last of all: the motor answers to its new id at once, so
     that write is verified there, and ``save`` goes to the new id.

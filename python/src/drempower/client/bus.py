@@ -8,12 +8,13 @@ from types import TracebackType
 from typing import Any, TypeVar
 
 from ..errors import ValidationError
+from ..protocol.ids import check_node
 from ..protocol.messages import Message
 from ..transports.base import Transport
 from ..transports.factory import open_transport
 from . import batch, ops
 from .busbase import BusBase
-from .commands import PositionMode, TorqueMode, VelocityMode
+from .commands import PositionMode, TorqueMode, VelocityMode, as_list
 from .core import (
     DEFAULT_MOVE_TIMEOUT,
     DEFAULT_POLL_INTERVAL,
@@ -27,12 +28,14 @@ from .errors import TimeoutError
 from .motor import Motor
 from .results import MotorInfo
 from .state import MotorState
+from .timeouts import checks_times
 
 __all__ = ["Bus", "open_bus", "DEFAULT_MOVE_TIMEOUT", "DEFAULT_POLL_INTERVAL"]
 
 T = TypeVar("T")
 
 
+@checks_times
 class Bus(BusBase[Motor]):
     """A DrEmpower bus: owns a transport and the receive thread; hands out :class:`Motor` handles.
 
@@ -63,6 +66,7 @@ class Bus(BusBase[Motor]):
     def _execute(self, effect: Effect) -> Any:
         core = self._core
         if isinstance(effect, Request):
+            self._check_broadcast_reads(effect.messages)
             ex = Exchange(core, effect.messages, effect.timeout, effect.missing_ok, effect.expect, effect.what)
             while True:
                 w = ex.start()
@@ -73,7 +77,7 @@ class Bus(BusBase[Motor]):
                     core.matcher.cancel(w)
                     raise
                 if ex.collect(w):
-                    return ex.result()
+                    return self._heard_from(ex.result())
         if isinstance(effect, Send):
             core.send_many(effect.messages)
             return None
@@ -86,10 +90,12 @@ class Bus(BusBase[Motor]):
 
     def send(self, msg: Message) -> None:
         """Send one message (validated first); never waits for a reply."""
+        self._check_writes([msg])
         self._core.send(msg)
 
     def send_many(self, msgs: Sequence[Message]) -> None:
         """Send several messages; if any is invalid, none is sent."""
+        self._check_writes(msgs)
         self._core.send_many(msgs)
 
     def request(self, msgs: Sequence[Message], timeout: float | None = None, *, missing_ok: bool = False) -> list[Any]:
@@ -106,19 +112,19 @@ class Bus(BusBase[Motor]):
 
     def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor (one broadcast frame) when None."""
-        self._core.estop([0] if id_list is None else list(id_list))
+        self._core.estop(self._estop_nodes(id_list))
 
     def scan(
         self, ids: Iterable[int] = batch.ALL_IDS, *, timeout: float | None = None, versions: bool = False
     ) -> list[MotorInfo]:
         """Find the motors that answer (ids 1..63 by default), with hardware/firmware versions on request."""
-        return self.run(batch.scan(ids, timeout, versions))
+        return self.run(batch.scan(as_list(ids, "ids"), timeout, versions))
 
     def cycle(
         self, commands: Iterable[Message], *, timeout: float | None = None, reply_state: bool | None = None
     ) -> dict[int, MotorState]:
         """Send one command per motor and return each motor's state (see :func:`batch.cycle`)."""
-        return self.run(batch.cycle(self._core, commands, timeout, reply_state))
+        return self.run(batch.cycle(self._core, self._commands(commands), timeout, reply_state))
 
     # ------------------------------------------------------------------ multi-motor (vendor names)
 
@@ -204,7 +210,9 @@ class Bus(BusBase[Motor]):
         miss, MoveFaultError (a MotorFaultError) when one reports an error and
         MoveTimeoutError (a TimeoutError) after ``timeout`` s: see :func:`ops.wait_done`.
         """
-        return self.run(ops.wait_done(self._core, list(id_list), timeout, poll_interval, tolerance=tolerance))
+        return self.run(
+            ops.wait_done(self._core, as_list(id_list, "id_list"), timeout, poll_interval, tolerance=tolerance)
+        )
 
     wait_positions_done = positions_done
 
@@ -212,6 +220,7 @@ class Bus(BusBase[Motor]):
 
     def wait_state(self, id: int, timeout: float, newer_than: float | None = None) -> MotorState:
         """Wait for a state of motor ``id`` newer than ``newer_than`` (monotonic s; default: now)."""
+        check_node(id, "id")
         since = time.monotonic() if newer_than is None else newer_than
         st = self._core.states.wait(id, since, timeout)
         if st is None:

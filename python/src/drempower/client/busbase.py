@@ -4,14 +4,17 @@ from __future__ import annotations
 
 import threading
 from abc import ABC, abstractmethod
-from collections.abc import Callable
-from typing import Generic, TypeVar
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any, Generic, TypeVar
 
 from ..errors import ValidationError
 from ..protocol.ids import Frame, check_node
+from ..protocol.messages import FastRead, Message, ReadParam, WriteParam
+from ..protocol.parameters import find_parameter
 from ..transports.base import Transport
 from .core import DEFAULT_TIMEOUT, BusCore, StartPolicy, StopOnClose
 from .state import MotorState, StateCallback, Subscription
+from .timeouts import seconds
 
 __all__ = ["BusBase"]
 
@@ -47,15 +50,69 @@ class BusBase(ABC, Generic[M]):
             on_unsolicited=on_unsolicited,
         )
         self._motors: dict[int, M] = {}
+        self._heard: set[int] = set()
         self._motors_lock = threading.Lock()
 
     @abstractmethod
     def _new_motor(self, id: int) -> M:
         """A new handle of motor ``id`` for this kind of bus."""
 
+    def known_motors(self) -> set[int]:
+        """The motors this bus knows are attached: handles made, motors heard from, and those
+        the transport declares (``motor_ids``, e.g. the in-process simulator's)."""
+        known = set(self._motors) | self._heard  # set() copies in one step: safe while other threads add
+        known.update(self._core.states.snapshot())
+        known.update(getattr(self._core.transport, "motor_ids", ()))
+        known.discard(0)
+        return known
+
+    def _heard_from(self, replies: Any) -> Any:
+        """Note the motors that answered a request (the replies, returned as they are)."""
+        for r in replies:
+            node = getattr(r, "node", 0)
+            if node:
+                self._heard.add(node)
+        return replies
+
+    @staticmethod
+    def _commands(commands: object) -> list[Message]:
+        """The commands of a cycle as a list of protocol messages; :class:`ValidationError` otherwise."""
+        if isinstance(commands, (str, bytes)) or not isinstance(commands, Iterable):
+            raise ValidationError(f"commands={commands!r}: expected a list of messages (make_angle, make_speed...)")
+        out = list(commands)
+        for c in out:
+            if not isinstance(c, Message):
+                raise ValidationError(f"commands: {c!r} is no protocol message (make_angle, make_speed...)")
+        return out
+
+    @staticmethod
+    def _check_writes(msgs: Sequence[Message]) -> None:
+        """Check raw parameter writes (``send``) against their parameter's domain, as ``write_property`` does
+        (without force); writes to addresses outside the table are sent as given."""
+        for m in msgs:
+            if isinstance(m, WriteParam):
+                p = find_parameter(m.address)
+                if p is not None:
+                    p.check(m.value)
+
+    def _check_broadcast_reads(self, msgs: Sequence[Message]) -> None:
+        """Refuse, before sending, a read addressed to every motor (id 0) when the bus knows several:
+        each would answer and the reply taken would be any one of them."""
+        if any(m.node == 0 and isinstance(m, (FastRead, ReadParam)) for m in msgs):
+            known = self.known_motors()
+            if len(known) > 1:
+                ids = ", ".join(map(str, sorted(known)))
+                raise ValidationError(
+                    f"a read addressed to every motor (id 0) is ambiguous on a bus with motors {ids}: "
+                    "read each motor by its id"
+                )
+
     def motor(self, id: int) -> M:
         """The handle of motor ``id`` (1..63; 0 addresses every motor, reads need a single motor)."""
-        m = self._motors.get(id)
+        try:
+            m = self._motors.get(id)
+        except TypeError:  # unhashable: no id at all
+            m = None
         if m is None:
             check_node(id, "id")
             with self._motors_lock:
@@ -66,6 +123,18 @@ class BusBase(ABC, Generic[M]):
 
     def __getitem__(self, id: int) -> M:
         return self.motor(id)
+
+    @staticmethod
+    def _estop_nodes(id_list: Iterable[int] | None) -> list[int]:
+        """The nodes an estop goes to: [0] (broadcast) for None; an empty list is refused, not a no-op."""
+        if id_list is None:
+            return [0]
+        if isinstance(id_list, (str, bytes)) or not isinstance(id_list, Iterable):
+            raise ValidationError(f"id_list={id_list!r}: a list of motor ids, or None for every motor")
+        nodes = [check_node(n, "id_list") for n in id_list]
+        if not nodes:
+            raise ValidationError("id_list is empty: nothing would be stopped; give motor ids, or None for every motor")
+        return nodes
 
     @property
     def core(self) -> BusCore:
@@ -83,9 +152,7 @@ class BusBase(ABC, Generic[M]):
 
     @timeout.setter
     def timeout(self, value: float) -> None:
-        if not value > 0:
-            raise ValidationError(f"timeout={value!r}: must be > 0 s")
-        self._core.timeout = float(value)
+        self._core.timeout = seconds(value)
 
     @property
     def closed(self) -> bool:

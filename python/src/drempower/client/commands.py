@@ -8,8 +8,9 @@ the bus and motor ``set_*`` methods send them. Units: degrees, r/min, Nm,
 from __future__ import annotations
 
 import math
-from collections.abc import Sequence
+from collections.abc import Iterable, Sequence
 from enum import IntEnum
+from typing import Any
 
 from ..errors import FieldRangeError, ValidationError
 from ..protocol.enums import TorqueMode, TrajMode, VelocityMode
@@ -41,6 +42,7 @@ __all__ = [
     "TorqueMode",
     "TrajMode",
     "MAX_BANDWIDTH",
+    "MAX_ANGLE",
     "make_angle",
     "make_speed",
     "make_torque",
@@ -54,10 +56,14 @@ __all__ = [
     "velocity_mode",
     "torque_mode",
     "check_ids",
+    "as_list",
 ]
 
 MAX_BANDWIDTH = 300.0
 """Largest T-mode input-filter bandwidth (1/s) the vendor documents."""
+MAX_ANGLE = 720_000.0
+"""Largest target or step magnitude (deg): the vendor's (-360~360)*n, n < 2000; the domain of
+``axis0.output_shaft.input_pos`` in ``spec/parameters.csv``."""
 
 
 class PositionMode(IntEnum):
@@ -122,7 +128,24 @@ def _positive(value: float, field: str, high: float = S16_MAX) -> float:
 
 
 def _bandwidth(param: float) -> float:
-    return _positive(abs(_finite(param, "param (bandwidth)")), "param (bandwidth)", MAX_BANDWIDTH)
+    """The T-mode input-filter bandwidth, 0 < bw <= 300 1/s (a negative one is refused, not made positive)."""
+    return _positive(param, "param (bandwidth)", MAX_BANDWIDTH)
+
+
+def _angle(value: float, field: str) -> float:
+    """An angle (deg) within +-MAX_ANGLE, named ``field`` when refused."""
+    v = check_f32(value, field)
+    if not -MAX_ANGLE <= v <= MAX_ANGLE:
+        raise FieldRangeError(field, value, -MAX_ANGLE, MAX_ANGLE, "deg; the vendor's (-360~360)*n, n < 2000")
+    return v
+
+
+def _torque_param(param: float, mode: TorqueMode) -> float:
+    """The ramp rate of mode 6 (> 0 Nm/s); mode 1 ignores ``param`` and sends 0, but it must still be a number."""
+    if mode is TorqueMode.DIRECT:
+        _finite(param, "param")
+        return 0.0
+    return _positive(param, "param (ramp rate)")
 
 
 def _t_speed(speed: float) -> float:
@@ -138,9 +161,16 @@ def _gains(kp: float, kd: float) -> tuple[float, float]:
     return float(kp), float(kd)
 
 
+def as_list(values: object, field: str) -> list[Any]:
+    """``values`` (any iterable but a string) as a list; :class:`ValidationError` naming ``field`` otherwise."""
+    if isinstance(values, (str, bytes)) or not isinstance(values, Iterable):
+        raise ValidationError(f"{field}={values!r}: expected a list")
+    return list(values)
+
+
 def check_ids(ids: Sequence[int], values: Sequence[float] | None = None, what: str = "values") -> list[int]:
     """Validate a list of motor ids (1..63, distinct) and, if given, a same-length value list."""
-    out = list(ids)
+    out = as_list(ids, "id_list")
     if not out:
         raise ValidationError("id_list is empty")
     for i in out:
@@ -166,7 +196,7 @@ def make_angle(
     mode P: ``speed`` = speed feed-forward r/min, ``param`` = torque feed-forward Nm.
     """
     m = position_mode(mode)
-    angle = check_f32(angle, "angle")
+    angle = _angle(angle, "angle")
     if m is PositionMode.T:
         return PositionT(node, angle, _bandwidth(param), _t_speed(speed))
     if m is PositionMode.Q:
@@ -185,7 +215,8 @@ def make_speed(node: int, speed: float, param: float = 0.0, mode: int = Velocity
     if m is VelocityMode.RAMP:
         param = _positive(param, "param (ramp rate)")
     else:
-        param = 0.0 if speed == 0 else check_s16(param, "param")
+        ff = check_s16(param, "param")  # checked even when speed 0 makes it unused
+        param = 0.0 if speed == 0 else ff
     return Velocity(node, speed, param, m)
 
 
@@ -193,7 +224,7 @@ def make_torque(node: int, torque: float, param: float = 0.0, mode: int = Torque
     """Apply ``torque`` Nm (vendor ``set_torque``). mode 1: direct; mode 6: ramp at ``param`` Nm/s."""
     m = torque_mode(mode)
     torque = check_f32(torque, "torque")
-    return Torque(node, torque, 0.0 if m is TorqueMode.DIRECT else _positive(param, "param (ramp rate)"), m)
+    return Torque(node, torque, _torque_param(param, m), m)
 
 
 def make_impedance(
@@ -204,7 +235,7 @@ def make_impedance(
     ``pos`` deg, ``vel`` r/min, ``tff`` Nm; ``kp`` Nm/rad and ``kd`` Nm/(rad/s),
     both 0..327.67. The control law is ``tff + kp*(pos - P) + kd*(vel - V)``.
     """
-    preset = PresetD(node, check_f32(pos, "pos"), check_s16(vel, "vel"), check_s16(tff, "tff"))
+    preset = PresetD(node, _angle(pos, "pos"), check_s16(vel, "vel"), check_s16(tff, "tff"))
     return preset, StartImpedance(node, *_gains(kp, kd))
 
 
@@ -225,7 +256,7 @@ def make_impedances(
     v, t = check_s16(vel, "vel"), check_s16(tff, "tff")
     start = StartImpedance(0, *_gains(kp, kd))
     presets: list[Message] = [
-        PresetD(n, check_f32(p, f"pos_list (motor {n})"), v, t) for n, p in zip(nodes, positions, strict=True)
+        PresetD(n, _angle(p, f"pos_list (motor {n})"), v, t) for n, p in zip(nodes, positions, strict=True)
     ]
     return presets, start
 
@@ -268,7 +299,7 @@ def make_angles(
     so an out-of-range one raises before a single frame exists.
     """
     nodes = check_ids(ids, angles, "angle_list")
-    targets = [check_f32(a, f"angle_list (motor {n})") for n, a in zip(nodes, angles, strict=True)]
+    targets = [_angle(a, f"angle_list (motor {n})") for n, a in zip(nodes, angles, strict=True)]
     m = position_mode(mode)
     presets: list[Message]
     if m is PositionMode.T:
@@ -310,7 +341,7 @@ def make_torques(
     """Presets and start of a synchronised torque change (vendor ``set_torques``); one param/mode for all."""
     nodes = check_ids(ids, torques, "torque_list")
     m = torque_mode(mode)
-    prm = 0.0 if m is TorqueMode.DIRECT else _positive(param, "param (ramp rate)")
+    prm = _torque_param(param, m)
     presets: list[Message] = [
         PresetC(n, check_f32(t, f"torque_list (motor {n})"), prm, m) for n, t in zip(nodes, torques, strict=True)
     ]

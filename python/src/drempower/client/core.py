@@ -41,6 +41,7 @@ from . import signals
 from .errors import BusClosedError, TimeoutError
 from .requests import MATCHED, MISMATCHED, Matcher, Waiter, request_dtype, request_key
 from .state import MotorState, StateCache
+from .timeouts import seconds
 
 __all__ = [
     "BusCore",
@@ -177,8 +178,7 @@ class BusCore:
             raise ValidationError(f"start={start!r}: 'auto', 'broadcast' or 'node'")
         if stop_on_close not in (True, False, "idle", "estop"):
             raise ValidationError(f"stop_on_close={stop_on_close!r}: True, False, 'idle' or 'estop'")
-        if not timeout > 0:
-            raise ValidationError(f"timeout={timeout!r}: must be > 0 s")
+        timeout = seconds(timeout)
         if retries.__class__ is not int or retries < 0:
             raise ValidationError(f"retries={retries!r}: must be an integer >= 0")
         self.transport = transport

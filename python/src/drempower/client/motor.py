@@ -31,6 +31,7 @@ from .commands import (
 from .core import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE, BusCore
 from .results import ErrorReport, GpioMode
 from .state import MotorState, StateCallback, Subscription
+from .timeouts import checks_times
 
 if TYPE_CHECKING:
     from .bus import Bus
@@ -88,6 +89,7 @@ class MotorBase:
         return f"<{type(self).__name__} {self._id}>"
 
 
+@checks_times
 class Motor(MotorBase):
     """One motor on a :class:`~drempower.client.bus.Bus` (get it with ``bus.motor(id)``).
 
@@ -230,10 +232,22 @@ class Motor(MotorBase):
         return self._bus.run(ops.get_traj_mode(self._core, self._id, timeout))
 
     def write_property(
-        self, property: str | int, value: float, *, verify: bool = False, timeout: float | None = None
+        self,
+        property: str | int,
+        value: float,
+        *,
+        verify: bool = False,
+        timeout: float | None = None,
+        force: bool = False,
     ) -> None:
-        """Write parameter ``property`` (name or address) in RAM; ``verify`` reads it back."""
-        self._bus.run(ops.write_property(self._id, property, value, verify, timeout))
+        """Write parameter ``property`` (name or address) in RAM; ``verify`` reads it back.
+
+        A value outside the parameter's domain (``spec/parameters.csv``) raises
+        :class:`~drempower.protocol.parameters.DomainError` naming parameter, value and
+        domain, and nothing is sent; ``force=True`` writes one outside a soft domain
+        (never outside a hard one, such as can_node_id 1..63, or the type's range).
+        """
+        self._bus.run(ops.write_property(self._id, property, value, verify, timeout, force))
 
     def read_property(self, property: str | int, *, timeout: float | None = None) -> int | float:
         """Read parameter ``property`` (name or address)."""

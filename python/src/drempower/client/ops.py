@@ -8,6 +8,7 @@ import time
 from collections.abc import Sequence
 
 from ..errors import DrEmpowerError, FieldRangeError, ValidationError
+from ..protocol.addresses import AXIS0_OUTPUT_SHAFT_CIRCULAR_SETPOINT_MAX, AXIS0_OUTPUT_SHAFT_CIRCULAR_SETPOINT_MIN
 from ..protocol.ids import MAX_NODE, SysCmd
 from ..protocol.messages import ReadParam, SystemCommand, WriteParam
 from ..protocol.parameters import DataType, Parameter, parameter
@@ -85,10 +86,14 @@ def read_property(core: BusCore, node: int, prop: str | int, timeout: float | No
 
 
 def write_property(
-    node: int, prop: str | int, value: float, verify: bool = False, timeout: float | None = None
+    node: int, prop: str | int, value: float, verify: bool = False, timeout: float | None = None, force: bool = False
 ) -> Op[None]:
-    """Write ``value`` to ``prop``; with ``verify`` read it back and raise :class:`VerifyError` if it differs."""
-    msg = WriteParam.of(node, prop, value)
+    """Write ``value`` to ``prop``; with ``verify`` read it back and raise :class:`VerifyError` if it differs.
+
+    A value outside the parameter's domain raises :class:`~drempower.protocol.parameters.DomainError`
+    before anything is sent; ``force`` lets one outside a soft domain through.
+    """
+    msg = WriteParam.of(node, prop, value, force=force)
     yield Send([msg])
     if verify:
         yield from _verify(node, [msg], timeout)
@@ -227,6 +232,11 @@ def set_angle_range(node: int, angle_min: float, angle_max: float, timeout: floa
             raise ValidationError(f"{f}={v!r}: expected a finite number of degrees")
     if not angle_min < angle_max:
         raise ValidationError(f"angle_min={angle_min} must be below angle_max={angle_max}")
+    for address, v in (
+        (AXIS0_OUTPUT_SHAFT_CIRCULAR_SETPOINT_MIN, angle_min),
+        (AXIS0_OUTPUT_SHAFT_CIRCULAR_SETPOINT_MAX, angle_max),
+    ):
+        parameter(address).check(v)  # before the read: nothing is sent for a limit that cannot be written
     st = yield from get_state(node, timeout)
     if not angle_min <= st.angle <= angle_max:
         raise ValidationError(
@@ -270,7 +280,9 @@ def set_gpio_mode(node: int, mode: str, param: float, timeout: float | None = No
             ("config.uart_baudrate", int(param)),
         ]
     elif mode == "step_dir":
-        if not (isinstance(param, (int, float)) and param == int(param) and 1 <= param <= 1024):
+        if not (
+            isinstance(param, (int, float)) and math.isfinite(param) and param == int(param) and 1 <= param <= 1024
+        ):
             raise FieldRangeError("param", param, 1, 1024, "whole pulses per turn")
         items = [
             ("config.enable_uart", 0),

@@ -54,7 +54,17 @@ from .messages import (
     decode_command,
     decode_reply,
 )
-from .parameters import Access, DataType, Parameter, decode_value, encode_value, find_parameter, parameter, parameters
+from .parameters import (
+    Access,
+    DataType,
+    DomainError,
+    Parameter,
+    decode_value,
+    encode_value,
+    find_parameter,
+    parameter,
+    parameters,
+)
 
 __all__ = [
     "AADecoder",
@@ -127,6 +137,7 @@ __all__ = [
     "message_fields",
     "message_name",
     "parameter",
+    "DomainError",
     "parameters",
     "split_arbitration_id",
 ]

@@ -552,15 +552,23 @@ class WriteParam(Message):
 
     @classmethod
     def of(
-        cls, node: int, name: str | int | Parameter, value: int | float | bool, *, allow_read_only: bool = False
+        cls,
+        node: int,
+        name: str | int | Parameter,
+        value: int | float | bool,
+        *,
+        allow_read_only: bool = False,
+        force: bool = False,
     ) -> WriteParam:
-        """Write ``value`` to the parameter ``name`` with its table type; checks range and access."""
+        """Write ``value`` to the parameter ``name`` with its table type.
+
+        Checks access, the wire range and the parameter's domain
+        (:meth:`Parameter.check`); ``force`` lets a value outside a soft domain through.
+        """
         p = parameter(name)
         if not p.writable and not allow_read_only:
             raise ValidationError(f"{p.name} ({p.address}) is read-only")
-        p.encode(value)  # validates range (and 0/1 for bools)
-        v: int | float = float(value) if p.dtype is DataType.F32 else int(value)
-        return cls(node, p.address, p.dtype, v)
+        return cls(node, p.address, p.dtype, p.check(value, force))
 
     def encode(self) -> Frame:
         return _rw(self.node, 0x1F, self.address, self.dtype, self.value)

@@ -14,7 +14,13 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from enum import Enum, IntEnum
 
-from ..errors import FieldRangeError, ProtocolError, ValidationError
+from ..errors import DomainError, FieldRangeError, ProtocolError, ValidationError
+from .addresses import (
+    AXIS0_CONTROLLER_CONFIG_CONTROL_MODE,
+    AXIS0_CONTROLLER_CONFIG_INPUT_MODE,
+    AXIS0_REQUESTED_STATE,
+    AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE,
+)
 from .enums import AxisState, ControlMode, InputMode, TrajMode
 
 __all__ = [
@@ -27,6 +33,7 @@ __all__ = [
     "encode_value",
     "decode_value",
     "F32_MAX",
+    "DomainError",
 ]
 
 F32_MAX = 3.4028234663852886e38
@@ -56,7 +63,14 @@ class Access(str, Enum):
 
 @dataclass(frozen=True, slots=True)
 class Parameter:
-    """One entry of the parameter table."""
+    """One entry of the parameter table.
+
+    The domain (from ``spec/parameters.csv``): ``minimum``/``maximum`` bound the
+    value (inclusive; None: the type's range), ``allowed`` lists the only values
+    it takes (empty: any). A ``hard`` domain is never left; a soft one may be
+    left with ``force=True`` (an expert's choice). ``inferred`` marks a domain
+    the vendor does not document. The wire range of the type always applies.
+    """
 
     name: str
     address: int
@@ -67,6 +81,11 @@ class Parameter:
     series: str
     is_bool: bool
     description: str
+    minimum: float | None = None
+    maximum: float | None = None
+    allowed: tuple[float, ...] = ()
+    hard: bool = False
+    inferred: bool = False
 
     @property
     def writable(self) -> bool:
@@ -77,23 +96,69 @@ class Parameter:
         """The enum of the values this parameter takes, for the modes and states with a fixed set."""
         return _CHOICES.get(self.address)
 
-    def encode(self, value: int | float | bool) -> bytes:
-        """Encode ``value`` in this parameter's type (4 bytes, little-endian, zero padded)."""
-        if self.is_bool and value not in (0, 1, True, False):
-            raise FieldRangeError(self.name, value, 0, 1, "bool parameter, sent as u32")
+    @property
+    def has_domain(self) -> bool:
+        """Whether the parameter takes less than every value of its type."""
+        return self.minimum is not None or self.maximum is not None or bool(self.allowed)
+
+    def domain_text(self) -> str:
+        """The domain in words, e.g. ``1..63 (hard)`` or ``>= 0 (soft, inferred)``."""
+        if not self.has_domain:
+            return f"any {self.dtype.name.lower()} value"
+        if self.allowed:
+            text = "one of " + ", ".join(f"{v:g}" for v in self.allowed)
+        elif self.minimum is not None and self.maximum is not None:
+            text = f"{self.minimum:g}..{self.maximum:g}"
+        elif self.minimum is not None:
+            text = f">= {self.minimum:g}"
+        else:
+            text = f"<= {self.maximum:g}"
+        kind = "hard" if self.hard else "soft"
+        return f"{text} ({kind}{', inferred' if self.inferred else ''})"
+
+    def in_domain(self, value: float) -> bool:
+        """Whether ``value`` lies in the domain (NaN lies in none)."""
+        if self.allowed:
+            return value in self.allowed
+        if self.minimum is not None and not value >= self.minimum:
+            return False
+        return self.maximum is None or value <= self.maximum
+
+    def check(self, value: object, force: bool = False) -> int | float:
+        """``value`` as this parameter sends it, or :class:`ValidationError` naming parameter, value and domain.
+
+        Checks, in order: a number (bools are 0/1), the wire range of the type,
+        the fixed set of a mode or state, and the domain; ``force`` lets a value
+        outside a soft domain through (never outside a hard one or the wire range).
+        """
+        if isinstance(value, bool):
+            value = int(value)
+        if not isinstance(value, (int, float)):
+            raise ValidationError(f"{self.name}={value!r}: expected a number")
+        if self.is_bool and value not in (0, 1):
+            raise DomainError(self, value)
+        encode_value(self.dtype, value, field=self.name)
         choices = _CHOICES.get(self.address)
         if choices is not None and value not in set(choices):
             low, high = min(choices), max(choices)
             names = ", ".join(f"{int(c)} {c.name}" for c in choices)
             raise FieldRangeError(self.name, value, low, high, f"{choices.__name__}: {names}")
-        return encode_value(self.dtype, value, field=self.name)
+        if self.has_domain and not (force and not self.hard):
+            sent = _F32.unpack(_F32.pack(value))[0] if self.dtype is DataType.F32 else value
+            if not self.in_domain(sent):  # the value as the frame carries it (as the C check sees it)
+                raise DomainError(self, value)
+        return float(value) if self.dtype is DataType.F32 else int(value)
+
+    def encode(self, value: int | float | bool, force: bool = False) -> bytes:
+        """Encode ``value`` in this parameter's type (4 bytes, little-endian, zero padded), after :meth:`check`."""
+        return encode_value(self.dtype, self.check(value, force), field=self.name)
 
 
 _CHOICES: dict[int, type[IntEnum]] = {
-    30003: AxisState,  # axis0.requested_state
-    32105: ControlMode,  # axis0.controller.config.control_mode
-    32106: InputMode,  # axis0.controller.config.input_mode
-    35104: TrajMode,  # axis0.trap_traj.config.traj_mode
+    AXIS0_REQUESTED_STATE: AxisState,
+    AXIS0_CONTROLLER_CONFIG_CONTROL_MODE: ControlMode,
+    AXIS0_CONTROLLER_CONFIG_INPUT_MODE: InputMode,
+    AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE: TrajMode,
 }
 """Parameters whose values form a fixed set (PROTOCOL.md section 5)."""
 

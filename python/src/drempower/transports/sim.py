@@ -50,6 +50,11 @@ class SimTransport(Transport):
         rate = f"{self.bus.bitrate} bit/s" if self.bus.bitrate else "instant delivery"
         self.description = f"simulator: motors {ids} ({rate}, {pace})"
 
+    @property
+    def motor_ids(self) -> frozenset[int]:
+        """The ids of the simulated motors (the client refuses broadcast reads when there are several)."""
+        return frozenset(m.node_id for m in self.bus.motors.values())
+
     def __enter__(self) -> SimTransport:
         return self
 

@@ -1,0 +1,89 @@
+"""Checks of the time arguments of the client API (``timeout``, ``poll_interval``), before anything is sent.
+
+A time is a number of seconds, > 0 and at most :data:`MAX_TIMEOUT`; anything else
+(a string, NaN, infinity, 1e12 s, which the operating system's waits cannot hold)
+raises :class:`~drempower.errors.ValidationError` naming the argument. The class
+decorator :func:`checks_times` applies the check to every public method of a
+front end, so a bad time is refused before the method sends its first frame.
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import math
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+from ..errors import ValidationError
+
+__all__ = ["MAX_TIMEOUT", "TIME_ARGUMENTS", "check_timeout", "checks_times", "seconds"]
+
+MAX_TIMEOUT = 86_400.0
+"""The longest time any call waits (s): one day."""
+
+TIME_ARGUMENTS = ("timeout", "poll_interval")
+"""The arguments, by name, that :func:`checks_times` checks."""
+
+C = TypeVar("C", bound=type)
+
+
+def check_timeout(value: object, name: str = "timeout", *, none_ok: bool = True) -> float | None:
+    """``value`` as seconds (float), or None when ``none_ok``; :class:`ValidationError` otherwise."""
+    if value is None and none_ok:
+        return None
+    return seconds(value, name)
+
+
+def seconds(value: object, name: str = "timeout") -> float:
+    """``value`` as seconds (float): a number > 0 and at most :data:`MAX_TIMEOUT`."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValidationError(f"{name}={value!r}: expected a number of seconds")
+    if not 0 < value <= MAX_TIMEOUT:  # also refuses NaN
+        limit = f"must be > 0 s and at most {MAX_TIMEOUT:g} s (one day)"
+        detail = "not a number of seconds" if math.isnan(value) else limit
+        raise ValidationError(f"{name}={value!r}: {detail}")
+    return float(value)
+
+
+def _checked(fn: Callable[..., Any]) -> Callable[..., Any] | None:
+    """``fn`` wrapped to check its time arguments, or None when it has none."""
+    sig = inspect.signature(fn)
+    names = list(sig.parameters)
+    checks = [(names.index(n), n, sig.parameters[n].default is None) for n in TIME_ARGUMENTS if n in sig.parameters]
+    if not checks:
+        return None
+
+    def check(args: tuple[Any, ...], kwargs: dict[str, Any]) -> None:
+        for index, name, none_ok in checks:
+            if name in kwargs:
+                check_timeout(kwargs[name], name, none_ok=none_ok)
+            elif index < len(args):
+                check_timeout(args[index], name, none_ok=none_ok)
+
+    if inspect.iscoroutinefunction(fn):
+
+        @functools.wraps(fn)
+        async def run_async(*args: Any, **kwargs: Any) -> Any:
+            check(args, kwargs)
+            return await fn(*args, **kwargs)
+
+        return run_async
+
+    @functools.wraps(fn)
+    def run(*args: Any, **kwargs: Any) -> Any:
+        check(args, kwargs)
+        return fn(*args, **kwargs)
+
+    return run
+
+
+def checks_times(cls: C) -> C:
+    """Class decorator: every public method of ``cls`` with a time argument checks it first."""
+    for name, fn in list(vars(cls).items()):
+        if name.startswith("_") or not inspect.isfunction(fn):
+            continue
+        wrapped = _checked(fn)
+        if wrapped is not None:
+            setattr(cls, name, wrapped)
+    return cls
