@@ -361,7 +361,10 @@ class Hub:
     # ------------------------------------------------------------------ tuning
 
     def do_step(self, who: str, args: dict[str, Any]) -> dict[str, Any]:
-        """A step response of one motor (position or velocity): series and its figures."""
+        """A step response of one motor (position: T mode with ``bandwidth``, default 300; or velocity).
+
+        Returns the actual series (``t`` s from the step, ``y`` deg or r/min) and its figures.
+        """
         i = int(_num(args, "id"))
         mode = args.get("mode", "position")
         amp, duration = _num(args, "amplitude"), _num(args, "duration", 1.0)
@@ -378,7 +381,8 @@ class Hub:
         try:
             start = time.monotonic()
             if mode == "position":
-                self.do_control(who, {"action": "T", "id": i, "angle": target, "param": 0.0})
+                bandwidth = _num(args, "bandwidth", 300.0)
+                self.do_control(who, {"action": "T", "id": i, "angle": target, "param": bandwidth})
             else:
                 self.do_control(who, {"action": "V", "id": i, "speed": target})
             time.sleep(duration)

@@ -67,6 +67,7 @@ class Dashboard:
         self.sent_total = 0
         self._n = 0
         self.cards: dict[int, dict[str, Any]] = {}
+        self._tasks: set[asyncio.Future[None]] = set()
         self._static = resources.files("drempower.dash") / "static"
         self.app = web.Application(middlewares=[self._auth])
         self.app.router.add_get("/", self._index)
@@ -158,7 +159,9 @@ class Dashboard:
                 client.last_hb = time.monotonic()
                 if req.get("op") == "hb":
                     continue
-                asyncio.ensure_future(self._handle(client, req))
+                task = asyncio.ensure_future(self._handle(client, req))
+                self._tasks.add(task)
+                task.add_done_callback(self._tasks.discard)
         finally:
             self.clients.discard(client)
             log(f"{client.name} disconnected")
@@ -206,6 +209,9 @@ class Dashboard:
             reply.update(ok=True, result=result)
         except (DrEmpowerError, KeyError, TypeError, ValueError) as exc:
             reply.update(ok=False, error=str(exc) or type(exc).__name__)
+        except Exception as exc:  # a bug must still answer the page
+            log(f"{who}: {op} failed: {exc!r}")
+            reply.update(ok=False, error=f"internal error: {exc!r}")
         if not client.ws.closed:
             with contextlib.suppress(ConnectionError, RuntimeError):
                 await client.ws.send_str(json.dumps(reply))
@@ -284,6 +290,8 @@ class Dashboard:
             pump.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await pump
+            if self._tasks:  # requests under way finish (their bus calls are bounded by timeouts)
+                await asyncio.wait(self._tasks, timeout=5)
         finally:
             await self._run(self.hub.idle_commanded, "dashboard stopping")
             for c in list(self.clients):

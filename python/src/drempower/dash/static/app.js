@@ -16,7 +16,7 @@
     lastT: 0, paused: false, frozen: null, xRange: null, dirty: true,
     received: 0, frames: 0, rateWin: [], paramValues: {}, changed: new Set(), runs: [],
   };
-  window.dashStats = { received: 0, serverTotal: 0, batches: 0, frames: 0, fps: 0, rate: 0, connected: false };
+  window.dashStats = { received: 0, firstTotal: 0, serverTotal: 0, batches: 0, frames: 0, fps: 0, rate: 0, connected: false };
 
   function say(text, info) {
     const m = $("#msg");
@@ -65,6 +65,18 @@
     }
   }
 
+  // click handlers: a refused input or a failed request is shown in #msg, never thrown
+  function on(sel, fn, ev) {
+    $(sel).addEventListener(ev || "click", (e) => {
+      try {
+        const r = fn(e);
+        if (r && r.catch) r.catch(() => {});
+      } catch (err) {
+        if (err.message !== "invalid") say(String(err.message || err));
+      }
+    });
+  }
+
   function onMessage(m) {
     switch (m.t) {
       case "hello":
@@ -101,7 +113,7 @@
   // ------------------------------------------------------------ samples
   function onSamples(m) {
     const s = m.s;
-    window.dashStats.batches++;
+    if (window.dashStats.batches++ === 0) window.dashStats.firstTotal = m.total - s.length;
     S.received += s.length;
     window.dashStats.received = S.received;
     window.dashStats.serverTotal = Math.max(window.dashStats.serverTotal, m.total);
@@ -177,7 +189,7 @@
     if (S.ws && S.ws.readyState === 1) S.ws.send(JSON.stringify({ op: "estop", req: ++S.req }));
     say("ESTOP sent: every motor stopped; clear errors and enable to go on", false);
   }
-  $("#estop").addEventListener("click", estop);
+  on("#estop", estop);
   document.addEventListener("keydown", (e) => {
     if (e.key !== " " && e.key !== "Escape") return;
     const t = e.target;
@@ -188,7 +200,7 @@
   });
 
   // ------------------------------------------------------------ bus view
-  $("#scan").addEventListener("click", async () => {
+  on("#scan", async () => {
     $("#scan-progress").value = 0;
     const found = await act("scan", {});
     $("#scan-text").textContent = `done: ${found.length} motor(s): ${found.map((f) => f.id).join(", ")}`;
@@ -218,7 +230,7 @@
     }).join("");
     $("#cards").innerHTML = html;
   }
-  $("#cards").addEventListener("click", (e) => {
+  on("#cards", (e) => {
     const b = e.target.closest("button[data-card]");
     if (!b) return;
     const id = Number(b.closest(".card").dataset.id);
@@ -322,8 +334,8 @@
     if (!on) { S.frozen = null; S.xRange = null; }
     S.dirty = true;
   }
-  $("#plot-pause").addEventListener("click", () => pause(!S.paused));
-  $("#plot-reset").addEventListener("click", () => pause(false));
+  on("#plot-pause", () => pause(!S.paused));
+  on("#plot-reset", () => pause(false));
   function pan(dir) {
     if (!S.paused) pause(true);
     const x1 = S.xRange ? S.xRange[1] : S.frozenT, x0 = S.xRange ? S.xRange[0] : x1 - windowS();
@@ -331,14 +343,14 @@
     S.xRange = [x0 + dir * w / 2, x1 + dir * w / 2];
     S.dirty = true;
   }
-  $("#plot-left").addEventListener("click", () => pan(-1));
-  $("#plot-right").addEventListener("click", () => pan(1));
-  $("#plot-window").addEventListener("change", () => { S.xRange = null; S.dirty = true; });
-  $("#plot-channels").addEventListener("change", rebuildPlot);
-  $("#plot-motors").addEventListener("change", rebuildPlot);
-  $("#plot-rate").addEventListener("change", (e) =>
-    act("rate", { hz: Number(e.target.value) }, `sample rate ${e.target.value === "0" ? "poll" : e.target.value + "/s"}`));
-  $("#plot-csv").addEventListener("click", () => {
+  on("#plot-left", () => pan(-1));
+  on("#plot-right", () => pan(1));
+  on("#plot-window", () => { S.xRange = null; S.dirty = true; }, "change");
+  on("#plot-channels", rebuildPlot, "change");
+  on("#plot-motors", rebuildPlot, "change");
+  on("#plot-rate", (e) =>
+    act("rate", { hz: Number(e.target.value) }, `sample rate ${e.target.value === "0" ? "poll" : e.target.value + "/s"}`), "change");
+  on("#plot-csv", () => {
     const src = S.paused && S.frozen ? S.frozen : S.data;
     let x0, x1;
     if (S.xRange) [x0, x1] = S.xRange; else { x1 = S.paused ? S.frozenT : S.lastT; x0 = x1 - windowS(); }
@@ -374,16 +386,16 @@
   }
   $$("#view-control button[data-act]").forEach((b) => b.addEventListener("click", () =>
     control({ action: b.dataset.act }, `motor ${ctlId()}: ${b.dataset.act}`)));
-  $("#pos-go").addEventListener("click", () => control({ action: $("#pos-mode").value, angle: num("#pos-angle"),
+  on("#pos-go", () => control({ action: $("#pos-mode").value, angle: num("#pos-angle"),
     speed: num("#pos-speed"), param: num("#pos-param") }, `motor ${ctlId()}: move to ${$("#pos-angle").value} deg`));
-  $("#jog-plus").addEventListener("click", () => control({ action: "jog", delta: num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
-  $("#jog-minus").addEventListener("click", () => control({ action: "jog", delta: -num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
-  $("#step-go").addEventListener("click", () => control({ action: "step", delta: num("#step-delta"), speed: 0, param: 0 }));
-  $("#vel-go").addEventListener("click", () => control({ action: "V", speed: num("#vel-speed"), mode: Number($("#vel-mode").value), param: num("#vel-param") }));
-  $("#tq-go").addEventListener("click", () => control({ action: "C", torque: num("#tq-torque"), mode: Number($("#tq-mode").value), param: num("#tq-param") }));
-  $("#imp-go").addEventListener("click", () => control({ action: "impedance", angle: num("#imp-angle"), speed: num("#imp-speed"),
+  on("#jog-plus", () => control({ action: "jog", delta: num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
+  on("#jog-minus", () => control({ action: "jog", delta: -num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
+  on("#step-go", () => control({ action: "step", delta: num("#step-delta"), speed: 0, param: 0 }));
+  on("#vel-go", () => control({ action: "V", speed: num("#vel-speed"), mode: Number($("#vel-mode").value), param: num("#vel-param") }));
+  on("#tq-go", () => control({ action: "C", torque: num("#tq-torque"), mode: Number($("#tq-mode").value), param: num("#tq-param") }));
+  on("#imp-go", () => control({ action: "impedance", angle: num("#imp-angle"), speed: num("#imp-speed"),
     torque: num("#imp-torque"), kp: num("#imp-kp"), kd: num("#imp-kd") }));
-  $("#sync-go").addEventListener("click", () => {
+  on("#sync-go", () => {
     const ids = $$(".sync-on:checked").map((e) => Number(e.value));
     const angles = ids.map((i) => Number($(`.sync-angle[data-id="${i}"]`).value));
     act("control", { action: "sync_move", ids, angles, speed: num("#sync-speed"), accel: num("#sync-accel") },
@@ -419,10 +431,10 @@
     for (const tr of $$("#par-table tr[data-name]")) tr.classList.toggle("changed", S.changed.has(tr.dataset.name));
     $("#par-status").textContent = `motor ${id}: ${Object.keys(r.values).length} values read ${new Date().toLocaleTimeString()}; ${S.changed.size} changed since saved`;
   }
-  $("#par-read").addEventListener("click", readParams);
-  $("#par-motor").addEventListener("change", readParams);
+  on("#par-read", readParams);
+  on("#par-motor", readParams, "change");
   setInterval(() => { if ($("#par-live").checked && !$("#view-params").hidden) readParams().catch(() => {}); }, 2000);
-  $("#par-table").addEventListener("click", async (e) => {
+  on("#par-table", async (e) => {
     const b = e.target.closest("button[data-set]");
     if (!b) return;
     const name = b.dataset.set, input = $(`#par-table input[data-name="${name}"]`);
@@ -437,12 +449,12 @@
     const f = e.target.value.toLowerCase();
     for (const tr of $$("#par-table tr[data-name]")) tr.hidden = f && !tr.dataset.name.toLowerCase().includes(f);
   });
-  $("#par-save").addEventListener("click", async () => { await act("save", { id: parId() }, `motor ${parId()}: saved to flash`); readParams(); });
-  $("#par-backup").addEventListener("click", async () => {
+  on("#par-save", async () => { await act("save", { id: parId() }, `motor ${parId()}: saved to flash`); readParams(); });
+  on("#par-backup", async () => {
     const doc = await act("backup", { id: parId() });
     download(`drempower-motor${parId()}-backup.json`, JSON.stringify(doc, null, 1) + "\n", "application/json");
   });
-  $("#par-restore").addEventListener("change", async (e) => {
+  on("#par-restore", async (e) => {
     const f = e.target.files[0];
     if (!f) return;
     let doc;
@@ -457,15 +469,15 @@
       box.innerHTML = `<b>${f.name}: ${r.diff.length} parameter(s) of motor ${id} would change</b>
         <table><tr><th>name</th><th>now</th><th>backup</th></tr>${r.diff.map((d) => `<tr><td>${d[0]}</td><td>${d[1]}</td><td>${d[2]}</td></tr>`).join("")}</table>
         <button id="diff-write">Write them</button> <button id="diff-close">Cancel</button>`;
-      $("#diff-write").addEventListener("click", async () => {
+      on("#diff-write", async () => {
         const w = await act("restore", { id, doc, dry_run: false });
         box.hidden = true;
         say(`motor ${id}: ${w.diff.length} parameter(s) written${w.failed.length ? ", failed: " + w.failed.map((x) => x[0]).join(", ") : ""}`, !w.failed.length);
         readParams();
       });
     }
-    $("#diff-close").addEventListener("click", () => { box.hidden = true; });
-  });
+    on("#diff-close", () => { box.hidden = true; });
+  }, "change");
 
   // ------------------------------------------------------------ tuning
   const GAINS = {
@@ -481,7 +493,7 @@
     $("#tun-gains").innerHTML = GAINS[mode].map((n) =>
       `<label>${n.split(".").pop()} <input type="number" step="any" data-gain="${n}" value="${r.values[n]}" size="8"></label>`).join("") +
       ' <button id="tun-apply">Write gains</button>';
-    $("#tun-apply").addEventListener("click", async () => {
+    on("#tun-apply", async () => {
       for (const el of $$("#tun-gains input[data-gain]")) {
         const w = await act("write", { id, name: el.dataset.gain, value: Number(el.value) });
         el.value = w.value;
@@ -489,9 +501,9 @@
       say(`motor ${id}: gains written and read back`, true);
     });
   }
-  $("#tun-mode").addEventListener("change", loadGains);
-  $("#tun-motor").addEventListener("change", loadGains);
-  $("#tun-run").addEventListener("click", async () => {
+  on("#tun-mode", loadGains, "change");
+  on("#tun-motor", loadGains, "change");
+  on("#tun-run", async () => {
     const gains = $$("#tun-gains input[data-gain]").map((e) => `${e.dataset.gain.split(".").pop()}=${e.value}`).join(" ");
     say("running step...", true);
     const r = await act("step", { id: Number($("#tun-motor").value), mode: $("#tun-mode").value,
@@ -505,7 +517,7 @@
     say(`step run ${r.n}: rise ${fmt(f.rise_s, 3)} s, overshoot ${fmt(f.overshoot_pct, 1)} %`, true);
     drawRuns();
   });
-  $("#tun-clear").addEventListener("click", () => { S.runs = []; $("#tun-runs tbody").innerHTML = ""; drawRuns(); });
+  on("#tun-clear", () => { S.runs = []; $("#tun-runs tbody").innerHTML = ""; drawRuns(); });
   function drawRuns() {
     const el = $("#tun-plot");
     if (tunPlot) { tunPlot.destroy(); tunPlot = null; }
