@@ -25,7 +25,7 @@ from drempower.sim import SimBus
 from ..conftest import REPO_ROOT
 
 pytest.importorskip("aiohttp")
-from drempower.dash import Dashboard, Hub  # noqa: E402
+from drempower.dash import Dashboard, Hub
 
 CHROMIUM = os.environ.get("DREMPOWER_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = [

@@ -29,7 +29,9 @@ def register(sub: Any) -> None:
             "idle them too. Control actions are logged on stderr."
         ),
     )
-    p.add_argument("--host", default=DEFAULT_HOST, help=f"address to bind (default {DEFAULT_HOST}; others need the token)")
+    p.add_argument(
+        "--host", default=DEFAULT_HOST, help=f"address to bind (default {DEFAULT_HOST}; others need the token)"
+    )
     p.add_argument("--port", type=int, default=8811, help="TCP port (default 8811; 0 picks a free one)")
     p.add_argument("--json", action="store_true", help='print {"url": ...} as the first line')
     p.add_argument("--open", action="store_true", help="also open the URL in a browser")
@@ -39,7 +41,9 @@ def register(sub: Any) -> None:
         action="store_true",
         help="leave the motors moving when the last browser goes away (signals still idle them)",
     )
-    p.add_argument("--poll-rate", type=positive, default=50.0, metavar="HZ", help="fast reads per second per motor (default 50)")
+    p.add_argument(
+        "--poll-rate", type=positive, default=50.0, metavar="HZ", help="fast reads per second per motor (default 50)"
+    )
     add_connection_args(p)
     p.set_defaults(func=run)
 

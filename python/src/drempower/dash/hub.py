@@ -187,7 +187,11 @@ class Hub:
                 try:
                     report = m.dump_error(timeout=0.2)
                     card["errors"] = [
-                        {"word": w, "flag": f, "advice": _FLAG_ADVICE.get(f, "clear errors; if it comes back, see docs")}
+                        {
+                            "word": w,
+                            "flag": f,
+                            "advice": _FLAG_ADVICE.get(f, "clear errors; if it comes back, see docs"),
+                        }
                         for w, fl in report.flags.items()
                         for f in fl
                     ]
@@ -203,7 +207,9 @@ class Hub:
             raise ValidationError("this dashboard is read-only (--read-only)")
         log(f"{who}: {what}")
 
-    def _target(self, i: int, angle: float | None = None, speed: float | None = None, torque: float | None = None) -> None:
+    def _target(
+        self, i: int, angle: float | None = None, speed: float | None = None, torque: float | None = None
+    ) -> None:
         self.targets[i] = [angle, speed, torque]
         self.commanded.add(i)
 
@@ -219,7 +225,7 @@ class Hub:
             speed, accel = _num(args, "speed", 10.0), _num(args, "accel", 10.0)
             self._control(who, f"set_angles({ids}, {angles_f}, speed={speed}, param={accel}, mode=1)")
             t = self.bus.set_angles(ids, angles_f, speed, accel, 1)
-            for i, a in zip(ids, angles_f):
+            for i, a in zip(ids, angles_f, strict=True):
                 self._target(i, angle=a)
             return {"seconds": t}
         i = int(_num(args, "id"))
@@ -378,7 +384,10 @@ class Hub:
         target = base + amp
         got: list[MotorState] = []
         sub = self.bus.subscribe(got.append, i)
+        fast = not self.heartbeat_ms  # 500 samples/s for the run (the motor's heartbeat), off afterwards
         try:
+            if fast:
+                m.write_property(_HEARTBEAT, 2)
             start = time.monotonic()
             if mode == "position":
                 bandwidth = _num(args, "bandwidth", 300.0)
@@ -388,6 +397,8 @@ class Hub:
             time.sleep(duration)
         finally:
             sub.cancel()
+            if fast:
+                m.write_property(_HEARTBEAT, 0)
         key = 1 if mode == "position" else 2
         ts = [s.timestamp - start for s in got if s.timestamp >= start]
         ys = [s[key] for s in got if s.timestamp >= start]
@@ -406,4 +417,3 @@ class Hub:
                     self.bus.motor(i).write_property(_HEARTBEAT, 0)
                 except DrEmpowerError:
                     pass
-

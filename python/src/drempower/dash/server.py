@@ -18,7 +18,7 @@ import time
 from collections.abc import Awaitable, Callable
 from dataclasses import dataclass, field
 from importlib import resources
-from typing import Any
+from typing import Any, ClassVar
 from urllib.parse import urlsplit
 
 from aiohttp import WSMsgType, web
@@ -101,7 +101,12 @@ class Dashboard:
     async def _no_icon(self, request: web.Request) -> web.StreamResponse:
         return web.Response(status=204)
 
-    _TYPES = {".js": "text/javascript", ".css": "text/css", ".png": "image/png", ".html": "text/html"}
+    _TYPES: ClassVar[dict[str, str]] = {
+        ".js": "text/javascript",
+        ".css": "text/css",
+        ".png": "image/png",
+        ".html": "text/html",
+    }
 
     async def _asset(self, request: web.Request) -> web.StreamResponse:
         parts = request.match_info["path"].split("/")

@@ -22,12 +22,12 @@ def step_figures(
     if not t or step == 0 or len(t) != len(y):
         return out
     frac = [(v - base) / step for v in y]
-    t10 = next((tt for tt, f in zip(t, frac) if f >= 0.1), None)
-    t90 = next((tt for tt, f in zip(t, frac) if f >= 0.9), None)
+    t10 = next((tt for tt, f in zip(t, frac, strict=True) if f >= 0.1), None)
+    t90 = next((tt for tt, f in zip(t, frac, strict=True) if f >= 0.9), None)
     if t10 is not None and t90 is not None:
         out["rise_s"] = t90 - t10
     out["overshoot_pct"] = max(0.0, (max(frac) - 1.0) * 100.0)
-    outside = [tt for tt, f in zip(t, frac) if abs(f - 1.0) > settle_band]
+    outside = [tt for tt, f in zip(t, frac, strict=True) if abs(f - 1.0) > settle_band]
     if not outside:
         out["settling_s"] = 0.0
     elif outside[-1] < t[-1]:

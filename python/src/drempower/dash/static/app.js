@@ -491,7 +491,7 @@
     const mode = $("#tun-mode").value, id = Number($("#tun-motor").value);
     const r = await act("params", { id });
     $("#tun-gains").innerHTML = GAINS[mode].map((n) =>
-      `<label>${n.split(".").pop()} <input type="number" step="any" data-gain="${n}" value="${r.values[n]}" size="8"></label>`).join("") +
+      `<label>${n.split(".").pop()} <input type="number" step="any" data-gain="${n}" value="${+Number(r.values[n]).toPrecision(6)}" size="8"></label>`).join("") +
       ' <button id="tun-apply">Write gains</button>';
     on("#tun-apply", async () => {
       for (const el of $$("#tun-gains input[data-gain]")) {
