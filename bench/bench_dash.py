@@ -149,9 +149,8 @@ def main() -> None:
     print(
         f"dashboard throughput ({platform.python_implementation()} {platform.python_version()}, {os.cpu_count()} cores)"
     )
-    print(
-        f"{'motors':>6} {'samples/s':>10} {'floor':>8} {'lost':>5} {'fps':>5} {'page fps':>8} {'server CPU %':>13} {'browser CPU %':>14}"
-    )
+    heads = ("motors", "samples/s", "floor", "lost", "fps", "page fps", "server CPU %", "browser CPU %")
+    print(" ".join(f"{h:>{w}}" for h, w in zip(heads, (6, 10, 8, 5, 5, 8, 13, 14), strict=True)))
     with sync_playwright() as pw:
         browser = pw.chromium.launch(executable_path=CHROMIUM, headless=True, args=ARGS)
         try:
