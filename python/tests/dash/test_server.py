@@ -193,3 +193,52 @@ def test_ipv6_loopback_also_needs_the_token(proc: subprocess.Popen[str]) -> None
     assert url.startswith("http://[::1]:") and "?token=" in url
     assert _status(url.split("?")[0]) == 403
     assert _status(url) == 200
+
+
+@pytest.mark.parametrize("attachment", ["adapter", "socketcand"])
+async def test_through_the_simulators_adapter_pty_and_socketcand(attachment: str) -> None:
+    from contextlib import ExitStack
+
+    from drempower.sim import SimBus, SimRunner, attach_adapter_pty, attach_socketcand
+
+    sim = SimBus([1, 2])
+    with ExitStack() as stack:
+        stack.enter_context(SimRunner(sim))
+        if attachment == "adapter":
+            conn = ["--serial", stack.enter_context(attach_adapter_pty(sim)).path]
+        else:
+            port = stack.enter_context(attach_socketcand(sim)).port
+            conn = ["-i", "socketcand", "-c", "can0", "-o", "host=127.0.0.1", "-o", f"port={port}"]
+        p = subprocess.Popen(
+            [sys.executable, "-m", "drempower", "dash", "--port", "0", *conn],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            assert p.stdout is not None
+            url = p.stdout.readline().strip()
+            async with aiohttp.ClientSession() as s, s.ws_connect(url.replace("http:", "ws:") + "ws") as ws:
+                await ws.receive_json(timeout=5)
+                await ws.send_json({"op": "scan", "req": 1})
+                samples = 0
+                deadline = time.monotonic() + 15
+                while abs(sim.motors[1].position - 30) > 0.05 and time.monotonic() < deadline:
+                    await ws.send_json({"op": "hb"})
+                    m = await ws.receive_json(timeout=5)
+                    if m["t"] == "samples":
+                        samples += len(m["s"])
+                    if m["t"] == "reply" and m["req"] == 1:
+                        assert [f["id"] for f in m["result"]] == [1, 2]
+                        move = {"op": "control", "req": 2, "action": "Q", "id": 1, "angle": 30, "speed": 60}
+                        await ws.send_json({**move, "param": 100})
+                assert abs(sim.motors[1].position - 30) <= 0.05
+                assert samples > 20
+            # the browser went away: the motor it moved is idled
+            deadline = time.monotonic() + 5
+            while sim.motors[1].state != AxisState.IDLE and time.monotonic() < deadline:
+                await asyncio.sleep(0.05)
+            assert sim.motors[1].state == AxisState.IDLE
+        finally:
+            p.send_signal(signal.SIGTERM)
+            p.communicate(timeout=10)
