@@ -78,7 +78,21 @@ def test_plots_receive_every_sample(page: Any, served: Served, shots: Path) -> N
     assert lines[0].startswith("motor,t_s,angle_deg,speed_rpm,torque_nm")
     assert len(lines) > 100
     assert any(line.startswith("2,") and abs(float(line.split(",")[3]) - 40) < 2 for line in lines[1:])
+    # a parameter polled at a chosen rate, on the same chart
+    page.locator("#pw-motor").select_option("1")
+    page.get_by_label("parameter to plot").fill("vbus_voltage")
+    page.get_by_label("readings per second").select_option("10")
+    page.get_by_role("button", name="Plot parameter").click()
+    page.wait_for_function(
+        "[...document.querySelectorAll('.u-legend .u-label')].some(e => e.textContent === 'm1 vbus_voltage')"
+    )
+    t0 = time.monotonic()
+    page.wait_for_function("(() => { const d = window.dashParams('1:vbus_voltage'); return d && d.v.length >= 8; })()")
+    assert time.monotonic() - t0 < 3
+    assert page.evaluate("window.dashParams('1:vbus_voltage').v[0]") == served.sim.motors[1].param("vbus_voltage")
     page.screenshot(path=str(shots / "dash-plots.png"))
+    page.get_by_role("button", name="stop plotting vbus_voltage").click()
+    page.wait_for_function("document.querySelector('#pw-list').textContent === ''")
     served.bus.motor(2).set_speed(0)
     reset(served)
 

@@ -104,7 +104,8 @@ class Hub:
         self.heartbeat_ms = 0
         self.scanning = False
         self.saved: dict[int, dict[str, float]] = {}
-        self._watch: dict[tuple[int, str], float] = {}
+        self._watch: dict[tuple[int, str], tuple[float, float]] = {}
+        self.param_samples: deque[tuple[int, str, float, float]] = deque()
         self._stop = threading.Event()
         self._sub = bus.subscribe(self._on_state)
         self._poller = threading.Thread(target=self._poll_loop, name="dash poll", daemon=True)
@@ -139,8 +140,47 @@ class Hub:
                     self.bus.request([FastRead(i) for i in ids], missing_ok=True)
                 except DrEmpowerError:
                     pass
+            if self._watch and not self.scanning:
+                self._read_watched()
             next_t = max(next_t + 1.0 / self.poll_hz, time.monotonic())
             self._stop.wait(max(0.0, next_t - time.monotonic()))
+
+    def watch(self, i: int, name: str, hz: float) -> None:
+        """Read parameter ``name`` of motor ``i`` ``hz`` times a second (0 stops) into :attr:`param_samples`."""
+        p = find_parameter(name)
+        if p is None:
+            raise ValidationError(f"parameter {name!r}: no such parameter")
+        if not 1 <= i <= 63:
+            raise ValidationError(f"id={i}: motor ids are 1..63")
+        if not 0 <= hz <= self.poll_hz:
+            raise ValidationError(f"rate={hz!r}: 0 (stop) or up to {self.poll_hz:g} readings/s")
+        if hz == 0:
+            self._watch.pop((i, p.name), None)
+        else:
+            self._watch[(i, p.name)] = (1.0 / hz, time.monotonic())
+
+    def _read_watched(self) -> None:
+        now = time.monotonic()
+        for key, (period, due) in list(self._watch.items()):
+            if now < due:
+                continue
+            i, name = key
+            try:
+                value = self.bus.motor(i).read_property(name, timeout=0.1)
+            except DrEmpowerError:
+                continue
+            finally:
+                if key in self._watch:
+                    self._watch[key] = (period, max(due + period, now))
+            self.param_samples.append((i, name, time.monotonic() - self.t0, value))
+
+    def watched(self) -> list[list[Any]]:
+        """``[id, name, rate]`` of every watched parameter."""
+        return [[i, n, round(1.0 / period, 3)] for (i, n), (period, _) in sorted(self._watch.items())]
+
+    def take_param_samples(self) -> list[tuple[int, str, float, float]]:
+        q = self.param_samples
+        return [q.popleft() for _ in range(len(q))]
 
     def measure_load(self) -> None:
         """Update :attr:`load` (fraction of a 1 Mbit/s bus) and :attr:`frame_rate` from received frames."""

@@ -147,6 +147,7 @@ class Dashboard:
                     "motors": sorted(hub.motors),
                     "heartbeat_ms": hub.heartbeat_ms,
                     "poll_hz": hub.poll_hz,
+                    "watched": hub.watched(),
                     "bus": hub.bus.transport.description,
                 }
             )
@@ -207,6 +208,10 @@ class Dashboard:
                 result = await self._run(hub.do_backup, int(req["id"]))
             elif op == "restore":
                 result = await self._run(hub.do_restore, who, int(req["id"]), req.get("doc"), bool(req.get("dry_run")))
+            elif op == "watch":
+                hub.watch(int(req["id"]), str(req.get("name")), float(req.get("hz", 0)))
+                result = hub.watched()
+                await self._broadcast(json.dumps({"t": "watched", "watched": result}))
             elif op == "step":
                 result = await self._run(hub.do_step, who, req)
             else:
@@ -251,6 +256,9 @@ class Dashboard:
             if samples:
                 self.sent_total += len(samples)
                 await self._broadcast(json.dumps({"t": "samples", "total": self.sent_total, "s": samples}))
+            psamples = hub.take_param_samples()
+            if psamples:
+                await self._broadcast(json.dumps({"t": "params", "s": psamples}))
             await self._check_watchers("last browser gone")
             now = time.monotonic()
             if now >= next_status:

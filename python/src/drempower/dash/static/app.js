@@ -15,7 +15,9 @@
     data: new Map(), // id -> {t:[], rows:[]} raw samples, oldest first
     lastT: 0, paused: false, frozen: null, xRange: null, dirty: true,
     received: 0, frames: 0, rateWin: [], paramValues: {}, changed: new Set(), runs: [],
+    watched: [], pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
   };
+  window.dashParams = (key) => S.pdata.get(key);
   window.dashStats = { received: 0, firstTotal: 0, serverTotal: 0, batches: 0, frames: 0, fps: 0, rate: 0, connected: false };
 
   function say(text, info) {
@@ -86,8 +88,21 @@
         $("#plot-rate").value = m.heartbeat_ms ? String(Math.round(1000 / m.heartbeat_ms)) : "0";
         if (m.motors.length) setMotors(m.motors);
         buildParamTable();
+        $("#pw-names").innerHTML = m.params.map((p) => `<option value="${p.name}">`).join("");
+        setWatched(m.watched);
         break;
       case "samples": onSamples(m); break;
+      case "watched": setWatched(m.watched); break;
+      case "params":
+        for (const [id, name, t, v] of m.s) {
+          const k = `${id}:${name}`;
+          let d = S.pdata.get(k);
+          if (!d) { d = { t: [], v: [] }; S.pdata.set(k, d); }
+          d.t.push(t); d.v.push(v);
+          if (d.t.length > 4000) { d.t = d.t.slice(-3000); d.v = d.v.slice(-3000); }
+        }
+        S.dirty = true;
+        break;
       case "status":
         $("#load").textContent = (100 * m.load).toFixed(1) + " %";
         window.dashStats.serverTotal = m.sent_total;
@@ -257,6 +272,9 @@
         if (tg && TGT[ch] !== undefined) series.push({ id, ch, target: true, color: COLORS[(k * 3 + chs.indexOf(ch)) % COLORS.length] });
       }
     });
+    S.watched.forEach(([id, name], k) => {
+      series.push({ id, ch: name, param: `${id}:${name}`, color: COLORS[(k + 5) % COLORS.length] });
+    });
     const opts = {
       width: Math.max(400, el.clientWidth || window.innerWidth - 30), height: 380,
       scales: { x: { time: false } },
@@ -269,7 +287,7 @@
         }
       }] },
       series: [{ label: "t" }].concat(series.map((s) => ({
-        label: `m${s.id} ${s.ch}${s.target ? " target" : ""}`,
+        label: s.param ? `m${s.id} ${s.ch.split(".").slice(-2).join(".")}` : `m${s.id} ${s.ch}${s.target ? " target" : ""}`,
         stroke: s.color, width: s.target ? 1 : 1.5, dash: s.target ? [6, 4] : undefined, spanGaps: true,
         points: { show: false },
       }))),
@@ -288,6 +306,17 @@
     const src = S.paused && S.frozen ? S.frozen : S.data;
     for (const s of series) {
       const ys = new Array(2 * n).fill(null);
+      if (s.param) {
+        const p = S.pdata.get(s.param);
+        if (p) {
+          for (let i = lowerBound(p.t, x0); i < p.t.length && p.t[i] < x1; i++) {
+            const b = Math.min(n - 1, Math.floor((p.t[i] - x0) / dt));
+            ys[2 * b] = p.v[i];
+          }
+        }
+        out.push(ys);
+        continue;
+      }
       const d = src.get(s.id);
       if (d) {
         const col = s.target ? TGT[s.ch] : CH[s.ch];
@@ -373,6 +402,20 @@
     document.body.appendChild(a); a.click(); a.remove();
   }
   window.addEventListener("resize", rebuildPlot);
+  function setWatched(w) {
+    S.watched = w || [];
+    $("#pw-list").innerHTML = S.watched.map(([id, name, hz]) =>
+      `<span>m${id} ${name} ${hz}/s <button data-unwatch="${id}|${name}" aria-label="stop plotting ${name}">&times;</button></span>`).join(" ");
+    rebuildPlot();
+  }
+  on("#pw-add", () => act("watch", { id: Number($("#pw-motor").value), name: $("#pw-name").value.trim(),
+    hz: Number($("#pw-rate").value) }));
+  on("#pw-list", (e) => {
+    const b = e.target.closest("button[data-unwatch]");
+    if (!b) return null;
+    const [id, name] = b.dataset.unwatch.split("|");
+    return act("watch", { id: Number(id), name, hz: 0 });
+  });
 
   // ------------------------------------------------------------ control
   const ctlId = () => Number($("#ctl-motor").value);
