@@ -147,6 +147,7 @@ def test_parameter_edit_round_trips(page: Any, served: Served, shots: Path) -> N
     page.wait_for_function("document.querySelector('#msg').textContent.includes('heartbeat_ms')")
     assert served.sim.motors[1].param(hb) == 0
     page.locator("#par-filter").fill("controller.config")
+    page.evaluate("window.scrollTo(0, 0)")
     page.screenshot(path=str(shots / "dash-params.png"))
     served.sim.motors[1].set_param(name, old)
 

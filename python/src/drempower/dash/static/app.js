@@ -462,6 +462,8 @@
     $("#par-table tbody").innerHTML = html;
   }
   const parId = () => Number($("#par-motor").value);
+  // a parameter value as the motor holds it: f32 values to their 7 significant digits
+  const shown = (v) => (Number.isInteger(v) ? String(v) : String(+Number(v).toPrecision(7)));
   async function readParams() {
     if (!S.motors.length) return;
     const id = parId();
@@ -469,7 +471,7 @@
     S.paramValues = r.values; S.changed = new Set(r.changed);
     for (const el of $$("#par-table span.val")) {
       const v = r.values[el.dataset.val];
-      el.textContent = v === undefined ? "-" : String(v);
+      el.textContent = v === undefined ? "-" : shown(v);
     }
     for (const tr of $$("#par-table tr[data-name]")) tr.classList.toggle("changed", S.changed.has(tr.dataset.name));
     $("#par-status").textContent = `motor ${id}: ${Object.keys(r.values).length} values read ${new Date().toLocaleTimeString()}; ${S.changed.size} changed since saved`;
@@ -483,14 +485,24 @@
     const name = b.dataset.set, input = $(`#par-table input[data-name="${name}"]`);
     if (input.value === "" || !input.checkValidity()) { say(`${name}: ${input.value || "(empty)"} is not a valid value`); return; }
     const r = await act("write", { id: parId(), name, value: Number(input.value) });
-    $(`#par-table span[data-val="${name}"]`).textContent = String(r.value);
-    say(`motor ${r.id}: ${name} = ${r.value} (read back)`, true);
+    $(`#par-table span[data-val="${name}"]`).textContent = shown(r.value);
+    say(`motor ${r.id}: ${name} = ${shown(r.value)} (read back)`, true);
     S.changed.add(name);
     $(`#par-table tr[data-name="${name}"]`).classList.add("changed");
   });
   $("#par-filter").addEventListener("input", (e) => {
     const f = e.target.value.toLowerCase();
-    for (const tr of $$("#par-table tr[data-name]")) tr.hidden = f && !tr.dataset.name.toLowerCase().includes(f);
+    let group = null, any = false;
+    for (const tr of $$("#par-table tbody tr")) {
+      if (tr.classList.contains("group")) {
+        if (group) group.hidden = !any;
+        group = tr; any = false;
+      } else {
+        tr.hidden = Boolean(f) && !tr.dataset.name.toLowerCase().includes(f);
+        any = any || !tr.hidden;
+      }
+    }
+    if (group) group.hidden = !any;
   });
   on("#par-save", async () => { await act("save", { id: parId() }, `motor ${parId()}: saved to flash`); readParams(); });
   on("#par-backup", async () => {
@@ -510,7 +522,7 @@
     if (!r.diff.length) { box.innerHTML = `${f.name}: motor ${id} already holds these values. <button id="diff-close">Close</button>`; }
     else {
       box.innerHTML = `<b>${f.name}: ${r.diff.length} parameter(s) of motor ${id} would change</b>
-        <table><tr><th>name</th><th>now</th><th>backup</th></tr>${r.diff.map((d) => `<tr><td>${d[0]}</td><td>${d[1]}</td><td>${d[2]}</td></tr>`).join("")}</table>
+        <table><tr><th>name</th><th>now</th><th>backup</th></tr>${r.diff.map((d) => `<tr><td>${d[0]}</td><td>${shown(d[1])}</td><td>${shown(d[2])}</td></tr>`).join("")}</table>
         <button id="diff-write">Write them</button> <button id="diff-close">Cancel</button>`;
       on("#diff-write", async () => {
         const w = await act("restore", { id, doc, dry_run: false });
