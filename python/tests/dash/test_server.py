@@ -242,3 +242,21 @@ async def test_through_the_simulators_adapter_pty_and_socketcand(attachment: str
         finally:
             p.send_signal(signal.SIGTERM)
             p.communicate(timeout=10)
+
+
+def test_a_port_in_use_is_one_line_and_exit_1() -> None:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        r = subprocess.run(
+            [sys.executable, "-m", "drempower", "dash", "--port", str(port)],
+            capture_output=True,
+            text=True,
+            timeout=30,
+        )
+    assert r.returncode == 1
+    assert r.stdout == ""
+    assert f"cannot serve on 127.0.0.1 port {port}" in r.stderr and "Traceback" not in r.stderr

@@ -333,6 +333,7 @@ class Hub:
     def idle_commanded(self, why: str) -> list[int]:
         """Put the motors this dashboard moved into IDLE; returns their ids."""
         ids = sorted(self.commanded)
+        self.commanded.clear()  # a second caller meanwhile finds nothing to do
         for i in ids:
             try:
                 self.bus.motor(i).set_mode(1)
@@ -411,6 +412,8 @@ class Hub:
 
         Returns the actual series (``t`` s from the step, ``y`` deg or r/min) and its figures.
         """
+        if self.read_only:
+            raise ValidationError("this dashboard is read-only (--read-only)")
         i = int(_num(args, "id"))
         mode = args.get("mode", "position")
         amp, duration = _num(args, "amplitude"), _num(args, "duration", 1.0)
