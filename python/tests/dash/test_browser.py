@@ -190,6 +190,11 @@ def test_estop_button_and_space_key_stop_a_moving_motor(page: Any, served: Serve
             page.locator("#view-control fieldset legend").first.click()  # focus outside any input
             page.keyboard.press("Space")
         assert eventually(lambda: abs(m1.speed) < 1 and m1.state != AxisState.CLOSED_LOOP_CONTROL, 2), how
+        if how == "button":  # the motor's card says what happened and what to do
+            tab(page, "Bus")
+            page.wait_for_function("document.querySelector('.card[data-id=\"1\"]').innerText.includes('ESTOP')")
+            assert "Clear errors" in page.locator('.card[data-id="1"] .err').inner_text()
+            tab(page, "Control")
     reset(served)
 
 

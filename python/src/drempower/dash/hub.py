@@ -19,7 +19,7 @@ from typing import Any
 
 from ..client import Bus, ConfigBackup, MotorState
 from ..errors import DrEmpowerError, ValidationError
-from ..protocol import FastRead
+from ..protocol import ERROR_WORDS, FastRead, flag_info
 from ..protocol.parameters import Parameter, find_parameter, parameters
 from . import tuning
 
@@ -35,13 +35,7 @@ _CARD_READS = (
     ("fet_temp", "axis0.fet_thermistor.temperature"),
     ("motor_temp", "axis0.motor_thermistor.temperature"),
 )
-_FLAG_ADVICE = {
-    "ESTOP_REQUESTED": "emergency stop: clear errors, then enable",
-    "WATCHDOG_TIMER_EXPIRED": "no command within can.config.timeout_ms: clear errors and command more often",
-    "OVERSPEED": "speed above the limit: lower the speed or raise axis0.controller.config.vel_limit",
-    "DC_BUS_UNDER_VOLTAGE": "supply voltage too low: check the power supply",
-    "DC_BUS_OVER_VOLTAGE": "supply voltage too high: check the supply or the brake resistor",
-}
+_LABEL = {w.name: w.label for w in ERROR_WORDS}
 BITS_PER_FRAME = 130
 """Bits on the wire of one 8-byte standard CAN frame with stuffing (about), for the bus load."""
 STATE_NAMES = {0: "undefined", 1: "idle", 3: "calibrating", 8: "closed_loop"}
@@ -226,15 +220,13 @@ class Hub:
             if st is not None and st.error:
                 try:
                     report = m.dump_error(timeout=0.2)
-                    card["errors"] = [
-                        {
-                            "word": w,
-                            "flag": f,
-                            "advice": _FLAG_ADVICE.get(f, "clear errors; if it comes back, see docs"),
-                        }
-                        for w, fl in report.flags.items()
-                        for f in fl
-                    ]
+                    card["errors"] = []
+                    for w, names in report.flags.items():
+                        for f in names:
+                            info = flag_info(_LABEL[w], f)
+                            card["errors"].append(
+                                {"word": w, "flag": f, "meaning": info.meaning, "advice": info.action}
+                            )
                 except DrEmpowerError:
                     card["errors"] = [{"word": "?", "flag": "error (unread)", "advice": "read again"}]
             cards[i] = card

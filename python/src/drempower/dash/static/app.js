@@ -229,7 +229,7 @@
     const html = S.motors.map((id) => {
       const c = S.cards[id] || { id };
       const r = latest(id);
-      const errs = (c.errors || []).map((e) => `<div class="err">${e.word}: ${e.flag} - ${e.advice}</div>`).join("");
+      const errs = (c.errors || []).map((e) => `<div class="err"><b>${e.word}: ${e.flag}</b> ${e.meaning} <i>${e.advice}</i></div>`).join("");
       const ro = S.readOnly ? "disabled" : "";
       return `<div class="card" data-id="${id}"><h3>Motor ${id}</h3>
         <table><tr><td>state</td><td>${c.state_name || "-"}</td></tr>
