@@ -260,3 +260,49 @@ def test_a_port_in_use_is_one_line_and_exit_1() -> None:
     assert r.returncode == 1
     assert r.stdout == ""
     assert f"cannot serve on 127.0.0.1 port {port}" in r.stderr and "Traceback" not in r.stderr
+
+
+async def test_two_browsers_see_the_same_state_and_either_controls() -> None:
+    bus = open_bus("sim", motors=[1, 2], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    sim = bus.transport.bus.motors  # type: ignore[attr-defined]
+    ws_url = url.replace("http:", "ws:") + "ws"
+
+    async def until(ws: aiohttp.ClientWebSocketResponse, kind: str, req: int | None = None) -> dict[str, object]:
+        while True:
+            await ws.send_json({"op": "hb"})
+            m: dict[str, object] = await ws.receive_json(timeout=5)
+            if m["t"] == kind and (req is None or m.get("req") == req):
+                return m
+
+    try:
+        async with aiohttp.ClientSession() as s, s.ws_connect(ws_url) as a, s.ws_connect(ws_url) as b:
+            await a.receive_json(timeout=5)
+            await b.receive_json(timeout=5)
+            await a.send_json({"op": "scan", "req": 1})
+            cards_a, cards_b = await until(a, "cards"), await until(b, "cards")  # both see a's scan
+            assert [c["id"] for c in cards_a["cards"]] == [c["id"] for c in cards_b["cards"]] == [1, 2]  # type: ignore[index, union-attr]
+            await b.send_json(
+                {"op": "control", "req": 5, "action": "Q", "id": 2, "angle": 20, "speed": 60, "param": 100}
+            )
+            assert (await until(b, "reply", 5))["ok"]
+            deadline = time.monotonic() + 5
+            while abs(sim[2].position - 20) > 0.05 and time.monotonic() < deadline:
+                await a.send_json({"op": "hb"})
+                await b.send_json({"op": "hb"})
+                await asyncio.sleep(0.05)
+            assert abs(sim[2].position - 20) <= 0.05
+            # both receive the samples of the move
+            sa, sb = await until(a, "samples"), await until(b, "samples")
+            assert sa["s"] and sb["s"]
+            await b.close()  # one browser left, its heartbeat going: the motor keeps its command
+            for _ in range(8):
+                await a.send_json({"op": "hb"})
+                await asyncio.sleep(0.1)
+            assert hub.commanded == {2}
+            assert sim[2].state == AxisState.CLOSED_LOOP_CONTROL
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()
