@@ -306,3 +306,38 @@ async def test_two_browsers_see_the_same_state_and_either_controls() -> None:
         thread.join(10)
         hub.close()
         bus.close()
+
+
+async def test_bad_requests_are_refused_naming_the_field_and_nothing_is_sent() -> None:
+    bus = open_bus("sim", motors=[1], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    sim = bus.transport.bus.motors[1]  # type: ignore[attr-defined]
+    bad = [
+        ({"action": "V", "id": 1.5, "speed": 10}, "id=1.5"),
+        ({"action": "V", "id": 1, "speed": 10, "mode": 3}, "mode=3"),
+        ({"action": "V", "id": 1, "speed": "fast"}, "speed='fast'"),
+        ({"action": "Q", "id": 1, "angle": 10, "speed": 500, "param": 10}, "500"),
+        ({"action": "spin", "id": 1}, "action='spin'"),
+    ]
+    try:
+        async with aiohttp.ClientSession() as s, s.ws_connect(url.replace("http:", "ws:") + "ws") as ws:
+            await ws.receive_json(timeout=5)
+            for k, (args, _) in enumerate(bad):
+                await ws.send_json({"op": "control", "req": k, **args})
+            await ws.send_json({"op": "write", "req": 10, "id": 1, "name": "can.config.heartbeat_ms", "value": 2.5})
+            replies = {}
+            while len(replies) < len(bad) + 1:
+                m = await ws.receive_json(timeout=5)
+                if m["t"] == "reply":
+                    replies[m["req"]] = m
+            for k, (_, named) in enumerate(bad):
+                assert not replies[k]["ok"] and named in replies[k]["error"], replies[k]
+            assert not replies[10]["ok"] and "heartbeat_ms=2.5" in replies[10]["error"]
+        assert sim.param("can.config.heartbeat_ms") == 0
+        assert abs(sim.speed) < 0.01 and abs(sim.position) < 0.01
+        assert hub.commanded == set()
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()

@@ -20,6 +20,7 @@ from typing import Any
 from ..client import Bus, ConfigBackup, MotorState
 from ..errors import DrEmpowerError, ValidationError
 from ..protocol import ERROR_WORDS, FastRead, flag_info
+from ..protocol.enums import TorqueMode, VelocityMode
 from ..protocol.parameters import Parameter, find_parameter, parameters
 from . import tuning
 
@@ -69,6 +70,21 @@ def _num(args: dict[str, Any], key: str, default: float | None = None) -> float:
     if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
         raise ValidationError(f"{key}={value!r}: expected a finite number")
     return float(value)
+
+
+def motor_id(args: dict[str, Any], key: str = "id") -> int:
+    """``args[key]`` as a motor id: a whole number 1..63 (nothing rounded)."""
+    value = args.get(key)
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 63:
+        raise ValidationError(f"{key}={value!r}: expected a motor id 1..63")
+    return value
+
+
+def _whole(args: dict[str, Any], key: str, default: int, allowed: tuple[int, ...]) -> int:
+    value = args.get(key, default)
+    if isinstance(value, bool) or value not in allowed:
+        raise ValidationError(f"{key}={value!r}: expected one of {', '.join(map(str, allowed))}")
+    return int(value)
 
 
 def _ids(args: dict[str, Any], key: str = "ids") -> list[int]:
@@ -260,9 +276,7 @@ class Hub:
             for i, a in zip(ids, angles_f, strict=True):
                 self._target(i, angle=a)
             return {"seconds": t}
-        i = int(_num(args, "id"))
-        if i not in range(1, 64):
-            raise ValidationError(f"id={i}: motor ids are 1..63")
+        i = motor_id(args)
         m = self.bus.motor(i)
         if action in ("T", "Q", "P"):
             mode = "TQP".index(action)
@@ -282,12 +296,20 @@ class Hub:
             m.step_angle(delta, speed, param, mode)
             self._target(i, angle=base + delta)
         elif action == "V":
-            speed, param, mode = _num(args, "speed"), _num(args, "param", 0.0), int(_num(args, "mode", 1))
+            speed, param, mode = (
+                _num(args, "speed"),
+                _num(args, "param", 0.0),
+                _whole(args, "mode", 1, tuple(VelocityMode)),
+            )
             self._control(who, f"motor {i} set_speed({speed}, param={param}, mode={mode})")
             m.set_speed(speed, param, mode)
             self._target(i, speed=speed)
         elif action == "C":
-            torque, param, mode = _num(args, "torque"), _num(args, "param", 0.0), int(_num(args, "mode", 1))
+            torque, param, mode = (
+                _num(args, "torque"),
+                _num(args, "param", 0.0),
+                _whole(args, "mode", 1, tuple(TorqueMode)),
+            )
             self._control(who, f"motor {i} set_torque({torque}, param={param}, mode={mode})")
             m.set_torque(torque, param, mode)
             self._target(i, torque=torque)
@@ -406,7 +428,7 @@ class Hub:
         """
         if self.read_only:
             raise ValidationError("this dashboard is read-only (--read-only)")
-        i = int(_num(args, "id"))
+        i = motor_id(args)
         mode = args.get("mode", "position")
         amp, duration = _num(args, "amplitude"), _num(args, "duration", 1.0)
         if mode not in ("position", "velocity"):

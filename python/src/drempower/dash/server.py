@@ -24,7 +24,7 @@ from urllib.parse import urlsplit
 from aiohttp import WSMsgType, web
 
 from ..errors import DrEmpowerError
-from .hub import Hub, log, param_table
+from .hub import Hub, log, motor_id, param_table
 
 __all__ = ["Dashboard", "format_url"]
 
@@ -199,17 +199,17 @@ class Dashboard:
             elif op == "rate":
                 result = await self._run(hub.do_rate, who, float(req.get("hz", 0)))
             elif op == "params":
-                result = await self._run(hub.do_read_params, int(req["id"]))
+                result = await self._run(hub.do_read_params, motor_id(req))
             elif op == "write":
-                result = await self._run(hub.do_write_param, who, int(req["id"]), req.get("name"), req.get("value"))
+                result = await self._run(hub.do_write_param, who, motor_id(req), req.get("name"), req.get("value"))
             elif op == "save":
-                result = await self._run(hub.do_save, who, int(req["id"]))
+                result = await self._run(hub.do_save, who, motor_id(req))
             elif op == "backup":
-                result = await self._run(hub.do_backup, int(req["id"]))
+                result = await self._run(hub.do_backup, motor_id(req))
             elif op == "restore":
-                result = await self._run(hub.do_restore, who, int(req["id"]), req.get("doc"), bool(req.get("dry_run")))
+                result = await self._run(hub.do_restore, who, motor_id(req), req.get("doc"), bool(req.get("dry_run")))
             elif op == "watch":
-                hub.watch(int(req["id"]), str(req.get("name")), float(req.get("hz", 0)))
+                hub.watch(motor_id(req), str(req.get("name")), float(req.get("hz", 0)))
                 result = hub.watched()
                 await self._broadcast(json.dumps({"t": "watched", "watched": result}))
             elif op == "step":
