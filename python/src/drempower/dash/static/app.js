@@ -92,6 +92,9 @@
       case "hello":
         S.params = m.params; S.readOnly = m.read_only;
         $("#ro").hidden = !m.read_only;
+        for (const e of $$("#view-control button, #view-control input, #view-control select, #par-save, #par-restore, #tun-run, #plot-rate")) {
+          e.disabled = m.read_only; // watching only: the server refuses these anyway
+        }
         $("#busname").textContent = m.bus;
         $("#plot-rate").value = m.heartbeat_ms ? String(Math.round(1000 / m.heartbeat_ms)) : "0";
         if (m.motors.length) setMotors(m.motors);
