@@ -20,7 +20,7 @@ from typing import Any
 from ..client import Bus, ConfigBackup, MotorState
 from ..errors import DrEmpowerError, ValidationError
 from ..protocol import ERROR_WORDS, FastRead, flag_info
-from ..protocol.enums import TorqueMode, VelocityMode
+from ..protocol.enums import AxisState, TorqueMode, VelocityMode
 from ..protocol.parameters import Parameter, find_parameter, parameters
 from . import tuning
 
@@ -39,7 +39,17 @@ _CARD_READS = (
 _LABEL = {w.name: w.label for w in ERROR_WORDS}
 BITS_PER_FRAME = 130
 """Bits on the wire of one 8-byte standard CAN frame with stuffing (about), for the bus load."""
-STATE_NAMES = {0: "undefined", 1: "idle", 3: "calibrating", 8: "closed_loop"}
+
+
+def state_name(value: float | None) -> str | None:
+    """``8`` -> ``"closed_loop"``, ``1`` -> ``"idle"``; other axis states by their lower-case name."""
+    if value is None:
+        return None
+    try:
+        state = AxisState(int(value))
+    except ValueError:
+        return f"state_{value}"
+    return "closed_loop" if state is AxisState.CLOSED_LOOP_CONTROL else state.name.lower()
 
 
 def param_table() -> list[dict[str, Any]]:
@@ -230,7 +240,7 @@ class Hub:
                     card[key] = m.read_property(name, timeout=0.2)
                 except DrEmpowerError:
                     card[key] = None
-            card["state_name"] = STATE_NAMES.get(int(card["state"]), str(card["state"])) if card["state"] else None
+            card["state_name"] = state_name(card["state"])
             st = m.state
             card["errors"] = []
             if st is not None and st.error:
