@@ -99,7 +99,11 @@ def _whole(args: dict[str, Any], key: str, default: int, allowed: tuple[int, ...
 
 def _ids(args: dict[str, Any], key: str = "ids") -> list[int]:
     ids = args.get(key)
-    if not isinstance(ids, list) or not ids or not all(isinstance(i, int) and 1 <= i <= 63 for i in ids):
+    if (
+        not isinstance(ids, list)
+        or not ids
+        or not all(isinstance(i, int) and not isinstance(i, bool) and 1 <= i <= 63 for i in ids)
+    ):
         raise ValidationError(f"{key}={ids!r}: expected a list of motor ids 1..63")
     return list(ids)
 
