@@ -8,7 +8,7 @@ BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 LINTED := ../tools ../bench $(addprefix ../,$(wildcard examples))
 
-.PHONY: demo test test-python test-c lint bench generate clean
+.PHONY: demo test test-python test-c lint bench generate clean chromium
 
 $(STAMP): python/pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -21,18 +21,26 @@ demo: $(STAMP)
 
 test: test-python test-c
 
-test-python: $(STAMP)
+test-python: $(STAMP) chromium
 	cd python && ../$(BIN)/python -m pytest -q
 	cd python && ../$(BIN)/ruff check src tests $(LINTED)
 	cd python && ../$(BIN)/ruff format --check src tests
 	cd python && ../$(BIN)/mypy
+
+# The dashboard's browser tests drive Debian's chromium (Playwright's own browser download is not used).
+CHROMIUM ?= /usr/bin/chromium
+chromium:
+	@if [ ! -x $(CHROMIUM) ]; then \
+	  if [ "$$(id -u)" = 0 ]; then apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q chromium; \
+	  else echo "make: the browser tests need chromium: sudo apt-get install chromium (they are skipped without it)"; fi; \
+	fi
 
 test-c:
 	@if [ -f c/scripts/test.sh ]; then bash c/scripts/test.sh; else echo "no C library yet"; fi
 
 bench: $(STAMP)
 	$(BIN)/python bench/bench_codec.py
-	@for b in bench/bench_sim.py bench/bench_client.py bench/bench_record.py bench/bench_robot.py; do [ -f $$b ] && $(BIN)/python $$b || true; done
+	@for b in bench/bench_sim.py bench/bench_client.py bench/bench_record.py bench/bench_robot.py bench/bench_dash.py; do [ -f $$b ] && $(BIN)/python $$b || true; done
 
 generate: $(STAMP)
 	$(BIN)/python tools/generate.py

@@ -1,0 +1,92 @@
+"""``drempower dash``: serve the browser dashboard for the motors of one bus."""
+
+from __future__ import annotations
+
+import argparse
+import ipaddress
+import json
+import sys
+import webbrowser
+from typing import Any
+
+from ..errors import DrEmpowerError
+from ._connect import add_connection_args, open_from_args, positive
+from ._usage import UsageError
+
+DEFAULT_HOST = "127.0.0.1"
+DEFAULT_SIM = [1, 2, 3]
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "dash",
+        help="browser dashboard: scan, plot, drive, configure, tune and stop motors (default: 3 simulated motors)",
+        description=(
+            "Serve a dashboard to a browser and print its URL on the first line. With no connection option "
+            f"it serves simulated motors {','.join(map(str, DEFAULT_SIM))}. Binding beyond {DEFAULT_HOST} "
+            "(--host) needs the token that the printed URL carries. When the last browser goes away (or its "
+            "heartbeat stops for 0.5 s) the motors the dashboard moved are idled; Ctrl-C, SIGTERM and SIGHUP "
+            "idle them too. Control actions are logged on stderr."
+        ),
+    )
+    p.add_argument(
+        "--host", default=DEFAULT_HOST, help=f"address to bind (default {DEFAULT_HOST}; others need the token)"
+    )
+    p.add_argument("--port", type=int, default=8811, help="TCP port (default 8811; 0 picks a free one)")
+    p.add_argument("--json", action="store_true", help='print {"url": ...} as the first line')
+    p.add_argument("--open", action="store_true", help="also open the URL in a browser")
+    p.add_argument("--read-only", action="store_true", help="serve watching only: no control, no parameter writes")
+    p.add_argument(
+        "--keep-running",
+        action="store_true",
+        help="leave the motors moving when the last browser goes away (signals still idle them)",
+    )
+    p.add_argument(
+        "--poll-rate", type=positive, default=50.0, metavar="HZ", help="fast reads per second per motor (default 50)"
+    )
+    add_connection_args(p)
+    p.set_defaults(func=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        from ..dash.hub import Hub
+        from ..dash.server import Dashboard, new_token
+    except ImportError as exc:  # pragma: no cover - depends on the installed extras
+        raise DrEmpowerError(f"the dashboard needs the dash extra: pip install 'drempower[dash]' ({exc})") from None
+    import asyncio
+
+    if not 0 <= args.port <= 65535:
+        raise UsageError(f"--port {args.port}: expected 0..65535")
+    try:
+        ipaddress.ip_address(args.host)
+    except ValueError:
+        if args.host != "localhost":
+            raise UsageError(f"--host {args.host!r}: expected an IP address such as 127.0.0.1 or ::1") from None
+    if not (args.sim or args.serial or args.uart or args.interface):
+        args.sim = DEFAULT_SIM
+    token = None if args.host == DEFAULT_HOST else new_token()
+    bus = open_from_args(args, quiet=True)
+    try:
+        hub = Hub(bus, read_only=args.read_only, poll_hz=args.poll_rate)
+        try:
+
+            def ready(url: str) -> None:
+                print(json.dumps({"url": url}) if args.json else url, flush=True)
+                if args.open:
+                    webbrowser.open(url)
+
+            async def main() -> None:
+                dash = Dashboard(hub, token=token, keep_running=args.keep_running)
+                await dash.serve(args.host, args.port, ready)
+
+            try:
+                asyncio.run(main())
+            except OSError as exc:
+                raise DrEmpowerError(f"cannot serve on {args.host} port {args.port}: {exc.strerror or exc}") from None
+        finally:
+            hub.close()
+    finally:
+        bus.close()
+    print("drempower dash: stopped", file=sys.stderr)
+    return 0

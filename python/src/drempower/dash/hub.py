@@ -1,0 +1,490 @@
+"""The dashboard's side of the bus: samples, motor cards, control actions and the stop rules.
+
+Everything goes through the client's public API (:class:`~drempower.client.Bus`,
+:class:`~drempower.client.Motor`): state frames arrive through
+:meth:`Bus.subscribe` (fast reads polled here, or the motors' heartbeats), control
+through the motor methods. Methods named ``do_*`` block (they wait for replies)
+and are run in a worker thread by the web server.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import threading
+import time
+from collections import deque
+from collections.abc import Callable
+from typing import Any
+
+from ..client import Bus, ConfigBackup, MotorState
+from ..errors import DrEmpowerError, ValidationError
+from ..protocol import ERROR_WORDS, FastRead, flag_info
+from ..protocol.enums import AxisState, TorqueMode, VelocityMode
+from ..protocol.parameters import Parameter, find_parameter, parameters
+from . import tuning
+
+__all__ = ["Hub", "Sample", "param_table"]
+
+Sample = tuple[int, float, float, float, float, int, float | None, float | None, float | None]
+"""(id, t s, angle deg, speed r/min, torque Nm, flags (1 = T, 2 = E), target angle, speed, torque)."""
+
+_HEARTBEAT = "can.config.heartbeat_ms"
+_CARD_READS = (
+    ("vbus", "vbus_voltage"),
+    ("state", "axis0.current_state"),
+    ("fet_temp", "axis0.fet_thermistor.temperature"),
+    ("motor_temp", "axis0.motor_thermistor.temperature"),
+)
+_LABEL = {w.name: w.label for w in ERROR_WORDS}
+BITS_PER_FRAME = 130
+"""Bits on the wire of one 8-byte standard CAN frame with stuffing (about), for the bus load."""
+
+
+def state_name(value: float | None) -> str | None:
+    """``8`` -> ``"closed_loop"``, ``1`` -> ``"idle"``; other axis states by their lower-case name."""
+    if value is None:
+        return None
+    try:
+        state = AxisState(int(value))
+    except ValueError:
+        return f"state_{value}"
+    return "closed_loop" if state is AxisState.CLOSED_LOOP_CONTROL else state.name.lower()
+
+
+def param_table() -> list[dict[str, Any]]:
+    """Every parameter as the page shows it: name, group, address, type, unit, access, description."""
+    return [
+        {
+            "name": p.name,
+            "group": p.name.rsplit(".", 1)[0] if "." in p.name else "(top)",
+            "address": p.address,
+            "type": p.dtype.name.lower(),
+            "unit": p.unit,
+            "access": p.access.value,
+            "bool": p.is_bool,
+            "description": p.description,
+        }
+        for p in parameters()
+    ]
+
+
+def log(text: str) -> None:
+    """One line on standard error with the wall-clock time (control actions, stops)."""
+    stamp = time.strftime("%H:%M:%S") + f".{int(time.time() * 1000) % 1000:03d}"
+    print(f"{stamp} dash: {text}", file=sys.stderr, flush=True)
+
+
+def _num(args: dict[str, Any], key: str, default: float | None = None) -> float:
+    value = args.get(key, default)
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value):
+        raise ValidationError(f"{key}={value!r}: expected a finite number")
+    return float(value)
+
+
+def motor_id(args: dict[str, Any], key: str = "id") -> int:
+    """``args[key]`` as a motor id: a whole number 1..63 (nothing rounded)."""
+    value = args.get(key)
+    if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 63:
+        raise ValidationError(f"{key}={value!r}: expected a motor id 1..63")
+    return value
+
+
+def _whole(args: dict[str, Any], key: str, default: int, allowed: tuple[int, ...]) -> int:
+    value = args.get(key, default)
+    if isinstance(value, bool) or value not in allowed:
+        raise ValidationError(f"{key}={value!r}: expected one of {', '.join(map(str, allowed))}")
+    return int(value)
+
+
+def _ids(args: dict[str, Any], key: str = "ids") -> list[int]:
+    ids = args.get(key)
+    if (
+        not isinstance(ids, list)
+        or not ids
+        or not all(isinstance(i, int) and not isinstance(i, bool) and 1 <= i <= 63 for i in ids)
+    ):
+        raise ValidationError(f"{key}={ids!r}: expected a list of motor ids 1..63")
+    return list(ids)
+
+
+class Hub:
+    """Bus-side state of one dashboard.
+
+    ``poll_hz``: fast reads per second per motor while the motors send no
+    heartbeat; ``read_only``: refuse every action that sends a command.
+    """
+
+    def __init__(self, bus: Bus, *, read_only: bool = False, poll_hz: float = 50.0) -> None:
+        self.bus = bus
+        self.read_only = read_only
+        self.poll_hz = poll_hz
+        self.t0 = time.monotonic()
+        self.samples: deque[Sample] = deque()
+        self.samples_total = 0
+        self.motors: dict[int, dict[str, Any]] = {}
+        self.targets: dict[int, list[float | None]] = {}
+        self.commanded: set[int] = set()
+        self.heartbeat_ms = 0
+        self.scanning = False
+        self.saved: dict[int, dict[str, float]] = {}
+        self._watch: dict[tuple[int, str], tuple[float, float]] = {}
+        self.param_samples: deque[tuple[int, str, float, float]] = deque()
+        self._stop = threading.Event()
+        self._sub = bus.subscribe(self._on_state)
+        self._poller = threading.Thread(target=self._poll_loop, name="dash poll", daemon=True)
+        self._poller.start()
+        self._frames_mark = (time.monotonic(), bus.stats["frames_received"])
+        self.load = 0.0
+        self.frame_rate = 0.0
+
+    # ------------------------------------------------------------------ samples
+
+    def _on_state(self, st: MotorState) -> None:
+        tg = self.targets.get(st.node)
+        flags = int(st.trajectory_done) | (int(st.error) << 1)
+        t = st.timestamp - self.t0
+        if tg is None:
+            self.samples.append((st.node, t, st.angle, st.speed, st.torque, flags, None, None, None))
+        else:
+            self.samples.append((st.node, t, st.angle, st.speed, st.torque, flags, tg[0], tg[1], tg[2]))
+        self.samples_total += 1
+
+    def take_samples(self) -> list[Sample]:
+        """Every sample that arrived since the last call, oldest first (none is dropped)."""
+        q = self.samples
+        return [q.popleft() for _ in range(len(q))]
+
+    def _poll_loop(self) -> None:
+        next_t = time.monotonic()
+        while not self._stop.is_set():
+            ids = sorted(self.motors)
+            if ids and not self.heartbeat_ms and not self.scanning and not self.bus.closed:
+                try:
+                    self.bus.request([FastRead(i) for i in ids], missing_ok=True)
+                except DrEmpowerError:
+                    pass
+            if self._watch and not self.scanning:
+                self._read_watched()
+            next_t = max(next_t + 1.0 / self.poll_hz, time.monotonic())
+            self._stop.wait(max(0.0, next_t - time.monotonic()))
+
+    def watch(self, i: int, name: str, hz: float) -> None:
+        """Read parameter ``name`` of motor ``i`` ``hz`` times a second (0 stops) into :attr:`param_samples`."""
+        p = find_parameter(name)
+        if p is None:
+            raise ValidationError(f"parameter {name!r}: no such parameter")
+        if not 1 <= i <= 63:
+            raise ValidationError(f"id={i}: motor ids are 1..63")
+        if not 0 <= hz <= self.poll_hz:
+            raise ValidationError(f"rate={hz!r}: 0 (stop) or up to {self.poll_hz:g} readings/s")
+        if hz == 0:
+            self._watch.pop((i, p.name), None)
+        else:
+            self._watch[(i, p.name)] = (1.0 / hz, time.monotonic())
+
+    def _read_watched(self) -> None:
+        now = time.monotonic()
+        for key, (period, due) in list(self._watch.items()):
+            if now < due:
+                continue
+            i, name = key
+            try:
+                value = self.bus.motor(i).read_property(name, timeout=0.1)
+            except DrEmpowerError:
+                continue
+            finally:
+                if key in self._watch:
+                    self._watch[key] = (period, max(due + period, now))
+            self.param_samples.append((i, name, time.monotonic() - self.t0, value))
+
+    def watched(self) -> list[list[Any]]:
+        """``[id, name, rate]`` of every watched parameter."""
+        return [[i, n, round(1.0 / period, 3)] for (i, n), (period, _) in sorted(self._watch.items())]
+
+    def take_param_samples(self) -> list[tuple[int, str, float, float]]:
+        q = self.param_samples
+        return [q.popleft() for _ in range(len(q))]
+
+    def measure_load(self) -> None:
+        """Update :attr:`load` (fraction of a 1 Mbit/s bus) and :attr:`frame_rate` from received frames."""
+        now, frames = time.monotonic(), self.bus.stats["frames_received"]
+        t, f = self._frames_mark
+        if now - t >= 0.2:
+            self.frame_rate = (frames - f) / (now - t)
+            self.load = self.frame_rate * BITS_PER_FRAME / 1_000_000
+            self._frames_mark = (now, frames)
+
+    # ------------------------------------------------------------------ bus view
+
+    def do_scan(self, progress: Callable[[int, int, list[dict[str, Any]]], None]) -> list[dict[str, Any]]:
+        """Scan ids 1-63 in four groups, calling ``progress(done, 63, found)`` after each."""
+        found: list[dict[str, Any]] = []
+        self.scanning = True
+        try:
+            timeout = min(self.bus.timeout, 0.2)
+            for lo in range(1, 64, 16):
+                group = range(lo, min(lo + 16, 64))
+                for info in self.bus.scan(group, timeout=timeout, versions=True):
+                    found.append({"id": info.id, "hw": info.hw_version, "fw": info.fw_version})
+                progress(group[-1], 63, found)
+        finally:
+            self.scanning = False
+        self.motors = {m["id"]: m for m in found}
+        return found
+
+    def do_cards(self) -> dict[int, dict[str, Any]]:
+        """Supply voltage, axis state, temperatures and decoded error flags of every known motor."""
+        cards: dict[int, dict[str, Any]] = {}
+        for i in sorted(self.motors):
+            m = self.bus.motor(i)
+            card: dict[str, Any] = {"id": i}
+            for key, name in _CARD_READS:
+                try:
+                    card[key] = m.read_property(name, timeout=0.2)
+                except DrEmpowerError:
+                    card[key] = None
+            card["state_name"] = state_name(card["state"])
+            st = m.state
+            card["errors"] = []
+            if st is not None and st.error:
+                try:
+                    report = m.dump_error(timeout=0.2)
+                    card["errors"] = []
+                    for w, names in report.flags.items():
+                        for f in names:
+                            info = flag_info(_LABEL[w], f)
+                            card["errors"].append(
+                                {"word": w, "flag": f, "meaning": info.meaning, "advice": info.action}
+                            )
+                except DrEmpowerError:
+                    card["errors"] = [{"word": "?", "flag": "error (unread)", "advice": "read again"}]
+            cards[i] = card
+        return cards
+
+    # ------------------------------------------------------------------ control
+
+    def _control(self, who: str, what: str) -> None:
+        if self.read_only:
+            raise ValidationError("this dashboard is read-only (--read-only)")
+        log(f"{who}: {what}")
+
+    def _target(
+        self, i: int, angle: float | None = None, speed: float | None = None, torque: float | None = None
+    ) -> None:
+        self.targets[i] = [angle, speed, torque]
+        self.commanded.add(i)
+
+    def do_control(self, who: str, args: dict[str, Any]) -> Any:
+        """One control action from a page: ``args["action"]`` names it; returns what the page shows."""
+        action = args.get("action")
+        if action == "sync_move":
+            ids = _ids(args)
+            angles = args.get("angles")
+            if not isinstance(angles, list) or len(angles) != len(ids):
+                raise ValidationError(f"angles={angles!r}: one angle per motor of ids={ids}")
+            angles_f = [_num({"angle": a}, "angle") for a in angles]
+            speed, accel = _num(args, "speed", 10.0), _num(args, "accel", 10.0)
+            self._control(who, f"set_angles({ids}, {angles_f}, speed={speed}, param={accel}, mode=1)")
+            t = self.bus.set_angles(ids, angles_f, speed, accel, 1)
+            for i, a in zip(ids, angles_f, strict=True):
+                self._target(i, angle=a)
+            return {"seconds": t}
+        i = motor_id(args)
+        m = self.bus.motor(i)
+        if action in ("T", "Q", "P"):
+            mode = "TQP".index(action)
+            angle, speed, param = _num(args, "angle"), _num(args, "speed", 0.0), _num(args, "param", 0.0)
+            self._control(who, f"motor {i} set_angle({angle}, speed={speed}, param={param}, mode={mode})")
+            m.set_angle(angle, speed, param, mode)
+            self._target(i, angle=angle)
+        elif action in ("jog", "step"):
+            delta = _num(args, "delta")
+            speed, param = _num(args, "speed", 10.0), _num(args, "param", 10.0)
+            mode = 1 if action == "jog" else 0
+            base = self.targets.get(i, [None])[0]
+            st = m.state
+            if base is None:
+                base = st.angle if st is not None else 0.0
+            self._control(who, f"motor {i} step_angle({delta}, speed={speed}, param={param}, mode={mode})")
+            m.step_angle(delta, speed, param, mode)
+            self._target(i, angle=base + delta)
+        elif action == "V":
+            speed, param, mode = (
+                _num(args, "speed"),
+                _num(args, "param", 0.0),
+                _whole(args, "mode", 1, tuple(VelocityMode)),
+            )
+            self._control(who, f"motor {i} set_speed({speed}, param={param}, mode={mode})")
+            m.set_speed(speed, param, mode)
+            self._target(i, speed=speed)
+        elif action == "C":
+            torque, param, mode = (
+                _num(args, "torque"),
+                _num(args, "param", 0.0),
+                _whole(args, "mode", 1, tuple(TorqueMode)),
+            )
+            self._control(who, f"motor {i} set_torque({torque}, param={param}, mode={mode})")
+            m.set_torque(torque, param, mode)
+            self._target(i, torque=torque)
+        elif action == "impedance":
+            pos, vel, tff = _num(args, "angle"), _num(args, "speed", 0.0), _num(args, "torque", 0.0)
+            kp, kd = _num(args, "kp"), _num(args, "kd")
+            self._control(who, f"motor {i} impedance_control({pos}, vel={vel}, tff={tff}, kp={kp}, kd={kd})")
+            m.impedance_control(pos, vel, tff, kp, kd)
+            self._target(i, angle=pos)
+        elif action == "stop":
+            self._control(who, f"motor {i} set_speed(0)")
+            m.set_speed(0.0)
+            self._target(i, speed=0.0)
+        elif action == "idle":
+            self._control(who, f"motor {i} set_mode(1) (idle)")
+            m.set_mode(1)
+            self.commanded.discard(i)
+            self.targets.pop(i, None)
+        elif action == "enable":
+            self._control(who, f"motor {i} set_mode(2) (closed loop)")
+            m.set_mode(2)
+        elif action == "clear_errors":
+            self._control(who, f"motor {i} clear_error()")
+            m.clear_error()
+        else:
+            raise ValidationError(f"action={action!r}: unknown control action")
+        return None
+
+    def estop(self, who: str) -> None:
+        """Emergency-stop every motor on the bus (one broadcast frame); allowed even when read-only."""
+        log(f"{who}: ESTOP (broadcast emergency stop)")
+        self.bus.estop()
+        self.targets.clear()
+
+    def idle_commanded(self, why: str) -> list[int]:
+        """Put the motors this dashboard moved into IDLE; returns their ids."""
+        ids = sorted(self.commanded)
+        self.commanded.clear()  # a second caller meanwhile finds nothing to do
+        for i in ids:
+            try:
+                self.bus.motor(i).set_mode(1)
+            except DrEmpowerError as exc:
+                log(f"idling motor {i} failed: {exc}")
+        if ids:
+            log(f"{why}: idled motors {','.join(map(str, ids))}")
+        self.commanded.clear()
+        self.targets.clear()
+        return ids
+
+    def do_rate(self, who: str, hz: float) -> None:
+        """Sample rate per motor: ``hz`` > 0 turns the motors' heartbeats on (period 1000/hz ms), 0 off."""
+        if not 0 <= hz <= 1000:
+            raise ValidationError(f"rate={hz!r}: 0 (poll at {self.poll_hz:g}/s) or 1..1000 samples/s")
+        ms = 0 if hz == 0 else max(1, round(1000 / hz))
+        self._control(who, f"{_HEARTBEAT} = {ms} on motors {sorted(self.motors)}")
+        for i in sorted(self.motors):
+            self.bus.motor(i).write_property(_HEARTBEAT, ms)
+        self.heartbeat_ms = ms
+
+    # ------------------------------------------------------------------ parameters
+
+    def do_read_params(self, i: int) -> dict[str, Any]:
+        """Every readable parameter of motor ``i`` (one backup read), with which differ from the saved ones."""
+        values = self.bus.motor(i).backup().values()
+        saved = self.saved.setdefault(i, dict(values))
+        changed = [k for k, v in values.items() if k in saved and saved[k] != v]
+        return {"id": i, "values": values, "changed": changed}
+
+    def do_write_param(self, who: str, i: int, name: str, value: Any) -> dict[str, Any]:
+        """Write one parameter (checked against its type and range first), then read it back."""
+        p: Parameter | None = find_parameter(name) if isinstance(name, str) else None
+        if p is None:
+            raise ValidationError(f"parameter {name!r}: no such parameter")
+        if not p.writable:
+            raise ValidationError(f"parameter {name}: read-only")
+        v = _num({name: value}, name)
+        if p.dtype.name != "F32" and v != int(v):
+            raise ValidationError(f"{name}={value!r}: expected a whole number ({p.dtype.name.lower()})")
+        p.encode(int(v) if p.dtype.name != "F32" else v)  # raises FieldRangeError naming the range
+        self._control(who, f"motor {i} write_property({name!r}, {value})")
+        m = self.bus.motor(i)
+        m.write_property(name, int(v) if p.dtype.name != "F32" else v)
+        back = m.read_property(name)
+        return {"id": i, "name": name, "value": back}
+
+    def do_save(self, who: str, i: int) -> None:
+        """Store motor ``i``'s RAM configuration in flash; what it holds becomes the saved set."""
+        self._control(who, f"motor {i} save_config()")
+        self.bus.motor(i).save_config()
+        self.saved[i] = self.bus.motor(i).backup().values()
+
+    def do_backup(self, i: int) -> dict[str, Any]:
+        return self.bus.motor(i).backup().to_json()
+
+    def do_restore(self, who: str, i: int, doc: Any, dry_run: bool) -> dict[str, Any]:
+        """Restore a backup document: with ``dry_run`` only the diff (name, now, backup) is returned."""
+        if not isinstance(doc, dict):
+            raise ValidationError("restore: expected a backup document (JSON object)")
+        backup = ConfigBackup.from_json(doc)
+        if not dry_run:
+            self._control(who, f"motor {i} restore(backup of motor {backup.node} from {backup.created})")
+        report = self.bus.motor(i).restore(backup, dry_run=dry_run)
+        return {
+            "id": i,
+            "dry_run": dry_run,
+            "diff": [list(w) for w in report.written],
+            "failed": [list(f) for f in report.failed],
+        }
+
+    # ------------------------------------------------------------------ tuning
+
+    def do_step(self, who: str, args: dict[str, Any]) -> dict[str, Any]:
+        """A step response of one motor (position: T mode with ``bandwidth``, default 300; or velocity).
+
+        Returns the actual series (``t`` s from the step, ``y`` deg or r/min) and its figures.
+        """
+        if self.read_only:
+            raise ValidationError("this dashboard is read-only (--read-only)")
+        i = motor_id(args)
+        mode = args.get("mode", "position")
+        amp, duration = _num(args, "amplitude"), _num(args, "duration", 1.0)
+        if mode not in ("position", "velocity"):
+            raise ValidationError(f"mode={mode!r}: position or velocity")
+        if not 0.1 <= duration <= 10:
+            raise ValidationError(f"duration={duration}: 0.1..10 s")
+        m = self.bus.motor(i)
+        st = m.get_state()
+        base = st.angle if mode == "position" else st.speed
+        target = base + amp
+        got: list[MotorState] = []
+        sub = self.bus.subscribe(got.append, i)
+        fast = not self.heartbeat_ms  # 500 samples/s for the run (the motor's heartbeat), off afterwards
+        try:
+            if fast:
+                m.write_property(_HEARTBEAT, 2)
+            start = time.monotonic()
+            if mode == "position":
+                bandwidth = _num(args, "bandwidth", 300.0)
+                self.do_control(who, {"action": "T", "id": i, "angle": target, "param": bandwidth})
+            else:
+                self.do_control(who, {"action": "V", "id": i, "speed": target})
+            time.sleep(duration)
+        finally:
+            sub.cancel()
+            if fast:
+                m.write_property(_HEARTBEAT, 0)
+        key = 1 if mode == "position" else 2
+        ts = [s.timestamp - start for s in got if s.timestamp >= start]
+        ys = [s[key] for s in got if s.timestamp >= start]
+        fig = tuning.step_figures(ts, ys, base, target)
+        return {"id": i, "mode": mode, "base": base, "target": target, "t": ts, "y": ys, "figures": fig}
+
+    # ------------------------------------------------------------------ lifetime
+
+    def close(self) -> None:
+        self._stop.set()
+        self._sub.cancel()
+        self._poller.join(2.0)
+        if self.heartbeat_ms and not self.bus.closed:
+            for i in sorted(self.motors):
+                try:
+                    self.bus.motor(i).write_property(_HEARTBEAT, 0)
+                except DrEmpowerError:
+                    pass

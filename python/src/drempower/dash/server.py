@@ -1,0 +1,322 @@
+"""The dashboard's web server: static page, one WebSocket per browser, sample batches, stop rules.
+
+aiohttp serves the page and its assets (shipped in the package, no network
+needed) and a WebSocket at ``/ws``. Every 40 ms the samples that arrived are
+sent to every browser in one message; none is dropped (the page decimates for
+display only). Blocking bus work runs in worker threads.
+"""
+
+from __future__ import annotations
+
+import asyncio
+import contextlib
+import hmac
+import json
+import secrets
+import signal
+import time
+from collections.abc import Awaitable, Callable
+from dataclasses import dataclass, field
+from importlib import resources
+from typing import Any, ClassVar
+from urllib.parse import urlsplit
+
+from aiohttp import WSMsgType, web
+
+from ..errors import DrEmpowerError
+from .hub import Hub, log, motor_id, param_table
+
+__all__ = ["Dashboard", "format_url"]
+
+FLUSH_S = 0.04
+"""How often samples go to the browsers (s)."""
+HEARTBEAT_LOST_S = 0.5
+"""A browser silent this long no longer counts as watching (s)."""
+STATUS_S = 0.5
+CARDS_S = 1.0
+_COOKIE = "drempower_dash_token"
+
+
+def format_url(host: str, port: int, token: str | None) -> str:
+    """``http://HOST:PORT/`` (IPv6 in brackets), with ``?token=...`` when a token is needed."""
+    h = f"[{host}]" if ":" in host else host
+    return f"http://{h}:{port}/" + (f"?token={token}" if token else "")
+
+
+@dataclass(eq=False)
+class Client:
+    ws: web.WebSocketResponse
+    name: str
+    last_hb: float = field(default_factory=time.monotonic)
+
+
+class Dashboard:
+    """One dashboard server around a :class:`Hub`.
+
+    ``token``: required from every request and WebSocket (query ``token=`` or
+    the cookie the page sets) when not None. ``keep_running``: do not idle the
+    dashboard's motors when the last browser goes away.
+    """
+
+    def __init__(self, hub: Hub, *, token: str | None = None, keep_running: bool = False) -> None:
+        self.hub = hub
+        self.token = token
+        self.keep_running = keep_running
+        self.clients: set[Client] = set()
+        self.stopping = asyncio.Event()
+        self.sent_total = 0
+        self._n = 0
+        self.cards: dict[int, dict[str, Any]] = {}
+        self._tasks: set[asyncio.Future[None]] = set()
+        self._static = resources.files("drempower.dash") / "static"
+        self.app = web.Application(middlewares=[self._auth])
+        self.app.router.add_get("/", self._index)
+        self.app.router.add_get("/ws", self._ws)
+        self.app.router.add_get("/static/{path:.+}", self._asset)
+        self.app.router.add_get("/favicon.ico", self._no_icon)
+
+    # ------------------------------------------------------------------ http
+
+    def _token_ok(self, request: web.Request) -> bool:
+        if self.token is None:
+            return True
+        given = request.query.get("token") or request.cookies.get(_COOKIE) or ""
+        return hmac.compare_digest(given.encode(), self.token.encode())
+
+    @web.middleware
+    async def _auth(
+        self, request: web.Request, handler: Callable[[web.Request], Awaitable[web.StreamResponse]]
+    ) -> web.StreamResponse:
+        if not self._token_ok(request):
+            return web.Response(status=403, text="forbidden: this dashboard needs the token of its URL\n")
+        return await handler(request)
+
+    async def _index(self, request: web.Request) -> web.StreamResponse:
+        resp = web.Response(text=(self._static / "index.html").read_text("utf-8"), content_type="text/html")
+        if self.token is not None:
+            resp.set_cookie(_COOKIE, self.token, httponly=True, samesite="Strict")
+        resp.headers["Cache-Control"] = "no-store"
+        return resp
+
+    async def _no_icon(self, request: web.Request) -> web.StreamResponse:
+        return web.Response(status=204)
+
+    _TYPES: ClassVar[dict[str, str]] = {
+        ".js": "text/javascript",
+        ".css": "text/css",
+        ".png": "image/png",
+        ".html": "text/html",
+    }
+
+    async def _asset(self, request: web.Request) -> web.StreamResponse:
+        parts = request.match_info["path"].split("/")
+        if any(p in ("", ".", "..") for p in parts):
+            raise web.HTTPNotFound()
+        f = self._static.joinpath(*parts)
+        if not f.is_file():
+            raise web.HTTPNotFound()
+        ctype = self._TYPES.get("." + parts[-1].rsplit(".", 1)[-1], "application/octet-stream")
+        return web.Response(body=f.read_bytes(), content_type=ctype)
+
+    # ------------------------------------------------------------------ websocket
+
+    def _origin_ok(self, request: web.Request) -> bool:
+        origin = request.headers.get("Origin")
+        if origin is None:  # not a browser (browsers always send it on WebSockets)
+            return True
+        return urlsplit(origin).netloc == request.host
+
+    async def _ws(self, request: web.Request) -> web.StreamResponse:
+        if not self._origin_ok(request):
+            log(f"refused a WebSocket from origin {request.headers.get('Origin')!r}")
+            return web.Response(status=403, text="forbidden: cross-origin WebSocket\n")
+        ws = web.WebSocketResponse(heartbeat=None, max_msg_size=8 * 1024 * 1024)
+        await ws.prepare(request)
+        self._n += 1
+        client = Client(ws, f"browser {self._n} ({request.remote})")
+        self.clients.add(client)
+        log(f"{client.name} connected")
+        hub = self.hub
+        await ws.send_str(
+            json.dumps(
+                {
+                    "t": "hello",
+                    "name": client.name,
+                    "read_only": hub.read_only,
+                    "params": param_table(),
+                    "motors": sorted(hub.motors),
+                    "heartbeat_ms": hub.heartbeat_ms,
+                    "poll_hz": hub.poll_hz,
+                    "watched": hub.watched(),
+                    "bus": hub.bus.transport.description,
+                }
+            )
+        )
+        try:
+            async for msg in ws:
+                if msg.type is not WSMsgType.TEXT:
+                    continue
+                try:
+                    req = json.loads(msg.data)
+                except ValueError:
+                    continue
+                if not isinstance(req, dict):
+                    continue
+                client.last_hb = time.monotonic()
+                if req.get("op") == "hb":
+                    continue
+                task = asyncio.ensure_future(self._handle(client, req))
+                self._tasks.add(task)
+                task.add_done_callback(self._tasks.discard)
+        finally:
+            self.clients.discard(client)
+            log(f"{client.name} disconnected")
+            await self._check_watchers(f"{client.name} disconnected")
+        return ws
+
+    async def _run(self, fn: Callable[..., Any], *args: Any) -> Any:
+        return await asyncio.get_running_loop().run_in_executor(None, fn, *args)
+
+    async def _handle(self, client: Client, req: dict[str, Any]) -> None:
+        op, hub, who = req.get("op"), self.hub, client.name
+        reply: dict[str, Any] = {"t": "reply", "req": req.get("req"), "op": op}
+        try:
+            if op == "estop":
+                await self._run(hub.estop, who)
+                result: Any = None
+            elif op == "scan":
+                loop = asyncio.get_running_loop()
+
+                def progress(done: int, of: int, found: list[dict[str, Any]]) -> None:
+                    msg = json.dumps({"t": "scan", "done": done, "of": of, "found": found})
+                    asyncio.run_coroutine_threadsafe(self._broadcast(msg), loop)
+
+                result = await self._run(hub.do_scan, progress)
+                self.cards = await self._run(hub.do_cards)
+                await self._broadcast(json.dumps({"t": "cards", "cards": list(self.cards.values())}))
+            elif op == "control":
+                result = await self._run(hub.do_control, who, req)
+            elif op == "rate":
+                result = await self._run(hub.do_rate, who, float(req.get("hz", 0)))
+            elif op == "params":
+                result = await self._run(hub.do_read_params, motor_id(req))
+            elif op == "write":
+                result = await self._run(hub.do_write_param, who, motor_id(req), req.get("name"), req.get("value"))
+            elif op == "save":
+                result = await self._run(hub.do_save, who, motor_id(req))
+            elif op == "backup":
+                result = await self._run(hub.do_backup, motor_id(req))
+            elif op == "restore":
+                result = await self._run(hub.do_restore, who, motor_id(req), req.get("doc"), bool(req.get("dry_run")))
+            elif op == "watch":
+                hub.watch(motor_id(req), str(req.get("name")), float(req.get("hz", 0)))
+                result = hub.watched()
+                await self._broadcast(json.dumps({"t": "watched", "watched": result}))
+            elif op == "step":
+                result = await self._run(hub.do_step, who, req)
+            else:
+                raise DrEmpowerError(f"op={op!r}: unknown request")
+            reply.update(ok=True, result=result)
+        except (DrEmpowerError, KeyError, TypeError, ValueError) as exc:
+            reply.update(ok=False, error=str(exc) or type(exc).__name__)
+        except Exception as exc:  # a bug must still answer the page
+            log(f"{who}: {op} failed: {exc!r}")
+            reply.update(ok=False, error=f"internal error: {exc!r}")
+        if not client.ws.closed:
+            with contextlib.suppress(ConnectionError, RuntimeError):
+                await client.ws.send_str(json.dumps(reply))
+
+    async def _broadcast(self, text: str) -> None:
+        for c in list(self.clients):
+            if not c.ws.closed:
+                with contextlib.suppress(ConnectionError, RuntimeError):
+                    await c.ws.send_str(text)
+
+    # ------------------------------------------------------------------ periodic work
+
+    async def _check_watchers(self, why: str) -> None:
+        """Idle the dashboard's motors when no browser with a live heartbeat remains."""
+        hub = self.hub
+        if self.keep_running or not hub.commanded:
+            return
+        now = time.monotonic()
+        if any(now - c.last_hb < HEARTBEAT_LOST_S for c in self.clients if not c.ws.closed):
+            return
+        why = why if not self.clients else "no browser heartbeat for 0.5 s"
+        await self._run(hub.idle_commanded, why)
+
+    async def _pump(self) -> None:
+        """Send samples every FLUSH_S and the status every STATUS_S; watch the browsers' heartbeats."""
+        hub = self.hub
+        next_status = next_cards = 0.0
+        cards_task: asyncio.Future[Any] | None = None
+        while not self.stopping.is_set():
+            await asyncio.sleep(FLUSH_S)
+            samples = hub.take_samples()
+            if samples:
+                self.sent_total += len(samples)
+                await self._broadcast(json.dumps({"t": "samples", "total": self.sent_total, "s": samples}))
+            psamples = hub.take_param_samples()
+            if psamples:
+                await self._broadcast(json.dumps({"t": "params", "s": psamples}))
+            await self._check_watchers("last browser gone")
+            now = time.monotonic()
+            if now >= next_status:
+                next_status = now + STATUS_S
+                hub.measure_load()
+                status = {
+                    "t": "status",
+                    "load": hub.load,
+                    "frame_rate": hub.frame_rate,
+                    "clients": len(self.clients),
+                    "sent_total": self.sent_total,
+                    "commanded": sorted(hub.commanded),
+                    "heartbeat_ms": hub.heartbeat_ms,
+                }
+                await self._broadcast(json.dumps(status))
+            if now >= next_cards and hub.motors and not hub.scanning and (cards_task is None or cards_task.done()):
+                next_cards = now + CARDS_S
+                cards_task = asyncio.ensure_future(self._send_cards())
+
+    async def _send_cards(self) -> None:
+        with contextlib.suppress(DrEmpowerError):
+            self.cards = await self._run(self.hub.do_cards)
+            await self._broadcast(json.dumps({"t": "cards", "cards": list(self.cards.values())}))
+
+    # ------------------------------------------------------------------ lifetime
+
+    async def serve(self, host: str, port: int, on_ready: Callable[[str], None]) -> None:
+        """Serve until SIGINT/SIGTERM/SIGHUP (or :attr:`stopping` is set); then idle the dashboard's motors."""
+        loop = asyncio.get_running_loop()
+        for sig in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):
+            with contextlib.suppress(NotImplementedError, RuntimeError, ValueError):
+                loop.add_signal_handler(sig, self._on_signal, sig)
+        runner = web.AppRunner(self.app, handle_signals=False, access_log=None)
+        await runner.setup()
+        try:
+            site = web.TCPSite(runner, host, port)
+            await site.start()
+            addr = runner.addresses[0]
+            on_ready(format_url(host, int(addr[1]), self.token))
+            pump = asyncio.ensure_future(self._pump())
+            await self.stopping.wait()
+            pump.cancel()
+            with contextlib.suppress(asyncio.CancelledError):
+                await pump
+            if self._tasks:  # requests under way finish (their bus calls are bounded by timeouts)
+                await asyncio.wait(self._tasks, timeout=5)
+        finally:
+            await self._run(self.hub.idle_commanded, "dashboard stopping")
+            for c in list(self.clients):
+                with contextlib.suppress(Exception):
+                    await c.ws.close()
+            await runner.cleanup()
+
+    def _on_signal(self, sig: int) -> None:
+        log(f"{signal.Signals(sig).name}: stopping")
+        self.stopping.set()
+
+
+def new_token() -> str:
+    """A fresh random token for a dashboard bound beyond 127.0.0.1."""
+    return secrets.token_urlsafe(18)

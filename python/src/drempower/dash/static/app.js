@@ -1,0 +1,604 @@
+// drempower dashboard page: one WebSocket, five views, an always-visible ESTOP.
+"use strict";
+(function () {
+  const $ = (s) => document.querySelector(s);
+  const $$ = (s) => Array.from(document.querySelectorAll(s));
+  const KEEP_S = 60; // seconds of samples kept per motor (the largest window)
+  const CH = { angle: 2, speed: 3, torque: 4 };
+  const TGT = { angle: 6, speed: 7, torque: 8 };
+  const COLORS = ["#1e88e5", "#e53935", "#43a047", "#fb8c00", "#8e24aa", "#00897b", "#6d4c41", "#3949ab",
+    "#c0ca33", "#d81b60", "#5e35b1", "#00acc1"];
+
+  // ------------------------------------------------------------ state
+  const S = {
+    ws: null, req: 0, pending: new Map(), params: [], motors: [], cards: {}, readOnly: false,
+    data: new Map(), // id -> {t:[], rows:[]} raw samples, oldest first
+    lastT: 0, paused: false, frozen: null, xRange: null, dirty: true,
+    received: 0, frames: 0, rateWin: [], paramValues: {}, changed: new Set(), runs: [],
+    watched: [], pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
+  };
+  window.dashParams = (key) => S.pdata.get(key);
+  window.dashStats = { received: 0, firstTotal: 0, serverTotal: 0, batches: 0, frames: 0, fps: 0, rate: 0, connected: false };
+
+  function say(text, info) {
+    const m = $("#msg");
+    m.textContent = text || "";
+    m.className = info ? "info" : "";
+  }
+
+  // ------------------------------------------------------------ connection
+  function connect() {
+    const proto = location.protocol === "https:" ? "wss:" : "ws:";
+    const ws = new WebSocket(proto + "//" + location.host + "/ws" + location.search);
+    S.ws = ws;
+    ws.onopen = () => { setConn(true); };
+    ws.onclose = () => {
+      setConn(false);
+      for (const p of S.pending.values()) p.reject(new Error("connection lost"));
+      S.pending.clear();
+      setTimeout(connect, 1000);
+    };
+    ws.onmessage = (ev) => onMessage(JSON.parse(ev.data));
+  }
+  function setConn(ok) {
+    const c = $("#conn");
+    c.textContent = ok ? "connected" : "disconnected";
+    c.className = ok ? "ok" : "bad";
+    window.dashStats.connected = ok;
+  }
+  // The heartbeat (every 100 ms; the server idles this page's motors after 0.5 s without one) is ticked
+  // by a worker: browsers slow the timers of a hidden tab down to once a second, not those of workers.
+  const beat = () => { if (S.ws && S.ws.readyState === 1) S.ws.send('{"op":"hb"}'); };
+  try {
+    const w = new Worker(URL.createObjectURL(new Blob(["setInterval(() => postMessage(0), 100);"], { type: "text/javascript" })));
+    w.onmessage = beat;
+  } catch (e) {
+    setInterval(beat, 100);
+  }
+
+  function call(op, args) {
+    return new Promise((resolve, reject) => {
+      if (!S.ws || S.ws.readyState !== 1) { reject(new Error("not connected")); return; }
+      const req = ++S.req;
+      S.pending.set(req, { resolve, reject });
+      S.ws.send(JSON.stringify(Object.assign({ op, req }, args || {})));
+    });
+  }
+  async function act(op, args, okText) {
+    try {
+      const r = await call(op, args);
+      if (okText) say(okText, true);
+      return r;
+    } catch (e) {
+      say(String(e.message || e));
+      throw e;
+    }
+  }
+
+  // click handlers: a refused input or a failed request is shown in #msg, never thrown
+  function on(sel, fn, ev) {
+    $(sel).addEventListener(ev || "click", (e) => {
+      try {
+        const r = fn(e);
+        if (r && r.catch) r.catch(() => {});
+      } catch (err) {
+        if (err.message !== "invalid") say(String(err.message || err));
+      }
+    });
+  }
+
+  function onMessage(m) {
+    switch (m.t) {
+      case "hello":
+        S.params = m.params; S.readOnly = m.read_only;
+        $("#ro").hidden = !m.read_only;
+        for (const e of $$("#view-control button, #view-control input, #view-control select, #par-save, #par-restore, #tun-run, #plot-rate")) {
+          e.disabled = m.read_only; // watching only: the server refuses these anyway
+        }
+        $("#busname").textContent = m.bus;
+        $("#plot-rate").value = m.heartbeat_ms ? String(Math.round(1000 / m.heartbeat_ms)) : "0";
+        if (m.motors.length) setMotors(m.motors);
+        buildParamTable();
+        $("#pw-names").innerHTML = m.params.map((p) => `<option value="${p.name}">`).join("");
+        setWatched(m.watched);
+        break;
+      case "samples": onSamples(m); break;
+      case "watched": setWatched(m.watched); break;
+      case "params":
+        for (const [id, name, t, v] of m.s) {
+          const k = `${id}:${name}`;
+          let d = S.pdata.get(k);
+          if (!d) { d = { t: [], v: [] }; S.pdata.set(k, d); }
+          d.t.push(t); d.v.push(v);
+          if (d.t.length > 4000) { d.t = d.t.slice(-3000); d.v = d.v.slice(-3000); }
+        }
+        S.dirty = true;
+        break;
+      case "status":
+        $("#load").textContent = (100 * m.load).toFixed(1) + " %";
+        window.dashStats.serverTotal = m.sent_total;
+        window.dashStats.commanded = m.commanded;
+        break;
+      case "scan":
+        $("#scan-progress").value = m.done;
+        $("#scan-text").textContent = `${m.done}/63, found ${m.found.map((f) => f.id).join(", ") || "none"}`;
+        break;
+      case "cards":
+        for (const c of m.cards) S.cards[c.id] = c;
+        setMotors(m.cards.map((c) => c.id));
+        renderCards();
+        break;
+      case "reply": {
+        const p = S.pending.get(m.req);
+        if (p) { S.pending.delete(m.req); m.ok ? p.resolve(m.result) : p.reject(new Error(m.error)); }
+        break;
+      }
+    }
+  }
+
+  // ------------------------------------------------------------ samples
+  function onSamples(m) {
+    const s = m.s;
+    if (window.dashStats.batches++ === 0) window.dashStats.firstTotal = m.total - s.length;
+    S.received += s.length;
+    window.dashStats.received = S.received;
+    window.dashStats.serverTotal = Math.max(window.dashStats.serverTotal, m.total);
+    const now = performance.now();
+    S.rateWin.push([now, s.length]);
+    for (const row of s) {
+      let d = S.data.get(row[0]);
+      if (!d) { d = { t: [], rows: [] }; S.data.set(row[0], d); if (!S.motors.includes(row[0])) setMotors([...S.motors, row[0]]); }
+      d.t.push(row[1]); d.rows.push(row);
+      if (row[1] > S.lastT) S.lastT = row[1];
+    }
+    for (const d of S.data.values()) {
+      if (d.t.length > 1000 && d.t[0] < S.lastT - KEEP_S * 1.2) {
+        const k = lowerBound(d.t, S.lastT - KEEP_S);
+        d.t = d.t.slice(k); d.rows = d.rows.slice(k);
+      }
+    }
+    S.dirty = true;
+  }
+  setInterval(() => {
+    const now = performance.now();
+    S.rateWin = S.rateWin.filter((r) => now - r[0] < 1000);
+    const rate = S.rateWin.reduce((a, r) => a + r[1], 0);
+    window.dashStats.rate = rate;
+    $("#rate").textContent = rate;
+    $("#plot-count").textContent = S.received;
+    const per = [];
+    for (const [id, d] of S.data) {
+      const k = lowerBound(d.t, S.lastT - 1);
+      per.push(`motor ${id}: ${d.t.length - k}/s`);
+    }
+    $("#plot-per-motor").textContent = per.join(", ");
+    window.dashStats.fps = S.frames; $("#plot-fps").textContent = S.frames; S.frames = 0;
+  }, 1000);
+
+  function lowerBound(a, x) {
+    let lo = 0, hi = a.length;
+    while (lo < hi) { const mid = (lo + hi) >> 1; if (a[mid] < x) lo = mid + 1; else hi = mid; }
+    return lo;
+  }
+
+  // ------------------------------------------------------------ motors and views
+  function setMotors(ids) {
+    ids = Array.from(new Set(ids)).sort((a, b) => a - b);
+    if (ids.join() === S.motors.join()) return;
+    S.motors = ids;
+    for (const sel of $$(".motor-select")) {
+      const v = sel.value;
+      sel.innerHTML = ids.map((i) => `<option value="${i}">${i}</option>`).join("");
+      if (ids.includes(Number(v))) sel.value = v;
+    }
+    const unchecked = new Set($$("#plot-motors input:not(:checked)").map((e) => Number(e.value)));
+    $("#plot-motors").innerHTML = "motors " + ids.map((i) =>
+      `<label><input type="checkbox" value="${i}" ${unchecked.has(i) ? "" : "checked"}> ${i}</label>`).join(" ");
+    $("#sync-rows").innerHTML = ids.map((i) =>
+      `<label><span><input type="checkbox" class="sync-on" value="${i}" checked> motor ${i}</span>
+       <input type="number" step="any" class="sync-angle" data-id="${i}" value="0"></label>`).join("");
+    rebuildPlot();
+  }
+
+  for (const b of $$("nav button")) {
+    b.addEventListener("click", () => {
+      for (const o of $$("nav button")) o.setAttribute("aria-selected", String(o === b));
+      for (const v of $$(".view")) v.hidden = v.id !== "view-" + b.dataset.view;
+      if (b.dataset.view === "plots") rebuildPlot();
+      if (b.dataset.view === "params" && S.motors.length && !Object.keys(S.paramValues).length) readParams();
+      if (b.dataset.view === "tuning") { loadGains(); drawRuns(); }
+    });
+  }
+
+  // ------------------------------------------------------------ ESTOP
+  function estop() {
+    if (S.ws && S.ws.readyState === 1) S.ws.send(JSON.stringify({ op: "estop", req: ++S.req }));
+    say("ESTOP sent: every motor stopped; clear errors and enable to go on", false);
+  }
+  on("#estop", estop);
+  document.addEventListener("keydown", (e) => {
+    if (e.key !== " " && e.key !== "Escape") return;
+    const t = e.target;
+    const typing = t && (t.isContentEditable || ["INPUT", "TEXTAREA", "SELECT"].includes(t.tagName));
+    if (typing) return;
+    e.preventDefault();
+    estop();
+  });
+
+  // ------------------------------------------------------------ bus view
+  on("#scan", async () => {
+    $("#scan-progress").value = 0;
+    const found = await act("scan", {});
+    $("#scan-text").textContent = `done: ${found.length} motor(s): ${found.map((f) => f.id).join(", ")}`;
+  });
+  function fmt(v, d) { return v === null || v === undefined ? "-" : Number(v).toFixed(d); }
+  function latest(id) {
+    const d = S.data.get(id);
+    return d && d.rows.length ? d.rows[d.rows.length - 1] : null;
+  }
+  function renderCards() {
+    const html = S.motors.map((id) => {
+      const c = S.cards[id] || { id };
+      const r = latest(id);
+      const errs = (c.errors || []).map((e) => `<div class="err"><b>${e.word}: ${e.flag}</b> ${e.meaning} <i>${e.advice}</i></div>`).join("");
+      const ro = S.readOnly ? "disabled" : "";
+      return `<div class="card" data-id="${id}"><h3>Motor ${id}</h3>
+        <table><tr><td>state</td><td>${c.state_name || "-"}</td></tr>
+        <tr><td>angle</td><td>${r ? fmt(r[2], 2) : "-"} deg</td></tr>
+        <tr><td>speed</td><td>${r ? fmt(r[3], 2) : "-"} r/min</td></tr>
+        <tr><td>torque</td><td>${r ? fmt(r[4], 2) : "-"} Nm</td></tr>
+        <tr><td>supply</td><td>${fmt(c.vbus, 1)} V</td></tr>
+        <tr><td>temps</td><td>FET ${fmt(c.fet_temp, 1)} / motor ${fmt(c.motor_temp, 1)} &deg;C</td></tr>
+        <tr><td>fw/hw</td><td>${c.fw ?? "-"}/${c.hw ?? "-"}</td></tr></table>
+        ${r && r[5] & 2 ? errs || '<div class="err">error flag set</div>' : ""}
+        <button data-card="clear_errors" ${ro}>Clear errors</button>
+        <button data-card="enable" ${ro}>Enable</button><button data-card="idle" ${ro}>Idle</button></div>`;
+    }).join("");
+    $("#cards").innerHTML = html;
+  }
+  on("#cards", (e) => {
+    const b = e.target.closest("button[data-card]");
+    if (!b) return;
+    const id = Number(b.closest(".card").dataset.id);
+    act("control", { action: b.dataset.card, id }, `motor ${id}: ${b.dataset.card}`);
+  });
+  setInterval(() => { if (!$("#view-bus").hidden) renderCards(); }, 500);
+
+  // ------------------------------------------------------------ plots
+  let plot = null;
+  let series = []; // [{id, ch, target}]
+  function selectedMotors() { return $$("#plot-motors input:checked").map((e) => Number(e.value)); }
+  function selectedChannels() { return $$("#plot-channels input[value]:checked").map((e) => e.value); }
+  function windowS() { return Number($("#plot-window").value); }
+
+  function rebuildPlot() {
+    const el = $("#plot");
+    if (plot) { plot.destroy(); plot = null; }
+    if ($("#view-plots").hidden) return;
+    const ids = selectedMotors(), chs = selectedChannels(), tg = $("#plot-targets").checked;
+    series = [];
+    ids.forEach((id, k) => {
+      for (const ch of chs) {
+        series.push({ id, ch, target: false, color: COLORS[(k * 3 + chs.indexOf(ch)) % COLORS.length] });
+        if (tg && TGT[ch] !== undefined) series.push({ id, ch, target: true, color: COLORS[(k * 3 + chs.indexOf(ch)) % COLORS.length] });
+      }
+    });
+    S.watched.forEach(([id, name], k) => {
+      series.push({ id, ch: name, param: `${id}:${name}`, color: COLORS[(k + 5) % COLORS.length] });
+    });
+    const opts = {
+      width: Math.max(400, el.clientWidth || window.innerWidth - 30), height: 380,
+      scales: { x: { time: false } },
+      axes: [{ label: "t / s" }, {}],
+      cursor: { drag: { x: true, y: false } },
+      hooks: { setSelect: [(u) => {
+        if (u.select.width > 5) {
+          S.xRange = [u.posToVal(u.select.left, "x"), u.posToVal(u.select.left + u.select.width, "x")];
+          pause(true);
+        }
+      }] },
+      series: [{ label: "t" }].concat(series.map((s) => ({
+        label: s.param ? `m${s.id} ${s.ch.split(".").slice(-2).join(".")}` : `m${s.id} ${s.ch}${s.target ? " target" : ""}`,
+        stroke: s.color, width: s.target ? 1 : 1.5, dash: s.target ? [6, 4] : undefined, spanGaps: true,
+        points: { show: false },
+      }))),
+    };
+    plot = new uPlot(opts, [[]].concat(series.map(() => [])), el);
+    S.dirty = true;
+  }
+
+  // min/max decimation of every series onto one grid of ~width buckets (display only)
+  function decimated(x0, x1, width) {
+    const n = Math.max(10, Math.floor(width / 2));
+    const dt = (x1 - x0) / n;
+    const xs = new Array(2 * n);
+    for (let b = 0; b < n; b++) { xs[2 * b] = x0 + b * dt; xs[2 * b + 1] = x0 + (b + 0.5) * dt; }
+    const out = [xs];
+    const src = S.paused && S.frozen ? S.frozen : S.data;
+    for (const s of series) {
+      const ys = new Array(2 * n).fill(null);
+      if (s.param) {
+        const p = S.pdata.get(s.param);
+        if (p) {
+          for (let i = lowerBound(p.t, x0); i < p.t.length && p.t[i] < x1; i++) {
+            const b = Math.min(n - 1, Math.floor((p.t[i] - x0) / dt));
+            ys[2 * b] = p.v[i];
+          }
+        }
+        out.push(ys);
+        continue;
+      }
+      const d = src.get(s.id);
+      if (d) {
+        const col = s.target ? TGT[s.ch] : CH[s.ch];
+        let i = lowerBound(d.t, x0);
+        const end = lowerBound(d.t, x1);
+        for (let b = 0; b < n && i < end; b++) {
+          const lim = x0 + (b + 1) * dt;
+          let lo = Infinity, hi = -Infinity;
+          for (; i < end && d.t[i] < lim; i++) {
+            const r = d.rows[i];
+            const v = col !== undefined ? r[col] : (s.ch === "T" ? r[5] & 1 : (r[5] >> 1) & 1);
+            if (v === null) continue;
+            if (v < lo) lo = v;
+            if (v > hi) hi = v;
+          }
+          if (lo !== Infinity) { ys[2 * b] = lo; ys[2 * b + 1] = hi; }
+        }
+      }
+      out.push(ys);
+    }
+    return out;
+  }
+  function frame() {
+    requestAnimationFrame(frame);
+    if (!plot || $("#view-plots").hidden || !S.dirty) return;
+    S.dirty = false;
+    let x0, x1;
+    if (S.xRange) [x0, x1] = S.xRange;
+    else { x1 = S.paused && S.frozenT ? S.frozenT : S.lastT; x0 = x1 - windowS(); }
+    plot.batch(() => {
+      plot.setData(decimated(x0, x1, plot.width), false);
+      plot.setScale("x", { min: x0, max: x1 });
+    });
+    S.frames++; window.dashStats.frames++;
+  }
+  requestAnimationFrame(frame);
+  function pause(on) {
+    S.paused = on;
+    $("#plot-pause").textContent = on ? "Resume" : "Pause";
+    if (on && !S.frozen) {
+      S.frozen = new Map(Array.from(S.data, ([k, d]) => [k, { t: d.t.slice(), rows: d.rows.slice() }]));
+      S.frozenT = S.lastT;
+    }
+    if (!on) { S.frozen = null; S.xRange = null; }
+    S.dirty = true;
+  }
+  on("#plot-pause", () => pause(!S.paused));
+  on("#plot-reset", () => pause(false));
+  function pan(dir) {
+    if (!S.paused) pause(true);
+    const x1 = S.xRange ? S.xRange[1] : S.frozenT, x0 = S.xRange ? S.xRange[0] : x1 - windowS();
+    const w = x1 - x0;
+    S.xRange = [x0 + dir * w / 2, x1 + dir * w / 2];
+    S.dirty = true;
+  }
+  on("#plot-left", () => pan(-1));
+  on("#plot-right", () => pan(1));
+  on("#plot-window", () => { S.xRange = null; S.dirty = true; }, "change");
+  on("#plot-channels", rebuildPlot, "change");
+  on("#plot-motors", rebuildPlot, "change");
+  on("#plot-rate", (e) =>
+    act("rate", { hz: Number(e.target.value) }, `sample rate ${e.target.value === "0" ? "poll" : e.target.value + "/s"}`), "change");
+  on("#plot-csv", () => {
+    const src = S.paused && S.frozen ? S.frozen : S.data;
+    let x0, x1;
+    if (S.xRange) [x0, x1] = S.xRange; else { x1 = S.paused ? S.frozenT : S.lastT; x0 = x1 - windowS(); }
+    const lines = ["motor,t_s,angle_deg,speed_rpm,torque_nm,trajectory_done,error,target_angle_deg,target_speed_rpm,target_torque_nm"];
+    for (const id of selectedMotors()) {
+      const d = src.get(id);
+      if (!d) continue;
+      for (let i = lowerBound(d.t, x0); i < d.t.length && d.t[i] <= x1; i++) {
+        const r = d.rows[i];
+        lines.push([id, r[1].toFixed(4), r[2], r[3], r[4], r[5] & 1, (r[5] >> 1) & 1,
+          r[6] ?? "", r[7] ?? "", r[8] ?? ""].join(","));
+      }
+    }
+    download("drempower-plot.csv", lines.join("\n") + "\n", "text/csv");
+  });
+  function download(name, text, type) {
+    const a = document.createElement("a");
+    a.href = URL.createObjectURL(new Blob([text], { type }));
+    a.download = name;
+    document.body.appendChild(a); a.click(); a.remove();
+  }
+  window.addEventListener("resize", rebuildPlot);
+  function setWatched(w) {
+    S.watched = w || [];
+    $("#pw-list").innerHTML = S.watched.map(([id, name, hz]) =>
+      `<span>m${id} ${name} ${hz}/s <button data-unwatch="${id}|${name}" aria-label="stop plotting ${name}">&times;</button></span>`).join(" ");
+    rebuildPlot();
+  }
+  on("#pw-add", () => act("watch", { id: Number($("#pw-motor").value), name: $("#pw-name").value.trim(),
+    hz: Number($("#pw-rate").value) }));
+  on("#pw-list", (e) => {
+    const b = e.target.closest("button[data-unwatch]");
+    if (!b) return null;
+    const [id, name] = b.dataset.unwatch.split("|");
+    return act("watch", { id: Number(id), name, hz: 0 });
+  });
+
+  // ------------------------------------------------------------ control
+  const ctlId = () => Number($("#ctl-motor").value);
+  const num = (sel) => {
+    const el = $(sel);
+    if (!el.checkValidity() || el.value === "") { say(`${el.id}: ${el.value || "(empty)"} is outside ${el.min}..${el.max}`); throw new Error("invalid"); }
+    return Number(el.value);
+  };
+  function control(args, text) {
+    try { return act("control", Object.assign({ id: ctlId() }, args), text); } catch (e) { return null; }
+  }
+  $$("#view-control button[data-act]").forEach((b) => b.addEventListener("click", () =>
+    control({ action: b.dataset.act }, `motor ${ctlId()}: ${b.dataset.act}`)));
+  on("#pos-go", () => control({ action: $("#pos-mode").value, angle: num("#pos-angle"),
+    speed: num("#pos-speed"), param: num("#pos-param") }, `motor ${ctlId()}: move to ${$("#pos-angle").value} deg`));
+  on("#jog-plus", () => control({ action: "jog", delta: num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
+  on("#jog-minus", () => control({ action: "jog", delta: -num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
+  on("#step-go", () => control({ action: "step", delta: num("#step-delta"), speed: 0, param: 0 }));
+  on("#vel-go", () => control({ action: "V", speed: num("#vel-speed"), mode: Number($("#vel-mode").value), param: num("#vel-param") }));
+  on("#tq-go", () => control({ action: "C", torque: num("#tq-torque"), mode: Number($("#tq-mode").value), param: num("#tq-param") }));
+  on("#imp-go", () => control({ action: "impedance", angle: num("#imp-angle"), speed: num("#imp-speed"),
+    torque: num("#imp-torque"), kp: num("#imp-kp"), kd: num("#imp-kd") }));
+  on("#sync-go", () => {
+    const ids = $$(".sync-on:checked").map((e) => Number(e.value));
+    const angles = ids.map((i) => Number($(`.sync-angle[data-id="${i}"]`).value));
+    act("control", { action: "sync_move", ids, angles, speed: num("#sync-speed"), accel: num("#sync-accel") },
+      `synchronised move of ${ids.join(",")}`);
+  });
+  setInterval(() => {
+    const r = latest(ctlId());
+    $("#ctl-state").textContent = r ? `angle ${fmt(r[2], 2)} deg, speed ${fmt(r[3], 2)} r/min, torque ${fmt(r[4], 2)} Nm${r[5] & 1 ? ", done" : ""}${r[5] & 2 ? ", ERROR" : ""}` : "";
+  }, 250);
+
+  // ------------------------------------------------------------ parameters
+  function buildParamTable() {
+    let html = "", group = null;
+    for (const p of S.params) {
+      if (p.group !== group) { group = p.group; html += `<tr class="group"><td colspan="5">${group}</td></tr>`; }
+      const edit = p.access === "rw" && !S.readOnly
+        ? `<input data-name="${p.name}" type="number" step="${p.type === "f32" ? "any" : "1"}" ${p.bool ? 'min="0" max="1"' : ""} aria-label="${p.name}"> <button data-set="${p.name}">Set</button>` : "";
+      html += `<tr data-name="${p.name}"><td title="address ${p.address}, ${p.type}">${p.name}</td>
+        <td><span class="val" data-val="${p.name}">-</span> ${edit}</td><td>${p.unit}</td><td>${p.access}</td><td>${p.description}</td></tr>`;
+    }
+    $("#par-table tbody").innerHTML = html;
+  }
+  const parId = () => Number($("#par-motor").value);
+  // a parameter value as the motor holds it: f32 values to their 7 significant digits
+  const shown = (v) => (Number.isInteger(v) ? String(v) : String(+Number(v).toPrecision(7)));
+  async function readParams() {
+    if (!S.motors.length) return;
+    const id = parId();
+    const r = await act("params", { id });
+    S.paramValues = r.values; S.changed = new Set(r.changed);
+    for (const el of $$("#par-table span.val")) {
+      const v = r.values[el.dataset.val];
+      el.textContent = v === undefined ? "-" : shown(v);
+    }
+    for (const tr of $$("#par-table tr[data-name]")) tr.classList.toggle("changed", S.changed.has(tr.dataset.name));
+    $("#par-status").textContent = `motor ${id}: ${Object.keys(r.values).length} values read ${new Date().toLocaleTimeString()}; ${S.changed.size} changed since saved`;
+  }
+  on("#par-read", readParams);
+  on("#par-motor", readParams, "change");
+  setInterval(() => { if ($("#par-live").checked && !$("#view-params").hidden) readParams().catch(() => {}); }, 2000);
+  on("#par-table", async (e) => {
+    const b = e.target.closest("button[data-set]");
+    if (!b) return;
+    const name = b.dataset.set, input = $(`#par-table input[data-name="${name}"]`);
+    if (input.value === "" || !input.checkValidity()) { say(`${name}: ${input.value || "(empty)"} is not a valid value`); return; }
+    const r = await act("write", { id: parId(), name, value: Number(input.value) });
+    $(`#par-table span[data-val="${name}"]`).textContent = shown(r.value);
+    say(`motor ${r.id}: ${name} = ${shown(r.value)} (read back)`, true);
+    S.changed.add(name);
+    $(`#par-table tr[data-name="${name}"]`).classList.add("changed");
+  });
+  $("#par-filter").addEventListener("input", (e) => {
+    const f = e.target.value.toLowerCase();
+    let group = null, any = false;
+    for (const tr of $$("#par-table tbody tr")) {
+      if (tr.classList.contains("group")) {
+        if (group) group.hidden = !any;
+        group = tr; any = false;
+      } else {
+        tr.hidden = Boolean(f) && !tr.dataset.name.toLowerCase().includes(f);
+        any = any || !tr.hidden;
+      }
+    }
+    if (group) group.hidden = !any;
+  });
+  on("#par-save", async () => { await act("save", { id: parId() }, `motor ${parId()}: saved to flash`); readParams(); });
+  on("#par-backup", async () => {
+    const doc = await act("backup", { id: parId() });
+    download(`drempower-motor${parId()}-backup.json`, JSON.stringify(doc, null, 1) + "\n", "application/json");
+  });
+  on("#par-restore", async (e) => {
+    const f = e.target.files[0];
+    if (!f) return;
+    let doc;
+    try { doc = JSON.parse(await f.text()); } catch (err) { say(`${f.name}: not JSON (${err.message})`); return; }
+    e.target.value = "";
+    const id = parId();
+    const r = await act("restore", { id, doc, dry_run: true });
+    const box = $("#par-diff");
+    box.hidden = false;
+    if (!r.diff.length) { box.innerHTML = `${f.name}: motor ${id} already holds these values. <button id="diff-close">Close</button>`; }
+    else {
+      box.innerHTML = `<b>${f.name}: ${r.diff.length} parameter(s) of motor ${id} would change</b>
+        <table><tr><th>name</th><th>now</th><th>backup</th></tr>${r.diff.map((d) => `<tr><td>${d[0]}</td><td>${shown(d[1])}</td><td>${shown(d[2])}</td></tr>`).join("")}</table>
+        <button id="diff-write">Write them</button> <button id="diff-close">Cancel</button>`;
+      on("#diff-write", async () => {
+        const w = await act("restore", { id, doc, dry_run: false });
+        box.hidden = true;
+        say(`motor ${id}: ${w.diff.length} parameter(s) written${w.failed.length ? ", failed: " + w.failed.map((x) => x[0]).join(", ") : ""}`, !w.failed.length);
+        readParams();
+      });
+    }
+    on("#diff-close", () => { box.hidden = true; });
+  }, "change");
+
+  // ------------------------------------------------------------ tuning
+  const GAINS = {
+    position: ["axis0.controller.config.pos_gain", "axis0.controller.config.vel_gain",
+      "axis0.controller.config.vel_integrator_gain", "axis0.controller.config.input_filter_bandwidth"],
+    velocity: ["axis0.controller.config.vel_gain", "axis0.controller.config.vel_integrator_gain"],
+  };
+  let tunPlot = null;
+  async function loadGains() {
+    if (!S.motors.length) return;
+    const mode = $("#tun-mode").value, id = Number($("#tun-motor").value);
+    const r = await act("params", { id });
+    $("#tun-gains").innerHTML = GAINS[mode].map((n) =>
+      `<label>${n.split(".").pop()} <input type="number" step="any" data-gain="${n}" value="${+Number(r.values[n]).toPrecision(6)}" size="8"></label>`).join("") +
+      ' <button id="tun-apply">Write gains</button>';
+    on("#tun-apply", async () => {
+      for (const el of $$("#tun-gains input[data-gain]")) {
+        const w = await act("write", { id, name: el.dataset.gain, value: Number(el.value) });
+        el.value = w.value;
+      }
+      say(`motor ${id}: gains written and read back`, true);
+    });
+  }
+  on("#tun-mode", loadGains, "change");
+  on("#tun-motor", loadGains, "change");
+  on("#tun-run", async () => {
+    const gains = $$("#tun-gains input[data-gain]").map((e) => `${e.dataset.gain.split(".").pop()}=${e.value}`).join(" ");
+    say("running step...", true);
+    const r = await act("step", { id: Number($("#tun-motor").value), mode: $("#tun-mode").value,
+      amplitude: num("#tun-amp"), duration: num("#tun-dur") });
+    r.gains = gains; r.n = S.runs.length + 1;
+    S.runs.push(r);
+    const f = r.figures;
+    $("#tun-runs tbody").insertAdjacentHTML("beforeend", `<tr><td>${r.n}</td><td>${r.mode}</td>
+      <td>${fmt(r.base, 2)} &rarr; ${fmt(r.target, 2)}</td><td>${fmt(f.rise_s, 3)}</td><td>${fmt(f.overshoot_pct, 1)}</td>
+      <td>${fmt(f.settling_s, 3)}</td><td>${fmt(f.steady_error, 3)}</td><td>${gains}</td></tr>`);
+    say(`step run ${r.n}: rise ${fmt(f.rise_s, 3)} s, overshoot ${fmt(f.overshoot_pct, 1)} %`, true);
+    drawRuns();
+  });
+  on("#tun-clear", () => { S.runs = []; $("#tun-runs tbody").innerHTML = ""; drawRuns(); });
+  function drawRuns() {
+    const el = $("#tun-plot");
+    if (tunPlot) { tunPlot.destroy(); tunPlot = null; }
+    if (!S.runs.length || $("#view-tuning").hidden) return;
+    // each run relative to its start, as the step's fraction 0 -> 1 of its own amplitude
+    const tables = S.runs.map((r) => [r.t, r.y.map((v) => v - r.base), r.t.map(() => r.target - r.base)]);
+    const data = uPlot.join(tables);
+    const ser = [{ label: "t / s" }];
+    S.runs.forEach((r, k) => {
+      ser.push({ label: `run ${r.n} actual`, stroke: COLORS[k % COLORS.length], spanGaps: true, points: { show: false } });
+      ser.push({ label: `run ${r.n} target`, stroke: COLORS[k % COLORS.length], dash: [6, 4], spanGaps: true, points: { show: false } });
+    });
+    tunPlot = new uPlot({ width: Math.max(400, el.clientWidth || 800), height: 320, scales: { x: { time: false } },
+      axes: [{ label: "t / s" }, { label: "change from start" }], series: ser }, data, el);
+  }
+
+  connect();
+})();

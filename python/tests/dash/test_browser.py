@@ -1,0 +1,237 @@
+"""The dashboard in a real headless Chromium against simulated motors."""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from drempower.protocol.enums import AxisState
+
+from .conftest import Served
+
+
+def eventually(cond: Callable[[], bool], limit: float = 5.0) -> bool:
+    deadline = time.monotonic() + limit
+    while time.monotonic() < deadline:
+        if cond():
+            return True
+        time.sleep(0.02)
+    return cond()
+
+
+def scan(page: Any) -> None:
+    page.get_by_role("tab", name="Bus").click()
+    page.get_by_role("button", name="Scan ids 1-63").click()
+    page.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
+    page.wait_for_function("document.querySelectorAll('.card').length === 3")
+
+
+def tab(page: Any, name: str) -> None:
+    page.get_by_role("tab", name=name).click()
+
+
+def reset(served: Served) -> None:
+    """Motors back to closed loop at rest, errors cleared, nothing commanded (state left by an earlier test)."""
+    for i in (1, 2, 3):
+        m = served.bus.motor(i)
+        m.clear_error()
+        m.set_mode(2)
+        m.set_speed(0)
+    served.hub.commanded.clear()
+
+
+def test_page_loads_and_scans(page: Any, served: Served, shots: Path) -> None:
+    assert page.title() == "drempower dashboard"
+    scan(page)
+    assert page.locator("#scan-progress").evaluate("e => e.value") == 63
+    assert page.locator("#scan-text").inner_text() == "done: 3 motor(s): 1, 2, 3"
+    cards = page.locator(".card h3").all_inner_texts()
+    assert cards == ["Motor 1", "Motor 2", "Motor 3"]
+    page.wait_for_function("document.querySelector('.card').innerText.includes('closed_loop')")
+    assert page.get_by_role("button", name="ESTOP").is_visible()
+    page.screenshot(path=str(shots / "dash-bus.png"))
+
+
+def test_plots_receive_every_sample(page: Any, served: Served, shots: Path) -> None:
+    scan(page)
+    tab(page, "Plots")
+    for ch in ("speed", "torque"):
+        page.locator(f"#plot-channels input[value={ch}]").check()
+    served.bus.motor(2).set_speed(40)
+    served.hub.commanded.add(2)
+    page.wait_for_function("window.dashStats.received > 150")
+    page.wait_for_function("window.dashStats.fps > 0")
+    time.sleep(0.5)
+    stats = page.evaluate("window.dashStats")
+    # every sample the server sent since this page's first batch arrived (none lost)
+    assert stats["received"] == stats["serverTotal"] - stats["firstTotal"]
+    per = page.locator("#plot-per-motor").inner_text()
+    assert "motor 1:" in per and "motor 3:" in per
+    # the plot shows samples of all three motors: one series per motor and channel, and targets
+    labels = page.locator(".u-legend .u-series .u-label").all_inner_texts()
+    assert "m2 speed" in labels and "m1 angle target" in labels
+    with page.expect_download() as dl:
+        page.get_by_role("button", name="Export CSV").click()
+    lines = Path(dl.value.path()).read_text().splitlines()
+    assert lines[0].startswith("motor,t_s,angle_deg,speed_rpm,torque_nm")
+    assert len(lines) > 100
+    assert any(line.startswith("2,") and abs(float(line.split(",")[3]) - 40) < 2 for line in lines[1:])
+    # a parameter polled at a chosen rate, on the same chart
+    page.locator("#pw-motor").select_option("1")
+    page.get_by_label("parameter to plot").fill("vbus_voltage")
+    page.get_by_label("readings per second").select_option("10")
+    page.get_by_role("button", name="Plot parameter").click()
+    page.wait_for_function(
+        "[...document.querySelectorAll('.u-legend .u-label')].some(e => e.textContent === 'm1 vbus_voltage')"
+    )
+    t0 = time.monotonic()
+    page.wait_for_function("(() => { const d = window.dashParams('1:vbus_voltage'); return d && d.v.length >= 8; })()")
+    assert time.monotonic() - t0 < 3
+    assert page.evaluate("window.dashParams('1:vbus_voltage').v[0]") == served.sim.motors[1].param("vbus_voltage")
+    page.screenshot(path=str(shots / "dash-plots.png"))
+    page.get_by_role("button", name="stop plotting vbus_voltage").click()
+    page.wait_for_function("document.querySelector('#pw-list').textContent === ''")
+    served.bus.motor(2).set_speed(0)
+    reset(served)
+
+
+def test_move_from_the_page_reaches_the_motor(page: Any, served: Served, shots: Path) -> None:
+    reset(served)
+    scan(page)
+    tab(page, "Control")
+    page.locator("#ctl-motor").select_option("2")
+    page.locator("#pos-angle").fill("45")
+    page.locator("#pos-speed").fill("60")
+    page.locator("#pos-param").fill("100")
+    page.get_by_role("button", name="Move", exact=True).click()
+    m2 = served.sim.motors[2]
+    assert eventually(lambda: abs(m2.position - 45.0) < 0.1, 8), m2.position
+    assert served.hub.commanded == {2}
+    # an input outside its domain is refused in the page and nothing is sent
+    before = m2.position
+    page.locator("#pos-speed").fill("500")
+    page.get_by_role("button", name="Move", exact=True).click()
+    assert "pos-speed" in page.locator("#msg").inner_text()
+    time.sleep(0.3)
+    assert abs(served.sim.motors[2].position - before) < 0.1
+    page.locator("#pos-speed").fill("60")
+    page.screenshot(path=str(shots / "dash-control.png"))
+    # a synchronised move of the three motors
+    for i, a in ((1, 10), (2, 20), (3, 30)):
+        page.locator(f'.sync-angle[data-id="{i}"]').fill(str(a))
+    page.get_by_role("button", name="Move selected together").click()
+    assert eventually(lambda: all(abs(served.sim.motors[i].position - 10 * i) < 0.2 for i in (1, 2, 3)), 8)
+
+
+def test_parameter_edit_round_trips(page: Any, served: Served, shots: Path) -> None:
+    scan(page)
+    tab(page, "Parameters")
+    page.locator("#par-motor").select_option("1")
+    page.get_by_role("button", name="Read all").click()
+    name = "axis0.controller.config.pos_gain"
+    value = page.locator(f'span[data-val="{name}"]')
+    page.wait_for_function(f"document.querySelector('span[data-val=\"{name}\"]').textContent !== '-'")
+    old = float(value.inner_text())
+    new = old + 7.5
+    page.get_by_label(name, exact=True).fill(str(new))
+    page.locator(f'button[data-set="{name}"]').click()
+    page.wait_for_function(f"document.querySelector('span[data-val=\"{name}\"]').textContent === '{new:g}'")
+    assert served.sim.motors[1].param(name) == new
+    assert "changed" in (page.locator(f'tr[data-name="{name}"]').get_attribute("class") or "")
+    # a value outside the parameter's range: named in the message, nothing written
+    hb = "can.config.heartbeat_ms"
+    page.get_by_label(hb, exact=True).fill("-1")
+    page.locator(f'button[data-set="{hb}"]').click()
+    page.wait_for_function("document.querySelector('#msg').textContent.includes('heartbeat_ms')")
+    assert served.sim.motors[1].param(hb) == 0
+    page.locator("#par-filter").fill("controller.config")
+    page.evaluate("window.scrollTo(0, 0)")
+    page.screenshot(path=str(shots / "dash-params.png"))
+    served.sim.motors[1].set_param(name, old)
+
+
+def test_restore_shows_a_diff_before_writing(page: Any, served: Served, tmp_path: Path) -> None:
+    scan(page)
+    tab(page, "Parameters")
+    page.locator("#par-motor").select_option("3")
+    with page.expect_download() as dl:
+        page.get_by_role("button", name="Download backup").click()
+    backup = tmp_path / "m3.json"
+    dl.value.save_as(backup)
+    name = "axis0.controller.config.vel_gain"
+    saved = served.sim.motors[3].param(name)
+    served.sim.motors[3].set_param(name, saved * 2)
+    page.locator("#par-restore").set_input_files(str(backup))
+    page.wait_for_selector("#diff-write")
+    assert name in page.locator("#par-diff").inner_text()
+    assert abs(served.sim.motors[3].param(name) - saved * 2) < 1e-6  # nothing written yet
+    page.locator("#diff-write").click()
+    assert eventually(lambda: abs(served.sim.motors[3].param(name) - saved) < 1e-6, 5)
+
+
+def test_estop_button_and_space_key_stop_a_moving_motor(page: Any, served: Served) -> None:
+    reset(served)
+    scan(page)
+    tab(page, "Control")
+    m1 = served.sim.motors[1]
+    for how in ("button", "space"):
+        page.locator("#ctl-motor").select_option("1")
+        page.get_by_role("button", name="Clear errors").click()
+        page.get_by_role("button", name="Enable").click()
+        time.sleep(0.2)
+        page.locator("#vel-speed").fill("60")
+        page.get_by_role("button", name="Run").click()
+        assert eventually(lambda: abs(m1.speed) > 50, 5), m1.speed
+        if how == "button":
+            page.get_by_role("button", name="ESTOP").click()
+        else:
+            page.locator("#view-control fieldset legend").first.click()  # focus outside any input
+            page.keyboard.press("Space")
+        assert eventually(lambda: abs(m1.speed) < 1 and m1.state != AxisState.CLOSED_LOOP_CONTROL, 2), how
+        if how == "button":  # the motor's card says what happened and what to do
+            tab(page, "Bus")
+            page.wait_for_function("document.querySelector('.card[data-id=\"1\"]').innerText.includes('ESTOP')")
+            assert "Clear errors" in page.locator('.card[data-id="1"] .err').inner_text()
+            tab(page, "Control")
+    reset(served)
+
+
+def test_tuning_step_response(page: Any, served: Served, shots: Path) -> None:
+    reset(served)
+    scan(page)
+    tab(page, "Tuning")
+    page.locator("#tun-motor").select_option("1")
+    page.wait_for_selector("#tun-gains input[data-gain]")
+    page.locator("#tun-amp").fill("20")
+    page.locator("#tun-dur").fill("0.8")
+    page.get_by_role("button", name="Run step").click()
+    page.wait_for_selector("#tun-runs tbody tr")
+    page.get_by_role("button", name="Run step").click()
+    page.wait_for_selector("#tun-runs tbody tr:nth-child(2)")
+    cells = page.locator("#tun-runs tbody tr").first.locator("td").all_inner_texts()
+    assert cells[3] != "-" and float(cells[3]) > 0  # rise time
+    page.screenshot(path=str(shots / "dash-tuning.png"))
+    reset(served)
+
+
+def test_closing_the_page_idles_the_motors_it_moved(browser: Any, served: Served) -> None:
+    reset(served)
+    ctx = browser.new_context()
+    p = ctx.new_page()
+    p.goto(served.url)
+    p.wait_for_function("window.dashStats && window.dashStats.connected")
+    scan(p)
+    tab(p, "Control")
+    p.locator("#ctl-motor").select_option("3")
+    p.locator("#vel-speed").fill("30")
+    p.get_by_role("button", name="Run").click()
+    m3 = served.sim.motors[3]
+    assert eventually(lambda: abs(m3.speed) > 20, 5)
+    time.sleep(1.0)  # the page's heartbeat keeps it running
+    assert abs(m3.speed) > 20 and served.hub.commanded == {3}
+    ctx.close()
+    assert eventually(lambda: m3.state == AxisState.IDLE, 3), m3.state
+    assert served.hub.commanded == set()
+    reset(served)

@@ -1,0 +1,343 @@
+"""The dashboard server without a browser: token and Origin checks, stop rules, read-only, figures."""
+
+from __future__ import annotations
+
+import asyncio
+import json
+import math
+import os
+import signal
+import subprocess
+import sys
+import time
+import urllib.error
+import urllib.request
+from collections.abc import Iterator
+
+import pytest
+
+aiohttp = pytest.importorskip("aiohttp")
+
+from drempower import open_bus  # noqa: E402
+from drempower.dash.server import format_url  # noqa: E402
+from drempower.dash.tuning import step_figures  # noqa: E402
+from drempower.protocol.enums import AxisState  # noqa: E402
+
+from .conftest import serve_in_thread  # noqa: E402
+
+
+def _status(url: str) -> int:
+    try:
+        with urllib.request.urlopen(url, timeout=5) as r:
+            return int(r.status)
+    except urllib.error.HTTPError as exc:
+        return exc.code
+
+
+@pytest.fixture
+def proc(request: pytest.FixtureRequest) -> Iterator[subprocess.Popen[str]]:
+    args = [sys.executable, "-m", "drempower", "dash", "--port", "0", *request.param]
+    p = subprocess.Popen(args, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        yield p
+    finally:
+        if p.poll() is None:
+            p.kill()
+        p.communicate(timeout=10)
+
+
+@pytest.mark.parametrize("proc", [["--host", "127.0.0.2", "--json", "--sim", "1"]], indirect=True)
+async def test_a_bind_beyond_the_default_needs_the_token(proc: subprocess.Popen[str]) -> None:
+    assert proc.stdout is not None
+    first = json.loads(proc.stdout.readline())
+    url = first["url"]
+    assert url.startswith("http://127.0.0.2:") and "?token=" in url
+    base, token = url.split("?token=")
+    assert _status(base) == 403
+    assert _status(base + "static/app.js") == 403
+    assert _status(base + "?token=wrong") == 403
+    assert _status(url) == 200
+    ws_url = base.replace("http:", "ws:") + "ws"
+    async with aiohttp.ClientSession() as s:
+        with pytest.raises(aiohttp.WSServerHandshakeError) as e:
+            await s.ws_connect(ws_url)
+        assert e.value.status == 403
+        with pytest.raises(aiohttp.WSServerHandshakeError) as e:
+            await s.ws_connect(ws_url + "?token=" + token, origin="http://evil.example")
+        assert e.value.status == 403
+        origin = base.rstrip("/")
+        async with s.ws_connect(ws_url + "?token=" + token, origin=origin) as ws:
+            hello = await ws.receive_json(timeout=5)
+            assert hello["t"] == "hello" and hello["read_only"] is False
+            await ws.send_json({"op": "scan", "req": 1})
+            await ws.send_json({"op": "control", "req": 2, "action": "V", "id": 1, "speed": 20})
+            replies = {}
+            deadline = time.monotonic() + 10
+            while len(replies) < 2 and time.monotonic() < deadline:
+                m = await ws.receive_json(timeout=5)
+                if m["t"] == "reply":
+                    replies[m["req"]] = m
+            assert replies[1]["ok"] and [f["id"] for f in replies[1]["result"]] == [1]
+            assert replies[2]["ok"], replies[2]
+            # SIGTERM idles the motor the dashboard moved (said on stderr) and ends the command
+            proc.send_signal(signal.SIGTERM)
+            assert proc.wait(10) == 0
+    assert proc.stderr is not None
+    err = proc.stderr.read()
+    assert "set_speed(20.0, param=0.0, mode=1)" in err
+    assert "SIGTERM: stopping" in err and "idled motors 1" in err
+
+
+@pytest.mark.parametrize("proc", [[]], indirect=True)
+def test_default_serves_three_simulated_motors_on_loopback(proc: subprocess.Popen[str]) -> None:
+    assert proc.stdout is not None
+    url = proc.stdout.readline().strip()
+    assert url.startswith("http://127.0.0.1:") and url.endswith("/") and "token" not in url
+    assert _status(url) == 200
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(10) == 0
+
+
+def test_bad_host_is_a_usage_error() -> None:
+    r = subprocess.run(
+        [sys.executable, "-m", "drempower", "dash", "--host", "not an address", "--port", "0"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert r.returncode == 2
+    assert "--host 'not an address'" in r.stderr and "Traceback" not in r.stderr
+
+
+async def test_a_silent_browser_gets_its_motors_idled_after_half_a_second() -> None:
+    bus = open_bus("sim", motors=[1], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    sim = bus.transport.bus.motors[1]  # type: ignore[attr-defined]
+    try:
+        async with aiohttp.ClientSession() as s, s.ws_connect(url.replace("http:", "ws:") + "ws") as ws:
+            await ws.receive_json(timeout=5)
+            await ws.send_json({"op": "control", "req": 1, "action": "V", "id": 1, "speed": 30})
+            t0 = time.monotonic()
+            while sim.state != AxisState.IDLE and time.monotonic() - t0 < 3:
+                if time.monotonic() - t0 < 1:
+                    await ws.send_json({"op": "hb"})
+                await asyncio.sleep(0.05)
+            # heartbeats for 1 s kept it moving; then 0.5 s of silence idled it, the socket still open
+            assert sim.state == AxisState.IDLE
+            assert 1.4 < time.monotonic() - t0 < 2.5
+            assert not ws.closed
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()
+
+
+async def test_read_only_refuses_control_but_not_estop() -> None:
+    bus = open_bus("sim", motors=[1], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    hub.read_only = True
+    sim = bus.transport.bus.motors[1]  # type: ignore[attr-defined]
+    try:
+        async with aiohttp.ClientSession() as s, s.ws_connect(url.replace("http:", "ws:") + "ws") as ws:
+            await ws.receive_json(timeout=5)
+            await ws.send_json({"op": "control", "req": 1, "action": "V", "id": 1, "speed": 30})
+            await ws.send_json({"op": "estop", "req": 2})
+            replies = {}
+            while len(replies) < 2:
+                m = await ws.receive_json(timeout=5)
+                if m["t"] == "reply":
+                    replies[m["req"]] = m
+            assert not replies[1]["ok"] and "read-only" in replies[1]["error"]
+            assert replies[2]["ok"]
+            assert sim.state != AxisState.CLOSED_LOOP_CONTROL
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()
+
+
+def test_step_figures_of_a_first_order_response() -> None:
+    tau = 0.1
+    t = [k * 0.001 for k in range(2000)]
+    y = [10 + 20 * (1 - math.exp(-tt / tau)) for tt in t]
+    f = step_figures(t, y, 10, 30)
+    assert f["rise_s"] == pytest.approx(tau * math.log(9), abs=0.002)
+    assert f["overshoot_pct"] == 0
+    assert f["settling_s"] == pytest.approx(tau * math.log(50), abs=0.002)
+    assert f["steady_error"] == pytest.approx(0, abs=1e-3)
+
+
+def test_step_figures_of_an_overshoot_and_an_offset() -> None:
+    t = [0.0, 0.1, 0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9]
+    y = [0.0, 50.0, 120.0, 95.0, 99.0, 99.0, 99.0, 99.0, 99.0, 99.0]
+    f = step_figures(t, y, 0, 100)
+    assert f["overshoot_pct"] == pytest.approx(20)
+    assert f["rise_s"] == pytest.approx(0.1)  # 10 % first reached at 0.1 s, 90 % at 0.2 s
+    assert f["settling_s"] == pytest.approx(0.3)
+    assert f["steady_error"] == pytest.approx(1.0)
+    assert step_figures([], [], 0, 1)["rise_s"] is None
+
+
+def test_urls() -> None:
+    assert format_url("::1", 80, None) == "http://[::1]:80/"
+    assert format_url("127.0.0.2", 5, "abc") == "http://127.0.0.2:5/?token=abc"
+
+
+@pytest.mark.skipif(not os.path.exists("/proc/net/if_inet6"), reason="no IPv6")
+@pytest.mark.parametrize("proc", [["--host", "::1", "--sim", "1"]], indirect=True)
+def test_ipv6_loopback_also_needs_the_token(proc: subprocess.Popen[str]) -> None:
+    assert proc.stdout is not None
+    url = proc.stdout.readline().strip()
+    assert url.startswith("http://[::1]:") and "?token=" in url
+    assert _status(url.split("?")[0]) == 403
+    assert _status(url) == 200
+
+
+@pytest.mark.parametrize("attachment", ["adapter", "socketcand"])
+async def test_through_the_simulators_adapter_pty_and_socketcand(attachment: str) -> None:
+    from contextlib import ExitStack
+
+    from drempower.sim import SimBus, SimRunner, attach_adapter_pty, attach_socketcand
+
+    sim = SimBus([1, 2])
+    with ExitStack() as stack:
+        stack.enter_context(SimRunner(sim))
+        if attachment == "adapter":
+            conn = ["--serial", stack.enter_context(attach_adapter_pty(sim)).path]
+        else:
+            port = stack.enter_context(attach_socketcand(sim)).port
+            conn = ["-i", "socketcand", "-c", "can0", "-o", "host=127.0.0.1", "-o", f"port={port}"]
+        p = subprocess.Popen(
+            [sys.executable, "-m", "drempower", "dash", "--port", "0", *conn],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            assert p.stdout is not None
+            url = p.stdout.readline().strip()
+            async with aiohttp.ClientSession() as s, s.ws_connect(url.replace("http:", "ws:") + "ws") as ws:
+                await ws.receive_json(timeout=5)
+                await ws.send_json({"op": "scan", "req": 1})
+                samples = 0
+                deadline = time.monotonic() + 15
+                while abs(sim.motors[1].position - 30) > 0.05 and time.monotonic() < deadline:
+                    await ws.send_json({"op": "hb"})
+                    m = await ws.receive_json(timeout=5)
+                    if m["t"] == "samples":
+                        samples += len(m["s"])
+                    if m["t"] == "reply" and m["req"] == 1:
+                        assert [f["id"] for f in m["result"]] == [1, 2]
+                        move = {"op": "control", "req": 2, "action": "Q", "id": 1, "angle": 30, "speed": 60}
+                        await ws.send_json({**move, "param": 100})
+                assert abs(sim.motors[1].position - 30) <= 0.05
+                assert samples > 20
+            # the browser went away: the motor it moved is idled
+            deadline = time.monotonic() + 5
+            while sim.motors[1].state != AxisState.IDLE and time.monotonic() < deadline:
+                await asyncio.sleep(0.05)
+            assert sim.motors[1].state == AxisState.IDLE
+        finally:
+            p.send_signal(signal.SIGTERM)
+            p.communicate(timeout=10)
+
+
+def test_a_port_in_use_is_one_line_and_exit_1() -> None:
+    import socket
+
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        s.listen()
+        port = s.getsockname()[1]
+        r = subprocess.run(
+            [sys.executable, "-m", "drempower", "dash", "--port", str(port)],
+            capture_output=True,
+            text=True,
+            timeout=30,
+        )
+    assert r.returncode == 1
+    assert r.stdout == ""
+    assert f"cannot serve on 127.0.0.1 port {port}" in r.stderr and "Traceback" not in r.stderr
+
+
+async def test_two_browsers_see_the_same_state_and_either_controls() -> None:
+    bus = open_bus("sim", motors=[1, 2], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    sim = bus.transport.bus.motors  # type: ignore[attr-defined]
+    ws_url = url.replace("http:", "ws:") + "ws"
+
+    async def until(ws: aiohttp.ClientWebSocketResponse, kind: str, req: int | None = None) -> dict[str, object]:
+        while True:
+            await ws.send_json({"op": "hb"})
+            m: dict[str, object] = await ws.receive_json(timeout=5)
+            if m["t"] == kind and (req is None or m.get("req") == req):
+                return m
+
+    try:
+        async with aiohttp.ClientSession() as s, s.ws_connect(ws_url) as a, s.ws_connect(ws_url) as b:
+            await a.receive_json(timeout=5)
+            await b.receive_json(timeout=5)
+            await a.send_json({"op": "scan", "req": 1})
+            cards_a, cards_b = await until(a, "cards"), await until(b, "cards")  # both see a's scan
+            assert [c["id"] for c in cards_a["cards"]] == [c["id"] for c in cards_b["cards"]] == [1, 2]  # type: ignore[index, union-attr]
+            await b.send_json(
+                {"op": "control", "req": 5, "action": "Q", "id": 2, "angle": 20, "speed": 60, "param": 100}
+            )
+            assert (await until(b, "reply", 5))["ok"]
+            deadline = time.monotonic() + 5
+            while abs(sim[2].position - 20) > 0.05 and time.monotonic() < deadline:
+                await a.send_json({"op": "hb"})
+                await b.send_json({"op": "hb"})
+                await asyncio.sleep(0.05)
+            assert abs(sim[2].position - 20) <= 0.05
+            # both receive the samples of the move
+            sa, sb = await until(a, "samples"), await until(b, "samples")
+            assert sa["s"] and sb["s"]
+            await b.close()  # one browser left, its heartbeat going: the motor keeps its command
+            for _ in range(8):
+                await a.send_json({"op": "hb"})
+                await asyncio.sleep(0.1)
+            assert hub.commanded == {2}
+            assert sim[2].state == AxisState.CLOSED_LOOP_CONTROL
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()
+
+
+async def test_bad_requests_are_refused_naming_the_field_and_nothing_is_sent() -> None:
+    bus = open_bus("sim", motors=[1], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    sim = bus.transport.bus.motors[1]  # type: ignore[attr-defined]
+    bad = [
+        ({"action": "V", "id": 1.5, "speed": 10}, "id=1.5"),
+        ({"action": "V", "id": 1, "speed": 10, "mode": 3}, "mode=3"),
+        ({"action": "V", "id": 1, "speed": "fast"}, "speed='fast'"),
+        ({"action": "Q", "id": 1, "angle": 10, "speed": 500, "param": 10}, "500"),
+        ({"action": "spin", "id": 1}, "action='spin'"),
+    ]
+    try:
+        async with aiohttp.ClientSession() as s, s.ws_connect(url.replace("http:", "ws:") + "ws") as ws:
+            await ws.receive_json(timeout=5)
+            for k, (args, _) in enumerate(bad):
+                await ws.send_json({"op": "control", "req": k, **args})
+            await ws.send_json({"op": "write", "req": 10, "id": 1, "name": "can.config.heartbeat_ms", "value": 2.5})
+            replies = {}
+            while len(replies) < len(bad) + 1:
+                m = await ws.receive_json(timeout=5)
+                if m["t"] == "reply":
+                    replies[m["req"]] = m
+            for k, (_, named) in enumerate(bad):
+                assert not replies[k]["ok"] and named in replies[k]["error"], replies[k]
+            assert not replies[10]["ok"] and "heartbeat_ms=2.5" in replies[10]["error"]
+        assert sim.param("can.config.heartbeat_ms") == 0
+        assert abs(sim.speed) < 0.01 and abs(sim.position) < 0.01
+        assert hub.commanded == set()
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()
