@@ -2,7 +2,9 @@
 
 Each subcommand lives in its own module of this package and exposes
 ``register(subparsers)``; modules are discovered automatically, so adding a
-subcommand means adding a module.
+subcommand means adding a module. A module's ``GROUP`` (one of :data:`GROUPS`)
+says under which heading ``drempower --help`` lists its subcommands; those of a
+module without one are listed last.
 """
 
 from __future__ import annotations
@@ -20,24 +22,49 @@ from ._usage import UsageError
 __all__ = ["main", "build_parser"]
 
 
+GROUPS = ("bus", "motion", "parameters", "logs and tools", "simulator")
+"""The headings of ``drempower --help``, in order; subcommands of modules without a ``GROUP`` follow."""
+OTHER = "other commands"
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="drempower",
         description="Work with DrEmpower servo joint motors: decode, simulate, drive, configure.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--version", action="version", version=f"drempower {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    sub = parser.add_subparsers(dest="command", metavar="COMMAND", help="one of the commands below")
     sub.required = True
+    group_of: dict[str, str] = {}
     for info in sorted(pkgutil.iter_modules(__path__), key=lambda i: i.name):
         if info.name.startswith("_"):
             continue
         mod = importlib.import_module(f"{__name__}.{info.name}")
         register = getattr(mod, "register", None)
         if register is not None:
+            before = set(sub.choices)
             register(sub)
+            group = getattr(mod, "GROUP", OTHER)
+            group_of.update((name, group if group in GROUPS else OTHER) for name in sub.choices if name not in before)
     for command in sub.choices.values():
         command.set_defaults(command_parser=command)
+    parser.epilog = _grouped_help(sub, group_of)
     return parser
+
+
+def _grouped_help(sub: argparse._SubParsersAction[argparse.ArgumentParser], group_of: dict[str, str]) -> str:
+    """The subcommands and their one-line help under their group's heading (argparse lists them unsorted)."""
+    helps = {a.dest: a.help or "" for a in sub._choices_actions}
+    sub._choices_actions.clear()  # listed here instead of in one long list
+    width = max(map(len, sub.choices)) + 2
+    blocks = []
+    for group in (*GROUPS, OTHER):
+        names = [n for n in sub.choices if group_of.get(n, OTHER) == group]
+        if names:
+            lines = [f"  {n:<{width}}{helps.get(n, '')}".rstrip() for n in names]
+            blocks.append(f"{group}:\n" + "\n".join(lines))
+    return "\n\n".join(blocks) + "\n\n`drempower COMMAND --help` tells more."
 
 
 def main(argv: Sequence[str] | None = None) -> int:

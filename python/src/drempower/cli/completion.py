@@ -8,6 +8,9 @@ from typing import Any
 from ..protocol import parameters
 from ._output import json_line
 
+GROUP = "logs and tools"
+"""Where ``drempower --help`` lists this module's subcommands."""
+
 _FILE_OPTIONS = ("--serial", "--uart", "--csv")
 
 _SCRIPT = """\

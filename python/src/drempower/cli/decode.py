@@ -22,6 +22,9 @@ from ..protocol.candump import parse_candump_line
 from ..protocol.parameters import find_parameter
 from ._output import json_line
 
+GROUP = "logs and tools"
+"""Where ``drempower --help`` lists this module's subcommands."""
+
 
 def register(sub: Any) -> None:
     p = sub.add_parser(

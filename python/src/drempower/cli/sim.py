@@ -21,6 +21,9 @@ from ._connect import bitrate, parse_ids, positive
 from ._output import json_line
 from ._usage import UsageError
 
+GROUP = "simulator"
+"""Where ``drempower --help`` lists this module's subcommands."""
+
 
 def register(sub: Any) -> None:
     p = sub.add_parser(
