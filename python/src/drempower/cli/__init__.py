@@ -32,9 +32,11 @@ def build_parser() -> argparse.ArgumentParser:
         prog="drempower",
         description="Work with DrEmpower servo joint motors: decode, simulate, drive, configure.",
         formatter_class=argparse.RawDescriptionHelpFormatter,
+        usage="%(prog)s [-h] [--version] COMMAND ...",
     )
     parser.add_argument("--version", action="version", version=f"drempower {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND", help="one of the commands below")
+    # the commands are listed in groups by the epilog, not in argparse's one list
+    sub = parser.add_subparsers(prog=parser.prog, dest="command", metavar="COMMAND", help=argparse.SUPPRESS)
     sub.required = True
     group_of: dict[str, str] = {}
     for info in sorted(pkgutil.iter_modules(__path__), key=lambda i: i.name):
@@ -56,7 +58,6 @@ def build_parser() -> argparse.ArgumentParser:
 def _grouped_help(sub: argparse._SubParsersAction[argparse.ArgumentParser], group_of: dict[str, str]) -> str:
     """The subcommands and their one-line help under their group's heading (argparse lists them unsorted)."""
     helps = {a.dest: a.help or "" for a in sub._choices_actions}
-    sub._choices_actions.clear()  # listed here instead of in one long list
     width = max(map(len, sub.choices)) + 2
     blocks = []
     for group in (*GROUPS, OTHER):
