@@ -39,14 +39,16 @@ def test_names_are_full_then_unique_ends() -> None:
 def _run(argv: list[str], script: str, tmp_path: Path, name: str) -> str:
     path = tmp_path / name
     path.write_text(script)
-    done = subprocess.run(argv + [str(path)], capture_output=True, text=True, timeout=60)
+    done = subprocess.run([*argv, str(path)], capture_output=True, text=True, timeout=60)
     assert done.returncode == 0, done.stderr
     return done.stdout
 
 
 BASH_DRIVER = """
 source "$1"
-complete_line() {{ COMP_WORDS=($1); COMP_CWORD=$2; COMPREPLY=(); _drempower; printf '%s\\n' "${{COMPREPLY[@]}}"; echo ---; }}
+complete_line() {{
+    COMP_WORDS=($1); COMP_CWORD=$2; COMPREPLY=(); _drempower; printf '%s\\n' "${{COMPREPLY[@]}}"; echo ---
+}}
 {calls}
 """
 

@@ -96,4 +96,7 @@ def test_errors_tells_to_set_the_zero_before_clearing_encoder_errors(cli: Cli, s
     sim.motors[2].inject_error(EncoderError.EDR_BATTERY_LOW)
     r = cli("errors", "2", "--sim", "2")
     assert "EDR_BATTERY_LOW" in r.out
-    assert "then, with the motor at rest: drempower zero 2 --sim 2 && drempower clear 2 --sim 2 && drempower enable 2 --sim 2" in r.out
+    assert (
+        "then, with the motor at rest: "
+        "drempower zero 2 --sim 2 && drempower clear 2 --sim 2 && drempower enable 2 --sim 2" in r.out
+    )

@@ -69,7 +69,7 @@ def test_backup_with_retries_reads_every_parameter(cli: Cli, lossy: list[SimBus]
 
 
 def test_backup_without_retries_says_it_is_incomplete(cli: Cli, lossy: list[SimBus], tmp_path: Path) -> None:
-    code, out, err = _run(lossy, SEEDS[0], cli, "backup", "1", str(tmp_path / "m1.json"), timeout="0.05")
+    code, _, err = _run(lossy, SEEDS[0], cli, "backup", "1", str(tmp_path / "m1.json"), timeout="0.05")
     assert code == 1
     assert "no answer" in err or "parameters unread; on a lossy link, --retries N asks again" in err
 
@@ -83,7 +83,7 @@ def test_move_wait_succeeds_with_retries(cli: Cli, lossy: list[SimBus], seed: in
 
 
 def test_move_wait_without_retries_fails_with_one_line(cli: Cli, lossy: list[SimBus]) -> None:
-    code, out, err = _run(lossy, SEEDS[0], cli, "move", "1,2,3", "30", "--wait")
+    code, _, err = _run(lossy, SEEDS[0], cli, "move", "1,2,3", "30", "--wait")
     assert code == 1 and err.startswith("drempower: error: motor") and err.count("\n") == 1
 
 

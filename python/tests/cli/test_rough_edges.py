@@ -114,9 +114,7 @@ def test_a_module_without_group_is_listed_last(monkeypatch: pytest.MonkeyPatch) 
     extra.register = lambda sub: sub.add_parser("frobnicate", help="a command of no group")  # type: ignore[attr-defined]
     real = cli_pkg.importlib.import_module
     infos = list(cli_pkg.pkgutil.iter_modules(cli_pkg.__path__))
-    monkeypatch.setattr(
-        cli_pkg.pkgutil, "iter_modules", lambda path: [*infos, types.SimpleNamespace(name="zzextra")]
-    )
+    monkeypatch.setattr(cli_pkg.pkgutil, "iter_modules", lambda path: [*infos, types.SimpleNamespace(name="zzextra")])
     monkeypatch.setattr(
         cli_pkg.importlib, "import_module", lambda name: extra if name.endswith(".zzextra") else real(name)
     )

@@ -81,7 +81,13 @@ def test_sdist_holds_sources_license_and_readme(dist: Path) -> None:
     (sdist,) = dist.glob("drempower-*.tar.gz")
     with tarfile.open(sdist) as t:
         names = {n.split("/", 1)[1] for n in t.getnames() if "/" in n}
-    assert {"pyproject.toml", "README.md", "LICENSE", "src/drempower/cli/__init__.py", "src/drempower/py.typed"} <= names
+    assert {
+        "pyproject.toml",
+        "README.md",
+        "LICENSE",
+        "src/drempower/cli/__init__.py",
+        "src/drempower/py.typed",
+    } <= names
 
 
 def test_wheel_installs_into_a_fresh_environment_and_runs_the_demo(dist: Path, tmp_path: Path) -> None:
