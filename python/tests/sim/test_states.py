@@ -116,7 +116,7 @@ def test_requested_idle_and_calibration_states() -> None:
     assert m.state is AxisState.IDLE and not m.drive.active
     write(bus, 1, "axis0.requested_state", AxisState.MOTOR_CALIBRATION)
     assert read(bus, 1, "axis0.current_state") == AxisState.MOTOR_CALIBRATION
-    bus.advance(2.1)
+    bus.advance(4.1)
     assert m.state is AxisState.IDLE
     write(bus, 1, "axis0.requested_state", AxisState.SENSORLESS_CONTROL)  # not a state a user can request
     assert m.state is AxisState.IDLE
