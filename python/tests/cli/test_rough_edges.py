@@ -120,3 +120,29 @@ def test_a_module_without_group_is_listed_last(monkeypatch: pytest.MonkeyPatch) 
     )
     text = build_parser().format_help()
     assert text.index("\nother commands:\n  frobnicate") > text.index("\nsimulator:\n")
+
+
+def test_subcommands_of_other_modules_find_their_group(monkeypatch: pytest.MonkeyPatch) -> None:
+    import types
+
+    import drempower.cli as cli_pkg
+
+    (commands,) = [a for a in build_parser()._actions if a.dest == "command"]
+    absent = [n for n in cli_pkg._GROUP_OF_COMMAND if n not in commands.choices]
+    if absent:  # a module without GROUP that registers one of these names
+        name = absent[0]
+        extra = types.ModuleType(f"drempower.cli.zz{name}")
+        extra.register = lambda sub: sub.add_parser(name, help="a new command")  # type: ignore[attr-defined]
+        real = cli_pkg.importlib.import_module
+        infos = list(cli_pkg.pkgutil.iter_modules(cli_pkg.__path__))
+        fake = types.SimpleNamespace(name=f"zz{name}")
+        monkeypatch.setattr(cli_pkg.pkgutil, "iter_modules", lambda path: [*infos, fake])
+        monkeypatch.setattr(
+            cli_pkg.importlib, "import_module", lambda mod: extra if mod.endswith(f".zz{name}") else real(mod)
+        )
+    text = build_parser().format_help()
+    (commands,) = [a for a in build_parser()._actions if a.dest == "command"]
+    for name, group in cli_pkg._GROUP_OF_COMMAND.items():
+        if name in commands.choices:
+            section = text.split(f"\n{group}:\n", 1)[1].split("\n\n", 1)[0]
+            assert f"  {name} " in section, name

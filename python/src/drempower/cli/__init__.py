@@ -25,6 +25,14 @@ __all__ = ["main", "build_parser"]
 GROUPS = ("bus", "motion", "parameters", "logs and tools", "simulator")
 """The headings of ``drempower --help``, in order; subcommands of modules without a ``GROUP`` follow."""
 OTHER = "other commands"
+_GROUP_OF_COMMAND = {
+    "record": "logs and tools",
+    "replay": "logs and tools",
+    "dbc": "logs and tools",
+    "dash": "bus",
+    "bridge": "bus",
+}
+"""Groups of subcommands whose modules name none (a module's ``GROUP`` wins)."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -47,8 +55,11 @@ def build_parser() -> argparse.ArgumentParser:
         if register is not None:
             before = set(sub.choices)
             register(sub)
-            group = getattr(mod, "GROUP", OTHER)
-            group_of.update((name, group if group in GROUPS else OTHER) for name in sub.choices if name not in before)
+            group = getattr(mod, "GROUP", None)
+            for name in sub.choices:
+                if name not in before:
+                    chosen = group or _GROUP_OF_COMMAND.get(name, OTHER)
+                    group_of[name] = chosen if chosen in GROUPS else OTHER
     for command in sub.choices.values():
         command.set_defaults(command_parser=command)
     parser.epilog = _grouped_help(sub, group_of)
