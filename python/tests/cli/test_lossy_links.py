@@ -123,3 +123,36 @@ def test_scan_expect_gives_a_row_to_a_missing_motor(cli: Cli, sim: SimBus) -> No
     assert r.code == 1
     assert [(rec["id"], rec["errors"]) for rec in r.records()] == [(1, ""), (2, ""), (3, ""), (4, "no answer")]
     assert "drempower: no answer from motor 4" in r.err
+
+
+def test_through_drempower_sim_with_drop_rate(cli: Cli) -> None:
+    """The bench user's set-up: `drempower sim --drop-rate 0.1`, reached over socketcand."""
+    import io
+    import re
+    import threading
+    import time
+
+    from drempower.cli import build_parser, sim
+
+    args = build_parser().parse_args(
+        ["sim", "--ids", "1,2,3", "--drop-rate", "0.1", "--seed", "3", "--socketcand-port", "0", "--time-scale", "20"]
+    )
+    out, stop = io.StringIO(), threading.Event()
+    thread = threading.Thread(target=sim.run, args=(args, out, stop))
+    thread.start()
+    try:
+        deadline = time.monotonic() + 10.0
+        while "Ctrl-C stops" not in out.getvalue() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        port = re.search(r"socketcand: 127\.0\.0\.1 port (\d+)", out.getvalue())
+        assert port, out.getvalue()
+        link = ["-i", "socketcand", "-c", "can0", "-o", "host=127.0.0.1", "-o", f"port={port[1]}", "--timeout", "0.3"]
+        r = cli("scan", "--ids", "1-3", "--expect", "1-3", "--retries", "8", "--json", *link)
+        assert r.code == 0, r.err
+        assert [rec["id"] for rec in r.records()] == [1, 2, 3]
+        r = cli("move", "1,2,3", "20", "--wait", "--retries", "8", "--json", *link)
+        assert r.code == 0, r.err
+        assert all(rec["done"] and abs(rec["position_deg"] - 20) < 0.5 for rec in r.records())
+    finally:
+        stop.set()
+        thread.join(10)
