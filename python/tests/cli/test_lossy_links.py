@@ -9,6 +9,7 @@ from pathlib import Path
 
 import pytest
 
+from drempower.protocol import Frame
 from drempower.sim import Faults, SimBus, SimRunner
 from drempower.transports import sim as sim_transport
 
@@ -156,3 +157,10 @@ def test_through_drempower_sim_with_drop_rate(cli: Cli) -> None:
     finally:
         stop.set()
         thread.join(10)
+
+
+def test_get_asks_a_silent_motor_once(cli: Cli, sim: SimBus, host_frames: list[Frame]) -> None:
+    sim.faults.silent.add(2)
+    r = cli("get", "2", "vbus_voltage", "ibus", "fw_version", "--sim", "2", "--timeout", "0.2", "--json")
+    assert r.code == 1 and [rec["value"] for rec in r.records()] == ["no answer"] * 3
+    assert len(host_frames) == 1

@@ -123,12 +123,13 @@ def run_get(args: argparse.Namespace) -> int:
         for node in args.ids:
             motor = bus.motor(node)
             for p in params:
-                try:
-                    value: int | float | str = significant(motor.read_property(p.address))
-                except TimeoutError:
-                    # one silent motor does not hide the others: a row says so, the exit status too
-                    silent += [] if node in silent else [node]
-                    value = "no answer"
+                value: int | float | str = "no answer"
+                if node not in silent:  # a silent motor costs one timeout, not one per parameter
+                    try:
+                        value = significant(motor.read_property(p.address))
+                    except TimeoutError:
+                        # one silent motor does not hide the others: a row says so, the exit status too
+                        silent.append(node)
                 records.append({"id": node, "name": p.name, "address": p.address, "value": value, "unit": p.unit})
     emit(args, ("id", "name", "address", "value", "unit"), records, digits=None)
     return no_answer(silent)
