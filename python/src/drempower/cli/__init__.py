@@ -33,6 +33,40 @@ _GROUP_OF_COMMAND = {
     "bridge": "bus",
 }
 """Groups of subcommands whose modules name none (a module's ``GROUP`` wins)."""
+_FIRST = [
+    "scan",
+    "state",
+    "monitor",
+    "errors",
+    "sniff",
+    "move",
+    "speed",
+    "torque",
+    "impedance",
+    "stop",
+    "clear",
+    "idle",
+    "enable",
+    "zero",
+    "calibrate",
+    "get",
+    "set",
+    "params",
+    "backup",
+    "diff",
+    "restore",
+    "set-id",
+    "set-bitrate",
+    "save",
+    "reboot",
+    "dfu",
+    "decode",
+    "completion",
+    "udev",
+    "demo",
+    "sim",
+]
+"""The order of the subcommands within their group; others follow in the order they were found."""
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -73,6 +107,7 @@ def _grouped_help(sub: argparse._SubParsersAction[argparse.ArgumentParser], grou
     blocks = []
     for group in (*GROUPS, OTHER):
         names = [n for n in sub.choices if group_of.get(n, OTHER) == group]
+        names.sort(key=lambda n: _FIRST.index(n) if n in _FIRST else len(_FIRST))
         if names:
             lines = [f"  {n:<{width}}{helps.get(n, '')}".rstrip() for n in names]
             blocks.append(f"{group}:\n" + "\n".join(lines))
