@@ -60,10 +60,10 @@ from .client.errors import TimeoutError
 from .client.motor import Motor
 from .client.results import ErrorReport
 from .client.state import MotorState
-from .errors import DrEmpowerError, FieldRangeError, ValidationError
+from .errors import DrEmpowerError, FieldRangeError, ProtocolError, ValidationError
 from .protocol import Frame
 from .protocol.ids import check_node
-from .protocol.messages import Preset, State, check_f32, check_s16
+from .protocol.messages import Preset, State, check_f32, check_s16, decode_command
 
 __all__ = [
     "use_bus",
@@ -504,9 +504,17 @@ def send_command(id_num: int = 0, cmd: int = 0, data: Sequence[int] | bytes = ()
     payload = bytes(data)
     if len(payload) > 8:
         raise ValidationError(f"data: {len(payload)} bytes, a CAN frame holds at most 8")
+    frame = Frame((node << 5) + cmd, payload.ljust(8, b"\0"), is_remote=bool(rtr))  # 8 bytes, as the vendor's
     bus = current_bus()
+    try:
+        msg = None if rtr else decode_command(frame.arbitration_id, frame.data)
+    except ProtocolError:
+        msg = None
     _drain()  # as the vendor's, which empties the input buffer first: receive_data gets what follows
-    bus.transport.send(Frame((node << 5) + cmd, payload, is_remote=bool(rtr)))
+    if msg is not None:
+        bus.send(msg)  # through the client: checked, and the motor counts as commanded
+    else:
+        bus.core._send_frames([frame])  # a frame the protocol does not define goes out as given
 
 
 def receive_data(return_id: bool = False, timeout: float | None = None) -> bytes | None:

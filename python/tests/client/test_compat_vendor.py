@@ -73,6 +73,13 @@ def test_presets_are_the_vendors_frames(sim: tuple[SimBus, list[Frame]]) -> None
         (0x02C, "00 00 B4 42 00 00 E8 03"),  # T: speed 0, bandwidth 10
         (0x04C, "00 00 34 42 F4 01 32 00"),  # P: speed ff 5, torque ff 0.5
     ]
+    sent.clear()
+    dr.send_command(1, 0x06, dr.format_data([1], "u32", "encode"))  # no such command: sent as given
+    dr.send_command(3, 0x08, [0x06])  # estop, padded to 8 bytes as the vendor's
+    assert [(f.arbitration_id, f.data.hex()) for f in sent] == [
+        (0x026, "0100000000000000"),
+        (0x068, "0600000000000000"),
+    ]
     assert dr.format_data([90, 0, 1000], "f s16 s16", "encode") == bytes.fromhex("0000B4420000E803")
     assert dr.format_data([31001, 3, 5], "u16 u16 u32", "encode") == bytes.fromhex("1979030005000000")
 
