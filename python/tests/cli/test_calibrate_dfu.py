@@ -102,6 +102,8 @@ def test_dfu_sends_enter_dfu_mode_and_says_what_next(cli: Cli, sim: SimBus, host
     assert host_frames[-1] == Frame(0x048, bytes.fromhex("0700000000000000"))  # sys 0x07 to motor 2
     assert "firmware-update mode requested" in r.out and "vendor's updater" in r.out
     assert "`drempower calibrate 2`" in r.out
+    assert sim.motors[2].in_dfu  # silent from now on, as the message says
+    assert cli("state", "2", "--sim", "2", "--timeout", "0.2").code == 1
     (rec,) = cli("dfu", "3", "--yes", "--json", "--sim", "3").records()
     assert rec == {"id": 3, "broadcast": False, "command": "enter_dfu_mode", "sent": True}
 

@@ -43,7 +43,9 @@ Choices that are simply "do nothing" live in this docstring:
   ``init_config`` loads the factory defaults into RAM only. The factory node id
   of a simulated motor is the id it was created with. ``save_config`` works in
   every axis state without disturbing the motion.
-* ``enter_dfu_mode`` is ignored (the simulator has no firmware to update).
+* ``enter_dfu_mode`` sets the axis idle and the motor answers nothing, on CAN
+  and UART, as its bootloader waits on USB (there is no firmware to update);
+  ``SimMotor.power_cycle()`` brings it back.
 * ``set_zero_position`` shifts the zero (31205, in RAM; kept by save_config) so
   the current output position reads 0 and the motion carries on undisturbed.
 * A new CAN bit rate (21001) takes effect at the next reboot; a motor whose bit

@@ -104,6 +104,8 @@ class SimMotor:
         self._hb_next = math.inf
         self._timeout = 0.0
         self._last_rx = 0.0
+        self.in_dfu = False
+        """True after enter_dfu_mode: the bootloader waits on USB and the motor answers nothing until power_cycle()."""
         self._calib_end = math.inf
         self._calib_next: list[int] = []
         """Calibration states still to run after the current one."""
@@ -250,7 +252,7 @@ class SimMotor:
 
     def _timers(self) -> None:
         now = self.time + _EPS
-        if now >= self._hb_next:
+        if now >= self._hb_next and not self.in_dfu:
             self.emit(self.state_frame())
             self._hb_next = max(self._hb_next + self._hb_period, now)
         if self._timeout and self.drive.active and now - self._last_rx >= self._timeout:
@@ -270,6 +272,8 @@ class SimMotor:
 
     def receive(self, msg: Command, reply: Reply) -> None:
         """Handle one host command addressed to this motor (or broadcast); answers go to ``reply``."""
+        if self.in_dfu:
+            return  # the firmware is not running
         self._last_rx = self.time
         _HANDLERS[type(msg)](self, msg, reply)
 
@@ -407,6 +411,14 @@ class SimMotor:
             self._refresh()
         elif op is SysCmd.REBOOT:
             self._boot()
+        elif op is SysCmd.ENTER_DFU_MODE:
+            self._enter_idle()
+            self.in_dfu = True
+
+    def power_cycle(self) -> None:
+        """Switch the supply off and on: leaves firmware-update mode and boots as a reboot does."""
+        self.in_dfu = False
+        self._boot()
 
     def _on_read(self, msg: ReadParam, reply: Reply) -> None:
         value = self._read(msg.address)
