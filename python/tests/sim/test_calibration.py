@@ -92,19 +92,3 @@ def test_calibration_is_refused_while_an_error_is_set() -> None:
     bus.motors[1].inject_error(AxisError.OVER_TEMP)
     write(bus, 1, "axis0.requested_state", AxisState.MOTOR_CALIBRATION)
     assert bus.motors[1].state is AxisState.IDLE
-
-
-def test_enter_dfu_mode_silences_the_motor_until_a_power_cycle() -> None:
-    from drempower.protocol import FastRead, SysCmd, SystemCommand
-
-    from .helpers import exchange, fast_read
-
-    bus = SimBus([1])
-    m = bus.motors[1]
-    assert m.state is AxisState.CLOSED_LOOP_CONTROL
-    exchange(bus, SystemCommand(1, SysCmd.ENTER_DFU_MODE))
-    assert m.in_dfu and m.state is AxisState.IDLE and not m.drive.active
-    assert exchange(bus, FastRead(1), SystemCommand(1, SysCmd.REBOOT)) == []  # nothing answers, nothing acts
-    assert m.in_dfu
-    m.power_cycle()
-    assert not m.in_dfu and fast_read(bus, 1).node == 1
