@@ -120,3 +120,18 @@ def test_dfu_needs_confirmation_and_an_answering_motor(cli: Cli, sim: SimBus, ho
     r = cli("dfu", "5", "--yes", "--sim", "1", "--timeout", "0.2")
     assert r.code == 1 and "motor 5: no answer" in r.err
     assert not any(f.data[:1] == b"\x07" for f in host_frames)
+
+
+def test_max_time_gives_up_and_sets_the_motor_idle(cli: Cli, sim: SimBus, host_frames: list[Frame]) -> None:
+    r = cli("calibrate", "3", "--yes", "--max-time", "0.05", "--sim", "3")
+    assert r.code == 1 and "calibration still running after 0.05 s" in r.err and "it was set idle" in r.err
+    assert _requested_states(host_frames, 3) == [AxisState.FULL_CALIBRATION_SEQUENCE, AxisState.IDLE]
+    assert sim.motors[3].state is AxisState.IDLE
+
+
+def test_a_running_clock_on_a_terminal(cli: Cli, sim: SimBus, monkeypatch: pytest.MonkeyPatch) -> None:
+    from drempower.cli import _output
+
+    monkeypatch.setattr(_output, "is_terminal", lambda stream: True)
+    r = cli("calibrate", "1", "--only", "motor", "--yes", "--sim", "1")
+    assert r.code == 0 and "\r\x1b[K  0 s" in r.err

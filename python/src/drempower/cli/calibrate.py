@@ -20,7 +20,7 @@ from ..protocol.enums import AxisState
 from . import _readings
 from ._confirm import add_yes_arg, confirm
 from ._connect import add_connection_args, follow_up, motor_id, open_from_args, positive
-from ._output import add_json_arg, report
+from ._output import Progress, add_json_arg, report
 from .faults import explain
 
 GROUP = "motion"
@@ -75,23 +75,31 @@ def _follow(args: argparse.Namespace, motor: Motor, max_time: float) -> float:
     """Wait until the sequence ends in IDLE, saying each phase on stderr; the seconds it took."""
     start = time.monotonic()
     seen: list[AxisState | int] = []
-    while True:
-        state = _state(motor)
-        elapsed = time.monotonic() - start
-        if state != AxisState.IDLE and (not seen or seen[-1] != state):
-            seen.append(state)
-            text = PHASE_TEXT.get(state) if isinstance(state, AxisState) else None
-            text = text or f"{_readings.axis_state_name(int(state))}"
+    with Progress() as progress:  # a running clock on a terminal
+        while True:
+            state = _state(motor)
+            elapsed = time.monotonic() - start
+            if state != AxisState.IDLE and (not seen or seen[-1] != state):
+                seen.append(state)
+                text = PHASE_TEXT.get(state) if isinstance(state, AxisState) else None
+                text = text or f"{_readings.axis_state_name(int(state))}"
+                if not args.json:
+                    progress.clear()
+                    print(f"motor {args.id}: {text}...", file=sys.stderr, flush=True)
+            if state == AxisState.IDLE and (seen or elapsed > _START_GRACE):
+                return elapsed
             if not args.json:
-                print(f"motor {args.id}: {text}...", file=sys.stderr, flush=True)
-        if state == AxisState.IDLE and (seen or elapsed > _START_GRACE):
-            return elapsed
-        if elapsed > max_time:
-            raise DrEmpowerError(
-                f"motor {args.id}: calibration still running after {max_time:g} s (state "
-                f"{_readings.axis_state_name(int(state))}); it was set idle"
-            )
-        time.sleep(_POLL)
+                progress.show(f"  {elapsed:.0f} s")
+            _check_time(args, state, elapsed, max_time)
+            time.sleep(_POLL)
+
+
+def _check_time(args: argparse.Namespace, state: AxisState | int, elapsed: float, max_time: float) -> None:
+    if elapsed > max_time:
+        raise DrEmpowerError(
+            f"motor {args.id}: calibration still running after {max_time:g} s (state "
+            f"{_readings.axis_state_name(int(state))}); it was set idle"
+        )
 
 
 def run(args: argparse.Namespace) -> int:
@@ -114,7 +122,7 @@ def run(args: argparse.Namespace) -> int:
         except BaseException:
             _idle(bus, args.id)
             raise
-        return _result(args, bus, motor, wanted, seconds)
+        return _result(args, motor, seconds)
 
 
 def _idle(bus: Bus, node: int) -> None:
@@ -126,7 +134,7 @@ def _idle(bus: Bus, node: int) -> None:
         pass
 
 
-def _result(args: argparse.Namespace, bus: Bus, motor: Motor, wanted: AxisState, seconds: float) -> int:
+def _result(args: argparse.Namespace, motor: Motor, seconds: float) -> int:
     errors = motor.dump_error()
     motor_ok = bool(motor.read_property(33002))  # axis0.motor.is_calibrated
     encoder_ok = bool(motor.read_property(31213))  # axis0.config.extra_setting.encoder_offset_calibrated
