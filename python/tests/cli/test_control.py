@@ -20,7 +20,7 @@ def test_stop_broadcasts_an_estop(cli: Cli, sim: SimBus) -> None:
     r = cli("errors", "1", "--sim", "1")
     assert "ESTOP_REQUESTED: An emergency stop was requested" in r.out
     assert "what to do: Clear errors, then request closed loop" in r.out
-    assert "then: drempower clear 1 && drempower enable 1" in r.out
+    assert "then: drempower clear 1 --sim 1 && drempower enable 1 --sim 1" in r.out
 
 
 def test_stop_json(cli: Cli, sim: SimBus) -> None:
@@ -62,7 +62,7 @@ def test_clear_reports_errors_that_stay(cli: Cli, sim: SimBus) -> None:
     r = cli("clear", "3", "--sim", "3")
     assert r.code == 1
     assert "motor 3: errors remain after clearing (ENCODER_FAILED EDR_BATTERY_LOW)" in r.err
-    assert "need `drempower zero` first" in r.err
+    assert "need `drempower zero 3 --sim 3` first" in r.err
     assert cli("zero", "3", "--sim", "3").code == 0
     assert cli("clear", "3", "--sim", "3").code == 0
 
@@ -96,4 +96,7 @@ def test_errors_tells_to_set_the_zero_before_clearing_encoder_errors(cli: Cli, s
     sim.motors[2].inject_error(EncoderError.EDR_BATTERY_LOW)
     r = cli("errors", "2", "--sim", "2")
     assert "EDR_BATTERY_LOW" in r.out
-    assert "then, with the motor at rest: drempower zero 2 && drempower clear 2 && drempower enable 2" in r.out
+    assert (
+        "then, with the motor at rest: "
+        "drempower zero 2 --sim 2 && drempower clear 2 --sim 2 && drempower enable 2 --sim 2" in r.out
+    )

@@ -25,10 +25,17 @@ def test_demo_exits_0() -> None:
 
 
 def test_a_silent_motor_exits_1_with_one_line() -> None:
-    p = drempower("state", "9", "--sim", "1", "--timeout", "0.25")
+    p = drempower("move", "9", "90", "--sim", "1", "--timeout", "0.25")
     assert p.returncode == 1
     assert p.stdout == ""
     assert p.stderr == "drempower: error: motor 9: no answer to a fast read (get_state) within 0.25 s\n"
+
+
+def test_a_silent_motor_of_a_read_gets_a_row_and_exit_1() -> None:
+    p = drempower("state", "9", "--sim", "1", "--timeout", "0.25")
+    assert p.returncode == 1
+    assert p.stdout.splitlines()[1].split() == ["9", "-", "-", "-", "-", "-", "-", "no", "answer"]
+    assert p.stderr == "drempower: no answer from motor 9\n"
 
 
 def test_usage_errors_exit_2() -> None:

@@ -116,7 +116,7 @@ def test_requested_idle_and_calibration_states() -> None:
     assert m.state is AxisState.IDLE and not m.drive.active
     write(bus, 1, "axis0.requested_state", AxisState.MOTOR_CALIBRATION)
     assert read(bus, 1, "axis0.current_state") == AxisState.MOTOR_CALIBRATION
-    bus.advance(2.1)
+    bus.advance(4.1)
     assert m.state is AxisState.IDLE
     write(bus, 1, "axis0.requested_state", AxisState.SENSORLESS_CONTROL)  # not a state a user can request
     assert m.state is AxisState.IDLE
@@ -152,3 +152,19 @@ def test_requesting_closed_loop_again_does_not_interrupt_a_move() -> None:
     _closed_loop(bus, 1)
     bus.advance(1.0)
     assert bus.motors[1].position == pytest.approx(90.0, abs=0.05)
+
+
+def test_enter_dfu_mode_silences_the_motor_until_a_power_cycle() -> None:
+    from drempower.protocol import FastRead, SysCmd, SystemCommand
+
+    from .helpers import exchange, fast_read
+
+    bus = SimBus([1])
+    m = bus.motors[1]
+    assert m.state is AxisState.CLOSED_LOOP_CONTROL
+    exchange(bus, SystemCommand(1, SysCmd.ENTER_DFU_MODE))
+    assert m.in_dfu and m.state is AxisState.IDLE and not m.drive.active
+    assert exchange(bus, FastRead(1), SystemCommand(1, SysCmd.REBOOT)) == []  # nothing answers, nothing acts
+    assert m.in_dfu
+    m.power_cycle()
+    assert not m.in_dfu and fast_read(bus, 1).node == 1

@@ -2,7 +2,9 @@
 
 Each subcommand lives in its own module of this package and exposes
 ``register(subparsers)``; modules are discovered automatically, so adding a
-subcommand means adding a module.
+subcommand means adding a module. A module's ``GROUP`` (one of :data:`GROUPS`)
+says under which heading ``drempower --help`` lists its subcommands; those of a
+module without one are listed last.
 """
 
 from __future__ import annotations
@@ -25,6 +27,53 @@ from ._usage import UsageError
 __all__ = ["main", "build_parser"]
 
 
+GROUPS = ("bus", "motion", "parameters", "logs and tools", "simulator")
+"""The headings of ``drempower --help``, in order; subcommands of modules without a ``GROUP`` follow."""
+OTHER = "other commands"
+_GROUP_OF_COMMAND = {
+    "record": "logs and tools",
+    "replay": "logs and tools",
+    "dbc": "logs and tools",
+    "dash": "bus",
+    "bridge": "bus",
+}
+"""Groups of subcommands whose modules name none (a module's ``GROUP`` wins)."""
+_FIRST = [
+    "scan",
+    "state",
+    "monitor",
+    "errors",
+    "sniff",
+    "move",
+    "speed",
+    "torque",
+    "impedance",
+    "stop",
+    "clear",
+    "idle",
+    "enable",
+    "zero",
+    "calibrate",
+    "get",
+    "set",
+    "params",
+    "backup",
+    "diff",
+    "restore",
+    "set-id",
+    "set-bitrate",
+    "save",
+    "reboot",
+    "dfu",
+    "decode",
+    "completion",
+    "udev",
+    "demo",
+    "sim",
+]
+"""The order of the subcommands within their group; others follow in the order they were found."""
+
+
 class _Parser(Parser):
     """argparse, with control characters of the arguments it quotes escaped in its errors."""
 
@@ -36,20 +85,45 @@ def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(
         prog="drempower",
         description="Work with DrEmpower servo joint motors: decode, simulate, drive, configure.",
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        usage="%(prog)s [-h] [--version] COMMAND ...",
     )
     parser.add_argument("--version", action="version", version=f"drempower {__version__}")
-    sub = parser.add_subparsers(dest="command", metavar="COMMAND")
+    # the commands are listed in groups by the epilog, not in argparse's one list
+    sub = parser.add_subparsers(prog=parser.prog, dest="command", metavar="COMMAND", help=argparse.SUPPRESS)
     sub.required = True
+    group_of: dict[str, str] = {}
     for info in sorted(pkgutil.iter_modules(__path__), key=lambda i: i.name):
         if info.name.startswith("_"):
             continue
         mod = importlib.import_module(f"{__name__}.{info.name}")
         register = getattr(mod, "register", None)
         if register is not None:
+            before = set(sub.choices)
             register(sub)
+            group = getattr(mod, "GROUP", None)
+            for name in sub.choices:
+                if name not in before:
+                    chosen = group or _GROUP_OF_COMMAND.get(name, OTHER)
+                    group_of[name] = chosen if chosen in GROUPS else OTHER
     for command in sub.choices.values():
         command.set_defaults(command_parser=command)
+    parser.epilog = _grouped_help(sub, group_of)
     return parser
+
+
+def _grouped_help(sub: argparse._SubParsersAction[argparse.ArgumentParser], group_of: dict[str, str]) -> str:
+    """The subcommands and their one-line help under their group's heading (argparse lists them unsorted)."""
+    helps = {a.dest: a.help or "" for a in sub._choices_actions}
+    width = max(map(len, sub.choices)) + 2
+    blocks = []
+    for group in (*GROUPS, OTHER):
+        names = [n for n in sub.choices if group_of.get(n, OTHER) == group]
+        names.sort(key=lambda n: _FIRST.index(n) if n in _FIRST else len(_FIRST))
+        if names:
+            lines = [f"  {n:<{width}}{helps.get(n, '')}".rstrip() for n in names]
+            blocks.append(f"{group}:\n" + "\n".join(lines))
+    return "\n\n".join(blocks) + "\n\n`drempower COMMAND --help` tells more."
 
 
 def main(argv: Sequence[str] | None = None) -> int:

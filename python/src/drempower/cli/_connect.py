@@ -16,6 +16,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import shlex
 import sys
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
@@ -38,6 +39,8 @@ __all__ = [
     "bitrate",
     "connection_kwargs",
     "count",
+    "connection_words",
+    "follow_up",
     "motor_id",
     "number",
     "open_from_args",
@@ -46,6 +49,7 @@ __all__ = [
     "can_option",
     "parse_targets",
     "positive",
+    "retries",
     "sim_time_scale",
     "wire_rate",
 ]
@@ -232,6 +236,13 @@ def can_option(text: str) -> tuple[str, object]:
     return key.strip(), v
 
 
+def retries(text: str) -> int:
+    """An argument type: how often a request that got no reply is sent again, 0..10."""
+    if not (text.strip().isdigit() and 0 <= int(text) <= 10):
+        raise argparse.ArgumentTypeError(f"expected a whole number 0..10, got {text!r}")
+    return int(text)
+
+
 def add_connection_args(parser: argparse.ArgumentParser) -> None:
     g = parser.add_argument_group("connection (one of; default: python-can's configuration)")
     g.add_argument("-i", "--interface", help="python-can interface: socketcan, pcan, kvaser, slcan, gs_usb, ...")
@@ -256,6 +267,13 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
         type=seconds,
         metavar="S",
         help="reply timeout per request in seconds (default 0.1; 0.5 with --sim)",
+    )
+    g.add_argument(
+        "--retries",
+        type=retries,
+        default=0,
+        metavar="N",
+        help="send a read that got no reply again, up to N times (0-10, default 0): for lossy links",
     )
 
 
@@ -345,8 +363,33 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
     kw, _ = robot_bus_kwargs(args) if getattr(args, "robot_bus", None) else _connect(args, quiet)
     if args.timeout is not None:
         kw["timeout"] = args.timeout
-    bus: Bus = open_bus(stop_on_close=False, **kw)
+    bus: Bus = open_bus(stop_on_close=False, retries=getattr(args, "retries", 0), **kw)
     return bus
+
+
+def connection_words(args: argparse.Namespace) -> list[str]:
+    """The connection options the user gave, as words of a command line (for suggested follow-up commands)."""
+    words: list[str] = []
+    if getattr(args, "sim", None):
+        words += ["--sim", ",".join(map(str, args.sim))]
+    for name, flag in (("serial", "--serial"), ("uart", "--uart"), ("interface", "-i"), ("channel", "-c")):
+        value = getattr(args, name, None)
+        if value is not None:
+            words += [flag, str(value)]
+    if getattr(args, "bitrate", None) is not None:
+        words += ["-b", str(args.bitrate)]
+    for key, value in getattr(args, "can_option", None) or []:
+        words += ["-o", f"{key}={str(value).lower() if isinstance(value, bool) else value}"]
+    if getattr(args, "timeout", None) is not None:
+        words += ["--timeout", f"{args.timeout:g}"]
+    if getattr(args, "retries", 0):
+        words += ["--retries", str(args.retries)]
+    return words
+
+
+def follow_up(args: argparse.Namespace, command: str) -> str:
+    """``"drempower clear 1"`` with the user's connection options, ready to paste: ``drempower clear 1 --sim 1``."""
+    return " ".join(["drempower", command, *map(shlex.quote, connection_words(args))])
 
 
 def open_transport_from_args(args: argparse.Namespace) -> tuple[Transport, str]:

@@ -18,6 +18,8 @@ __all__ = [
     "is_terminal",
     "json_line",
     "motors_text",
+    "no_answer",
+    "number_text",
     "Progress",
     "LiveView",
     "render_table",
@@ -63,10 +65,29 @@ def fmt(value: object, digits: int | None = 2) -> str:
     if isinstance(value, bool):
         return "yes" if value else "no"
     if isinstance(value, float):
-        return f"{value:.7g}" if digits is None else f"{value:.{digits}f}"
+        return number_text(value, digits)
     if isinstance(value, (list, tuple)):
         return clean(" ".join(map(str, value))) or "-"
     return clean(str(value))
+
+
+def number_text(value: float, digits: int | None = 2, width: int = 0) -> str:
+    """``value`` with ``digits`` decimals (None: 7 significant digits), right-aligned in ``width``.
+
+    A value that rounds to zero is shown without a sign: ``-0.001`` -> ``"0.00"``, never ``"-0.00"``.
+    """
+    text = f"{value:.7g}" if digits is None else f"{value:.{digits}f}"
+    if text.startswith("-") and math.isfinite(value) and float(text) == 0:
+        text = text[1:]
+    return text.rjust(width)
+
+
+def no_answer(ids: Sequence[int]) -> int:
+    """Say on stderr which motors did not answer and return the exit status 1 (0 when all answered)."""
+    if not ids:
+        return 0
+    print(f"drempower: no answer from {motors_text(sorted(ids))}", file=sys.stderr)
+    return 1
 
 
 def motors_text(ids: Sequence[int]) -> str:
@@ -104,9 +125,9 @@ def render_table(
 
 
 def _finite(value: Any) -> Any:
-    """``value`` with NaN and infinities (which JSON cannot hold) as the strings "nan", "inf", "-inf"."""
-    if isinstance(value, float) and not math.isfinite(value):
-        return str(value)
+    """``value`` with NaN and infinities (which JSON cannot hold) as "nan", "inf", "-inf"; -0.0 as 0.0."""
+    if isinstance(value, float):
+        return value + 0.0 if math.isfinite(value) else str(value)
     if isinstance(value, dict):
         return {k: _finite(v) for k, v in value.items()}
     if isinstance(value, (list, tuple)):
@@ -115,11 +136,8 @@ def _finite(value: Any) -> Any:
 
 
 def json_line(record: Mapping[str, Any]) -> str:
-    """One line of strict JSON (a motor can report NaN or infinity: they become strings)."""
-    try:
-        return json.dumps(record, allow_nan=False)
-    except ValueError:
-        return json.dumps(_finite(record), allow_nan=False)
+    """One line of strict JSON (a motor can report NaN or infinity: they become strings; -0.0 becomes 0.0)."""
+    return json.dumps(_finite(record), allow_nan=False)
 
 
 def significant(value: int | float) -> int | float:

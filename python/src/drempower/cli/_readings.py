@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import argparse
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -131,18 +132,26 @@ def _pairs(replies: Sequence[Any]) -> list[tuple[Any, Any]]:
     return list(zip(replies[::2], replies[1::2], strict=True))
 
 
-def require_ready(bus: Bus, ids: Sequence[int]) -> list[Reading]:
-    """Check that every motor answers, has no error and is in closed loop; say what to run otherwise."""
+def require_ready(bus: Bus, ids: Sequence[int], args: argparse.Namespace | None = None) -> list[Reading]:
+    """Check that every motor answers, has no error and is in closed loop; say what to run otherwise.
+
+    The commands suggested carry the connection options of ``args`` (the command line's).
+    """
+    from ._connect import follow_up
+
+    def cmd(text: str) -> str:
+        return f"`drempower {text}`" if args is None else f"`{follow_up(args, text)}`"
+
     readings = read(bus, ids)
     for r in readings:
         if r.state is not None and r.state.error:
             raise DrEmpowerError(
-                f"motor {r.id} reports errors ({r.error_text()}): see `drempower errors {r.id}`, "
-                f"then `drempower clear {r.id}` and `drempower enable {r.id}`"
+                f"motor {r.id} reports errors ({r.error_text()}): see {cmd(f'errors {r.id}')}, "
+                f"then {cmd(f'clear {r.id}')} and {cmd(f'enable {r.id}')}"
             )
         if r.axis_state is not None and r.axis_state != AxisState.CLOSED_LOOP_CONTROL:
             raise DrEmpowerError(
                 f"motor {r.id} is {axis_state_name(r.axis_state)}, not in closed loop: "
-                f"run `drempower enable {r.id}` first"
+                f"run {cmd(f'enable {r.id}')} first"
             )
     return readings

@@ -11,6 +11,10 @@ from ..errors import DrEmpowerError
 from ..protocol import find_parameter
 from ._connect import add_connection_args, motor_id, open_from_args
 from ._output import add_json_arg, clean, emit, report, significant
+from ._usage import UsageError
+
+GROUP = "parameters"
+"""Where ``drempower --help`` lists this module's subcommands."""
 
 
 def register(sub: Any) -> None:
@@ -37,7 +41,10 @@ def register(sub: Any) -> None:
     d = sub.add_parser(
         "diff",
         help="show how a motor's configuration differs from a backup",
-        description="Compare the writable configuration of a motor with a backup; nothing is written.",
+        description=(
+            "Compare the writable configuration of a motor with a backup; nothing is written. "
+            "Exit status (as diff(1)): 0 when they match, 1 when they differ, 2 on trouble."
+        ),
     )
     for p in (r, d):
         p.add_argument("id", type=motor_id, metavar="ID", help="the motor's id")
@@ -68,6 +75,10 @@ def run_backup(args: argparse.Namespace) -> int:
     unread = f" ({len(cfg.failed)} unreadable: {', '.join(cfg.failed)})" if cfg.failed else ""
     record = {"id": args.id, "file": args.file, "parameters": read, "unreadable": list(cfg.failed)}
     report(args, f"motor {args.id}: {read} parameters written to {args.file}{unread}", [record])
+    if cfg.failed:  # the file is incomplete: the exit status says so
+        hint = "" if getattr(args, "retries", 0) else "; on a lossy link, --retries N asks again"
+        print(f"drempower: motor {args.id}: {len(cfg.failed)} parameters unread{hint}", file=sys.stderr)
+        return 1
     return 0
 
 
@@ -85,7 +96,13 @@ def _restore(args: argparse.Namespace, dry_run: bool) -> RestoreReport:
 
 
 def run_diff(args: argparse.Namespace) -> int:
-    result = _restore(args, dry_run=True)
+    try:
+        result = _restore(args, dry_run=True)
+    except UsageError:
+        raise
+    except DrEmpowerError as exc:  # as diff(1): 2 is trouble, 1 means "they differ"
+        print(f"drempower: error: {exc}", file=sys.stderr)
+        return 2
     records = [
         {"name": n, "motor": significant(old), "backup": significant(new), "unit": _unit(n)}
         for n, old, new in result.written
@@ -97,7 +114,7 @@ def run_diff(args: argparse.Namespace) -> int:
     if not args.json:
         for name, why in result.failed:
             print(clean(f"{name}: not compared: {why}"), file=sys.stderr)
-    return 0
+    return 1 if records else 0
 
 
 def run_restore(args: argparse.Namespace) -> int:

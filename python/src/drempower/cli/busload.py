@@ -12,6 +12,9 @@ from ..sim.timing import frame_bits
 from ._connect import bitrate, positive
 from ._output import add_json_arg, json_line
 
+GROUP = "bus"
+"""Where ``drempower --help`` lists this module's subcommands."""
+
 _MAX_BANDWIDTH = 300.0
 
 

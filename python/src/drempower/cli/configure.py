@@ -14,6 +14,9 @@ from ._connect import add_connection_args, add_ids_arg, bitrate, motor_id, open_
 from ._output import add_json_arg, motors_text, report, sent
 from ._usage import UsageError
 
+GROUP = "parameters"
+"""Where ``drempower --help`` lists this module's subcommands."""
+
 
 def register(sub: Any) -> None:
     i = sub.add_parser(

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 import time
 from collections.abc import Callable
 from typing import Any
@@ -11,8 +12,11 @@ from ..client import Bus, Motor
 from ..errors import DrEmpowerError
 from ..protocol.enums import AxisState
 from . import _readings
-from ._connect import add_connection_args, add_ids_arg, open_from_args
+from ._connect import add_connection_args, add_ids_arg, follow_up, open_from_args
 from ._output import add_json_arg, emit, motors_text, report, sent
+
+GROUP = "motion"
+"""Where ``drempower --help`` lists this module's subcommands."""
 
 _SETTLE = 1.0
 """Longest wait (s) for motors to reach the state asked for."""
@@ -98,7 +102,9 @@ def _apply(
     emit(args, _readings.HEADERS, [r.record() for r in readings])
     bad = [r for r in readings if not ok(r)]
     if bad:
-        raise DrEmpowerError(failure.format(ids=",".join(str(r.id) for r in bad), errors=bad[0].error_text()))
+        text = failure.format(ids=",".join(str(r.id) for r in bad), errors=bad[0].error_text())
+        # the commands suggested carry the user's connection options
+        raise DrEmpowerError(re.sub(r"`drempower ([^`]*)`", lambda m: f"`{follow_up(args, m[1])}`", text))
     return 0
 
 
@@ -116,7 +122,7 @@ def run_clear(args: argparse.Namespace) -> int:
         args,
         Motor.clear_error,
         lambda r: not _error(r),
-        "motor {ids}: errors remain after clearing ({errors}); encoder errors need `drempower zero` first",
+        "motor {ids}: errors remain after clearing ({errors}); encoder errors need `drempower zero {ids}` first",
     )
 
 

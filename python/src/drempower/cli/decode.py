@@ -22,6 +22,9 @@ from ..protocol.parameters import find_parameter
 from ._inputs import input_lines
 from ._output import clean, json_line
 
+GROUP = "logs and tools"
+"""Where ``drempower --help`` lists this module's subcommands."""
+
 
 def register(sub: Any) -> None:
     p = sub.add_parser(

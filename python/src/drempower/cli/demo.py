@@ -13,7 +13,10 @@ from .. import open_bus
 from ..client import Bus, MotorState, PositionMode
 from ..protocol import FastRead
 from ._connect import positive, sim_time_scale
-from ._output import LiveView, fmt, is_terminal, json_line
+from ._output import LiveView, fmt, is_terminal, json_line, number_text
+
+GROUP = "simulator"
+"""Where ``drempower --help`` lists this module's subcommands."""
 
 TARGETS = (90.0, -45.0, 180.0, -120.0, 60.0, -180.0, 135.0, -90.0)
 """Target angles (deg) of motors 1, 2, 3...; more motors reuse them."""
@@ -140,7 +143,8 @@ def _table(tracker: Tracker, states: list[MotorState], t: float) -> list[str]:
         target = tracker.targets[st.node]
         done = "done" if st.trajectory_done else ""
         lines.append(
-            f"motor {st.node}  [{tracker.bar(st)}] {st.angle:8.2f} / {target:7.2f} deg  {st.speed:6.2f} rpm  {done}"
+            f"motor {st.node}  [{tracker.bar(st)}] {number_text(st.angle, 2, 8)} / {number_text(target, 2, 7)} deg  "
+            f"{number_text(st.speed, 2, 6)} rpm  {done}"
         )
     return lines
 

@@ -13,6 +13,9 @@ from ._motion import add_duration_arg, add_motion_args, add_watchdog_arg, drivin
 from ._output import add_json_arg, emit, fmt, motors_text
 from ._usage import options_named
 
+GROUP = "motion"
+"""Where ``drempower --help`` lists this module's subcommands."""
+
 
 def register(sub: Any) -> None:
     s = sub.add_parser(
@@ -86,7 +89,7 @@ def run_speed(args: argparse.Namespace) -> int:
     with options_named({"speed_list": "RPM", "param": option, "param (ramp rate)": "--ramp"}):
         make_speeds(args.ids, speeds, param, mode)  # every value checked before connecting
     with driving(args) as bus:
-        _readings.require_ready(bus, args.ids)
+        _readings.require_ready(bus, args.ids, args)
         bus.set_speeds(args.ids, speeds, param, mode)
         _report(args, "speed", "rpm", speeds, extra)
         hold(bus, args.duration, args.ids, args.watchdog)
@@ -102,7 +105,7 @@ def run_torque(args: argparse.Namespace) -> int:
     with options_named({"torque_list": "NM", "param": "--ramp", "param (ramp rate)": "--ramp"}):
         make_torques(args.ids, torques, param, mode)
     with driving(args) as bus:
-        _readings.require_ready(bus, args.ids)
+        _readings.require_ready(bus, args.ids, args)
         bus.set_torques(args.ids, torques, param, mode)
         _report(args, "torque", "Nm", torques, extra)
         hold(bus, args.duration, args.ids, args.watchdog)
@@ -119,7 +122,7 @@ def run_impedance(args: argparse.Namespace) -> int:
         # every motor's command is built and encoded before the bus is even opened
         make_impedances(args.ids, positions, args.vel, args.tff, args.kp, args.kd)
     with driving(args) as bus:
-        _readings.require_ready(bus, args.ids)
+        _readings.require_ready(bus, args.ids, args)
         bus.impedance_controls(args.ids, positions, args.vel, args.tff, args.kp, args.kd)  # one start
         extra = f" (kp {args.kp:g} Nm/rad, kd {args.kd:g} Nm/(rad/s), vel {args.vel:g} rpm, tff {args.tff:g} Nm)"
         _report(args, "position", "deg", positions, extra)

@@ -7,9 +7,13 @@ import sys
 from typing import Any
 
 from ..client import ErrorReport
+from ..client.errors import TimeoutError
 from ..protocol import ERROR_WORDS, flag_info
-from ._connect import add_connection_args, add_ids_arg, open_from_args
-from ._output import add_json_arg, json_line
+from ._connect import add_connection_args, add_ids_arg, follow_up, open_from_args
+from ._output import add_json_arg, json_line, no_answer
+
+GROUP = "bus"
+"""Where ``drempower --help`` lists this module's subcommands."""
 
 _LABEL = {w.name: w.label for w in ERROR_WORDS}
 
@@ -38,10 +42,22 @@ def explain(report: ErrorReport) -> list[dict[str, Any]]:
 
 
 def run(args: argparse.Namespace) -> int:
+    reports: list[ErrorReport | int] = []
     with open_from_args(args) as bus:
-        reports = [bus.motor(node).dump_error() for node in args.ids]
+        for node in args.ids:
+            try:
+                reports.append(bus.motor(node).dump_error())
+            except TimeoutError:
+                reports.append(node)  # shown as not answering; the others still are
     out = sys.stdout
     for report in reports:
+        if isinstance(report, int):
+            out.write(
+                json_line({"id": report, "errors": None, "answered": False}) + "\n"
+                if args.json
+                else f"motor {report}: no answer\n"
+            )
+            continue
         flags = explain(report)
         if args.json:
             out.write(json_line({"id": report.node, "errors": flags}) + "\n")
@@ -59,9 +75,8 @@ def run(args: argparse.Namespace) -> int:
         n = report.node
         if report.words.get("axis0.encoder.error"):
             # these come back after a plain clear: set the zero first (PROTOCOL.md 3.2)
-            out.write(
-                f"  then, with the motor at rest: drempower zero {n} && drempower clear {n} && drempower enable {n}\n"
-            )
+            steps = (follow_up(args, f"zero {n}"), follow_up(args, f"clear {n}"), follow_up(args, f"enable {n}"))
+            out.write(f"  then, with the motor at rest: {' && '.join(steps)}\n")
         else:
-            out.write(f"  then: drempower clear {n} && drempower enable {n}\n")
-    return 0
+            out.write(f"  then: {follow_up(args, f'clear {n}')} && {follow_up(args, f'enable {n}')}\n")
+    return no_answer([r for r in reports if isinstance(r, int)])

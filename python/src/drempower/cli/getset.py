@@ -3,13 +3,18 @@
 from __future__ import annotations
 
 import argparse
+import difflib
 from typing import Any
 
+from ..client.errors import TimeoutError
 from ..errors import ValidationError
 from ..protocol import DataType, Parameter, find_parameter, parameter, parameters
 from ._connect import add_connection_args, add_ids_arg, open_from_args
-from ._output import add_json_arg, emit, motors_text, report, sent, significant
+from ._output import add_json_arg, emit, motors_text, no_answer, report, sent, significant
 from ._usage import UsageError
+
+GROUP = "parameters"
+"""Where ``drempower --help`` lists this module's subcommands."""
 
 _ELSEWHERE = {
     31001: "drempower set-id",
@@ -57,15 +62,38 @@ def register(sub: Any) -> None:
 
 
 def lookup(name: str) -> Parameter:
-    """A parameter by name, address, or the unique end of its name (``stall_current_limit``)."""
+    """A parameter by name, address, or the unique end of its name (``stall_current_limit``).
+
+    An unknown or ambiguous name is a :class:`UsageError` (exit 2) naming the closest parameters.
+    """
     p = find_parameter(name)
     if p is not None:
         return p
     suffix = "." + name.strip()
     matches = [q.name for q in parameters() if q.name.endswith(suffix)]
     if len(matches) > 1:
-        raise ValidationError(f"{name!r} could be any of {', '.join(matches)}")
-    return parameter(matches[0] if matches else name)
+        raise UsageError(f"parameter {name!r} could be any of {', '.join(matches)}")
+    if matches:
+        return parameter(matches[0])
+    close = suggestions(name)
+    hint = f"; did you mean {' or '.join(close)}?" if close else ""
+    raise UsageError(f"unknown parameter {name!r}{hint} (`drempower params WORD` searches the table)")
+
+
+def suggestions(name: str, n: int = 3) -> list[str]:
+    """The parameter names (full, or their last part) closest to ``name``, best first."""
+    key = name.strip().lower()
+    names = [q.name for q in parameters()]
+    by_short: dict[str, str] = {}
+    for full in names:
+        by_short.setdefault(full.rsplit(".", 1)[-1], full)
+    out = difflib.get_close_matches(key, names, n=n, cutoff=0.6)
+    for short in difflib.get_close_matches(key, list(by_short), n=n, cutoff=0.6):
+        if by_short[short] not in out:
+            out.append(by_short[short])
+    # a word of a name, e.g. "gain" -> pos_gain, vel_gain...
+    out += [full for full in names if key and key in full.rsplit(".", 1)[-1].split("_") and full not in out]
+    return out[:n]
 
 
 def parse_value(p: Parameter, text: str) -> int | float:
@@ -94,14 +122,21 @@ def _writable(p: Parameter, force: bool) -> None:
 def run_get(args: argparse.Namespace) -> int:
     params = [lookup(n) for n in args.names]
     records = []
+    silent: list[int] = []
     with open_from_args(args) as bus:
         for node in args.ids:
             motor = bus.motor(node)
             for p in params:
-                value = significant(motor.read_property(p.address))
+                value: int | float | str = "no answer"
+                if node not in silent:  # a silent motor costs one timeout, not one per parameter
+                    try:
+                        value = significant(motor.read_property(p.address))
+                    except TimeoutError:
+                        # one silent motor does not hide the others: a row says so, the exit status too
+                        silent.append(node)
                 records.append({"id": node, "name": p.name, "address": p.address, "value": value, "unit": p.unit})
     emit(args, ("id", "name", "address", "value", "unit"), records, digits=None)
-    return 0
+    return no_answer(silent)
 
 
 def run_set(args: argparse.Namespace) -> int:

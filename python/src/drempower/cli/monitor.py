@@ -17,6 +17,9 @@ from ._connect import add_connection_args, add_ids_arg, open_from_args, positive
 from ._fields import SOURCES, parse_fields, run_fields
 from ._output import LiveView, add_json_arg, is_terminal, json_line, render_table
 
+GROUP = "bus"
+"""Where ``drempower --help`` lists this module's subcommands."""
+
 _HEADERS = ("time/s", *_readings.HEADERS)
 _WIDTHS = (7, 2, 12, 9, 9, 4, 11, 6)
 """Least column widths of the plain output, so that readings line up under one header."""

@@ -13,6 +13,9 @@ from ._motion import add_motion_args, add_watchdog_arg, driving, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
 from ._usage import UsageError, options_named
 
+GROUP = "motion"
+"""Where ``drempower --help`` lists this module's subcommands."""
+
 _MODES = {"t": PositionMode.T, "q": PositionMode.Q, "p": PositionMode.P}
 _OPTIONS = {
     PositionMode.T: {"bandwidth": 20.0},
@@ -91,7 +94,7 @@ def run(args: argparse.Namespace) -> int:
         # every value checked before connecting (the Q move time needs the positions: it is checked when sent)
         make_angles(ids, angles, speed, param, mode, move_time=1.0, relative=args.relative)
     with driving(args) as bus:
-        start = {r.id: r.state.angle for r in _readings.require_ready(bus, ids) if r.state is not None}
+        start = {r.id: r.state.angle for r in _readings.require_ready(bus, ids, args) if r.state is not None}
         move = bus.step_angles if args.relative else bus.set_angles
         move_time = move(ids, angles, speed, param, mode)
         targets = [start[i] + a if args.relative else a for i, a in zip(ids, angles, strict=True)]

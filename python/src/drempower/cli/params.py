@@ -10,6 +10,9 @@ from typing import Any
 from ..protocol import parameters
 from ..protocol.parameters import Parameter
 
+GROUP = "parameters"
+"""Where ``drempower --help`` lists this module's subcommands."""
+
 
 def register(sub: Any) -> None:
     p = sub.add_parser(

@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import argparse
 import sys
+import tempfile
 import threading
-from contextlib import ExitStack
+from collections.abc import Iterator
+from contextlib import ExitStack, contextmanager
+from pathlib import Path
 from typing import Any, TextIO
 
 from ..client.signals import exit_code
+from ..errors import DrEmpowerError
 from ..sim import (
     Faults,
     SimBus,
@@ -23,6 +27,9 @@ from ._connect import bitrate, parse_ids, positive
 from ._output import clean, json_line
 from ._sim_robot import serve_robot
 from ._usage import UsageError
+
+GROUP = "simulator"
+"""Where ``drempower --help`` lists this module's subcommands."""
 
 
 def register(sub: Any) -> None:
@@ -95,6 +102,40 @@ def _rate(text: str) -> float:
     return value
 
 
+def _check_config_dir(folder: str) -> None:
+    """Make ``folder`` and check that files can be written there, or say what to do instead."""
+    try:
+        Path(folder).mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=folder):
+            pass
+    except OSError as exc:
+        raise DrEmpowerError(
+            f"sim --config-dir {folder}: cannot write there ({exc.strerror or exc}): give a directory you can "
+            f"write, e.g. --config-dir {Path.home() / '.local/share/drempower-sim'}"
+        ) from None
+
+
+@contextmanager
+def _explained(option: str, advice: str) -> Iterator[None]:
+    """Turn the failure of an attachment into one line naming ``option`` and what to do (``advice``)."""
+    import can
+
+    try:
+        yield
+    except (OSError, can.CanError, ImportError, ValueError) as exc:
+        why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
+        raise DrEmpowerError(f"sim {option}: {why}: {advice}") from None
+
+
+def _python_can_advice(interface: str, channel: str) -> str:
+    if interface == "socketcan":
+        return (
+            f"is there a CAN interface {channel}? A virtual one: sudo modprobe vcan && "
+            f"sudo ip link add dev {channel} type vcan && sudo ip link set up {channel} (Linux only)"
+        )
+    return f"check that python-can's {interface} interface is installed and channel {channel} exists"
+
+
 def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Event | None = None) -> int:
     """Run the simulator; ``stop`` (set by the caller) ends it early, as Ctrl-C does."""
     ended = 0
@@ -116,6 +157,8 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
         reply_delay=args.reply_delay,
         serial_garbage=args.serial_garbage,
     )
+    if args.config_dir is not None:
+        _check_config_dir(args.config_dir)
     bus = SimBus(
         args.ids,
         bitrate=args.bitrate,
@@ -149,7 +192,10 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
                 f"    drempower state {args.uart_pty} --uart {path}",
             )
         if args.socketcand_port is not None or default:
-            server = stack.enter_context(attach_socketcand(bus, args.socketcand_port or 0))
+            port = args.socketcand_port or 0
+            busy = f"port {port} is taken: give another with --socketcand-port, or 0 for a free one"
+            with _explained(f"--socketcand-port {port}", busy):
+                server = stack.enter_context(attach_socketcand(bus, port))
             ids = ",".join(str(i) for i in bus.motors)
             show(
                 {"attachment": "socketcand", "host": server.host, "port": server.port, "channel": server.channel},
@@ -158,7 +204,9 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
                 f"    can.Bus(interface='socketcand', host='{server.host}', port={server.port}, channel='can0')",
             )
         if args.python_can:
-            stack.enter_context(attach_python_can(bus, args.python_can, args.python_can_interface))
+            how = f"--python-can {args.python_can} --python-can-interface {args.python_can_interface}"
+            with _explained(how, _python_can_advice(args.python_can_interface, args.python_can)):
+                stack.enter_context(attach_python_can(bus, args.python_can, args.python_can_interface))
             show(
                 {"attachment": "python-can", "interface": args.python_can_interface, "channel": args.python_can},
                 f"python-can: interface {args.python_can_interface}, channel {args.python_can}",

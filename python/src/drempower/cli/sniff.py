@@ -16,6 +16,9 @@ from ._connect import add_connection_args, count, open_transport_from_args, posi
 from ._output import add_json_arg, clean, json_line
 from .decode import decode_line
 
+GROUP = "bus"
+"""Where ``drempower --help`` lists this module's subcommands."""
+
 
 def register(sub: Any) -> None:
     p = sub.add_parser(

@@ -7,14 +7,20 @@ from typing import Any
 
 from . import _readings
 from ._connect import add_connection_args, add_ids_arg, open_from_args
-from ._output import add_json_arg, emit
+from ._output import add_json_arg, emit, no_answer
+
+GROUP = "bus"
+"""Where ``drempower --help`` lists this module's subcommands."""
 
 
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "state",
         help="position, speed, torque, trajectory done, axis state, bus voltage and errors of motors",
-        description="Read each motor once; `drempower monitor` keeps reading.",
+        description=(
+            "Read each motor once; `drempower monitor` keeps reading. A motor that does not answer gets a "
+            "row saying so, and the exit status is then 1."
+        ),
     )
     add_ids_arg(p)
     add_json_arg(p)
@@ -24,6 +30,6 @@ def register(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     with open_from_args(args) as bus:
-        readings = _readings.read(bus, args.ids)
+        readings = _readings.read(bus, args.ids, missing_ok=True)
     emit(args, _readings.HEADERS, [r.record() for r in readings])
-    return 0
+    return no_answer([r.id for r in readings if not r.answered])

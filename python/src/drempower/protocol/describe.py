@@ -138,7 +138,7 @@ class CaptureDecoder:
 
 def _fmt(v: object) -> str:
     if isinstance(v, float):
-        return f"{v:.6g}"
+        return f"{v + 0.0:.6g}"  # + 0.0: -0.0 reads 0
     return str(v)
 
 

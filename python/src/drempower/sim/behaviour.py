@@ -29,8 +29,13 @@ Choices that are simply "do nothing" live in this docstring:
   current position (position control, passthrough).
 * Requesting closed loop while an error word is non-zero is ignored (the axis
   stays in IDLE); requesting it while in closed loop changes nothing.
-  Requesting a calibration state (3, 4, 6, 7) runs it for
-  :data:`CALIBRATION_SECONDS` and ends in IDLE; other states are ignored.
+  Requesting a calibration state runs it and ends in IDLE (see
+  :data:`CALIBRATION_PHASES`); other states are ignored. Motor calibration (4)
+  holds still for :data:`MOTOR_CALIBRATION_SECONDS` and fails below
+  :data:`CALIBRATION_MIN_VBUS`; encoder offset calibration (7) turns the rotor
+  one turn forward and back in :data:`ENCODER_OFFSET_CALIBRATION_SECONDS` and
+  fails when the shaft is blocked; the full sequence (3) runs both, reporting
+  each as the current state. Any error ends the sequence in IDLE.
 * ``reboot`` is instantaneous: RAM is loaded from the saved configuration (or
   the factory defaults), errors are cleared and the axis enters closed loop.
   The position survives when multi-turn counting (31207) is on, else it
@@ -38,7 +43,9 @@ Choices that are simply "do nothing" live in this docstring:
   ``init_config`` loads the factory defaults into RAM only. The factory node id
   of a simulated motor is the id it was created with. ``save_config`` works in
   every axis state without disturbing the motion.
-* ``enter_dfu_mode`` is ignored (the simulator has no firmware to update).
+* ``enter_dfu_mode`` sets the axis idle and the motor answers nothing, on CAN
+  and UART, as its bootloader waits on USB (there is no firmware to update);
+  ``SimMotor.power_cycle()`` brings it back.
 * ``set_zero_position`` shifts the zero (31205, in RAM; kept by save_config) so
   the current output position reads 0 and the motion carries on undisturbed.
 * A new CAN bit rate (21001) takes effect at the next reboot; a motor whose bit
@@ -76,6 +83,10 @@ __all__ = [
     "LIMIT_RECOVERY_SPEED_RPM",
     "LIMIT_RECOVERY_ACCEL",
     "CALIBRATION_SECONDS",
+    "CALIBRATION_MIN_VBUS",
+    "CALIBRATION_PHASES",
+    "ENCODER_OFFSET_CALIBRATION_SECONDS",
+    "MOTOR_CALIBRATION_SECONDS",
     "CAN_BITRATES",
     "convert_value",
     "target_time_profile",
@@ -122,7 +133,16 @@ LIMIT_RECOVERY_ACCEL = 50.0
 """Acceleration of that move ((r/min)/s)."""
 
 CALIBRATION_SECONDS = 2.0
-"""Duration of a requested calibration state before the axis returns to IDLE."""
+"""Duration of an encoder index search (state 6) before the axis returns to IDLE."""
+MOTOR_CALIBRATION_SECONDS = 4.0
+"""Duration of motor calibration (state 4): phase resistance and inductance, the rotor held still."""
+ENCODER_OFFSET_CALIBRATION_SECONDS = 8.0
+"""Duration of encoder offset calibration (state 7): one slow rotor turn forward and back."""
+CALIBRATION_MIN_VBUS = 12.0
+"""Supply voltage (V) below which motor calibration cannot drive its current: it fails with
+PHASE_RESISTANCE_OUT_OF_RANGE and DC_BUS_UNDER_VOLTAGE."""
+CALIBRATION_PHASES: dict[int, tuple[int, ...]] = {3: (4, 7), 4: (4,), 6: (6,), 7: (7,)}
+"""The states each requestable calibration state runs through, in order (3 = the full sequence)."""
 
 CAN_BITRATES = frozenset((125_000, 250_000, 500_000, 1_000_000))
 """Values accepted by can.config.baud_rate (21001); other writes are ignored."""

@@ -16,7 +16,7 @@ from pathlib import Path
 
 from ..errors import DrEmpowerError
 from ..protocol.enums import AxisState, TorqueMode, TrajMode, VelocityMode
-from ..protocol.flags import ERROR_WORDS, AxisError, CanError, ControllerError
+from ..protocol.flags import ERROR_WORDS, AxisError, CanError, ControllerError, EncoderError, MotorError
 from ..protocol.ids import Frame, StartKind, SysCmd
 from ..protocol.messages import (
     S16_MAX,
@@ -104,7 +104,13 @@ class SimMotor:
         self._hb_next = math.inf
         self._timeout = 0.0
         self._last_rx = 0.0
+        self.in_dfu = False
+        """True after enter_dfu_mode: the bootloader waits on USB and the motor answers nothing until power_cycle()."""
         self._calib_end = math.inf
+        self._calib_next: list[int] = []
+        """Calibration states still to run after the current one."""
+        self._calib_start = 0.0
+        self._calib_pos = 0.0
         self._wake = math.inf
         self._watchdog_damping = False
         self._sticky_cleared = True
@@ -234,6 +240,8 @@ class SimMotor:
         d = self.drive
         d.step(dt)
         self.time = now
+        if self.state == AxisState.ENCODER_OFFSET_CALIBRATION:
+            self._encoder_scan(now)
         if d.active:
             if self._stall_on:
                 if abs(d.torque) >= self._stall_tq:
@@ -249,15 +257,14 @@ class SimMotor:
 
     def _timers(self) -> None:
         now = self.time + _EPS
-        if now >= self._hb_next:
+        if now >= self._hb_next and not self.in_dfu:
             self.emit(self.state_frame())
             self._hb_next = max(self._hb_next + self._hb_period, now)
         if self._timeout and self.drive.active and now - self._last_rx >= self._timeout:
             self._watchdog_damping = True
             self._fault(30001, bh.WATCHDOG_ERROR)
         if now >= self._calib_end:
-            self._calib_end = math.inf
-            self._enter_idle()
+            self._calibration_phase_done()
         self._rearm()
 
     def _rearm(self) -> None:
@@ -270,6 +277,8 @@ class SimMotor:
 
     def receive(self, msg: Command, reply: Reply) -> None:
         """Handle one host command addressed to this motor (or broadcast); answers go to ``reply``."""
+        if self.in_dfu:
+            return  # the firmware is not running
         self._last_rx = self.time
         _HANDLERS[type(msg)](self, msg, reply)
 
@@ -407,6 +416,14 @@ class SimMotor:
             self._refresh()
         elif op is SysCmd.REBOOT:
             self._boot()
+        elif op is SysCmd.ENTER_DFU_MODE:
+            self._enter_idle()
+            self.in_dfu = True
+
+    def power_cycle(self) -> None:
+        """Switch the supply off and on: leaves firmware-update mode and boots as a reboot does."""
+        self.in_dfu = False
+        self._boot()
 
     def _on_read(self, msg: ReadParam, reply: Reply) -> None:
         value = self._read(msg.address)
@@ -488,9 +505,61 @@ class SimMotor:
             self._enter_idle()
         elif value in _CALIBRATION_STATES:
             self._enter_idle()
-            self.state = AxisState(int(value))
-            self._calib_end = self.time + bh.CALIBRATION_SECONDS
-            self._rearm()
+            if self.errors[30001]:
+                return  # as for closed loop: refused while an error is set
+            self._calib_next = list(bh.CALIBRATION_PHASES[int(value)])
+            self._start_calibration_phase()
+
+    # ------------------------------------------------------------------ calibration
+
+    def _start_calibration_phase(self) -> None:
+        state = self._calib_next.pop(0)
+        self.state = AxisState(state)
+        self._calib_start = self.time
+        self._calib_pos = self.drive.pos
+        seconds = {
+            AxisState.MOTOR_CALIBRATION: bh.MOTOR_CALIBRATION_SECONDS,
+            AxisState.ENCODER_OFFSET_CALIBRATION: bh.ENCODER_OFFSET_CALIBRATION_SECONDS,
+        }.get(self.state, bh.CALIBRATION_SECONDS)
+        self._calib_end = self.time + seconds
+        self._rearm()
+
+    def _encoder_scan(self, now: float) -> None:
+        """Encoder offset calibration: the rotor turns once forward and back (unless the shaft is blocked)."""
+        d = self.drive
+        if d.locked:
+            d.vel = 0.0
+            return
+        span = bh.ENCODER_OFFSET_CALIBRATION_SECONDS
+        f = min(max((now - self._calib_start) / span, 0.0), 1.0)
+        turns = (2 * f if f < 0.5 else 2 - 2 * f) / self._ratio  # output turns of one rotor turn
+        d.pos = self._calib_pos + turns
+        d.vel = (2 if f < 0.5 else -2) / self._ratio / span if f < 1.0 else 0.0
+
+    def _calibration_phase_done(self) -> None:
+        """End the current calibration state: record its result or fault, then the next phase or IDLE."""
+        self._calib_end = math.inf
+        state = self.state
+        ram = self.params.ram
+        if state == AxisState.MOTOR_CALIBRATION:
+            if self.model.vbus < bh.CALIBRATION_MIN_VBUS:
+                self._calib_next = []
+                self._fault(33001, MotorError.PHASE_RESISTANCE_OUT_OF_RANGE, AxisError.MOTOR_FAILED)
+                self._fault(30001, AxisError.DC_BUS_UNDER_VOLTAGE)
+                return
+            ram[33002] = 1  # axis0.motor.is_calibrated
+        elif state == AxisState.ENCODER_OFFSET_CALIBRATION:
+            self.drive.vel = 0.0
+            if self.drive.locked:
+                self._calib_next = []
+                self._fault(34001, EncoderError.CPR_POLEPAIRS_MISMATCH)
+                return
+            ram[31213] = 1  # axis0.config.extra_setting.encoder_offset_calibrated
+        if self._calib_next and not self.errors[30001]:
+            self._start_calibration_phase()
+        else:
+            self._calib_next = []
+            self._enter_idle()
 
     def _write_input(self, addr: int, value: float) -> None:
         d = self.drive
@@ -560,6 +629,8 @@ class SimMotor:
         self._rearm()
 
     def _enter_idle(self) -> None:
+        self._calib_end = math.inf  # an error or a request ends a calibration
+        self._calib_next = []
         self.state = AxisState.IDLE
         self.drive.active = False
         self._stall_t = 0.0

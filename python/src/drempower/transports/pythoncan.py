@@ -164,7 +164,7 @@ class PythonCanTransport(Transport):
         if name is None:
             raise TransportError(
                 "cannot open python-can bus: no interface given, and python-can's configuration names "
-                "no interface (config file ~/.canrc, ~/.can or /etc/can.conf, or CAN_INTERFACE). "
+                f"no interface (config files {', '.join(can.util.CONFIG_FILES)}, or CAN_INTERFACE). "
                 "Give interface= (and channel=), e.g. 'socketcan' 'can0'"
             )
         if name not in VALID_INTERFACES:
