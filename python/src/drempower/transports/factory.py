@@ -7,7 +7,7 @@ from typing import Any
 from .base import Transport
 from .errors import TransportError
 
-__all__ = ["open_transport", "SERIAL_ADAPTER", "MOTOR_UART", "SIMULATOR"]
+__all__ = ["open_transport", "SERIAL_ADAPTER", "MOTOR_UART", "SIMULATOR", "ZENOH"]
 
 SERIAL_ADAPTER = frozenset({"adapter", "serial"})
 """Interface names of the vendor USB-CAN adapter (0xAA framing; channel = serial port)."""
@@ -15,6 +15,8 @@ MOTOR_UART = frozenset({"uart"})
 """Interface name of a G-series motor's UART (11-byte frames; channel = serial port)."""
 SIMULATOR = frozenset({"sim"})
 """Interface name of the in-process simulator."""
+ZENOH = frozenset({"zenoh"})
+"""Interface name of a remote bus served by ``drempower bridge`` (channel = key prefix)."""
 _PYTHON_CAN_PREFIX = "python-can:"
 
 
@@ -40,6 +42,8 @@ def open_transport(
       ``bitrate`` (or ``baudrate``) = UART rate, 115200 by default.
     * ``"sim"``: the in-process simulator; ``motors=[1, 2, 3]``, ``time_scale``
       and the simulator's other options as keyword arguments.
+    * ``"zenoh"``: a bus served by ``drempower bridge``, ``channel`` = its key prefix
+      (default ``"drempower"``), ``connect=``/``listen=`` Zenoh endpoints.
     * any other name: a python-can interface (``"socketcan"``, ``"pcan"``,
       ``"slcan"``, ``"virtual"``...) with ``channel``, ``bitrate`` and keyword
       arguments passed on; ``"python-can:serial"`` reaches python-can's own
@@ -82,6 +86,12 @@ def open_transport(
             return SimTransport(**kwargs)
         except (TypeError, ValueError) as exc:
             raise TransportError(f"cannot start the simulator ({exc})") from exc
+    if interface in ZENOH:
+        from .zenoh import ZenohTransport
+
+        if bitrate is not None:
+            raise TransportError("a remote bus takes no bitrate: the bridge's bus has its own")
+        return ZenohTransport(None if channel is None else str(channel), **kwargs)
     if interface is not None and interface.startswith(_PYTHON_CAN_PREFIX):
         interface = interface[len(_PYTHON_CAN_PREFIX) :]
     from .pythoncan import PythonCanTransport
