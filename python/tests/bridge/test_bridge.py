@@ -122,7 +122,10 @@ def test_estop_through_the_service(served: Served) -> None:
 
 
 def test_joint_states_decode_with_the_cdr_library(served: Served) -> None:
-    served.sim.bus.motors[2].drive.pos = 0.25  # rotor turns: the motor reports this as some degrees != 0
+    with remote(served, stop_on_close=False) as bus:
+        bus.motor(2).set_mode(2)
+        bus.motor(2).set_angle(90.0, 60.0, 200.0, mode=1)
+        bus.motor(2).wait_position_done(timeout=20)
     got: list[tuple[Any, bytes]] = []
     done = threading.Event()
 
@@ -139,9 +142,8 @@ def test_joint_states_decode_with_the_cdr_library(served: Served) -> None:
     msg, att = got[-1]
     assert list(msg.name) == ["motor_1", "motor_2"]
     assert msg.position[0] == pytest.approx(0.0, abs=1e-3)
-    expected = math.radians(served.sim.bus.motors[2].position)
-    assert abs(expected) > 0.1
-    assert msg.position[1] == pytest.approx(expected, abs=1e-3)
+    assert msg.position[1] == pytest.approx(math.pi / 2, abs=0.01)
+    assert msg.position[1] == pytest.approx(math.radians(served.sim.bus.motors[2].position), abs=0.01)
     assert abs(msg.header.stamp.sec - time.time()) < 5
     seqs = [rmw.Attachment.decode(a).sequence_number for _, a in got]
     assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)
@@ -214,3 +216,27 @@ def test_velocity_commands_in_rad_per_s(served: Served) -> None:
             time.sleep(0.02)
         assert m1.speed == pytest.approx(60.0 / (2 * math.pi), abs=0.5)  # 1 rad/s = 9.55 r/min
         pub.undeclare()
+
+
+def test_remote_estop_travels_on_its_own_key(served: Served) -> None:
+    from drempower.bridge.tunnel import decode_frames, is_estop
+
+    seen: dict[str, list[bool]] = {"tx": [], "estop": []}
+
+    def watch(kind: str) -> Any:
+        return lambda s: seen[kind].extend(is_estop(f) for f in decode_frames(s.payload.to_bytes()))
+
+    motor = served.sim.bus.motors[1]
+    with session(connect=[served.endpoint]) as spy:
+        subs = [spy.declare_subscriber(f"{served.prefix}/{k}", watch(k)) for k in seen]
+        time.sleep(0.2)
+        with remote(served, stop_on_close=False) as bus:
+            bus.motor(1).set_mode(2)
+            bus.motor(1).set_speed(20.0)
+            wait_for(lambda: abs(motor.speed) > 1.0)
+            bus.estop()
+            wait_for(lambda: motor.state == AxisState.IDLE, limit=1.0)
+        wait_for(lambda: seen["estop"] == [True])
+        for s in subs:
+            s.undeclare()
+    assert seen["tx"] and not any(seen["tx"])

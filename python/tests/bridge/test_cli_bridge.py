@@ -1,0 +1,68 @@
+"""``drempower bridge`` as a process: serves, answers remote clients, stops on signals."""
+
+from __future__ import annotations
+
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+
+from drempower import open_bus
+
+from .conftest import free_port
+
+pytestmark = pytest.mark.timeout(60)
+
+
+def _start(*extra: str) -> tuple[subprocess.Popen[str], str, str]:
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    prefix = f"cli{free_port()}"
+    argv = [sys.executable, "-m", "drempower", "bridge", "--sim", "1,2", "--listen", endpoint]
+    argv += ["--connect", f"tcp/127.0.0.1:{free_port()}", "--prefix", prefix, *extra]
+    proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True)
+    assert proc.stderr is not None
+    line = proc.stderr.readline()
+    assert "joint_states on 0/robot1/joint_states/sensor_msgs::msg::dds_::JointState_/RIHS01_" in line or (
+        "joint_states on 0/joint_states/" in line
+    ), line
+    return proc, endpoint, prefix
+
+
+@pytest.mark.parametrize("sig", [signal.SIGTERM, signal.SIGHUP, signal.SIGINT])
+def test_bridge_serves_and_stops_on_signals(sig: signal.Signals) -> None:
+    proc, endpoint, prefix = _start("--namespace", "/robot1")
+    try:
+        with open_bus("zenoh", prefix, connect=endpoint, gossip=False) as bus:
+            assert bus.motor(2).get_state().node == 2
+        proc.send_signal(sig)
+        _, err = proc.communicate(timeout=20)
+        assert proc.returncode == 0, err
+        assert "stopped" in err
+        assert "Traceback" not in err
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait(10)
+
+
+def test_usage_errors_exit_2() -> None:
+    run = subprocess.run(
+        [sys.executable, "-m", "drempower", "bridge", "--sim", "1", "--rate", "5000", "--connect", "tcp/127.0.0.1:1"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert run.returncode == 2
+    assert "rate=5000.0: 0 < rate <= 1000 Hz" in run.stderr
+    assert "Traceback" not in run.stderr
+    t0 = time.monotonic()
+    run = subprocess.run(
+        [sys.executable, "-m", "drempower", "bridge", "-i", "virtual", "-c", "x", "--connect", "tcp/127.0.0.1:1"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert run.returncode == 2 and "--ids" in run.stderr
+    assert time.monotonic() - t0 < 30
