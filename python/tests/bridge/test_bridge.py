@@ -44,9 +44,8 @@ def test_no_bridge_is_a_clear_error() -> None:
     from .conftest import free_port
 
     endpoint = f"tcp/127.0.0.1:{free_port()}"
-    with session(listen=[endpoint]):
-        with pytest.raises(TransportError, match="no drempower bridge answered on nobody/info"):
-            open_bus("zenoh", "nobody", connect=endpoint, gossip=False, open_timeout=0.3)
+    with session(listen=[endpoint]), pytest.raises(TransportError, match="no drempower bridge answered on nobody/info"):
+        open_bus("zenoh", "nobody", connect=endpoint, gossip=False, open_timeout=0.3)
 
 
 def test_remote_timeout_is_a_timeout(served: Served) -> None:
@@ -92,7 +91,9 @@ def test_client_that_disappears_idles_its_motor(served: Served) -> None:
 
 def _call(sess: Any, key: str, seq: int) -> tuple[Any, rmw.Attachment]:
     t = rosmsg.typestore().types
-    req = rosmsg.encode(t[rosmsg.TRIGGER + "_Request"](structure_needs_at_least_one_member=0), rosmsg.TRIGGER + "_Request")
+    req = rosmsg.encode(
+        t[rosmsg.TRIGGER + "_Request"](structure_needs_at_least_one_member=0), rosmsg.TRIGGER + "_Request"
+    )
     gid = bytes(range(100, 116))
     att = rmw.Attachment(seq, time.time_ns(), gid).encode()
     import zenoh
@@ -139,7 +140,7 @@ def test_joint_states_decode_with_the_cdr_library(served: Served) -> None:
         sub = ros.declare_subscriber(key, on)
         assert done.wait(5)
         sub.undeclare()
-    msg, att = got[-1]
+    msg, _ = got[-1]
     assert list(msg.name) == ["motor_1", "motor_2"]
     assert msg.position[0] == pytest.approx(0.0, abs=1e-3)
     assert msg.position[1] == pytest.approx(math.pi / 2, abs=0.01)
@@ -226,11 +227,16 @@ def test_remote_estop_travels_on_its_own_key(served: Served) -> None:
     def watch(kind: str) -> Any:
         return lambda s: seen[kind].extend(is_estop(f) for f in decode_frames(s.payload.to_bytes()))
 
+    from .conftest import free_port
+
     motor = served.sim.bus.motors[1]
-    with session(connect=[served.endpoint]) as spy:
+    spy_endpoint = f"tcp/127.0.0.1:{free_port()}"
+    with session(listen=[spy_endpoint]) as spy:  # peers do not route: the client connects to the spy too
         subs = [spy.declare_subscriber(f"{served.prefix}/{k}", watch(k)) for k in seen]
-        time.sleep(0.2)
-        with remote(served, stop_on_close=False) as bus:
+        with open_bus(
+            "zenoh", served.prefix, connect=[served.endpoint, spy_endpoint], gossip=False, stop_on_close=False
+        ) as bus:
+            time.sleep(0.3)
             bus.motor(1).set_mode(2)
             bus.motor(1).set_speed(20.0)
             wait_for(lambda: abs(motor.speed) > 1.0)

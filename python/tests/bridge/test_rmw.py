@@ -6,8 +6,8 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-from drempower.bridge import rmw, rosmsg  # noqa: E402
-from drempower.bridge.typehash import type_hash  # noqa: E402
+from drempower.bridge import rmw, rosmsg
+from drempower.bridge.typehash import type_hash
 
 STRING_HASH = "RIHS01_df668c740482bbd48fb39d76a70dfd4bd59db1288021743503259e948f6b1a18"
 ADD_TWO_INTS_HASH = "RIHS01_e118de6bf5eeb66a2491b5bda11202e7b68f198d6f67922cf30364858239c81a"
@@ -98,6 +98,6 @@ def test_trigger_cdr_round_trip() -> None:
     t = rosmsg.typestore().types
     name = rosmsg.TRIGGER + "_Response"
     data = rosmsg.encode(t[name](success=True, message="ok"), name)
-    assert data == bytes.fromhex("00010000" "01" "000000" "03000000" "6f6b00")
+    assert data == bytes.fromhex("0001000001000000030000006f6b00")
     back = rosmsg.decode(data, name)
     assert back.success is True and back.message == "ok"

@@ -15,7 +15,7 @@ def test_frames_golden_bytes() -> None:
     frames = [Frame(0x03E, bytes(8)), Frame(0x1234567, b"\x01", is_extended=True), Frame(0x20, b"", is_remote=True)]
     data = encode_frames(frames)
     assert data == (
-        bytes.fromhex("3e000000" "08") + bytes(8) + bytes.fromhex("67452381" "01" "01") + bytes.fromhex("20000040" "00")
+        bytes.fromhex("3e00000008") + bytes(8) + bytes.fromhex("674523810101") + bytes.fromhex("2000004000")
     )
     assert decode_frames(data) == frames
 

@@ -45,7 +45,7 @@ def mangle(name: str) -> str:
 
 
 def qualify(namespace: str, name: str) -> str:
-    """Fully qualified name of ``name`` in ``namespace``: ``("/robot1", "joint_states")`` -> ``/robot1/joint_states``."""
+    """Fully qualified name: ``qualify("/robot1", "joint_states")`` is ``/robot1/joint_states``."""
     if name.startswith("/"):
         return name
     ns = namespace.rstrip("/")

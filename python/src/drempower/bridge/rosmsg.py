@@ -58,7 +58,9 @@ def register_service(store: Typestore, name: str, definition: str) -> None:
     texts = {
         f"{short}_Request": request if request.strip() else _PLACEHOLDER,
         f"{short}_Response": response if response.strip() else _PLACEHOLDER,
-        f"{short}_Event": f"service_msgs/ServiceEventInfo info\n{short}_Request[<=1] request\n{short}_Response[<=1] response\n",
+        f"{short}_Event": (
+            f"service_msgs/ServiceEventInfo info\n{short}_Request[<=1] request\n{short}_Response[<=1] response\n"
+        ),
         short: f"{short}_Request request_message\n{short}_Response response_message\n{short}_Event event_message\n",
     }
     # rosbags files every parsed type under msg/: parse there, then move the four types to srv/.
@@ -96,7 +98,7 @@ def dds_type_name(name: str) -> str:
     return f"{pkg}::{kind}::dds_::{short}_"
 
 
-@functools.lru_cache(maxsize=None)
+@functools.cache
 def ros_type_hash(name: str) -> str:
     """RIHS01 hash of message or service ``name``, computed from its definition."""
     return type_hash(typestore(), name)

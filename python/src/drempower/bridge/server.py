@@ -299,7 +299,9 @@ class Bridge:
             req = rmw.Attachment(0, 0, bytes(rmw.GID_SIZE))
         success, message = handler()
         t = rosmsg.typestore().types
-        payload = rosmsg.encode(t[rosmsg.TRIGGER + "_Response"](success=success, message=message), rosmsg.TRIGGER + "_Response")
+        payload = rosmsg.encode(
+            t[rosmsg.TRIGGER + "_Response"](success=success, message=message), rosmsg.TRIGGER + "_Response"
+        )
         reply = rmw.Attachment(req.sequence_number, time.time_ns(), req.gid).encode()
         query.reply(query.key_expr, payload, attachment=reply)
 

@@ -73,9 +73,7 @@ def decode_frames(data: bytes) -> list[Frame]:
         i += _HEAD.size
         if size > 8 or i + size > n:
             raise ProtocolError(f"tunnelled frame of {size} data bytes with {n - i} left (CAN frames hold 0..8)")
-        frames.append(
-            Frame(word & 0x1FFFFFFF, bytes(data[i : i + size]), bool(word & _EXTENDED), bool(word & _REMOTE))
-        )
+        frames.append(Frame(word & 0x1FFFFFFF, bytes(data[i : i + size]), bool(word & _EXTENDED), bool(word & _REMOTE)))
         i += size
     return frames
 

@@ -27,21 +27,31 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--ids", type=parse_ids, metavar="IDS", help="motors served, e.g. 1,2,3 (default: --sim's ids)")
     p.add_argument(
-        "--connect", action="append", metavar="ENDPOINT", help="Zenoh endpoint to connect to, repeatable "
-        "(default tcp/localhost:7447, rmw_zenoh's router)"
+        "--connect",
+        action="append",
+        metavar="ENDPOINT",
+        help="Zenoh endpoint to connect to, repeatable (default tcp/localhost:7447, rmw_zenoh's router)",
     )
-    p.add_argument("--listen", action="append", default=[], metavar="ENDPOINT", help="Zenoh endpoint to listen on, repeatable")
+    p.add_argument(
+        "--listen", action="append", default=[], metavar="ENDPOINT", help="Zenoh endpoint to listen on, repeatable"
+    )
     p.add_argument("--scout", action="store_true", help="turn on Zenoh multicast scouting (off by default)")
     p.add_argument("--namespace", default="", help="ROS 2 namespace of the topics and services (default none)")
     p.add_argument("--domain-id", type=int, help="ROS 2 domain id (default $ROS_DOMAIN_ID or 0)")
     p.add_argument("--prefix", default="drempower", help="Zenoh key prefix of the drempower face (default drempower)")
     p.add_argument("--rate", type=positive, default=100.0, help="joint_states messages per second (default 100)")
     p.add_argument(
-        "--command-timeout", type=positive, default=0.2, metavar="S",
+        "--command-timeout",
+        type=positive,
+        default=0.2,
+        metavar="S",
         help="idle the motors when streamed commands stop for S seconds (default 0.2)",
     )
     p.add_argument(
-        "--bandwidth", type=positive, default=20.0, help="T-mode filter bandwidth of position commands, 1/s (default 20)"
+        "--bandwidth",
+        type=positive,
+        default=20.0,
+        help="T-mode filter bandwidth of position commands, 1/s (default 20)",
     )
     add_connection_args(p)
     p.set_defaults(func=run)

@@ -63,19 +63,26 @@ class ZenohTransport(Transport):
         self._closed = False
         self._close_lock = threading.Lock()
         where = ", ".join(_endpoints(connect) or ["tcp/localhost:7447"])
+        self._session: Any
         try:
-            self._session = zenoh.open(session_config(_endpoints(connect), _endpoints(listen) or (), scout=scout, gossip=gossip))
+            self._session = zenoh.open(
+                session_config(_endpoints(connect), _endpoints(listen) or (), scout=scout, gossip=gossip)
+            )
         except Exception as exc:
             raise TransportError(f"cannot open remote bus {prefix!r}: Zenoh session via {where} failed: {exc}") from exc
         try:
             self._id = str(self._session.zid()).encode()
             self._sub = self._session.declare_subscriber(self._keys["rx"], self._on_rx)
             self._tx = self._session.declare_publisher(
-                self._keys["tx"], priority=zenoh.Priority.DATA, express=True,
+                self._keys["tx"],
+                priority=zenoh.Priority.DATA,
+                express=True,
                 congestion_control=zenoh.CongestionControl.BLOCK,
             )
             self._estop = self._session.declare_publisher(
-                self._keys["estop"], priority=zenoh.Priority.REAL_TIME, express=True,
+                self._keys["estop"],
+                priority=zenoh.Priority.REAL_TIME,
+                express=True,
                 congestion_control=zenoh.CongestionControl.BLOCK,
             )
             self._token = self._session.liveliness().declare_token(f"{self._keys['clients']}/{self._id.decode()}")
