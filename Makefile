@@ -32,7 +32,7 @@ test-c:
 
 bench: $(STAMP)
 	$(BIN)/python bench/bench_codec.py
-	@for b in bench/bench_sim.py bench/bench_client.py; do [ -f $$b ] && $(BIN)/python $$b || true; done
+	@for b in bench/bench_sim.py bench/bench_client.py bench/bench_bridge.py; do [ -f $$b ] && $(BIN)/python $$b || true; done
 
 generate: $(STAMP)
 	$(BIN)/python tools/generate.py

@@ -163,7 +163,7 @@ def main() -> None:
     ap.add_argument("--seconds", type=float, default=3.0, help="seconds per state-rate measurement")
     ap.add_argument("--requests", type=int, default=500, help="samples per latency figure")
     args = ap.parse_args()
-    print(f"Python {platform.python_version()} on {platform.machine()}, Zenoh over TCP 127.0.0.1, bridge state stream on")
+    print(f"Python {platform.python_version()} on {platform.machine()}, Zenoh over TCP on 127.0.0.1")
     state_rate(args.seconds)
     command_latency(args.requests)
     get_state_latency(args.requests)
