@@ -246,3 +246,26 @@ def test_remote_estop_travels_on_its_own_key(served: Served) -> None:
         for s in subs:
             s.undeclare()
     assert seen["tx"] and not any(seen["tx"])
+
+
+async def test_async_remote_bus(served: Served) -> None:
+    from drempower import open_bus_async
+
+    bus = open_bus_async("zenoh", served.prefix, connect=[served.endpoint], gossip=False)
+    try:
+        st = await bus.motor(2).get_state()
+        assert st.node == 2
+    finally:
+        await bus.close()
+
+
+def test_cli_commands_work_remotely(served: Served) -> None:
+    run = subprocess.run(
+        [sys.executable, "-m", "drempower", "state", "--json", "1,2", "-i", "zenoh", "-c", served.prefix]
+        + ["-o", f"connect={served.endpoint}", "-o", "gossip=false"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert run.returncode == 0, run.stderr
+    assert '"id": 1' in run.stdout.replace('"id":1', '"id": 1') or '"node": 1' in run.stdout, run.stdout
