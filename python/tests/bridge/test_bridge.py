@@ -269,3 +269,42 @@ def test_cli_commands_work_remotely(served: Served) -> None:
     )
     assert run.returncode == 0, run.stderr
     assert '"id": 1' in run.stdout.replace('"id":1', '"id": 1') or '"node": 1' in run.stdout, run.stdout
+
+
+def test_a_failed_bus_is_reported() -> None:
+    from drempower.bridge.server import Bridge, BridgeOptions
+    from drempower.protocol.ids import Frame
+    from drempower.transports.base import Transport
+
+    from .conftest import free_port
+
+    class Broken(Transport):
+        description = "a bus that fails"
+
+        def send(self, frame: Frame) -> None:
+            pass
+
+        def recv(self, timeout: float | None = None) -> Frame | None:
+            raise OSError("adapter unplugged")
+
+        def close(self) -> None:
+            pass
+
+    with session(listen=[f"tcp/127.0.0.1:{free_port()}"]) as sess:
+        bridge = Bridge(Broken(), sess, BridgeOptions({"j": 1}, prefix=f"broken{free_port()}"))
+        try:
+            wait_for(lambda: bridge.failure is not None)
+            assert "adapter unplugged" in str(bridge.failure)
+        finally:
+            bridge.close()
+
+
+def test_options_are_checked() -> None:
+    from drempower.bridge.server import BridgeOptions
+
+    with pytest.raises(ValueError, match="command_timeout=0: 0 < timeout <= 60 s"):
+        BridgeOptions({"j": 1}, command_timeout=0)
+    with pytest.raises(ValueError, match="domain_id=233"):
+        BridgeOptions({"j": 1}, domain_id=233)
+    with pytest.raises(ValueError, match="at least one motor"):
+        BridgeOptions({})

@@ -93,6 +93,8 @@ class BusHub:
         self._closed = threading.Event()
         self.local = HubPort(self)
         """Transport of the bridge's own bus."""
+        self.failure: BaseException | None = None
+        """Why the bus stopped, once it did (the bridge then has nothing left to serve)."""
         self._thread = threading.Thread(target=self._rx_loop, name="drempower bridge rx", daemon=True)
         self._thread.start()
 
@@ -122,6 +124,7 @@ class BusHub:
             except Exception as exc:
                 if not self._closed.is_set():
                     _log.error("the bus stopped: %s", exc)
+                    self.failure = exc
                     self.local.close()
                 return
             if frame is None:

@@ -324,6 +324,11 @@ class Bridge:
 
     # ------------------------------------------------------------------ lifetime
 
+    @property
+    def failure(self) -> BaseException | None:
+        """Why the bus stopped, if it did (the bridge keeps nothing useful running then)."""
+        return self.hub.failure
+
     def close(self) -> None:
         """Stop serving; idle every motor set moving by the bridge or a client. Idempotent."""
         if self._closed.is_set():

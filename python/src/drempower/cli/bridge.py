@@ -94,6 +94,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from exc
     kw, how = connection_kwargs(args)
     stop = threading.Event()
+    status = 0
     handled = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
     previous = {s: signal.signal(s, lambda *_: stop.set()) for s in handled}
     try:
@@ -109,8 +110,11 @@ def run(args: argparse.Namespace) -> int:
                         file=sys.stderr,
                         flush=True,
                     )
-                    while not stop.wait(0.5):
-                        pass
+                    while not stop.wait(0.2):
+                        if bridge.failure is not None:
+                            print(f"drempower bridge: the bus stopped: {bridge.failure}", file=sys.stderr)
+                            status = 1
+                            break
                 finally:
                     bridge.close()
             finally:
@@ -121,4 +125,4 @@ def run(args: argparse.Namespace) -> int:
         for s, h in previous.items():
             signal.signal(s, h)
     print("drempower bridge: stopped; motors it drove are idle", file=sys.stderr)
-    return 0
+    return status
