@@ -260,15 +260,16 @@ async def test_async_remote_bus(served: Served) -> None:
 
 
 def test_cli_commands_work_remotely(served: Served) -> None:
+    import json
+
+    argv = [sys.executable, "-m", "drempower", "state", "--json", "1,2", "-i", "zenoh", "-c", served.prefix]
     run = subprocess.run(
-        [sys.executable, "-m", "drempower", "state", "--json", "1,2", "-i", "zenoh", "-c", served.prefix]
-        + ["-o", f"connect={served.endpoint}", "-o", "gossip=false"],
-        capture_output=True,
-        text=True,
-        timeout=30,
+        [*argv, "-o", f"connect={served.endpoint}", "-o", "gossip=false"], capture_output=True, text=True, timeout=30
     )
     assert run.returncode == 0, run.stderr
-    assert '"id": 1' in run.stdout.replace('"id":1', '"id": 1') or '"node": 1' in run.stdout, run.stdout
+    rows = [json.loads(line) for line in run.stdout.splitlines()]
+    assert [r["id"] for r in rows] == [1, 2]
+    assert rows[0]["vbus_v"] == pytest.approx(24.0)
 
 
 def test_a_failed_bus_is_reported() -> None:
