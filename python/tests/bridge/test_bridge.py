@@ -309,3 +309,18 @@ def test_options_are_checked() -> None:
         BridgeOptions({"j": 1}, domain_id=233)
     with pytest.raises(ValueError, match="at least one motor"):
         BridgeOptions({})
+
+
+def test_stopping_the_bridge_idles_what_its_clients_and_ros_drove(served: Served) -> None:
+    m1, m2 = served.sim.bus.motors[1], served.sim.bus.motors[2]
+    with remote(served, stop_on_close=False) as bus, session(connect=[served.endpoint]) as ros:
+        bus.motor(1).set_mode(2)
+        bus.motor(2).set_mode(2)
+        bus.motor(1).set_speed(20.0)  # a connected client's motor
+        pub = ros.declare_publisher(served.bridge.command_keys["velocity_commands"])
+        time.sleep(0.2)
+        pub.put(_command([0.0, 2.0]))  # and ROS 2's
+        wait_for(lambda: abs(m1.speed) > 1.0 and abs(m2.speed) > 1.0)
+        served.bridge.close()
+        wait_for(lambda: m1.state == AxisState.IDLE and m2.state == AxisState.IDLE, limit=1.0)
+        pub.undeclare()

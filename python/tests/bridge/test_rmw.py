@@ -77,6 +77,9 @@ def test_hashes_equal_published_values() -> None:
     assert rosmsg.ros_type_hash(rosmsg.JOINT_STATE) == (
         "RIHS01_a13ee3a330e346c9d87b5aa18d24e11690752bd33a0350f11c5882bc9179260e"
     )
+    assert rosmsg.ros_type_hash(rosmsg.FLOAT64_MULTI_ARRAY) == (
+        "RIHS01_1025ddc6b9552d191f89ef1a8d2f60f3d373e28b283d8891ddcc974e8c55397f"
+    )
     assert rosmsg.ros_type_hash(rosmsg.TRIGGER) == (
         "RIHS01_eeff2cd6fa5ad9d27cdf4dec64818317839b62f212a91e6b5304b634b2062c5f"
     )
