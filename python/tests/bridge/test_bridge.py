@@ -324,3 +324,50 @@ def test_stopping_the_bridge_idles_what_its_clients_and_ros_drove(served: Served
         served.bridge.close()
         wait_for(lambda: m1.state == AxisState.IDLE and m2.state == AxisState.IDLE, limit=1.0)
         pub.undeclare()
+
+
+class _Bytes:
+    def __init__(self, data: bytes) -> None:
+        self._data = data
+
+    def to_bytes(self) -> bytes:
+        return self._data
+
+
+class _Sample:
+    """What the bridge reads of a Zenoh sample."""
+
+    def __init__(self, key: str, frames: list[Any], attachment: bytes) -> None:
+        from drempower.bridge.tunnel import encode_frames
+
+        self.key_expr = key
+        self.payload = _Bytes(encode_frames(frames))
+        self.attachment = _Bytes(attachment)
+
+
+def test_estop_overtakes_and_drops_what_was_queued_before_it(served: Served) -> None:
+    from drempower.client import ops
+    from drempower.client.commands import make_speed
+    from drempower.protocol.ids import SysCmd
+    from drempower.protocol.messages import SystemCommand
+
+    bridge, tx, stop = served.bridge, f"{served.prefix}/tx", f"{served.prefix}/estop"
+    seen: list[Any] = []
+    served.sim.bus.add_listener(seen.append, host_frames=True)
+    enable = ops.set_mode(1, 2).encode()
+    speed = make_speed(1, 30.0).encode()
+    estop = SystemCommand(1, SysCmd.ESTOP).encode()
+    with bridge._write_lock:  # the bus is busy writing: client samples queue up
+        bridge._on_tx(_Sample(tx, [enable], b"c1:1"))
+        bridge._on_tx(_Sample(tx, [speed], b"c1:2"))
+        stopper = threading.Thread(target=bridge._on_estop, args=(_Sample(stop, [estop], b"c1:4"),))
+        stopper.start()
+        wait_for(lambda: bridge.dropped_by_estop >= 1)  # the queue was emptied before the estop waits
+    stopper.join(5)
+    bridge._on_tx(_Sample(tx, [speed], b"c1:3"))  # sent before the estop, arrived after it: dropped
+    bridge._on_tx(_Sample(tx, [enable], b"c2:1"))  # another client, after the estop: sent
+    wait_for(lambda: enable in seen)
+    mine = [f for f in seen if f in (enable, speed, estop)]
+    assert mine == [estop, enable]
+    assert bridge.dropped_by_estop == 3
+    served.sim.bus.remove_listener(seen.append)

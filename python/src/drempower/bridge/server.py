@@ -7,19 +7,20 @@ import logging
 import math
 import threading
 import time
+from collections import deque
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from ..client.bus import Bus
 from ..errors import DrEmpowerError
-from ..protocol.ids import Frame
-from ..protocol.messages import FastRead, WriteParam
+from ..protocol.ids import Frame, SysCmd
+from ..protocol.messages import FastRead, SystemCommand, WriteParam
 from ..protocol.parameters import DataType
 from ..transports.base import Transport
 from . import rmw, rosmsg
 from .hub import BusHub, driven_nodes
-from .tunnel import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys
+from .tunnel import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
 
 __all__ = ["Bridge", "BridgeOptions", "DEFAULT_RATE", "DEFAULT_COMMAND_TIMEOUT", "DEFAULT_BANDWIDTH", "NODE_NAME"]
 
@@ -96,6 +97,16 @@ class Bridge:
         self._clients: dict[bytes, set[int]] = {}
         self._clients_lock = threading.Lock()
         self.clients_idled = 0
+        self._queue: deque[tuple[bytes, int, int, list[Frame]]] = deque()
+        """Client samples waiting for the bus: (client, sequence number, estop generation, frames)."""
+        self._queue_cv = threading.Condition()
+        self._write_lock = threading.Lock()
+        self._generation = 0
+        """Bumped by every estop: samples queued before it are dropped."""
+        self._stopped_at: dict[bytes, int] = {}
+        """Per client, the sequence number of its last estop: its earlier samples arriving late are dropped."""
+        self.dropped_by_estop = 0
+        """Client frames dropped because an estop overtook them."""
         self._rx_pub = session.declare_publisher(
             self._keys["rx"], priority=zenoh.Priority.DATA_HIGH, congestion_control=zenoh.CongestionControl.DROP
         )
@@ -112,6 +123,7 @@ class Bridge:
         self._threads = [
             threading.Thread(target=self._state_loop, name="drempower bridge state", daemon=True),
             threading.Thread(target=self._watchdog_loop, name="drempower bridge watchdog", daemon=True),
+            threading.Thread(target=self._writer_loop, name="drempower bridge writer", daemon=True),
         ]
         for t in self._threads:
             t.start()
@@ -133,20 +145,87 @@ class Bridge:
         ).encode()
         self._decls.append(s.declare_queryable(k["info"], lambda q: q.reply(k["info"], info), complete=True))
         self._decls.append(s.declare_subscriber(k["tx"], self._on_tx))
-        self._decls.append(s.declare_subscriber(k["estop"], self._on_tx))
+        self._decls.append(s.declare_subscriber(k["estop"], self._on_estop))
         self._decls.append(s.liveliness().declare_subscriber(k["clients"] + "/*", self._on_client, history=True))
 
+    def _sample(self, sample: Any) -> tuple[bytes, int, list[Frame]] | None:
+        """Client id, sequence number and frames of a client's sample (None, logged, when malformed)."""
+        att = sample.attachment.to_bytes() if sample.attachment is not None else b""
+        try:
+            origin, seq = split_origin(att)
+            return origin, seq, decode_frames(sample.payload.to_bytes())
+        except (DrEmpowerError, ValueError) as exc:
+            _log.warning("frames on %s refused: %s", sample.key_expr, exc)
+            return None
+
     def _on_tx(self, sample: Any) -> None:
-        origin = sample.attachment.to_bytes() if sample.attachment is not None else b"?"
-        try:
-            frames = decode_frames(sample.payload.to_bytes())
-        except DrEmpowerError as exc:
-            _log.warning("frames from client %s refused: %s", origin.decode(errors="replace"), exc)
+        """Write a client's frames at once when the bus is free, else queue them for the writer thread.
+
+        Zenoh's receive thread so waits at most for one sample being written,
+        and an estop behind it on the same link waits no longer.
+        """
+        got = self._sample(sample)
+        if got is None:
             return
-        try:
+        origin, seq, frames = got
+        with self._queue_cv:
+            if seq < self._stopped_at.get(origin, -1):
+                self.dropped_by_estop += len(frames)
+                return
+            direct = not self._queue and self._write_lock.acquire(blocking=False)
+            if not direct:
+                self._queue.append((origin, seq, self._generation, frames))
+                self._queue_cv.notify()
+        if direct:
+            try:
+                self.hub.send(frames, origin)
+            except Exception as exc:
+                _log.error("sending frames of client %s failed: %s", origin.decode(errors="replace"), exc)
+            finally:
+                self._write_lock.release()
+
+    def _on_estop(self, sample: Any) -> None:
+        got = self._sample(sample)
+        if got is None:
+            return
+        origin, seq, frames = got
+        with self._queue_cv:
+            self._stopped_at[origin] = max(seq, self._stopped_at.get(origin, -1))
+        self._estop_now(frames, origin)
+
+    def _estop_now(self, frames: Sequence[Frame], origin: bytes) -> None:
+        """Put estop frames on the bus ahead of everything queued, and drop what was queued before them.
+
+        Frames queued before an estop are commands given before the stop: sent
+        after it they could enable and move a motor again.
+        """
+        with self._queue_cv:
+            self._generation += 1
+            dropped = sum(len(f) for *_, f in self._queue)
+            self._queue.clear()
+            self.dropped_by_estop += dropped
+        with self._write_lock:  # waits at most for the sample being written
             self.hub.send(frames, origin)
-        except Exception as exc:
-            _log.error("sending frames of client %s failed: %s", origin.decode(errors="replace"), exc)
+        if dropped:
+            _log.warning("estop: %d queued client frames dropped", dropped)
+
+    def _writer_loop(self) -> None:
+        cv = self._queue_cv
+        while True:
+            with cv:
+                while not self._queue and not self._closed.is_set():
+                    cv.wait(0.25)
+                if not self._queue:
+                    return
+                origin, _, generation, frames = self._queue.popleft()
+            with self._write_lock:
+                if generation != self._generation:
+                    self.dropped_by_estop += len(frames)
+                    continue
+                try:
+                    self.hub.send(frames, origin)
+                except Exception as exc:
+                    _log.error("sending frames of client %s failed: %s", origin.decode(errors="replace"), exc)
 
     def _client_sent(self, origin: bytes, frames: Sequence[Frame]) -> None:
         nodes = driven_nodes(frames)
@@ -306,9 +385,10 @@ class Bridge:
         query.reply(query.key_expr, payload, attachment=reply)
 
     def _srv_estop(self) -> tuple[bool, str]:
+        frames = [SystemCommand(i, SysCmd.ESTOP).encode() for i in self._ids]
         try:
-            self.bus.estop(self._ids)
-        except DrEmpowerError as exc:
+            self._estop_now(frames, BRIDGE_ORIGIN)
+        except Exception as exc:
             return False, f"estop failed: {exc}"
         for stream in self._streams.values():
             stream.driven = False

@@ -2,8 +2,10 @@
 
 Under a key prefix (``drempower`` by default) a bridge serves:
 
-* ``<prefix>/tx``: frames a remote client puts on the bus (attachment: the client's id);
-* ``<prefix>/estop``: emergency stops, on their own key at Zenoh's real-time priority;
+* ``<prefix>/tx``: frames a remote client puts on the bus (attachment: ``<client id>:<sequence number>``,
+  one counter for tx and estop);
+* ``<prefix>/estop``: emergency stops, on their own key at Zenoh's real-time priority; the
+  bridge drops the client's samples numbered before an estop that arrive after it;
 * ``<prefix>/rx``: every frame on the bus: the motors' and those of every host
   (attachment: the id of the host that sent it, empty for motor frames);
 * ``<prefix>/info``: a queryable answering JSON ``{"description", "default_timeout", "motors"}``;
@@ -28,6 +30,8 @@ __all__ = [
     "encode_frames",
     "decode_frames",
     "is_estop",
+    "join_origin",
+    "split_origin",
 ]
 
 DEFAULT_PREFIX = "drempower"
@@ -76,6 +80,19 @@ def decode_frames(data: bytes) -> list[Frame]:
         frames.append(Frame(word & 0x1FFFFFFF, bytes(data[i : i + size]), bool(word & _EXTENDED), bool(word & _REMOTE)))
         i += size
     return frames
+
+
+def join_origin(client: bytes, seq: int) -> bytes:
+    """Attachment of a client's sample: ``<client id>:<sequence number>``."""
+    return client + b":" + str(seq).encode()
+
+
+def split_origin(attachment: bytes) -> tuple[bytes, int]:
+    """``(client id, sequence number)`` of a client's attachment; ValueError when it is not one."""
+    client, sep, seq = attachment.rpartition(b":")
+    if not sep or not client or not seq.isdigit():
+        raise ValueError(f"attachment {attachment[:48]!r} is no '<client id>:<sequence number>'")
+    return client, int(seq)
 
 
 def is_estop(frame: Frame) -> bool:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import json
 import queue
 import threading
@@ -50,7 +51,7 @@ class ZenohTransport(Transport):
             import zenoh
         except ImportError as exc:
             raise TransportError("interface 'zenoh' needs eclipse-zenoh: pip install 'drempower[bridge]'") from exc
-        from ..bridge.tunnel import DEFAULT_PREFIX, decode_frames, encode_frames, is_estop, keys
+        from ..bridge.tunnel import DEFAULT_PREFIX, decode_frames, encode_frames, is_estop, join_origin, keys
         from ..bridge.zconfig import session_config
 
         prefix = DEFAULT_PREFIX if channel is None else str(channel)
@@ -58,7 +59,8 @@ class ZenohTransport(Transport):
             self._keys = keys(prefix)
         except ValueError as exc:
             raise TransportError(f"cannot open remote bus: channel {exc}") from exc
-        self._encode, self._decode, self._is_estop = encode_frames, decode_frames, is_estop
+        self._encode, self._decode, self._is_estop, self._join = encode_frames, decode_frames, is_estop, join_origin
+        self._seq = itertools.count(1)  # thread-safe: one number per sample, tx and estop alike
         self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
         self._closed = False
         self._close_lock = threading.Lock()
@@ -129,7 +131,7 @@ class ZenohTransport(Transport):
             raise TransportError(f"remote bus {self._keys['tx']} is closed")
         pub = self._estop if self._is_estop(frame) else self._tx
         try:
-            pub.put(self._encode((frame,)), attachment=self._id)
+            pub.put(self._encode((frame,)), attachment=self._join(self._id, next(self._seq)))
         except Exception as exc:
             raise TransportError(f"remote bus {self._keys['tx']}: sending failed: {exc}") from exc
 
