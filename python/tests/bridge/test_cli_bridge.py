@@ -21,7 +21,7 @@ def _start(*extra: str) -> tuple[subprocess.Popen[str], str, str]:
     prefix = f"cli{free_port()}"
     argv = [sys.executable, "-m", "drempower", "bridge", "--sim", "1,2", "--listen", endpoint]
     argv += ["--connect", f"tcp/127.0.0.1:{free_port()}", "--prefix", prefix, *extra]
-    proc = subprocess.Popen(argv, stderr=subprocess.PIPE, text=True)
+    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     assert proc.stderr is not None
     line = proc.stderr.readline()
     assert "joint_states on 0/robot1/joint_states/sensor_msgs::msg::dds_::JointState_/RIHS01_" in line or (
@@ -45,6 +45,25 @@ def test_bridge_serves_and_stops_on_signals(sig: signal.Signals) -> None:
         if proc.poll() is None:
             proc.kill()
             proc.wait(10)
+
+
+def test_json_says_where_everything_is() -> None:
+    import json
+
+    proc, _, prefix = _start("--json", "--namespace", "robot1")
+    try:
+        assert proc.stdout is not None
+        record = json.loads(proc.stdout.readline())
+        assert record["prefix"] == prefix
+        assert record["node"] == "/robot1/drempower_bridge"
+        assert record["joints"] == {"motor_1": 1, "motor_2": 2}
+        assert record["joint_states"].startswith("0/robot1/joint_states/sensor_msgs::msg::dds_::JointState_/RIHS01_")
+        assert record["estop"].startswith("0/robot1/estop/std_srvs::srv::dds_::Trigger_/RIHS01_eeff2cd6")
+        assert record["position_commands"].startswith("0/robot1/position_commands/std_msgs::msg::dds_::")
+    finally:
+        proc.send_signal(signal.SIGTERM)
+        proc.communicate(timeout=20)
+    assert proc.returncode == 0
 
 
 def test_usage_errors_exit_2() -> None:

@@ -10,6 +10,7 @@ import threading
 from typing import Any
 
 from ._connect import add_connection_args, connection_kwargs, parse_ids, positive
+from ._output import add_json_arg, json_line
 from ._usage import UsageError
 
 
@@ -53,6 +54,7 @@ def register(sub: Any) -> None:
         default=20.0,
         help="T-mode filter bandwidth of position commands, 1/s (default 20)",
     )
+    add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run)
 
@@ -104,6 +106,17 @@ def run(args: argparse.Namespace) -> int:
             try:
                 bridge = Bridge(transport, session, options)
                 try:
+                    if args.json:
+                        record = {
+                            "bus": how,
+                            "joints": dict(options.joints),
+                            "prefix": options.prefix,
+                            "node": f"{bridge.namespace.rstrip('/')}/{options.node_name}",
+                            "joint_states": bridge.joint_states_key,
+                            **bridge.command_keys,
+                            **bridge.service_keys,
+                        }
+                        print(json_line(record), flush=True)
                     print(
                         f"drempower bridge: {how}; joints {', '.join(options.joints)}; "
                         f"joint_states on {bridge.joint_states_key}; drempower prefix {options.prefix}",
