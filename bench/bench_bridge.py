@@ -10,18 +10,21 @@ extra). Prints figures beside their floor; asserts nothing.
 2. Command-to-frame latency: from a plain Zenoh ``put`` of ``position_commands``
    (CDR) to the command frame on the simulated bus; and from a remote drempower
    client's ``set_speed`` to its frame on the bus.
-3. ``get_state`` round trip of a remote client (frames tunnelled through the
-   bridge) beside a client on the same simulator in-process, median and 99th
-   percentile. The simulator answers at once (no wire time), so the difference
-   is what Zenoh and the bridge add.
+3. ``get_state`` round trip of a client on an in-process simulator, and of a
+   remote client of ``drempower bridge --sim`` running as its own process
+   (frames tunnelled, its 100 Hz state stream on), median and 99th percentile.
+   The simulators answer at once (no wire time), so the difference is what
+   Zenoh and the bridge add.
 """
 
 from __future__ import annotations
 
 import argparse
 import platform
+import signal
 import socket
 import statistics
+import subprocess
 import sys
 import threading
 import time
@@ -139,23 +142,31 @@ def command_latency(n: int) -> None:
 
 
 def get_state_latency(n: int) -> None:
-    print("3. get_state round trip, remote (through the bridge) beside local (in-process simulator)")
-    served = Served()
-    with drempower.open_bus("sim", bus=served.sim.bus, time_scale=0, stop_on_close=False) as local:
+    print("3. get_state round trip: local in-process simulator, and remote through a bridge process")
+    with drempower.open_bus("sim", motors=[1, 2], stop_on_close=False) as local:
         samples = []
         for _ in range(n):
             t0 = time.perf_counter()
             local.motor(1).get_state()
             samples.append(time.perf_counter() - t0)
         print(f"   local : {stats(samples)}")
-    with drempower.open_bus("zenoh", "bench", connect=served.endpoint, gossip=False, stop_on_close=False) as bus:
-        samples = []
-        for _ in range(n):
-            t0 = time.perf_counter()
-            bus.motor(1).get_state()
-            samples.append(time.perf_counter() - t0)
-        print(f"   remote: {stats(samples)}   floor: local + one Zenoh round trip on loopback")
-    served.close()
+    endpoint = free_endpoint()
+    argv = [sys.executable, "-m", "drempower", "bridge", "--sim", "1,2", "--listen", endpoint]
+    argv += ["--connect", free_endpoint(), "--prefix", "bench3", "--json"]
+    bridge = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, text=True)
+    try:
+        assert bridge.stdout is not None
+        bridge.stdout.readline()  # serving
+        with drempower.open_bus("zenoh", "bench3", connect=endpoint, gossip=False, stop_on_close=False) as bus:
+            samples = []
+            for _ in range(n):
+                t0 = time.perf_counter()
+                bus.motor(1).get_state()
+                samples.append(time.perf_counter() - t0)
+            print(f"   remote: {stats(samples)}   floor: local + one Zenoh round trip on loopback")
+    finally:
+        bridge.send_signal(signal.SIGTERM)
+        bridge.wait(20)
 
 
 def main() -> None:
