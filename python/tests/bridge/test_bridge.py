@@ -371,3 +371,36 @@ def test_estop_overtakes_and_drops_what_was_queued_before_it(served: Served) -> 
     assert mine == [estop, enable]
     assert bridge.dropped_by_estop == 3
     served.sim.bus.remove_listener(seen.append)
+
+
+@pytest.mark.parametrize("served", [{"command_timeout": 30.0}], indirect=True)
+def test_a_ros_publisher_that_leaves_idles_its_motors_at_once(served: Served) -> None:
+    m1 = served.sim.bus.motors[1]
+    with remote(served, stop_on_close=False) as bus:
+        bus.motor(1).set_mode(2)
+        bus.motor(2).set_mode(2)
+    arr = rosmsg.dds_type_name(rosmsg.FLOAT64_MULTI_ARRAY)
+    with session(connect=[served.endpoint]) as ros:
+        zid = str(ros.zid())
+        token = ros.liveliness().declare_token(
+            rmw.entity_token(
+                0,
+                zid,
+                0,
+                10,
+                "MP",
+                "",
+                "teleop",
+                "/velocity_commands",
+                arr,
+                rosmsg.ros_type_hash(rosmsg.FLOAT64_MULTI_ARRAY),
+            )
+        )
+        pub = ros.declare_publisher(served.bridge.command_keys["velocity_commands"])
+        time.sleep(0.2)
+        pub.put(_command([2.0, 0.0]))
+        wait_for(lambda: abs(m1.speed) > 5.0)
+        token.undeclare()  # the ROS 2 node goes away (the command timeout is 30 s here)
+        took = wait_for(lambda: m1.state == AxisState.IDLE, limit=5.0, step=0.005)
+        assert took < 1.0
+        pub.undeclare()

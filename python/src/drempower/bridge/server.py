@@ -284,6 +284,30 @@ class Bridge:
             key, _ = declare("SS", name, rosmsg.TRIGGER)
             self.service_keys[name] = key
             self._decls.append(s.declare_queryable(key, lambda q, h=handler: self._serve(q, h), complete=True))
+        self._publisher_topics = {
+            (rmw.mangle(rmw.qualify(ns, topic)), rosmsg.dds_type_name(rosmsg.FLOAT64_MULTI_ARRAY)): topic
+            for topic in COMMAND_TOPICS
+        }
+        self._decls.append(
+            s.liveliness().declare_subscriber(f"{rmw.ADMIN_SPACE}/{o.domain_id}/**", self._on_ros_entity, history=True)
+        )
+
+    def _on_ros_entity(self, sample: Any) -> None:
+        """A ROS 2 publisher of a command topic that goes away idles the motors its topic drove at once."""
+        if sample.kind != self._zenoh.SampleKind.DELETE:
+            return
+        parts = str(sample.key_expr).split("/")
+        if len(parts) < 12 or parts[5] != "MP":
+            return
+        topic = self._publisher_topics.get((parts[9], parts[10]))
+        if topic is None:
+            return
+        stream = self._streams[topic]
+        with stream.lock:
+            if stream.driven:
+                stream.driven = False
+                _log.info("%s: its publisher %s left; idling %s", topic, parts[2], self._ids)
+                self._idle(set(self._ids))
 
     def _joint_state(self, states: Sequence[Any]) -> bytes:
         store = rosmsg.typestore()
