@@ -404,3 +404,13 @@ def test_a_ros_publisher_that_leaves_idles_its_motors_at_once(served: Served) ->
         took = wait_for(lambda: m1.state == AxisState.IDLE, limit=5.0, step=0.005)
         assert took < 1.0
         pub.undeclare()
+
+
+def test_bad_endpoints_are_clear_errors(served: Served) -> None:
+    from drempower.transports import TransportError
+
+    with pytest.raises(TransportError, match="connect 'nowhere': a Zenoh endpoint is <protocol>/<address>"):
+        open_bus("zenoh", served.prefix, connect="nowhere", gossip=False)
+    port_in_use = served.endpoint  # the bridge listens there
+    with pytest.raises(TransportError, match=r"cannot open remote bus .*cannot open a Zenoh session"):
+        open_bus("zenoh", served.prefix, listen=port_in_use, connect=[], gossip=False)

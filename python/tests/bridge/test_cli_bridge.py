@@ -85,3 +85,15 @@ def test_usage_errors_exit_2() -> None:
     )
     assert run.returncode == 2 and "--ids" in run.stderr
     assert time.monotonic() - t0 < 30
+
+
+def test_endpoints_are_checked() -> None:
+    run = subprocess.run(
+        [sys.executable, "-m", "drempower", "bridge", "--sim", "1", "--listen", "bogus"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert run.returncode == 2
+    assert "argument --listen: 'bogus': a Zenoh endpoint is <protocol>/<address>" in run.stderr
+    assert "Traceback" not in run.stderr

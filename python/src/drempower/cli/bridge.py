@@ -9,9 +9,17 @@ import sys
 import threading
 from typing import Any
 
+from ..bridge.zconfig import check_endpoint
 from ._connect import add_connection_args, connection_kwargs, parse_ids, positive
 from ._output import add_json_arg, json_line
 from ._usage import UsageError
+
+
+def _endpoint(text: str) -> str:
+    try:
+        return check_endpoint(text, "endpoint")
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("endpoint ")) from exc
 
 
 def register(sub: Any) -> None:
@@ -30,11 +38,17 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--connect",
         action="append",
+        type=_endpoint,
         metavar="ENDPOINT",
         help="Zenoh endpoint to connect to, repeatable (default tcp/localhost:7447, rmw_zenoh's router)",
     )
     p.add_argument(
-        "--listen", action="append", default=[], metavar="ENDPOINT", help="Zenoh endpoint to listen on, repeatable"
+        "--listen",
+        action="append",
+        type=_endpoint,
+        default=[],
+        metavar="ENDPOINT",
+        help="Zenoh endpoint to listen on, repeatable",
     )
     p.add_argument("--scout", action="store_true", help="turn on Zenoh multicast scouting (off by default)")
     p.add_argument("--namespace", default="", help="ROS 2 namespace of the topics and services (default none)")

@@ -52,7 +52,7 @@ class ZenohTransport(Transport):
         except ImportError as exc:
             raise TransportError("interface 'zenoh' needs eclipse-zenoh: pip install 'drempower[bridge]'") from exc
         from ..bridge.tunnel import DEFAULT_PREFIX, decode_frames, encode_frames, is_estop, join_origin, keys
-        from ..bridge.zconfig import session_config
+        from ..bridge.zconfig import open_session
 
         prefix = DEFAULT_PREFIX if channel is None else str(channel)
         try:
@@ -64,14 +64,14 @@ class ZenohTransport(Transport):
         self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
         self._closed = False
         self._close_lock = threading.Lock()
-        where = ", ".join(_endpoints(connect) or ["tcp/localhost:7447"])
+        where = ", ".join([*(_endpoints(connect) or ["tcp/localhost:7447"]), *(_endpoints(listen) or [])])
         self._session: Any
         try:
-            self._session = zenoh.open(
-                session_config(_endpoints(connect), _endpoints(listen) or (), scout=scout, gossip=gossip)
-            )
-        except Exception as exc:
-            raise TransportError(f"cannot open remote bus {prefix!r}: Zenoh session via {where} failed: {exc}") from exc
+            self._session = open_session(_endpoints(connect), _endpoints(listen) or (), scout=scout, gossip=gossip)
+        except ValueError as exc:
+            raise TransportError(f"cannot open remote bus {prefix!r}: {exc}") from exc
+        except TransportError as exc:
+            raise TransportError(f"cannot open remote bus {prefix!r}: {exc}") from exc
         try:
             self._id = str(self._session.zid()).encode()
             self._sub = self._session.declare_subscriber(self._keys["rx"], self._on_rx)
@@ -96,7 +96,7 @@ class ZenohTransport(Transport):
             self._session.close()
             raise TransportError(
                 f"cannot open remote bus {prefix!r}: no drempower bridge answered on {self._keys['info']} "
-                f"within {open_timeout:g} s (connected via {where})"
+                f"within {open_timeout:g} s (endpoints: {where})"
             )
         self.info: dict[str, Any] = info
         """What the bridge said of its bus: description, default_timeout, motors, joints."""
