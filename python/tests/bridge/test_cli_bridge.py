@@ -84,6 +84,13 @@ def test_usage_errors_exit_2() -> None:
         timeout=30,
     )
     assert run.returncode == 2 and "--ids" in run.stderr
+    run = subprocess.run(
+        [sys.executable, "-m", "drempower", "bridge", "--sim", "1,2", "--ids", "2,5", "--connect", "tcp/127.0.0.1:1"],
+        capture_output=True,
+        text=True,
+        timeout=30,
+    )
+    assert run.returncode == 2 and "--ids: motors 5 are not simulated (--sim 1,2)" in run.stderr
     assert time.monotonic() - t0 < 30
 
 

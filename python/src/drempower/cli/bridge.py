@@ -96,6 +96,9 @@ def run(args: argparse.Namespace) -> int:
     ids = args.ids or args.sim
     if not ids:
         raise UsageError("--ids: which motors to serve, e.g. --ids 1,2,3")
+    if args.sim and args.ids and not set(args.ids) <= set(args.sim):
+        missing = ",".join(str(i) for i in args.ids if i not in args.sim)
+        raise UsageError(f"--ids: motors {missing} are not simulated (--sim {','.join(map(str, args.sim))})")
     try:
         options = BridgeOptions(
             {f"motor_{i}": i for i in ids},
