@@ -112,7 +112,7 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
-def _grouped_help(sub: argparse._SubParsersAction[argparse.ArgumentParser], group_of: dict[str, str]) -> str:
+def _grouped_help(sub: argparse._SubParsersAction[_Parser], group_of: dict[str, str]) -> str:
     """The subcommands and their one-line help under their group's heading (argparse lists them unsorted)."""
     helps = {a.dest: a.help or "" for a in sub._choices_actions}
     width = max(map(len, sub.choices)) + 2

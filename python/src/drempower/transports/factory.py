@@ -8,7 +8,7 @@ from typing import Any
 from .base import Transport
 from .errors import TransportError
 
-__all__ = ["open_transport", "INTERFACES", "Opener", "SERIAL_ADAPTER", "MOTOR_UART", "SIMULATOR"]
+__all__ = ["open_transport", "INTERFACES", "Opener", "SERIAL_ADAPTER", "MOTOR_UART", "SIMULATOR", "ZENOH"]
 
 Opener = Callable[[str, str | int | None, int | None, dict[str, Any]], Transport]
 """``opener(interface, channel, bitrate, kwargs)`` -> an open transport, or :class:`TransportError`."""
@@ -58,6 +58,14 @@ def _sim(interface: str, channel: str | int | None, bitrate: int | None, kwargs:
         raise TransportError(f"cannot start the simulator ({exc})") from exc
 
 
+def _zenoh(interface: str, channel: str | int | None, bitrate: int | None, kwargs: dict[str, Any]) -> Transport:
+    from .zenoh import ZenohTransport
+
+    if bitrate is not None:
+        raise TransportError("a remote bus takes no bitrate: the bridge's bus has its own")
+    return ZenohTransport(None if channel is None else str(channel), **kwargs)
+
+
 def _python_can(
     interface: str | None, channel: str | int | None, bitrate: int | None, kwargs: dict[str, Any]
 ) -> Transport:
@@ -71,6 +79,7 @@ INTERFACES: dict[str, Opener] = {
     "serial": _adapter,
     "uart": _uart,
     "sim": _sim,
+    "zenoh": _zenoh,
 }
 """drempower's own interface names and how each is opened; any other name is a python-can interface.
 Add an entry to offer another transport."""
@@ -81,6 +90,8 @@ MOTOR_UART = frozenset(n for n, o in INTERFACES.items() if o is _uart)
 """Interface name of a G-series motor's UART (11-byte frames; channel = serial port)."""
 SIMULATOR = frozenset(n for n, o in INTERFACES.items() if o is _sim)
 """Interface name of the in-process simulator."""
+ZENOH = frozenset(n for n, o in INTERFACES.items() if o is _zenoh)
+"""Interface name of a remote bus served by ``drempower bridge`` (channel = key prefix)."""
 _PYTHON_CAN_PREFIX = "python-can:"
 
 
@@ -100,6 +111,8 @@ def open_transport(
       ``bitrate`` (or ``baudrate``) = UART rate, 115200 by default.
     * ``"sim"``: the in-process simulator; ``motors=[1, 2, 3]``, ``time_scale``
       and the simulator's other options as keyword arguments.
+    * ``"zenoh"``: a bus served by ``drempower bridge``, ``channel`` = its key prefix
+      (default ``"drempower"``), ``connect=``/``listen=`` Zenoh endpoints.
     * any other name: a python-can interface (``"socketcan"``, ``"pcan"``,
       ``"slcan"``, ``"virtual"``...) with ``channel``, ``bitrate`` and keyword
       arguments passed on; ``"python-can:serial"`` reaches python-can's own

@@ -1,0 +1,143 @@
+"""One bus shared by the bridge and its remote clients, as hosts share a CAN bus.
+
+The hub owns the real transport. Frames from the bus go to every host; a
+frame one host sends goes on the bus and, as on a CAN bus, is seen by the other
+hosts (never echoed to its sender). The bridge's own :class:`~drempower.client.Bus`
+is attached through :attr:`BusHub.local`; remote hosts through :meth:`send`
+and the ``publish`` callback.
+"""
+
+from __future__ import annotations
+
+import logging
+import queue
+import threading
+from collections.abc import Callable, Sequence
+
+from ..protocol.ids import Cmd, Frame, SysCmd
+from ..transports.base import Transport
+from .tunnel import BRIDGE_ORIGIN
+
+__all__ = ["BusHub", "HubPort", "driven_nodes"]
+
+_log = logging.getLogger("drempower.bridge")
+_MOTION = frozenset((Cmd.PRESET, Cmd.POSITION_T, Cmd.POSITION_Q, Cmd.POSITION_P, Cmd.VELOCITY, Cmd.TORQUE))
+_STARTS = frozenset(range(SysCmd.START_T, SysCmd.START_D + 1))
+Publish = Callable[[Sequence[Frame], bytes], None]
+"""Called with frames and their origin (empty: from the bus) for the remote hosts."""
+
+
+def driven_nodes(frames: Sequence[Frame]) -> set[int]:
+    """Motors (0 = every motor) that these frames set moving: motion commands, presets and starts."""
+    nodes = set()
+    for f in frames:
+        if f.is_extended or f.arbitration_id > 0x7FF:
+            continue
+        node, cmd = f.arbitration_id >> 5, f.arbitration_id & 0x1F
+        if cmd in _MOTION or (cmd == Cmd.SYSTEM and f.data[:1] and f.data[0] in _STARTS):
+            nodes.add(node)
+    return nodes
+
+
+class HubPort(Transport):
+    """The bridge's own attachment to the hub: a transport for its :class:`~drempower.client.Bus`."""
+
+    def __init__(self, hub: BusHub) -> None:
+        self._hub = hub
+        self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
+        self._closed = False
+        self.description = f"bridge hub on {hub.transport.description}"
+        self.default_timeout = hub.transport.default_timeout
+
+    def deliver(self, frame: Frame) -> None:
+        if not self._closed:
+            self._queue.put(frame)
+
+    def send(self, frame: Frame) -> None:
+        self._hub.send([frame], BRIDGE_ORIGIN)
+
+    def recv(self, timeout: float | None = None) -> Frame | None:
+        if self._closed:
+            return None
+        try:
+            frame = self._queue.get(timeout=timeout)
+        except queue.Empty:
+            return None
+        if frame is None:
+            self._queue.put(None)
+        return frame
+
+    def close(self) -> None:
+        if not self._closed:
+            self._closed = True
+            self._queue.put(None)
+
+
+class BusHub:
+    """Shares ``transport`` between the bridge (:attr:`local`) and remote hosts (:meth:`send`, ``publish``).
+
+    ``on_sent(origin, frames)`` is called after frames of a remote host went on
+    the bus (the bridge watches which motors each client drives).
+    """
+
+    def __init__(
+        self,
+        transport: Transport,
+        publish: Publish,
+        on_sent: Callable[[bytes, Sequence[Frame]], None] | None = None,
+    ) -> None:
+        self.transport = transport
+        self._publish = publish
+        self._on_sent = on_sent
+        self._lock = threading.Lock()
+        self._closed = threading.Event()
+        self.local = HubPort(self)
+        """Transport of the bridge's own bus."""
+        self.failure: BaseException | None = None
+        """Why the bus stopped, once it did (the bridge then has nothing left to serve)."""
+        self._thread = threading.Thread(target=self._rx_loop, name="drempower bridge rx", daemon=True)
+        self._thread.start()
+
+    def send(self, frames: Sequence[Frame], origin: bytes) -> None:
+        """Put ``frames`` of host ``origin`` on the bus, in order, and show them to the other hosts.
+
+        The lock is held only while writing, so an emergency stop arriving on
+        another thread waits for at most the frame being written.
+        """
+        if self._closed.is_set():
+            return
+        with self._lock:
+            for f in frames:
+                self.transport.send(f)
+        if origin != BRIDGE_ORIGIN:
+            for f in frames:
+                self.local.deliver(f)
+            if self._on_sent is not None:
+                self._on_sent(origin, frames)
+        self._publish(frames, origin)
+
+    def _rx_loop(self) -> None:
+        recv, deliver, publish = self.transport.recv, self.local.deliver, self._publish
+        while not self._closed.is_set():
+            try:
+                frame = recv(0.25)
+            except Exception as exc:
+                if not self._closed.is_set():
+                    _log.error("the bus stopped: %s", exc)
+                    self.failure = exc
+                    self.local.close()
+                return
+            if frame is None:
+                continue
+            deliver(frame)
+            try:
+                publish((frame,), b"")
+            except Exception as exc:  # a closed session while stopping
+                _log.debug("publishing a bus frame failed: %s", exc)
+
+    def close(self) -> None:
+        """Stop the receive thread and the local port (the transport stays open: its owner closes it)."""
+        self._closed.set()
+        self.local.close()
+        if self._thread is not threading.current_thread():
+            self._thread.join(1.0)

@@ -1,0 +1,458 @@
+"""The bridge: one bus on Zenoh, for drempower clients (frames tunnelled) and ROS 2 (rmw_zenoh topics)."""
+
+from __future__ import annotations
+
+import json
+import logging
+import math
+import threading
+import time
+from collections import deque
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from ..client.bus import Bus
+from ..errors import DrEmpowerError
+from ..protocol.ids import Frame, SysCmd
+from ..protocol.messages import FastRead, SystemCommand, WriteParam
+from ..protocol.parameters import DataType
+from ..transports.base import Transport
+from . import rmw, rosmsg
+from .hub import BusHub, driven_nodes
+from .tunnel import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
+
+__all__ = ["Bridge", "BridgeOptions", "DEFAULT_RATE", "DEFAULT_COMMAND_TIMEOUT", "DEFAULT_BANDWIDTH", "NODE_NAME"]
+
+_log = logging.getLogger("drempower.bridge")
+
+DEFAULT_RATE = 100.0
+"""JointState messages per second."""
+DEFAULT_COMMAND_TIMEOUT = 0.2
+"""s without a streamed command before the motors it drove go idle."""
+DEFAULT_BANDWIDTH = 20.0
+"""T-mode filter bandwidth (1/s) of position commands."""
+NODE_NAME = "drempower_bridge"
+_REQUESTED_STATE, _IDLE = 30003, 1
+_DEG_PER_RAD = 180.0 / math.pi
+_RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
+COMMAND_TOPICS = ("position_commands", "velocity_commands", "effort_commands")
+
+
+@dataclass
+class BridgeOptions:
+    """What a bridge serves and how."""
+
+    joints: Mapping[str, int]
+    """Joint name -> motor id, in the order of ``joint_states``."""
+    prefix: str = DEFAULT_PREFIX
+    namespace: str = ""
+    domain_id: int = 0
+    rate: float = DEFAULT_RATE
+    command_timeout: float = DEFAULT_COMMAND_TIMEOUT
+    bandwidth: float = DEFAULT_BANDWIDTH
+    node_name: str = NODE_NAME
+
+    def __post_init__(self) -> None:
+        if not self.joints:
+            raise ValueError("joints: the bridge needs at least one motor")
+        if not 0 < self.rate <= 1000:
+            raise ValueError(f"rate={self.rate!r}: 0 < rate <= 1000 Hz")
+        if not 0 < self.command_timeout <= 60:
+            raise ValueError(f"command_timeout={self.command_timeout!r}: 0 < timeout <= 60 s")
+        if not 0 <= self.domain_id <= 232:
+            raise ValueError(f"domain_id={self.domain_id!r}: ROS 2 domain ids are 0..232")
+        if not 0 < self.bandwidth <= 300:
+            raise ValueError(f"bandwidth={self.bandwidth!r}: the T-mode filter bandwidth is 0 < b <= 300 1/s")
+
+
+@dataclass
+class _Stream:
+    """A ROS 2 command topic: which motors it drives and when it last spoke."""
+
+    last: float = 0.0
+    driven: bool = False
+    count: int = 0
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+
+class Bridge:
+    """Serve ``transport`` on Zenoh ``session`` until :meth:`close`.
+
+    The bridge owns neither: the caller closes the session and the transport
+    after :meth:`close`, which idles every motor the bridge or its clients set
+    moving.
+    """
+
+    def __init__(self, transport: Transport, session: Any, options: BridgeOptions) -> None:
+        import zenoh
+
+        self.options = o = options
+        self.session = session
+        self._zenoh = zenoh
+        self._names = list(o.joints)
+        self._ids = [o.joints[n] for n in self._names]
+        self._keys = keys(o.prefix)
+        self._closed = threading.Event()
+        self._clients: dict[bytes, set[int]] = {}
+        self._clients_lock = threading.Lock()
+        self.clients_idled = 0
+        self._queue: deque[tuple[bytes, int, int, list[Frame]]] = deque()
+        """Client samples waiting for the bus: (client, sequence number, estop generation, frames)."""
+        self._queue_cv = threading.Condition()
+        self._write_lock = threading.Lock()
+        self._generation = 0
+        """Bumped by every estop: samples queued before it are dropped."""
+        self._stopped_at: dict[bytes, int] = {}
+        """Per client, the sequence number of its last estop: its earlier samples arriving late are dropped."""
+        self.dropped_by_estop = 0
+        """Client frames dropped because an estop overtook them."""
+        self._rx_pub = session.declare_publisher(
+            self._keys["rx"], priority=zenoh.Priority.DATA_HIGH, congestion_control=zenoh.CongestionControl.DROP
+        )
+        self.hub = BusHub(transport, self._publish_rx, self._client_sent)
+        self.bus = Bus(self.hub.local, stop_on_close=True)
+        self._decls: list[Any] = []
+        self._tokens: list[Any] = []
+        try:
+            self._declare_drempower()
+            self._declare_ros()
+        except BaseException:
+            self.close()
+            raise
+        self._threads = [
+            threading.Thread(target=self._state_loop, name="drempower bridge state", daemon=True),
+            threading.Thread(target=self._watchdog_loop, name="drempower bridge watchdog", daemon=True),
+            threading.Thread(target=self._writer_loop, name="drempower bridge writer", daemon=True),
+        ]
+        for t in self._threads:
+            t.start()
+
+    # ------------------------------------------------------------------ drempower face
+
+    def _publish_rx(self, frames: Sequence[Frame], origin: bytes) -> None:
+        self._rx_pub.put(encode_frames(frames), attachment=origin)
+
+    def _declare_drempower(self) -> None:
+        k, s = self._keys, self.session
+        info = json.dumps(
+            {
+                "description": self.hub.transport.description,
+                "default_timeout": self.hub.transport.default_timeout,
+                "motors": self._ids,
+                "joints": self._names,
+            }
+        ).encode()
+        self._decls.append(s.declare_queryable(k["info"], lambda q: q.reply(k["info"], info), complete=True))
+        self._decls.append(s.declare_subscriber(k["tx"], self._on_tx))
+        self._decls.append(s.declare_subscriber(k["estop"], self._on_estop))
+        self._decls.append(s.liveliness().declare_subscriber(k["clients"] + "/*", self._on_client, history=True))
+
+    def _sample(self, sample: Any) -> tuple[bytes, int, list[Frame]] | None:
+        """Client id, sequence number and frames of a client's sample (None, logged, when malformed)."""
+        att = sample.attachment.to_bytes() if sample.attachment is not None else b""
+        try:
+            origin, seq = split_origin(att)
+            return origin, seq, decode_frames(sample.payload.to_bytes())
+        except (DrEmpowerError, ValueError) as exc:
+            _log.warning("frames on %s refused: %s", sample.key_expr, exc)
+            return None
+
+    def _on_tx(self, sample: Any) -> None:
+        """Write a client's frames at once when the bus is free, else queue them for the writer thread.
+
+        Zenoh's receive thread so waits at most for one sample being written,
+        and an estop behind it on the same link waits no longer.
+        """
+        got = self._sample(sample)
+        if got is None:
+            return
+        origin, seq, frames = got
+        with self._queue_cv:
+            if seq < self._stopped_at.get(origin, -1):
+                self.dropped_by_estop += len(frames)
+                return
+            direct = not self._queue and self._write_lock.acquire(blocking=False)
+            if not direct:
+                self._queue.append((origin, seq, self._generation, frames))
+                self._queue_cv.notify()
+        if direct:
+            try:
+                self.hub.send(frames, origin)
+            except Exception as exc:
+                _log.error("sending frames of client %s failed: %s", origin.decode(errors="replace"), exc)
+            finally:
+                self._write_lock.release()
+
+    def _on_estop(self, sample: Any) -> None:
+        got = self._sample(sample)
+        if got is None:
+            return
+        origin, seq, frames = got
+        with self._queue_cv:
+            self._stopped_at[origin] = max(seq, self._stopped_at.get(origin, -1))
+        self._estop_now(frames, origin)
+
+    def _estop_now(self, frames: Sequence[Frame], origin: bytes) -> None:
+        """Put estop frames on the bus ahead of everything queued, and drop what was queued before them.
+
+        Frames queued before an estop are commands given before the stop: sent
+        after it they could enable and move a motor again.
+        """
+        with self._queue_cv:
+            self._generation += 1
+            dropped = sum(len(f) for *_, f in self._queue)
+            self._queue.clear()
+            self.dropped_by_estop += dropped
+        with self._write_lock:  # waits at most for the sample being written
+            self.hub.send(frames, origin)
+        if dropped:
+            _log.warning("estop: %d queued client frames dropped", dropped)
+
+    def _writer_loop(self) -> None:
+        cv = self._queue_cv
+        while True:
+            with cv:
+                while not self._queue and not self._closed.is_set():
+                    cv.wait(0.25)
+                if not self._queue:
+                    return
+                origin, _, generation, frames = self._queue.popleft()
+            with self._write_lock:
+                if generation != self._generation:
+                    self.dropped_by_estop += len(frames)
+                    continue
+                try:
+                    self.hub.send(frames, origin)
+                except Exception as exc:
+                    _log.error("sending frames of client %s failed: %s", origin.decode(errors="replace"), exc)
+
+    def _client_sent(self, origin: bytes, frames: Sequence[Frame]) -> None:
+        nodes = driven_nodes(frames)
+        if nodes:
+            with self._clients_lock:
+                self._clients.setdefault(origin, set()).update(nodes)
+
+    def _on_client(self, sample: Any) -> None:
+        client = str(sample.key_expr).rsplit("/", 1)[1].encode()
+        if sample.kind == self._zenoh.SampleKind.PUT:
+            _log.info("client %s connected", client.decode())
+            return
+        with self._clients_lock:
+            nodes = self._clients.pop(client, set())
+        _log.info("client %s left; idling motors %s", client.decode(), sorted(nodes) or "none")
+        if nodes:
+            self._idle(nodes)
+            self.clients_idled += 1
+
+    def _idle(self, nodes: set[int]) -> None:
+        targets = [0] if 0 in nodes else sorted(nodes)
+        frames = [WriteParam(n, _REQUESTED_STATE, DataType.U32, _IDLE).encode() for n in targets]
+        self.hub.send(frames, BRIDGE_ORIGIN)
+
+    # ------------------------------------------------------------------ ROS 2 face
+
+    def _declare_ros(self) -> None:
+        o, s = self.options, self.session
+        zid = str(s.zid())
+        ns = o.namespace if o.namespace.startswith("/") or not o.namespace else "/" + o.namespace
+        self.namespace = ns
+        self._tokens.append(s.liveliness().declare_token(rmw.node_token(o.domain_id, zid, 0, ns, o.node_name)))
+        entity = 0
+
+        def declare(kind: rmw.EntityKind, name: str, typename: str) -> tuple[str, bytes]:
+            nonlocal entity
+            entity += 1
+            fq = rmw.qualify(ns, name)
+            dds, h = rosmsg.dds_type_name(typename), rosmsg.ros_type_hash(typename)
+            token = rmw.entity_token(o.domain_id, zid, 0, entity, kind, ns, o.node_name, fq, dds, h)
+            self._tokens.append(s.liveliness().declare_token(token))
+            return rmw.topic_key(o.domain_id, fq, dds, h), rmw.make_gid(token)
+
+        self.joint_states_key, self._gid = declare("MP", "joint_states", rosmsg.JOINT_STATE)
+        self._js_pub = s.declare_publisher(self.joint_states_key)
+        self._js_seq = 0
+        self._streams: dict[str, _Stream] = {}
+        self.command_keys: dict[str, str] = {}
+        for topic in COMMAND_TOPICS:
+            key, _ = declare("MS", topic, rosmsg.FLOAT64_MULTI_ARRAY)
+            self.command_keys[topic] = key
+            self._streams[topic] = _Stream()
+            self._decls.append(s.declare_subscriber(key, lambda sample, t=topic: self._on_command(t, sample)))
+        self.service_keys: dict[str, str] = {}
+        for name, handler in (("estop", self._srv_estop), ("clear_errors", self._srv_clear_errors)):
+            key, _ = declare("SS", name, rosmsg.TRIGGER)
+            self.service_keys[name] = key
+            self._decls.append(s.declare_queryable(key, lambda q, h=handler: self._serve(q, h), complete=True))
+        self._publisher_topics = {
+            (rmw.mangle(rmw.qualify(ns, topic)), rosmsg.dds_type_name(rosmsg.FLOAT64_MULTI_ARRAY)): topic
+            for topic in COMMAND_TOPICS
+        }
+        self._decls.append(
+            s.liveliness().declare_subscriber(f"{rmw.ADMIN_SPACE}/{o.domain_id}/**", self._on_ros_entity, history=True)
+        )
+
+    def _on_ros_entity(self, sample: Any) -> None:
+        """A ROS 2 publisher of a command topic that goes away idles the motors its topic drove at once."""
+        if sample.kind != self._zenoh.SampleKind.DELETE:
+            return
+        parts = str(sample.key_expr).split("/")
+        if len(parts) < 12 or parts[5] != "MP":
+            return
+        topic = self._publisher_topics.get((parts[9], parts[10]))
+        if topic is None:
+            return
+        stream = self._streams[topic]
+        with stream.lock:
+            if stream.driven:
+                stream.driven = False
+                _log.info("%s: its publisher %s left; idling %s", topic, parts[2], self._ids)
+                self._idle(set(self._ids))
+
+    def _joint_state(self, states: Sequence[Any]) -> bytes:
+        store = rosmsg.typestore()
+        import numpy as np
+
+        t = store.types
+        now = time.time_ns()
+        nan = math.nan
+        msg = t[rosmsg.JOINT_STATE](
+            header=t["std_msgs/msg/Header"](
+                stamp=t["builtin_interfaces/msg/Time"](sec=now // 1_000_000_000, nanosec=now % 1_000_000_000),
+                frame_id="",
+            ),
+            name=list(self._names),
+            position=np.array([math.radians(s.angle) if s else nan for s in states], dtype=np.float64),
+            velocity=np.array([s.speed / _RPM_PER_RAD_S if s else nan for s in states], dtype=np.float64),
+            effort=np.array([s.torque if s else nan for s in states], dtype=np.float64),
+        )
+        return rosmsg.encode(msg, rosmsg.JOINT_STATE)
+
+    def _state_loop(self) -> None:
+        period = 1.0 / self.options.rate
+        reads = [FastRead(i) for i in self._ids]
+        next_at = time.monotonic()
+        while not self._closed.is_set():
+            try:
+                states = self.bus.request(reads, missing_ok=True)
+                payload = self._joint_state(states)
+                self._js_seq += 1
+                att = rmw.Attachment(self._js_seq, time.time_ns(), self._gid).encode()
+                self._js_pub.put(payload, attachment=att)
+            except Exception as exc:
+                if self._closed.is_set():
+                    return
+                _log.warning("state stream: %s", exc)
+            next_at += period
+            delay = next_at - time.monotonic()
+            if delay < 0:
+                next_at = time.monotonic()
+                delay = 0.0
+            if self._closed.wait(delay):
+                return
+
+    def _on_command(self, topic: str, sample: Any) -> None:
+        try:
+            msg = rosmsg.decode(sample.payload.to_bytes(), rosmsg.FLOAT64_MULTI_ARRAY)
+        except Exception as exc:
+            _log.warning("%s: not a std_msgs/msg/Float64MultiArray (%s)", topic, exc)
+            return
+        data = [float(x) for x in msg.data]
+        if len(data) != len(self._ids):
+            _log.warning(
+                "%s: %d values, the joints are %d (%s)", topic, len(data), len(self._ids), ", ".join(self._names)
+            )
+            return
+        stream = self._streams[topic]
+        with stream.lock:
+            if self._closed.is_set():
+                return
+            try:
+                if topic == "position_commands":
+                    degs = [x * _DEG_PER_RAD for x in data]
+                    self.bus.set_angles(self._ids, degs, 0.0, self.options.bandwidth, 0)
+                elif topic == "velocity_commands":
+                    self.bus.set_speeds(self._ids, [x * _RPM_PER_RAD_S for x in data])
+                else:
+                    self.bus.set_torques(self._ids, data)
+            except (DrEmpowerError, ValueError) as exc:
+                _log.warning("%s refused: %s", topic, exc)
+                return
+            stream.last = time.monotonic()
+            stream.driven = True
+            stream.count += 1
+
+    def _watchdog_loop(self) -> None:
+        timeout = self.options.command_timeout
+        while not self._closed.wait(timeout / 4):
+            now = time.monotonic()
+            for topic, stream in self._streams.items():
+                if stream.driven and now - stream.last > timeout:
+                    with stream.lock:
+                        if stream.driven and time.monotonic() - stream.last > timeout:
+                            stream.driven = False
+                            _log.info("%s silent for %.3f s: idling %s", topic, timeout, self._ids)
+                            self._idle(set(self._ids))
+
+    def _serve(self, query: Any, handler: Any) -> None:
+        att = query.attachment.to_bytes() if query.attachment is not None else b""
+        try:
+            req = rmw.Attachment.decode(att)
+        except ValueError:
+            req = rmw.Attachment(0, 0, bytes(rmw.GID_SIZE))
+        success, message = handler()
+        t = rosmsg.typestore().types
+        payload = rosmsg.encode(
+            t[rosmsg.TRIGGER + "_Response"](success=success, message=message), rosmsg.TRIGGER + "_Response"
+        )
+        reply = rmw.Attachment(req.sequence_number, time.time_ns(), req.gid).encode()
+        query.reply(query.key_expr, payload, attachment=reply)
+
+    def _srv_estop(self) -> tuple[bool, str]:
+        frames = [SystemCommand(i, SysCmd.ESTOP).encode() for i in self._ids]
+        try:
+            self._estop_now(frames, BRIDGE_ORIGIN)
+        except Exception as exc:
+            return False, f"estop failed: {exc}"
+        for stream in self._streams.values():
+            stream.driven = False
+        return True, "estop sent to motors " + ", ".join(map(str, self._ids))
+
+    def _srv_clear_errors(self) -> tuple[bool, str]:
+        try:
+            for i in self._ids:
+                self.bus.motor(i).clear_error()
+        except DrEmpowerError as exc:
+            return False, f"clear_errors failed: {exc}"
+        return True, "errors cleared on motors " + ", ".join(map(str, self._ids))
+
+    # ------------------------------------------------------------------ lifetime
+
+    @property
+    def failure(self) -> BaseException | None:
+        """Why the bus stopped, if it did (the bridge keeps nothing useful running then)."""
+        return self.hub.failure
+
+    def close(self) -> None:
+        """Stop serving; idle every motor set moving by the bridge or a client. Idempotent."""
+        if self._closed.is_set():
+            return
+        self._closed.set()
+        for t in getattr(self, "_threads", []):
+            t.join(2.0)
+        for d in self._decls + self._tokens:
+            try:
+                d.undeclare()
+            except Exception as exc:
+                _log.debug("undeclare: %s", exc)
+        with self._clients_lock:
+            nodes = set().union(*self._clients.values()) if self._clients else set()
+            self._clients.clear()
+        if nodes:
+            self._idle(nodes)
+        self.bus.close()
+        self.hub.close()
+        try:
+            self._rx_pub.undeclare()
+        except Exception as exc:
+            _log.debug("undeclare: %s", exc)

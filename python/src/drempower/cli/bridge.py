@@ -1,0 +1,158 @@
+"""``drempower bridge``: serve a bus on Zenoh, to remote drempower clients and to ROS 2 (rmw_zenoh)."""
+
+from __future__ import annotations
+
+import argparse
+import os
+import signal
+import sys
+import threading
+from typing import Any
+
+from ..bridge.zconfig import check_endpoint
+from ._connect import add_connection_args, connection_kwargs, parse_ids, positive
+from ._output import add_json_arg, json_line
+from ._usage import UsageError
+
+
+def _endpoint(text: str) -> str:
+    try:
+        return check_endpoint(text, "endpoint")
+    except ValueError as exc:
+        raise argparse.ArgumentTypeError(str(exc).removeprefix("endpoint ")) from exc
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "bridge",
+        help="serve a bus on Zenoh: joint_states and commands for ROS 2 (rmw_zenoh), remote buses for drempower",
+        description=(
+            "Serve one bus on Zenoh until Ctrl-C, SIGTERM or SIGHUP, then idle every motor it or its clients "
+            "set moving. ROS 2 nodes using rmw_zenoh_cpp see /joint_states (sensor_msgs/JointState), "
+            "/position_commands, /velocity_commands, /effort_commands (std_msgs/Float64MultiArray) and the "
+            "std_srvs/Trigger services /estop and /clear_errors; drempower clients open it with "
+            "open_bus('zenoh', PREFIX, connect=ENDPOINT) or `-i zenoh -c PREFIX -o connect=ENDPOINT`."
+        ),
+    )
+    p.add_argument("--ids", type=parse_ids, metavar="IDS", help="motors served, e.g. 1,2,3 (default: --sim's ids)")
+    p.add_argument(
+        "--connect",
+        action="append",
+        type=_endpoint,
+        metavar="ENDPOINT",
+        help="Zenoh endpoint to connect to, repeatable (default tcp/localhost:7447, rmw_zenoh's router)",
+    )
+    p.add_argument(
+        "--listen",
+        action="append",
+        type=_endpoint,
+        default=[],
+        metavar="ENDPOINT",
+        help="Zenoh endpoint to listen on, repeatable",
+    )
+    p.add_argument("--scout", action="store_true", help="turn on Zenoh multicast scouting (off by default)")
+    p.add_argument("--namespace", default="", help="ROS 2 namespace of the topics and services (default none)")
+    p.add_argument("--domain-id", type=int, help="ROS 2 domain id (default $ROS_DOMAIN_ID or 0)")
+    p.add_argument("--prefix", default="drempower", help="Zenoh key prefix of the drempower face (default drempower)")
+    p.add_argument("--rate", type=positive, default=100.0, help="joint_states messages per second (default 100)")
+    p.add_argument(
+        "--command-timeout",
+        type=positive,
+        default=0.2,
+        metavar="S",
+        help="idle the motors when streamed commands stop for S seconds (default 0.2)",
+    )
+    p.add_argument(
+        "--bandwidth",
+        type=positive,
+        default=20.0,
+        help="T-mode filter bandwidth of position commands, 1/s (default 20)",
+    )
+    add_json_arg(p)
+    add_connection_args(p)
+    p.set_defaults(func=run)
+
+
+def _domain_id(args: argparse.Namespace) -> int:
+    if args.domain_id is not None:
+        return int(args.domain_id)
+    env = os.environ.get("ROS_DOMAIN_ID", "").strip()
+    if not env:
+        return 0
+    if not env.isdigit():
+        raise UsageError(f"ROS_DOMAIN_ID={env!r}: an integer 0..232")
+    return int(env)
+
+
+def run(args: argparse.Namespace) -> int:
+    try:
+        from ..bridge.server import Bridge, BridgeOptions
+        from ..bridge.zconfig import open_session
+    except ImportError as exc:
+        print(f"drempower bridge: {exc}; install the extra: pip install 'drempower[bridge]'", file=sys.stderr)
+        return 1
+    from ..transports import open_transport
+
+    ids = args.ids or args.sim
+    if not ids:
+        raise UsageError("--ids: which motors to serve, e.g. --ids 1,2,3")
+    if args.sim and args.ids and not set(args.ids) <= set(args.sim):
+        missing = ",".join(str(i) for i in args.ids if i not in args.sim)
+        raise UsageError(f"--ids: motors {missing} are not simulated (--sim {','.join(map(str, args.sim))})")
+    try:
+        options = BridgeOptions(
+            {f"motor_{i}": i for i in ids},
+            prefix=args.prefix,
+            namespace=args.namespace,
+            domain_id=_domain_id(args),
+            rate=args.rate,
+            command_timeout=args.command_timeout,
+            bandwidth=args.bandwidth,
+        )
+    except ValueError as exc:
+        raise UsageError(str(exc)) from exc
+    kw, how = connection_kwargs(args)
+    stop = threading.Event()
+    status = 0
+    handled = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+    previous = {s: signal.signal(s, lambda *_: stop.set()) for s in handled}
+    try:
+        transport = open_transport(**kw)
+        try:
+            session = open_session(args.connect, args.listen, scout=args.scout)
+            try:
+                bridge = Bridge(transport, session, options)
+                try:
+                    if args.json:
+                        record = {
+                            "bus": how,
+                            "joints": dict(options.joints),
+                            "prefix": options.prefix,
+                            "node": f"{bridge.namespace.rstrip('/')}/{options.node_name}",
+                            "joint_states": bridge.joint_states_key,
+                            **bridge.command_keys,
+                            **bridge.service_keys,
+                        }
+                        print(json_line(record), flush=True)
+                    print(
+                        f"drempower bridge: {how}; joints {', '.join(options.joints)}; "
+                        f"joint_states on {bridge.joint_states_key}; drempower prefix {options.prefix}",
+                        file=sys.stderr,
+                        flush=True,
+                    )
+                    while not stop.wait(0.2):
+                        if bridge.failure is not None:
+                            print(f"drempower bridge: the bus stopped: {bridge.failure}", file=sys.stderr)
+                            status = 1
+                            break
+                finally:
+                    bridge.close()
+            finally:
+                session.close()
+        finally:
+            transport.close()
+    finally:
+        for s, h in previous.items():
+            signal.signal(s, h)
+    print("drempower bridge: stopped; motors it drove are idle", file=sys.stderr)
+    return status
