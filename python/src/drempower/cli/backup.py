@@ -89,9 +89,10 @@ def _unit(name: str) -> str:
 
 def _restore(args: argparse.Namespace, dry_run: bool) -> RestoreReport:
     cfg = ConfigBackup.load(args.file)
+    force = args.force or dry_run  # diff writes nothing: comparing a motor with another's backup is fine
     with open_from_args(args) as bus:
         return bus.motor(args.id).restore(
-            cfg, include_link=args.include_link, save=getattr(args, "save", False), dry_run=dry_run, force=args.force
+            cfg, include_link=args.include_link, save=getattr(args, "save", False), dry_run=dry_run, force=force
         )
 
 

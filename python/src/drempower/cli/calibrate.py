@@ -117,7 +117,8 @@ def run(args: argparse.Namespace) -> int:
                 f"`{follow_up(args, f'clear {args.id}')}` first"
             )
         try:
-            motor.write_property(30003, int(wanted))  # axis0.requested_state
+            # axis0.requested_state: the calibration states 3/4/7 lie outside its soft domain
+            motor.write_property(30003, int(wanted), force=True)
             seconds = _follow(args, motor, args.max_time)
         except BaseException:
             _idle(bus, args.id)

@@ -99,7 +99,7 @@ class Tracker:
 
     At each sample the group's progress is the mean time along the motors' own
     plans; a motor's sync error is its distance (deg) from where its plan puts it
-    at that time. Only positions count, so sampling jitter does not.
+    at that time. The positions are taken at one simulated instant (see :func:`_positions_now`).
     """
 
     starts: dict[int, float]
@@ -116,14 +116,14 @@ class Tracker:
     def travelled(self, st: MotorState) -> float:
         return abs(st.angle - self.starts[st.node])
 
-    def add(self, states: list[MotorState]) -> None:
-        moving = [st for st in states if st.node in self.plans]
+    def add(self, positions: dict[int, float]) -> None:
+        """Take one sample: every motor's position (deg) at the same instant."""
+        moving = {n: abs(a - self.starts[n]) for n, a in positions.items() if n in self.plans}
         if not moving:
             return
-        when = sum(self.plans[st.node].time_at(self.travelled(st)) for st in moving) / len(moving)
-        for st in moving:
-            error = abs(self.travelled(st) - self.plans[st.node].travelled(when))
-            self.max_sync_error = max(self.max_sync_error, error)
+        when = sum(self.plans[n].time_at(d) for n, d in moving.items()) / len(moving)
+        for n, d in moving.items():
+            self.max_sync_error = max(self.max_sync_error, abs(d - self.plans[n].travelled(when)))
 
     def bar(self, st: MotorState) -> str:
         span = abs(self.targets[st.node] - self.starts[st.node])
@@ -135,6 +135,18 @@ class Tracker:
 def _states(bus: Bus, ids: list[int]) -> list[MotorState]:
     states: list[MotorState] = bus.request([FastRead(i) for i in ids])
     return states
+
+
+def _positions_now(bus: Bus) -> dict[int, float]:
+    """Every simulated motor's position (deg) at one simulated instant.
+
+    Fast reads are answered one after the other, so positions read over the bus
+    are apart by the time between the answers (times the time scale); the sync
+    error is measured on the simulator's own clock instead.
+    """
+    sim = bus.transport.bus  # type: ignore[attr-defined]
+    with sim.lock:
+        return {m.node_id: m.position for m in sim.motors.values()}
 
 
 def _table(tracker: Tracker, states: list[MotorState], t: float) -> list[str]:
@@ -174,7 +186,7 @@ def run(args: argparse.Namespace) -> int:
         while True:
             t = (time.monotonic() - start) * scale
             states = _states(bus, ids)
-            tracker.add(states)
+            tracker.add(_positions_now(bus))
             finished = all(st.trajectory_done for st in states)
             if live is not None:
                 live.draw(_table(tracker, states, t))
