@@ -75,6 +75,10 @@ def _probe_socketcand(host: object, port: object, timeout: float) -> None:
         )
 
 
+SOCKETCAND_TX_LATENCY = 0.02
+"""Margin (s) a socketcand link adds before a batch's start (see ``Transport.tx_latency``)."""
+
+
 class PythonCanTransport(Transport):
     """A python-can bus carrying DrEmpower frames.
 
@@ -129,6 +133,8 @@ class PythonCanTransport(Transport):
         self._send_lock = threading.Lock()
         rate = cfg.get("bitrate")
         self.wire_bitrate = rate if isinstance(rate, int) and rate > 0 else None
+        if name == "socketcand":  # a TCP hop and the server's own queue before the bus
+            self.tx_latency = SOCKETCAND_TX_LATENCY
         info = str(getattr(self._bus, "channel_info", "") or "")
         chan = cfg.get("channel")
         if info and info != "unknown" and (chan is None or str(chan) in info):

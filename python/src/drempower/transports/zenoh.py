@@ -37,6 +37,9 @@ class ZenohTransport(Transport):
     it set moving.
     """
 
+    tx_latency = 0.05
+    """Margin (s) before a batch's start: a frame crosses the network, then waits in the bridge's own bus."""
+
     def __init__(
         self,
         channel: str | None = None,
