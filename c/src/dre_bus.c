@@ -12,6 +12,8 @@
 
 #define TRAJ_ADDRESS DRE_PARAM_ADDRESS(DRE_P_AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE)
 
+/* ----------------------------------------------------------------- checks */
+
 dre_status dre_i_range_error(dre_bus *bus, dre_field field, uint8_t index)
 {
     bus->bad_field = field;
