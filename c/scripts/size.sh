@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Cross-compile the C library for a Cortex-M4 and print code (text) and RAM
-# (data + bss) per module, as arm-none-eabi-size reports them for each object;
-# then compile it for an 8-bit AVR, whose int is 16 bits, with -Wconversion.
+# (data + bss) per module, as arm-none-eabi-size reports them for each object,
+# with the client's modules (bus .. batch) summed as "client"; then compile it
+# for an 8-bit AVR, whose int is 16 bits, with -Wconversion.
 # Installs gcc-arm-none-eabi and gcc-avr with apt-get when they are missing.
 # Fails when the codec grows beyond 4 KiB of code or gets RAM of its own.
 set -euo pipefail
@@ -25,7 +26,8 @@ out=build/c-size
 mkdir -p "$out/soft" "$out/hard"
 common=(-std=c99 -Os -mcpu=cortex-m4 -mthumb -ffunction-sections -fdata-sections
         -Wall -Wextra -Wpedantic -Werror -Ic/include)
-modules=(codec params errors framing client)
+modules=(codec params errors framing bus motor verified wait batch)
+client_modules=" bus motor verified wait batch "
 
 for m in "${modules[@]}"; do
     arm-none-eabi-gcc "${common[@]}" -c "c/src/dre_$m.c" -o "$out/soft/dre_$m.o"
@@ -37,6 +39,7 @@ echo "flags: ${common[*]:0:4} (soft-float ABI; 'M4F' column: -mfloat-abi=hard -m
 echo
 printf '%-10s %8s %8s %6s %6s %8s\n' module text "M4F" data bss RAM
 total_text=0 total_hard=0 total_ram=0 codec_text=0 codec_ram=0
+client_text=0 client_hard=0 client_ram=0
 for m in "${modules[@]}"; do
     read -r text data bss _ < <(arm-none-eabi-size "$out/soft/dre_$m.o" | tail -n 1)
     read -r hard _ < <(arm-none-eabi-size "$out/hard/dre_$m.o" | tail -n 1)
@@ -46,7 +49,11 @@ for m in "${modules[@]}"; do
     if [ "$m" = codec ]; then
         codec_text=$text codec_ram=$ram
     fi
+    if [[ "$client_modules" == *" $m "* ]]; then
+        client_text=$((client_text + text)) client_hard=$((client_hard + hard)) client_ram=$((client_ram + ram))
+    fi
 done
+printf '%-10s %8d %8d %6s %6s %8d\n' "(client)" "$client_text" "$client_hard" "" "" "$client_ram"
 printf '%-10s %8d %8d %6s %6s %8d\n' total "$total_text" "$total_hard" "" "" "$total_ram"
 
 # The codec linked on its own: encode and both decoders with the libgcc float

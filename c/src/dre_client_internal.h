@@ -1,0 +1,111 @@
+/*
+ * What the client modules share (dre_bus.c, dre_motor.c, dre_verified.c,
+ * dre_wait.c, dre_batch.c): request slot states and flags, and the bus, request
+ * and message-building functions the others call. Private: not installed, not
+ * part of the API; every name with external linkage starts with dre_i_.
+ */
+#ifndef DRE_CLIENT_INTERNAL_H
+#define DRE_CLIENT_INTERNAL_H
+
+#include <stdint.h>
+
+#include "drempower/dre_client.h"
+
+/* Slot states. SLOT_WAIT: a dre_set_id probe is over and dre_bus_poll() takes
+ * the request to its next step. SLOT_TAKEN and SLOT_ABSENT end dre_set_id. */
+enum {
+    SLOT_FREE = 0,
+    SLOT_QUEUED,
+    SLOT_PENDING,
+    SLOT_WAIT,
+    SLOT_DONE,
+    SLOT_TIMEOUT,
+    SLOT_MISMATCH,
+    SLOT_SEND_FAILED,
+    SLOT_TAKEN,
+    SLOT_ABSENT
+};
+
+/* Request flags: compare the reply with the written value; send save_config
+ * when it matches; a failure cancels the save of the next request (seq + 1). */
+enum { FLAG_VERIFY = 1, FLAG_SAVE = 2, FLAG_CHAIN = 4 };
+
+/*
+ * Steps of dre_set_id before its write (dre_request.step). STEP_ID_FREE: the
+ * caller's request, a fast read of the new id, which must go unanswered; its
+ * helper (STEP_ID_HELPER, a slot the caller has no handle for, `link` = the
+ * request's slot index) fast-reads the current id, which must answer.
+ * STEP_ID_HERE: the new id is the current one, whose fast read must answer.
+ * The request's `link` holds the current id, where the write goes.
+ */
+enum { STEP_NONE = 0, STEP_ID_FREE, STEP_ID_HERE, STEP_ID_HELPER };
+
+#define ALL_MOTORS (~(uint64_t)1) /* bits 1..63 */
+
+/* The bit of motor `node`; a broadcast (0) stands for every motor. */
+static inline uint64_t dre_i_motor_bits(uint8_t node)
+{
+    return node == DRE_BROADCAST ? ALL_MOTORS : (uint64_t)1 << (node & 63u);
+}
+
+/* Wire mode of set_speed(s): 1 passthrough; 2, or 0 as the vendor's docs use it, ramp; 0 if invalid. */
+static inline uint8_t dre_i_velocity_mode(uint8_t mode)
+{
+    return mode == DRE_VEL_PASSTHROUGH ? (uint8_t)DRE_VEL_PASSTHROUGH
+                                       : mode == 0u || mode == DRE_VEL_RAMP ? (uint8_t)DRE_VEL_RAMP : 0u;
+}
+
+/* Wire mode of set_torque(s): 1 direct; 6, or 0, ramp; 0 if invalid. */
+static inline uint8_t dre_i_torque_mode(uint8_t mode)
+{
+    return mode == DRE_TORQUE_DIRECT ? (uint8_t)DRE_TORQUE_DIRECT
+                                     : mode == 0u || mode == DRE_TORQUE_RAMP ? (uint8_t)DRE_TORQUE_RAMP : 0u;
+}
+
+/* ----------------------------------------------------------------- dre_bus.c */
+
+/* DRE_E_RANGE, naming `field` (and the motor `index` of a batch) in bus->bad_field and bus->bad_index. */
+dre_status dre_i_range_error(dre_bus *bus, dre_field field, uint8_t index);
+/* A finite float; > 0 and still > 0 on the wire (x 100 rounds to at least 1). */
+int dre_i_is_finite(float v);
+int dre_i_wire_positive(float v);
+
+/* What the bus learns of each motor's Q profile (axis0.trap_traj.config.traj_mode). */
+void dre_i_traj_forget(dre_bus *bus, uint8_t node);
+uint8_t dre_i_traj_of(const dre_bus *bus, uint8_t node);
+void dre_i_note(dre_bus *bus, const dre_msg *msg);
+
+/* Encoding and sending: parameter writes checked against their sets and domains (soft bounds only without force). */
+dre_status dre_i_encode(dre_bus *bus, const dre_msg *msg, dre_frame *f);
+dre_status dre_i_transmit(dre_bus *bus, const dre_frame *f);
+int dre_i_room(dre_bus *bus, unsigned frames);
+dre_status dre_i_send_as(dre_bus *bus, const dre_msg *msg, int force);
+dre_status dre_i_system_op(dre_bus *bus, uint8_t node, uint8_t op);
+
+/* Request slots. dre_i_request: a read of `address` (0: fast read), to fill in and give to dre_i_issue(). */
+dre_msg dre_i_read_msg(uint8_t node, uint16_t address, uint8_t dtype);
+dre_request dre_i_request(uint8_t node, uint16_t address, uint8_t dtype);
+int dre_i_node_idle(const dre_bus *bus, uint8_t node);
+uint8_t dre_i_free_slots(const dre_bus *bus);
+dre_request *dre_i_helper_of(dre_bus *bus, const dre_request *r);
+void dre_i_release_helper(dre_bus *bus, const dre_request *r);
+void dre_i_fail(dre_bus *bus, dre_request *r, uint8_t state);
+dre_status dre_i_issue(dre_bus *bus, const dre_request *want, int may_queue, dre_req *req);
+
+/* The held start of a batch (bus->held_start) to its motors. */
+dre_status dre_i_send_starts(dre_bus *bus);
+
+/* ----------------------------------------------------------------- dre_motor.c */
+
+/* A message of `type` to motor m, all other fields 0; a parameter write to motor m. */
+dre_msg dre_i_msg_for(const dre_motor *m, uint8_t type);
+dre_msg dre_i_write_msg(const dre_motor *m, uint16_t address, uint8_t dtype, dre_value value);
+/* The T-mode filter bandwidth, or DRE_E_RANGE. */
+dre_status dre_i_bandwidth(dre_bus *bus, float param, float *bw);
+
+/* ----------------------------------------------------------------- dre_verified.c */
+
+/* Step 2 of dre_set_id, called by dre_bus_poll() for a request in SLOT_WAIT. */
+void dre_i_set_id_write(dre_bus *bus, dre_request *r, uint32_t now);
+
+#endif /* DRE_CLIENT_INTERNAL_H */
