@@ -1,10 +1,12 @@
-"""Generated files are up to date with their sources."""
+"""Generated files are up to date with their sources, and the Python sources use the generated address names."""
 
 from __future__ import annotations
 
+import io
 import shutil
 import subprocess
 import sys
+import tokenize
 from pathlib import Path
 
 import pytest
@@ -118,3 +120,61 @@ def test_a_malformed_domain_is_refused(tmp_path: Path, old: str, new: str, messa
         check=False,
     )
     assert r.returncode != 0 and message in r.stderr
+
+
+# The rule: in python/src/drempower, a parameter address is written by its generated name
+# (``from ..protocol.addresses import AXIS0_CONFIG_CAN_NODE_ID``), never as a number. A
+# number that is not an address but equals one (a rate, a count) is allowed on a line
+# that carries the marker comment below.
+NOT_AN_ADDRESS = "# not a parameter address"
+_SRC = REPO_ROOT / "python/src/drempower"
+_GENERATED = {_SRC / "protocol/_parameter_table.py", _SRC / "protocol/addresses.py"}
+
+
+def _five_digit_addresses() -> frozenset[int]:
+    from drempower.protocol.parameters import parameters
+
+    return frozenset(p.address for p in parameters() if p.address >= 10_000)
+
+
+def address_literals(source: str, addresses: frozenset[int]) -> list[tuple[int, str]]:
+    """(line, literal) of every integer literal in ``source`` that equals one of ``addresses``."""
+    found = []
+    for tok in tokenize.generate_tokens(io.StringIO(source).readline):
+        if tok.type != tokenize.NUMBER or NOT_AN_ADDRESS in tok.line:
+            continue
+        try:
+            value = int(tok.string, 0)
+        except ValueError:  # a float or imaginary literal
+            continue
+        if value in addresses:
+            found.append((tok.start[0], tok.string))
+    return found
+
+
+def test_the_address_scan_finds_literals_and_spares_other_numbers() -> None:
+    addresses = _five_digit_addresses()
+    source = (
+        "ram[31214] = 1\n"
+        "x = read(0x7919)\n"  # 31001 in hex
+        "y = {\n    35_104: 'traj_mode',\n}\n"
+        "BAUDS = (9600, 19200, 57600, 115200, 1_000_000)\n"
+        "port = 29536\n"
+        "limit = 31001.0\n"
+        "ok = 32002  # not a parameter address\n"
+        "s = '31001'  # 31001 in a string or a comment is documentation\n"
+    )
+    assert address_literals(source, addresses) == [(1, "31214"), (2, "0x7919"), (4, "35_104")]
+
+
+def test_no_address_literals_in_the_python_sources() -> None:
+    """Five-digit parameter addresses appear in src by name only (the generated files aside)."""
+    addresses = _five_digit_addresses()
+    files = sorted(set(_SRC.rglob("*.py")) - _GENERATED)
+    assert len(files) > 50
+    found = [
+        f"{path.relative_to(REPO_ROOT)}:{line}: {literal} (use drempower.protocol.addresses)"
+        for path in files
+        for line, literal in address_literals(path.read_text(encoding="utf-8"), addresses)
+    ]
+    assert not found, "\n".join(found)

@@ -14,6 +14,7 @@ from typing import Any
 
 from ..client.bus import Bus
 from ..errors import DrEmpowerError
+from ..protocol.addresses import AXIS0_REQUESTED_STATE
 from ..protocol.ids import Frame, SysCmd
 from ..protocol.messages import FastRead, SystemCommand, WriteParam
 from ..protocol.parameters import DataType
@@ -33,7 +34,7 @@ DEFAULT_COMMAND_TIMEOUT = 0.2
 DEFAULT_BANDWIDTH = 20.0
 """T-mode filter bandwidth (1/s) of position commands."""
 NODE_NAME = "drempower_bridge"
-_REQUESTED_STATE, _IDLE = 30003, 1
+_REQUESTED_STATE, _IDLE = AXIS0_REQUESTED_STATE, 1
 _DEG_PER_RAD = 180.0 / math.pi
 _RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 COMMAND_TOPICS = ("position_commands", "velocity_commands", "effort_commands")

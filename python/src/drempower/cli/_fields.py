@@ -15,12 +15,13 @@ from typing import Any
 from ..client import Bus, MotorState
 from ..errors import DrEmpowerError
 from ..protocol import FastRead, ReadParam
+from ..protocol.addresses import CAN_CONFIG_HEARTBEAT_MS
 from ..protocol.parameters import Parameter, find_parameter
 from ._output import LiveView, is_terminal, json_line, render_table
 
 __all__ = ["STATE_FIELDS", "SOURCES", "Field", "parse_fields", "run_fields"]
 
-_HEARTBEAT = 21004
+_HEARTBEAT = CAN_CONFIG_HEARTBEAT_MS
 
 STATE_FIELDS: dict[str, tuple[str, Callable[[MotorState], object]]] = {
     "position": ("deg", lambda s: s.angle),

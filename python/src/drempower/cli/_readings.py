@@ -11,12 +11,13 @@ from ..client import Bus, MotorState
 from ..client.errors import TimeoutError
 from ..errors import DrEmpowerError
 from ..protocol import DataType, FastRead, ReadParam
+from ..protocol.addresses import AXIS0_CURRENT_STATE
 from ..protocol.enums import AxisState
 
 __all__ = ["FIELDS", "HEADERS", "Reading", "axis_state_name", "read", "require_ready"]
 
 _VBUS = 1
-_CURRENT_STATE = 30002
+_CURRENT_STATE = AXIS0_CURRENT_STATE
 
 HEADERS = (
     "id",

@@ -16,6 +16,12 @@ from typing import Any
 
 from ..client import Bus, Motor
 from ..errors import DrEmpowerError
+from ..protocol.addresses import (
+    AXIS0_CONFIG_EXTRA_SETTING_ENCODER_OFFSET_CALIBRATED,
+    AXIS0_CURRENT_STATE,
+    AXIS0_MOTOR_IS_CALIBRATED,
+    AXIS0_REQUESTED_STATE,
+)
 from ..protocol.enums import AxisState
 from . import _readings
 from ._confirm import add_yes_arg, confirm
@@ -64,7 +70,7 @@ def register(sub: Any) -> None:
 
 
 def _state(motor: Motor) -> AxisState | int:
-    value = int(motor.read_property(30002))
+    value = int(motor.read_property(AXIS0_CURRENT_STATE))
     try:
         return AxisState(value)
     except ValueError:
@@ -118,7 +124,7 @@ def run(args: argparse.Namespace) -> int:
             )
         try:
             # axis0.requested_state: the calibration states 3/4/7 lie outside its soft domain
-            motor.write_property(30003, int(wanted), force=True)
+            motor.write_property(AXIS0_REQUESTED_STATE, int(wanted), force=True)
             seconds = _follow(args, motor, args.max_time)
         except BaseException:
             _idle(bus, args.id)
@@ -137,8 +143,8 @@ def _idle(bus: Bus, node: int) -> None:
 
 def _result(args: argparse.Namespace, motor: Motor, seconds: float) -> int:
     errors = motor.dump_error()
-    motor_ok = bool(motor.read_property(33002))  # axis0.motor.is_calibrated
-    encoder_ok = bool(motor.read_property(31213))  # axis0.config.extra_setting.encoder_offset_calibrated
+    motor_ok = bool(motor.read_property(AXIS0_MOTOR_IS_CALIBRATED))
+    encoder_ok = bool(motor.read_property(AXIS0_CONFIG_EXTRA_SETTING_ENCODER_OFFSET_CALIBRATED))
     record = {
         "id": args.id,
         "sequence": args.only or "full",

@@ -9,6 +9,7 @@ from typing import Any
 from ..client.errors import TimeoutError
 from ..errors import ValidationError
 from ..protocol import DataType, Parameter, find_parameter, parameter, parameters
+from ..protocol.addresses import AXIS0_CONFIG_CAN_NODE_ID, CAN_CONFIG_BAUD_RATE, CONFIG_UART_BAUDRATE
 from ._connect import add_connection_args, add_ids_arg, open_from_args
 from ._output import add_json_arg, emit, motors_text, no_answer, report, sent, significant
 from ._usage import UsageError
@@ -17,9 +18,9 @@ GROUP = "parameters"
 """Where ``drempower --help`` lists this module's subcommands."""
 
 _ELSEWHERE = {
-    31001: "drempower set-id",
-    21001: "drempower set-bitrate",
-    10001: "drempower set-bitrate --link uart",
+    AXIS0_CONFIG_CAN_NODE_ID: "drempower set-id",
+    CAN_CONFIG_BAUD_RATE: "drempower set-bitrate",
+    CONFIG_UART_BAUDRATE: "drempower set-bitrate --link uart",
 }
 """Parameters that change how the motor is reached, and the command that changes them safely."""
 _TRUE = ("1", "true", "on", "yes")

@@ -15,6 +15,7 @@ from collections.abc import Callable, Iterable, Sequence
 from types import TracebackType
 from typing import Any, TypeVar
 
+from ..protocol.addresses import AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE
 from ..protocol.ids import SysCmd, check_node
 from ..protocol.messages import Message
 from ..transports.base import Transport
@@ -365,7 +366,9 @@ class AsyncMotor(MotorBase):
         return await self._bus.run(ops.read_property(self._core, self._id, property, timeout))
 
     async def enable_reply_state(self, on: bool = True, *, timeout: float | None = None) -> None:
-        await self._bus.run(ops.write_property(self._id, 31214, int(on), True, timeout))
+        await self._bus.run(
+            ops.write_property(self._id, AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE, int(on), True, timeout)
+        )
 
     async def get_id(self, *, timeout: float | None = None) -> int:
         return await self._bus.run(ops.get_id(self._id, timeout))

@@ -11,6 +11,23 @@ from pathlib import Path
 from typing import Any
 
 from ..errors import BackupFileError, ValidationError
+from ..protocol.addresses import (
+    AXIS0_CONFIG_CAN_NODE_ID,
+    AXIS0_CONTROLLER_INPUT_POS,
+    AXIS0_CONTROLLER_INPUT_TORQUE,
+    AXIS0_CONTROLLER_INPUT_VEL,
+    AXIS0_MOTOR_CURRENT_CONTROL_FINAL_V_ALPHA,
+    AXIS0_MOTOR_CURRENT_CONTROL_FINAL_V_BETA,
+    AXIS0_MOTOR_CURRENT_CONTROL_IBUS,
+    AXIS0_MOTOR_CURRENT_CONTROL_ID_SETPOINT,
+    AXIS0_MOTOR_ERROR,
+    AXIS0_OUTPUT_SHAFT_INPUT_POS,
+    AXIS0_OUTPUT_SHAFT_INPUT_TORQUE,
+    AXIS0_OUTPUT_SHAFT_INPUT_VEL,
+    AXIS0_REQUESTED_STATE,
+    CAN_CONFIG_BAUD_RATE,
+    CONFIG_UART_BAUDRATE,
+)
 from ..protocol.ids import SysCmd
 from ..protocol.messages import ParamValue, ReadParam, SystemCommand, WriteParam
 from ..protocol.parameters import Access, DataType, Parameter, encode_value, find_parameter, parameters
@@ -33,23 +50,23 @@ VERSION = 1
 
 NOT_RESTORED = frozenset(
     {
-        30003,  # axis0.requested_state: a command, not configuration
-        32002,  # controller.input_pos/vel/torque: setpoints, writing them moves the motor
-        32003,
-        32004,
-        33001,  # motor.error: an error word
-        33201,  # current_control.*: live loop values
-        33202,
-        33203,
-        33204,
-        38001,  # output_shaft.input_pos/vel/torque: setpoints
-        38002,
-        38003,
+        AXIS0_REQUESTED_STATE,  # a command, not configuration
+        AXIS0_CONTROLLER_INPUT_POS,  # setpoints: writing them moves the motor
+        AXIS0_CONTROLLER_INPUT_VEL,
+        AXIS0_CONTROLLER_INPUT_TORQUE,
+        AXIS0_MOTOR_ERROR,  # an error word
+        AXIS0_MOTOR_CURRENT_CONTROL_IBUS,  # current_control.*: live loop values
+        AXIS0_MOTOR_CURRENT_CONTROL_FINAL_V_ALPHA,
+        AXIS0_MOTOR_CURRENT_CONTROL_FINAL_V_BETA,
+        AXIS0_MOTOR_CURRENT_CONTROL_ID_SETPOINT,
+        AXIS0_OUTPUT_SHAFT_INPUT_POS,  # setpoints
+        AXIS0_OUTPUT_SHAFT_INPUT_VEL,
+        AXIS0_OUTPUT_SHAFT_INPUT_TORQUE,
     }
 )
 """Writable parameters that are live values or commands, never restored."""
 
-LINK_PARAMETERS = frozenset({31001, 21001, 10001})
+LINK_PARAMETERS = frozenset({AXIS0_CONFIG_CAN_NODE_ID, CAN_CONFIG_BAUD_RATE, CONFIG_UART_BAUDRATE})
 """Id and bitrates: restored only with ``include_link=True`` (they change how the motor is reached)."""
 
 _F32 = struct.Struct("<f")
@@ -256,7 +273,7 @@ def _same(dtype: DataType, a: float, b: float) -> bool:
     return int(a) == int(b)
 
 
-_NODE_ID = 31001
+_NODE_ID = AXIS0_CONFIG_CAN_NODE_ID
 
 
 def _plan(

@@ -6,6 +6,7 @@ import math
 from collections.abc import Iterable, Sequence
 
 from ..errors import FieldRangeError, ValidationError
+from ..protocol.addresses import AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE
 from ..protocol.messages import S16_MAX, FastRead, Message, ReadParam
 from ..protocol.parameters import DataType
 from .commands import (
@@ -28,7 +29,7 @@ from .state import MotorState
 __all__ = ["move_angles", "set_speeds", "set_torques", "cycle", "scan", "ALL_IDS"]
 
 ALL_IDS = range(1, 64)
-_REPLY_STATE = 31214
+_REPLY_STATE = AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE
 
 
 def move_angles(

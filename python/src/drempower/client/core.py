@@ -21,6 +21,11 @@ from collections.abc import Callable, Sequence
 from typing import Literal
 
 from ..errors import ProtocolError, ValidationError
+from ..protocol.addresses import (
+    AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE,
+    AXIS0_REQUESTED_STATE,
+    AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE,
+)
 from ..protocol.ids import Frame, SysCmd
 from ..protocol.messages import (
     FastRead,
@@ -109,7 +114,7 @@ _STATE = struct.Struct("<fhh").unpack
 MOTION_CMDS = frozenset((0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D))
 """Preset and control commands: they move motors, and with enable_reply_state on each is answered by a state."""
 _IDLE = 1  # axis0.requested_state value for IDLE
-_REQUESTED_STATE = 30003
+_REQUESTED_STATE = AXIS0_REQUESTED_STATE
 _RESETS = frozenset((SysCmd.INIT_CONFIG, SysCmd.ERASE_CONFIG, SysCmd.REBOOT))
 _new_state = tuple.__new__
 _monotonic = time.monotonic
@@ -261,14 +266,14 @@ class BusCore:
 
         A broadcast write (node 0) makes the value of every motor unknown until read.
         """
-        if address == 35104:
+        if address == AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE:
             if node == 0:
                 self.traj_mode.clear()
             elif value in (1, 2):
                 self.traj_mode[node] = int(value)
             else:  # not a mode a move can be timed with: read it again (and refuse it) when needed
                 self.traj_mode.pop(node, None)
-        elif address == 31214:
+        elif address == AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE:
             if node == 0:
                 self.reply_state.clear()
             else:

@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 from typing import TYPE_CHECKING
 
+from ..protocol.addresses import AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE
 from ..protocol.ids import SysCmd
 from ..protocol.messages import (
     PositionP,
@@ -255,7 +256,9 @@ class Motor(MotorBase):
 
     def enable_reply_state(self, on: bool = True, *, timeout: float | None = None) -> None:
         """Make the motor answer every control frame with its state (31214), verified."""
-        self._bus.run(ops.write_property(self._id, 31214, int(on), True, timeout))
+        self._bus.run(
+            ops.write_property(self._id, AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE, int(on), True, timeout)
+        )
 
     # ------------------------------------------------------------------ queries
 

@@ -8,7 +8,11 @@ import time
 from collections.abc import Sequence
 
 from ..errors import DrEmpowerError, FieldRangeError, ValidationError
-from ..protocol.addresses import AXIS0_OUTPUT_SHAFT_CIRCULAR_SETPOINT_MAX, AXIS0_OUTPUT_SHAFT_CIRCULAR_SETPOINT_MIN
+from ..protocol.addresses import (
+    AXIS0_OUTPUT_SHAFT_CIRCULAR_SETPOINT_MAX,
+    AXIS0_OUTPUT_SHAFT_CIRCULAR_SETPOINT_MIN,
+    AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE,
+)
 from ..protocol.ids import MAX_NODE, SysCmd
 from ..protocol.messages import ReadParam, SystemCommand, WriteParam
 from ..protocol.parameters import DataType, Parameter, parameter
@@ -192,7 +196,7 @@ def set_mode(node: int, mode: int) -> WriteParam:
 
 def get_traj_mode(core: BusCore, node: int, timeout: float | None = None) -> Op[TrajMode]:
     """The motor's Q-mode profile (35104), read and remembered."""
-    value = yield from read_property(core, node, 35104, timeout)
+    value = yield from read_property(core, node, AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE, timeout)
     return _reported_traj_mode(node, value)
 
 
@@ -211,14 +215,14 @@ def set_traj_mode(node: int, mode: int, timeout: float | None = None) -> Op[None
         m = TrajMode(mode)
     except ValueError:
         raise ValidationError(f"mode={mode!r}: 1 (trapezoid) or 2 (S-curve)") from None
-    yield from write_property(node, 35104, int(m), True, timeout)
+    yield from write_property(node, AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE, int(m), True, timeout)
 
 
 def traj_modes(core: BusCore, nodes: Sequence[int], timeout: float | None = None) -> Op[dict[int, int]]:
     """The Q-mode profile of each motor: remembered ones, the rest read in one exchange."""
     unknown = [n for n in nodes if n not in core.traj_mode]
     if unknown:
-        p = parameter(35104)
+        p = parameter(AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE)
         replies = yield from request([ReadParam(n, p.address, p.dtype) for n in unknown], timeout)
         for n, r in zip(unknown, replies, strict=True):
             core.learn(n, p.address, int(_reported_traj_mode(n, r.value)))

@@ -11,6 +11,15 @@ from dataclasses import dataclass
 from enum import IntFlag
 
 from ..errors import FieldRangeError
+from .addresses import (
+    AXIS0_CONTROLLER_ERROR,
+    AXIS0_ENCODER_ERROR,
+    AXIS0_ERROR,
+    AXIS0_FET_THERMISTOR_ERROR,
+    AXIS0_MOTOR_ERROR,
+    AXIS0_MOTOR_THERMISTOR_ERROR,
+    CAN_ERROR,
+)
 
 __all__ = [
     "AxisError",
@@ -142,13 +151,13 @@ class ErrorWord:
 
 
 ERROR_WORDS: tuple[ErrorWord, ...] = (
-    ErrorWord("axis0.error", 30001, "axis", AxisError),
-    ErrorWord("axis0.motor.error", 33001, "motor", MotorError),
-    ErrorWord("axis0.encoder.error", 34001, "encoder", EncoderError),
-    ErrorWord("axis0.controller.error", 32001, "controller", ControllerError),
-    ErrorWord("can.error", 20001, "can", CanError),
-    ErrorWord("axis0.fet_thermistor.error", 36001, "fet_thermistor", FetThermistorError),
-    ErrorWord("axis0.motor_thermistor.error", 37001, "motor_thermistor", MotorThermistorError),
+    ErrorWord("axis0.error", AXIS0_ERROR, "axis", AxisError),
+    ErrorWord("axis0.motor.error", AXIS0_MOTOR_ERROR, "motor", MotorError),
+    ErrorWord("axis0.encoder.error", AXIS0_ENCODER_ERROR, "encoder", EncoderError),
+    ErrorWord("axis0.controller.error", AXIS0_CONTROLLER_ERROR, "controller", ControllerError),
+    ErrorWord("can.error", CAN_ERROR, "can", CanError),
+    ErrorWord("axis0.fet_thermistor.error", AXIS0_FET_THERMISTOR_ERROR, "fet_thermistor", FetThermistorError),
+    ErrorWord("axis0.motor_thermistor.error", AXIS0_MOTOR_THERMISTOR_ERROR, "motor_thermistor", MotorThermistorError),
 )
 """The seven error words, in the order the vendor's ``dump_error`` reads them
 (axis, motor, encoder, controller, can, fet thermistor, motor thermistor)."""

@@ -67,6 +67,13 @@ from __future__ import annotations
 
 import math
 
+from ..protocol.addresses import (
+    AXIS0_CONTROLLER_ERROR,
+    AXIS0_ENCODER_ERROR,
+    AXIS0_FET_THERMISTOR_ERROR,
+    AXIS0_MOTOR_ERROR,
+    AXIS0_MOTOR_THERMISTOR_ERROR,
+)
 from ..protocol.flags import AxisError, ControllerError, MotorError
 from ..protocol.parameters import F32_MAX, DataType
 
@@ -114,11 +121,11 @@ Q_ZERO_SPEED_ERROR = ControllerError.INVALID_INPUT_MODE
 loop, as the library manual says; a Q move with accel 0 goes to the target as fast as possible."""
 
 ERROR_WORD_AXIS_FLAG: dict[int, AxisError] = {
-    33001: AxisError.MOTOR_FAILED,
-    34001: AxisError.ENCODER_FAILED,
-    32001: AxisError.CONTROLLER_FAILED,
-    36001: AxisError.OVER_TEMP,
-    37001: AxisError.OVER_TEMP,
+    AXIS0_MOTOR_ERROR: AxisError.MOTOR_FAILED,
+    AXIS0_ENCODER_ERROR: AxisError.ENCODER_FAILED,
+    AXIS0_CONTROLLER_ERROR: AxisError.CONTROLLER_FAILED,
+    AXIS0_FET_THERMISTOR_ERROR: AxisError.OVER_TEMP,
+    AXIS0_MOTOR_THERMISTOR_ERROR: AxisError.OVER_TEMP,
 }
 """An error in a sub-word also sets this flag in axis0.error (so the E bit shows it).
 can.error does not stop the axis."""

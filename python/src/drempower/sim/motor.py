@@ -15,6 +15,74 @@ from enum import IntFlag
 from pathlib import Path
 
 from ..errors import DrEmpowerError
+from ..protocol.addresses import (
+    AXIS0_CONFIG_CAN_NODE_ID,
+    AXIS0_CONFIG_EXTRA_SETTING_CIRCULAR_SETPOINT_MAX,
+    AXIS0_CONFIG_EXTRA_SETTING_CIRCULAR_SETPOINT_MIN,
+    AXIS0_CONFIG_EXTRA_SETTING_ENABLE_CIRCULAR_SETPOINT_LIMIT,
+    AXIS0_CONFIG_EXTRA_SETTING_ENABLE_DAMP_IDLE,
+    AXIS0_CONFIG_EXTRA_SETTING_ENABLE_MULTI_CIRCLE,
+    AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE,
+    AXIS0_CONFIG_EXTRA_SETTING_ENABLE_STALL_LIMIT,
+    AXIS0_CONFIG_EXTRA_SETTING_ENCODER_OFFSET_CALIBRATED,
+    AXIS0_CONFIG_EXTRA_SETTING_GEAR_RATIO,
+    AXIS0_CONFIG_EXTRA_SETTING_STALL_CURRENT_LIMIT,
+    AXIS0_CONFIG_EXTRA_SETTING_STALL_TIME_LIMIT,
+    AXIS0_CONFIG_EXTRA_SETTING_ZERO_OFFSET_COUNTS,
+    AXIS0_CONFIG_STARTUP_CLOSED_LOOP_CONTROL,
+    AXIS0_CONTROLLER_CONFIG_CONTROL_MODE,
+    AXIS0_CONTROLLER_CONFIG_ENABLE_CURRENT_MODE_VEL_LIMIT,
+    AXIS0_CONTROLLER_CONFIG_ENABLE_OVERSPEED_ERROR,
+    AXIS0_CONTROLLER_CONFIG_ENABLE_VEL_LIMIT,
+    AXIS0_CONTROLLER_CONFIG_INERTIA,
+    AXIS0_CONTROLLER_CONFIG_INPUT_FILTER_BANDWIDTH,
+    AXIS0_CONTROLLER_CONFIG_INPUT_MODE,
+    AXIS0_CONTROLLER_CONFIG_POS_GAIN,
+    AXIS0_CONTROLLER_CONFIG_VEL_GAIN,
+    AXIS0_CONTROLLER_CONFIG_VEL_INTEGRATOR_GAIN,
+    AXIS0_CONTROLLER_CONFIG_VEL_LIMIT,
+    AXIS0_CONTROLLER_CONFIG_VEL_LIMIT_TOLERANCE,
+    AXIS0_CONTROLLER_ERROR,
+    AXIS0_CONTROLLER_INPUT_POS,
+    AXIS0_CONTROLLER_INPUT_TORQUE,
+    AXIS0_CONTROLLER_INPUT_VEL,
+    AXIS0_CONTROLLER_POS_SETPOINT,
+    AXIS0_CONTROLLER_TORQUE_SETPOINT,
+    AXIS0_CONTROLLER_TRAJECTORY_DONE,
+    AXIS0_CONTROLLER_VEL_SETPOINT,
+    AXIS0_CURRENT_STATE,
+    AXIS0_ENCODER_CONFIG_CPR,
+    AXIS0_ENCODER_ERROR,
+    AXIS0_ENCODER_POS_ABS,
+    AXIS0_ENCODER_POS_CIRCULAR,
+    AXIS0_ENCODER_POS_ESTIMATE,
+    AXIS0_ENCODER_TURN_ABS,
+    AXIS0_ENCODER_VEL_ESTIMATE,
+    AXIS0_ERROR,
+    AXIS0_MOTOR_CONFIG_CURRENT_LIM,
+    AXIS0_MOTOR_CONFIG_PHASE_RESISTANCE,
+    AXIS0_MOTOR_CONFIG_TORQUE_CONSTANT,
+    AXIS0_MOTOR_CONFIG_TORQUE_LIM,
+    AXIS0_MOTOR_CURRENT_CONTROL_IBUS,
+    AXIS0_MOTOR_CURRENT_CONTROL_IQ_MEASURED,
+    AXIS0_MOTOR_CURRENT_CONTROL_IQ_SETPOINT,
+    AXIS0_MOTOR_EFFECTIVE_CURRENT_LIM,
+    AXIS0_MOTOR_ERROR,
+    AXIS0_MOTOR_IS_CALIBRATED,
+    AXIS0_OUTPUT_SHAFT_LOAD_INERTIA,
+    AXIS0_OUTPUT_SHAFT_TORQUE_ESTIMATE,
+    AXIS0_OUTPUT_SHAFT_TORQUE_RAMP_RATE,
+    AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_ACCEL_LIMIT,
+    AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_DECEL_LIMIT,
+    AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_VEL_LIMIT,
+    AXIS0_OUTPUT_SHAFT_VEL_RAMP_RATE,
+    AXIS0_REQUESTED_STATE,
+    AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE,
+    CAN_CONFIG_BAUD_RATE,
+    CAN_CONFIG_HEARTBEAT_MS,
+    CAN_CONFIG_TIMEOUT_MS,
+    CAN_ERROR,
+)
 from ..protocol.enums import AxisState, TorqueMode, TrajMode, VelocityMode
 from ..protocol.flags import ERROR_WORDS, AxisError, CanError, ControllerError, EncoderError, MotorError
 from ..protocol.ids import Frame, StartKind, SysCmd
@@ -55,6 +123,12 @@ _FILTER_MAX = 250.0
 _CALIBRATION_STATES = frozenset((3, 4, 6, 7))
 _EPS = 1e-9
 """Timer slack (s), so that periods that are whole numbers of steps fire on their step."""
+_ANGLE_LIMITS = (
+    AXIS0_CONFIG_EXTRA_SETTING_ENABLE_CIRCULAR_SETPOINT_LIMIT,
+    AXIS0_CONFIG_EXTRA_SETTING_CIRCULAR_SETPOINT_MIN,
+    AXIS0_CONFIG_EXTRA_SETTING_CIRCULAR_SETPOINT_MAX,
+)
+"""The software angle limits: on/off, minimum and maximum (turns)."""
 _WORD_OF_FLAGS: dict[type[IntFlag], int] = {w.flags: w.address for w in ERROR_WORDS}
 _ERROR_ADDRESSES = tuple(w.address for w in ERROR_WORDS)
 
@@ -126,11 +200,11 @@ class SimMotor:
     @property
     def node_id(self) -> int:
         """The CAN node id the motor answers to (can_node_id, 31001)."""
-        return int(self.params.ram[31001])
+        return int(self.params.ram[AXIS0_CONFIG_CAN_NODE_ID])
 
     @node_id.setter
     def node_id(self, value: int) -> None:
-        self.params.ram[31001] = value
+        self.params.ram[AXIS0_CONFIG_CAN_NODE_ID] = value
 
     @property
     def position(self) -> float:
@@ -155,7 +229,7 @@ class SimMotor:
     @property
     def axis_error(self) -> int:
         """axis0.error (30001); non-zero sets the E bit of state frames."""
-        return self.errors[30001]
+        return self.errors[AXIS0_ERROR]
 
     @property
     def trajectory_done(self) -> bool:
@@ -207,7 +281,7 @@ class SimMotor:
             _s16(d.vel * 60.0),
             _s16(d.torque),
             self.trajectory_done,
-            self.errors[30001] != 0,
+            self.errors[AXIS0_ERROR] != 0,
             bh.STATE_SPARE_BITS,
         ).encode()
 
@@ -229,7 +303,7 @@ class SimMotor:
         ``MotorError.DRV_FAULT`` goes to axis0.motor.error.
         """
         addr = _WORD_OF_FLAGS[type(flag)] if word is None else parameter(word).address
-        if addr == 34001 and int(flag) & bh.STICKY_ENCODER_ERRORS:
+        if addr == AXIS0_ENCODER_ERROR and int(flag) & bh.STICKY_ENCODER_ERRORS:
             self._sticky_cleared = False
         self._fault(addr, int(flag))
 
@@ -247,11 +321,11 @@ class SimMotor:
                 if abs(d.torque) >= self._stall_tq:
                     self._stall_t += dt
                     if self._stall_t >= self._stall_time:
-                        self._fault(33001, bh.STALL_FLAG, bh.STALL_AXIS_ERROR)
+                        self._fault(AXIS0_MOTOR_ERROR, bh.STALL_FLAG, bh.STALL_AXIS_ERROR)
                 else:
                     self._stall_t = 0.0
             if abs(d.vel) > self._overspeed:
-                self._fault(32001, ControllerError.OVERSPEED)
+                self._fault(AXIS0_CONTROLLER_ERROR, ControllerError.OVERSPEED)
         if now >= self._wake:
             self._timers()
 
@@ -262,7 +336,7 @@ class SimMotor:
             self._hb_next = max(self._hb_next + self._hb_period, now)
         if self._timeout and self.drive.active and now - self._last_rx >= self._timeout:
             self._watchdog_damping = True
-            self._fault(30001, bh.WATCHDOG_ERROR)
+            self._fault(AXIS0_ERROR, bh.WATCHDOG_ERROR)
         if now >= self._calib_end:
             self._calibration_phase_done()
         self._rearm()
@@ -301,7 +375,7 @@ class SimMotor:
 
     def _track(self, deg: float, bandwidth: float) -> None:
         bw = abs(bandwidth)
-        self.params.ram[32118] = bw
+        self.params.ram[AXIS0_CONTROLLER_CONFIG_INPUT_FILTER_BANDWIDTH] = bw
         self.drive.filtered(self._raw(deg), min(bw, _FILTER_MAX))
 
     def _on_q(self, msg: PositionQ, reply: Reply) -> None:
@@ -312,11 +386,11 @@ class SimMotor:
     def _move(self, deg: float, speed: float, accel: float) -> None:
         """Q move to ``deg`` at ``speed`` r/min and ``accel`` (r/min)/s."""
         if speed == 0.0:
-            self._fault(32001, bh.Q_ZERO_SPEED_ERROR)
+            self._fault(AXIS0_CONTROLLER_ERROR, bh.Q_ZERO_SPEED_ERROR)
             return
-        self._set_output(38014, speed)
-        self._set_output(38015, accel)
-        self._set_output(38016, accel)
+        self._set_output(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_VEL_LIMIT, speed)
+        self._set_output(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_ACCEL_LIMIT, accel)
+        self._set_output(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_DECEL_LIMIT, accel)
         target = self._raw(deg)
         if accel == 0.0:
             self.drive.hold(target)
@@ -325,12 +399,12 @@ class SimMotor:
         self.drive.trajectory(target, vmax, accel / 60.0, self._s_curve())
 
     def _s_curve(self) -> bool:
-        return bool(self.params.ram[35104] == TrajMode.S_CURVE)
+        return bool(self.params.ram[AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE] == TrajMode.S_CURVE)
 
     def _timed_move(self, deg: float, seconds: float, accel: float) -> None:
         """Q target-time move: reach ``deg`` in ``seconds`` with ``accel`` (r/min)/s."""
-        self._set_output(38015, accel)
-        self._set_output(38016, accel)
+        self._set_output(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_ACCEL_LIMIT, accel)
+        self._set_output(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_DECEL_LIMIT, accel)
         target = self._raw(deg)
         d = self.drive
         start = d.pos_sp if d.mode == POSITION else d.pos
@@ -356,7 +430,7 @@ class SimMotor:
         if mode == VelocityMode.PASSTHROUGH:
             self.drive.velocity(speed / 60.0, param, None)
         else:
-            self._set_output(38017, abs(param))
+            self._set_output(AXIS0_OUTPUT_SHAFT_VEL_RAMP_RATE, abs(param))
             self.drive.velocity(speed / 60.0, 0.0, abs(param) / 60.0)
 
     def _on_c(self, msg: Torque, reply: Reply) -> None:
@@ -368,7 +442,7 @@ class SimMotor:
         if mode == TorqueMode.DIRECT:
             self.drive.torque_command(torque, None)
         else:
-            self._set_output(38018, abs(param))
+            self._set_output(AXIS0_OUTPUT_SHAFT_TORQUE_RAMP_RATE, abs(param))
             self.drive.torque_command(torque, abs(param))
 
     def _on_preset(self, msg: Preset, reply: Reply) -> None:
@@ -402,7 +476,7 @@ class SimMotor:
     def _on_system(self, msg: SystemCommand, reply: Reply) -> None:
         op = msg.op
         if op is SysCmd.ESTOP:
-            self._fault(30001, AxisError.ESTOP_REQUESTED)
+            self._fault(AXIS0_ERROR, AxisError.ESTOP_REQUESTED)
         elif op is SysCmd.CLEAR_ERRORS:
             self._clear_errors()
         elif op is SysCmd.SET_ZERO_POSITION:
@@ -476,23 +550,21 @@ class SimMotor:
             return
         self.params.ram[addr] = value
         self._refresh()
-        if addr in (21003, 21004):
+        if addr in (CAN_CONFIG_TIMEOUT_MS, CAN_CONFIG_HEARTBEAT_MS):
             self._hb_next = self.time + self._hb_period if self._hb_period else math.inf
             self._rearm()
 
     def _accept(self, addr: int, value: float) -> bool:
         """Validation of a configuration write (see :mod:`drempower.sim.behaviour`)."""
-        if addr == 31001:
+        if addr == AXIS0_CONFIG_CAN_NODE_ID:
             return 1 <= value <= 63
-        if addr == 21001:
+        if addr == CAN_CONFIG_BAUD_RATE:
             return value in bh.CAN_BITRATES
-        if addr in (31208, 34103):
+        if addr in (AXIS0_CONFIG_EXTRA_SETTING_GEAR_RATIO, AXIS0_ENCODER_CONFIG_CPR):
             return value > 0
         ram = self.params.ram
-        if addr in (31202, 31203, 31204):
-            on = value if addr == 31202 else ram[31202]
-            lo = value if addr == 31203 else ram[31203]
-            hi = value if addr == 31204 else ram[31204]
+        if addr in _ANGLE_LIMITS:
+            on, lo, hi = (value if a == addr else ram[a] for a in _ANGLE_LIMITS)
             turns = self.position * self._ratio / 360.0
             return not on or lo <= turns <= hi
         return True
@@ -505,7 +577,7 @@ class SimMotor:
             self._enter_idle()
         elif value in _CALIBRATION_STATES:
             self._enter_idle()
-            if self.errors[30001]:
+            if self.errors[AXIS0_ERROR]:
                 return  # as for closed loop: refused while an error is set
             self._calib_next = list(bh.CALIBRATION_PHASES[int(value)])
             self._start_calibration_phase()
@@ -544,18 +616,18 @@ class SimMotor:
         if state == AxisState.MOTOR_CALIBRATION:
             if self.model.vbus < bh.CALIBRATION_MIN_VBUS:
                 self._calib_next = []
-                self._fault(33001, MotorError.PHASE_RESISTANCE_OUT_OF_RANGE, AxisError.MOTOR_FAILED)
-                self._fault(30001, AxisError.DC_BUS_UNDER_VOLTAGE)
+                self._fault(AXIS0_MOTOR_ERROR, MotorError.PHASE_RESISTANCE_OUT_OF_RANGE, AxisError.MOTOR_FAILED)
+                self._fault(AXIS0_ERROR, AxisError.DC_BUS_UNDER_VOLTAGE)
                 return
-            ram[33002] = 1  # axis0.motor.is_calibrated
+            ram[AXIS0_MOTOR_IS_CALIBRATED] = 1
         elif state == AxisState.ENCODER_OFFSET_CALIBRATION:
             self.drive.vel = 0.0
             if self.drive.locked:
                 self._calib_next = []
-                self._fault(34001, EncoderError.CPR_POLEPAIRS_MISMATCH)
+                self._fault(AXIS0_ENCODER_ERROR, EncoderError.CPR_POLEPAIRS_MISMATCH)
                 return
-            ram[31213] = 1  # axis0.config.extra_setting.encoder_offset_calibrated
-        if self._calib_next and not self.errors[30001]:
+            ram[AXIS0_CONFIG_EXTRA_SETTING_ENCODER_OFFSET_CALIBRATED] = 1
+        if self._calib_next and not self.errors[AXIS0_ERROR]:
             self._start_calibration_phase()
         else:
             self._calib_next = []
@@ -565,9 +637,9 @@ class SimMotor:
         d = self.drive
         if not d.active:
             return
-        if addr == 32002:
+        if addr == AXIS0_CONTROLLER_INPUT_POS:
             d.position(self._raw(value * 360.0 / self._ratio), 0.0, 0.0)
-        elif addr == 32003:
+        elif addr == AXIS0_CONTROLLER_INPUT_VEL:
             d.velocity(value / self._ratio, 0.0, None)
         else:
             d.torque_command(value * self._ratio, None)
@@ -575,34 +647,48 @@ class SimMotor:
     def _refresh(self) -> None:
         """Recompute the drive's gains and limits and the protections from the parameters."""
         ram, d, m = self.params.ram, self.drive, self.model
-        r = self._ratio = float(ram[31208])
+        r = self._ratio = float(ram[AXIS0_CONFIG_EXTRA_SETTING_GEAR_RATIO])
         r2 = r * r
-        kt = float(ram[33107]) * r
+        kt = float(ram[AXIS0_MOTOR_CONFIG_TORQUE_CONSTANT]) * r
         self._kt = kt if kt else 1.0
-        d.kp = float(ram[32108])
-        d.kv = float(ram[32109]) * r2
-        d.ki = float(ram[32110]) * r2
-        d.vlim = float(ram[32111]) / r if ram[32102] else math.inf
-        d.tlim = min(float(ram[33112]), float(ram[33110]) * float(ram[33107])) * r
-        d.jff = float(ram[32117]) * r2 + float(ram[38021])
+        d.kp = float(ram[AXIS0_CONTROLLER_CONFIG_POS_GAIN])
+        d.kv = float(ram[AXIS0_CONTROLLER_CONFIG_VEL_GAIN]) * r2
+        d.ki = float(ram[AXIS0_CONTROLLER_CONFIG_VEL_INTEGRATOR_GAIN]) * r2
+        d.vlim = (
+            float(ram[AXIS0_CONTROLLER_CONFIG_VEL_LIMIT]) / r
+            if ram[AXIS0_CONTROLLER_CONFIG_ENABLE_VEL_LIMIT]
+            else math.inf
+        )
+        d.tlim = (
+            min(
+                float(ram[AXIS0_MOTOR_CONFIG_TORQUE_LIM]),
+                float(ram[AXIS0_MOTOR_CONFIG_CURRENT_LIM]) * float(ram[AXIS0_MOTOR_CONFIG_TORQUE_CONSTANT]),
+            )
+            * r
+        )
+        d.jff = float(ram[AXIS0_CONTROLLER_CONFIG_INERTIA]) * r2 + float(ram[AXIS0_OUTPUT_SHAFT_LOAD_INERTIA])
         d.j = TAU * (m.rotor_inertia * r2 + self._load_inertia)
         d.b = TAU * m.viscous
         d.fc = m.coulomb
-        d.cm_vlim = bool(ram[32103])
-        damp = ram[31215] or self._watchdog_damping
+        d.cm_vlim = bool(ram[AXIS0_CONTROLLER_CONFIG_ENABLE_CURRENT_MODE_VEL_LIMIT])
+        damp = ram[AXIS0_CONFIG_EXTRA_SETTING_ENABLE_DAMP_IDLE] or self._watchdog_damping
         d.g_idle = bh.IDLE_DAMPING_NM_PER_RPM * 60.0 if damp else 0.0
-        cpr = float(ram[34103])
-        self._offset = float(ram[31205]) / cpr * 360.0 / r
-        d.lim_on = bool(ram[31202])
-        d.lmin = float(ram[31203]) / r + self._offset / 360.0
-        d.lmax = float(ram[31204]) / r + self._offset / 360.0
-        self._reply_state = bool(ram[31214])
-        self._stall_on = bool(ram[31211])
-        self._stall_tq = float(ram[31209]) * self._kt
-        self._stall_time = float(ram[31210])
-        self._overspeed = d.vlim * float(ram[32112]) if ram[32104] else math.inf
-        self._hb_period = float(ram[21004]) / 1000.0
-        self._timeout = float(ram[21003]) / 1000.0
+        cpr = float(ram[AXIS0_ENCODER_CONFIG_CPR])
+        self._offset = float(ram[AXIS0_CONFIG_EXTRA_SETTING_ZERO_OFFSET_COUNTS]) / cpr * 360.0 / r
+        d.lim_on = bool(ram[AXIS0_CONFIG_EXTRA_SETTING_ENABLE_CIRCULAR_SETPOINT_LIMIT])
+        d.lmin = float(ram[AXIS0_CONFIG_EXTRA_SETTING_CIRCULAR_SETPOINT_MIN]) / r + self._offset / 360.0
+        d.lmax = float(ram[AXIS0_CONFIG_EXTRA_SETTING_CIRCULAR_SETPOINT_MAX]) / r + self._offset / 360.0
+        self._reply_state = bool(ram[AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE])
+        self._stall_on = bool(ram[AXIS0_CONFIG_EXTRA_SETTING_ENABLE_STALL_LIMIT])
+        self._stall_tq = float(ram[AXIS0_CONFIG_EXTRA_SETTING_STALL_CURRENT_LIMIT]) * self._kt
+        self._stall_time = float(ram[AXIS0_CONFIG_EXTRA_SETTING_STALL_TIME_LIMIT])
+        self._overspeed = (
+            d.vlim * float(ram[AXIS0_CONTROLLER_CONFIG_VEL_LIMIT_TOLERANCE])
+            if ram[AXIS0_CONTROLLER_CONFIG_ENABLE_OVERSPEED_ERROR]
+            else math.inf
+        )
+        self._hb_period = float(ram[CAN_CONFIG_HEARTBEAT_MS]) / 1000.0
+        self._timeout = float(ram[CAN_CONFIG_TIMEOUT_MS]) / 1000.0
 
     # ------------------------------------------------------------------ states and errors
 
@@ -617,14 +703,16 @@ class SimMotor:
         self._requested = 0
         self._calib_end = math.inf
         self._refresh()
-        if not p.ram[31207]:
-            p.ram[31205] = self.drive.pos * self._ratio * float(p.ram[34103])
+        if not p.ram[AXIS0_CONFIG_EXTRA_SETTING_ENABLE_MULTI_CIRCLE]:
+            p.ram[AXIS0_CONFIG_EXTRA_SETTING_ZERO_OFFSET_COUNTS] = (
+                self.drive.pos * self._ratio * float(p.ram[AXIS0_ENCODER_CONFIG_CPR])
+            )
             self._refresh()
-        self.bitrate = int(p.ram[21001])
+        self.bitrate = int(p.ram[CAN_CONFIG_BAUD_RATE])
         self._last_rx = self.time
         self._hb_next = self.time + self._hb_period if self._hb_period else math.inf
         self._enter_idle()
-        if p.ram[31005]:
+        if p.ram[AXIS0_CONFIG_STARTUP_CLOSED_LOOP_CONTROL]:
             self._enter_closed_loop()
         self._rearm()
 
@@ -637,7 +725,7 @@ class SimMotor:
         self._refresh()
 
     def _enter_closed_loop(self) -> None:
-        if self.errors[30001] or self.state == AxisState.CLOSED_LOOP_CONTROL:
+        if self.errors[AXIS0_ERROR] or self.state == AxisState.CLOSED_LOOP_CONTROL:
             return
         d = self.drive
         self.state = AxisState.CLOSED_LOOP_CONTROL
@@ -662,22 +750,24 @@ class SimMotor:
     def _fault(self, word: int, flags: int, axis_flag: int | None = None) -> None:
         """Set error ``flags`` in ``word``; any axis error drops the axis to IDLE."""
         self.errors[word] |= flags
-        if word != 30001:
+        if word != AXIS0_ERROR:
             extra = bh.ERROR_WORD_AXIS_FLAG.get(word, 0) if axis_flag is None else axis_flag
-            self.errors[30001] |= extra
-        if self.errors[30001] and self.state != AxisState.IDLE:
+            self.errors[AXIS0_ERROR] |= extra
+        if self.errors[AXIS0_ERROR] and self.state != AxisState.IDLE:
             self._enter_idle()
 
     def _clear_errors(self) -> None:
-        sticky = 0 if self._sticky_cleared else self.errors[34001] & bh.STICKY_ENCODER_ERRORS
+        sticky = 0 if self._sticky_cleared else self.errors[AXIS0_ENCODER_ERROR] & bh.STICKY_ENCODER_ERRORS
         self.errors = dict.fromkeys(_ERROR_ADDRESSES, 0)
         self._stall_t = 0.0
         if sticky:
-            self._fault(34001, sticky)
+            self._fault(AXIS0_ENCODER_ERROR, sticky)
 
     def _set_zero(self) -> None:
         ram = self.params.ram
-        ram[31205] = self.drive.pos * self._ratio * float(ram[34103])
+        ram[AXIS0_CONFIG_EXTRA_SETTING_ZERO_OFFSET_COUNTS] = (
+            self.drive.pos * self._ratio * float(ram[AXIS0_ENCODER_CONFIG_CPR])
+        )
         self._sticky_cleared = True
         self._refresh()
         self._recover_limits()
@@ -685,7 +775,7 @@ class SimMotor:
     def saw_frame(self, node: int) -> None:
         """Another motor put a frame with ``node`` on the bus: flag a duplicate id."""
         if node == self.node_id:
-            self.errors[20001] |= CanError.DUPLICATE_CAN_IDS
+            self.errors[CAN_ERROR] |= CanError.DUPLICATE_CAN_IDS
 
 
 def _discard(frame: Frame) -> None:
@@ -696,7 +786,7 @@ def _ibus(m: SimMotor) -> float:
     """Supply current (A): mechanical power plus copper loss over the bus voltage."""
     d = m.drive
     iq = d.torque / m._kt
-    power = d.torque * d.vel * TAU + 1.5 * iq * iq * float(m.params.ram[33106])
+    power = d.torque * d.vel * TAU + 1.5 * iq * iq * float(m.params.ram[AXIS0_MOTOR_CONFIG_PHASE_RESISTANCE])
     return power / m.model.vbus
 
 
@@ -718,39 +808,39 @@ def _error_word(addr: int) -> Callable[[SimMotor], int]:
 _LIVE: dict[int, Callable[[SimMotor], int | float]] = {
     1: lambda m: m.model.vbus,
     2: _ibus,
-    30002: lambda m: int(m.state),
-    30003: lambda m: m._requested,
-    32002: _rotor_turns(lambda d: d.in_pos),
-    32003: lambda m: m.drive.in_vel * m._ratio,
-    32004: lambda m: m.drive.in_tq / m._ratio,
-    32005: _rotor_turns(lambda d: d.pos_sp),
-    32006: lambda m: m.drive.vel_sp * m._ratio,
-    32007: lambda m: m.drive.tq_sp / m._ratio,
-    32008: lambda m: int(m.trajectory_done),
-    32105: lambda m: m.drive.mode,
-    32106: lambda m: m.drive.input_mode,
-    33003: lambda m: m.params.ram[33110],
-    33201: _ibus,
-    33205: lambda m: m.current,
-    33206: lambda m: m.current,
-    34004: _pos_rotor,
-    34005: lambda m: _pos_rotor(m) % 1.0,
-    34006: lambda m: m.drive.vel * m._ratio,
-    34009: lambda m: int(_pos_rotor(m) % 1.0 * float(m.params.ram[34103])),
-    34010: lambda m: math.floor(_pos_rotor(m)),
-    38009: lambda m: m.drive.torque,
+    AXIS0_CURRENT_STATE: lambda m: int(m.state),
+    AXIS0_REQUESTED_STATE: lambda m: m._requested,
+    AXIS0_CONTROLLER_INPUT_POS: _rotor_turns(lambda d: d.in_pos),
+    AXIS0_CONTROLLER_INPUT_VEL: lambda m: m.drive.in_vel * m._ratio,
+    AXIS0_CONTROLLER_INPUT_TORQUE: lambda m: m.drive.in_tq / m._ratio,
+    AXIS0_CONTROLLER_POS_SETPOINT: _rotor_turns(lambda d: d.pos_sp),
+    AXIS0_CONTROLLER_VEL_SETPOINT: lambda m: m.drive.vel_sp * m._ratio,
+    AXIS0_CONTROLLER_TORQUE_SETPOINT: lambda m: m.drive.tq_sp / m._ratio,
+    AXIS0_CONTROLLER_TRAJECTORY_DONE: lambda m: int(m.trajectory_done),
+    AXIS0_CONTROLLER_CONFIG_CONTROL_MODE: lambda m: m.drive.mode,
+    AXIS0_CONTROLLER_CONFIG_INPUT_MODE: lambda m: m.drive.input_mode,
+    AXIS0_MOTOR_EFFECTIVE_CURRENT_LIM: lambda m: m.params.ram[AXIS0_MOTOR_CONFIG_CURRENT_LIM],
+    AXIS0_MOTOR_CURRENT_CONTROL_IBUS: _ibus,
+    AXIS0_MOTOR_CURRENT_CONTROL_IQ_SETPOINT: lambda m: m.current,
+    AXIS0_MOTOR_CURRENT_CONTROL_IQ_MEASURED: lambda m: m.current,
+    AXIS0_ENCODER_POS_ESTIMATE: _pos_rotor,
+    AXIS0_ENCODER_POS_CIRCULAR: lambda m: _pos_rotor(m) % 1.0,
+    AXIS0_ENCODER_VEL_ESTIMATE: lambda m: m.drive.vel * m._ratio,
+    AXIS0_ENCODER_POS_ABS: lambda m: int(_pos_rotor(m) % 1.0 * float(m.params.ram[AXIS0_ENCODER_CONFIG_CPR])),
+    AXIS0_ENCODER_TURN_ABS: lambda m: math.floor(_pos_rotor(m)),
+    AXIS0_OUTPUT_SHAFT_TORQUE_ESTIMATE: lambda m: m.drive.torque,
     **{a: _error_word(a) for a in _ERROR_ADDRESSES},
 }
 """Parameters computed from the motor's state when read."""
 
 _WRITE_HOOKS: dict[int, Callable[[SimMotor, float], None]] = {
-    30003: SimMotor._write_requested_state,
-    32002: lambda m, v: m._write_input(32002, v),
-    32003: lambda m, v: m._write_input(32003, v),
-    32004: lambda m, v: m._write_input(32004, v),
-    32105: lambda m, v: None,
-    32106: lambda m, v: None,
-    33001: lambda m, v: m.errors.__setitem__(33001, int(v)),
+    AXIS0_REQUESTED_STATE: SimMotor._write_requested_state,
+    AXIS0_CONTROLLER_INPUT_POS: lambda m, v: m._write_input(AXIS0_CONTROLLER_INPUT_POS, v),
+    AXIS0_CONTROLLER_INPUT_VEL: lambda m, v: m._write_input(AXIS0_CONTROLLER_INPUT_VEL, v),
+    AXIS0_CONTROLLER_INPUT_TORQUE: lambda m, v: m._write_input(AXIS0_CONTROLLER_INPUT_TORQUE, v),
+    AXIS0_CONTROLLER_CONFIG_CONTROL_MODE: lambda m, v: None,
+    AXIS0_CONTROLLER_CONFIG_INPUT_MODE: lambda m, v: None,
+    AXIS0_MOTOR_ERROR: lambda m, v: m.errors.__setitem__(AXIS0_MOTOR_ERROR, int(v)),
 }
 """Writable parameters that act instead of being stored (control and input mode follow the commands)."""
 
