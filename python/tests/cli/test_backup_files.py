@@ -147,3 +147,11 @@ def test_restore_with_link_writes_the_id_last_and_follows_the_motor(
     after = host_frames[writes[-1] + 1 :]
     assert any(f.arbitration_id >> 5 == 5 for f in after)  # verified, and saved, at the new id
     assert cli("get", "5", ID, "--sim", "5", "--json").records()[0]["value"] == 5
+
+
+def test_restore_with_link_never_gives_a_motor_an_id_that_is_taken(cli: Cli, sim: SimBus, tmp_path: Path) -> None:
+    """Motor 2's backup restored onto motor 1 with --include-link --force: id 2 answers, so the id is not written."""
+    path, _ = _backup(cli, tmp_path, node=2)
+    r = cli("restore", "1", str(path), "--include-link", "--force", "--sim", "1,2")
+    assert r.code == 1 and f"{ID}: not written: id 2 is already taken by another motor" in r.err, r.err
+    assert sorted(m.node_id for m in sim.motors.values()) == [1, 2, 3]  # nobody moved to a taken id

@@ -81,3 +81,20 @@ def test_a_bus_opened_in_another_thread_installs_nothing() -> None:
     th.start()
     th.join(5)
     assert done.is_set() and signal.getsignal(signal.SIGTERM) is signal.SIG_DFL
+
+
+def test_a_second_signal_during_the_stopping_does_not_interrupt_it(monkeypatch: pytest.MonkeyPatch) -> None:
+    """SIGTERM arriving while the first one's handler closes the buses: the close runs to its end."""
+    calls: list[str] = []
+
+    def stopper() -> None:
+        calls.append("close begins")
+        sig._stop_and_chain(signal.SIGTERM, None)  # the repeated signal, delivered inside the close
+        calls.append("close ends")
+
+    monkeypatch.setattr(sig, "_stoppers", [stopper])
+    monkeypatch.setattr(sig, "_previous", {})
+    with pytest.raises(SystemExit) as info:
+        sig._stop_and_chain(signal.SIGTERM, None)
+    assert info.value.code == 128 + signal.SIGTERM
+    assert calls == ["close begins", "close ends"]

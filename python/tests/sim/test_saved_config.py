@@ -38,6 +38,8 @@ def _saved(tmp_path: Path, **params: object) -> Path:
             json.dumps({"format": "drempower-sim-config", "parameters": {"axis0.config.can_node_id": 2.5}}),
             "is not a whole number",
         ),
+        ('{"format": "drempower-sim-config", "parameters": {"axis0.config.can_node_id": NaN}}', "not a finite number"),
+        (json.dumps({"format": "drempower-sim-config", "parameters": {GAIN: float("inf")}}), "not a finite number"),
     ],
 )
 def test_a_corrupt_saved_configuration_is_one_clear_error(

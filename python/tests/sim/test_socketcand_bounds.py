@@ -98,3 +98,28 @@ def test_connections_are_capped(bus: SimBus) -> None:
         finally:
             for c in conns:
                 c.close()
+
+
+def test_a_repeated_rawmode_delivers_each_frame_once(bus: SimBus) -> None:
+    with SocketcandServer(bus, port=0) as server:
+        s = _connect(server.port)
+        assert b"< hi >" in _read_until(s, b"< hi >")
+        s.sendall(f"< open {server.channel} >".encode())
+        _read_until(s, b"< ok >")
+        for _ in range(2):
+            s.sendall(b"< rawmode >")
+            assert b"< ok >" in _read_until(s, b"< ok >")
+        read = FastRead(1).encode()  # a fast read of motor 1: one state frame answers it
+        s.sendall(f"< send {read[0]:03x} {len(read[1])} {' '.join(f'{b:x}' for b in read[1])} >".encode())
+        time.sleep(0.3)
+        s.settimeout(0.2)
+        data = b""
+        try:
+            while chunk := s.recv(4096):
+                data += chunk
+        except OSError:
+            pass
+        s.close()
+    frames = [f.split()[1] for f in data.decode().split("<") if f.strip().startswith("frame")]
+    states = [f for f in frames if int(f, 16) >> 5 == 1 and int(f, 16) & 1]
+    assert len(states) == 1, data

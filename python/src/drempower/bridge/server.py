@@ -243,8 +243,8 @@ class Bridge:
             nodes = self._clients.pop(client, set())
         _log.info("client %s left; idling motors %s", client.decode(), sorted(nodes) or "none")
         if nodes:
+            self.clients_idled += 1  # counted first: whoever sees the motors idle sees the count
             self._idle(nodes)
-            self.clients_idled += 1
 
     def _idle(self, nodes: set[int]) -> None:
         targets = [0] if 0 in nodes else sorted(nodes)

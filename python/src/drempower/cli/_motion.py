@@ -116,15 +116,22 @@ def _motion_text(bus: Bus, nodes: Sequence[int]) -> str:
 WATCHDOG_PARAMETER = "can.config.timeout_ms"
 """The motor's CAN timeout (ms, 0 = off): no frame for that long and it goes idle with damping."""
 _U32_MAX = 0xFFFFFFFF
+WATCHDOG_MIN_MS = 100
+"""Shortest --watchdog (ms): a command may leave that long between frames (a request timeout, a poll)."""
 
 
 def _watchdog_ms(text: str) -> int:
     try:
         value = int(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected whole milliseconds 1..{_U32_MAX}, got {text!r}") from None
-    if not 1 <= value <= _U32_MAX:
-        raise argparse.ArgumentTypeError(f"{value} is out of range: allowed 1..{_U32_MAX} ms")
+        raise argparse.ArgumentTypeError(
+            f"expected whole milliseconds {WATCHDOG_MIN_MS}..{_U32_MAX}, got {text!r}"
+        ) from None
+    if not WATCHDOG_MIN_MS <= value <= _U32_MAX:
+        raise argparse.ArgumentTypeError(
+            f"{value} is out of range: allowed {WATCHDOG_MIN_MS}..{_U32_MAX} ms (a shorter timeout would idle "
+            "the motors between this command's own frames)"
+        )
     return value
 
 
@@ -172,10 +179,11 @@ def restore_watchdog(bus: Bus, previous: dict[int, int]) -> None:
 def driving(args: argparse.Namespace) -> Iterator[Bus]:
     """The bus of a motion command.
 
-    On Ctrl-C, SIGTERM or SIGHUP the motors it commanded go idle (unless
-    --no-stop-on-exit). With ``--watchdog MS`` each motor's CAN timeout is
-    armed before anything moves and restored when the command ends, however
-    it ends (after the motors were stopped).
+    On Ctrl-C, SIGTERM or SIGHUP, and when the command fails (a move that
+    missed its target, a timeout, a lost device), the motors it commanded go
+    idle (unless --no-stop-on-exit). With ``--watchdog MS`` each motor's CAN
+    timeout is armed before anything moves and restored when the command ends,
+    however it ends (after the motors were stopped).
     """
     with open_from_args(args) as bus:
         watchdog: int | None = getattr(args, "watchdog", None)
@@ -185,6 +193,13 @@ def driving(args: argparse.Namespace) -> Iterator[Bus]:
         except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM or SIGHUP
             if args.stop_on_exit:
                 stop_commanded(bus, f"terminated ({exc})" if isinstance(exc, Terminated) else "interrupted")
+            raise
+        except DrEmpowerError:  # the command failed: what it started must not go on unattended
+            if args.stop_on_exit:
+                try:
+                    stop_commanded(bus, "the command failed")
+                except DrEmpowerError as stop_error:
+                    print(clean(f"drempower: could not stop the motors: {stop_error}"), file=sys.stderr)
             raise
         finally:
             restore_watchdog(bus, previous)

@@ -415,7 +415,10 @@ def restore(
     ids = [w for w in link if w[0].address == _NODE_ID]
     if ids and ok:
         new_id = int(ids[0][2])
-        if (yield from _write_verified(core, node, ids, timeout, report, verify_at=new_id)):
+        (taken,) = yield from read_states([new_id], timeout, missing_ok=True)
+        if taken is not None:  # two motors must never end up sharing an id
+            report.failed.append((ids[0][0].name, f"not written: id {new_id} is already taken by another motor"))
+        elif (yield from _write_verified(core, node, ids, timeout, report, verify_at=new_id)):
             report.node = new_id
     elif ids:
         report.failed.append((ids[0][0].name, "not written: the bit rates were not restored"))

@@ -76,8 +76,17 @@ def stop_open_buses() -> None:
         stop()
 
 
+_stopping = threading.Event()
+
+
 def _stop_and_chain(signum: int, frame: FrameType | None) -> None:
-    stop_open_buses()
+    if _stopping.is_set():
+        return  # a repeated signal must not interrupt the closing the first one started
+    _stopping.set()
+    try:
+        stop_open_buses()
+    finally:
+        _stopping.clear()
     previous = _previous.get(signum)
     if callable(previous):
         previous(signum, frame)

@@ -10,6 +10,7 @@ rotor-side twins (:data:`OUTPUT_VIEWS`): only the rotor value is stored.
 from __future__ import annotations
 
 import json
+import math
 import os
 from pathlib import Path
 
@@ -208,6 +209,9 @@ class ParamStore:
                 continue
             if isinstance(value, bool) or not isinstance(value, (int, float)):
                 problems.append(f"{name}: {value!r} is not a number")
+                continue
+            if not math.isfinite(value):
+                problems.append(f"{name}: {value!r} is not a finite number")
                 continue
             if p.dtype is not DataType.F32 and value != int(value):
                 problems.append(f"{name}: {value!r} is not a whole number")

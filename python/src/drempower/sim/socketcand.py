@@ -178,8 +178,9 @@ class _Client:
             ok = body.split()[1:] == [self.server.channel]
             self.put(b"< ok >" if ok else b"< error could not open bus >")
         elif word == "rawmode":
-            self.raw = True
-            sim.add_listener(self.frame, host_frames=True)
+            if not self.raw:  # a repeated rawmode must not deliver every frame twice
+                self.raw = True
+                sim.add_listener(self.frame, host_frames=True)
             self.put(b"< ok >")
         elif word == "echo":
             self.put(b"< echo >")
