@@ -101,10 +101,11 @@ def _one(args: argparse.Namespace, bus: str, ids: list[int]) -> argparse.Namespa
 def run_command(args: argparse.Namespace) -> int:
     """Run the command over the robot's buses (see the module docstring)."""
     groups: dict[str, list[int]] = args.robot_groups
+    if getattr(args, "robot_whole", False):  # the command opens the robot's buses itself (record, bridge)
+        return int(args.func(args))
     if len(groups) == 1:
         ((bus, ids),) = groups.items()
-        code: int = args.func(_one(args, bus, ids))
-        return code
+        return int(args.func(_one(args, bus, ids)))
     if args.command == "stop":
         return _stop(args, groups)
     if args.command == "move":
