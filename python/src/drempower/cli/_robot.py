@@ -5,7 +5,8 @@ ids and groups them by bus. A command whose motors are all on one bus runs on
 that bus as usual. Across several buses, ``stop`` sends the emergency stop to
 every bus at once and ``move`` is one synchronised move (it reports the skew
 between the buses' start frames); other commands run once per bus, in the
-order of the file.
+order of the file. A command that sets ``robot_whole`` (``record``, ``bridge``)
+opens the robot's buses itself: it gets ``args.robot_spec`` and ``args.robot_groups``.
 """
 
 from __future__ import annotations

@@ -37,7 +37,12 @@ def register(sub: Any) -> None:
             "file (joint_states at the joint), and each bus is a remote bus under PREFIX/BUS."
         ),
     )
-    p.add_argument("--ids", type=parse_ids, metavar="IDS", help="motors served, e.g. 1,2,3 (default: --sim's ids)")
+    p.add_argument(
+        "--ids",
+        type=parse_ids,
+        metavar="IDS",
+        help="motors served, e.g. 1,2,3 (default: --sim's ids; not with --robot)",
+    )
     p.add_argument(
         "--connect",
         action="append",
