@@ -609,11 +609,11 @@ class Bridge:
                 failures.append(f"{face.name or face.prefix}: {exc}")
 
         faces = list(self.faces.values())
-        helpers = [threading.Thread(target=stop, args=(f,), name="drempower bridge estop") for f in faces[1:]]
-        for th in helpers:
+        others = [threading.Thread(target=stop, args=(f,), name="drempower bridge estop") for f in faces[1:]]
+        for th in others:
             th.start()
         stop(faces[0])
-        for th in helpers:
+        for th in others:
             th.join(5.0)
         for stream in self._streams.values():
             stream.driven = False
