@@ -59,3 +59,28 @@ def test_bad_port_is_a_clear_error() -> None:
 
     with pytest.raises(DrEmpowerError, match=r"allowed 0\.\.65535"):
         FoxgloveLive(port=70000)
+
+
+def test_a_robot_bus_gets_its_own_frame_topics_and_joint_states_at_the_joint(tmp_path: Path) -> None:
+    from drempower.robot.config import JointSpec
+
+    log = tmp_path / "robot.mcap"
+    elbow = JointSpec("elbow", "right", 1, gear=-1.0, offset=0.5)
+    with open_bus("sim", motors=[1], time_scale=20) as bus, FoxgloveLive(port=0, mcap=log) as live:
+        m = bus.motor(1)
+        m.set_mode(2)
+        m.set_angle(30.0, 30.0, 100.0, mode=1)
+        m.wait_position_done(timeout=20)
+        live.attach(bus, name="right", joints=[elbow])
+        st = m.get_state()
+        time.sleep(0.1)
+    with open(log, "rb") as fh:
+        messages = [(c.topic, json.loads(m.data)) for _, c, m in mcap_reader.make_reader(fh).iter_messages()]
+    topics = {t for t, _ in messages}
+    assert {"/can/right/tx", "/can/right/rx", "/joint_states"} <= topics
+    assert not {"/can/tx", "/can/rx"} & topics
+    (joint,) = [m for t, m in messages if t == "/joint_states"]
+    assert joint["name"] == ["elbow"]
+    assert st.angle == pytest.approx(30.0, abs=0.5)
+    assert joint["position"][0] == pytest.approx(-st.angle * 3.141592653589793 / 180 + 0.5)  # gear -1, offset 0.5
+    assert joint["effort"][0] == pytest.approx(-st.torque)

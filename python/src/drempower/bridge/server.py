@@ -1,4 +1,11 @@
-"""The bridge: one bus on Zenoh, for drempower clients (frames tunnelled) and ROS 2 (rmw_zenoh topics)."""
+"""The bridge: one bus or a whole robot on Zenoh, for drempower clients (frames tunnelled) and ROS 2 (rmw_zenoh).
+
+The drempower face is one per bus (:class:`BusFace`): a bus served alone under
+the key prefix, each bus of a robot under ``<prefix>/<bus>``. The ROS 2 face is
+one for all: ``joint_states`` holds every joint in SI units at the joint (after
+the robot file's gear and offset), and each value of a command goes to its
+joint's bus and motor through the same gear.
+"""
 
 from __future__ import annotations
 
@@ -13,17 +20,28 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..client.bus import Bus
+from ..client.commands import make_angles, make_speeds, make_torques
 from ..errors import DrEmpowerError
 from ..protocol.addresses import AXIS0_REQUESTED_STATE
 from ..protocol.ids import Frame, SysCmd
 from ..protocol.messages import FastRead, SystemCommand, WriteParam
 from ..protocol.parameters import DataType
+from ..robot.config import JOINT_NAME, JointSpec
+from ..robot.joint import Gearing
 from ..transports.base import Transport
 from . import rmw, rosmsg
 from .hub import BusHub, driven_nodes
 from .tunnel import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
 
-__all__ = ["Bridge", "BridgeOptions", "DEFAULT_RATE", "DEFAULT_COMMAND_TIMEOUT", "DEFAULT_BANDWIDTH", "NODE_NAME"]
+__all__ = [
+    "Bridge",
+    "BridgeOptions",
+    "BusFace",
+    "DEFAULT_RATE",
+    "DEFAULT_COMMAND_TIMEOUT",
+    "DEFAULT_BANDWIDTH",
+    "NODE_NAME",
+]
 
 _log = logging.getLogger("drempower.bridge")
 
@@ -35,8 +53,6 @@ DEFAULT_BANDWIDTH = 20.0
 """T-mode filter bandwidth (1/s) of position commands."""
 NODE_NAME = "drempower_bridge"
 _REQUESTED_STATE, _IDLE = AXIS0_REQUESTED_STATE, 1
-_DEG_PER_RAD = 180.0 / math.pi
-_RPM_PER_RAD_S = 60.0 / (2.0 * math.pi)
 COMMAND_TOPICS = ("position_commands", "velocity_commands", "effort_commands")
 
 
@@ -44,8 +60,9 @@ COMMAND_TOPICS = ("position_commands", "velocity_commands", "effort_commands")
 class BridgeOptions:
     """What a bridge serves and how."""
 
-    joints: Mapping[str, int]
-    """Joint name -> motor id, in the order of ``joint_states``."""
+    joints: Mapping[str, int] | Mapping[str, JointSpec]
+    """Joint name -> motor id (one bus), or -> the robot file's joint (bus, id, gear, offset), in the
+    order of ``joint_states``."""
     prefix: str = DEFAULT_PREFIX
     namespace: str = ""
     domain_id: int = 0
@@ -65,6 +82,17 @@ class BridgeOptions:
             raise ValueError(f"domain_id={self.domain_id!r}: ROS 2 domain ids are 0..232")
         if not 0 < self.bandwidth <= 300:
             raise ValueError(f"bandwidth={self.bandwidth!r}: the T-mode filter bandwidth is 0 < b <= 300 1/s")
+        taken: dict[tuple[str, int], str] = {}
+        for j in self.specs():
+            if not 1 <= j.id <= 63:
+                raise ValueError(f"joint {j.name!r}: id={j.id}: motor ids are 1..63")
+            other = taken.setdefault((j.bus, j.id), j.name)
+            if other != j.name:
+                raise ValueError(f"joint {j.name!r}: motor {j.id} is joint {other!r} already")
+
+    def specs(self) -> list[JointSpec]:
+        """The joints as robot-file joints (a bare motor id is on bus ``""``, gear 1, offset 0)."""
+        return [j if isinstance(j, JointSpec) else JointSpec(n, "", int(j)) for n, j in self.joints.items()]
 
 
 @dataclass
@@ -77,23 +105,23 @@ class _Stream:
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
-class Bridge:
-    """Serve ``transport`` on Zenoh ``session`` until :meth:`close`.
+class BusFace:
+    """One bus on Zenoh under ``prefix``: remote clients' frames, estop ahead of them, client watch.
 
-    The bridge owns neither: the caller closes the session and the transport
-    after :meth:`close`, which idles every motor the bridge or its clients set
-    moving.
+    The face owns the hub and the bridge's :class:`~drempower.client.Bus` of this
+    bus (:attr:`bus`), not the transport.
     """
 
-    def __init__(self, transport: Transport, session: Any, options: BridgeOptions) -> None:
+    def __init__(self, name: str, transport: Transport, session: Any, prefix: str, joints: Sequence[JointSpec]) -> None:
         import zenoh
 
-        self.options = o = options
+        self.name = name
         self.session = session
         self._zenoh = zenoh
-        self._names = list(o.joints)
-        self._ids = [o.joints[n] for n in self._names]
-        self._keys = keys(o.prefix)
+        self.prefix = prefix
+        self.joints = list(joints)
+        self.ids = [j.id for j in joints]
+        self._keys = keys(prefix)
         self._closed = threading.Event()
         self._clients: dict[bytes, set[int]] = {}
         self._clients_lock = threading.Lock()
@@ -114,34 +142,26 @@ class Bridge:
         self.hub = BusHub(transport, self._publish_rx, self._client_sent)
         self.bus = Bus(self.hub.local, stop_on_close=True)
         self._decls: list[Any] = []
-        self._tokens: list[Any] = []
+        self._writer = threading.Thread(target=self._writer_loop, name=f"drempower bridge writer {name}", daemon=True)
         try:
-            self._declare_drempower()
-            self._declare_ros()
+            self._declare()
         except BaseException:
             self.close()
             raise
-        self._threads = [
-            threading.Thread(target=self._state_loop, name="drempower bridge state", daemon=True),
-            threading.Thread(target=self._watchdog_loop, name="drempower bridge watchdog", daemon=True),
-            threading.Thread(target=self._writer_loop, name="drempower bridge writer", daemon=True),
-        ]
-        for t in self._threads:
-            t.start()
-
-    # ------------------------------------------------------------------ drempower face
+        self._writer.start()
 
     def _publish_rx(self, frames: Sequence[Frame], origin: bytes) -> None:
         self._rx_pub.put(encode_frames(frames), attachment=origin)
 
-    def _declare_drempower(self) -> None:
+    def _declare(self) -> None:
         k, s = self._keys, self.session
         info = json.dumps(
             {
                 "description": self.hub.transport.description,
                 "default_timeout": self.hub.transport.default_timeout,
-                "motors": self._ids,
-                "joints": self._names,
+                "motors": self.ids,
+                "joints": [j.name for j in self.joints],
+                **({"bus": self.name} if self.name else {}),
             }
         ).encode()
         self._decls.append(s.declare_queryable(k["info"], lambda q: q.reply(k["info"], info), complete=True))
@@ -192,9 +212,9 @@ class Bridge:
         origin, seq, frames = got
         with self._queue_cv:
             self._stopped_at[origin] = max(seq, self._stopped_at.get(origin, -1))
-        self._estop_now(frames, origin)
+        self.estop_now(frames, origin)
 
-    def _estop_now(self, frames: Sequence[Frame], origin: bytes) -> None:
+    def estop_now(self, frames: Sequence[Frame], origin: bytes = BRIDGE_ORIGIN) -> None:
         """Put estop frames on the bus ahead of everything queued, and drop what was queued before them.
 
         Frames queued before an estop are commands given before the stop: sent
@@ -209,6 +229,10 @@ class Bridge:
             self.hub.send(frames, origin)
         if dropped:
             _log.warning("estop: %d queued client frames dropped", dropped)
+
+    def estop(self) -> None:
+        """Emergency stop of every motor of this bus that the bridge serves, ahead of queued client frames."""
+        self.estop_now([SystemCommand(i, SysCmd.ESTOP).encode() for i in self.ids])
 
     def _writer_loop(self) -> None:
         cv = self._queue_cv
@@ -237,19 +261,134 @@ class Bridge:
     def _on_client(self, sample: Any) -> None:
         client = str(sample.key_expr).rsplit("/", 1)[1].encode()
         if sample.kind == self._zenoh.SampleKind.PUT:
-            _log.info("client %s connected", client.decode())
+            _log.info("client %s connected to %s", client.decode(), self.prefix)
             return
         with self._clients_lock:
             nodes = self._clients.pop(client, set())
-        _log.info("client %s left; idling motors %s", client.decode(), sorted(nodes) or "none")
+        _log.info("client %s left %s; idling motors %s", client.decode(), self.prefix, sorted(nodes) or "none")
         if nodes:
             self.clients_idled += 1  # counted first: whoever sees the motors idle sees the count
-            self._idle(nodes)
+            self.idle(nodes)
 
-    def _idle(self, nodes: set[int]) -> None:
+    def idle(self, nodes: set[int] | None = None) -> None:
+        """Set motors ``nodes`` (default: those served; 0: every motor) to idle."""
+        nodes = set(self.ids) if nodes is None else nodes
         targets = [0] if 0 in nodes else sorted(nodes)
         frames = [WriteParam(n, _REQUESTED_STATE, DataType.U32, _IDLE).encode() for n in targets]
         self.hub.send(frames, BRIDGE_ORIGIN)
+
+    def close(self) -> None:
+        """Stop serving; idle every motor a client set moving. Idempotent."""
+        if self._closed.is_set():
+            return
+        self._closed.set()
+        if self._writer.is_alive():
+            self._writer.join(2.0)
+        for d in self._decls:
+            try:
+                d.undeclare()
+            except Exception as exc:
+                _log.debug("undeclare: %s", exc)
+        with self._clients_lock:
+            nodes = set().union(*self._clients.values()) if self._clients else set()
+            self._clients.clear()
+        if nodes:
+            self.idle(nodes)
+        self.bus.close()
+        self.hub.close()
+        try:
+            self._rx_pub.undeclare()
+        except Exception as exc:
+            _log.debug("undeclare: %s", exc)
+
+
+class Bridge:
+    """Serve ``transport`` (one bus) or ``{bus name: transport}`` (a robot) on Zenoh ``session`` until :meth:`close`.
+
+    One bus is served under ``options.prefix``; each bus of a robot under
+    ``<prefix>/<bus>`` (``options.joints`` then maps names to the robot file's
+    joints). The bridge owns neither the session nor the transports: the caller
+    closes them after :meth:`close`, which idles every motor the bridge or its
+    clients set moving.
+    """
+
+    def __init__(self, transport: Transport | Mapping[str, Transport], session: Any, options: BridgeOptions) -> None:
+        import zenoh
+
+        self.options = o = options
+        self.session = session
+        self._zenoh = zenoh
+        specs = o.specs()
+        transports: dict[str, Transport] = dict(transport) if isinstance(transport, Mapping) else {"": transport}
+        if not transports:
+            raise ValueError("transport: no bus to serve")
+        for j in specs:
+            if j.bus not in transports:
+                where = f"bus {j.bus!r}" if j.bus else "no bus (a bare motor id)"
+                raise ValueError(f"joint {j.name!r}: {where}; the buses are {', '.join(map(repr, transports))}")
+        for name in transports:
+            if name and not JOINT_NAME.match(name):
+                raise ValueError(f"bus {name!r}: letters, digits, '_', '.' or '-', starting with a letter or '_'")
+            if not any(j.bus == name for j in specs):
+                raise ValueError(f"bus {name!r}: no joint is on it")
+        self._closed = threading.Event()
+        self.faces: dict[str, BusFace] = {}
+        """The drempower face of each bus by name (``""`` for a bus served alone)."""
+        self._joints: list[tuple[JointSpec, Gearing, BusFace]] = []
+        self._decls: list[Any] = []
+        self._tokens: list[Any] = []
+        try:
+            for name, t in transports.items():
+                prefix = o.prefix if not name else f"{o.prefix.strip('/')}/{name}"
+                self.faces[name] = BusFace(name, t, session, prefix, [j for j in specs if j.bus == name])
+            self._joints = [(j, Gearing(j), self.faces[j.bus]) for j in specs]
+            self._names = [j.name for j in specs]
+            self._declare_ros()
+        except BaseException:
+            self.close()
+            raise
+        self._threads = [
+            threading.Thread(target=self._state_loop, name="drempower bridge state", daemon=True),
+            threading.Thread(target=self._watchdog_loop, name="drempower bridge watchdog", daemon=True),
+        ]
+        for th in self._threads:
+            th.start()
+
+    # ------------------------------------------------------------------ one bus (its face's parts)
+
+    @property
+    def _face(self) -> BusFace:
+        return next(iter(self.faces.values()))
+
+    @property
+    def hub(self) -> BusHub:
+        """The hub of the first (or only) bus."""
+        return self._face.hub
+
+    @property
+    def bus(self) -> Bus:
+        """The bridge's own client of the first (or only) bus."""
+        return self._face.bus
+
+    @property
+    def clients_idled(self) -> int:
+        """Remote clients that went away while driving motors (every bus)."""
+        return sum(f.clients_idled for f in self.faces.values())
+
+    @property
+    def dropped_by_estop(self) -> int:
+        """Client frames dropped because an estop overtook them (every bus)."""
+        return sum(f.dropped_by_estop for f in self.faces.values())
+
+    def _on_tx(self, sample: Any) -> None:
+        self._face._on_tx(sample)
+
+    def _on_estop(self, sample: Any) -> None:
+        self._face._on_estop(sample)
+
+    @property
+    def _write_lock(self) -> threading.Lock:
+        return self._face._write_lock
 
     # ------------------------------------------------------------------ ROS 2 face
 
@@ -293,6 +432,14 @@ class Bridge:
             s.liveliness().declare_subscriber(f"{rmw.ADMIN_SPACE}/{o.domain_id}/**", self._on_ros_entity, history=True)
         )
 
+    def _idle_all(self) -> None:
+        """Idle every motor served, bus after bus (a bus that fails does not keep the others from idling)."""
+        for face in self.faces.values():
+            try:
+                face.idle()
+            except Exception as exc:
+                _log.error("idling the motors of %s failed: %s", face.prefix, exc)
+
     def _on_ros_entity(self, sample: Any) -> None:
         """A ROS 2 publisher of a command topic that goes away idles the motors its topic drove at once."""
         if sample.kind != self._zenoh.SampleKind.DELETE:
@@ -307,36 +454,50 @@ class Bridge:
         with stream.lock:
             if stream.driven:
                 stream.driven = False
-                _log.info("%s: its publisher %s left; idling %s", topic, parts[2], self._ids)
-                self._idle(set(self._ids))
+                _log.info("%s: its publisher %s left; idling %s", topic, parts[2], ", ".join(self._names))
+                self._idle_all()
 
-    def _joint_state(self, states: Sequence[Any]) -> bytes:
+    def _joint_state(self, states: Mapping[str, Any]) -> bytes:
         store = rosmsg.typestore()
         import numpy as np
 
         t = store.types
         now = time.time_ns()
         nan = math.nan
+        at_joint = [None if states.get(j.name) is None else g.joint_state(states[j.name]) for j, g, _ in self._joints]
         msg = t[rosmsg.JOINT_STATE](
             header=t["std_msgs/msg/Header"](
                 stamp=t["builtin_interfaces/msg/Time"](sec=now // 1_000_000_000, nanosec=now % 1_000_000_000),
                 frame_id="",
             ),
             name=list(self._names),
-            position=np.array([math.radians(s.angle) if s else nan for s in states], dtype=np.float64),
-            velocity=np.array([s.speed / _RPM_PER_RAD_S if s else nan for s in states], dtype=np.float64),
-            effort=np.array([s.torque if s else nan for s in states], dtype=np.float64),
+            position=np.array([s.position if s else nan for s in at_joint], dtype=np.float64),
+            velocity=np.array([s.velocity if s else nan for s in at_joint], dtype=np.float64),
+            effort=np.array([s.torque if s else nan for s in at_joint], dtype=np.float64),
         )
         return rosmsg.encode(msg, rosmsg.JOINT_STATE)
 
+    def _read_states(self) -> dict[str, Any]:
+        """Every joint's state (wire units; None when its motor did not answer), bus after bus."""
+        out: dict[str, Any] = {}
+        for face in self.faces.values():
+            try:
+                got = face.bus.request([FastRead(i) for i in face.ids], missing_ok=True)
+            except Exception as exc:
+                if self._closed.is_set():
+                    raise
+                _log.warning("state stream of %s: %s", face.prefix, exc)
+                continue
+            for j, st in zip(face.joints, got, strict=True):
+                out[j.name] = st
+        return out
+
     def _state_loop(self) -> None:
         period = 1.0 / self.options.rate
-        reads = [FastRead(i) for i in self._ids]
         next_at = time.monotonic()
         while not self._closed.is_set():
             try:
-                states = self.bus.request(reads, missing_ok=True)
-                payload = self._joint_state(states)
+                payload = self._joint_state(self._read_states())
                 self._js_seq += 1
                 att = rmw.Attachment(self._js_seq, time.time_ns(), self._gid).encode()
                 self._js_pub.put(payload, attachment=att)
@@ -352,6 +513,34 @@ class Bridge:
             if self._closed.wait(delay):
                 return
 
+    def _commands(self, topic: str, data: Sequence[float]) -> list[tuple[BusFace, Any]]:
+        """Each bus's presets and start for ``data`` (one value per joint, SI at the joint), all checked first."""
+        groups: dict[str, tuple[list[int], list[float]]] = {}
+        for (j, g, _), x in zip(self._joints, data, strict=True):
+            if topic == "position_commands":
+                v = g.motor_angle(x)
+            elif topic == "velocity_commands":
+                v = g.motor_speed(x)
+            else:
+                v = g.motor_torque(x)
+            ids, values = groups.setdefault(j.bus, ([], []))
+            ids.append(j.id)
+            values.append(v)
+        out: list[tuple[BusFace, Any]] = []
+        for bus, (ids, values) in groups.items():
+            try:
+                if topic == "position_commands":
+                    batch = make_angles(ids, values, 0.0, self.options.bandwidth, 0)
+                elif topic == "velocity_commands":
+                    batch = make_speeds(ids, values)
+                else:
+                    batch = make_torques(ids, values)
+            except (DrEmpowerError, ValueError) as exc:
+                names = [j.name for j, _, f in self._joints if f.name == bus]
+                raise ValueError(f"joints {', '.join(names)}: {exc}") from exc
+            out.append((self.faces[bus], batch))
+        return out
+
     def _on_command(self, topic: str, sample: Any) -> None:
         try:
             msg = rosmsg.decode(sample.payload.to_bytes(), rosmsg.FLOAT64_MULTI_ARRAY)
@@ -359,9 +548,9 @@ class Bridge:
             _log.warning("%s: not a std_msgs/msg/Float64MultiArray (%s)", topic, exc)
             return
         data = [float(x) for x in msg.data]
-        if len(data) != len(self._ids):
+        if len(data) != len(self._joints):
             _log.warning(
-                "%s: %d values, the joints are %d (%s)", topic, len(data), len(self._ids), ", ".join(self._names)
+                "%s: %d values, the joints are %d (%s)", topic, len(data), len(self._joints), ", ".join(self._names)
             )
             return
         stream = self._streams[topic]
@@ -369,13 +558,9 @@ class Bridge:
             if self._closed.is_set():
                 return
             try:
-                if topic == "position_commands":
-                    degs = [x * _DEG_PER_RAD for x in data]
-                    self.bus.set_angles(self._ids, degs, 0.0, self.options.bandwidth, 0)
-                elif topic == "velocity_commands":
-                    self.bus.set_speeds(self._ids, [x * _RPM_PER_RAD_S for x in data])
-                else:
-                    self.bus.set_torques(self._ids, data)
+                batches = self._commands(topic, data)  # nothing is sent on any bus if a value is invalid
+                for face, (presets, start) in batches:
+                    face.bus.core.send_batch(presets, start)
             except (DrEmpowerError, ValueError) as exc:
                 _log.warning("%s refused: %s", topic, exc)
                 return
@@ -392,8 +577,8 @@ class Bridge:
                     with stream.lock:
                         if stream.driven and time.monotonic() - stream.last > timeout:
                             stream.driven = False
-                            _log.info("%s silent for %.3f s: idling %s", topic, timeout, self._ids)
-                            self._idle(set(self._ids))
+                            _log.info("%s silent for %.3f s: idling %s", topic, timeout, ", ".join(self._names))
+                            self._idle_all()
 
     def _serve(self, query: Any, handler: Any) -> None:
         att = query.attachment.to_bytes() if query.attachment is not None else b""
@@ -409,51 +594,76 @@ class Bridge:
         reply = rmw.Attachment(req.sequence_number, time.time_ns(), req.gid).encode()
         query.reply(query.key_expr, payload, attachment=reply)
 
-    def _srv_estop(self) -> tuple[bool, str]:
-        frames = [SystemCommand(i, SysCmd.ESTOP).encode() for i in self._ids]
-        try:
-            self._estop_now(frames, BRIDGE_ORIGIN)
-        except Exception as exc:
-            return False, f"estop failed: {exc}"
+    def estop(self) -> list[str]:
+        """Emergency stop of every motor served on every bus at once; returns the failures (``"bus: error"``).
+
+        The first bus is stopped from the calling thread, every other one from
+        a thread of its own, so a bus whose device stopped taking data does not
+        delay the others' stop.
+        """
+        failures: list[str] = []
+
+        def stop(face: BusFace) -> None:
+            try:
+                face.estop()
+            except Exception as exc:
+                failures.append(f"{face.name or face.prefix}: {exc}")
+
+        faces = list(self.faces.values())
+        others = [threading.Thread(target=stop, args=(f,), name="drempower bridge estop") for f in faces[1:]]
+        for th in others:
+            th.start()
+        stop(faces[0])
+        for th in others:
+            th.join(5.0)
         for stream in self._streams.values():
             stream.driven = False
-        return True, "estop sent to motors " + ", ".join(map(str, self._ids))
+        return failures
+
+    def _srv_estop(self) -> tuple[bool, str]:
+        failures = self.estop()
+        if failures:
+            return False, "estop failed: " + "; ".join(failures)
+        return True, "estop sent to " + self._served()
+
+    def _served(self) -> str:
+        if len(self.faces) == 1 and "" in self.faces:
+            return "motors " + ", ".join(map(str, self._face.ids))
+        return "joints " + ", ".join(self._names)
 
     def _srv_clear_errors(self) -> tuple[bool, str]:
-        try:
-            for i in self._ids:
-                self.bus.motor(i).clear_error()
-        except DrEmpowerError as exc:
-            return False, f"clear_errors failed: {exc}"
-        return True, "errors cleared on motors " + ", ".join(map(str, self._ids))
+        failures = []
+        for face in self.faces.values():
+            try:
+                for i in face.ids:
+                    face.bus.motor(i).clear_error()
+            except DrEmpowerError as exc:
+                failures.append(f"{face.name or face.prefix}: {exc}")
+        if failures:
+            return False, "clear_errors failed: " + "; ".join(failures)
+        return True, "errors cleared on " + self._served()
 
     # ------------------------------------------------------------------ lifetime
 
     @property
     def failure(self) -> BaseException | None:
-        """Why the bus stopped, if it did (the bridge keeps nothing useful running then)."""
-        return self.hub.failure
+        """Why a bus stopped, if one did (the bridge keeps nothing useful running then)."""
+        for face in self.faces.values():
+            if face.hub.failure is not None:
+                return face.hub.failure
+        return None
 
     def close(self) -> None:
         """Stop serving; idle every motor set moving by the bridge or a client. Idempotent."""
         if self._closed.is_set():
             return
         self._closed.set()
-        for t in getattr(self, "_threads", []):
-            t.join(2.0)
+        for th in getattr(self, "_threads", []):
+            th.join(2.0)
         for d in self._decls + self._tokens:
             try:
                 d.undeclare()
             except Exception as exc:
                 _log.debug("undeclare: %s", exc)
-        with self._clients_lock:
-            nodes = set().union(*self._clients.values()) if self._clients else set()
-            self._clients.clear()
-        if nodes:
-            self._idle(nodes)
-        self.bus.close()
-        self.hub.close()
-        try:
-            self._rx_pub.undeclare()
-        except Exception as exc:
-            _log.debug("undeclare: %s", exc)
+        for face in self.faces.values():
+            face.close()

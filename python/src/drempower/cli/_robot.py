@@ -5,7 +5,8 @@ ids and groups them by bus. A command whose motors are all on one bus runs on
 that bus as usual. Across several buses, ``stop`` sends the emergency stop to
 every bus at once and ``move`` is one synchronised move (it reports the skew
 between the buses' start frames); other commands run once per bus, in the
-order of the file.
+order of the file. A command that sets ``robot_whole`` (``record``, ``bridge``)
+opens the robot's buses itself: it gets ``args.robot_spec`` and ``args.robot_groups``.
 """
 
 from __future__ import annotations
@@ -101,10 +102,11 @@ def _one(args: argparse.Namespace, bus: str, ids: list[int]) -> argparse.Namespa
 def run_command(args: argparse.Namespace) -> int:
     """Run the command over the robot's buses (see the module docstring)."""
     groups: dict[str, list[int]] = args.robot_groups
+    if getattr(args, "robot_whole", False):  # the command opens the robot's buses itself (record, bridge)
+        return int(args.func(args))
     if len(groups) == 1:
         ((bus, ids),) = groups.items()
-        code: int = args.func(_one(args, bus, ids))
-        return code
+        return int(args.func(_one(args, bus, ids)))
     if args.command == "stop":
         return _stop(args, groups)
     if args.command == "move":

@@ -7,10 +7,11 @@ import os
 import signal
 import sys
 import threading
+from contextlib import ExitStack
 from typing import Any
 
 from ..bridge.zconfig import check_endpoint
-from ._connect import add_connection_args, connection_kwargs, parse_ids, positive
+from ._connect import add_connection_args, connection_kwargs, parse_ids, positive, sim_time_scale
 from ._output import add_json_arg, json_line
 from ._usage import UsageError
 
@@ -31,10 +32,17 @@ def register(sub: Any) -> None:
             "set moving. ROS 2 nodes using rmw_zenoh_cpp see /joint_states (sensor_msgs/JointState), "
             "/position_commands, /velocity_commands, /effort_commands (std_msgs/Float64MultiArray) and the "
             "std_srvs/Trigger services /estop and /clear_errors; drempower clients open it with "
-            "open_bus('zenoh', PREFIX, connect=ENDPOINT) or `-i zenoh -c PREFIX -o connect=ENDPOINT`."
+            "open_bus('zenoh', PREFIX, connect=ENDPOINT) or `-i zenoh -c PREFIX -o connect=ENDPOINT`. "
+            "With --robot FILE it serves every bus of the robot: the joint names, gears and offsets come from the "
+            "file (joint_states at the joint), and each bus is a remote bus under PREFIX/BUS."
         ),
     )
-    p.add_argument("--ids", type=parse_ids, metavar="IDS", help="motors served, e.g. 1,2,3 (default: --sim's ids)")
+    p.add_argument(
+        "--ids",
+        type=parse_ids,
+        metavar="IDS",
+        help="motors served, e.g. 1,2,3 (default: --sim's ids; not with --robot)",
+    )
     p.add_argument(
         "--connect",
         action="append",
@@ -70,7 +78,7 @@ def register(sub: Any) -> None:
     )
     add_json_arg(p)
     add_connection_args(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, robot_whole=True)
 
 
 def _domain_id(args: argparse.Namespace) -> int:
@@ -84,6 +92,32 @@ def _domain_id(args: argparse.Namespace) -> int:
     return int(env)
 
 
+_BUS_ONLY = ("timeout", "retries", "stop_on_close", "start")
+"""Robot-file bus options of the client Bus, not of the transport the bridge opens."""
+
+
+def _bus_kwargs(args: argparse.Namespace) -> dict[str, tuple[dict[str, Any], str]]:
+    """The ``open_transport`` arguments of each bus served and what it is (``""``: the one bus of the options)."""
+    spec = getattr(args, "robot_spec", None)
+    if spec is None:
+        return {"": connection_kwargs(args)}
+    out: dict[str, tuple[dict[str, Any], str]] = {}
+    for name in spec.buses:
+        kw = {k: v for k, v in spec.open_options(name).items() if k not in _BUS_ONLY}
+        scale = sim_time_scale(args)
+        if kw["interface"] == "sim" and scale is not None:
+            kw["time_scale"] = scale
+        out[name] = (kw, f"bus {name} ({kw['interface']})")
+    return out
+
+
+def _prefixes(bridge: Any) -> str:
+    faces = list(bridge.faces.values())
+    if len(faces) == 1 and not faces[0].name:
+        return f"prefix {faces[0].prefix}"
+    return "prefixes " + ", ".join(f"{f.prefix} (bus {f.name})" for f in faces)
+
+
 def run(args: argparse.Namespace) -> int:
     try:
         from ..bridge.server import Bridge, BridgeOptions
@@ -93,15 +127,23 @@ def run(args: argparse.Namespace) -> int:
         return 1
     from ..transports import open_transport
 
-    ids = args.ids or args.sim
-    if not ids:
-        raise UsageError("--ids: which motors to serve, e.g. --ids 1,2,3")
-    if args.sim and args.ids and not set(args.ids) <= set(args.sim):
-        missing = ",".join(str(i) for i in args.ids if i not in args.sim)
-        raise UsageError(f"--ids: motors {missing} are not simulated (--sim {','.join(map(str, args.sim))})")
+    spec = getattr(args, "robot_spec", None)
+    joints: dict[str, Any]
+    if spec is not None:
+        if args.ids:
+            raise UsageError("--ids: not with --robot (the bridge serves every joint of the robot file)")
+        joints = dict(spec.joints)
+    else:
+        ids = args.ids or args.sim
+        if not ids:
+            raise UsageError("--ids: which motors to serve, e.g. --ids 1,2,3")
+        if args.sim and args.ids and not set(args.ids) <= set(args.sim):
+            missing = ",".join(str(i) for i in args.ids if i not in args.sim)
+            raise UsageError(f"--ids: motors {missing} are not simulated (--sim {','.join(map(str, args.sim))})")
+        joints = {f"motor_{i}": i for i in ids}
     try:
         options = BridgeOptions(
-            {f"motor_{i}": i for i in ids},
+            joints,
             prefix=args.prefix,
             namespace=args.namespace,
             domain_id=_domain_id(args),
@@ -111,46 +153,52 @@ def run(args: argparse.Namespace) -> int:
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
-    kw, how = connection_kwargs(args)
+    buses = _bus_kwargs(args)
     stop = threading.Event()
     status = 0
     handled = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
     previous = {s: signal.signal(s, lambda *_: stop.set()) for s in handled}
     try:
-        transport = open_transport(**kw)
-        try:
+        with ExitStack() as stack:
+            transports: dict[str, Any] = {}
+            for name, (kw, _) in buses.items():
+                transports[name] = open_transport(**kw)
+                stack.callback(transports[name].close)
             session = open_session(args.connect, args.listen, scout=args.scout)
+            stack.callback(session.close)
+            how = "; ".join(h for _, h in buses.values())
+            bridge = Bridge(transports if spec is not None else transports[""], session, options)
             try:
-                bridge = Bridge(transport, session, options)
-                try:
-                    if args.json:
-                        record = {
-                            "bus": how,
-                            "joints": dict(options.joints),
-                            "prefix": options.prefix,
-                            "node": f"{bridge.namespace.rstrip('/')}/{options.node_name}",
-                            "joint_states": bridge.joint_states_key,
-                            **bridge.command_keys,
-                            **bridge.service_keys,
-                        }
-                        print(json_line(record), flush=True)
-                    print(
-                        f"drempower bridge: {how}; joints {', '.join(options.joints)}; "
-                        f"joint_states on {bridge.joint_states_key}; drempower prefix {options.prefix}",
-                        file=sys.stderr,
-                        flush=True,
-                    )
-                    while not stop.wait(0.2):
-                        if bridge.failure is not None:
-                            print(f"drempower bridge: the bus stopped: {bridge.failure}", file=sys.stderr)
-                            status = 1
-                            break
-                finally:
-                    bridge.close()
+                if args.json:
+                    record = {
+                        "bus": how,
+                        "joints": {
+                            n: j
+                            if isinstance(j, int)
+                            else {"bus": j.bus, "id": j.id, "gear": j.gear, "offset": j.offset}
+                            for n, j in options.joints.items()
+                        },
+                        "prefix": options.prefix,
+                        **({"buses": {f.name: f.prefix for f in bridge.faces.values()}} if spec else {}),
+                        "node": f"{bridge.namespace.rstrip('/')}/{options.node_name}",
+                        "joint_states": bridge.joint_states_key,
+                        **bridge.command_keys,
+                        **bridge.service_keys,
+                    }
+                    print(json_line(record), flush=True)
+                print(
+                    f"drempower bridge: {how}; joints {', '.join(options.joints)}; "
+                    f"joint_states on {bridge.joint_states_key}; drempower {_prefixes(bridge)}",
+                    file=sys.stderr,
+                    flush=True,
+                )
+                while not stop.wait(0.2):
+                    if bridge.failure is not None:
+                        print(f"drempower bridge: the bus stopped: {bridge.failure}", file=sys.stderr)
+                        status = 1
+                        break
             finally:
-                session.close()
-        finally:
-            transport.close()
+                bridge.close()
     finally:
         for s, h in previous.items():
             signal.signal(s, h)

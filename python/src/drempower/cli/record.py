@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import copy
 import math
 import sys
 import time
@@ -41,7 +42,9 @@ def register(sub: Any) -> None:
         description=(
             "Record every frame this command sends and receives to an MCAP file (ROS 2 profile): "
             "/can/tx and /can/rx (can_msgs/msg/Frame), /joint_states (sensor_msgs/msg/JointState, rad, rad/s, Nm), "
-            "/drempower/parameters and /drempower/errors. Foxglove, PlotJuggler, ros2 bag and rosbags open it; "
+            "/drempower/parameters and /drempower/errors. With --robot FILE: every bus of the robot (or those of the "
+            "joints named), raw frames on /can/<bus>/tx and /can/<bus>/rx, states under the joint names at the joint "
+            "(after gear and offset). Foxglove, PlotJuggler, ros2 bag and rosbags open it; "
             "drempower decode reads it back. Without --heartbeat-ms or --poll it only listens. Ctrl-C ends it. "
             "Here -o is the output file: python-can options are given as --can-option."
         ),
@@ -67,7 +70,25 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--names", type=_names, default={}, metavar="ID=NAME,...", help="joint names, e.g. 1=hip,2=knee")
     add_json_arg(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, robot_whole=True)
+
+
+def _buses(args: argparse.Namespace) -> dict[str | None, list[int]]:
+    """The buses to record and the motors to watch on each: None is the bus of the connection options."""
+    groups: dict[str, list[int]] | None = getattr(args, "robot_groups", None)
+    if groups is None:
+        return {None: list(args.ids)}
+    if args.names:
+        raise UsageError("--names: not with --robot (the joint names come from the robot file)")
+    return {name: ids for name, ids in groups.items()}
+
+
+def _open(stack: ExitStack, args: argparse.Namespace, bus: str | None) -> Any:
+    if bus is None:
+        return stack.enter_context(open_from_args(args))
+    part = copy.copy(args)
+    part.robot_bus = bus
+    return stack.enter_context(open_from_args(part))
 
 
 def run(args: argparse.Namespace) -> int:
@@ -75,11 +96,13 @@ def run(args: argparse.Namespace) -> int:
 
     if not args.output.lower().endswith(".mcap"):
         raise UsageError(f"--output {args.output}: the file name must end in .mcap")
-    if (args.heartbeat_ms or args.poll) and not args.ids:
+    buses = _buses(args)
+    ids = [i for watched in buses.values() for i in watched]
+    if (args.heartbeat_ms or args.poll) and not ids:
         raise UsageError("--heartbeat-ms and --poll need the motor IDS")
     if args.heartbeat_ms is not None and not 1 <= args.heartbeat_ms <= 1000:
         raise UsageError(f"--heartbeat-ms {args.heartbeat_ms} is out of range: allowed 1..1000")
-    ids: list[int] = args.ids
+    spec = getattr(args, "robot_spec", None)
     started = time.monotonic()
     with ExitStack() as stack:
         rec = stack.enter_context(Recorder(args.output, names=args.names))
@@ -92,33 +115,40 @@ def run(args: argparse.Namespace) -> int:
             except ImportError as exc:
                 raise DrEmpowerError(str(exc)) from None
             print(f"drempower: Foxglove: open {live.url}", file=sys.stderr, flush=True)
-        bus = stack.enter_context(open_from_args(args))
-        rec.attach(bus)
-        if live is not None:
-            live.attach(bus)
-        beating: list[int] = []
+        opened: list[tuple[str | None, Any, list[int]]] = []
+        for name, watched in buses.items():
+            bus = _open(stack, args, name)
+            opened.append((name, bus, watched))
+            joints = spec.joints_on(name) if spec is not None and name is not None else []
+            rec.attach(bus, name=name, joints=joints)
+            if live is not None:
+                live.attach(bus, name=name, joints=joints)
+        beating: list[tuple[str | None, Any, int]] = []
         try:
             if args.heartbeat_ms:
-                for i in ids:
-                    bus.motor(i).write_property(_HEARTBEAT, args.heartbeat_ms)
-                    beating.append(i)
+                for name, bus, watched in opened:
+                    for i in watched:
+                        bus.motor(i).write_property(_HEARTBEAT, args.heartbeat_ms)
+                        beating.append((name, bus, i))
             deadline = None if args.duration is None else started + args.duration
             k = 0
             while deadline is None or time.monotonic() < deadline:
                 left = 0.25 if deadline is None else min(0.25, deadline - time.monotonic())
                 if args.poll:
-                    bus.request([FastRead(i) for i in ids], missing_ok=True)
+                    for _, bus, watched in opened:
+                        bus.request([FastRead(i) for i in watched], missing_ok=True)
                     k = max(k + 1, math.ceil((time.monotonic() - started) * args.poll))
                     left = min(left, started + k / args.poll - time.monotonic())
                 time.sleep(max(0.0, left))
         except KeyboardInterrupt:
             pass
         finally:
-            for i in beating:  # stop what this command started
+            for name, bus, i in beating:  # stop what this command started
                 try:
                     bus.motor(i).write_property(_HEARTBEAT, 0)
                 except DrEmpowerError as exc:
-                    print(f"drempower: motor {i}: could not stop its heartbeat: {exc}", file=sys.stderr)
+                    where = "" if name is None else f"bus {name}: "
+                    print(f"drempower: {where}motor {i}: could not stop its heartbeat: {exc}", file=sys.stderr)
             time.sleep(0.05)  # the last frames in flight
             rec.detach()
             if live is not None:
@@ -127,7 +157,9 @@ def run(args: argparse.Namespace) -> int:
     took = max(time.monotonic() - started, 1e-9)
     rate = f", {s.states / took / len(ids):.0f} states/s per motor" if ids else ""
     if args.json:
-        summary = {"output": args.output, "seconds": round(took, 3), **s.as_dict()}
+        summary: dict[str, Any] = {"output": args.output, "seconds": round(took, 3), **s.as_dict()}
+        if spec is not None:
+            summary["buses"] = list(buses)
         if ids:
             summary["states_per_s_per_motor"] = round(s.states / took / len(ids), 1)
         sys.stdout.write(json_line(summary) + "\n")

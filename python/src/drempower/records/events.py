@@ -1,6 +1,7 @@
 """What one frame means for a recording: the messages it becomes, topic by topic (pure, no I/O).
 
-A frame becomes its raw copy on ``/can/tx`` or ``/can/rx``; a received state
+A frame becomes its raw copy on ``/can/tx`` or ``/can/rx`` (a robot's bus:
+``/can/<bus>/tx``, ``/can/<bus>/rx``); a received state
 frame also a ``/joint_states`` message, a parameter reply a
 ``/drempower/parameters`` message, and a change of the E bit, an error word with
 flags set or a frame that is no DrEmpower reply a ``/drempower/errors`` message.
@@ -31,12 +32,24 @@ Event = tuple[str, dict[str, Any]]
 class FrameEvents:
     """Turns frames into ``(topic, message)`` pairs; remembers each motor's E bit to report changes.
 
-    ``names`` maps motor ids to joint names (default ``motor<id>``); ``channel`` is the headers' ``frame_id``.
+    ``names`` maps motor ids to joint names (default ``motor<id>``); ``channel`` is the headers' ``frame_id``;
+    ``topic_prefix`` the raw frames' topics' (``<prefix>/tx``, ``<prefix>/rx``). ``gears`` maps motor ids
+    to a robot joint's ``(gear, offset)``: its states are then at the joint (rad / gear + offset,
+    rad/s / gear, Nm x gear, as :class:`drempower.robot.Gearing`); other motors' at the motor.
     """
 
-    def __init__(self, names: Mapping[int, str] | None = None, channel: str = "can") -> None:
+    def __init__(
+        self,
+        names: Mapping[int, str] | None = None,
+        channel: str = "can",
+        *,
+        topic_prefix: str = "/can",
+        gears: Mapping[int, tuple[float, float]] | None = None,
+    ) -> None:
         self.names = dict(names or {})
         self.channel = channel
+        self.gears = dict(gears or {})
+        self._tx, self._rx = f"{topic_prefix}/tx", f"{topic_prefix}/rx"
         self._error_bit: dict[int, bool] = {}
 
     def __call__(self, ns: int, frame: Frame, tx: bool) -> list[Event]:
@@ -52,7 +65,7 @@ class FrameEvents:
             "dlc": len(data),
             "data": list(bytes(data).ljust(8, b"\0")[:8]),
         }
-        out: list[Event] = [("/can/tx" if tx else "/can/rx", raw)]
+        out: list[Event] = [(self._tx if tx else self._rx, raw)]
         if tx:
             return out
         node = arb >> 5
@@ -65,15 +78,16 @@ class FrameEvents:
             out.append(self._error(header, node, "frame", 0, str(exc)))
             return out
         if isinstance(reply, State):
+            gear, offset = self.gears.get(node, (1.0, 0.0))
             out.append(
                 (
                     "/joint_states",
                     {
                         "header": header,
                         "name": [self.names.get(node) or f"motor{node}"],
-                        "position": [reply.position * _DEG],
-                        "velocity": [reply.speed * _RPM],
-                        "effort": [reply.torque],
+                        "position": [reply.position * _DEG / gear + offset],
+                        "velocity": [reply.speed * _RPM / gear],
+                        "effort": [reply.torque * gear],
                     },
                 )
             )

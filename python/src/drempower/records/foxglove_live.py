@@ -86,6 +86,7 @@ class FoxgloveLive(FrameSink):
             raise ImportError("foxglove-sdk is not installed: pip install 'drempower[foxglove]'") from None
         if not isinstance(port, int) or not 0 <= port <= 65535:
             raise DrEmpowerError(f"port={port!r} is out of range: allowed 0..65535 (0: a free port)")
+        self._foxglove = foxglove
         self._context = foxglove.Context()
         self._channels = {
             t: foxglove.Channel(t, schema=s, context=self._context, metadata={"source": "drempower"})
@@ -117,7 +118,14 @@ class FoxgloveLive(FrameSink):
         return f"ws://{self.host}:{self.port}"
 
     def _emit(self, topic: str, ns: int, message: dict[str, Any]) -> None:
-        self._channels[topic].log(message, log_time=ns)
+        channel = self._channels.get(topic)
+        if channel is None:  # a robot bus's raw frames: /can/<bus>/tx, /can/<bus>/rx
+            schema = JSON_SCHEMAS["/can/rx"]
+            channel = self._foxglove.Channel(
+                topic, schema=schema, context=self._context, metadata={"source": "drempower"}
+            )
+            self._channels[topic] = channel
+        channel.log(message, log_time=ns)
 
     def _finish(self) -> None:
         try:

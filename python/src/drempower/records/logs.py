@@ -17,6 +17,7 @@ from ..protocol.describe import CaptureDecoder, Direction
 from ..protocol.ids import Frame
 from ..protocol.messages import Message
 from . import missing_extra
+from .ros2_types import is_frame_topic
 
 __all__ = ["LogRecord", "Decoded", "read_log", "decode_log", "PYTHON_CAN_FORMATS", "is_binary_log", "direction_of"]
 
@@ -58,12 +59,16 @@ def _mcap(path: Path) -> Iterator[LogRecord]:
         raise missing_extra("mcap-ros2-support") from None
     with open(path, "rb") as fh:
         reader = make_reader(fh, decoder_factories=[DecoderFactory()])
-        for _, channel, message, f in reader.iter_decoded_messages(topics=["/can/tx", "/can/rx"]):
+        summary = reader.get_summary()
+        wanted = None if summary is None else [c.topic for c in summary.channels.values() if is_frame_topic(c.topic)]
+        for _, channel, message, f in reader.iter_decoded_messages(topics=wanted):
+            if not is_frame_topic(channel.topic):
+                continue
             data = bytes(f.data)[: f.dlc]
             yield LogRecord(
                 message.log_time / 1e9,
                 Frame(f.id, data, bool(f.is_extended), bool(f.is_rtr)),
-                channel.topic == "/can/tx",
+                channel.topic.endswith("/tx"),
                 f.header.frame_id or None,
             )
 

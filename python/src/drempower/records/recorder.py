@@ -13,7 +13,7 @@ from typing import Any
 
 from ..errors import DrEmpowerError
 from . import missing_extra
-from .ros2_types import DEFINITIONS, TOPICS
+from .ros2_types import DEFINITIONS, topic_type
 from .sink import FrameSink, SinkStats
 
 __all__ = ["Recorder", "RecorderStats"]
@@ -30,6 +30,9 @@ class Recorder(FrameSink):
     recording never slows the bus down; :meth:`close` writes what is queued and
     finishes the file. ``names`` maps motor ids to joint names (default
     ``motor<id>``); ``channel`` names the bus in the headers' ``frame_id``.
+    ``attach(bus, name=..., joints=...)`` records one bus of a robot: its raw
+    frames on ``/can/<name>/tx`` and ``/can/<name>/rx``, its states under the joint
+    names, at the joint (see :meth:`FrameSink.attach`).
     """
 
     what = "recorder"
@@ -61,7 +64,7 @@ class Recorder(FrameSink):
         super().__init__(names, channel)
 
     def _emit(self, topic: str, ns: int, message: dict[str, Any]) -> None:
-        self._writer.write_message(topic, self._schemas[TOPICS[topic]], message, log_time=ns, publish_time=ns)
+        self._writer.write_message(topic, self._schemas[topic_type(topic)], message, log_time=ns, publish_time=ns)
 
     def _finish(self) -> None:
         try:

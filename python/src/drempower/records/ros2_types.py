@@ -8,7 +8,18 @@ travels in the file, so any ROS 2 MCAP reader decodes them.
 
 from __future__ import annotations
 
-__all__ = ["FRAME", "JOINT_STATE", "PARAMETER_VALUE", "MOTOR_ERROR", "DEFINITIONS", "TOPICS"]
+__all__ = [
+    "frame_topic",
+    "topic_type",
+    "counter_of",
+    "is_frame_topic",
+    "FRAME",
+    "JOINT_STATE",
+    "PARAMETER_VALUE",
+    "MOTOR_ERROR",
+    "DEFINITIONS",
+    "TOPICS",
+]
 
 _SEP = "=" * 80
 _HEADER = (
@@ -56,3 +67,27 @@ TOPICS: dict[str, str] = {
     "/drempower/errors": MOTOR_ERROR,
 }
 """Topic -> message type: frames the host sent, frames it received, states, parameter replies, errors."""
+
+
+def frame_topic(tx: bool, bus: str | None = None) -> str:
+    """The raw-frame topic: ``/can/tx``/``/can/rx``, or ``/can/<bus>/tx``/``/can/<bus>/rx`` for a robot's bus."""
+    return f"/can{'' if bus is None else '/' + bus}/{'tx' if tx else 'rx'}"
+
+
+def is_frame_topic(topic: str) -> bool:
+    """True for ``/can/tx``, ``/can/rx`` and the per-bus ``/can/<bus>/tx``, ``/can/<bus>/rx``."""
+    parts = topic.split("/")
+    return len(parts) in (3, 4) and parts[1] == "can" and parts[-1] in ("tx", "rx") and all(parts[2:])
+
+
+def topic_type(topic: str) -> str:
+    """The message type of ``topic`` (raw-frame topics of every bus included); KeyError for others."""
+    return FRAME if is_frame_topic(topic) else TOPICS[topic]
+
+
+_COUNTERS = {JOINT_STATE: "states", PARAMETER_VALUE: "parameters", MOTOR_ERROR: "errors", FRAME: "frames_written"}
+
+
+def counter_of(topic: str) -> str:
+    """Which :class:`~drempower.records.sink.SinkStats` counter a message of ``topic`` adds to."""
+    return _COUNTERS[topic_type(topic)]

@@ -6,24 +6,22 @@ import queue
 import threading
 import time
 from abc import ABC, abstractmethod
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
+from functools import partial
 from types import TracebackType
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from ..errors import DrEmpowerError
 from ..protocol.ids import Frame
 from .events import FrameEvents
+from .ros2_types import counter_of
+
+if TYPE_CHECKING:
+    from ..robot.config import JointSpec
 
 __all__ = ["FrameSink", "SinkStats"]
 
 _S = TypeVar("_S", bound="FrameSink")
-_COUNTERS = {
-    "/can/tx": "frames_written",
-    "/can/rx": "frames_written",
-    "/joint_states": "states",
-    "/drempower/parameters": "parameters",
-    "/drempower/errors": "errors",
-}
 
 
 class SinkStats:
@@ -58,10 +56,11 @@ class FrameSink(ABC):
     what = "sink"
 
     def __init__(self, names: Mapping[int, str] | None, channel: str) -> None:
-        self._events = FrameEvents(names, channel)
+        self._events: dict[str | None, FrameEvents] = {None: FrameEvents(names, channel)}
+        """The frame decoders: None for buses attached without a name, else one per named bus."""
         self.stats = SinkStats()
-        self._queue: queue.SimpleQueue[tuple[int, Frame, bool] | None] = queue.SimpleQueue()
-        self._cores: list[Any] = []
+        self._queue: queue.SimpleQueue[tuple[int, Frame, bool, str | None] | None] = queue.SimpleQueue()
+        self._cores: list[tuple[Any, Any]] = []
         self._closed = False
         self._failure: BaseException | None = None
         self._thread = threading.Thread(target=self._run, name=f"drempower {self.what}", daemon=True)
@@ -77,29 +76,52 @@ class FrameSink(ABC):
 
     # ------------------------------------------------------------------ input
 
-    def attach(self: _S, bus: Any) -> _S:
-        """Take every frame ``bus`` (a Bus, AsyncBus or BusCore) sends and receives from now on."""
+    def attach(self: _S, bus: Any, *, name: str | None = None, joints: Sequence[JointSpec] = ()) -> _S:
+        """Take every frame ``bus`` (a Bus, AsyncBus or BusCore) sends and receives from now on.
+
+        ``name`` (a robot's bus name) puts its raw frames on ``/can/<name>/tx`` and
+        ``/can/<name>/rx`` (``frame_id`` ``name``) instead of ``/can/tx`` and ``/can/rx``;
+        ``joints`` (that bus's joints of the robot file) then name its states and
+        give them at the joint, after gear and offset (as :class:`drempower.robot.Gearing`).
+        """
         core = getattr(bus, "core", bus)
-        core.add_tap(self.tap)
-        self._cores.append(core)
+        if name is None:
+            if joints:
+                raise DrEmpowerError("joints: give the bus's name too (attach(bus, name=..., joints=...))")
+            tap: Any = self.tap
+        else:
+            if name in self._events:
+                raise DrEmpowerError(f"bus {name!r} is attached already")
+            self._events[name] = FrameEvents(
+                {j.id: j.name for j in joints},
+                name,
+                topic_prefix=f"/can/{name}",
+                gears={j.id: (j.gear, j.offset) for j in joints},
+            )
+            tap = partial(self._tap_named, name)
+        core.add_tap(tap)
+        self._cores.append((core, tap))
         return self
 
     def detach(self) -> None:
         """Stop taking the frames of the attached buses (the output stays open)."""
-        for core in self._cores:
-            core.remove_tap(self.tap)
+        for core, tap in self._cores:
+            core.remove_tap(tap)
         self._cores.clear()
 
     def tap(self, frame: Frame, tx: bool) -> None:
         """A bus's frame tap: queue ``frame`` stamped with the wall clock now."""
-        self._queue.put((time.time_ns(), frame, tx))
+        self._queue.put((time.time_ns(), frame, tx, None))
+
+    def _tap_named(self, name: str, frame: Frame, tx: bool) -> None:
+        self._queue.put((time.time_ns(), frame, tx, name))
 
     def record(self, frame: Frame, tx: bool, timestamp: float | None = None) -> None:
         """Queue one frame seen elsewhere; ``timestamp`` is Unix time (s), default now."""
         if self._closed:
             raise DrEmpowerError(f"the {self.what} is closed")
         ns = time.time_ns() if timestamp is None else round(timestamp * 1e9)
-        self._queue.put((ns, frame, tx))
+        self._queue.put((ns, frame, tx, None))
 
     # ------------------------------------------------------------------ writing
 
@@ -111,10 +133,10 @@ class FrameSink(ABC):
                 if item is None:
                     return
                 stats.frames_in += 1
-                ns = item[0]
-                for topic, message in events(*item):
+                ns, frame, tx, name = item
+                for topic, message in events[name](ns, frame, tx):
                     emit(topic, ns, message)
-                    kind = _COUNTERS[topic]
+                    kind = counter_of(topic)
                     setattr(stats, kind, getattr(stats, kind) + 1)
         except BaseException as exc:  # keep the bus running; close() reports it
             self._failure = exc
