@@ -36,6 +36,15 @@ _CARD_READS = (
     ("fet_temp", "axis0.fet_thermistor.temperature"),
     ("motor_temp", "axis0.motor_thermistor.temperature"),
 )
+_LIMIT_READS = (
+    ("speed", "axis0.output_shaft.vel_limit"),
+    ("torque", "axis0.output_shaft.torque_lim"),
+    ("current", "axis0.motor.config.current_lim"),
+    ("torque_constant", "axis0.output_shaft.torque_constant"),
+)
+"""The limits a motor holds that bound the Control inputs (read at scan and after a write of one)."""
+_BANDWIDTH = "axis0.controller.config.input_filter_bandwidth"
+"""Its domain bounds the T-mode ``param`` (the input filter bandwidth, 1/s)."""
 _LABEL = {w.name: w.label for w in ERROR_WORDS}
 BITS_PER_FRAME = 130
 """Bits on the wire of one 8-byte standard CAN frame with stuffing (about), for the bus load."""
@@ -64,6 +73,11 @@ def param_table() -> list[dict[str, Any]]:
             "access": p.access.value,
             "bool": p.is_bool,
             "description": p.description,
+            "min": p.minimum,
+            "max": p.maximum,
+            "allowed": list(p.allowed),
+            "hard": p.hard,
+            "domain": p.domain_text() if p.has_domain else "",
         }
         for p in parameters()
     ]
@@ -88,6 +102,30 @@ def motor_id(args: dict[str, Any], key: str = "id") -> int:
     if isinstance(value, bool) or not isinstance(value, int) or not 1 <= value <= 63:
         raise ValidationError(f"{key}={value!r}: expected a motor id 1..63")
     return value
+
+
+def bandwidth_range() -> tuple[float, float]:
+    """The T-mode filter bandwidth's range (1/s): the domain of the input filter bandwidth parameter."""
+    p = find_parameter(_BANDWIDTH)
+    lo = p.minimum if p is not None and p.minimum is not None else 0.0
+    hi = p.maximum if p is not None and p.maximum is not None else 300.0
+    return lo, hi
+
+
+def bounds(raw: dict[str, float | None]) -> dict[str, Any]:
+    """Control-input bounds from the limits a motor holds: ``speed`` r/min and ``torque`` Nm (magnitudes,
+    None: unknown), ``bandwidth`` [low, high] 1/s; the torque bound is the smaller of the torque
+    limit and the current limit times the output torque constant."""
+    speed, torque, current, kt = (raw.get(k) for k in ("speed", "torque", "current", "torque_constant"))
+    by_current = current * kt if current is not None and kt is not None and kt > 0 else None
+    if torque is None or (by_current is not None and by_current < torque):
+        torque = by_current
+    return {"speed": speed, "torque": torque, "current": current, "bandwidth": list(bandwidth_range())}
+
+
+def _within(key: str, value: float, bound: float | None, unit: str, what: str) -> None:
+    if bound is not None and abs(value) > bound:
+        raise ValidationError(f"{key}={value:g}: outside -{bound:g}..{bound:g} {unit}, the {what}")
 
 
 def _whole(args: dict[str, Any], key: str, default: int, allowed: tuple[int, ...]) -> int:
@@ -128,6 +166,7 @@ class Hub:
         self.heartbeat_ms = 0
         self.scanning = False
         self.saved: dict[int, dict[str, float]] = {}
+        self.limits: dict[int, dict[str, Any]] = {}
         self._watch: dict[tuple[int, str], tuple[float, float]] = {}
         self.param_samples: deque[tuple[int, str, float, float]] = deque()
         self._stop = threading.Event()
@@ -231,7 +270,36 @@ class Hub:
         finally:
             self.scanning = False
         self.motors = {m["id"]: m for m in found}
+        for i in self.motors:
+            self.do_limits(i)
         return found
+
+    def do_limits(self, i: int) -> dict[str, Any]:
+        """Read the limits motor ``i`` holds and keep the Control-input :func:`bounds` they give."""
+        m = self.bus.motor(i)
+        raw: dict[str, float | None] = {}
+        for key, name in _LIMIT_READS:
+            try:
+                raw[key] = float(m.read_property(name, timeout=0.2))
+            except DrEmpowerError:
+                raw[key] = None
+        self.limits[i] = bounds(raw)
+        return self.limits[i]
+
+    def label(self, i: int) -> str:
+        """How messages name motor ``i``."""
+        return f"motor {i}"
+
+    def _speed(self, i: int, key: str, value: float) -> float:
+        lim = self.limits.get(i, {}).get("speed")
+        _within(key, value, lim, "r/min", f"speed limit {self.label(i)} holds (axis0.output_shaft.vel_limit)")
+        return value
+
+    def _torque(self, i: int, key: str, value: float) -> float:
+        lim = self.limits.get(i, {}).get("torque")
+        what = f"torque limit {self.label(i)} holds (output_shaft.torque_lim, current_lim x torque_constant)"
+        _within(key, value, lim, "Nm", what)
+        return value
 
     def do_cards(self) -> dict[int, dict[str, Any]]:
         """Supply voltage, axis state, temperatures and decoded error flags of every known motor."""
@@ -245,6 +313,7 @@ class Hub:
                 except DrEmpowerError:
                     card[key] = None
             card["state_name"] = state_name(card["state"])
+            card["limits"] = self.limits.get(i)
             st = m.state
             card["errors"] = []
             if st is not None and st.error:
@@ -285,6 +354,8 @@ class Hub:
                 raise ValidationError(f"angles={angles!r}: one angle per motor of ids={ids}")
             angles_f = [_num({"angle": a}, "angle") for a in angles]
             speed, accel = _num(args, "speed", 10.0), _num(args, "accel", 10.0)
+            for i in ids:
+                self._speed(i, "speed", speed)
             self._control(who, f"set_angles({ids}, {angles_f}, speed={speed}, param={accel}, mode=1)")
             t = self.bus.set_angles(ids, angles_f, speed, accel, 1)
             for i, a in zip(ids, angles_f, strict=True):
@@ -295,12 +366,23 @@ class Hub:
         if action in ("T", "Q", "P"):
             mode = "TQP".index(action)
             angle, speed, param = _num(args, "angle"), _num(args, "speed", 0.0), _num(args, "param", 0.0)
+            self._speed(i, "speed", speed)
+            if action == "T":
+                lo, hi = bandwidth_range()
+                if not lo <= param <= hi:
+                    raise ValidationError(
+                        f"param={param:g}: the T-mode filter bandwidth is {lo:g}..{hi:g} 1/s "
+                        f"(the domain of {_BANDWIDTH})"
+                    )
+            elif action == "P":
+                self._torque(i, "param", param)
             self._control(who, f"motor {i} set_angle({angle}, speed={speed}, param={param}, mode={mode})")
             m.set_angle(angle, speed, param, mode)
             self._target(i, angle=angle)
         elif action in ("jog", "step"):
             delta = _num(args, "delta")
             speed, param = _num(args, "speed", 10.0), _num(args, "param", 10.0)
+            self._speed(i, "speed", speed)
             mode = 1 if action == "jog" else 0
             base = self.targets.get(i, [None])[0]
             st = m.state
@@ -315,6 +397,9 @@ class Hub:
                 _num(args, "param", 0.0),
                 _whole(args, "mode", 1, tuple(VelocityMode)),
             )
+            self._speed(i, "speed", speed)
+            if mode == VelocityMode.PASSTHROUGH:
+                self._torque(i, "param", param)
             self._control(who, f"motor {i} set_speed({speed}, param={param}, mode={mode})")
             m.set_speed(speed, param, mode)
             self._target(i, speed=speed)
@@ -324,12 +409,15 @@ class Hub:
                 _num(args, "param", 0.0),
                 _whole(args, "mode", 1, tuple(TorqueMode)),
             )
+            self._torque(i, "torque", torque)
             self._control(who, f"motor {i} set_torque({torque}, param={param}, mode={mode})")
             m.set_torque(torque, param, mode)
             self._target(i, torque=torque)
         elif action == "impedance":
             pos, vel, tff = _num(args, "angle"), _num(args, "speed", 0.0), _num(args, "torque", 0.0)
             kp, kd = _num(args, "kp"), _num(args, "kd")
+            self._speed(i, "speed", vel)
+            self._torque(i, "torque", tff)
             self._control(who, f"motor {i} impedance_control({pos}, vel={vel}, tff={tff}, kp={kp}, kd={kd})")
             m.impedance_control(pos, vel, tff, kp, kd)
             self._target(i, angle=pos)
@@ -392,8 +480,13 @@ class Hub:
         changed = [k for k, v in values.items() if k in saved and saved[k] != v]
         return {"id": i, "values": values, "changed": changed}
 
-    def do_write_param(self, who: str, i: int, name: str, value: Any) -> dict[str, Any]:
-        """Write one parameter (checked against its type and range first), then read it back."""
+    def do_write_param(self, who: str, i: int, name: str, value: Any, force: bool = False) -> dict[str, Any]:
+        """Write one parameter, then read it back.
+
+        The value is checked first against the parameter's type, wire range and domain
+        (:meth:`Parameter.check`): outside it, the :class:`DomainError` and nothing is sent.
+        ``force`` lets a value outside a soft domain through, never outside a hard one.
+        """
         p: Parameter | None = find_parameter(name) if isinstance(name, str) else None
         if p is None:
             raise ValidationError(f"parameter {name!r}: no such parameter")
@@ -402,12 +495,15 @@ class Hub:
         v = _num({name: value}, name)
         if p.dtype.name != "F32" and v != int(v):
             raise ValidationError(f"{name}={value!r}: expected a whole number ({p.dtype.name.lower()})")
-        p.encode(int(v) if p.dtype.name != "F32" else v)  # raises FieldRangeError naming the range
-        self._control(who, f"motor {i} write_property({name!r}, {value})")
+        sent = p.check(int(v) if p.dtype.name != "F32" else v, force)  # DomainError naming the domain
+        forced = ", force=True" if force and p.has_domain and not p.in_domain(sent) else ""
+        self._control(who, f"{self.label(i)} write_property({name!r}, {value}{forced})")
         m = self.bus.motor(i)
-        m.write_property(name, int(v) if p.dtype.name != "F32" else v)
+        m.write_property(name, sent, force=bool(forced))
         back = m.read_property(name)
-        return {"id": i, "name": name, "value": back}
+        if any(name == n for _, n in _LIMIT_READS):
+            self.do_limits(i)
+        return {"id": i, "name": name, "value": back, "limits": self.limits.get(i)}
 
     def do_save(self, who: str, i: int) -> None:
         """Store motor ``i``'s RAM configuration in flash; what it holds becomes the saved set."""

@@ -24,7 +24,7 @@ from urllib.parse import urlsplit
 from aiohttp import WSMsgType, web
 
 from ..errors import DrEmpowerError
-from .hub import Hub, log, motor_id, param_table
+from .hub import Hub, bandwidth_range, log, motor_id, param_table
 
 __all__ = ["Dashboard", "format_url"]
 
@@ -144,6 +144,7 @@ class Dashboard:
                     "name": client.name,
                     "read_only": hub.read_only,
                     "params": param_table(),
+                    "bandwidth": list(bandwidth_range()),
                     "motors": sorted(hub.motors),
                     "heartbeat_ms": hub.heartbeat_ms,
                     "poll_hz": hub.poll_hz,
@@ -201,7 +202,8 @@ class Dashboard:
             elif op == "params":
                 result = await self._run(hub.do_read_params, motor_id(req))
             elif op == "write":
-                result = await self._run(hub.do_write_param, who, motor_id(req), req.get("name"), req.get("value"))
+                args = (who, motor_id(req), req.get("name"), req.get("value"), req.get("force") is True)
+                result = await self._run(hub.do_write_param, *args)
             elif op == "save":
                 result = await self._run(hub.do_save, who, motor_id(req))
             elif op == "backup":

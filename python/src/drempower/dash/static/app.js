@@ -90,7 +90,8 @@
   function onMessage(m) {
     switch (m.t) {
       case "hello":
-        S.params = m.params; S.readOnly = m.read_only;
+        S.params = m.params; S.readOnly = m.read_only; S.bandwidth = m.bandwidth;
+        S.paramByName = Object.fromEntries(m.params.map((p) => [p.name, p]));
         $("#ro").hidden = !m.read_only;
         for (const e of $$("#view-control button, #view-control input, #view-control select, #par-save, #par-restore, #tun-run, #plot-rate")) {
           e.disabled = m.read_only; // watching only: the server refuses these anyway
@@ -127,6 +128,7 @@
         for (const c of m.cards) S.cards[c.id] = c;
         setMotors(m.cards.map((c) => c.id));
         renderCards();
+        applyLimits();
         break;
       case "reply": {
         const p = S.pending.get(m.req);
@@ -182,6 +184,11 @@
   }
 
   // ------------------------------------------------------------ motors and views
+  // how the page names a motor: its joint, bus and id with --robot, else "motor ID"
+  function motorName(id) {
+    const n = S.names && S.names[id];
+    return n ? `${n.joint || "motor " + n.id} (${n.bus} #${n.id})` : `motor ${id}`;
+  }
   function setMotors(ids) {
     ids = Array.from(new Set(ids)).sort((a, b) => a - b);
     if (ids.join() === S.motors.join()) return;
@@ -455,6 +462,29 @@
     act("control", { action: "sync_move", ids, angles, speed: num("#sync-speed"), accel: num("#sync-accel") },
       `synchronised move of ${ids.join(",")}`);
   });
+  // the Control inputs bounded by the limits the selected motor holds (read by the server) and by the
+  // T-mode bandwidth's parameter domain; the server checks the same bounds again
+  const WIRE = 327.67;
+  function setRange(id, lo, hi) { const el = $("#" + id); el.min = String(lo); el.max = String(hi); }
+  function applyLimits() {
+    const c = S.cards[ctlId()], L = (c && c.limits) || {};
+    const sp = Math.min(WIRE, L.speed ?? WIRE), tq = Math.min(WIRE, L.torque ?? WIRE);
+    const bw = L.bandwidth || S.bandwidth || [0, 300];
+    for (const id of ["pos-speed", "vel-speed", "imp-speed"]) setRange(id, -sp, sp);
+    for (const id of ["tq-torque", "imp-torque"]) setRange(id, -tq, tq);
+    const all = S.motors.map((i) => (S.cards[i] && S.cards[i].limits && S.cards[i].limits.speed) ?? WIRE);
+    setRange("sync-speed", 0.01, Math.min(WIRE, ...all));
+    const pm = $("#pos-mode").value;
+    if (pm === "T") setRange("pos-param", bw[0], bw[1]);
+    else if (pm === "P") setRange("pos-param", -tq, tq);
+    else setRange("pos-param", -WIRE, WIRE);
+    if ($("#vel-mode").value === "1") setRange("vel-param", -tq, tq); else setRange("vel-param", -WIRE, WIRE);
+    $("#ctl-limits").textContent = c && c.limits
+      ? `limits of ${motorName(ctlId())}: speed ±${fmtL(L.speed)} r/min, torque ±${fmtL(L.torque)} Nm, current ${fmtL(L.current)} A; T bandwidth ${bw[0]}..${bw[1]} 1/s`
+      : `T bandwidth ${bw[0]}..${bw[1]} 1/s (scan to read the motor's limits)`;
+  }
+  const fmtL = (v) => (v === null || v === undefined ? "?" : String(+Number(v).toPrecision(6)));
+  for (const sel of ["#ctl-motor", "#pos-mode", "#vel-mode"]) on(sel, applyLimits, "change");
   setInterval(() => {
     const r = latest(ctlId());
     $("#ctl-state").textContent = r ? `angle ${fmt(r[2], 2)} deg, speed ${fmt(r[3], 2)} r/min, torque ${fmt(r[4], 2)} Nm${r[5] & 1 ? ", done" : ""}${r[5] & 2 ? ", ERROR" : ""}` : "";
@@ -464,15 +494,26 @@
   function buildParamTable() {
     let html = "", group = null;
     for (const p of S.params) {
-      if (p.group !== group) { group = p.group; html += `<tr class="group"><td colspan="5">${group}</td></tr>`; }
+      if (p.group !== group) { group = p.group; html += `<tr class="group"><td colspan="6">${group}</td></tr>`; }
+      // a hard range bounds the input itself; a soft one is checked on Set (crossable with "force")
+      const hardRange = p.hard && !p.allowed.length
+        ? `${p.min !== null ? `min="${p.min}"` : ""} ${p.max !== null ? `max="${p.max}"` : ""}` : "";
+      const force = p.domain && !p.hard
+        ? ` <label class="force" title="write a value outside the soft domain"><input type="checkbox" data-force="${p.name}" aria-label="force ${p.name}">force</label>` : "";
       const edit = p.access === "rw" && !S.readOnly
-        ? `<input data-name="${p.name}" type="number" step="${p.type === "f32" ? "any" : "1"}" ${p.bool ? 'min="0" max="1"' : ""} aria-label="${p.name}"> <button data-set="${p.name}">Set</button>` : "";
+        ? `<input data-name="${p.name}" type="number" step="${p.type === "f32" ? "any" : "1"}" ${hardRange} aria-label="${p.name}"> <button data-set="${p.name}">Set</button>${force}` : "";
       html += `<tr data-name="${p.name}"><td title="address ${p.address}, ${p.type}">${p.name}</td>
-        <td><span class="val" data-val="${p.name}">-</span> ${edit}</td><td>${p.unit}</td><td>${p.access}</td><td>${p.description}</td></tr>`;
+        <td><span class="val" data-val="${p.name}">-</span> ${edit}</td><td>${p.unit}</td><td>${p.access}</td>
+        <td class="domain">${p.domain}</td><td>${p.description}</td></tr>`;
     }
     $("#par-table tbody").innerHTML = html;
   }
   const parId = () => Number($("#par-motor").value);
+  function inDomain(p, v) {
+    if (p.allowed.length) return p.allowed.includes(v);
+    if (p.min !== null && !(v >= p.min)) return false;
+    return p.max === null || v <= p.max;
+  }
   // a parameter value as the motor holds it: f32 values to their 7 significant digits
   const shown = (v) => (Number.isInteger(v) ? String(v) : String(+Number(v).toPrecision(7)));
   async function readParams() {
@@ -494,8 +535,16 @@
     const b = e.target.closest("button[data-set]");
     if (!b) return;
     const name = b.dataset.set, input = $(`#par-table input[data-name="${name}"]`);
-    if (input.value === "" || !input.checkValidity()) { say(`${name}: ${input.value || "(empty)"} is not a valid value`); return; }
-    const r = await act("write", { id: parId(), name, value: Number(input.value) });
+    const p = S.paramByName[name], v = Number(input.value);
+    const forceBox = $(`#par-table input[data-force="${name}"]`), force = Boolean(forceBox && forceBox.checked);
+    if (input.value === "" || !Number.isFinite(v)) { say(`${name}: ${input.value || "(empty)"} is not a valid value`); return; }
+    if (p.domain && !inDomain(p, v) && (p.hard || !force)) {
+      say(`${name}=${input.value} is outside its domain: ${p.domain}${p.hard ? "" : "; tick force to write it anyway"}`);
+      return;
+    }
+    const r = await act("write", { id: parId(), name, value: v, force });
+    if (forceBox) forceBox.checked = false;
+    if (r.limits) { S.cards[r.id] = Object.assign(S.cards[r.id] || { id: r.id }, { limits: r.limits }); applyLimits(); }
     $(`#par-table span[data-val="${name}"]`).textContent = shown(r.value);
     say(`motor ${r.id}: ${name} = ${shown(r.value)} (read back)`, true);
     S.changed.add(name);
