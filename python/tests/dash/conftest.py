@@ -48,9 +48,11 @@ class Served:
     loop: asyncio.AbstractEventLoop
 
 
-def serve_in_thread(bus: Bus, **kwargs: Any) -> tuple[str, Hub, Dashboard, asyncio.AbstractEventLoop, threading.Thread]:
+def serve_in_thread(
+    bus: Bus, *, read_only: bool = False, **kwargs: Any
+) -> tuple[str, Hub, Dashboard, asyncio.AbstractEventLoop, threading.Thread]:
     """Run a dashboard on ``bus`` in its own thread and event loop; returns its URL once it listens."""
-    hub = Hub(bus, poll_hz=50)
+    hub = Hub(bus, poll_hz=50, read_only=read_only)
     loop = asyncio.new_event_loop()
     ready = threading.Event()
     box: dict[str, Any] = {}

@@ -93,9 +93,7 @@
         S.params = m.params; S.readOnly = m.read_only; S.bandwidth = m.bandwidth;
         S.paramByName = Object.fromEntries(m.params.map((p) => [p.name, p]));
         $("#ro").hidden = !m.read_only;
-        for (const e of $$("#view-control button, #view-control input, #view-control select, #par-save, #par-restore, #tun-run, #plot-rate")) {
-          e.disabled = m.read_only; // watching only: the server refuses these anyway
-        }
+        lockReadOnly();
         $("#busname").textContent = m.bus;
         $("#plot-rate").value = m.heartbeat_ms ? String(Math.round(1000 / m.heartbeat_ms)) : "0";
         if (m.motors.length) setMotors(m.motors);
@@ -184,6 +182,12 @@
   }
 
   // ------------------------------------------------------------ motors and views
+  // watching only: every control disabled (the server refuses them anyway), ESTOP stays
+  function lockReadOnly() {
+    for (const e of $$("#view-control button, #view-control input, #view-control select, #par-save, #par-restore, #tun-run, #tun-gains input, #tun-gains button, #plot-rate")) {
+      e.disabled = S.readOnly;
+    }
+  }
   // how the page names a motor: its joint, bus and id with --robot, else "motor ID"
   function motorName(id) {
     const n = S.names && S.names[id];
@@ -204,6 +208,7 @@
     $("#sync-rows").innerHTML = ids.map((i) =>
       `<label><span><input type="checkbox" class="sync-on" value="${i}" checked> motor ${i}</span>
        <input type="number" step="any" class="sync-angle" data-id="${i}" value="0"></label>`).join("");
+    lockReadOnly();
     rebuildPlot();
   }
 
@@ -608,6 +613,7 @@
     $("#tun-gains").innerHTML = GAINS[mode].map((n) =>
       `<label>${n.split(".").pop()} <input type="number" step="any" data-gain="${n}" value="${+Number(r.values[n]).toPrecision(6)}" size="8"></label>`).join("") +
       ' <button id="tun-apply">Write gains</button>';
+    lockReadOnly();
     on("#tun-apply", async () => {
       for (const el of $$("#tun-gains input[data-gain]")) {
         const w = await act("write", { id, name: el.dataset.gain, value: Number(el.value) });
