@@ -100,6 +100,8 @@ def _one(args: argparse.Namespace, bus: str, ids: list[int]) -> argparse.Namespa
 
 def run_command(args: argparse.Namespace) -> int:
     """Run the command over the robot's buses (see the module docstring)."""
+    if getattr(args, "whole_robot", False):  # the command opens every bus itself (dash)
+        return int(args.func(args))
     groups: dict[str, list[int]] = args.robot_groups
     if len(groups) == 1:
         ((bus, ids),) = groups.items()

@@ -15,19 +15,25 @@ import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..client import Bus, ConfigBackup, MotorState
+from ..client import Bus, ConfigBackup, Motor, MotorState
 from ..errors import DrEmpowerError, ValidationError
 from ..protocol import ERROR_WORDS, FastRead, flag_info
 from ..protocol.enums import AxisState, TorqueMode, VelocityMode
 from ..protocol.parameters import Parameter, find_parameter, parameters
 from . import tuning
 
+if TYPE_CHECKING:
+    from ..robot import Robot
+
 __all__ = ["Hub", "Sample", "param_table"]
 
 Sample = tuple[int, float, float, float, float, int, float | None, float | None, float | None]
-"""(id, t s, angle deg, speed r/min, torque Nm, flags (1 = T, 2 = E), target angle, speed, torque)."""
+"""(key, t s, angle deg, speed r/min, torque Nm, flags (1 = T, 2 = E), target angle, speed, torque)."""
+
+KEYS_PER_BUS = 64
+"""A motor's key on the page: ``bus index * KEYS_PER_BUS + motor id`` (on one bus: the motor id)."""
 
 _HEARTBEAT = "can.config.heartbeat_ms"
 _CARD_READS = (
@@ -147,14 +153,24 @@ def _ids(args: dict[str, Any], key: str = "ids") -> list[int]:
 
 
 class Hub:
-    """Bus-side state of one dashboard.
+    """Bus-side state of one dashboard: over one :class:`Bus`, or over every bus of a :class:`Robot`.
 
-    ``poll_hz``: fast reads per second per motor while the motors send no
-    heartbeat; ``read_only``: refuse every action that sends a command.
+    Motors are known by a key: the motor id on one bus; ``bus index * 64 + id``
+    over a robot's buses (in file order). ``poll_hz``: fast reads per second per
+    motor while the motors send no heartbeat; ``read_only``: refuse every action
+    that sends a command.
     """
 
-    def __init__(self, bus: Bus, *, read_only: bool = False, poll_hz: float = 50.0) -> None:
-        self.bus = bus
+    def __init__(self, bus: Bus | Robot, *, read_only: bool = False, poll_hz: float = 50.0) -> None:
+        self.robot: Robot | None = None if isinstance(bus, Bus) else bus
+        self.buses: list[tuple[str, Bus]] = [("", bus)] if isinstance(bus, Bus) else list(bus.buses.items())
+        self.bus = self.buses[0][1]
+        self.joints: dict[int, dict[str, Any]] = {}
+        """Robot joints by key: ``{"joint", "bus", "id"}``."""
+        if self.robot is not None:
+            index = {name: k for k, (name, _) in enumerate(self.buses)}
+            for j in self.robot.spec.joints.values():
+                self.joints[index[j.bus] * KEYS_PER_BUS + j.id] = {"joint": j.name, "bus": j.bus, "id": j.id}
         self.read_only = read_only
         self.poll_hz = poll_hz
         self.t0 = time.monotonic()
@@ -170,23 +186,86 @@ class Hub:
         self._watch: dict[tuple[int, str], tuple[float, float]] = {}
         self.param_samples: deque[tuple[int, str, float, float]] = deque()
         self._stop = threading.Event()
-        self._sub = bus.subscribe(self._on_state)
+        self._subs = [b.subscribe(self._sink(k * KEYS_PER_BUS)) for k, (_, b) in enumerate(self.buses)]
         self._poller = threading.Thread(target=self._poll_loop, name="dash poll", daemon=True)
         self._poller.start()
-        self._frames_mark = (time.monotonic(), bus.stats["frames_received"])
+        self._frames_mark = [(time.monotonic(), b.stats["frames_received"]) for _, b in self.buses]
         self.load = 0.0
         self.frame_rate = 0.0
 
+    def _sink(self, off: int) -> Callable[[MotorState], None]:
+        """The subscriber of the bus whose keys start at ``off``."""
+        return lambda st: self._on_state(st, off)
+
+    # ------------------------------------------------------------------ keys
+
+    def where(self, key: int) -> tuple[Bus, int]:
+        """The bus and motor id of ``key``."""
+        k, i = divmod(key, KEYS_PER_BUS)
+        return self.buses[k][1], i
+
+    def motor(self, key: int) -> Motor:
+        bus, i = self.where(key)
+        return bus.motor(i)
+
+    def key(self, args: dict[str, Any], field: str = "id") -> int:
+        """``args[field]`` as a motor key of this dashboard (a whole number, nothing rounded)."""
+        value = args.get(field)
+        if len(self.buses) == 1:
+            return motor_id(args, field)
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int)
+            or not 1 <= value % KEYS_PER_BUS <= 63
+            or not 0 <= value // KEYS_PER_BUS < len(self.buses)
+        ):
+            raise ValidationError(f"{field}={value!r}: not a motor of this dashboard's buses")
+        return value
+
+    def keys(self, args: dict[str, Any], field: str = "ids") -> list[int]:
+        ids = args.get(field)
+        if not isinstance(ids, list) or not ids:
+            raise ValidationError(f"{field}={ids!r}: expected a list of motors")
+        if len(self.buses) == 1:
+            return _ids(args, field)
+        return [self.key({field: i}, field) for i in ids]
+
+    def label(self, key: int) -> str:
+        """How messages name a motor: ``motor 2``; over a robot ``joint elbow (bus right, motor 1)``."""
+        if self.robot is None:
+            return f"motor {key}"
+        bus, i = self.buses[key // KEYS_PER_BUS][0], key % KEYS_PER_BUS
+        j = self.joints.get(key)
+        return f"joint {j['joint']} (bus {bus}, motor {i})" if j else f"motor {i} of bus {bus}"
+
+    def description(self) -> str:
+        """The bus, or every bus of the robot by name."""
+        if self.robot is None:
+            return self.bus.transport.description
+        return f"robot {self.robot.spec.source}: " + "; ".join(
+            f"{name}: {bus.transport.description}" for name, bus in self.buses
+        )
+
+    def names(self) -> dict[int, dict[str, Any]]:
+        """What the page shows of each key over a robot: joints of the file and motors found (none on one bus)."""
+        if self.robot is None:
+            return {}
+        out = {k: dict(v) for k, v in self.joints.items()}
+        for k in self.motors:
+            out.setdefault(k, {"joint": None, "bus": self.buses[k // KEYS_PER_BUS][0], "id": k % KEYS_PER_BUS})
+        return out
+
     # ------------------------------------------------------------------ samples
 
-    def _on_state(self, st: MotorState) -> None:
-        tg = self.targets.get(st.node)
+    def _on_state(self, st: MotorState, off: int = 0) -> None:
+        key = off + st.node
+        tg = self.targets.get(key)
         flags = int(st.trajectory_done) | (int(st.error) << 1)
         t = st.timestamp - self.t0
         if tg is None:
-            self.samples.append((st.node, t, st.angle, st.speed, st.torque, flags, None, None, None))
+            self.samples.append((key, t, st.angle, st.speed, st.torque, flags, None, None, None))
         else:
-            self.samples.append((st.node, t, st.angle, st.speed, st.torque, flags, tg[0], tg[1], tg[2]))
+            self.samples.append((key, t, st.angle, st.speed, st.torque, flags, tg[0], tg[1], tg[2]))
         self.samples_total += 1
 
     def take_samples(self) -> list[Sample]:
@@ -197,12 +276,14 @@ class Hub:
     def _poll_loop(self) -> None:
         next_t = time.monotonic()
         while not self._stop.is_set():
-            ids = sorted(self.motors)
-            if ids and not self.heartbeat_ms and not self.scanning and not self.bus.closed:
-                try:
-                    self.bus.request([FastRead(i) for i in ids], missing_ok=True)
-                except DrEmpowerError:
-                    pass
+            if self.motors and not self.heartbeat_ms and not self.scanning:
+                for k, (_, bus) in enumerate(self.buses):
+                    ids = [key % KEYS_PER_BUS for key in sorted(self.motors) if key // KEYS_PER_BUS == k]
+                    if ids and not bus.closed:
+                        try:
+                            bus.request([FastRead(i) for i in ids], missing_ok=True)
+                        except DrEmpowerError:
+                            pass
             if self._watch and not self.scanning:
                 self._read_watched()
             next_t = max(next_t + 1.0 / self.poll_hz, time.monotonic())
@@ -213,8 +294,7 @@ class Hub:
         p = find_parameter(name)
         if p is None:
             raise ValidationError(f"parameter {name!r}: no such parameter")
-        if not 1 <= i <= 63:
-            raise ValidationError(f"id={i}: motor ids are 1..63")
+        self.key({"id": i})
         if not 0 <= hz <= self.poll_hz:
             raise ValidationError(f"rate={hz!r}: 0 (stop) or up to {self.poll_hz:g} readings/s")
         if hz == 0:
@@ -229,7 +309,7 @@ class Hub:
                 continue
             i, name = key
             try:
-                value = self.bus.motor(i).read_property(name, timeout=0.1)
+                value = self.motor(i).read_property(name, timeout=0.1)
             except DrEmpowerError:
                 continue
             finally:
@@ -246,27 +326,39 @@ class Hub:
         return [q.popleft() for _ in range(len(q))]
 
     def measure_load(self) -> None:
-        """Update :attr:`load` (fraction of a 1 Mbit/s bus) and :attr:`frame_rate` from received frames."""
-        now, frames = time.monotonic(), self.bus.stats["frames_received"]
-        t, f = self._frames_mark
-        if now - t >= 0.2:
-            self.frame_rate = (frames - f) / (now - t)
-            self.load = self.frame_rate * BITS_PER_FRAME / 1_000_000
-            self._frames_mark = (now, frames)
+        """Update :attr:`load` (fraction of a 1 Mbit/s bus; the busiest bus) and :attr:`frame_rate`
+        (received frames/s, every bus) from received frames."""
+        now = time.monotonic()
+        if now - self._frames_mark[0][0] < 0.2:
+            return
+        rates = []
+        for k, (_, bus) in enumerate(self.buses):
+            t, f = self._frames_mark[k]
+            frames = bus.stats["frames_received"]
+            rates.append((frames - f) / (now - t))
+            self._frames_mark[k] = (now, frames)
+        self.frame_rate = sum(rates)
+        self.load = max(rates) * BITS_PER_FRAME / 1_000_000
 
     # ------------------------------------------------------------------ bus view
 
     def do_scan(self, progress: Callable[[int, int, list[dict[str, Any]]], None]) -> list[dict[str, Any]]:
-        """Scan ids 1-63 in four groups, calling ``progress(done, 63, found)`` after each."""
+        """Scan ids 1-63 of every bus in four groups, calling ``progress(done, 63 * buses, found)`` after each."""
         found: list[dict[str, Any]] = []
         self.scanning = True
         try:
-            timeout = min(self.bus.timeout, 0.2)
-            for lo in range(1, 64, 16):
-                group = range(lo, min(lo + 16, 64))
-                for info in self.bus.scan(group, timeout=timeout, versions=True):
-                    found.append({"id": info.id, "hw": info.hw_version, "fw": info.fw_version})
-                progress(group[-1], 63, found)
+            for k, (name, bus) in enumerate(self.buses):
+                timeout = min(bus.timeout, 0.2)
+                for lo in range(1, 64, 16):
+                    group = range(lo, min(lo + 16, 64))
+                    for info in bus.scan(group, timeout=timeout, versions=True):
+                        key = k * KEYS_PER_BUS + info.id
+                        entry: dict[str, Any] = {"id": key, "hw": info.hw_version, "fw": info.fw_version}
+                        if self.robot is not None:
+                            joint = self.joints.get(key, {}).get("joint")
+                            entry.update(bus=name, motor=info.id, joint=joint)
+                        found.append(entry)
+                    progress(k * 63 + group[-1], 63 * len(self.buses), found)
         finally:
             self.scanning = False
         self.motors = {m["id"]: m for m in found}
@@ -276,7 +368,7 @@ class Hub:
 
     def do_limits(self, i: int) -> dict[str, Any]:
         """Read the limits motor ``i`` holds and keep the Control-input :func:`bounds` they give."""
-        m = self.bus.motor(i)
+        m = self.motor(i)
         raw: dict[str, float | None] = {}
         for key, name in _LIMIT_READS:
             try:
@@ -285,10 +377,6 @@ class Hub:
                 raw[key] = None
         self.limits[i] = bounds(raw)
         return self.limits[i]
-
-    def label(self, i: int) -> str:
-        """How messages name motor ``i``."""
-        return f"motor {i}"
 
     def _speed(self, i: int, key: str, value: float) -> float:
         lim = self.limits.get(i, {}).get("speed")
@@ -305,7 +393,7 @@ class Hub:
         """Supply voltage, axis state, temperatures and decoded error flags of every known motor."""
         cards: dict[int, dict[str, Any]] = {}
         for i in sorted(self.motors):
-            m = self.bus.motor(i)
+            m = self.motor(i)
             card: dict[str, Any] = {"id": i}
             for key, name in _CARD_READS:
                 try:
@@ -348,7 +436,7 @@ class Hub:
         """One control action from a page: ``args["action"]`` names it; returns what the page shows."""
         action = args.get("action")
         if action == "sync_move":
-            ids = _ids(args)
+            ids = self.keys(args)
             angles = args.get("angles")
             if not isinstance(angles, list) or len(angles) != len(ids):
                 raise ValidationError(f"angles={angles!r}: one angle per motor of ids={ids}")
@@ -356,13 +444,12 @@ class Hub:
             speed, accel = _num(args, "speed", 10.0), _num(args, "accel", 10.0)
             for i in ids:
                 self._speed(i, "speed", speed)
-            self._control(who, f"set_angles({ids}, {angles_f}, speed={speed}, param={accel}, mode=1)")
-            t = self.bus.set_angles(ids, angles_f, speed, accel, 1)
+            t = self._sync_move(who, ids, angles_f, speed, accel)
             for i, a in zip(ids, angles_f, strict=True):
                 self._target(i, angle=a)
             return {"seconds": t}
-        i = motor_id(args)
-        m = self.bus.motor(i)
+        i = self.key(args)
+        m = self.motor(i)
         if action in ("T", "Q", "P"):
             mode = "TQP".index(action)
             angle, speed, param = _num(args, "angle"), _num(args, "speed", 0.0), _num(args, "param", 0.0)
@@ -376,7 +463,7 @@ class Hub:
                     )
             elif action == "P":
                 self._torque(i, "param", param)
-            self._control(who, f"motor {i} set_angle({angle}, speed={speed}, param={param}, mode={mode})")
+            self._control(who, f"{self.label(i)} set_angle({angle}, speed={speed}, param={param}, mode={mode})")
             m.set_angle(angle, speed, param, mode)
             self._target(i, angle=angle)
         elif action in ("jog", "step"):
@@ -388,7 +475,7 @@ class Hub:
             st = m.state
             if base is None:
                 base = st.angle if st is not None else 0.0
-            self._control(who, f"motor {i} step_angle({delta}, speed={speed}, param={param}, mode={mode})")
+            self._control(who, f"{self.label(i)} step_angle({delta}, speed={speed}, param={param}, mode={mode})")
             m.step_angle(delta, speed, param, mode)
             self._target(i, angle=base + delta)
         elif action == "V":
@@ -400,7 +487,7 @@ class Hub:
             self._speed(i, "speed", speed)
             if mode == VelocityMode.PASSTHROUGH:
                 self._torque(i, "param", param)
-            self._control(who, f"motor {i} set_speed({speed}, param={param}, mode={mode})")
+            self._control(who, f"{self.label(i)} set_speed({speed}, param={param}, mode={mode})")
             m.set_speed(speed, param, mode)
             self._target(i, speed=speed)
         elif action == "C":
@@ -410,7 +497,7 @@ class Hub:
                 _whole(args, "mode", 1, tuple(TorqueMode)),
             )
             self._torque(i, "torque", torque)
-            self._control(who, f"motor {i} set_torque({torque}, param={param}, mode={mode})")
+            self._control(who, f"{self.label(i)} set_torque({torque}, param={param}, mode={mode})")
             m.set_torque(torque, param, mode)
             self._target(i, torque=torque)
         elif action == "impedance":
@@ -418,32 +505,54 @@ class Hub:
             kp, kd = _num(args, "kp"), _num(args, "kd")
             self._speed(i, "speed", vel)
             self._torque(i, "torque", tff)
-            self._control(who, f"motor {i} impedance_control({pos}, vel={vel}, tff={tff}, kp={kp}, kd={kd})")
+            self._control(who, f"{self.label(i)} impedance_control({pos}, vel={vel}, tff={tff}, kp={kp}, kd={kd})")
             m.impedance_control(pos, vel, tff, kp, kd)
             self._target(i, angle=pos)
         elif action == "stop":
-            self._control(who, f"motor {i} set_speed(0)")
+            self._control(who, f"{self.label(i)} set_speed(0)")
             m.set_speed(0.0)
             self._target(i, speed=0.0)
         elif action == "idle":
-            self._control(who, f"motor {i} set_mode(1) (idle)")
+            self._control(who, f"{self.label(i)} set_mode(1) (idle)")
             m.set_mode(1)
             self.commanded.discard(i)
             self.targets.pop(i, None)
         elif action == "enable":
-            self._control(who, f"motor {i} set_mode(2) (closed loop)")
+            self._control(who, f"{self.label(i)} set_mode(2) (closed loop)")
             m.set_mode(2)
         elif action == "clear_errors":
-            self._control(who, f"motor {i} clear_error()")
+            self._control(who, f"{self.label(i)} clear_error()")
             m.clear_error()
         else:
             raise ValidationError(f"action={action!r}: unknown control action")
         return None
 
+    def _sync_move(self, who: str, keys: list[int], angles: list[float], speed: float, accel: float) -> float | None:
+        """One synchronised Q-mode move: on one bus its ``set_angles``; across buses the robot's, by joint."""
+        buses = {k // KEYS_PER_BUS for k in keys}
+        if len(buses) == 1:
+            bus, ids = self.buses[buses.pop()][1], [k % KEYS_PER_BUS for k in keys]
+            where = "" if self.robot is None else f" on bus {self.buses[keys[0] // KEYS_PER_BUS][0]}"
+            self._control(who, f"set_angles({ids}, {angles}, speed={speed}, param={accel}, mode=1){where}")
+            return bus.set_angles(ids, angles, speed, accel, 1)
+        assert self.robot is not None
+        strangers = [self.label(k) for k in keys if k not in self.joints]
+        if strangers:
+            raise ValidationError(f"a move across buses takes joints of the robot file; not: {', '.join(strangers)}")
+        targets = {self.joints[k]["joint"]: a for k, a in zip(keys, angles, strict=True)}
+        self._control(who, f"robot set_angles({targets}, speed={speed}, param={accel}, mode=1)")
+        move = self.robot.set_angles(targets, speed, accel, 1)
+        return move.move_time
+
     def estop(self, who: str) -> None:
-        """Emergency-stop every motor on the bus (one broadcast frame); allowed even when read-only."""
-        log(f"{who}: ESTOP (broadcast emergency stop)")
-        self.bus.estop()
+        """Emergency-stop every motor on every bus (one broadcast frame per bus, all at once);
+        allowed even when read-only."""
+        if self.robot is None:
+            log(f"{who}: ESTOP (broadcast emergency stop)")
+            self.bus.estop()
+        else:
+            log(f"{who}: ESTOP (broadcast emergency stop on buses {', '.join(n for n, _ in self.buses)})")
+            self.robot.estop()
         self.targets.clear()
 
     def idle_commanded(self, why: str) -> list[int]:
@@ -452,11 +561,13 @@ class Hub:
         self.commanded.clear()  # a second caller meanwhile finds nothing to do
         for i in ids:
             try:
-                self.bus.motor(i).set_mode(1)
+                self.motor(i).set_mode(1)
             except DrEmpowerError as exc:
-                log(f"idling motor {i} failed: {exc}")
-        if ids:
+                log(f"idling {self.label(i)} failed: {exc}")
+        if ids and self.robot is None:
             log(f"{why}: idled motors {','.join(map(str, ids))}")
+        elif ids:
+            log(f"{why}: idled {', '.join(map(self.label, ids))}")
         self.commanded.clear()
         self.targets.clear()
         return ids
@@ -468,14 +579,14 @@ class Hub:
         ms = 0 if hz == 0 else max(1, round(1000 / hz))
         self._control(who, f"{_HEARTBEAT} = {ms} on motors {sorted(self.motors)}")
         for i in sorted(self.motors):
-            self.bus.motor(i).write_property(_HEARTBEAT, ms)
+            self.motor(i).write_property(_HEARTBEAT, ms)
         self.heartbeat_ms = ms
 
     # ------------------------------------------------------------------ parameters
 
     def do_read_params(self, i: int) -> dict[str, Any]:
         """Every readable parameter of motor ``i`` (one backup read), with which differ from the saved ones."""
-        values = self.bus.motor(i).backup().values()
+        values = self.motor(i).backup().values()
         saved = self.saved.setdefault(i, dict(values))
         changed = [k for k, v in values.items() if k in saved and saved[k] != v]
         return {"id": i, "values": values, "changed": changed}
@@ -498,7 +609,7 @@ class Hub:
         sent = p.check(int(v) if p.dtype.name != "F32" else v, force)  # DomainError naming the domain
         forced = ", force=True" if force and p.has_domain and not p.in_domain(sent) else ""
         self._control(who, f"{self.label(i)} write_property({name!r}, {value}{forced})")
-        m = self.bus.motor(i)
+        m = self.motor(i)
         m.write_property(name, sent, force=bool(forced))
         back = m.read_property(name)
         if any(name == n for _, n in _LIMIT_READS):
@@ -507,12 +618,12 @@ class Hub:
 
     def do_save(self, who: str, i: int) -> None:
         """Store motor ``i``'s RAM configuration in flash; what it holds becomes the saved set."""
-        self._control(who, f"motor {i} save_config()")
-        self.bus.motor(i).save_config()
-        self.saved[i] = self.bus.motor(i).backup().values()
+        self._control(who, f"{self.label(i)} save_config()")
+        self.motor(i).save_config()
+        self.saved[i] = self.motor(i).backup().values()
 
     def do_backup(self, i: int) -> dict[str, Any]:
-        return self.bus.motor(i).backup().to_json()
+        return self.motor(i).backup().to_json()
 
     def do_restore(self, who: str, i: int, doc: Any, dry_run: bool) -> dict[str, Any]:
         """Restore a backup document: with ``dry_run`` only the diff (name, now, backup) is returned."""
@@ -520,8 +631,8 @@ class Hub:
             raise ValidationError("restore: expected a backup document (JSON object)")
         backup = ConfigBackup.from_json(doc)
         if not dry_run:
-            self._control(who, f"motor {i} restore(backup of motor {backup.node} from {backup.created})")
-        report = self.bus.motor(i).restore(backup, dry_run=dry_run)
+            self._control(who, f"{self.label(i)} restore(backup of motor {backup.node} from {backup.created})")
+        report = self.motor(i).restore(backup, dry_run=dry_run)
         return {
             "id": i,
             "dry_run": dry_run,
@@ -538,19 +649,20 @@ class Hub:
         """
         if self.read_only:
             raise ValidationError("this dashboard is read-only (--read-only)")
-        i = motor_id(args)
+        i = self.key(args)
         mode = args.get("mode", "position")
         amp, duration = _num(args, "amplitude"), _num(args, "duration", 1.0)
         if mode not in ("position", "velocity"):
             raise ValidationError(f"mode={mode!r}: position or velocity")
         if not 0.1 <= duration <= 10:
             raise ValidationError(f"duration={duration}: 0.1..10 s")
-        m = self.bus.motor(i)
+        m = self.motor(i)
         st = m.get_state()
         base = st.angle if mode == "position" else st.speed
         target = base + amp
         got: list[MotorState] = []
-        sub = self.bus.subscribe(got.append, i)
+        bus, node = self.where(i)
+        sub = bus.subscribe(got.append, node)
         fast = not self.heartbeat_ms  # 500 samples/s for the run (the motor's heartbeat), off afterwards
         try:
             if fast:
@@ -576,11 +688,14 @@ class Hub:
 
     def close(self) -> None:
         self._stop.set()
-        self._sub.cancel()
+        for sub in self._subs:
+            sub.cancel()
         self._poller.join(2.0)
-        if self.heartbeat_ms and not self.bus.closed:
+        if self.heartbeat_ms:
             for i in sorted(self.motors):
+                if self.where(i)[0].closed:
+                    continue
                 try:
-                    self.bus.motor(i).write_property(_HEARTBEAT, 0)
+                    self.motor(i).write_property(_HEARTBEAT, 0)
                 except DrEmpowerError:
                     pass

@@ -15,7 +15,7 @@
     data: new Map(), // id -> {t:[], rows:[]} raw samples, oldest first
     lastT: 0, paused: false, frozen: null, xRange: null, dirty: true,
     received: 0, frames: 0, rateWin: [], paramValues: {}, changed: new Set(), runs: [],
-    watched: [], pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
+    names: {}, watched: [], pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
   };
   window.dashParams = (key) => S.pdata.get(key);
   window.dashStats = { received: 0, firstTotal: 0, serverTotal: 0, batches: 0, frames: 0, fps: 0, rate: 0, connected: false };
@@ -92,6 +92,7 @@
       case "hello":
         S.params = m.params; S.readOnly = m.read_only; S.bandwidth = m.bandwidth;
         S.paramByName = Object.fromEntries(m.params.map((p) => [p.name, p]));
+        S.names = m.names || {};
         $("#ro").hidden = !m.read_only;
         lockReadOnly();
         $("#busname").textContent = m.bus;
@@ -103,6 +104,7 @@
         break;
       case "samples": onSamples(m); break;
       case "watched": setWatched(m.watched); break;
+      case "names": { S.names = m.names || {}; const ms = S.motors; S.motors = []; setMotors(ms); break; }
       case "params":
         for (const [id, name, t, v] of m.s) {
           const k = `${id}:${name}`;
@@ -119,8 +121,9 @@
         window.dashStats.commanded = m.commanded;
         break;
       case "scan":
+        $("#scan-progress").max = m.of;
         $("#scan-progress").value = m.done;
-        $("#scan-text").textContent = `${m.done}/63, found ${m.found.map((f) => f.id).join(", ") || "none"}`;
+        $("#scan-text").textContent = `${m.done}/${m.of}, found ${m.found.map((f) => shortName(f.id)).join(", ") || "none"}`;
         break;
       case "cards":
         for (const c of m.cards) S.cards[c.id] = c;
@@ -169,7 +172,7 @@
     const per = [];
     for (const [id, d] of S.data) {
       const k = lowerBound(d.t, S.lastT - 1);
-      per.push(`motor ${id}: ${d.t.length - k}/s`);
+      per.push(`${motorName(id)}: ${d.t.length - k}/s`);
     }
     $("#plot-per-motor").textContent = per.join(", ");
     window.dashStats.fps = S.frames; $("#plot-fps").textContent = S.frames; S.frames = 0;
@@ -193,20 +196,26 @@
     const n = S.names && S.names[id];
     return n ? `${n.joint || "motor " + n.id} (${n.bus} #${n.id})` : `motor ${id}`;
   }
+  const legendName = (id) => (S.names && S.names[id] ? shortName(id) : `m${id}`);
+  // shorter, for lists and plot legends: the joint name (or bus#id) with a robot, the id on one bus
+  function shortName(id) {
+    const n = S.names && S.names[id];
+    return n ? n.joint || `${n.bus}#${n.id}` : String(id);
+  }
   function setMotors(ids) {
     ids = Array.from(new Set(ids)).sort((a, b) => a - b);
     if (ids.join() === S.motors.join()) return;
     S.motors = ids;
     for (const sel of $$(".motor-select")) {
       const v = sel.value;
-      sel.innerHTML = ids.map((i) => `<option value="${i}">${i}</option>`).join("");
+      sel.innerHTML = ids.map((i) => `<option value="${i}">${shortName(i)}</option>`).join("");
       if (ids.includes(Number(v))) sel.value = v;
     }
     const unchecked = new Set($$("#plot-motors input:not(:checked)").map((e) => Number(e.value)));
     $("#plot-motors").innerHTML = "motors " + ids.map((i) =>
-      `<label><input type="checkbox" value="${i}" ${unchecked.has(i) ? "" : "checked"}> ${i}</label>`).join(" ");
+      `<label><input type="checkbox" value="${i}" ${unchecked.has(i) ? "" : "checked"}> ${shortName(i)}</label>`).join(" ");
     $("#sync-rows").innerHTML = ids.map((i) =>
-      `<label><span><input type="checkbox" class="sync-on" value="${i}" checked> motor ${i}</span>
+      `<label><span><input type="checkbox" class="sync-on" value="${i}" checked> ${motorName(i)}</span>
        <input type="number" step="any" class="sync-angle" data-id="${i}" value="0"></label>`).join("");
     lockReadOnly();
     rebuildPlot();
@@ -241,7 +250,7 @@
   on("#scan", async () => {
     $("#scan-progress").value = 0;
     const found = await act("scan", {});
-    $("#scan-text").textContent = `done: ${found.length} motor(s): ${found.map((f) => f.id).join(", ")}`;
+    $("#scan-text").textContent = `done: ${found.length} motor(s): ${found.map((f) => shortName(f.id)).join(", ")}`;
   });
   function fmt(v, d) { return v === null || v === undefined ? "-" : Number(v).toFixed(d); }
   function latest(id) {
@@ -254,7 +263,9 @@
       const r = latest(id);
       const errs = (c.errors || []).map((e) => `<div class="err"><b>${e.word}: ${e.flag}</b> ${e.meaning} <i>${e.advice}</i></div>`).join("");
       const ro = S.readOnly ? "disabled" : "";
-      return `<div class="card" data-id="${id}"><h3>Motor ${id}</h3>
+      const n = S.names[id];
+      const title = n ? `${n.joint || "motor " + n.id} <span class="dim">bus ${n.bus}, id ${n.id}</span>` : `Motor ${id}`;
+      return `<div class="card" data-id="${id}"><h3>${title}</h3>
         <table><tr><td>state</td><td>${c.state_name || "-"}</td></tr>
         <tr><td>angle</td><td>${r ? fmt(r[2], 2) : "-"} deg</td></tr>
         <tr><td>speed</td><td>${r ? fmt(r[3], 2) : "-"} r/min</td></tr>
@@ -272,7 +283,7 @@
     const b = e.target.closest("button[data-card]");
     if (!b) return;
     const id = Number(b.closest(".card").dataset.id);
-    act("control", { action: b.dataset.card, id }, `motor ${id}: ${b.dataset.card}`);
+    act("control", { action: b.dataset.card, id }, `${motorName(id)}: ${b.dataset.card}`);
   });
   setInterval(() => { if (!$("#view-bus").hidden) renderCards(); }, 500);
 
@@ -310,7 +321,7 @@
         }
       }] },
       series: [{ label: "t" }].concat(series.map((s) => ({
-        label: s.param ? `m${s.id} ${s.ch.split(".").slice(-2).join(".")}` : `m${s.id} ${s.ch}${s.target ? " target" : ""}`,
+        label: `${legendName(s.id)} ${s.param ? s.ch.split(".").slice(-2).join(".") : s.ch + (s.target ? " target" : "")}`,
         stroke: s.color, width: s.target ? 1 : 1.5, dash: s.target ? [6, 4] : undefined, spanGaps: true,
         points: { show: false },
       }))),
@@ -451,9 +462,9 @@
     try { return act("control", Object.assign({ id: ctlId() }, args), text); } catch (e) { return null; }
   }
   $$("#view-control button[data-act]").forEach((b) => b.addEventListener("click", () =>
-    control({ action: b.dataset.act }, `motor ${ctlId()}: ${b.dataset.act}`)));
+    control({ action: b.dataset.act }, `${motorName(ctlId())}: ${b.dataset.act}`)));
   on("#pos-go", () => control({ action: $("#pos-mode").value, angle: num("#pos-angle"),
-    speed: num("#pos-speed"), param: num("#pos-param") }, `motor ${ctlId()}: move to ${$("#pos-angle").value} deg`));
+    speed: num("#pos-speed"), param: num("#pos-param") }, `${motorName(ctlId())}: move to ${$("#pos-angle").value} deg`));
   on("#jog-plus", () => control({ action: "jog", delta: num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
   on("#jog-minus", () => control({ action: "jog", delta: -num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
   on("#step-go", () => control({ action: "step", delta: num("#step-delta"), speed: 0, param: 0 }));
@@ -531,7 +542,7 @@
       el.textContent = v === undefined ? "-" : shown(v);
     }
     for (const tr of $$("#par-table tr[data-name]")) tr.classList.toggle("changed", S.changed.has(tr.dataset.name));
-    $("#par-status").textContent = `motor ${id}: ${Object.keys(r.values).length} values read ${new Date().toLocaleTimeString()}; ${S.changed.size} changed since saved`;
+    $("#par-status").textContent = `${motorName(id)}: ${Object.keys(r.values).length} values read ${new Date().toLocaleTimeString()}; ${S.changed.size} changed since saved`;
   }
   on("#par-read", readParams);
   on("#par-motor", readParams, "change");
@@ -551,7 +562,7 @@
     if (forceBox) forceBox.checked = false;
     if (r.limits) { S.cards[r.id] = Object.assign(S.cards[r.id] || { id: r.id }, { limits: r.limits }); applyLimits(); }
     $(`#par-table span[data-val="${name}"]`).textContent = shown(r.value);
-    say(`motor ${r.id}: ${name} = ${shown(r.value)} (read back)`, true);
+    say(`${motorName(r.id)}: ${name} = ${shown(r.value)} (read back)`, true);
     S.changed.add(name);
     $(`#par-table tr[data-name="${name}"]`).classList.add("changed");
   });
@@ -569,7 +580,7 @@
     }
     if (group) group.hidden = !any;
   });
-  on("#par-save", async () => { await act("save", { id: parId() }, `motor ${parId()}: saved to flash`); readParams(); });
+  on("#par-save", async () => { await act("save", { id: parId() }, `${motorName(parId())}: saved to flash`); readParams(); });
   on("#par-backup", async () => {
     const doc = await act("backup", { id: parId() });
     download(`drempower-motor${parId()}-backup.json`, JSON.stringify(doc, null, 1) + "\n", "application/json");
@@ -584,15 +595,15 @@
     const r = await act("restore", { id, doc, dry_run: true });
     const box = $("#par-diff");
     box.hidden = false;
-    if (!r.diff.length) { box.innerHTML = `${f.name}: motor ${id} already holds these values. <button id="diff-close">Close</button>`; }
+    if (!r.diff.length) { box.innerHTML = `${f.name}: ${motorName(id)} already holds these values. <button id="diff-close">Close</button>`; }
     else {
-      box.innerHTML = `<b>${f.name}: ${r.diff.length} parameter(s) of motor ${id} would change</b>
+      box.innerHTML = `<b>${f.name}: ${r.diff.length} parameter(s) of ${motorName(id)} would change</b>
         <table><tr><th>name</th><th>now</th><th>backup</th></tr>${r.diff.map((d) => `<tr><td>${d[0]}</td><td>${shown(d[1])}</td><td>${shown(d[2])}</td></tr>`).join("")}</table>
         <button id="diff-write">Write them</button> <button id="diff-close">Cancel</button>`;
       on("#diff-write", async () => {
         const w = await act("restore", { id, doc, dry_run: false });
         box.hidden = true;
-        say(`motor ${id}: ${w.diff.length} parameter(s) written${w.failed.length ? ", failed: " + w.failed.map((x) => x[0]).join(", ") : ""}`, !w.failed.length);
+        say(`${motorName(id)}: ${w.diff.length} parameter(s) written${w.failed.length ? ", failed: " + w.failed.map((x) => x[0]).join(", ") : ""}`, !w.failed.length);
         readParams();
       });
     }
@@ -619,7 +630,7 @@
         const w = await act("write", { id, name: el.dataset.gain, value: Number(el.value) });
         el.value = w.value;
       }
-      say(`motor ${id}: gains written and read back`, true);
+      say(`${motorName(id)}: gains written and read back`, true);
     });
   }
   on("#tun-mode", loadGains, "change");
