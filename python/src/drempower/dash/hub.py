@@ -10,6 +10,7 @@ and are run in a worker thread by the web server.
 from __future__ import annotations
 
 import math
+import os
 import sys
 import threading
 import time
@@ -242,7 +243,7 @@ class Hub:
         """The bus, or every bus of the robot by name."""
         if self.robot is None:
             return self.bus.transport.description
-        return f"robot {self.robot.spec.source}: " + "; ".join(
+        return f"robot {os.path.basename(self.robot.spec.source)}: " + "; ".join(
             f"{name}: {bus.transport.description}" for name, bus in self.buses
         )
 
