@@ -20,6 +20,7 @@ import pytest
 
 from drempower import open_bus
 from drempower.client import Bus
+from drempower.robot import Robot
 from drempower.sim import SimBus
 
 from ..conftest import REPO_ROOT
@@ -48,9 +49,11 @@ class Served:
     loop: asyncio.AbstractEventLoop
 
 
-def serve_in_thread(bus: Bus, **kwargs: Any) -> tuple[str, Hub, Dashboard, asyncio.AbstractEventLoop, threading.Thread]:
-    """Run a dashboard on ``bus`` in its own thread and event loop; returns its URL once it listens."""
-    hub = Hub(bus, poll_hz=50)
+def serve_in_thread(
+    bus: Bus | Robot, *, read_only: bool = False, **kwargs: Any
+) -> tuple[str, Hub, Dashboard, asyncio.AbstractEventLoop, threading.Thread]:
+    """Run a dashboard on ``bus`` (or a robot's buses) in its own thread; returns its URL once it listens."""
+    hub = Hub(bus, poll_hz=50, read_only=read_only)
     loop = asyncio.new_event_loop()
     ready = threading.Event()
     box: dict[str, Any] = {}

@@ -108,14 +108,16 @@ def test_move_from_the_page_reaches_the_motor(page: Any, served: Served, shots: 
     page.get_by_role("button", name="Move", exact=True).click()
     m2 = served.sim.motors[2]
     assert eventually(lambda: abs(m2.position - 45.0) < 0.1, 8), m2.position
+    limits = page.locator("#ctl-limits").inner_text()
+    assert limits == "limits of motor 2: speed ±300 r/min, torque ±12 Nm, current 15 A; T bandwidth 0..300 1/s"
     assert served.hub.commanded == {2}
     # an input outside its domain is refused in the page and nothing is sent
-    before = m2.position
     page.locator("#pos-speed").fill("500")
     page.get_by_role("button", name="Move", exact=True).click()
-    assert "pos-speed" in page.locator("#msg").inner_text()
+    assert "pos-speed: 500 is outside -300..300" in page.locator("#msg").inner_text()  # the motor's vel_limit
     time.sleep(0.3)
-    assert abs(served.sim.motors[2].position - before) < 0.1
+    assert served.hub.targets[2][0] == 45.0  # no new command
+    assert abs(served.sim.motors[2].position - 45.0) < 0.2
     page.locator("#pos-speed").fill("60")
     page.screenshot(path=str(shots / "dash-control.png"))
     # a synchronised move of the three motors
@@ -150,6 +152,37 @@ def test_parameter_edit_round_trips(page: Any, served: Served, shots: Path) -> N
     page.evaluate("window.scrollTo(0, 0)")
     page.screenshot(path=str(shots / "dash-params.png"))
     served.sim.motors[1].set_param(name, old)
+
+
+def test_parameter_domains_bound_the_edits_and_force_crosses_a_soft_one(page: Any, served: Served) -> None:
+    scan(page)
+    tab(page, "Parameters")
+    page.locator("#par-motor").select_option("2")
+    gain, baud = "axis0.controller.config.pos_gain", "can.config.baud_rate"
+    row = page.locator(f'tr[data-name="{gain}"]')
+    assert row.locator("td.domain").inner_text().startswith("0..1000 (soft")
+    old = served.sim.motors[2].param(gain)
+    # outside the soft domain without force: refused, named, nothing written
+    page.get_by_label(gain, exact=True).fill("1500")
+    page.locator(f'button[data-set="{gain}"]').click()
+    assert page.locator("#msg").inner_text() == (
+        f"{gain}=1500 is outside its domain: 0..1000 (soft, inferred); tick force to write it anyway"
+    )
+    time.sleep(0.2)
+    assert served.sim.motors[2].param(gain) == old
+    # with force ticked: written and read back
+    page.get_by_label(f"force {gain}").check()
+    page.locator(f'button[data-set="{gain}"]').click()
+    page.wait_for_function(f"document.querySelector('span[data-val=\"{gain}\"]').textContent === '1500'")
+    assert served.sim.motors[2].param(gain) == 1500
+    assert not page.get_by_label(f"force {gain}").is_checked()  # force is for one write
+    # a hard domain offers no force
+    assert page.locator(f'tr[data-name="{baud}"] input[data-force]').count() == 0
+    page.get_by_label(baud, exact=True).fill("123")
+    page.locator(f'button[data-set="{baud}"]').click()
+    assert "is outside its domain: one of 125000" in page.locator("#msg").inner_text()
+    assert served.sim.motors[2].param(baud) == 1000000
+    served.sim.motors[2].set_param(gain, old)
 
 
 def test_restore_shows_a_diff_before_writing(page: Any, served: Served, tmp_path: Path) -> None:
@@ -235,3 +268,48 @@ def test_closing_the_page_idles_the_motors_it_moved(browser: Any, served: Served
     assert eventually(lambda: m3.state == AxisState.IDLE, 3), m3.state
     assert served.hub.commanded == set()
     reset(served)
+
+
+def test_the_read_only_page_offers_no_control_but_estop(browser: Any) -> None:
+    from drempower import open_bus
+
+    from .conftest import serve_in_thread
+
+    bus = open_bus("sim", motors=[1], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus, read_only=True)
+    sim = bus.transport.bus.motors[1]  # type: ignore[attr-defined]
+    ctx = browser.new_context()
+    try:
+        p = ctx.new_page()
+        p.set_default_timeout(10_000)
+        p.goto(url)
+        p.wait_for_function("window.dashStats && window.dashStats.connected")
+        assert p.locator("#ro").is_visible()
+        p.get_by_role("button", name="Scan ids 1-63").click()  # watching: scanning is allowed
+        p.wait_for_function("document.querySelectorAll('.card').length === 1")
+        for b in p.locator(".card button").all():
+            assert b.is_disabled()
+        tab(p, "Control")
+        controls = p.locator("#view-control button, #view-control input, #view-control select")
+        assert controls.count() > 10
+        assert all(c.is_disabled() for c in controls.all())
+        tab(p, "Parameters")
+        assert p.locator("#par-table button[data-set], #par-table input").count() == 0
+        assert p.locator("#par-save").is_disabled() and p.locator("#par-restore").is_disabled()
+        tab(p, "Tuning")
+        assert p.get_by_role("button", name="Run step").is_disabled()
+        p.wait_for_selector("#tun-apply")  # the gains, read: shown, not writable
+        assert p.locator("#tun-apply").is_disabled() and p.locator("#tun-gains input").first.is_disabled()
+        # ESTOP is still there and reaches the motor
+        bus.motor(1).set_speed(30)
+        assert eventually(lambda: abs(sim.speed) > 20, 5)
+        estop = p.get_by_role("button", name="ESTOP")
+        assert estop.is_enabled()
+        estop.click()
+        assert eventually(lambda: abs(sim.speed) < 1 and sim.state != AxisState.CLOSED_LOOP_CONTROL, 2)
+    finally:
+        ctx.close()
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()

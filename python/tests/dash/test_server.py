@@ -341,3 +341,60 @@ async def test_bad_requests_are_refused_naming_the_field_and_nothing_is_sent() -
         thread.join(10)
         hub.close()
         bus.close()
+
+
+async def test_writes_and_inputs_outside_their_domains_are_refused_before_sending() -> None:
+    from drempower.errors import DomainError
+    from drempower.protocol.parameters import parameter
+
+    bus = open_bus("sim", motors=[1], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    sim = bus.transport.bus.motors[1]  # type: ignore[attr-defined]
+    gain, baud = "axis0.controller.config.pos_gain", "can.config.baud_rate"
+    try:
+        async with aiohttp.ClientSession() as s, s.ws_connect(url.replace("http:", "ws:") + "ws") as ws:
+            hello = await ws.receive_json(timeout=5)
+            row = next(p for p in hello["params"] if p["name"] == gain)
+            assert (row["min"], row["max"], row["hard"]) == (0, 1000, False) and row["domain"].startswith("0..1000")
+            assert hello["bandwidth"] == [0, 300]
+
+            async def ask(req: int, **msg: object) -> dict[str, object]:
+                await ws.send_json({"req": req, **msg})
+                while True:
+                    m: dict[str, object] = await ws.receive_json(timeout=5)
+                    if m["t"] == "reply" and m["req"] == req:
+                        return m
+
+            assert (await ask(1, op="scan"))["ok"]
+            assert hub.limits[1]["speed"] == 300 and hub.limits[1]["torque"] == 12
+            # a soft bound: refused with the DomainError's message, nothing written; passed with force
+            r = await ask(2, op="write", id=1, name=gain, value=1500)
+            assert not r["ok"] and r["error"] == str(DomainError(parameter(gain), 1500.0))
+            assert sim.param(gain) == 40
+            r = await ask(3, op="write", id=1, name=gain, value=1500, force=True)
+            assert r["ok"] and r["result"]["value"] == 1500 and sim.param(gain) == 1500  # type: ignore[index]
+            # a hard one: force does not pass it
+            r = await ask(4, op="write", id=1, name=baud, value=123, force=True)
+            assert not r["ok"] and r["error"] == str(DomainError(parameter(baud), 123)) and "(hard)" in str(r["error"])
+            assert sim.param(baud) == 1000000
+            # Control inputs: the speed and torque limits the motor holds, the T-mode bandwidth's domain
+            bad = [
+                ({"action": "V", "speed": 301}, "speed=301: outside -300..300 r/min, the speed limit motor 1 holds"),
+                ({"action": "C", "torque": -12.5}, "torque=-12.5: outside -12..12 Nm, the torque limit motor 1"),
+                ({"action": "T", "angle": 10, "param": 301}, "param=301: the T-mode filter bandwidth is 0..300 1/s"),
+                ({"action": "Q", "angle": 10, "speed": 310, "param": 10}, "speed=310: outside -300..300"),
+            ]
+            for k, (args, text) in enumerate(bad):
+                r = await ask(10 + k, op="control", id=1, **args)
+                assert not r["ok"] and text in str(r["error"]), r
+            # a lower limit written from the page bounds the inputs from then on
+            r = await ask(20, op="write", id=1, name="axis0.output_shaft.vel_limit", value=50)
+            assert r["ok"] and r["result"]["limits"]["speed"] == 50  # type: ignore[index]
+            r = await ask(21, op="control", id=1, action="V", speed=60)
+            assert not r["ok"] and "speed=60: outside -50..50 r/min" in str(r["error"])
+        assert abs(sim.speed) < 0.01 and abs(sim.position) < 0.01 and hub.commanded == set()
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()

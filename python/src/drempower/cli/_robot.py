@@ -5,7 +5,7 @@ ids and groups them by bus. A command whose motors are all on one bus runs on
 that bus as usual. Across several buses, ``stop`` sends the emergency stop to
 every bus at once and ``move`` is one synchronised move (it reports the skew
 between the buses' start frames); other commands run once per bus, in the
-order of the file. A command that sets ``robot_whole`` (``record``, ``bridge``)
+order of the file. A command that sets ``robot_whole`` (``record``, ``bridge``, ``dash``)
 opens the robot's buses itself: it gets ``args.robot_spec`` and ``args.robot_groups``.
 """
 
@@ -102,7 +102,7 @@ def _one(args: argparse.Namespace, bus: str, ids: list[int]) -> argparse.Namespa
 def run_command(args: argparse.Namespace) -> int:
     """Run the command over the robot's buses (see the module docstring)."""
     groups: dict[str, list[int]] = args.robot_groups
-    if getattr(args, "robot_whole", False):  # the command opens the robot's buses itself (record, bridge)
+    if getattr(args, "robot_whole", False):  # the command opens the robot's buses itself (record, bridge, dash)
         return int(args.func(args))
     if len(groups) == 1:
         ((bus, ids),) = groups.items()

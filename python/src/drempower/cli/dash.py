@@ -1,4 +1,4 @@
-"""``drempower dash``: serve the browser dashboard for the motors of one bus."""
+"""``drempower dash``: serve the browser dashboard for the motors of one bus or of a robot's buses."""
 
 from __future__ import annotations
 
@@ -26,7 +26,8 @@ def register(sub: Any) -> None:
             f"it serves simulated motors {','.join(map(str, DEFAULT_SIM))}. Binding beyond {DEFAULT_HOST} "
             "(--host) needs the token that the printed URL carries. When the last browser goes away (or its "
             "heartbeat stops for 0.5 s) the motors the dashboard moved are idled; Ctrl-C, SIGTERM and SIGHUP "
-            "idle them too. Control actions are logged on stderr."
+            "idle them too. Control actions are logged on stderr. With --robot FILE it serves every bus of the "
+            "robot: motor cards, plots and control by joint; ESTOP stops every bus."
         ),
     )
     p.add_argument(
@@ -45,7 +46,7 @@ def register(sub: Any) -> None:
         "--poll-rate", type=positive, default=50.0, metavar="HZ", help="fast reads per second per motor (default 50)"
     )
     add_connection_args(p)
-    p.set_defaults(func=run)
+    p.set_defaults(func=run, robot_whole=True)  # --robot: one dashboard over every bus
 
 
 def run(args: argparse.Namespace) -> int:
@@ -63,10 +64,17 @@ def run(args: argparse.Namespace) -> int:
     except ValueError:
         if args.host != "localhost":
             raise UsageError(f"--host {args.host!r}: expected an IP address such as 127.0.0.1 or ::1") from None
-    if not (args.sim or args.serial or args.uart or args.interface):
+    spec = getattr(args, "robot_spec", None)
+    if spec is None and not (args.sim or args.serial or args.uart or args.interface):
         args.sim = DEFAULT_SIM
     token = None if args.host == DEFAULT_HOST else new_token()
-    bus = open_from_args(args, quiet=True)
+    bus: Any
+    if spec is not None:
+        from ..robot import open_robot
+
+        bus = open_robot(spec, timeout=args.timeout, stop_on_close=False)
+    else:
+        bus = open_from_args(args, quiet=True)
     try:
         hub = Hub(bus, read_only=args.read_only, poll_hz=args.poll_rate)
         try:

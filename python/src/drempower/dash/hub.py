@@ -10,24 +10,31 @@ and are run in a worker thread by the web server.
 from __future__ import annotations
 
 import math
+import os
 import sys
 import threading
 import time
 from collections import deque
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from ..client import Bus, ConfigBackup, MotorState
+from ..client import Bus, ConfigBackup, Motor, MotorState
 from ..errors import DrEmpowerError, ValidationError
 from ..protocol import ERROR_WORDS, FastRead, flag_info
 from ..protocol.enums import AxisState, TorqueMode, VelocityMode
 from ..protocol.parameters import Parameter, find_parameter, parameters
 from . import tuning
 
+if TYPE_CHECKING:
+    from ..robot import Robot
+
 __all__ = ["Hub", "Sample", "param_table"]
 
 Sample = tuple[int, float, float, float, float, int, float | None, float | None, float | None]
-"""(id, t s, angle deg, speed r/min, torque Nm, flags (1 = T, 2 = E), target angle, speed, torque)."""
+"""(key, t s, angle deg, speed r/min, torque Nm, flags (1 = T, 2 = E), target angle, speed, torque)."""
+
+KEYS_PER_BUS = 64
+"""A motor's key on the page: ``bus index * KEYS_PER_BUS + motor id`` (on one bus: the motor id)."""
 
 _HEARTBEAT = "can.config.heartbeat_ms"
 _CARD_READS = (
@@ -36,6 +43,15 @@ _CARD_READS = (
     ("fet_temp", "axis0.fet_thermistor.temperature"),
     ("motor_temp", "axis0.motor_thermistor.temperature"),
 )
+_LIMIT_READS = (
+    ("speed", "axis0.output_shaft.vel_limit"),
+    ("torque", "axis0.output_shaft.torque_lim"),
+    ("current", "axis0.motor.config.current_lim"),
+    ("torque_constant", "axis0.output_shaft.torque_constant"),
+)
+"""The limits a motor holds that bound the Control inputs (read at scan and after a write of one)."""
+_BANDWIDTH = "axis0.controller.config.input_filter_bandwidth"
+"""Its domain bounds the T-mode ``param`` (the input filter bandwidth, 1/s)."""
 _LABEL = {w.name: w.label for w in ERROR_WORDS}
 BITS_PER_FRAME = 130
 """Bits on the wire of one 8-byte standard CAN frame with stuffing (about), for the bus load."""
@@ -64,6 +80,11 @@ def param_table() -> list[dict[str, Any]]:
             "access": p.access.value,
             "bool": p.is_bool,
             "description": p.description,
+            "min": p.minimum,
+            "max": p.maximum,
+            "allowed": list(p.allowed),
+            "hard": p.hard,
+            "domain": p.domain_text() if p.has_domain else "",
         }
         for p in parameters()
     ]
@@ -90,6 +111,30 @@ def motor_id(args: dict[str, Any], key: str = "id") -> int:
     return value
 
 
+def bandwidth_range() -> tuple[float, float]:
+    """The T-mode filter bandwidth's range (1/s): the domain of the input filter bandwidth parameter."""
+    p = find_parameter(_BANDWIDTH)
+    lo = p.minimum if p is not None and p.minimum is not None else 0.0
+    hi = p.maximum if p is not None and p.maximum is not None else 300.0
+    return lo, hi
+
+
+def bounds(raw: dict[str, float | None]) -> dict[str, Any]:
+    """Control-input bounds from the limits a motor holds: ``speed`` r/min and ``torque`` Nm (magnitudes,
+    None: unknown), ``bandwidth`` [low, high] 1/s; the torque bound is the smaller of the torque
+    limit and the current limit times the output torque constant."""
+    speed, torque, current, kt = (raw.get(k) for k in ("speed", "torque", "current", "torque_constant"))
+    by_current = current * kt if current is not None and kt is not None and kt > 0 else None
+    if torque is None or (by_current is not None and by_current < torque):
+        torque = by_current
+    return {"speed": speed, "torque": torque, "current": current, "bandwidth": list(bandwidth_range())}
+
+
+def _within(key: str, value: float, bound: float | None, unit: str, what: str) -> None:
+    if bound is not None and abs(value) > bound:
+        raise ValidationError(f"{key}={value:g}: outside -{bound:g}..{bound:g} {unit}, the {what}")
+
+
 def _whole(args: dict[str, Any], key: str, default: int, allowed: tuple[int, ...]) -> int:
     value = args.get(key, default)
     if isinstance(value, bool) or value not in allowed:
@@ -109,14 +154,24 @@ def _ids(args: dict[str, Any], key: str = "ids") -> list[int]:
 
 
 class Hub:
-    """Bus-side state of one dashboard.
+    """Bus-side state of one dashboard: over one :class:`Bus`, or over every bus of a :class:`Robot`.
 
-    ``poll_hz``: fast reads per second per motor while the motors send no
-    heartbeat; ``read_only``: refuse every action that sends a command.
+    Motors are known by a key: the motor id on one bus; ``bus index * 64 + id``
+    over a robot's buses (in file order). ``poll_hz``: fast reads per second per
+    motor while the motors send no heartbeat; ``read_only``: refuse every action
+    that sends a command.
     """
 
-    def __init__(self, bus: Bus, *, read_only: bool = False, poll_hz: float = 50.0) -> None:
-        self.bus = bus
+    def __init__(self, bus: Bus | Robot, *, read_only: bool = False, poll_hz: float = 50.0) -> None:
+        self.robot: Robot | None = None if isinstance(bus, Bus) else bus
+        self.buses: list[tuple[str, Bus]] = [("", bus)] if isinstance(bus, Bus) else list(bus.buses.items())
+        self.bus = self.buses[0][1]
+        self.joints: dict[int, dict[str, Any]] = {}
+        """Robot joints by key: ``{"joint", "bus", "id"}``."""
+        if self.robot is not None:
+            index = {name: k for k, (name, _) in enumerate(self.buses)}
+            for j in self.robot.spec.joints.values():
+                self.joints[index[j.bus] * KEYS_PER_BUS + j.id] = {"joint": j.name, "bus": j.bus, "id": j.id}
         self.read_only = read_only
         self.poll_hz = poll_hz
         self.t0 = time.monotonic()
@@ -128,26 +183,90 @@ class Hub:
         self.heartbeat_ms = 0
         self.scanning = False
         self.saved: dict[int, dict[str, float]] = {}
+        self.limits: dict[int, dict[str, Any]] = {}
         self._watch: dict[tuple[int, str], tuple[float, float]] = {}
         self.param_samples: deque[tuple[int, str, float, float]] = deque()
         self._stop = threading.Event()
-        self._sub = bus.subscribe(self._on_state)
+        self._subs = [b.subscribe(self._sink(k * KEYS_PER_BUS)) for k, (_, b) in enumerate(self.buses)]
         self._poller = threading.Thread(target=self._poll_loop, name="dash poll", daemon=True)
         self._poller.start()
-        self._frames_mark = (time.monotonic(), bus.stats["frames_received"])
+        self._frames_mark = [(time.monotonic(), b.stats["frames_received"]) for _, b in self.buses]
         self.load = 0.0
         self.frame_rate = 0.0
 
+    def _sink(self, off: int) -> Callable[[MotorState], None]:
+        """The subscriber of the bus whose keys start at ``off``."""
+        return lambda st: self._on_state(st, off)
+
+    # ------------------------------------------------------------------ keys
+
+    def where(self, key: int) -> tuple[Bus, int]:
+        """The bus and motor id of ``key``."""
+        k, i = divmod(key, KEYS_PER_BUS)
+        return self.buses[k][1], i
+
+    def motor(self, key: int) -> Motor:
+        bus, i = self.where(key)
+        return bus.motor(i)
+
+    def key(self, args: dict[str, Any], field: str = "id") -> int:
+        """``args[field]`` as a motor key of this dashboard (a whole number, nothing rounded)."""
+        value = args.get(field)
+        if len(self.buses) == 1:
+            return motor_id(args, field)
+        if (
+            isinstance(value, bool)
+            or not isinstance(value, int)
+            or not 1 <= value % KEYS_PER_BUS <= 63
+            or not 0 <= value // KEYS_PER_BUS < len(self.buses)
+        ):
+            raise ValidationError(f"{field}={value!r}: not a motor of this dashboard's buses")
+        return value
+
+    def keys(self, args: dict[str, Any], field: str = "ids") -> list[int]:
+        ids = args.get(field)
+        if not isinstance(ids, list) or not ids:
+            raise ValidationError(f"{field}={ids!r}: expected a list of motors")
+        if len(self.buses) == 1:
+            return _ids(args, field)
+        return [self.key({field: i}, field) for i in ids]
+
+    def label(self, key: int) -> str:
+        """How messages name a motor: ``motor 2``; over a robot ``joint elbow (bus right, motor 1)``."""
+        if self.robot is None:
+            return f"motor {key}"
+        bus, i = self.buses[key // KEYS_PER_BUS][0], key % KEYS_PER_BUS
+        j = self.joints.get(key)
+        return f"joint {j['joint']} (bus {bus}, motor {i})" if j else f"motor {i} of bus {bus}"
+
+    def description(self) -> str:
+        """The bus, or every bus of the robot by name."""
+        if self.robot is None:
+            return self.bus.transport.description
+        return f"robot {os.path.basename(self.robot.spec.source)}: " + "; ".join(
+            f"{name}: {bus.transport.description}" for name, bus in self.buses
+        )
+
+    def names(self) -> dict[int, dict[str, Any]]:
+        """What the page shows of each key over a robot: joints of the file and motors found (none on one bus)."""
+        if self.robot is None:
+            return {}
+        out = {k: dict(v) for k, v in self.joints.items()}
+        for k in self.motors:
+            out.setdefault(k, {"joint": None, "bus": self.buses[k // KEYS_PER_BUS][0], "id": k % KEYS_PER_BUS})
+        return out
+
     # ------------------------------------------------------------------ samples
 
-    def _on_state(self, st: MotorState) -> None:
-        tg = self.targets.get(st.node)
+    def _on_state(self, st: MotorState, off: int = 0) -> None:
+        key = off + st.node
+        tg = self.targets.get(key)
         flags = int(st.trajectory_done) | (int(st.error) << 1)
         t = st.timestamp - self.t0
         if tg is None:
-            self.samples.append((st.node, t, st.angle, st.speed, st.torque, flags, None, None, None))
+            self.samples.append((key, t, st.angle, st.speed, st.torque, flags, None, None, None))
         else:
-            self.samples.append((st.node, t, st.angle, st.speed, st.torque, flags, tg[0], tg[1], tg[2]))
+            self.samples.append((key, t, st.angle, st.speed, st.torque, flags, tg[0], tg[1], tg[2]))
         self.samples_total += 1
 
     def take_samples(self) -> list[Sample]:
@@ -158,12 +277,14 @@ class Hub:
     def _poll_loop(self) -> None:
         next_t = time.monotonic()
         while not self._stop.is_set():
-            ids = sorted(self.motors)
-            if ids and not self.heartbeat_ms and not self.scanning and not self.bus.closed:
-                try:
-                    self.bus.request([FastRead(i) for i in ids], missing_ok=True)
-                except DrEmpowerError:
-                    pass
+            if self.motors and not self.heartbeat_ms and not self.scanning:
+                for k, (_, bus) in enumerate(self.buses):
+                    ids = [key % KEYS_PER_BUS for key in sorted(self.motors) if key // KEYS_PER_BUS == k]
+                    if ids and not bus.closed:
+                        try:
+                            bus.request([FastRead(i) for i in ids], missing_ok=True)
+                        except DrEmpowerError:
+                            pass
             if self._watch and not self.scanning:
                 self._read_watched()
             next_t = max(next_t + 1.0 / self.poll_hz, time.monotonic())
@@ -174,8 +295,7 @@ class Hub:
         p = find_parameter(name)
         if p is None:
             raise ValidationError(f"parameter {name!r}: no such parameter")
-        if not 1 <= i <= 63:
-            raise ValidationError(f"id={i}: motor ids are 1..63")
+        self.key({"id": i})
         if not 0 <= hz <= self.poll_hz:
             raise ValidationError(f"rate={hz!r}: 0 (stop) or up to {self.poll_hz:g} readings/s")
         if hz == 0:
@@ -190,7 +310,7 @@ class Hub:
                 continue
             i, name = key
             try:
-                value = self.bus.motor(i).read_property(name, timeout=0.1)
+                value = self.motor(i).read_property(name, timeout=0.1)
             except DrEmpowerError:
                 continue
             finally:
@@ -207,37 +327,74 @@ class Hub:
         return [q.popleft() for _ in range(len(q))]
 
     def measure_load(self) -> None:
-        """Update :attr:`load` (fraction of a 1 Mbit/s bus) and :attr:`frame_rate` from received frames."""
-        now, frames = time.monotonic(), self.bus.stats["frames_received"]
-        t, f = self._frames_mark
-        if now - t >= 0.2:
-            self.frame_rate = (frames - f) / (now - t)
-            self.load = self.frame_rate * BITS_PER_FRAME / 1_000_000
-            self._frames_mark = (now, frames)
+        """Update :attr:`load` (fraction of a 1 Mbit/s bus; the busiest bus) and :attr:`frame_rate`
+        (received frames/s, every bus) from received frames."""
+        now = time.monotonic()
+        if now - self._frames_mark[0][0] < 0.2:
+            return
+        rates = []
+        for k, (_, bus) in enumerate(self.buses):
+            t, f = self._frames_mark[k]
+            frames = bus.stats["frames_received"]
+            rates.append((frames - f) / (now - t))
+            self._frames_mark[k] = (now, frames)
+        self.frame_rate = sum(rates)
+        self.load = max(rates) * BITS_PER_FRAME / 1_000_000
 
     # ------------------------------------------------------------------ bus view
 
     def do_scan(self, progress: Callable[[int, int, list[dict[str, Any]]], None]) -> list[dict[str, Any]]:
-        """Scan ids 1-63 in four groups, calling ``progress(done, 63, found)`` after each."""
+        """Scan ids 1-63 of every bus in four groups, calling ``progress(done, 63 * buses, found)`` after each."""
         found: list[dict[str, Any]] = []
         self.scanning = True
         try:
-            timeout = min(self.bus.timeout, 0.2)
-            for lo in range(1, 64, 16):
-                group = range(lo, min(lo + 16, 64))
-                for info in self.bus.scan(group, timeout=timeout, versions=True):
-                    found.append({"id": info.id, "hw": info.hw_version, "fw": info.fw_version})
-                progress(group[-1], 63, found)
+            for k, (name, bus) in enumerate(self.buses):
+                timeout = min(bus.timeout, 0.2)
+                for lo in range(1, 64, 16):
+                    group = range(lo, min(lo + 16, 64))
+                    for info in bus.scan(group, timeout=timeout, versions=True):
+                        key = k * KEYS_PER_BUS + info.id
+                        entry: dict[str, Any] = {"id": key, "hw": info.hw_version, "fw": info.fw_version}
+                        if self.robot is not None:
+                            joint = self.joints.get(key, {}).get("joint")
+                            entry.update(bus=name, motor=info.id, joint=joint)
+                        found.append(entry)
+                    progress(k * 63 + group[-1], 63 * len(self.buses), found)
         finally:
             self.scanning = False
         self.motors = {m["id"]: m for m in found}
+        for i in self.motors:
+            self.do_limits(i)
         return found
+
+    def do_limits(self, i: int) -> dict[str, Any]:
+        """Read the limits motor ``i`` holds and keep the Control-input :func:`bounds` they give."""
+        m = self.motor(i)
+        raw: dict[str, float | None] = {}
+        for key, name in _LIMIT_READS:
+            try:
+                raw[key] = float(m.read_property(name, timeout=0.2))
+            except DrEmpowerError:
+                raw[key] = None
+        self.limits[i] = bounds(raw)
+        return self.limits[i]
+
+    def _speed(self, i: int, key: str, value: float) -> float:
+        lim = self.limits.get(i, {}).get("speed")
+        _within(key, value, lim, "r/min", f"speed limit {self.label(i)} holds (axis0.output_shaft.vel_limit)")
+        return value
+
+    def _torque(self, i: int, key: str, value: float) -> float:
+        lim = self.limits.get(i, {}).get("torque")
+        what = f"torque limit {self.label(i)} holds (output_shaft.torque_lim, current_lim x torque_constant)"
+        _within(key, value, lim, "Nm", what)
+        return value
 
     def do_cards(self) -> dict[int, dict[str, Any]]:
         """Supply voltage, axis state, temperatures and decoded error flags of every known motor."""
         cards: dict[int, dict[str, Any]] = {}
         for i in sorted(self.motors):
-            m = self.bus.motor(i)
+            m = self.motor(i)
             card: dict[str, Any] = {"id": i}
             for key, name in _CARD_READS:
                 try:
@@ -245,6 +402,7 @@ class Hub:
                 except DrEmpowerError:
                     card[key] = None
             card["state_name"] = state_name(card["state"])
+            card["limits"] = self.limits.get(i)
             st = m.state
             card["errors"] = []
             if st is not None and st.error:
@@ -279,34 +437,46 @@ class Hub:
         """One control action from a page: ``args["action"]`` names it; returns what the page shows."""
         action = args.get("action")
         if action == "sync_move":
-            ids = _ids(args)
+            ids = self.keys(args)
             angles = args.get("angles")
             if not isinstance(angles, list) or len(angles) != len(ids):
                 raise ValidationError(f"angles={angles!r}: one angle per motor of ids={ids}")
             angles_f = [_num({"angle": a}, "angle") for a in angles]
             speed, accel = _num(args, "speed", 10.0), _num(args, "accel", 10.0)
-            self._control(who, f"set_angles({ids}, {angles_f}, speed={speed}, param={accel}, mode=1)")
-            t = self.bus.set_angles(ids, angles_f, speed, accel, 1)
+            for i in ids:
+                self._speed(i, "speed", speed)
+            t = self._sync_move(who, ids, angles_f, speed, accel)
             for i, a in zip(ids, angles_f, strict=True):
                 self._target(i, angle=a)
             return {"seconds": t}
-        i = motor_id(args)
-        m = self.bus.motor(i)
+        i = self.key(args)
+        m = self.motor(i)
         if action in ("T", "Q", "P"):
             mode = "TQP".index(action)
             angle, speed, param = _num(args, "angle"), _num(args, "speed", 0.0), _num(args, "param", 0.0)
-            self._control(who, f"motor {i} set_angle({angle}, speed={speed}, param={param}, mode={mode})")
+            self._speed(i, "speed", speed)
+            if action == "T":
+                lo, hi = bandwidth_range()
+                if not lo <= param <= hi:
+                    raise ValidationError(
+                        f"param={param:g}: the T-mode filter bandwidth is {lo:g}..{hi:g} 1/s "
+                        f"(the domain of {_BANDWIDTH})"
+                    )
+            elif action == "P":
+                self._torque(i, "param", param)
+            self._control(who, f"{self.label(i)} set_angle({angle}, speed={speed}, param={param}, mode={mode})")
             m.set_angle(angle, speed, param, mode)
             self._target(i, angle=angle)
         elif action in ("jog", "step"):
             delta = _num(args, "delta")
             speed, param = _num(args, "speed", 10.0), _num(args, "param", 10.0)
+            self._speed(i, "speed", speed)
             mode = 1 if action == "jog" else 0
             base = self.targets.get(i, [None])[0]
             st = m.state
             if base is None:
                 base = st.angle if st is not None else 0.0
-            self._control(who, f"motor {i} step_angle({delta}, speed={speed}, param={param}, mode={mode})")
+            self._control(who, f"{self.label(i)} step_angle({delta}, speed={speed}, param={param}, mode={mode})")
             m.step_angle(delta, speed, param, mode)
             self._target(i, angle=base + delta)
         elif action == "V":
@@ -315,7 +485,10 @@ class Hub:
                 _num(args, "param", 0.0),
                 _whole(args, "mode", 1, tuple(VelocityMode)),
             )
-            self._control(who, f"motor {i} set_speed({speed}, param={param}, mode={mode})")
+            self._speed(i, "speed", speed)
+            if mode == VelocityMode.PASSTHROUGH:
+                self._torque(i, "param", param)
+            self._control(who, f"{self.label(i)} set_speed({speed}, param={param}, mode={mode})")
             m.set_speed(speed, param, mode)
             self._target(i, speed=speed)
         elif action == "C":
@@ -324,38 +497,63 @@ class Hub:
                 _num(args, "param", 0.0),
                 _whole(args, "mode", 1, tuple(TorqueMode)),
             )
-            self._control(who, f"motor {i} set_torque({torque}, param={param}, mode={mode})")
+            self._torque(i, "torque", torque)
+            self._control(who, f"{self.label(i)} set_torque({torque}, param={param}, mode={mode})")
             m.set_torque(torque, param, mode)
             self._target(i, torque=torque)
         elif action == "impedance":
             pos, vel, tff = _num(args, "angle"), _num(args, "speed", 0.0), _num(args, "torque", 0.0)
             kp, kd = _num(args, "kp"), _num(args, "kd")
-            self._control(who, f"motor {i} impedance_control({pos}, vel={vel}, tff={tff}, kp={kp}, kd={kd})")
+            self._speed(i, "speed", vel)
+            self._torque(i, "torque", tff)
+            self._control(who, f"{self.label(i)} impedance_control({pos}, vel={vel}, tff={tff}, kp={kp}, kd={kd})")
             m.impedance_control(pos, vel, tff, kp, kd)
             self._target(i, angle=pos)
         elif action == "stop":
-            self._control(who, f"motor {i} set_speed(0)")
+            self._control(who, f"{self.label(i)} set_speed(0)")
             m.set_speed(0.0)
             self._target(i, speed=0.0)
         elif action == "idle":
-            self._control(who, f"motor {i} set_mode(1) (idle)")
+            self._control(who, f"{self.label(i)} set_mode(1) (idle)")
             m.set_mode(1)
             self.commanded.discard(i)
             self.targets.pop(i, None)
         elif action == "enable":
-            self._control(who, f"motor {i} set_mode(2) (closed loop)")
+            self._control(who, f"{self.label(i)} set_mode(2) (closed loop)")
             m.set_mode(2)
         elif action == "clear_errors":
-            self._control(who, f"motor {i} clear_error()")
+            self._control(who, f"{self.label(i)} clear_error()")
             m.clear_error()
         else:
             raise ValidationError(f"action={action!r}: unknown control action")
         return None
 
+    def _sync_move(self, who: str, keys: list[int], angles: list[float], speed: float, accel: float) -> float | None:
+        """One synchronised Q-mode move: on one bus its ``set_angles``; across buses the robot's, by joint."""
+        buses = {k // KEYS_PER_BUS for k in keys}
+        if len(buses) == 1:
+            bus, ids = self.buses[buses.pop()][1], [k % KEYS_PER_BUS for k in keys]
+            where = "" if self.robot is None else f" on bus {self.buses[keys[0] // KEYS_PER_BUS][0]}"
+            self._control(who, f"set_angles({ids}, {angles}, speed={speed}, param={accel}, mode=1){where}")
+            return bus.set_angles(ids, angles, speed, accel, 1)
+        assert self.robot is not None
+        strangers = [self.label(k) for k in keys if k not in self.joints]
+        if strangers:
+            raise ValidationError(f"a move across buses takes joints of the robot file; not: {', '.join(strangers)}")
+        targets = {self.joints[k]["joint"]: a for k, a in zip(keys, angles, strict=True)}
+        self._control(who, f"robot set_angles({targets}, speed={speed}, param={accel}, mode=1)")
+        move = self.robot.set_angles(targets, speed, accel, 1)
+        return move.move_time
+
     def estop(self, who: str) -> None:
-        """Emergency-stop every motor on the bus (one broadcast frame); allowed even when read-only."""
-        log(f"{who}: ESTOP (broadcast emergency stop)")
-        self.bus.estop()
+        """Emergency-stop every motor on every bus (one broadcast frame per bus, all at once);
+        allowed even when read-only."""
+        if self.robot is None:
+            log(f"{who}: ESTOP (broadcast emergency stop)")
+            self.bus.estop()
+        else:
+            log(f"{who}: ESTOP (broadcast emergency stop on buses {', '.join(n for n, _ in self.buses)})")
+            self.robot.estop()
         self.targets.clear()
 
     def idle_commanded(self, why: str) -> list[int]:
@@ -364,11 +562,13 @@ class Hub:
         self.commanded.clear()  # a second caller meanwhile finds nothing to do
         for i in ids:
             try:
-                self.bus.motor(i).set_mode(1)
+                self.motor(i).set_mode(1)
             except DrEmpowerError as exc:
-                log(f"idling motor {i} failed: {exc}")
-        if ids:
+                log(f"idling {self.label(i)} failed: {exc}")
+        if ids and self.robot is None:
             log(f"{why}: idled motors {','.join(map(str, ids))}")
+        elif ids:
+            log(f"{why}: idled {', '.join(map(self.label, ids))}")
         self.commanded.clear()
         self.targets.clear()
         return ids
@@ -380,20 +580,25 @@ class Hub:
         ms = 0 if hz == 0 else max(1, round(1000 / hz))
         self._control(who, f"{_HEARTBEAT} = {ms} on motors {sorted(self.motors)}")
         for i in sorted(self.motors):
-            self.bus.motor(i).write_property(_HEARTBEAT, ms)
+            self.motor(i).write_property(_HEARTBEAT, ms)
         self.heartbeat_ms = ms
 
     # ------------------------------------------------------------------ parameters
 
     def do_read_params(self, i: int) -> dict[str, Any]:
         """Every readable parameter of motor ``i`` (one backup read), with which differ from the saved ones."""
-        values = self.bus.motor(i).backup().values()
+        values = self.motor(i).backup().values()
         saved = self.saved.setdefault(i, dict(values))
         changed = [k for k, v in values.items() if k in saved and saved[k] != v]
         return {"id": i, "values": values, "changed": changed}
 
-    def do_write_param(self, who: str, i: int, name: str, value: Any) -> dict[str, Any]:
-        """Write one parameter (checked against its type and range first), then read it back."""
+    def do_write_param(self, who: str, i: int, name: str, value: Any, force: bool = False) -> dict[str, Any]:
+        """Write one parameter, then read it back.
+
+        The value is checked first against the parameter's type, wire range and domain
+        (:meth:`Parameter.check`): outside it, the :class:`DomainError` and nothing is sent.
+        ``force`` lets a value outside a soft domain through, never outside a hard one.
+        """
         p: Parameter | None = find_parameter(name) if isinstance(name, str) else None
         if p is None:
             raise ValidationError(f"parameter {name!r}: no such parameter")
@@ -402,21 +607,24 @@ class Hub:
         v = _num({name: value}, name)
         if p.dtype.name != "F32" and v != int(v):
             raise ValidationError(f"{name}={value!r}: expected a whole number ({p.dtype.name.lower()})")
-        p.encode(int(v) if p.dtype.name != "F32" else v)  # raises FieldRangeError naming the range
-        self._control(who, f"motor {i} write_property({name!r}, {value})")
-        m = self.bus.motor(i)
-        m.write_property(name, int(v) if p.dtype.name != "F32" else v)
+        sent = p.check(int(v) if p.dtype.name != "F32" else v, force)  # DomainError naming the domain
+        forced = ", force=True" if force and p.has_domain and not p.in_domain(sent) else ""
+        self._control(who, f"{self.label(i)} write_property({name!r}, {value}{forced})")
+        m = self.motor(i)
+        m.write_property(name, sent, force=bool(forced))
         back = m.read_property(name)
-        return {"id": i, "name": name, "value": back}
+        if any(name == n for _, n in _LIMIT_READS):
+            self.do_limits(i)
+        return {"id": i, "name": name, "value": back, "limits": self.limits.get(i)}
 
     def do_save(self, who: str, i: int) -> None:
         """Store motor ``i``'s RAM configuration in flash; what it holds becomes the saved set."""
-        self._control(who, f"motor {i} save_config()")
-        self.bus.motor(i).save_config()
-        self.saved[i] = self.bus.motor(i).backup().values()
+        self._control(who, f"{self.label(i)} save_config()")
+        self.motor(i).save_config()
+        self.saved[i] = self.motor(i).backup().values()
 
     def do_backup(self, i: int) -> dict[str, Any]:
-        return self.bus.motor(i).backup().to_json()
+        return self.motor(i).backup().to_json()
 
     def do_restore(self, who: str, i: int, doc: Any, dry_run: bool) -> dict[str, Any]:
         """Restore a backup document: with ``dry_run`` only the diff (name, now, backup) is returned."""
@@ -424,8 +632,8 @@ class Hub:
             raise ValidationError("restore: expected a backup document (JSON object)")
         backup = ConfigBackup.from_json(doc)
         if not dry_run:
-            self._control(who, f"motor {i} restore(backup of motor {backup.node} from {backup.created})")
-        report = self.bus.motor(i).restore(backup, dry_run=dry_run)
+            self._control(who, f"{self.label(i)} restore(backup of motor {backup.node} from {backup.created})")
+        report = self.motor(i).restore(backup, dry_run=dry_run)
         return {
             "id": i,
             "dry_run": dry_run,
@@ -442,19 +650,20 @@ class Hub:
         """
         if self.read_only:
             raise ValidationError("this dashboard is read-only (--read-only)")
-        i = motor_id(args)
+        i = self.key(args)
         mode = args.get("mode", "position")
         amp, duration = _num(args, "amplitude"), _num(args, "duration", 1.0)
         if mode not in ("position", "velocity"):
             raise ValidationError(f"mode={mode!r}: position or velocity")
         if not 0.1 <= duration <= 10:
             raise ValidationError(f"duration={duration}: 0.1..10 s")
-        m = self.bus.motor(i)
+        m = self.motor(i)
         st = m.get_state()
         base = st.angle if mode == "position" else st.speed
         target = base + amp
         got: list[MotorState] = []
-        sub = self.bus.subscribe(got.append, i)
+        bus, node = self.where(i)
+        sub = bus.subscribe(got.append, node)
         fast = not self.heartbeat_ms  # 500 samples/s for the run (the motor's heartbeat), off afterwards
         try:
             if fast:
@@ -480,11 +689,14 @@ class Hub:
 
     def close(self) -> None:
         self._stop.set()
-        self._sub.cancel()
+        for sub in self._subs:
+            sub.cancel()
         self._poller.join(2.0)
-        if self.heartbeat_ms and not self.bus.closed:
+        if self.heartbeat_ms:
             for i in sorted(self.motors):
+                if self.where(i)[0].closed:
+                    continue
                 try:
-                    self.bus.motor(i).write_property(_HEARTBEAT, 0)
+                    self.motor(i).write_property(_HEARTBEAT, 0)
                 except DrEmpowerError:
                     pass

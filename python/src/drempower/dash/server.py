@@ -24,7 +24,7 @@ from urllib.parse import urlsplit
 from aiohttp import WSMsgType, web
 
 from ..errors import DrEmpowerError
-from .hub import Hub, log, motor_id, param_table
+from .hub import Hub, bandwidth_range, log, param_table
 
 __all__ = ["Dashboard", "format_url"]
 
@@ -144,11 +144,13 @@ class Dashboard:
                     "name": client.name,
                     "read_only": hub.read_only,
                     "params": param_table(),
+                    "bandwidth": list(bandwidth_range()),
                     "motors": sorted(hub.motors),
                     "heartbeat_ms": hub.heartbeat_ms,
                     "poll_hz": hub.poll_hz,
                     "watched": hub.watched(),
-                    "bus": hub.bus.transport.description,
+                    "bus": hub.description(),
+                    "names": hub.names(),
                 }
             )
         )
@@ -193,23 +195,25 @@ class Dashboard:
 
                 result = await self._run(hub.do_scan, progress)
                 self.cards = await self._run(hub.do_cards)
+                await self._broadcast(json.dumps({"t": "names", "names": hub.names()}))
                 await self._broadcast(json.dumps({"t": "cards", "cards": list(self.cards.values())}))
             elif op == "control":
                 result = await self._run(hub.do_control, who, req)
             elif op == "rate":
                 result = await self._run(hub.do_rate, who, float(req.get("hz", 0)))
             elif op == "params":
-                result = await self._run(hub.do_read_params, motor_id(req))
+                result = await self._run(hub.do_read_params, hub.key(req))
             elif op == "write":
-                result = await self._run(hub.do_write_param, who, motor_id(req), req.get("name"), req.get("value"))
+                args = (who, hub.key(req), req.get("name"), req.get("value"), req.get("force") is True)
+                result = await self._run(hub.do_write_param, *args)
             elif op == "save":
-                result = await self._run(hub.do_save, who, motor_id(req))
+                result = await self._run(hub.do_save, who, hub.key(req))
             elif op == "backup":
-                result = await self._run(hub.do_backup, motor_id(req))
+                result = await self._run(hub.do_backup, hub.key(req))
             elif op == "restore":
-                result = await self._run(hub.do_restore, who, motor_id(req), req.get("doc"), bool(req.get("dry_run")))
+                result = await self._run(hub.do_restore, who, hub.key(req), req.get("doc"), bool(req.get("dry_run")))
             elif op == "watch":
-                hub.watch(motor_id(req), str(req.get("name")), float(req.get("hz", 0)))
+                hub.watch(hub.key(req), str(req.get("name")), float(req.get("hz", 0)))
                 result = hub.watched()
                 await self._broadcast(json.dumps({"t": "watched", "watched": result}))
             elif op == "step":

@@ -15,7 +15,7 @@
     data: new Map(), // id -> {t:[], rows:[]} raw samples, oldest first
     lastT: 0, paused: false, frozen: null, xRange: null, dirty: true,
     received: 0, frames: 0, rateWin: [], paramValues: {}, changed: new Set(), runs: [],
-    watched: [], pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
+    names: {}, watched: [], pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
   };
   window.dashParams = (key) => S.pdata.get(key);
   window.dashStats = { received: 0, firstTotal: 0, serverTotal: 0, batches: 0, frames: 0, fps: 0, rate: 0, connected: false };
@@ -90,11 +90,11 @@
   function onMessage(m) {
     switch (m.t) {
       case "hello":
-        S.params = m.params; S.readOnly = m.read_only;
+        S.params = m.params; S.readOnly = m.read_only; S.bandwidth = m.bandwidth;
+        S.paramByName = Object.fromEntries(m.params.map((p) => [p.name, p]));
+        S.names = m.names || {};
         $("#ro").hidden = !m.read_only;
-        for (const e of $$("#view-control button, #view-control input, #view-control select, #par-save, #par-restore, #tun-run, #plot-rate")) {
-          e.disabled = m.read_only; // watching only: the server refuses these anyway
-        }
+        lockReadOnly();
         $("#busname").textContent = m.bus;
         $("#plot-rate").value = m.heartbeat_ms ? String(Math.round(1000 / m.heartbeat_ms)) : "0";
         if (m.motors.length) setMotors(m.motors);
@@ -104,6 +104,7 @@
         break;
       case "samples": onSamples(m); break;
       case "watched": setWatched(m.watched); break;
+      case "names": { S.names = m.names || {}; const ms = S.motors; S.motors = []; setMotors(ms); break; }
       case "params":
         for (const [id, name, t, v] of m.s) {
           const k = `${id}:${name}`;
@@ -120,13 +121,15 @@
         window.dashStats.commanded = m.commanded;
         break;
       case "scan":
+        $("#scan-progress").max = m.of;
         $("#scan-progress").value = m.done;
-        $("#scan-text").textContent = `${m.done}/63, found ${m.found.map((f) => f.id).join(", ") || "none"}`;
+        $("#scan-text").textContent = `${m.done}/${m.of}, found ${m.found.map((f) => shortName(f.id)).join(", ") || "none"}`;
         break;
       case "cards":
         for (const c of m.cards) S.cards[c.id] = c;
         setMotors(m.cards.map((c) => c.id));
         renderCards();
+        applyLimits();
         break;
       case "reply": {
         const p = S.pending.get(m.req);
@@ -169,7 +172,7 @@
     const per = [];
     for (const [id, d] of S.data) {
       const k = lowerBound(d.t, S.lastT - 1);
-      per.push(`motor ${id}: ${d.t.length - k}/s`);
+      per.push(`${motorName(id)}: ${d.t.length - k}/s`);
     }
     $("#plot-per-motor").textContent = per.join(", ");
     window.dashStats.fps = S.frames; $("#plot-fps").textContent = S.frames; S.frames = 0;
@@ -182,21 +185,39 @@
   }
 
   // ------------------------------------------------------------ motors and views
+  // watching only: every control disabled (the server refuses them anyway), ESTOP stays
+  function lockReadOnly() {
+    for (const e of $$("#view-control button, #view-control input, #view-control select, #par-save, #par-restore, #tun-run, #tun-gains input, #tun-gains button, #plot-rate")) {
+      e.disabled = S.readOnly;
+    }
+  }
+  // how the page names a motor: its joint, bus and id with --robot, else "motor ID"
+  function motorName(id) {
+    const n = S.names && S.names[id];
+    return n ? `${n.joint || "motor " + n.id} (${n.bus} #${n.id})` : `motor ${id}`;
+  }
+  const legendName = (id) => (S.names && S.names[id] ? shortName(id) : `m${id}`);
+  // shorter, for lists and plot legends: the joint name (or bus#id) with a robot, the id on one bus
+  function shortName(id) {
+    const n = S.names && S.names[id];
+    return n ? n.joint || `${n.bus}#${n.id}` : String(id);
+  }
   function setMotors(ids) {
     ids = Array.from(new Set(ids)).sort((a, b) => a - b);
     if (ids.join() === S.motors.join()) return;
     S.motors = ids;
     for (const sel of $$(".motor-select")) {
       const v = sel.value;
-      sel.innerHTML = ids.map((i) => `<option value="${i}">${i}</option>`).join("");
+      sel.innerHTML = ids.map((i) => `<option value="${i}">${shortName(i)}</option>`).join("");
       if (ids.includes(Number(v))) sel.value = v;
     }
     const unchecked = new Set($$("#plot-motors input:not(:checked)").map((e) => Number(e.value)));
     $("#plot-motors").innerHTML = "motors " + ids.map((i) =>
-      `<label><input type="checkbox" value="${i}" ${unchecked.has(i) ? "" : "checked"}> ${i}</label>`).join(" ");
+      `<label><input type="checkbox" value="${i}" ${unchecked.has(i) ? "" : "checked"}> ${shortName(i)}</label>`).join(" ");
     $("#sync-rows").innerHTML = ids.map((i) =>
-      `<label><span><input type="checkbox" class="sync-on" value="${i}" checked> motor ${i}</span>
+      `<label><span><input type="checkbox" class="sync-on" value="${i}" checked> ${motorName(i)}</span>
        <input type="number" step="any" class="sync-angle" data-id="${i}" value="0"></label>`).join("");
+    lockReadOnly();
     rebuildPlot();
   }
 
@@ -229,7 +250,7 @@
   on("#scan", async () => {
     $("#scan-progress").value = 0;
     const found = await act("scan", {});
-    $("#scan-text").textContent = `done: ${found.length} motor(s): ${found.map((f) => f.id).join(", ")}`;
+    $("#scan-text").textContent = `done: ${found.length} motor(s): ${found.map((f) => shortName(f.id)).join(", ")}`;
   });
   function fmt(v, d) { return v === null || v === undefined ? "-" : Number(v).toFixed(d); }
   function latest(id) {
@@ -242,7 +263,9 @@
       const r = latest(id);
       const errs = (c.errors || []).map((e) => `<div class="err"><b>${e.word}: ${e.flag}</b> ${e.meaning} <i>${e.advice}</i></div>`).join("");
       const ro = S.readOnly ? "disabled" : "";
-      return `<div class="card" data-id="${id}"><h3>Motor ${id}</h3>
+      const n = S.names[id];
+      const title = n ? `${n.joint || "motor " + n.id} <span class="dim">bus ${n.bus}, id ${n.id}</span>` : `Motor ${id}`;
+      return `<div class="card" data-id="${id}"><h3>${title}</h3>
         <table><tr><td>state</td><td>${c.state_name || "-"}</td></tr>
         <tr><td>angle</td><td>${r ? fmt(r[2], 2) : "-"} deg</td></tr>
         <tr><td>speed</td><td>${r ? fmt(r[3], 2) : "-"} r/min</td></tr>
@@ -260,7 +283,7 @@
     const b = e.target.closest("button[data-card]");
     if (!b) return;
     const id = Number(b.closest(".card").dataset.id);
-    act("control", { action: b.dataset.card, id }, `motor ${id}: ${b.dataset.card}`);
+    act("control", { action: b.dataset.card, id }, `${motorName(id)}: ${b.dataset.card}`);
   });
   setInterval(() => { if (!$("#view-bus").hidden) renderCards(); }, 500);
 
@@ -298,7 +321,7 @@
         }
       }] },
       series: [{ label: "t" }].concat(series.map((s) => ({
-        label: s.param ? `m${s.id} ${s.ch.split(".").slice(-2).join(".")}` : `m${s.id} ${s.ch}${s.target ? " target" : ""}`,
+        label: `${legendName(s.id)} ${s.param ? s.ch.split(".").slice(-2).join(".") : s.ch + (s.target ? " target" : "")}`,
         stroke: s.color, width: s.target ? 1 : 1.5, dash: s.target ? [6, 4] : undefined, spanGaps: true,
         points: { show: false },
       }))),
@@ -439,9 +462,9 @@
     try { return act("control", Object.assign({ id: ctlId() }, args), text); } catch (e) { return null; }
   }
   $$("#view-control button[data-act]").forEach((b) => b.addEventListener("click", () =>
-    control({ action: b.dataset.act }, `motor ${ctlId()}: ${b.dataset.act}`)));
+    control({ action: b.dataset.act }, `${motorName(ctlId())}: ${b.dataset.act}`)));
   on("#pos-go", () => control({ action: $("#pos-mode").value, angle: num("#pos-angle"),
-    speed: num("#pos-speed"), param: num("#pos-param") }, `motor ${ctlId()}: move to ${$("#pos-angle").value} deg`));
+    speed: num("#pos-speed"), param: num("#pos-param") }, `${motorName(ctlId())}: move to ${$("#pos-angle").value} deg`));
   on("#jog-plus", () => control({ action: "jog", delta: num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
   on("#jog-minus", () => control({ action: "jog", delta: -num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
   on("#step-go", () => control({ action: "step", delta: num("#step-delta"), speed: 0, param: 0 }));
@@ -455,6 +478,29 @@
     act("control", { action: "sync_move", ids, angles, speed: num("#sync-speed"), accel: num("#sync-accel") },
       `synchronised move of ${ids.join(",")}`);
   });
+  // the Control inputs bounded by the limits the selected motor holds (read by the server) and by the
+  // T-mode bandwidth's parameter domain; the server checks the same bounds again
+  const WIRE = 327.67;
+  function setRange(id, lo, hi) { const el = $("#" + id); el.min = String(lo); el.max = String(hi); }
+  function applyLimits() {
+    const c = S.cards[ctlId()], L = (c && c.limits) || {};
+    const sp = Math.min(WIRE, L.speed ?? WIRE), tq = Math.min(WIRE, L.torque ?? WIRE);
+    const bw = L.bandwidth || S.bandwidth || [0, 300];
+    for (const id of ["pos-speed", "vel-speed", "imp-speed"]) setRange(id, -sp, sp);
+    for (const id of ["tq-torque", "imp-torque"]) setRange(id, -tq, tq);
+    const all = S.motors.map((i) => (S.cards[i] && S.cards[i].limits && S.cards[i].limits.speed) ?? WIRE);
+    setRange("sync-speed", 0.01, Math.min(WIRE, ...all));
+    const pm = $("#pos-mode").value;
+    if (pm === "T") setRange("pos-param", bw[0], bw[1]);
+    else if (pm === "P") setRange("pos-param", -tq, tq);
+    else setRange("pos-param", -WIRE, WIRE);
+    if ($("#vel-mode").value === "1") setRange("vel-param", -tq, tq); else setRange("vel-param", -WIRE, WIRE);
+    $("#ctl-limits").textContent = c && c.limits
+      ? `limits of ${motorName(ctlId())}: speed ±${fmtL(L.speed)} r/min, torque ±${fmtL(L.torque)} Nm, current ${fmtL(L.current)} A; T bandwidth ${bw[0]}..${bw[1]} 1/s`
+      : `T bandwidth ${bw[0]}..${bw[1]} 1/s (scan to read the motor's limits)`;
+  }
+  const fmtL = (v) => (v === null || v === undefined ? "?" : String(+Number(v).toPrecision(6)));
+  for (const sel of ["#ctl-motor", "#pos-mode", "#vel-mode"]) on(sel, applyLimits, "change");
   setInterval(() => {
     const r = latest(ctlId());
     $("#ctl-state").textContent = r ? `angle ${fmt(r[2], 2)} deg, speed ${fmt(r[3], 2)} r/min, torque ${fmt(r[4], 2)} Nm${r[5] & 1 ? ", done" : ""}${r[5] & 2 ? ", ERROR" : ""}` : "";
@@ -464,15 +510,26 @@
   function buildParamTable() {
     let html = "", group = null;
     for (const p of S.params) {
-      if (p.group !== group) { group = p.group; html += `<tr class="group"><td colspan="5">${group}</td></tr>`; }
+      if (p.group !== group) { group = p.group; html += `<tr class="group"><td colspan="6">${group}</td></tr>`; }
+      // a hard range bounds the input itself; a soft one is checked on Set (crossable with "force")
+      const hardRange = p.hard && !p.allowed.length
+        ? `${p.min !== null ? `min="${p.min}"` : ""} ${p.max !== null ? `max="${p.max}"` : ""}` : "";
+      const force = p.domain && !p.hard
+        ? ` <label class="force" title="write a value outside the soft domain"><input type="checkbox" data-force="${p.name}" aria-label="force ${p.name}">force</label>` : "";
       const edit = p.access === "rw" && !S.readOnly
-        ? `<input data-name="${p.name}" type="number" step="${p.type === "f32" ? "any" : "1"}" ${p.bool ? 'min="0" max="1"' : ""} aria-label="${p.name}"> <button data-set="${p.name}">Set</button>` : "";
+        ? `<input data-name="${p.name}" type="number" step="${p.type === "f32" ? "any" : "1"}" ${hardRange} aria-label="${p.name}"> <button data-set="${p.name}">Set</button>${force}` : "";
       html += `<tr data-name="${p.name}"><td title="address ${p.address}, ${p.type}">${p.name}</td>
-        <td><span class="val" data-val="${p.name}">-</span> ${edit}</td><td>${p.unit}</td><td>${p.access}</td><td>${p.description}</td></tr>`;
+        <td><span class="val" data-val="${p.name}">-</span> ${edit}</td><td>${p.unit}</td><td>${p.access}</td>
+        <td class="domain">${p.domain}</td><td>${p.description}</td></tr>`;
     }
     $("#par-table tbody").innerHTML = html;
   }
   const parId = () => Number($("#par-motor").value);
+  function inDomain(p, v) {
+    if (p.allowed.length) return p.allowed.includes(v);
+    if (p.min !== null && !(v >= p.min)) return false;
+    return p.max === null || v <= p.max;
+  }
   // a parameter value as the motor holds it: f32 values to their 7 significant digits
   const shown = (v) => (Number.isInteger(v) ? String(v) : String(+Number(v).toPrecision(7)));
   async function readParams() {
@@ -485,7 +542,7 @@
       el.textContent = v === undefined ? "-" : shown(v);
     }
     for (const tr of $$("#par-table tr[data-name]")) tr.classList.toggle("changed", S.changed.has(tr.dataset.name));
-    $("#par-status").textContent = `motor ${id}: ${Object.keys(r.values).length} values read ${new Date().toLocaleTimeString()}; ${S.changed.size} changed since saved`;
+    $("#par-status").textContent = `${motorName(id)}: ${Object.keys(r.values).length} values read ${new Date().toLocaleTimeString()}; ${S.changed.size} changed since saved`;
   }
   on("#par-read", readParams);
   on("#par-motor", readParams, "change");
@@ -494,10 +551,18 @@
     const b = e.target.closest("button[data-set]");
     if (!b) return;
     const name = b.dataset.set, input = $(`#par-table input[data-name="${name}"]`);
-    if (input.value === "" || !input.checkValidity()) { say(`${name}: ${input.value || "(empty)"} is not a valid value`); return; }
-    const r = await act("write", { id: parId(), name, value: Number(input.value) });
+    const p = S.paramByName[name], v = Number(input.value);
+    const forceBox = $(`#par-table input[data-force="${name}"]`), force = Boolean(forceBox && forceBox.checked);
+    if (input.value === "" || !Number.isFinite(v)) { say(`${name}: ${input.value || "(empty)"} is not a valid value`); return; }
+    if (p.domain && !inDomain(p, v) && (p.hard || !force)) {
+      say(`${name}=${input.value} is outside its domain: ${p.domain}${p.hard ? "" : "; tick force to write it anyway"}`);
+      return;
+    }
+    const r = await act("write", { id: parId(), name, value: v, force });
+    if (forceBox) forceBox.checked = false;
+    if (r.limits) { S.cards[r.id] = Object.assign(S.cards[r.id] || { id: r.id }, { limits: r.limits }); applyLimits(); }
     $(`#par-table span[data-val="${name}"]`).textContent = shown(r.value);
-    say(`motor ${r.id}: ${name} = ${shown(r.value)} (read back)`, true);
+    say(`${motorName(r.id)}: ${name} = ${shown(r.value)} (read back)`, true);
     S.changed.add(name);
     $(`#par-table tr[data-name="${name}"]`).classList.add("changed");
   });
@@ -515,7 +580,7 @@
     }
     if (group) group.hidden = !any;
   });
-  on("#par-save", async () => { await act("save", { id: parId() }, `motor ${parId()}: saved to flash`); readParams(); });
+  on("#par-save", async () => { await act("save", { id: parId() }, `${motorName(parId())}: saved to flash`); readParams(); });
   on("#par-backup", async () => {
     const doc = await act("backup", { id: parId() });
     download(`drempower-motor${parId()}-backup.json`, JSON.stringify(doc, null, 1) + "\n", "application/json");
@@ -530,15 +595,15 @@
     const r = await act("restore", { id, doc, dry_run: true });
     const box = $("#par-diff");
     box.hidden = false;
-    if (!r.diff.length) { box.innerHTML = `${f.name}: motor ${id} already holds these values. <button id="diff-close">Close</button>`; }
+    if (!r.diff.length) { box.innerHTML = `${f.name}: ${motorName(id)} already holds these values. <button id="diff-close">Close</button>`; }
     else {
-      box.innerHTML = `<b>${f.name}: ${r.diff.length} parameter(s) of motor ${id} would change</b>
+      box.innerHTML = `<b>${f.name}: ${r.diff.length} parameter(s) of ${motorName(id)} would change</b>
         <table><tr><th>name</th><th>now</th><th>backup</th></tr>${r.diff.map((d) => `<tr><td>${d[0]}</td><td>${shown(d[1])}</td><td>${shown(d[2])}</td></tr>`).join("")}</table>
         <button id="diff-write">Write them</button> <button id="diff-close">Cancel</button>`;
       on("#diff-write", async () => {
         const w = await act("restore", { id, doc, dry_run: false });
         box.hidden = true;
-        say(`motor ${id}: ${w.diff.length} parameter(s) written${w.failed.length ? ", failed: " + w.failed.map((x) => x[0]).join(", ") : ""}`, !w.failed.length);
+        say(`${motorName(id)}: ${w.diff.length} parameter(s) written${w.failed.length ? ", failed: " + w.failed.map((x) => x[0]).join(", ") : ""}`, !w.failed.length);
         readParams();
       });
     }
@@ -559,12 +624,13 @@
     $("#tun-gains").innerHTML = GAINS[mode].map((n) =>
       `<label>${n.split(".").pop()} <input type="number" step="any" data-gain="${n}" value="${+Number(r.values[n]).toPrecision(6)}" size="8"></label>`).join("") +
       ' <button id="tun-apply">Write gains</button>';
+    lockReadOnly();
     on("#tun-apply", async () => {
       for (const el of $$("#tun-gains input[data-gain]")) {
         const w = await act("write", { id, name: el.dataset.gain, value: Number(el.value) });
         el.value = w.value;
       }
-      say(`motor ${id}: gains written and read back`, true);
+      say(`${motorName(id)}: gains written and read back`, true);
     });
   }
   on("#tun-mode", loadGains, "change");
