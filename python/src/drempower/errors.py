@@ -203,7 +203,13 @@ class MoveFaultError(MoveError, MotorFaultError):
 
 
 class MoveTimeoutError(MoveError, TimeoutError):
-    """The motor had not finished its move when the wait's ``timeout`` (s) ended."""
+    """The motors had not finished their moves when the wait's ``timeout`` (s) ended.
+
+    ``node``, ``target``, ``position`` and ``flags`` describe the first motor
+    still moving, ``nodes`` names every one, and ``others`` holds a
+    :class:`MoveError` (target, position, flags, reason) for each of the rest;
+    the message names them all.
+    """
 
     def __init__(
         self,
@@ -214,11 +220,15 @@ class MoveTimeoutError(MoveError, TimeoutError):
         reason: str,
         timeout: float,
         nodes: Sequence[int] = (),
+        others: Sequence[MoveError] = (),
     ) -> None:
         self.nodes = tuple(nodes) or (node,)
+        self.others = tuple(others)
         self.request = "wait_position_done"
         self.timeout = timeout
         MoveError.__init__(self, node, target, position, flags, reason)
+        if self.others:
+            DrEmpowerError.__init__(self, "; ".join([str(self), *map(str, self.others)]))
 
 
 class SavedConfigError(DrEmpowerError):

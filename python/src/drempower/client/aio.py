@@ -105,7 +105,10 @@ class AsyncBus(BusBase["AsyncMotor"]):
                 if ex.collect(w):
                     return self._heard_from(ex.result())
         if isinstance(effect, Send):
-            core.send_many(effect.messages)
+            if core.sequenced(effect.messages):  # a start may wait until its presets are on the wire
+                await asyncio.to_thread(core.send_many, effect.messages)
+            else:
+                core.send_many(effect.messages)
             return None
         if isinstance(effect, Batch):  # in a thread: the start waits until the presets are on the wire
             return await asyncio.to_thread(
@@ -119,12 +122,18 @@ class AsyncBus(BusBase["AsyncMotor"]):
     async def send(self, msg: Message) -> None:
         """Send one message (validated first); never waits for a reply."""
         self._check_writes([msg])
-        self._core.send(msg)
+        if self._core.sequenced([msg]):  # a start may wait until its presets are on the wire
+            await asyncio.to_thread(self._core.send, msg)
+        else:
+            self._core.send(msg)
 
     async def send_many(self, msgs: Sequence[Message]) -> None:
         """Send several messages; if any is invalid, none is sent."""
         self._check_writes(msgs)
-        self._core.send_many(msgs)
+        if self._core.sequenced(msgs):  # a start may wait until its presets are on the wire
+            await asyncio.to_thread(self._core.send_many, msgs)
+        else:
+            self._core.send_many(msgs)
 
     async def request(
         self, msgs: Sequence[Message], timeout: float | None = None, *, missing_ok: bool = False

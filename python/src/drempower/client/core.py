@@ -33,6 +33,13 @@ from ..protocol.messages import (
     PositionP,
     PositionQ,
     PositionT,
+    Preset,
+    PresetC,
+    PresetD,
+    PresetP,
+    PresetQ,
+    PresetT,
+    PresetV,
     ReadParam,
     Start,
     StartImpedance,
@@ -85,6 +92,15 @@ _WORST_FRAME_BITS = 135
 """Longest standard 8-byte CAN data frame with stuff bits and interframe space."""
 _POSITION_CMDS = (PositionT, PositionQ, PositionP)
 _POSITION_STARTS = frozenset((0x10, 0x11, 0x12))
+_STARTS = (Start, StartImpedance)
+_TYPED_PRESETS = (PresetT, PresetQ, PresetP, PresetV, PresetC, PresetD)
+
+
+def _preset_goal(preset: Message, q_start: bool) -> tuple[float, float | None]:
+    """The target (deg) a position start gives ``preset``, and its move time (s) for a Q start (else None)."""
+    wire = preset if isinstance(preset, Preset) else preset.to_preset() if isinstance(preset, _TYPED_PRESETS) else None
+    assert wire is not None
+    return wire.p1, (wire.p2 if q_start and wire.p2 > 0 else None)
 
 
 @dataclasses.dataclass(slots=True)
@@ -221,6 +237,9 @@ class BusCore:
         self._batch_lock = threading.Lock()
         self._close_lock = threading.Lock()
         self._pending_presets: set[int] = set()
+        """Motors holding a preset no start has consumed yet (0 = a broadcast preset)."""
+        self._preset_msgs: dict[int, Message] = {}
+        """The last preset sent per motor through :meth:`send`/:meth:`send_many` and not started yet."""
         self._commanded: set[int] = set()
         self._closed = False
         self.closed_event = threading.Event()
@@ -322,30 +341,117 @@ class BusCore:
     # ------------------------------------------------------------------ sending
 
     def send(self, msg: Message) -> None:
-        """Encode (validating) and send one message; never waits for a reply."""
+        """Encode (validating) and send one message; never waits for a reply.
+
+        A preset or start is sequenced as in :meth:`send_many` (a start may wait
+        until the presets it starts are on the wire).
+        """
         frame = msg.encode()
         self.check_open()
-        if msg.cmd != 0x1E:
+        cmd = msg.cmd
+        if cmd == 0x0C or (cmd == 0x08 and isinstance(msg, _STARTS)):
+            self._send_sequenced([msg], [frame])
+            return
+        if cmd != 0x1E:
             self._note(msg, frame)
         with self._send_lock:
+            self._reserve_wire(1)
             self.transport.send(frame)
             if self.frame_taps:
                 self._tap(frame, True)
 
     def send_many(self, msgs: Sequence[Message]) -> None:
-        """Encode every message first (nothing is sent if one is invalid), then send them in order."""
+        """Encode every message first (nothing is sent if one is invalid), then send them in order.
+
+        Presets (0x0C) are remembered until a start consumes them. A start
+        (0x08, sys 0x10..0x15) that would start a pending preset is sent only
+        once every preset is on the wire (:meth:`presets_on_wire`, so a start
+        never overtakes its presets in a controller's mailboxes); the moves
+        it starts are then recorded in :attr:`moves` as :meth:`send_batch`
+        does (target from each motor's position preset, move time from a Q
+        preset; a relative move's target is unknown).
+        """
         frames = [m.encode() for m in msgs]
         self.check_open()
+        if self.sequenced(msgs):
+            self._send_sequenced(msgs, frames)
+            return
         for m, f in zip(msgs, frames, strict=True):
             if m.cmd != 0x1E:
                 self._note(m, f)
         self._send_frames(frames)
 
+    @staticmethod
+    def sequenced(msgs: Sequence[Message]) -> bool:
+        """Whether sending ``msgs`` involves presets or starts (and so may wait for the wire: see :meth:`send_many`)."""
+        return any(m.cmd == 0x0C or isinstance(m, _STARTS) for m in msgs)
+
+    def _send_sequenced(self, msgs: Sequence[Message], frames: Sequence[Frame]) -> None:
+        """Send encoded messages holding presets or starts: track the presets, gate and record the starts."""
+        with self._batch_lock:
+            chunk: list[Frame] = []
+            for m, f in zip(msgs, frames, strict=True):
+                self._note(m, f)
+                if m.cmd == 0x0C:
+                    self._hold_preset(m)
+                elif isinstance(m, _STARTS) and self._starts_pending(m.node):
+                    if chunk:
+                        self._send_frames(chunk)
+                        chunk = []
+                    self._start_pending(m, f)
+                    continue
+                chunk.append(f)
+            if chunk:
+                self._send_frames(chunk)
+
+    def _hold_preset(self, msg: Message) -> None:
+        node = msg.node
+        if node == 0:  # a broadcast preset replaces every motor's
+            self._preset_msgs.clear()
+        self._pending_presets.add(node)
+        self._preset_msgs[node] = msg
+
+    def _starts_pending(self, node: int) -> bool:
+        """Whether a start to ``node`` (0 = broadcast) would start a pending preset."""
+        pending = self._pending_presets
+        return bool(pending) if node == 0 else node in pending or 0 in pending
+
+    def _start_pending(self, start: Message, frame: Frame) -> None:
+        """Send ``start`` once the presets are on the wire; record the moves it starts, drop what it consumed."""
+        node = start.node
+        pending = self._pending_presets
+        started = sorted(pending) if node == 0 else [node]
+        self.presets_on_wire([n for n in started if n] or [0])
+        sent = _monotonic()
+        moves = self.moves
+        kind = getattr(start, "kind", None)
+        if 0 in started:  # a broadcast preset: which motors it reached is unknown
+            moves.clear()
+        for n in started:
+            if n == 0:
+                continue
+            preset = self._preset_msgs.get(n, self._preset_msgs.get(0))
+            if kind in _POSITION_STARTS and preset is not None:
+                goal, move_time = _preset_goal(preset, kind == 0x11)
+                moves[n] = MoveRecord(None if getattr(start, "relative", False) else goal, sent, move_time)
+            else:
+                moves.pop(n, None)
+        self._send_frames([frame])
+        if node == 0:
+            pending.clear()
+            self._preset_msgs.clear()
+        else:
+            pending.discard(node)
+            self._preset_msgs.pop(node, None)
+
+    def _reserve_wire(self, count: int) -> None:
+        """Account ``count`` frames handed to the transport now in :attr:`_wire_free` (when the wire is free)."""
+        rate = getattr(self.transport, "wire_bitrate", None) or ASSUMED_BITRATE
+        self._wire_free = max(_monotonic(), self._wire_free) + count * _WORST_FRAME_BITS / rate
+
     def _send_frames(self, frames: Sequence[Frame]) -> None:
         lock, send, sent = self._send_lock, self.transport.send, self.on_sent
-        rate = getattr(self.transport, "wire_bitrate", None) or ASSUMED_BITRATE
-        now = _monotonic()
-        self._wire_free = max(now, self._wire_free) + len(frames) * _WORST_FRAME_BITS / rate
+        self._reserve_wire(len(frames))
         for f in frames:
             with lock:  # per frame, so an estop from another thread waits one frame at most
                 send(f)
@@ -405,6 +511,8 @@ class BusCore:
             where = [0] if broadcast else nodes
             starts = [dataclasses.replace(start, node=n).encode() for n in where]
             self._pending_presets.update(nodes)
+            for n in nodes:
+                self._preset_msgs.pop(n, None)
             self._commanded.update(nodes)
             self._send_frames(frames)
             self.presets_on_wire(nodes)
@@ -420,6 +528,7 @@ class BusCore:
             self._send_frames(starts)
             if broadcast:
                 self._pending_presets.clear()
+                self._preset_msgs.clear()
             else:
                 self._pending_presets.difference_update(nodes)
         return where

@@ -382,19 +382,32 @@ def wait_done(
             break
         left = deadline - time.monotonic()
         if left <= 0:
-            n = waiting[0]
-            mv = moves.get(n)
-            st = last.get(n)
-            took = mv is None or mv.took is not None or (st is not None and not st.trajectory_done)
-            why = "still moving" if took else "no sign that it took the move"
+            late: list[MoveError] = []
+            for n in waiting:
+                mv = moves.get(n)
+                st = last.get(n)
+                took = mv is None or mv.took is not None or (st is not None and not st.trajectory_done)
+                why = "still moving" if took else "no sign that it took the move"
+                flags = yield from _flags(n, request_timeout)
+                late.append(
+                    MoveError(
+                        n,
+                        None if mv is None else mv.target,
+                        None if st is None else st.angle,
+                        flags,
+                        f"{why} after {timeout:g} s",
+                    )
+                )
+            first = late[0]
             raise MoveTimeoutError(
-                n,
-                None if mv is None else mv.target,
-                None if st is None else st.angle,
-                {},
-                f"{why} after {timeout:g} s" + ("" if len(waiting) == 1 else f" ({motors(waiting)} not done)"),
+                first.node,
+                first.target,
+                first.position,
+                first.flags,
+                first.reason + ("" if len(waiting) == 1 else f" ({motors(waiting)} not done)"),
                 timeout,
                 waiting,
+                late[1:],
             )
         yield from sleep(min(poll_interval, left))
     for node, st in done.items():

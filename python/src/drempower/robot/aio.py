@@ -156,11 +156,17 @@ class AsyncRobot:
                 async def run() -> float:
                     await go.wait()
                     presets, start = batches[bus]
-                    self._clock.take()
-                    self.buses[bus].core.send_batch(presets, start)
-                    when = self._clock.take()
-                    assert when is not None
-                    return when
+                    core = self.buses[bus].core
+                    goals = None if relative else [t.angle for t in targets[bus]]  # relative: from unread positions
+
+                    def fire() -> float:  # in a thread: the start waits until the presets are on the wire
+                        self._clock.take()
+                        core.send_batch(presets, start, goals, move_time)
+                        when = self._clock.take()
+                        assert when is not None
+                        return when
+
+                    return await asyncio.to_thread(fire)
 
                 return run
 

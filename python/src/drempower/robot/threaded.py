@@ -199,7 +199,8 @@ class Robot:
                         except threading.BrokenBarrierError:
                             pass  # another bus's thread was late: send anyway, the skew shows it
                     self._clock.take()
-                    core.send_batch(presets, start)
+                    goals = None if relative else [t.angle for t in targets[bus]]  # relative: from unread positions
+                    core.send_batch(presets, start, goals, move_time)
                     when = self._clock.take()
                     assert when is not None
                     return when
