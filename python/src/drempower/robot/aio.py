@@ -13,6 +13,7 @@ from ..client.bus import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL
 from ..client.commands import PositionMode
 from ..client.effects import read_states
 from ..client.state import MotorState
+from ..client.timeouts import checks_times
 from ..errors import BusClosedError, DrEmpowerError, ValidationError
 from ..protocol.messages import Message
 from .config import RobotSpec, load_robot
@@ -36,6 +37,7 @@ __all__ = ["AsyncRobot", "open_robot_async"]
 T = TypeVar("T")
 
 
+@checks_times
 class AsyncRobot:
     """The asyncio counterpart of :class:`~drempower.robot.threaded.Robot` (same methods, as coroutines).
 

@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, NamedTuple
 from ..client.aio import AsyncMotor
 from ..client.motor import Motor
 from ..client.state import MotorState
+from ..client.timeouts import checks_times
 from .config import JointSpec
 
 if TYPE_CHECKING:
@@ -83,6 +84,7 @@ class Gearing:
         return torque / self.gear
 
 
+@checks_times
 class Joint(Motor):
     """A :class:`~drempower.client.motor.Motor` (every method, in wire units) that also knows its joint.
 
@@ -123,6 +125,7 @@ class Joint(Motor):
         return f"<Joint {self.name} motor {self.id}>"
 
 
+@checks_times
 class AsyncJoint(AsyncMotor):
     """The asyncio counterpart of :class:`Joint`: an :class:`~drempower.client.aio.AsyncMotor` that knows its joint."""
 

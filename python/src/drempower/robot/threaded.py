@@ -13,6 +13,7 @@ from ..client.bus import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, Bus, open_
 from ..client.commands import PositionMode
 from ..client.effects import read_states
 from ..client.state import MotorState
+from ..client.timeouts import checks_times
 from ..errors import BusClosedError, DrEmpowerError, ValidationError
 from ..protocol.messages import Message
 from .config import RobotSpec, load_robot
@@ -50,6 +51,7 @@ def bus_options(spec: RobotSpec, bus: str, overrides: Mapping[str, Any]) -> dict
     return kw
 
 
+@checks_times
 class Robot:
     """Several buses driven as one robot; joints by name.
 
