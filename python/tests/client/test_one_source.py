@@ -41,7 +41,12 @@ def test_the_generated_front_end_is_fresh() -> None:
 
 def test_an_edit_of_either_side_alone_is_stale(tmp_path: Path) -> None:
     """On a copy: a hand edit of api_sync.py, or an edit of api_async.py not regenerated, fails the check."""
-    parts = [Path("tools/gen_sync.py"), Path("python/pyproject.toml"), _CLIENT / "api_async.py", _CLIENT / "api_sync.py"]
+    parts = [
+        Path("tools/gen_sync.py"),
+        Path("python/pyproject.toml"),
+        _CLIENT / "api_async.py",
+        _CLIENT / "api_sync.py",
+    ]
     for rel in parts:
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
         shutil.copyfile(REPO_ROOT / rel, tmp_path / rel)
