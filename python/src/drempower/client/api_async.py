@@ -74,7 +74,7 @@ class AsyncMotor(MotorBase):
     # ------------------------------------------------------------------ motion
 
     async def set_angle(self, angle: float, speed: float = 0.0, param: float = 0.0, mode: int = PositionMode.T) -> None:
-        """Move to ``angle`` deg. mode 0 (T): ``param`` = filter bandwidth 0..300 1/s;
+        """Move to ``angle`` deg. mode 0 (T): ``param`` = filter bandwidth 0.01..300 1/s;
         mode 1 (Q): cruise ``speed`` r/min, accel ``param`` (r/min)/s; mode 2 (P):
         ``speed`` = speed FF r/min, ``param`` = torque FF Nm."""
         self._core.send(make_angle(self._id, angle, speed, param, mode))
