@@ -55,6 +55,7 @@ bench: $(DEVSTAMP)
 generate: $(DEVSTAMP)
 	$(BIN)/python tools/generate.py
 	$(BIN)/python tools/gen_vectors.py
+	$(BIN)/python tools/gen_sync.py
 
 clean:
 	rm -rf $(VENV) build .pytest_cache python/.pytest_cache python/.mypy_cache python/.ruff_cache

@@ -143,6 +143,7 @@ class BusBase(ABC, Generic[M]):
 
     @property
     def transport(self) -> Transport:
+        """The transport this bus owns (python-can, adapter, UART, simulator...)."""
         return self._core.transport
 
     @property
@@ -156,6 +157,7 @@ class BusBase(ABC, Generic[M]):
 
     @property
     def closed(self) -> bool:
+        """True once the bus is closed (by :meth:`close`, or at exit)."""
         return self._core.closed
 
     @property

@@ -1,0 +1,449 @@
+"""The client's front end, written once: :class:`AsyncMotor` and :class:`AsyncBus`.
+
+This module is the one source of both front ends: ``tools/gen_sync.py`` writes the
+threaded ``api_sync.py`` (``Motor``, ``Bus``) from it (``async def`` -> ``def``,
+``await`` dropped, ``Async`` names -> their threaded names), and the tests run it with
+``--check``. Edit this file, then run ``make generate``. What differs by nature (running
+an operation's effects, waiting for a state, closing) is in :mod:`drempower.client.flavours`.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Iterable, Sequence
+from types import TracebackType
+from typing import Any
+
+from ..protocol.addresses import AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE
+from ..protocol.ids import SysCmd
+from ..protocol.messages import Message
+from . import backup as _backup
+from . import batch, ops
+from .commands import (
+    PositionMode,
+    TorqueMode,
+    TrajMode,
+    VelocityMode,
+    as_list,
+    make_angle,
+    make_impedance,
+    make_speed,
+    make_torque,
+)
+from .core import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE
+from .effects import Batch, Op, request
+from .flavours import AsyncBusBase
+from .motorbase import MotorBase
+from .results import ErrorReport, GpioMode, MotorInfo
+from .state import MotorState
+from .timeouts import checks_times
+
+__all__ = ["AsyncBus", "AsyncMotor"]
+
+
+def _impedance(node: int, pos: float, vel: float, tff: float, kp: float, kd: float) -> Op[None]:
+    """Impedance control of one motor: its preset, then the start addressed to it alone."""
+    preset, start = make_impedance(node, pos, vel, tff, kp, kd)
+    yield Batch([preset], start)
+
+
+@checks_times
+class AsyncMotor(MotorBase):
+    """One motor on a bus (:class:`AsyncBus`); get it with ``bus.motor(id)``.
+
+    Method names and parameter meanings are the vendor library's, without the
+    leading ``id_num``. Units: degrees, r/min, Nm, (r/min)/s, Nm/s, seconds.
+    Commands return as soon as their frame is sent; queries wait for the reply
+    (``timeout=`` s, default the bus's) and raise
+    :class:`~drempower.client.errors.TimeoutError`. Invalid arguments raise
+    :class:`~drempower.errors.ValidationError` before anything is sent; a closed
+    bus raises :class:`~drempower.client.errors.BusClosedError`.
+    """
+
+    __slots__ = ("_bus",)
+
+    def __init__(self, bus: AsyncBus, id: int) -> None:
+        super().__init__(bus.core, id)
+        self._bus = bus
+
+    @property
+    def bus(self) -> AsyncBus:
+        """The bus this handle sends on."""
+        return self._bus
+
+    # ------------------------------------------------------------------ motion
+
+    async def set_angle(self, angle: float, speed: float = 0.0, param: float = 0.0, mode: int = PositionMode.T) -> None:
+        """Move to ``angle`` deg. mode 0 (T): ``param`` = filter bandwidth 0.01..300 1/s;
+        mode 1 (Q): cruise ``speed`` r/min, accel ``param`` (r/min)/s; mode 2 (P):
+        ``speed`` = speed FF r/min, ``param`` = torque FF Nm."""
+        self._core.send(make_angle(self._id, angle, speed, param, mode))
+
+    async def step_angle(
+        self,
+        angle: float,
+        speed: float = 0.0,
+        param: float = 0.0,
+        mode: int = PositionMode.T,
+        *,
+        timeout: float | None = None,
+    ) -> float | None:
+        """Move by ``angle`` deg from where the motor is (preset + relative start).
+
+        The start goes to this motor only (bus option ``start``); returns the Q move time (s).
+        """
+        return await self._bus.run(
+            batch.move_angles(self._core, [self._id], [angle], speed, param, mode, True, timeout)
+        )
+
+    async def set_speed(self, speed: float, param: float = 0.0, mode: int = VelocityMode.PASSTHROUGH) -> None:
+        """Run at ``speed`` r/min. mode 1: ``param`` = torque FF Nm; mode 2: ramp ``param`` (r/min)/s."""
+        self._core.send(make_speed(self._id, speed, param, mode))
+
+    async def set_torque(self, torque: float, param: float = 0.0, mode: int = TorqueMode.DIRECT) -> None:
+        """Apply ``torque`` Nm. mode 1: at once; mode 6: ramp at ``param`` Nm/s."""
+        self._core.send(make_torque(self._id, torque, param, mode))
+
+    async def impedance_control(
+        self, pos: float, vel: float = 0.0, tff: float = 0.0, kp: float = 0.0, kd: float = 0.0
+    ) -> None:
+        """Impedance control: ``tff + kp*(pos - P) + kd*(vel - V)``; pos deg, vel r/min, tff Nm,
+        kp Nm/rad, kd Nm/(rad/s). The start goes to this motor only (bus option ``start``)."""
+        await self._bus.run(_impedance(self._id, pos, vel, tff, kp, kd))
+
+    async def estop(self) -> None:
+        """Emergency stop: the motor goes idle and ignores motion until clear_error + set_mode(2)."""
+        self._core.estop([self._id])
+
+    async def position_done(
+        self,
+        timeout: float = DEFAULT_MOVE_TIMEOUT,
+        *,
+        poll_interval: float = DEFAULT_POLL_INTERVAL,
+        tolerance: float = MOVE_TOLERANCE,
+    ) -> MotorState:
+        """Wait until the move is done (vendor name of :meth:`wait_position_done`)."""
+        return await self.wait_position_done(timeout, poll_interval=poll_interval, tolerance=tolerance)
+
+    async def wait_position_done(
+        self,
+        timeout: float = DEFAULT_MOVE_TIMEOUT,
+        *,
+        poll_interval: float = DEFAULT_POLL_INTERVAL,
+        tolerance: float = MOVE_TOLERANCE,
+    ) -> MotorState:
+        """Wait until the motor has finished its move; returns the final state.
+
+        The final position must be within ``tolerance`` deg of the target: raises
+        MoveError on a miss (angle limits, stall, estop), MoveFaultError (a
+        MotorFaultError, with the decoded error flags) as soon as the motor
+        reports an error and MoveTimeoutError (a TimeoutError) after ``timeout`` s;
+        the state is polled every ``poll_interval`` s.
+        """
+        done = await self._bus.run(ops.wait_done(self._core, [self._id], timeout, poll_interval, tolerance=tolerance))
+        return done[self._id]
+
+    async def wait_state(self, timeout: float) -> MotorState:
+        """Wait for the next state frame of this motor (heartbeat, reply...) without sending anything;
+        raises TimeoutError after ``timeout`` s without one."""
+        return await self._bus.wait_state(self._id, timeout)
+
+    # ------------------------------------------------------------------ settings
+
+    async def set_id(self, new_id: int, *, timeout: float | None = None) -> AsyncMotor:
+        """Change the id to ``new_id`` (1..63), check the motor answers there, save; returns its new handle.
+
+        Raises IdTakenError when another motor already answers at ``new_id`` and
+        VerifyError when the motor is not heard at its new id.
+        """
+        await self._bus.run(ops.set_id(self._core, self._id, new_id, timeout))
+        return self._bus.motor(new_id)
+
+    async def set_can_baud_rate(self, baud_rate: int, *, timeout: float | None = None) -> None:
+        """Set the CAN bitrate (125000/250000/500000/1000000) and save; applies after a reboot."""
+        await self._bus.run(ops.set_can_baud_rate(self._id, baud_rate, timeout))
+
+    async def set_uart_baud_rate(self, baud_rate: int, *, timeout: float | None = None) -> None:
+        """Set the UART rate (M series: 9600/19200/57600/115200) and save."""
+        await self._bus.run(ops.set_uart_baud_rate(self._id, baud_rate, timeout))
+
+    async def set_mode(self, mode: int = 2) -> None:
+        """1 (AxisMode.IDLE): release the motor; 2 (AxisMode.CLOSED_LOOP): enable control."""
+        self._core.send(ops.set_mode(self._id, mode))
+
+    async def set_zero_position(self) -> None:
+        """Make the current output position 0 deg."""
+        self._system(SysCmd.SET_ZERO_POSITION)
+
+    async def set_GPIO_mode(self, mode: str = "tx_rx", param: float = 115200, *, timeout: float | None = None) -> None:
+        """Spare pins as UART (``"tx_rx"``, param = baud) or step/dir (param = pulses); saves and reboots."""
+        await self._bus.run(ops.set_gpio_mode(self._id, mode, param, timeout))
+
+    async def get_GPIO_mode(self, *, timeout: float | None = None) -> GpioMode:
+        """What the spare pins do (M series)."""
+        return await self._bus.run(ops.get_gpio_mode(self._id, timeout))
+
+    async def set_angle_range(
+        self, angle_min: float = -360.0, angle_max: float = 360.0, *, timeout: float | None = None
+    ) -> None:
+        """Enable software limits [angle_min, angle_max] deg and save; the motor must be inside them."""
+        await self._bus.run(ops.set_angle_range(self._id, angle_min, angle_max, timeout))
+
+    async def set_traj_mode(self, mode: int = TrajMode.TRAPEZOID, *, timeout: float | None = None) -> None:
+        """Q-mode profile: 1 trapezoid, 2 S-curve (verified, remembered for set_angles; not saved)."""
+        await self._bus.run(ops.set_traj_mode(self._id, mode, timeout))
+
+    async def get_traj_mode(self, *, timeout: float | None = None) -> TrajMode:
+        """The motor's Q-mode profile, read from it."""
+        return await self._bus.run(ops.get_traj_mode(self._core, self._id, timeout))
+
+    async def write_property(
+        self,
+        property: str | int,
+        value: float,
+        *,
+        verify: bool = False,
+        timeout: float | None = None,
+        force: bool = False,
+    ) -> None:
+        """Write parameter ``property`` (name or address) in RAM; ``verify`` reads it back.
+
+        A value outside the parameter's domain (``spec/parameters.csv``) raises
+        :class:`~drempower.protocol.parameters.DomainError` naming parameter, value and
+        domain, and nothing is sent; ``force=True`` writes one outside a soft domain
+        (never outside a hard one, such as can_node_id 1..63, or the type's range).
+        A read-back that differs raises VerifyError.
+        """
+        await self._bus.run(ops.write_property(self._id, property, value, verify, timeout, force))
+
+    async def read_property(self, property: str | int, *, timeout: float | None = None) -> int | float:
+        """Read parameter ``property`` (name or address)."""
+        return await self._bus.run(ops.read_property(self._core, self._id, property, timeout))
+
+    async def enable_reply_state(self, on: bool = True, *, timeout: float | None = None) -> None:
+        """Make the motor answer every control frame with its state (31214), verified."""
+        await self._bus.run(
+            ops.write_property(self._id, AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE, int(on), True, timeout)
+        )
+
+    # ------------------------------------------------------------------ queries
+
+    async def get_id(self, *, timeout: float | None = None) -> int:
+        """The id the motor reports (useful with handle 0 and a single motor)."""
+        return await self._bus.run(ops.get_id(self._id, timeout))
+
+    async def get_state(self, *, timeout: float | None = None) -> MotorState:
+        """Fresh state (angle deg, speed r/min, torque Nm, done, error) by fast read."""
+        return await self._bus.run(ops.get_state(self._id, timeout))
+
+    async def get_volcur(self, *, timeout: float | None = None) -> tuple[float, float]:
+        """Supply voltage (V) and q-axis current (A)."""
+        return await self._bus.run(ops.get_volcur(self._id, timeout))
+
+    async def dump_error(self, *, timeout: float | None = None) -> ErrorReport:
+        """The seven error words, decoded into flag names."""
+        return await self._bus.run(ops.dump_error(self._id, timeout))
+
+    # ------------------------------------------------------------------ system
+
+    async def clear_error(self) -> None:
+        """Clear the error flags; the motor stays idle until set_mode(2)."""
+        self._system(SysCmd.CLEAR_ERRORS)
+
+    async def save_config(self) -> None:
+        """Store the RAM configuration in flash."""
+        self._system(SysCmd.SAVE_CONFIG)
+
+    async def reboot(self) -> None:
+        """Software reset (unsaved writes are lost)."""
+        self._system(SysCmd.REBOOT)
+
+    async def init_config(self) -> None:
+        """Restore the default configuration (a calibration is needed afterwards)."""
+        self._system(SysCmd.INIT_CONFIG)
+
+    async def erase_config(self) -> None:
+        """Erase the stored configuration (calibration is lost)."""
+        self._system(SysCmd.ERASE_CONFIG)
+
+    # ------------------------------------------------------------------ configuration backup
+
+    async def backup(
+        self, path: str | os.PathLike[str] | None = None, *, timeout: float | None = None
+    ) -> _backup.ConfigBackup:
+        """Read every parameter; also write them as JSON to ``path`` when given (OSError if it cannot)."""
+        result = await self._bus.run(_backup.backup(self._id, timeout))
+        if path is not None:
+            result.save(path)
+        return result
+
+    async def restore(
+        self,
+        source: _backup.ConfigBackup | str | os.PathLike[str],
+        *,
+        include_link: bool = False,
+        save: bool = False,
+        dry_run: bool = False,
+        force: bool = False,
+        timeout: float | None = None,
+    ) -> _backup.RestoreReport:
+        """Write a backup (object or JSON file) back; see :func:`drempower.client.backup.restore`."""
+        op = _backup.restore(
+            self._core, self._id, source, timeout, include_link=include_link, save=save, dry_run=dry_run, force=force
+        )
+        return await self._bus.run(op)
+
+
+@checks_times
+class AsyncBus(AsyncBusBase[AsyncMotor]):
+    """A DrEmpower bus: owns a transport and hands out :class:`AsyncMotor` handles (``bus.motor(id)``).
+
+    Use it as a context manager, or call :meth:`close`. The threaded bus may be
+    called from several threads at once; the asyncio one from one event loop.
+    Requests wait at most ``timeout`` seconds (default the transport's, else 0.1;
+    each method also takes ``timeout=``) and raise
+    :class:`~drempower.client.errors.TimeoutError`. See
+    :class:`~drempower.client.core.BusCore` for ``retries``, ``start`` and
+    ``stop_on_close``; buses left open are closed when Python exits.
+    """
+
+    def _new_motor(self, id: int) -> AsyncMotor:
+        return AsyncMotor(self, id)
+
+    async def send(self, msg: Message) -> None:
+        """Send one message (validated first); never waits for a reply."""
+        self._check_writes([msg])
+        await self._send_all([msg])
+
+    async def send_many(self, msgs: Sequence[Message]) -> None:
+        """Send several messages; if any is invalid, none is sent."""
+        self._check_writes(msgs)
+        await self._send_all(msgs)
+
+    async def request(
+        self, msgs: Sequence[Message], timeout: float | None = None, *, missing_ok: bool = False
+    ) -> list[Any]:
+        """Send reads/fast reads and return their answers (ParamValue / MotorState) in order.
+
+        Missing answers raise :class:`~drempower.client.errors.TimeoutError`, or are None with ``missing_ok``.
+        """
+        return await self.run(request(list(msgs), timeout, missing_ok))
+
+    # ------------------------------------------------------------------ motors
+
+    async def estop(self, id_list: Iterable[int] | None = None) -> None:
+        """Emergency-stop the listed motors, or every motor (one broadcast frame) when None."""
+        self._core.estop(self._estop_nodes(id_list))
+
+    async def scan(
+        self, ids: Iterable[int] = batch.ALL_IDS, *, timeout: float | None = None, versions: bool = False
+    ) -> list[MotorInfo]:
+        """Find the motors that answer (ids 1..63 by default), with hardware/firmware versions on request."""
+        return await self.run(batch.scan(as_list(ids, "ids"), timeout, versions))
+
+    async def cycle(
+        self, commands: Iterable[Message], *, timeout: float | None = None, reply_state: bool | None = None
+    ) -> dict[int, MotorState]:
+        """Send one command per motor and return each motor's state (see :func:`drempower.client.batch.cycle`)."""
+        return await self.run(batch.cycle(self._core, self._commands(commands), timeout, reply_state))
+
+    # ------------------------------------------------------------------ multi-motor (vendor names)
+
+    async def set_angles(
+        self,
+        id_list: Sequence[int],
+        angle_list: Sequence[float],
+        speed: float = 10.0,
+        param: float = 10.0,
+        mode: int = PositionMode.Q,
+        *,
+        timeout: float | None = None,
+    ) -> float | None:
+        """Synchronised absolute move: ``angle_list`` deg for ``id_list``.
+
+        mode 0 (T): ``param`` = filter bandwidth 1/s; mode 1 (Q): the motor
+        moving furthest cruises at ``speed`` r/min with accel ``param``
+        (r/min)/s and all finish together (returns that time, s); mode 2 (P):
+        ``speed`` = speed FF r/min, ``param`` = torque FF Nm. Nothing is sent if
+        any value is invalid.
+        """
+        return await self.run(batch.move_angles(self._core, id_list, angle_list, speed, param, mode, False, timeout))
+
+    async def step_angles(
+        self,
+        id_list: Sequence[int],
+        angle_list: Sequence[float],
+        speed: float = 10.0,
+        param: float = 10.0,
+        mode: int = PositionMode.Q,
+        *,
+        timeout: float | None = None,
+    ) -> float | None:
+        """Synchronised relative move by ``angle_list`` deg (see :meth:`set_angles`)."""
+        return await self.run(batch.move_angles(self._core, id_list, angle_list, speed, param, mode, True, timeout))
+
+    async def set_speeds(
+        self,
+        id_list: Sequence[int],
+        speed_list: Sequence[float],
+        param: float = 0.0,
+        mode: int = VelocityMode.PASSTHROUGH,
+    ) -> None:
+        """Synchronised speeds (r/min); mode 1: ``param`` = torque FF Nm, mode 2: ramp (r/min)/s."""
+        await self.run(batch.set_speeds(id_list, speed_list, param, mode))
+
+    async def set_torques(
+        self,
+        id_list: Sequence[int],
+        torque_list: Sequence[float],
+        param: float = 0.0,
+        mode: int = TorqueMode.DIRECT,
+    ) -> None:
+        """Synchronised torques (Nm); mode 1: direct, mode 6: ramp ``param`` Nm/s."""
+        await self.run(batch.set_torques(id_list, torque_list, param, mode))
+
+    async def impedance_controls(
+        self,
+        id_list: Sequence[int],
+        pos_list: Sequence[float],
+        vel: float = 0.0,
+        tff: float = 0.0,
+        kp: float = 0.0,
+        kd: float = 0.0,
+    ) -> None:
+        """Impedance control of several motors started together: each holds its ``pos_list`` deg;
+        ``vel`` r/min, ``tff`` Nm, ``kp`` Nm/rad and ``kd`` Nm/(rad/s) are shared (one start)."""
+        await self.run(batch.impedance_controls(id_list, pos_list, vel, tff, kp, kd))
+
+    async def positions_done(
+        self,
+        id_list: Sequence[int],
+        timeout: float = DEFAULT_MOVE_TIMEOUT,
+        *,
+        poll_interval: float = DEFAULT_POLL_INTERVAL,
+        tolerance: float = MOVE_TOLERANCE,
+    ) -> dict[int, MotorState]:
+        """Wait until every listed motor has finished its move; returns their final states.
+
+        Only states received after the move was sent count, once the motor showed
+        it took the move; each final position must be within ``tolerance`` deg of
+        its target. Raises MoveError (motor, target, position, error flags) on a
+        miss, MoveFaultError (a MotorFaultError) when one reports an error and
+        MoveTimeoutError (a TimeoutError) after ``timeout`` s: see
+        :func:`drempower.client.ops.wait_done`.
+        """
+        return await self.run(
+            ops.wait_done(self._core, as_list(id_list, "id_list"), timeout, poll_interval, tolerance=tolerance)
+        )
+
+    wait_positions_done = positions_done
+
+    # ------------------------------------------------------------------ lifetime
+
+    async def __aenter__(self) -> AsyncBus:
+        return self
+
+    async def __aexit__(
+        self, exc_type: type[BaseException] | None, exc: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        await self.close()
