@@ -118,7 +118,8 @@ class Dashboard:
     ) -> web.StreamResponse:
         if not self._host_ok(request):
             log(f"refused a request for Host {request.headers.get('Host')!r}")
-            return web.Response(status=403, text="forbidden: this dashboard answers only to 127.0.0.1, localhost, [::1]\n")
+            text = "forbidden: this dashboard answers only to 127.0.0.1, localhost and [::1]\n"
+            return web.Response(status=403, text=text)
         if not self._token_ok(request):
             return web.Response(status=403, text="forbidden: this dashboard needs the token of its URL\n")
         return await handler(request)
