@@ -183,6 +183,12 @@ def test_step_figures_of_an_overshoot_and_an_offset() -> None:
 def test_urls() -> None:
     assert format_url("::1", 80, None) == "http://[::1]:80/"
     assert format_url("127.0.0.2", 5, "abc") == "http://127.0.0.2:5/?token=abc"
+    import socket
+
+    # a bind to every address is reached by the machine's name, not by 0.0.0.0
+    name = socket.gethostname()
+    assert format_url("0.0.0.0", 5, "abc") == f"http://{name}:5/?token=abc"
+    assert format_url("::", 5, "abc") == f"http://{name}:5/?token=abc"
 
 
 @pytest.mark.skipif(not os.path.exists("/proc/net/if_inet6"), reason="no IPv6")

@@ -587,7 +587,11 @@ class Hub:
     # ------------------------------------------------------------------ parameters
 
     def do_read_params(self, i: int) -> dict[str, Any]:
-        """Every readable parameter of motor ``i`` (one backup read), with which differ from the saved ones."""
+        """Every readable parameter of motor ``i`` (one backup read), with which changed this session.
+
+        The motor cannot tell what its flash holds, so the baseline is this dashboard's first
+        read of the motor, replaced by what it holds after each *Save to flash* from here.
+        """
         values = self.motor(i).backup().values()
         saved = self.saved.setdefault(i, dict(values))
         changed = [k for k, v in values.items() if k in saved and saved[k] != v]
