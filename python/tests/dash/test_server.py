@@ -535,3 +535,34 @@ async def test_sigterm_idles_a_running_step_at_once() -> None:
                 p.kill()
             _, err = p.communicate(timeout=10)
     assert "SIGTERM: stopping" in err and "idled motors 1" in err
+
+
+async def test_a_closed_browser_idles_its_motors_at_once_while_step_runs_fill_the_workers() -> None:
+    bus = open_bus("sim", motors=[1, 2, 3], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    sim = bus.transport.bus  # type: ignore[attr-defined]
+    try:
+        async with aiohttp.ClientSession() as s:
+            ws = await s.ws_connect(url.replace("http:", "ws:") + "ws")
+            await ws.receive_json(timeout=5)
+            for k in range(8):
+                step = {"op": "step", "req": k, "id": 1 + k % 3, "mode": "velocity", "amplitude": 10, "duration": 4}
+                await ws.send_json(step)
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline and not all(
+                m.state == AxisState.CLOSED_LOOP_CONTROL for m in sim.motors.values()
+            ):
+                await ws.send_json({"op": "hb"})
+                await asyncio.sleep(0.02)
+            assert all(m.state == AxisState.CLOSED_LOOP_CONTROL for m in sim.motors.values())
+            t0 = time.monotonic()
+            await ws.close()
+            while time.monotonic() - t0 < 5 and any(m.state != AxisState.IDLE for m in sim.motors.values()):
+                await asyncio.sleep(0.005)
+            took = time.monotonic() - t0
+            assert all(m.state == AxisState.IDLE for m in sim.motors.values()) and took < 0.3, f"{took:.3f} s"
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()
