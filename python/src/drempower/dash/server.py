@@ -69,7 +69,8 @@ class Dashboard:
     """One dashboard server around a :class:`Hub`.
 
     ``token``: required from every request and WebSocket (query ``token=`` or
-    the cookie the page sets) when not None. ``keep_running``: do not idle the
+    the cookie the page sets) when not None; when None, only requests whose ``Host``
+    is a loopback name with the bound port are served. ``keep_running``: do not idle the
     dashboard's motors when the last browser goes away.
     """
 
