@@ -141,7 +141,10 @@ def test_parameter_edit_round_trips(page: Any, served: Served, shots: Path) -> N
     page.locator(f'button[data-set="{name}"]').click()
     page.wait_for_function(f"document.querySelector('span[data-val=\"{name}\"]').textContent === '{new:g}'")
     assert served.sim.motors[1].param(name) == new
-    assert "changed" in (page.locator(f'tr[data-name="{name}"]').get_attribute("class") or "")
+    row = page.locator(f'tr[data-name="{name}"]')
+    assert "changed" in (row.get_attribute("class") or "")
+    assert "changed this session" in (row.get_attribute("title") or "")  # not "since saved": flash is not read
+    assert "changed this session" in page.locator("#par-status").inner_text()
     # a value outside the parameter's range: named in the message, nothing written
     hb = "can.config.heartbeat_ms"
     page.get_by_label(hb, exact=True).fill("-1")
@@ -204,12 +207,12 @@ def test_restore_shows_a_diff_before_writing(page: Any, served: Served, tmp_path
     assert eventually(lambda: abs(served.sim.motors[3].param(name) - saved) < 1e-6, 5)
 
 
-def test_estop_button_and_space_key_stop_a_moving_motor(page: Any, served: Served) -> None:
+def test_estop_button_space_and_escape_keys_stop_a_moving_motor(page: Any, served: Served) -> None:
     reset(served)
     scan(page)
     tab(page, "Control")
     m1 = served.sim.motors[1]
-    for how in ("button", "space"):
+    for how in ("button", "Space", "Escape"):
         page.locator("#ctl-motor").select_option("1")
         page.get_by_role("button", name="Clear errors").click()
         page.get_by_role("button", name="Enable").click()
@@ -221,7 +224,7 @@ def test_estop_button_and_space_key_stop_a_moving_motor(page: Any, served: Serve
             page.get_by_role("button", name="ESTOP").click()
         else:
             page.locator("#view-control fieldset legend").first.click()  # focus outside any input
-            page.keyboard.press("Space")
+            page.keyboard.press(how)
         assert eventually(lambda: abs(m1.speed) < 1 and m1.state != AxisState.CLOSED_LOOP_CONTROL, 2), how
         if how == "button":  # the motor's card says what happened and what to do
             tab(page, "Bus")

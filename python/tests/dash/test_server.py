@@ -183,6 +183,12 @@ def test_step_figures_of_an_overshoot_and_an_offset() -> None:
 def test_urls() -> None:
     assert format_url("::1", 80, None) == "http://[::1]:80/"
     assert format_url("127.0.0.2", 5, "abc") == "http://127.0.0.2:5/?token=abc"
+    import socket
+
+    # a bind to every address is reached by the machine's name, not by 0.0.0.0
+    name = socket.gethostname()
+    assert format_url("0.0.0.0", 5, "abc") == f"http://{name}:5/?token=abc"
+    assert format_url("::", 5, "abc") == f"http://{name}:5/?token=abc"
 
 
 @pytest.mark.skipif(not os.path.exists("/proc/net/if_inet6"), reason="no IPv6")
@@ -393,6 +399,168 @@ async def test_writes_and_inputs_outside_their_domains_are_refused_before_sendin
             r = await ask(21, op="control", id=1, action="V", speed=60)
             assert not r["ok"] and "speed=60: outside -50..50 r/min" in str(r["error"])
         assert abs(sim.speed) < 0.01 and abs(sim.position) < 0.01 and hub.commanded == set()
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()
+
+
+def _raw_status(port: int, host: str, path: str = "/", headers: str = "Connection: close\r\n") -> int:
+    """The status of one raw HTTP/1.1 request to 127.0.0.1:``port`` carrying ``Host: host``."""
+    import socket
+
+    with socket.create_connection(("127.0.0.1", port), timeout=5) as s:
+        s.sendall(f"GET {path} HTTP/1.1\r\nHost: {host}\r\n{headers}\r\n".encode())
+        return int(s.recv(64).split()[1])
+
+
+def _upgrade(origin: str) -> str:
+    return (
+        "Connection: Upgrade\r\nUpgrade: websocket\r\nSec-WebSocket-Version: 13\r\n"
+        f"Sec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\nOrigin: {origin}\r\n"
+    )
+
+
+async def test_without_a_token_only_a_loopback_host_is_served() -> None:
+    bus = open_bus("sim", motors=[1], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    port = int(url.rsplit(":", 1)[1].strip("/"))
+    evil = f"evil.example:{port}"
+    try:
+        # DNS rebinding: a page of evil.example whose name now resolves to 127.0.0.1
+        assert await asyncio.to_thread(_raw_status, port, evil) == 403
+        assert await asyncio.to_thread(_raw_status, port, evil, "/static/app.js") == 403
+        assert await asyncio.to_thread(_raw_status, port, evil, "/ws", _upgrade(f"http://{evil}")) == 403
+        assert await asyncio.to_thread(_raw_status, port, f"127.0.0.1:{port + 1}") == 403
+        assert await asyncio.to_thread(_raw_status, port, "127.0.0.1") == 403
+        for name in ("127.0.0.1", "localhost", "LocalHost", "[::1]"):
+            assert await asyncio.to_thread(_raw_status, port, f"{name}:{port}") == 200, name
+        # the Origin check stays: a loopback Host with a foreign Origin is refused
+        own = f"localhost:{port}"
+        assert await asyncio.to_thread(_raw_status, port, own, "/ws", _upgrade(f"http://{evil}")) == 403
+        assert await asyncio.to_thread(_raw_status, port, own, "/ws", _upgrade(f"http://{own}")) == 101
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()
+
+
+async def test_estop_goes_out_at_once_while_step_runs_fill_the_workers() -> None:
+    from drempower.protocol.ids import SysCmd
+    from drempower.protocol.messages import SystemCommand
+
+    bus = open_bus("sim", motors=[1, 2, 3], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    sim = bus.transport.bus  # type: ignore[attr-defined]
+    golden = SystemCommand(0, SysCmd.ESTOP).encode()
+    seen: list[float] = []
+
+    def listen(f: object) -> None:
+        if f == golden:
+            seen.append(time.monotonic())
+
+    sim.add_listener(listen, host_frames=True)
+    try:
+        async with aiohttp.ClientSession() as s, s.ws_connect(url.replace("http:", "ws:") + "ws") as ws:
+            await ws.receive_json(timeout=5)
+            for k in range(8):
+                step = {"op": "step", "req": k, "id": 1 + k % 3, "mode": "velocity", "amplitude": 10, "duration": 4}
+                await ws.send_json(step)
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline and not all(
+                m.state == AxisState.CLOSED_LOOP_CONTROL for m in sim.motors.values()
+            ):
+                await ws.send_json({"op": "hb"})
+                await asyncio.sleep(0.02)
+            assert all(m.state == AxisState.CLOSED_LOOP_CONTROL for m in sim.motors.values())
+            await asyncio.sleep(0.2)  # the step runs sleep in their worker threads
+            t0 = time.monotonic()
+            await ws.send_json({"op": "estop", "req": 99})
+            while not seen and time.monotonic() - t0 < 5:
+                await asyncio.sleep(0.002)
+            assert seen, "no ESTOP frame reached the bus"
+            assert seen[0] - t0 < 0.05, f"the ESTOP frame took {seen[0] - t0:.3f} s"
+            while time.monotonic() - t0 < 1 and any(m.state != AxisState.IDLE for m in sim.motors.values()):
+                await asyncio.sleep(0.01)
+            assert all(m.state == AxisState.IDLE for m in sim.motors.values())
+    finally:
+        sim.remove_listener(listen)
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()
+
+
+async def test_sigterm_idles_a_running_step_at_once() -> None:
+    from contextlib import ExitStack
+
+    from drempower.sim import SimBus, SimRunner, attach_socketcand
+
+    sim = SimBus([1])
+    with ExitStack() as stack:
+        stack.enter_context(SimRunner(sim))
+        port = stack.enter_context(attach_socketcand(sim)).port
+        conn = ["-i", "socketcand", "-c", "can0", "-o", "host=127.0.0.1", "-o", f"port={port}"]
+        p = subprocess.Popen(
+            [sys.executable, "-m", "drempower", "dash", "--port", "0", *conn],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            assert p.stdout is not None
+            url = p.stdout.readline().strip()
+            motor = sim.motors[1]
+            async with aiohttp.ClientSession() as s, s.ws_connect(url.replace("http:", "ws:") + "ws") as ws:
+                await ws.receive_json(timeout=5)
+                step = {"op": "step", "req": 1, "id": 1, "mode": "velocity", "amplitude": 20, "duration": 5}
+                await ws.send_json(step)
+                deadline = time.monotonic() + 5
+                while motor.state != AxisState.CLOSED_LOOP_CONTROL and time.monotonic() < deadline:
+                    await ws.send_json({"op": "hb"})
+                    await asyncio.sleep(0.02)
+                assert motor.state == AxisState.CLOSED_LOOP_CONTROL
+                t0 = time.monotonic()
+                p.send_signal(signal.SIGTERM)
+                while motor.state != AxisState.IDLE and time.monotonic() - t0 < 5:
+                    await asyncio.sleep(0.005)
+                took = time.monotonic() - t0
+                assert motor.state == AxisState.IDLE and took < 0.3, f"idled after {took:.3f} s"
+            assert p.wait(5) == 0  # the step run ended early too
+            assert time.monotonic() - t0 < 3
+        finally:
+            if p.poll() is None:
+                p.kill()
+            _, err = p.communicate(timeout=10)
+    assert "SIGTERM: stopping" in err and "idled motors 1" in err
+
+
+async def test_a_closed_browser_idles_its_motors_at_once_while_step_runs_fill_the_workers() -> None:
+    bus = open_bus("sim", motors=[1, 2, 3], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    sim = bus.transport.bus  # type: ignore[attr-defined]
+    try:
+        async with aiohttp.ClientSession() as s:
+            ws = await s.ws_connect(url.replace("http:", "ws:") + "ws")
+            await ws.receive_json(timeout=5)
+            for k in range(8):
+                step = {"op": "step", "req": k, "id": 1 + k % 3, "mode": "velocity", "amplitude": 10, "duration": 4}
+                await ws.send_json(step)
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline and not all(
+                m.state == AxisState.CLOSED_LOOP_CONTROL for m in sim.motors.values()
+            ):
+                await ws.send_json({"op": "hb"})
+                await asyncio.sleep(0.02)
+            assert all(m.state == AxisState.CLOSED_LOOP_CONTROL for m in sim.motors.values())
+            t0 = time.monotonic()
+            await ws.close()
+            while time.monotonic() - t0 < 5 and any(m.state != AxisState.IDLE for m in sim.motors.values()):
+                await asyncio.sleep(0.005)
+            took = time.monotonic() - t0
+            assert all(m.state == AxisState.IDLE for m in sim.motors.values()) and took < 0.3, f"{took:.3f} s"
     finally:
         loop.call_soon_threadsafe(dash.stopping.set)
         thread.join(10)

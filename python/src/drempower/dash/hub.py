@@ -187,6 +187,7 @@ class Hub:
         self._watch: dict[tuple[int, str], tuple[float, float]] = {}
         self.param_samples: deque[tuple[int, str, float, float]] = deque()
         self._stop = threading.Event()
+        self._halt = threading.Event()
         self._subs = [b.subscribe(self._sink(k * KEYS_PER_BUS)) for k, (_, b) in enumerate(self.buses)]
         self._poller = threading.Thread(target=self._poll_loop, name="dash poll", daemon=True)
         self._poller.start()
@@ -586,7 +587,11 @@ class Hub:
     # ------------------------------------------------------------------ parameters
 
     def do_read_params(self, i: int) -> dict[str, Any]:
-        """Every readable parameter of motor ``i`` (one backup read), with which differ from the saved ones."""
+        """Every readable parameter of motor ``i`` (one backup read), with which changed this session.
+
+        The motor cannot tell what its flash holds, so the baseline is this dashboard's first
+        read of the motor, replaced by what it holds after each *Save to flash* from here.
+        """
         values = self.motor(i).backup().values()
         saved = self.saved.setdefault(i, dict(values))
         changed = [k for k, v in values.items() if k in saved and saved[k] != v]
@@ -674,7 +679,7 @@ class Hub:
                 self.do_control(who, {"action": "T", "id": i, "angle": target, "param": bandwidth})
             else:
                 self.do_control(who, {"action": "V", "id": i, "speed": target})
-            time.sleep(duration)
+            self._halt.wait(duration)
         finally:
             sub.cancel()
             if fast:
@@ -687,7 +692,12 @@ class Hub:
 
     # ------------------------------------------------------------------ lifetime
 
+    def halt(self) -> None:
+        """End the step runs under way now (the dashboard is stopping)."""
+        self._halt.set()
+
     def close(self) -> None:
+        self._halt.set()
         self._stop.set()
         for sub in self._subs:
             sub.cancel()

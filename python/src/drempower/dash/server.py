@@ -3,7 +3,13 @@
 aiohttp serves the page and its assets (shipped in the package, no network
 needed) and a WebSocket at ``/ws``. Every 40 ms the samples that arrived are
 sent to every browser in one message; none is dropped (the page decimates for
-display only). Blocking bus work runs in worker threads.
+display only). Blocking bus work runs in worker threads; stopping and idling
+have a thread of their own so that no other work queues ahead of them, and the
+ESTOP frames are sent from the event loop itself (they await no reply).
+
+With no token (the default loopback bind) every request must name the
+dashboard by a loopback ``Host`` (``127.0.0.1``, ``localhost`` or ``[::1]`` with
+the bound port), which keeps a web page from reaching it by DNS rebinding.
 """
 
 from __future__ import annotations
@@ -14,8 +20,10 @@ import hmac
 import json
 import secrets
 import signal
+import socket
 import time
 from collections.abc import Awaitable, Callable
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from importlib import resources
 from typing import Any, ClassVar
@@ -35,10 +43,17 @@ HEARTBEAT_LOST_S = 0.5
 STATUS_S = 0.5
 CARDS_S = 1.0
 _COOKIE = "drempower_dash_token"
+_LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")
+_ANY_ADDRESS = ("0.0.0.0", "::", "")
 
 
 def format_url(host: str, port: int, token: str | None) -> str:
-    """``http://HOST:PORT/`` (IPv6 in brackets), with ``?token=...`` when a token is needed."""
+    """``http://HOST:PORT/`` (IPv6 in brackets), with ``?token=...`` when a token is needed.
+
+    A bind to every address (``0.0.0.0``, ``::``) is named by the machine's host name.
+    """
+    if host in _ANY_ADDRESS:
+        host = socket.gethostname()
     h = f"[{host}]" if ":" in host else host
     return f"http://{h}:{port}/" + (f"?token={token}" if token else "")
 
@@ -54,7 +69,8 @@ class Dashboard:
     """One dashboard server around a :class:`Hub`.
 
     ``token``: required from every request and WebSocket (query ``token=`` or
-    the cookie the page sets) when not None. ``keep_running``: do not idle the
+    the cookie the page sets) when not None; when None, only requests whose ``Host``
+    is a loopback name with the bound port are served. ``keep_running``: do not idle the
     dashboard's motors when the last browser goes away.
     """
 
@@ -68,6 +84,10 @@ class Dashboard:
         self._n = 0
         self.cards: dict[int, dict[str, Any]] = {}
         self._tasks: set[asyncio.Future[None]] = set()
+        self._stop_pool = ThreadPoolExecutor(1, thread_name_prefix="dash stop")
+        """Idling runs here, never queued behind scans, steps or parameter reads."""
+        self.port: int | None = None
+        """The bound port, once serving."""
         self._static = resources.files("drempower.dash") / "static"
         self.app = web.Application(middlewares=[self._auth])
         self.app.router.add_get("/", self._index)
@@ -83,10 +103,24 @@ class Dashboard:
         given = request.query.get("token") or request.cookies.get(_COOKIE) or ""
         return hmac.compare_digest(given.encode(), self.token.encode())
 
+    def _host_ok(self, request: web.Request) -> bool:
+        """With a token, any Host; without, only a loopback name with the bound port."""
+        if self.token is not None:
+            return True
+        host = (request.headers.get("Host") or "").lower()
+        names = {f"{n}:{self.port}" for n in _LOOPBACK_NAMES}
+        if self.port == 80:
+            names.update(_LOOPBACK_NAMES)
+        return host in names
+
     @web.middleware
     async def _auth(
         self, request: web.Request, handler: Callable[[web.Request], Awaitable[web.StreamResponse]]
     ) -> web.StreamResponse:
+        if not self._host_ok(request):
+            log(f"refused a request for Host {request.headers.get('Host')!r}")
+            text = "forbidden: this dashboard answers only to 127.0.0.1, localhost and [::1]\n"
+            return web.Response(status=403, text=text)
         if not self._token_ok(request):
             return web.Response(status=403, text="forbidden: this dashboard needs the token of its URL\n")
         return await handler(request)
@@ -179,12 +213,16 @@ class Dashboard:
     async def _run(self, fn: Callable[..., Any], *args: Any) -> Any:
         return await asyncio.get_running_loop().run_in_executor(None, fn, *args)
 
+    async def _idle(self, why: str) -> None:
+        """Idle the dashboard's motors on the stop thread (nothing else queues there)."""
+        await asyncio.get_running_loop().run_in_executor(self._stop_pool, self.hub.idle_commanded, why)
+
     async def _handle(self, client: Client, req: dict[str, Any]) -> None:
         op, hub, who = req.get("op"), self.hub, client.name
         reply: dict[str, Any] = {"t": "reply", "req": req.get("req"), "op": op}
         try:
             if op == "estop":
-                await self._run(hub.estop, who)
+                hub.estop(who)  # frames only, no reply awaited: sent from the loop at once
                 result: Any = None
             elif op == "scan":
                 loop = asyncio.get_running_loop()
@@ -247,7 +285,7 @@ class Dashboard:
         if any(now - c.last_hb < HEARTBEAT_LOST_S for c in self.clients if not c.ws.closed):
             return
         why = why if not self.clients else "no browser heartbeat for 0.5 s"
-        await self._run(hub.idle_commanded, why)
+        await self._idle(why)
 
     async def _pump(self) -> None:
         """Send samples every FLUSH_S and the status every STATUS_S; watch the browsers' heartbeats."""
@@ -300,21 +338,24 @@ class Dashboard:
         try:
             site = web.TCPSite(runner, host, port)
             await site.start()
-            addr = runner.addresses[0]
-            on_ready(format_url(host, int(addr[1]), self.token))
+            self.port = int(runner.addresses[0][1])
+            on_ready(format_url(host, self.port, self.token))
             pump = asyncio.ensure_future(self._pump())
             await self.stopping.wait()
+            self.hub.halt()  # step runs end early
+            await self._idle("dashboard stopping")  # first, before waiting for anything
             pump.cancel()
             with contextlib.suppress(asyncio.CancelledError):
                 await pump
             if self._tasks:  # requests under way finish (their bus calls are bounded by timeouts)
                 await asyncio.wait(self._tasks, timeout=5)
         finally:
-            await self._run(self.hub.idle_commanded, "dashboard stopping")
+            await self._idle("dashboard stopping")  # again: what a request under way commanded meanwhile
             for c in list(self.clients):
                 with contextlib.suppress(Exception):
                     await c.ws.close()
             await runner.cleanup()
+            self._stop_pool.shutdown(wait=False)
 
     def _on_signal(self, sig: int) -> None:
         log(f"{signal.Signals(sig).name}: stopping")

@@ -532,6 +532,9 @@
   }
   // a parameter value as the motor holds it: f32 values to their 7 significant digits
   const shown = (v) => (Number.isInteger(v) ? String(v) : String(+Number(v).toPrecision(7)));
+  // the motor cannot say what its flash holds: the baseline is the first read of this session, or Save to flash
+  const CHANGED_TIP = "* changed this session: differs from the value first read by this dashboard, or since Save to flash";
+  function markChanged(tr, on) { tr.classList.toggle("changed", on); tr.title = on ? CHANGED_TIP : ""; }
   async function readParams() {
     if (!S.motors.length) return;
     const id = parId();
@@ -541,8 +544,9 @@
       const v = r.values[el.dataset.val];
       el.textContent = v === undefined ? "-" : shown(v);
     }
-    for (const tr of $$("#par-table tr[data-name]")) tr.classList.toggle("changed", S.changed.has(tr.dataset.name));
-    $("#par-status").textContent = `${motorName(id)}: ${Object.keys(r.values).length} values read ${new Date().toLocaleTimeString()}; ${S.changed.size} changed since saved`;
+    for (const tr of $$("#par-table tr[data-name]")) markChanged(tr, S.changed.has(tr.dataset.name));
+    $("#par-status").textContent = `${motorName(id)}: ${Object.keys(r.values).length} values read ${new Date().toLocaleTimeString()}; ${S.changed.size} changed this session`;
+    $("#par-status").title = CHANGED_TIP;
   }
   on("#par-read", readParams);
   on("#par-motor", readParams, "change");
@@ -564,7 +568,7 @@
     $(`#par-table span[data-val="${name}"]`).textContent = shown(r.value);
     say(`${motorName(r.id)}: ${name} = ${shown(r.value)} (read back)`, true);
     S.changed.add(name);
-    $(`#par-table tr[data-name="${name}"]`).classList.add("changed");
+    markChanged($(`#par-table tr[data-name="${name}"]`), true);
   });
   $("#par-filter").addEventListener("input", (e) => {
     const f = e.target.value.toLowerCase();
