@@ -16,7 +16,6 @@ from ..protocol.messages import (
     Torque,
     Velocity,
 )
-from . import backup as _backup
 from . import batch, ops
 from .commands import (
     PositionMode,
@@ -34,6 +33,7 @@ from .state import MotorState, StateCallback, Subscription
 from .timeouts import checks_times
 
 if TYPE_CHECKING:
+    from . import backup as _backup
     from .bus import Bus
 
 __all__ = ["Motor", "MotorBase"]
@@ -303,6 +303,8 @@ class Motor(MotorBase):
         self, path: str | os.PathLike[str] | None = None, *, timeout: float | None = None
     ) -> _backup.ConfigBackup:
         """Read every parameter; also write them as JSON to ``path`` when given."""
+        from . import backup as _backup
+
         result = self._bus.run(_backup.backup(self._id, timeout))
         if path is not None:
             result.save(path)
@@ -319,6 +321,8 @@ class Motor(MotorBase):
         timeout: float | None = None,
     ) -> _backup.RestoreReport:
         """Write a backup (object or JSON file) back; see :func:`drempower.client.backup.restore`."""
+        from . import backup as _backup
+
         op = _backup.restore(
             self._core, self._id, source, timeout, include_link=include_link, save=save, dry_run=dry_run, force=force
         )
