@@ -12,6 +12,7 @@ Run: ``python3 bench/bench_idle.py [--seconds S]``. Prints figures beside their 
    the kernel scheduled that thread (``/proc/<pid>/task/<tid>/schedstat``, Linux
    only) while no frame arrived, beside a thread blocked in ``select`` on the same
    kind of descriptor with no timeout (the floor: no wake-ups).
+3. How long ``close`` of that idle bus takes (its receive thread must notice).
 """
 
 from __future__ import annotations
@@ -99,19 +100,28 @@ def idle(seconds: float) -> None:
     if floor is None:
         print("  (needs /proc/<pid>/task/<tid>/schedstat: Linux only)")
         return
+    closes: dict[str, float] = {}
     for kind in ("adapter", "uart"):
         sim = SimBus(ids=[1])
         pty = attach_adapter_pty(sim) if kind == "adapter" else attach_uart_pty(sim, 1)
         try:
-            with drempower.open_bus(kind, pty.path, timeout=1.0, stop_on_close=False) as bus:
+            bus = drempower.open_bus(kind, pty.path, timeout=1.0, stop_on_close=False)
+            try:
                 bus.motor(1).get_state()
                 time.sleep(0.3)
                 rx = [t for t in threading.enumerate() if t.name.startswith("drempower rx")]
                 rate = wakeups(rx[0].native_id if rx else None, seconds)
+            finally:
+                t0 = time.perf_counter()
+                bus.close()
+                closes[kind] = time.perf_counter() - t0
         finally:
             pty.close()
         shown = "n/a" if rate is None else f"{rate:5.1f}"
         print(f"  {kind + ' pty, open_bus idle':<40} {shown} /s   floor (select, no timeout) {floor:4.1f} /s")
+    print("close of that idle bus (stop_on_close=False: nothing to send):")
+    for kind, took in closes.items():
+        print(f"  {kind + ' pty':<40} {took * 1e3:6.1f} ms")
 
 
 def main() -> None:
