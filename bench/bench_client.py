@@ -19,11 +19,14 @@ from __future__ import annotations
 
 import argparse
 import itertools
+import os
 import platform
+import select
 import statistics
 import sys
 import threading
 import time
+import tty
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
@@ -32,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python" / "src"
 
 import drempower
 from drempower.client import Bus
-from drempower.protocol import FastRead, PositionT, State
+from drempower.protocol import FastRead, PositionT, State, encode_aa, encode_uart11
 from drempower.sim import (
     SimBus,
     attach_adapter_pty,
@@ -90,6 +93,32 @@ def timings(fn: Callable[[], object], n: int) -> tuple[float, float]:
     return statistics.median(out) * 1e6, out[min(len(out) - 1, int(len(out) * 0.99))] * 1e6
 
 
+def raw_floor(kind: str, n: int) -> tuple[float, float]:
+    """The floor of a round trip on the simulator's pty: a minimal client that writes the fast-read
+    frame with ``os.write`` and takes the whole reply with ``select`` + ``os.read`` (no decoding)."""
+    sim = SimBus(ids=[1])
+    pty = attach_adapter_pty(sim) if kind == "adapter" else attach_uart_pty(sim, 1)
+    fd = os.open(pty.path, os.O_RDWR | os.O_NOCTTY)
+    try:
+        tty.setraw(fd)
+        frame = FastRead(1).encode()
+        request = encode_aa(frame) if kind == "adapter" else encode_uart11(frame.arbitration_id, frame.data)
+        size = len(request)  # the reply (a state frame) has the same length
+
+        def exchange() -> None:
+            os.write(fd, request)
+            got = 0
+            while got < size:
+                if not select.select([fd], [], [], 1.0)[0]:
+                    raise TimeoutError(f"no reply on the {kind} pty")
+                got += len(os.read(fd, size - got))
+
+        return timings(exchange, n)
+    finally:
+        os.close(fd)
+        pty.close()
+
+
 def latency(n: int) -> None:
     print(f"round trip through each transport ({n} calls each; simulator answers at once)")
     print(f"  {'transport':<12} {'get_state median':>17} {'p99':>9} {'read_property median':>21} {'p99':>9}")
@@ -100,6 +129,12 @@ def latency(n: int) -> None:
             gs = timings(m.get_state, n)
             rp = timings(lambda m=m: m.read_property(38012), n)  # type: ignore[misc]
         print(f"  {kind:<12} {gs[0]:14.0f} us {gs[1]:6.0f} us {rp[0]:18.0f} us {rp[1]:6.0f} us")
+        if kind in ("adapter", "uart"):
+            floor = raw_floor(kind, n)
+            print(
+                f"  {'  raw floor':<12} {floor[0]:14.0f} us {floor[1]:6.0f} us"
+                f"   (os.write + select + os.read on the same pty; get_state = {gs[0] / floor[0]:.1f}x floor)"
+            )
 
 
 class FineClock:

@@ -3,8 +3,6 @@
 from typing import TYPE_CHECKING, Any
 
 from .client import (
-    AsyncBus,
-    AsyncMotor,
     Bus,
     BusClosedError,
     Motor,
@@ -15,7 +13,6 @@ from .client import (
     MoveTimeoutError,
     PositionMode,
     open_bus,
-    open_bus_async,
 )
 from .errors import (
     ConfigError,
@@ -31,6 +28,7 @@ from .errors import (
 from .errors import TimeoutError as TimeoutError
 
 if TYPE_CHECKING:
+    from .client import AsyncBus, AsyncMotor, open_bus_async
     from .robot import AsyncRobot, Robot, open_robot, open_robot_async
 
 __version__ = "0.1.0"
@@ -66,12 +64,18 @@ __all__ = [
 ]
 
 _ROBOT = frozenset(("open_robot", "open_robot_async", "Robot", "AsyncRobot"))
+_ASYNC = frozenset(("AsyncBus", "AsyncMotor", "open_bus_async"))
 
 
 def __getattr__(name: str) -> Any:
-    """The robot layer is imported on first use (it is not needed to drive one bus)."""
+    """The robot layer and the asyncio front end are imported on first use (neither is needed
+    to drive one bus from threads, and asyncio is slow to import)."""
     if name in _ROBOT:
         from . import robot
 
         return getattr(robot, name)
+    if name in _ASYNC:
+        from . import client
+
+        return getattr(client, name)
     raise AttributeError(f"module 'drempower' has no attribute {name!r}")

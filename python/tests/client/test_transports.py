@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import threading
 import time
 
 import pytest
@@ -9,6 +10,7 @@ import pytest
 import drempower
 from drempower.protocol import PositionQ, State, encode_aa, encode_uart11
 from drempower.protocol.ids import Frame
+from drempower.sim import SimBus, attach_adapter_pty, attach_uart_pty
 from drempower.transports import TransportError, open_transport
 from drempower.transports.serial_adapter import AdapterTransport
 from drempower.transports.uart import UartTransport
@@ -106,3 +108,25 @@ def test_transport_or_options_not_both() -> None:
     with pytest.raises(ValueError, match="either"):
         drempower.open_bus("virtual", transport=t)
     t.close()
+
+
+@pytest.mark.parametrize("kind", ["adapter", "uart"])
+def test_close_wakes_a_receive_waiting_on_a_quiet_serial_port(kind: str) -> None:
+    """A quiet port is waited on with no time slice (no wake-ups); close must end that wait itself."""
+    sim = SimBus(ids=[1])
+    pty = attach_adapter_pty(sim) if kind == "adapter" else attach_uart_pty(sim, 1)
+    try:
+        t = AdapterTransport(pty.path) if kind == "adapter" else UartTransport(pty.path)
+        assert t.recv_slice is None  # a file descriptor: the wait is one select with no timeout
+        got: list[object] = ["not returned"]
+        reader = threading.Thread(target=lambda: got.__setitem__(0, t.recv(None)), daemon=True)
+        reader.start()
+        time.sleep(0.05)
+        assert reader.is_alive()  # nothing arrived: still waiting
+        t.close()
+        reader.join(10.0)
+        assert not reader.is_alive()
+        assert got == [None]
+        assert t.recv(None) is None  # a wait that starts after close returns at once
+    finally:
+        pty.close()

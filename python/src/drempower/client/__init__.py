@@ -7,8 +7,8 @@
 ...     m.wait_position_done(timeout=10)
 """
 
-from .aio import AsyncBus, AsyncMotor, open_bus_async
-from .backup import ConfigBackup, ParamRecord, RestoreReport
+from typing import TYPE_CHECKING, Any
+
 from .bus import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, Bus, open_bus
 from .commands import (
     AxisMode,
@@ -41,6 +41,10 @@ from .errors import (
 from .motor import Motor
 from .results import ErrorReport, GpioMode, MotorInfo
 from .state import MotorState, Subscription
+
+if TYPE_CHECKING:
+    from .aio import AsyncBus, AsyncMotor, open_bus_async
+    from .backup import ConfigBackup, ParamRecord, RestoreReport
 
 __all__ = [
     "AsyncBus",
@@ -85,3 +89,24 @@ __all__ = [
     "open_bus_async",
     "q_move_time",
 ]
+
+_LAZY = {
+    "AsyncBus": "aio",
+    "AsyncMotor": "aio",
+    "open_bus_async": "aio",
+    "ConfigBackup": "backup",
+    "ParamRecord": "backup",
+    "RestoreReport": "backup",
+}
+
+
+def __getattr__(name: str) -> Any:
+    """The asyncio front end and the configuration backup are imported on first use (asyncio is slow to import)."""
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
+    globals()[name] = value
+    return value

@@ -12,12 +12,11 @@ from __future__ import annotations
 import os
 from collections.abc import Iterable, Sequence
 from types import TracebackType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..protocol.addresses import AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE
 from ..protocol.ids import SysCmd
 from ..protocol.messages import Message
-from . import backup as _backup
 from . import batch, ops
 from .commands import (
     PositionMode,
@@ -37,6 +36,9 @@ from .motorbase import MotorBase
 from .results import ErrorReport, GpioMode, MotorInfo
 from .state import MotorState
 from .timeouts import checks_times
+
+if TYPE_CHECKING:
+    from . import backup as _backup
 
 __all__ = ["AsyncBus", "AsyncMotor"]
 
@@ -272,6 +274,8 @@ class AsyncMotor(MotorBase):
         self, path: str | os.PathLike[str] | None = None, *, timeout: float | None = None
     ) -> _backup.ConfigBackup:
         """Read every parameter; also write them as JSON to ``path`` when given (OSError if it cannot)."""
+        from . import backup as _backup  # loaded on first use, not with drempower
+
         result = await self._bus.run(_backup.backup(self._id, timeout))
         if path is not None:
             result.save(path)
@@ -288,6 +292,8 @@ class AsyncMotor(MotorBase):
         timeout: float | None = None,
     ) -> _backup.RestoreReport:
         """Write a backup (object or JSON file) back; see :func:`drempower.client.backup.restore`."""
+        from . import backup as _backup  # loaded on first use, not with drempower
+
         op = _backup.restore(
             self._core, self._id, source, timeout, include_link=include_link, save=save, dry_run=dry_run, force=force
         )

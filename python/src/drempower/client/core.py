@@ -120,7 +120,8 @@ class MoveRecord:
     took: float | None = None
 
 
-_RX_SLICE = 0.25
+_RX_SLICE = 1.0
+"""Longest wait (s) of the receive loop for a frame; closing the transport wakes it sooner."""
 ZERO_REPLY_GRACE = 0.01
 """How long (s) a parameter reply of value 0 is held back once another host is seen on the bus."""
 _HOST_ONLY_CMDS = frozenset((0x08, 0x0C, 0x1A, 0x1C, 0x1F))

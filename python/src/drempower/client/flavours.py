@@ -7,10 +7,9 @@ comes from one source (``api_async.py``, from which ``api_sync.py`` is generated
 
 from __future__ import annotations
 
-import asyncio
 import time
 from collections.abc import Callable, Sequence
-from typing import Any, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from ..protocol.ids import check_node
 from ..protocol.messages import Message
@@ -20,6 +19,9 @@ from .effects import Batch, Effect, Op, Request, Send, Sleep
 from .errors import TimeoutError
 from .state import MotorState
 from .timeouts import checks_times
+
+if TYPE_CHECKING:
+    import asyncio
 
 __all__ = ["AsyncBusBase", "SyncBusBase"]
 
@@ -135,12 +137,16 @@ class AsyncBusBase(BusBase[M]):
     async def _send_all(self, msgs: Sequence[Message]) -> None:
         """Send ``msgs``; when a start among them waits until its presets are on the wire, in a worker
         thread, so the event loop never blocks on that wait."""
+        import asyncio
+
         if self._core.sequenced(msgs):
             await asyncio.to_thread(self._core.send_many, msgs)
         else:
             self._core.send_many(msgs)
 
     async def _execute(self, effect: Effect) -> Any:
+        import asyncio
+
         core = self._core
         if isinstance(effect, Request):
             self._check_broadcast_reads(effect.messages)
@@ -174,6 +180,8 @@ class AsyncBusBase(BusBase[M]):
         Raises :class:`~drempower.client.errors.TimeoutError` after ``timeout`` s without one,
         :class:`~drempower.client.errors.BusClosedError` when the bus closes meanwhile.
         """
+        import asyncio
+
         check_node(id, "id")
         since = time.monotonic() if newer_than is None else newer_than
         cache = self._core.states
@@ -197,4 +205,6 @@ class AsyncBusBase(BusBase[M]):
     async def close(self) -> None:
         """Apply ``stop_on_close`` to the motors this bus commanded, then release the transport
         (in a worker thread: it may block briefly)."""
+        import asyncio
+
         await asyncio.get_running_loop().run_in_executor(None, self._core.close)

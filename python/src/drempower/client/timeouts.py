@@ -10,9 +10,9 @@ front end, so a bad time is refused before the method sends its first frame.
 from __future__ import annotations
 
 import functools
-import inspect
 import math
 from collections.abc import Callable
+from types import FunctionType
 from typing import Any, TypeVar
 
 from ..errors import ValidationError
@@ -26,6 +26,10 @@ TIME_ARGUMENTS = ("timeout", "poll_interval")
 """The arguments, by name, that :func:`checks_times` checks."""
 
 C = TypeVar("C", bound=type)
+
+_CO_COROUTINE = 0x80
+"""``co_flags`` bit of an ``async def`` function (``inspect.CO_COROUTINE``; inspect itself is slow to import)."""
+_NO_DEFAULT = object()
 
 
 def check_timeout(value: object, name: str = "timeout", *, none_ok: bool = True) -> float | None:
@@ -48,9 +52,24 @@ def seconds(value: object, name: str = "timeout") -> float:
 
 def _checked(fn: Callable[..., Any]) -> Callable[..., Any] | None:
     """``fn`` wrapped to check its time arguments, or None when it has none."""
-    sig = inspect.signature(fn)
-    names = list(sig.parameters)
-    checks = [(names.index(n), n, sig.parameters[n].default is None) for n in TIME_ARGUMENTS if n in sig.parameters]
+    code = fn.__code__
+    npos = code.co_argcount
+    positional = code.co_varnames[:npos]
+    keyword_only = code.co_varnames[npos : npos + code.co_kwonlyargcount]
+    defaults = fn.__defaults__ or ()
+    kwdefaults = fn.__kwdefaults__ or {}
+    checks: list[tuple[int, str, bool]] = []
+    for n in TIME_ARGUMENTS:
+        if n in positional:
+            index = positional.index(n)
+            k = index - (npos - len(defaults))
+            default = defaults[k] if k >= 0 else _NO_DEFAULT
+        elif n in keyword_only:
+            index = 1 << 30  # never passed by position
+            default = kwdefaults.get(n, _NO_DEFAULT)
+        else:
+            continue
+        checks.append((index, n, default is None))
     if not checks:
         return None
 
@@ -61,7 +80,7 @@ def _checked(fn: Callable[..., Any]) -> Callable[..., Any] | None:
             elif index < len(args):
                 check_timeout(args[index], name, none_ok=none_ok)
 
-    if inspect.iscoroutinefunction(fn):
+    if code.co_flags & _CO_COROUTINE:
 
         @functools.wraps(fn)
         async def run_async(*args: Any, **kwargs: Any) -> Any:
@@ -81,7 +100,7 @@ def _checked(fn: Callable[..., Any]) -> Callable[..., Any] | None:
 def checks_times(cls: C) -> C:
     """Class decorator: every public method of ``cls`` with a time argument checks it first."""
     for name, fn in list(vars(cls).items()):
-        if name.startswith("_") or not inspect.isfunction(fn):
+        if name.startswith("_") or not isinstance(fn, FunctionType):
             continue
         wrapped = _checked(fn)
         if wrapped is not None:

@@ -22,6 +22,8 @@ a time they decide as each frame completes, as the C library does.
 
 from __future__ import annotations
 
+import struct
+
 from ..errors import ProtocolError
 from .ids import Frame
 
@@ -45,6 +47,11 @@ _AA_FLAG_DATA = 0x00
 _AA_FLAG_REMOTE = 0x01
 _AA_FLAG_FD = 0x02
 _AA_FLAG_FD_BRS = 0x06
+
+_new_frame = tuple.__new__
+_AA_HEAD = struct.Struct(">BBBBI")
+_AA_HEAD_pack = _AA_HEAD.pack
+_U32_from = struct.Struct(">I").unpack_from
 
 
 def encode_uart11(arbitration_id: int, data: bytes) -> bytes:
@@ -96,38 +103,59 @@ class Uart11Decoder:
     def feed(self, chunk: bytes) -> list[Frame]:
         """Add received bytes; return the frames completed by them."""
         buf = self._buf
-        buf += chunk
+        if buf:
+            buf += chunk
+            b = bytes(buf)
+        else:
+            b = bytes(chunk)
         out: list[Frame] = []
+        append = out.append
         accept = self._accept
         i = 0
-        n = len(buf)
+        n = len(b)
+        last = n - UART11_LEN  # the last index a whole frame can start at
+        dropped = 0
         while i < n:
-            if buf[i] != 0x08:
-                i += 1
-                self.dropped += 1
+            if b[i] != 0x08:
+                # skip to the next possible header in one step
+                j = b.find(b"\x08", i + 1)
+                if j < 0:
+                    j = n
+                dropped += j - i
+                i = j
                 continue
-            if n - i < 2:
+            if i + 1 >= n:
                 break
-            if buf[i + 1] > 0x07:
+            if b[i + 1] > 0x07:
                 i += 1
-                self.dropped += 1
+                dropped += 1
                 continue
-            if n - i < UART11_LEN:
+            if i > last:
                 break
-            arb = (buf[i + 1] << 8) | buf[i + 2]
-            data = bytes(buf[i + 3 : i + 11])
-            if (accept is not None and not accept(arb, data)) or self._overlaps(buf, i, n):  # type: ignore[operator]
+            end = i + UART11_LEN
+            arb = (b[i + 1] << 8) | b[i + 2]
+            data = b[i + 3 : end]
+            if (accept is not None and not accept(arb, data)) or (  # type: ignore[operator]
+                end < n and not (b[end] == 0x08 and (end + 1 >= n or b[end + 1] <= 0x07)) and self._overlaps(b, i, n)
+            ):
                 i += 1
-                self.dropped += 1
+                dropped += 1
                 continue
-            out.append(Frame(arb, data))
-            i += UART11_LEN
+            append(_new_frame(Frame, (arb, data, False, False)))
+            i = end
+        if dropped:
+            self.dropped += dropped
         if i:
-            del buf[:i]
+            if i >= n:
+                buf.clear()
+            else:
+                buf[:] = b[i:]
+        elif not buf:
+            buf += b
         self.frames += len(out)
         return out
 
-    def _overlaps(self, buf: bytearray, i: int, n: int) -> bool:
+    def _overlaps(self, buf: bytes | bytearray, i: int, n: int) -> bool:
         """True when the frame at ``i`` is not followed by a header (or the end of what
         arrived) while a whole frame that is followed by one starts inside it: bytes were
         lost, and taking the frame at ``i`` would also lose the one inside."""
@@ -144,7 +172,7 @@ class Uart11Decoder:
         return False
 
 
-def _u11_header(buf: bytearray, k: int, n: int) -> bool:
+def _u11_header(buf: bytes | bytearray, k: int, n: int) -> bool:
     """A frame may start at ``k`` (true at the end of the bytes, where anything may follow)."""
     if k >= n:
         return True
@@ -154,26 +182,48 @@ def _u11_header(buf: bytearray, k: int, n: int) -> bool:
 def encode_aa(frame: Frame | tuple[int, bytes]) -> bytes:
     """The adapter's 0xAA frame for ``frame`` (16 bytes for a standard 8-byte data frame)."""
     if isinstance(frame, Frame):
-        arb, data, ext, remote = frame.arbitration_id, frame.data, frame.is_extended, frame.is_remote
+        arb, data, ext, remote = frame
     else:
         (arb, data), ext, remote = frame, False, False
+    n = len(data)
+    if not ext and 0 <= arb <= 0x7FF and n <= 8:
+        return _AA_HEAD_pack(AA_HEADER, 0, _AA_FLAG_REMOTE if remote else _AA_FLAG_DATA, n, arb) + bytes(data)
     limit = 0x1FFFFFFF if ext else 0x7FF
     if not 0 <= arb <= limit:
         raise ProtocolError(f"arbitration id 0x{arb:X} does not fit a {'29' if ext else '11'}-bit id")
-    if len(data) > 8:
-        raise ProtocolError(f"a CAN frame carries at most 8 data bytes, not {len(data)}")
-    head = bytes((AA_HEADER, 1 if ext else 0, _AA_FLAG_REMOTE if remote else _AA_FLAG_DATA, len(data)))
-    return head + arb.to_bytes(4, "big") + bytes(data)
+    if n > 8:
+        raise ProtocolError(f"a CAN frame carries at most 8 data bytes, not {n}")
+    return _AA_HEAD_pack(AA_HEADER, 1, _AA_FLAG_REMOTE if remote else _AA_FLAG_DATA, n, arb) + bytes(data)
 
 
 def aa_frame_length(buf: bytes | bytearray, i: int = 0) -> int:
     """Length of the 0xAA frame starting at ``buf[i]``: 0 if no plausible frame starts
     there, -1 if more bytes are needed to tell, else the total frame length (8 + N).
     """
-    n = len(buf)
     if buf[i] != AA_HEADER:
         return 0
-    avail = n - i
+    if len(buf) - i >= 8:
+        # the whole header is here (the common case): every check at once
+        ext = buf[i + 1]
+        if ext == 0:
+            if buf[i + 4] or buf[i + 5] or buf[i + 6] > 0x07:
+                return 0
+        elif ext != 1 or buf[i + 4] > 0x1F:
+            return 0
+        flag = buf[i + 2]
+        length = buf[i + 3]
+        if flag <= _AA_FLAG_REMOTE:
+            if length > 8:
+                return 0
+        elif (flag != _AA_FLAG_FD and flag != _AA_FLAG_FD_BRS) or length not in FD_LENGTHS:
+            return 0
+        return 8 + length
+    return _aa_partial_length(buf, i)
+
+
+def _aa_partial_length(buf: bytes | bytearray, i: int) -> int:
+    """:func:`aa_frame_length` of a header that has not fully arrived (0 or -1)."""
+    avail = len(buf) - i
     if avail >= 2 and buf[i + 1] > 1:
         return 0
     if avail >= 3 and buf[i + 2] not in (0, 1, 2, 6):
@@ -187,21 +237,16 @@ def aa_frame_length(buf: bytes | bytearray, i: int = 0) -> int:
             return 0
     else:
         return -1
-    if avail < 8:
-        # check what we have of the id for plausibility
-        if buf[i + 1] == 0:
-            for k in (4, 5):
-                if avail > k and buf[i + k] != 0:
-                    return 0
-            if avail > 6 and buf[i + 6] > 0x07:
+    # check what we have of the id for plausibility
+    if buf[i + 1] == 0:
+        for k in (4, 5):
+            if avail > k and buf[i + k] != 0:
                 return 0
-        elif avail > 4 and buf[i + 4] > 0x1F:
+        if avail > 6 and buf[i + 6] > 0x07:
             return 0
-        return -1
-    ident = int.from_bytes(buf[i + 4 : i + 8], "big")
-    if ident > (0x1FFFFFFF if buf[i + 1] else 0x7FF):
+    elif avail > 4 and buf[i + 4] > 0x1F:
         return 0
-    return 8 + buf[i + 3]
+    return -1
 
 
 class AADecoder:
@@ -248,41 +293,64 @@ class AADecoder:
     def feed(self, chunk: bytes) -> list[Frame]:
         """Add received bytes; return the frames completed by them."""
         buf = self._buf
-        buf += chunk
+        if buf:
+            buf += chunk
+            b = bytes(buf)
+        else:
+            b = bytes(chunk)
         out: list[Frame] = []
+        append = out.append
+        frame_length = aa_frame_length
         i = 0
-        n = len(buf)
+        n = len(b)
+        dropped = 0
+        fd = 0
+        total = frame_length(b, 0) if n else 0
         while i < n:
-            total = aa_frame_length(buf, i)
             if total == 0:
-                i += 1
-                self.dropped += 1
+                # skip to the next possible header in one step
+                j = b.find(b"\xaa", i + 1)
+                if j < 0:
+                    j = n
+                dropped += j - i
+                i = j
+                total = frame_length(b, i) if i < n else 0
                 continue
-            if total < 0 or n - i < total:
+            end = i + total
+            if total < 0 or end > n:
                 break
-            if _aa_overlaps(buf, i, total, n):
+            # the length of what follows (computed once: it is the next frame's when this one is taken)
+            after = frame_length(b, end) if end < n else -1
+            if after == 0 and _aa_overlaps(b, i, total, n):
                 i += 1
-                self.dropped += 1
+                dropped += 1
+                total = frame_length(b, i)
                 continue
-            flag = buf[i + 2]
-            out.append(
-                Frame(
-                    int.from_bytes(buf[i + 4 : i + 8], "big"),
-                    bytes(buf[i + 8 : i + total]),
-                    bool(buf[i + 1]),
-                    flag == _AA_FLAG_REMOTE,
-                )
-            )
-            if flag in (_AA_FLAG_FD, _AA_FLAG_FD_BRS):
-                self.fd_frames += 1
-            i += total
+            flag = b[i + 2]
+            if b[i + 1]:
+                append(_new_frame(Frame, (_U32_from(b, i + 4)[0], b[i + 8 : end], True, flag == _AA_FLAG_REMOTE)))
+            else:
+                append(_new_frame(Frame, ((b[i + 6] << 8) | b[i + 7], b[i + 8 : end], False, flag == _AA_FLAG_REMOTE)))
+            if flag > _AA_FLAG_REMOTE:
+                fd += 1
+            i = end
+            total = after
+        if dropped:
+            self.dropped += dropped
+        if fd:
+            self.fd_frames += fd
         if i:
-            del buf[:i]
+            if i >= n:
+                buf.clear()
+            else:
+                buf[:] = b[i:]
+        elif not buf:
+            buf += b
         self.frames += len(out)
         return out
 
 
-def _aa_overlaps(buf: bytearray, i: int, total: int, n: int) -> bool:
+def _aa_overlaps(buf: bytes | bytearray, i: int, total: int, n: int) -> bool:
     """True when the frame at ``i`` (``total`` bytes) is not followed by a plausible header
     (or the end of what arrived) while a whole frame followed by one starts inside it."""
     end = i + total

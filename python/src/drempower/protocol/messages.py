@@ -23,7 +23,7 @@ from typing import ClassVar, NoReturn, TypeAlias
 from ..errors import FieldRangeError, ProtocolError, ValidationError
 from .enums import TorqueMode, VelocityMode
 from .ids import BROADCAST, MAX_NODE, Cmd, Frame, StartKind, SysCmd
-from .parameters import F32_MAX, DataType, Parameter, decode_value, encode_value, parameter
+from .parameters import F32_MAX, DataType, Parameter, encode_value, parameter
 
 __all__ = [
     "Message",
@@ -76,12 +76,18 @@ _new_frame = tuple.__new__
 _FSS_pack = _FSS.pack
 _FSS_unpack = _FSS.unpack
 _RW_unpack_from = _RW.unpack_from
+_READ_pack = struct.Struct("<HH4x").pack
+_SYS_pack = _SYS.pack
 _FSU_pack = _FSU.pack
 _PACK_ERRORS = (TypeError, ValueError, OverflowError, struct.error)
 
 
 def _frame(arb: int, data: bytes) -> Frame:
     return _new_frame(Frame, (arb, data, False, False))
+
+
+_FAST_READS = tuple(_frame((node << 5) | 0x1E, _ZERO8) for node in range(MAX_NODE + 1))
+"""The fast-read frame of every node (frames are immutable, so one of each serves every encode)."""
 
 
 def _node(node: int) -> int:
@@ -452,7 +458,10 @@ class SystemCommand(Message):
         op = self.op
         if op not in _SINGLE_SHOT:
             raise ValidationError(f"op={op!r}: system op must be 0x00..0x07; use Start/StartImpedance for 0x10..0x15")
-        return _frame((_node(self.node) << 5) | 0x08, _SYS.pack(op, 0, 0))
+        node = self.node
+        if not (node.__class__ is int and 0 <= node <= MAX_NODE):
+            _node(node)
+        return _new_frame(Frame, ((node << 5) | 0x08, _SYS_pack(op, 0, 0), False, False))
 
 
 @dataclass(slots=True)
@@ -474,7 +483,10 @@ class Start(Message):
             raise ValidationError(f"kind={kind!r}: Start takes T, Q, P, V or C; use StartImpedance for D")
         if self.relative and kind > 0x12:
             raise ValidationError(f"relative=True: only T, Q and P starts have a relative flag, not {kind!r}")
-        return _frame((_node(self.node) << 5) | 0x08, _SYS.pack(kind, 1 if self.relative else 0, 0))
+        node = self.node
+        if not (node.__class__ is int and 0 <= node <= MAX_NODE):
+            _node(node)
+        return _new_frame(Frame, ((node << 5) | 0x08, _SYS_pack(kind, 1 if self.relative else 0, 0), False, False))
 
 
 @dataclass(slots=True)
@@ -504,6 +516,8 @@ def _address(address: int) -> int:
 
 
 def _dtype(dtype: int) -> DataType:
+    if dtype.__class__ is DataType:
+        return dtype
     try:
         return DataType(dtype)
     except ValueError:
@@ -526,7 +540,16 @@ class ReadParam(Message):
         return cls(node, p.address, p.dtype)
 
     def encode(self) -> Frame:
-        return _frame((_node(self.node) << 5) | 0x1E, _RW.pack(_address(self.address), _dtype(self.dtype)) + _PAD4)
+        node, address, dtype = self.node, self.address, self.dtype
+        if (
+            node.__class__ is int
+            and 0 <= node <= MAX_NODE
+            and address.__class__ is int
+            and 1 <= address <= 0xFFFF
+            and (dtype.__class__ is DataType or (dtype.__class__ is int and 0 <= dtype <= 4))
+        ):
+            return _new_frame(Frame, ((node << 5) | 0x1E, _READ_pack(address, dtype), False, False))
+        return _frame((_node(node) << 5) | 0x1E, _RW.pack(_address(address), _dtype(dtype)) + _PAD4)
 
 
 @dataclass(slots=True)
@@ -537,7 +560,10 @@ class FastRead(Message):
     cmd: ClassVar[int] = Cmd.READ
 
     def encode(self) -> Frame:
-        return _frame((_node(self.node) << 5) | 0x1E, _ZERO8)
+        node = self.node
+        if node.__class__ is int and 0 <= node <= MAX_NODE:
+            return _FAST_READS[node]
+        return _frame((_node(node) << 5) | 0x1E, _ZERO8)
 
 
 @dataclass(slots=True)
@@ -646,6 +672,8 @@ Reply: TypeAlias = ParamValue | State
 _VMODES = {1: VelocityMode.PASSTHROUGH, 2: VelocityMode.RAMP}
 _TMODES = {1: TorqueMode.DIRECT, 6: TorqueMode.RAMP}
 _DTYPES = tuple(DataType)
+_VALUE_FROM = tuple(struct.Struct(f"<{c}").unpack_from for c in "fHhIi")
+"""Unpackers of the value (offset 4) by data type code."""
 _OPS = {op.value: op for op in SysCmd}
 _KINDS = {k.value: k for k in StartKind}
 
@@ -719,7 +747,7 @@ def _dec_write(node: int, data: bytes) -> Command:
         raise ProtocolError(f"write of {addr}: unknown data type code {dtype}")
     if addr == 0:
         raise ProtocolError("write to address 0 (reserved for the fast read)")
-    return WriteParam(node, addr, _DTYPES[dtype], decode_value(dtype, data[4:]))
+    return WriteParam(node, addr, _DTYPES[dtype], _VALUE_FROM[dtype](data, 4)[0])
 
 
 _COMMAND_DECODERS: dict[int, Callable[[int, bytes], Command]] = {
@@ -763,14 +791,14 @@ def decode_reply(arb_id: int, data: bytes) -> Reply:
     cmd = arb_id & 0x1F
     if cmd & 1:
         p, v, t = _FSS_unpack(data)
-        return State(arb_id >> 5, p, v / 100, t / 100, bool(cmd & 2), bool(cmd & 4), cmd >> 3)
+        return State(arb_id >> 5, p, v / 100, t / 100, (cmd & 2) != 0, (cmd & 4) != 0, cmd >> 3)
     if cmd == 0x1E:
         addr, dtype = _RW_unpack_from(data)
         if dtype > 4:
             raise ProtocolError(f"reply for {addr}: unknown data type code {dtype}")
         if addr == 0:
             raise ProtocolError("parameter reply for address 0 (the fast read answers with a state frame)")
-        return ParamValue(arb_id >> 5, addr, _DTYPES[dtype], decode_value(dtype, data[4:]))
+        return ParamValue(arb_id >> 5, addr, _DTYPES[dtype], _VALUE_FROM[dtype](data, 4)[0])
     raise ProtocolError(f"frame 0x{arb_id:03X}: command 0x{cmd:02X} is not a motor reply")
 
 

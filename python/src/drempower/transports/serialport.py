@@ -7,6 +7,7 @@ import os
 import select
 import threading
 import time
+import weakref
 from collections import deque
 from collections.abc import Callable
 from typing import Any, Protocol
@@ -56,8 +57,8 @@ class SerialFrameTransport(Transport):
     ``exclusive=False`` to share it), so a second program cannot open it and
     take half the frames.
 
-    A quiet line is waited on in ``select`` (a few wake-ups a second at most);
-    a read takes everything that has arrived. When part of a frame has arrived,
+    A quiet line is waited on in ``select`` with no wake-ups (``close`` wakes the
+    wait through a pipe); a read takes everything that has arrived. When part of a frame has arrived,
     the reader waits the time the rest takes on the line (bytes x 10 / baud
     rate) and takes it in one read, so a byte-paced UART costs about two reads a
     frame and no CPU is spent waiting. A read that times out with part of a frame buffered drops that
@@ -71,8 +72,9 @@ class SerialFrameTransport(Transport):
     later send fails saying so.
     """
 
-    recv_slice = 0.25
-    """A quiet line costs at most four wake-ups a second; ``close`` is noticed within this time."""
+    recv_slice: float | None = 0.25
+    """Ports without a file descriptor (URLs, Windows): ``close`` is noticed within this time.
+    Ports with one wait in ``select`` until a byte arrives or ``close`` wakes them (None)."""
 
     def __init__(
         self,
@@ -108,10 +110,18 @@ class SerialFrameTransport(Transport):
         self._closing = threading.Event()
         self._broken: str | None = None
         self._fd: int | None = None
+        self._wake_w: int | None = None
+        self._wait_fds: list[int] = []
         posix = _PosixSerial is not None and isinstance(self._ser, _PosixSerial)
         if posix and type(self._ser).write is _PosixSerial.write:
             self._fd = self._ser.fileno()
             os.set_blocking(self._fd, False)  # pyserial opens it so already; the write loop relies on it
+            # close() writes a byte to this pipe, which wakes a wait in select at once; the pipe
+            # stays open (and readable) until the transport is collected, so a late wait returns too
+            wake_r, self._wake_w = os.pipe()
+            weakref.finalize(self, _close_fds, wake_r, self._wake_w)
+            self._wait_fds = [self._fd, wake_r]
+            self.recv_slice = None
         self.description = f"{what} on {port} at {self._ser.baudrate} Bd"
 
     @property
@@ -204,7 +214,7 @@ class SerialFrameTransport(Transport):
                     closing.wait(min(need * self._byte_time, _MAX_REST_WAIT))
                     waiting = ser.in_waiting
             elif not waiting and self._fd is not None and timeout > READ_TIMEOUT:
-                if not select.select([self._fd], [], [], timeout)[0]:
+                if not select.select(self._wait_fds, [], [], timeout)[0] or closing.is_set():
                     return None
                 waiting = ser.in_waiting
             chunk = ser.read(waiting or 1)
@@ -227,6 +237,11 @@ class SerialFrameTransport(Transport):
         if self._closing.is_set():
             return
         self._closing.set()
+        if self._wake_w is not None:
+            try:
+                os.write(self._wake_w, b"\0")
+            except OSError:
+                pass
         cancel = getattr(self._ser, "cancel_read", None)
         if cancel is not None:
             try:
@@ -240,3 +255,11 @@ class SerialFrameTransport(Transport):
         finally:
             if locked:
                 self._wlock.release()
+
+
+def _close_fds(*fds: int) -> None:
+    for fd in fds:
+        try:
+            os.close(fd)
+        except OSError:
+            pass
