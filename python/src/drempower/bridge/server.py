@@ -320,7 +320,10 @@ class BusFace:
         _log.info("client %s left %s; idling motors %s", client.decode(), self.prefix, sorted(nodes) or "none")
         if nodes:
             self.clients_idled += 1  # counted first: whoever sees the motors idle sees the count
-            self.idle(nodes)
+            try:
+                self.idle(nodes)
+            except Exception as exc:  # a Zenoh callback must not raise (the bridge may be closing)
+                _log.error("idling the motors of %s failed: %s", self.prefix, exc)
 
     def idle(self, nodes: set[int] | None = None) -> None:
         """Set motors ``nodes`` (default: those served; 0: every motor) to idle."""
