@@ -152,7 +152,7 @@ def test_joint_states_decode_with_the_cdr_library(served: Served) -> None:
 
 def test_liveliness_tokens_of_the_bridge(served: Served) -> None:
     with session(connect=[served.endpoint]) as ros:
-        wait_for(lambda: len(list(ros.liveliness().get("@ros2_lv/0/**", timeout=2))) >= 7, limit=5)
+        wait_for(lambda: len(list(ros.liveliness().get("@ros2_lv/0/**", timeout=2))) >= 8, limit=5)
         tokens = sorted(str(r.ok.key_expr) for r in ros.liveliness().get("@ros2_lv/0/**", timeout=2))
     zid = str(served.bridge.session.zid())
     js = rosmsg.ros_type_hash(rosmsg.JOINT_STATE)
@@ -166,7 +166,7 @@ def test_liveliness_tokens_of_the_bridge(served: Served) -> None:
         f"@ros2_lv/0/{zid}/0/2/MS/%/%/drempower_bridge/%position_commands/std_msgs::msg::dds_::Float64MultiArray_/"
         f"{arr}/::,10:,:,:,," in tokens
     )
-    assert sum("/SS/" in t for t in tokens) == 2
+    assert sum("/SS/" in t for t in tokens) == 3  # estop, clear_errors, enable
 
 
 def _command(values: list[float]) -> bytes:

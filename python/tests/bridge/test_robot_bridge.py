@@ -7,6 +7,7 @@ import math
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -167,8 +168,19 @@ def test_velocity_commands_in_rad_per_s_at_the_joint(served: ServedRobot) -> Non
             time.sleep(0.02)
         assert s2.speed == pytest.approx(2 * rpm, abs=0.5)  # gear 2
         assert e1.speed == pytest.approx(-rpm, abs=0.5)  # gear -1
-        pub.put(_command([0.0, 1.0, 1.0]))
-        msg = _joint_states(served)
+        stop = threading.Event()
+
+        def stream() -> None:
+            while not stop.wait(0.02):
+                pub.put(_command([0.0, 1.0, 1.0]))
+
+        streamer = threading.Thread(target=stream)
+        streamer.start()  # held while joint_states is read: the command timeout is 0.2 s
+        try:
+            msg = _joint_states(served)
+        finally:
+            stop.set()
+            streamer.join(5)
         assert msg.velocity[1] == pytest.approx(1.0, abs=0.1) and msg.velocity[2] == pytest.approx(1.0, abs=0.1)
         pub.undeclare()
 
@@ -188,7 +200,7 @@ def test_an_invalid_value_sends_nothing_on_any_bus(served: ServedRobot) -> None:
         pub.undeclare()
 
 
-def test_estop_and_clear_errors_reach_every_bus(served: ServedRobot) -> None:
+def test_estop_clear_errors_and_enable_reach_every_bus(served: ServedRobot) -> None:
     _closed_loop(served)
     motors = [served.motor("left", 1), served.motor("left", 2), served.motor("right", 1)]
     with session(connect=[served.endpoint]) as ros:
@@ -201,6 +213,9 @@ def test_estop_and_clear_errors_reach_every_bus(served: ServedRobot) -> None:
         wait_for(lambda: all(m.state == AxisState.IDLE for m in motors), limit=1.0)
         resp, _ = _call(ros, served.bridge.service_keys["clear_errors"], 4)
         assert resp.success is True and "shoulder, wrist, elbow" in resp.message
+        resp, _ = _call(ros, served.bridge.service_keys["enable"], 5)
+        assert resp.success is True and resp.message == "closed loop on joints shoulder, wrist, elbow"
+        wait_for(lambda: all(m.state == AxisState.CLOSED_LOOP_CONTROL for m in motors), limit=1.0)
         pub.undeclare()
 
 

@@ -97,22 +97,36 @@ class BridgeOptions:
 
 @dataclass
 class _Stream:
-    """A ROS 2 command topic: which motors it drives and when it last spoke."""
+    """A ROS 2 command topic: which motors it drives, when it last spoke, who publishes it."""
 
     last: float = 0.0
     driven: bool = False
     count: int = 0
+    publishers: set[str] = field(default_factory=set)
+    """Liveliness tokens (key expressions) of the topic's live ``MP`` publishers."""
     lock: threading.Lock = field(default_factory=threading.Lock)
 
 
 class BusFace:
     """One bus on Zenoh under ``prefix``: remote clients' frames, estop ahead of them, client watch.
 
-    The face owns the hub and the bridge's :class:`~drempower.client.Bus` of this
-    bus (:attr:`bus`), not the transport.
+    A client that drove motors is watched two ways: its liveliness token (gone
+    when it closes, or after Zenoh's lease when it is cut off) and
+    :meth:`check_clients`, which idles its motors once nothing of it (a frame or
+    a keep-alive) arrived for ``command_timeout`` s. The face owns the hub and
+    the bridge's :class:`~drempower.client.Bus` of this bus (:attr:`bus`), not
+    the transport.
     """
 
-    def __init__(self, name: str, transport: Transport, session: Any, prefix: str, joints: Sequence[JointSpec]) -> None:
+    def __init__(
+        self,
+        name: str,
+        transport: Transport,
+        session: Any,
+        prefix: str,
+        joints: Sequence[JointSpec],
+        command_timeout: float = DEFAULT_COMMAND_TIMEOUT,
+    ) -> None:
         import zenoh
 
         self.name = name
@@ -121,9 +135,14 @@ class BusFace:
         self.prefix = prefix
         self.joints = list(joints)
         self.ids = [j.id for j in joints]
+        self.command_timeout = command_timeout
+        """s a client that drove motors may stay silent before they go idle."""
         self._keys = keys(prefix)
         self._closed = threading.Event()
         self._clients: dict[bytes, set[int]] = {}
+        """Per client, the motors it set moving."""
+        self._heard: dict[bytes, float] = {}
+        """Per client, when (monotonic s) its last sample arrived."""
         self._clients_lock = threading.Lock()
         self.clients_idled = 0
         self._queue: deque[tuple[bytes, int, int, list[Frame]]] = deque()
@@ -161,12 +180,14 @@ class BusFace:
                 "default_timeout": self.hub.transport.default_timeout,
                 "motors": self.ids,
                 "joints": [j.name for j in self.joints],
+                "command_timeout": self.command_timeout,
                 **({"bus": self.name} if self.name else {}),
             }
         ).encode()
         self._decls.append(s.declare_queryable(k["info"], lambda q: q.reply(k["info"], info), complete=True))
         self._decls.append(s.declare_subscriber(k["tx"], self._on_tx))
         self._decls.append(s.declare_subscriber(k["estop"], self._on_estop))
+        self._decls.append(s.declare_subscriber(k["alive"], self._on_alive))
         self._decls.append(s.liveliness().declare_subscriber(k["clients"] + "/*", self._on_client, history=True))
 
     def _sample(self, sample: Any) -> tuple[bytes, int, list[Frame]] | None:
@@ -189,6 +210,7 @@ class BusFace:
         if got is None:
             return
         origin, seq, frames = got
+        self._heard[origin] = time.monotonic()
         with self._queue_cv:
             if seq < self._stopped_at.get(origin, -1):
                 self.dropped_by_estop += len(frames)
@@ -210,6 +232,7 @@ class BusFace:
         if got is None:
             return
         origin, seq, frames = got
+        self._heard[origin] = time.monotonic()
         with self._queue_cv:
             self._stopped_at[origin] = max(seq, self._stopped_at.get(origin, -1))
         self.estop_now(frames, origin)
@@ -252,11 +275,39 @@ class BusFace:
                 except Exception as exc:
                     _log.error("sending frames of client %s failed: %s", origin.decode(errors="replace"), exc)
 
+    def _on_alive(self, sample: Any) -> None:
+        """A client's keep-alive: it is there, even if it has nothing to send."""
+        if sample.attachment is not None:
+            self._heard[sample.attachment.to_bytes()] = time.monotonic()
+
     def _client_sent(self, origin: bytes, frames: Sequence[Frame]) -> None:
         nodes = driven_nodes(frames)
         if nodes:
             with self._clients_lock:
                 self._clients.setdefault(origin, set()).update(nodes)
+                self._heard[origin] = max(self._heard.get(origin, 0.0), time.monotonic())
+
+    def check_clients(self) -> None:
+        """Idle the motors of every client that drove some and was not heard from for ``command_timeout`` s."""
+        now = time.monotonic()
+        gone: list[tuple[bytes, set[int]]] = []
+        with self._clients_lock:
+            for client in list(self._clients):
+                if now - self._heard.get(client, 0.0) > self.command_timeout:
+                    gone.append((client, self._clients.pop(client)))
+        for client, nodes in gone:
+            _log.info(
+                "client %s silent for %.3f s on %s; idling motors %s",
+                client.decode(errors="replace"),
+                self.command_timeout,
+                self.prefix,
+                sorted(nodes),
+            )
+            self.clients_idled += 1  # counted first: whoever sees the motors idle sees the count
+            try:
+                self.idle(nodes)
+            except Exception as exc:
+                _log.error("idling the motors of %s failed: %s", self.prefix, exc)
 
     def _on_client(self, sample: Any) -> None:
         client = str(sample.key_expr).rsplit("/", 1)[1].encode()
@@ -265,10 +316,14 @@ class BusFace:
             return
         with self._clients_lock:
             nodes = self._clients.pop(client, set())
+            self._heard.pop(client, None)
         _log.info("client %s left %s; idling motors %s", client.decode(), self.prefix, sorted(nodes) or "none")
         if nodes:
             self.clients_idled += 1  # counted first: whoever sees the motors idle sees the count
-            self.idle(nodes)
+            try:
+                self.idle(nodes)
+            except Exception as exc:  # a Zenoh callback must not raise (the bridge may be closing)
+                _log.error("idling the motors of %s failed: %s", self.prefix, exc)
 
     def idle(self, nodes: set[int] | None = None) -> None:
         """Set motors ``nodes`` (default: those served; 0: every motor) to idle."""
@@ -340,7 +395,9 @@ class Bridge:
         try:
             for name, t in transports.items():
                 prefix = o.prefix if not name else f"{o.prefix.strip('/')}/{name}"
-                self.faces[name] = BusFace(name, t, session, prefix, [j for j in specs if j.bus == name])
+                self.faces[name] = BusFace(
+                    name, t, session, prefix, [j for j in specs if j.bus == name], o.command_timeout
+                )
             self._joints = [(j, Gearing(j), self.faces[j.bus]) for j in specs]
             self._names = [j.name for j in specs]
             self._declare_ros()
@@ -420,7 +477,8 @@ class Bridge:
             self._streams[topic] = _Stream()
             self._decls.append(s.declare_subscriber(key, lambda sample, t=topic: self._on_command(t, sample)))
         self.service_keys: dict[str, str] = {}
-        for name, handler in (("estop", self._srv_estop), ("clear_errors", self._srv_clear_errors)):
+        services = (("estop", self._srv_estop), ("clear_errors", self._srv_clear_errors), ("enable", self._srv_enable))
+        for name, handler in services:
             key, _ = declare("SS", name, rosmsg.TRIGGER)
             self.service_keys[name] = key
             self._decls.append(s.declare_queryable(key, lambda q, h=handler: self._serve(q, h), complete=True))
@@ -441,10 +499,13 @@ class Bridge:
                 _log.error("idling the motors of %s failed: %s", face.prefix, exc)
 
     def _on_ros_entity(self, sample: Any) -> None:
-        """A ROS 2 publisher of a command topic that goes away idles the motors its topic drove at once."""
-        if sample.kind != self._zenoh.SampleKind.DELETE:
-            return
-        parts = str(sample.key_expr).split("/")
+        """Count the live publishers of each command topic; when the last one goes, idle what the topic drove at once.
+
+        While another publisher of the topic is alive the motors stay driven
+        (the command timeout still idles them if it falls silent).
+        """
+        key = str(sample.key_expr)
+        parts = key.split("/")
         if len(parts) < 12 or parts[5] != "MP":
             return
         topic = self._publisher_topics.get((parts[9], parts[10]))
@@ -452,9 +513,16 @@ class Bridge:
             return
         stream = self._streams[topic]
         with stream.lock:
-            if stream.driven:
+            if sample.kind != self._zenoh.SampleKind.DELETE:
+                stream.publishers.add(key)
+                return
+            stream.publishers.discard(key)
+            left = len(stream.publishers)
+            if left:
+                _log.info("%s: its publisher %s left; %d still publish", topic, parts[2], left)
+            elif stream.driven:
                 stream.driven = False
-                _log.info("%s: its publisher %s left; idling %s", topic, parts[2], ", ".join(self._names))
+                _log.info("%s: its last publisher %s left; idling %s", topic, parts[2], ", ".join(self._names))
                 self._idle_all()
 
     def _joint_state(self, states: Mapping[str, Any]) -> bytes:
@@ -571,6 +639,8 @@ class Bridge:
     def _watchdog_loop(self) -> None:
         timeout = self.options.command_timeout
         while not self._closed.wait(timeout / 4):
+            for face in self.faces.values():
+                face.check_clients()
             now = time.monotonic()
             for topic, stream in self._streams.items():
                 if stream.driven and now - stream.last > timeout:
@@ -642,6 +712,19 @@ class Bridge:
         if failures:
             return False, "clear_errors failed: " + "; ".join(failures)
         return True, "errors cleared on " + self._served()
+
+    def _srv_enable(self) -> tuple[bool, str]:
+        """Closed loop for every joint served, on every bus (a bus that fails does not keep the others from it)."""
+        failures = []
+        for face in self.faces.values():
+            try:
+                for i in face.ids:
+                    face.bus.motor(i).set_mode(2)
+            except Exception as exc:  # a reply in every case: the caller waits for one
+                failures.append(f"{face.name or face.prefix}: {exc}")
+        if failures:
+            return False, "enable failed: " + "; ".join(failures)
+        return True, "closed loop on " + self._served()
 
     # ------------------------------------------------------------------ lifetime
 

@@ -8,7 +8,11 @@ Under a key prefix (``drempower`` by default) a bridge serves:
   bridge drops the client's samples numbered before an estop that arrive after it;
 * ``<prefix>/rx``: every frame on the bus: the motors' and those of every host
   (attachment: the id of the host that sent it, empty for motor frames);
-* ``<prefix>/info``: a queryable answering JSON ``{"description", "default_timeout", "motors"}``;
+* ``<prefix>/alive``: a client's keep-alive (empty payload, attachment: its client id), sent
+  every ``command_timeout / 4`` while it has driven motors: a client not heard from (any sample)
+  for ``command_timeout`` s has its motors idled, before its liveliness lease runs out;
+* ``<prefix>/info``: a queryable answering JSON ``{"description", "default_timeout", "motors",
+  "command_timeout"}``;
 * liveliness tokens ``<prefix>/clients/<client id>`` of the connected clients.
 
 A sample holds one or more frames, each ``<u32 LE id | flags> <u8 length> <data>``
@@ -43,13 +47,14 @@ _REMOTE = 1 << 30
 
 
 def keys(prefix: str) -> dict[str, str]:
-    """The key expressions under ``prefix``: tx, estop, rx, info, clients (liveliness, with ``/*``)."""
+    """The key expressions under ``prefix``: tx, estop, alive, rx, info, clients (liveliness, with ``/*``)."""
     prefix = prefix.strip("/")
     if not prefix or any(c in prefix for c in "*$?#"):
         raise ValueError(f"key prefix {prefix!r}: a non-empty Zenoh key without wildcards, e.g. 'drempower/arm'")
     return {
         "tx": f"{prefix}/tx",
         "estop": f"{prefix}/estop",
+        "alive": f"{prefix}/alive",
         "rx": f"{prefix}/rx",
         "info": f"{prefix}/info",
         "clients": f"{prefix}/clients",

@@ -31,7 +31,7 @@ def register(sub: Any) -> None:
             "Serve one bus on Zenoh until Ctrl-C, SIGTERM or SIGHUP, then idle every motor it or its clients "
             "set moving. ROS 2 nodes using rmw_zenoh_cpp see /joint_states (sensor_msgs/JointState), "
             "/position_commands, /velocity_commands, /effort_commands (std_msgs/Float64MultiArray) and the "
-            "std_srvs/Trigger services /estop and /clear_errors; drempower clients open it with "
+            "std_srvs/Trigger services /estop, /clear_errors and /enable; drempower clients open it with "
             "open_bus('zenoh', PREFIX, connect=ENDPOINT) or `-i zenoh -c PREFIX -o connect=ENDPOINT`. "
             "With --robot FILE it serves every bus of the robot: the joint names, gears and offsets come from the "
             "file (joint_states at the joint), and each bus is a remote bus under PREFIX/BUS."

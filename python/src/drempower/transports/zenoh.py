@@ -32,8 +32,11 @@ class ZenohTransport(Transport):
     to the local router ``tcp/localhost:7447``); ``scout`` turns on multicast
     scouting, ``gossip`` (default on) Zenoh's gossip scouting. Emergency stops
     travel on their own key at Zenoh's real-time priority. The bridge watches
-    this client through a liveliness token: when the client goes (closed,
-    killed, or its network lost for the lease time) the bridge idles the motors
+    this client through a liveliness token (closed, killed, or its network lost
+    for the lease time) and through its command timeout: once this client has
+    sent a frame that sets a motor moving, it sends a keep-alive every quarter of
+    the bridge's ``command_timeout`` until closed, and when nothing of it arrives
+    for that long (the process frozen, the link cut) the bridge idles the motors
     it set moving.
     """
 
@@ -54,6 +57,7 @@ class ZenohTransport(Transport):
             import zenoh
         except ImportError as exc:
             raise TransportError("interface 'zenoh' needs eclipse-zenoh: pip install 'drempower[bridge]'") from exc
+        from ..bridge.hub import driven_nodes
         from ..bridge.tunnel import DEFAULT_PREFIX, decode_frames, encode_frames, is_estop, join_origin, keys
         from ..bridge.zconfig import open_session
 
@@ -63,6 +67,9 @@ class ZenohTransport(Transport):
         except ValueError as exc:
             raise TransportError(f"cannot open remote bus: channel {exc}") from exc
         self._encode, self._decode, self._is_estop, self._join = encode_frames, decode_frames, is_estop, join_origin
+        self._driven_nodes = driven_nodes
+        self._keepalive: threading.Thread | None = None
+        self._stop = threading.Event()
         self._seq = itertools.count(1)  # thread-safe: one number per sample, tx and estop alike
         self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
         self._closed = False
@@ -90,6 +97,12 @@ class ZenohTransport(Transport):
                 express=True,
                 congestion_control=zenoh.CongestionControl.BLOCK,
             )
+            self._alive = self._session.declare_publisher(
+                self._keys["alive"],
+                priority=zenoh.Priority.DATA_HIGH,
+                express=True,
+                congestion_control=zenoh.CongestionControl.DROP,
+            )
             self._token = self._session.liveliness().declare_token(f"{self._keys['clients']}/{self._id.decode()}")
             info = self._info(open_timeout)
         except BaseException:
@@ -105,6 +118,11 @@ class ZenohTransport(Transport):
         """What the bridge said of its bus: description, default_timeout, motors, joints."""
         timeout = info.get("default_timeout")
         self.default_timeout = float(timeout) if isinstance(timeout, (int, float)) else None
+        watch = info.get("command_timeout")
+        self.keepalive_period: float | None = (
+            float(watch) / 4 if isinstance(watch, (int, float)) and watch > 0 else None
+        )
+        """s between keep-alives once this client drove a motor (None: the bridge watches liveliness only)."""
         self.description = f"zenoh {prefix} via {where}: {info.get('description', '?')}"
 
     def _info(self, timeout: float) -> dict[str, Any] | None:
@@ -137,6 +155,26 @@ class ZenohTransport(Transport):
             pub.put(self._encode((frame,)), attachment=self._join(self._id, next(self._seq)))
         except Exception as exc:
             raise TransportError(f"remote bus {self._keys['tx']}: sending failed: {exc}") from exc
+        if self._keepalive is None and self.keepalive_period is not None and self._driven_nodes((frame,)):
+            self._start_keepalive()
+
+    def _start_keepalive(self) -> None:
+        with self._close_lock:
+            if self._keepalive is not None or self._closed:
+                return
+            self._keepalive = threading.Thread(
+                target=self._keepalive_loop, name="drempower zenoh keep-alive", daemon=True
+            )
+            self._keepalive.start()
+
+    def _keepalive_loop(self) -> None:
+        period = self.keepalive_period or 0.05
+        while not self._stop.wait(period):
+            try:
+                self._alive.put(b"", attachment=self._id)
+            except Exception:
+                if self._stop.is_set():
+                    return
 
     def recv(self, timeout: float | None = None) -> Frame | None:
         if self._closed:
@@ -154,6 +192,9 @@ class ZenohTransport(Transport):
             if self._closed:
                 return
             self._closed = True
+        self._stop.set()
+        if self._keepalive is not None and self._keepalive is not threading.current_thread():
+            self._keepalive.join(1.0)
         self._queue.put(None)
         try:
             self._token.undeclare()
