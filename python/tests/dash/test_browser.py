@@ -287,7 +287,7 @@ def test_the_read_only_page_offers_no_control_but_estop(browser: Any) -> None:
         p.set_default_timeout(10_000)
         p.goto(url)
         p.wait_for_function("window.dashStats && window.dashStats.connected")
-        assert p.locator("#ro").is_visible()
+        p.locator("#ro").wait_for(state="visible")  # shown once the server's hello says read-only
         p.get_by_role("button", name="Scan ids 1-63").click()  # watching: scanning is allowed
         p.wait_for_function("document.querySelectorAll('.card').length === 1")
         for b in p.locator(".card button").all():
