@@ -59,6 +59,8 @@ __all__ = [
 CAN_BAUD_RATES = (125_000, 250_000, 500_000, 1_000_000)
 UART_BAUD_RATES = (9600, 19200, 57600, 115200)
 _F32 = struct.Struct("<f")
+LOST_MOVE_GRACE = 0.02
+"""How long (s) after a start a state showing no motion counts as a sign that the start (or its preset) was lost."""
 _SAVE_SETTLE = 0.1
 """Pause (s) between save_config and reboot, as the vendor library does."""
 
@@ -330,6 +332,20 @@ def _finished(st: MotorState, mv: MoveRecord | None, tolerance: float) -> bool:
     return mv.target is not None and abs(st.angle - mv.target) <= tolerance
 
 
+def _lost(st: MotorState, mv: MoveRecord, tolerance: float) -> bool:
+    """Whether ``st`` shows that the motor never got the move ``mv`` (a frame that started it was lost):
+    a state newer than the start by :data:`LOST_MOVE_GRACE`, with T = 1, no T = 0 seen since the start,
+    away from a known target."""
+    return (
+        bool(mv.resend)
+        and mv.took is None
+        and mv.target is not None
+        and st.trajectory_done
+        and st.timestamp > mv.sent + LOST_MOVE_GRACE
+        and abs(st.angle - mv.target) > tolerance
+    )
+
+
 def wait_done(
     core: BusCore,
     nodes: Sequence[int],
@@ -362,6 +378,7 @@ def wait_done(
     deadline = time.monotonic() + timeout
     waiting = list(dict.fromkeys(nodes))
     moves = core.moves
+    resent: dict[int, int] = {}
     done: dict[int, MotorState] = {}
     last: dict[int, MotorState] = {}
     while True:
@@ -375,6 +392,14 @@ def wait_done(
                 flags = yield from _flags(node, request_timeout)
                 target = None if mv is None else mv.target
                 raise MoveFaultError(node, target, st.angle, flags, "reported an error while moving")
+            if mv is not None and resent.get(node, 0) < core.retries and _lost(st, mv, tolerance):
+                resent[node] = resent.get(node, 0) + 1
+                core.moves_resent += 1
+                yield Send(mv.resend)
+                again = moves.get(node)
+                if again is not None and again is not mv:  # the resend's own record: keep what the wait knows
+                    again.target, again.move_time = mv.target, mv.move_time
+                continue
             if _finished(st, mv, tolerance):
                 done[node] = st
         waiting = [n for n in waiting if n not in done]
