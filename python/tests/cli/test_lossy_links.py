@@ -187,3 +187,11 @@ def test_move_wait_without_retries_reports_the_lost_move(cli: Cli, lossy: list[S
     reply, is one error line and exit 1."""
     code, _, err = _run(lossy, 3, cli, "move", "1,2,3", "10", "--wait")
     assert code == 1 and err.splitlines()[-1].startswith("drempower: error: motor "), err
+
+
+@pytest.mark.parametrize("seed", (2, 22, 30))
+def test_set_with_retries_writes_a_lost_write_again(cli: Cli, lossy: list[SimBus], seed: int) -> None:
+    """With these seeds the write is lost (without the resend, set fails: "reads 40.0 after writing 42.0")."""
+    code, _, err = _run(lossy, seed, cli, "set", "1", "pos_gain", "42", "--retries", "3", timeout="0.1")
+    assert code == 0, err
+    assert lossy[-1].motors[1].param("axis0.controller.config.pos_gain") == 42.0

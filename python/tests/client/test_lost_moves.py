@@ -10,27 +10,11 @@ import pytest
 import drempower
 from drempower.protocol import Frame
 from drempower.sim import Faults, SimBus
-from drempower.sim.bus import Listener
 
-from .links import Recorder, link
+from .links import Recorder, link, lose
 
 PRESET, SYSTEM = 0x0C, 0x08
 _POSITION_STARTS = (0x10, 0x11, 0x12)
-
-
-def _lose_first(sim: SimBus, lost: Callable[[Frame], bool]) -> list[Frame]:
-    """Lose the first host frame for which ``lost`` is true; returns the lost frames."""
-    gone: list[Frame] = []
-    send = sim.send
-
-    def lossy_send(frame: Frame, origin: Listener | None = None) -> None:
-        if not gone and lost(frame):
-            gone.append(frame)
-            return
-        send(frame, origin)
-
-    sim.send = lossy_send  # type: ignore[method-assign]
-    return gone
 
 
 def _to(node: int, cmd: int) -> Callable[[Frame], bool]:
@@ -48,7 +32,7 @@ def _starts(frames: list[Frame]) -> list[int]:
 
 def test_a_lost_preset_is_sent_again_with_a_start_to_that_motor_only() -> None:
     sim = SimBus(ids=[1, 2, 3])
-    gone = _lose_first(sim, _to(2, PRESET))
+    gone = lose(sim, _to(2, PRESET))
     rec = Recorder(sim)
     with link("inprocess", sim, timeout=0.2, retries=3) as bus:
         bus.set_angles([1, 2, 3], [10, 20, 30], 30, 60)
@@ -62,7 +46,7 @@ def test_a_lost_preset_is_sent_again_with_a_start_to_that_motor_only() -> None:
 
 def test_a_lost_start_of_a_one_motor_move_is_sent_again() -> None:
     sim = SimBus(ids=[1, 2])
-    gone = _lose_first(sim, _to(1, SYSTEM))
+    gone = lose(sim, _to(1, SYSTEM))
     with link("inprocess", sim, timeout=0.2, retries=2) as bus:
         bus.set_angles([1], [15], 30, 60)
         st = bus.motor(1).position_done(timeout=10)
@@ -72,7 +56,7 @@ def test_a_lost_start_of_a_one_motor_move_is_sent_again() -> None:
 
 def test_a_lost_position_command_is_sent_again() -> None:
     sim = SimBus(ids=[1])
-    gone = _lose_first(sim, lambda f: f.arbitration_id >> 5 == 1 and f.arbitration_id & 0x1F == 0x19)
+    gone = lose(sim, lambda f: f.arbitration_id >> 5 == 1 and f.arbitration_id & 0x1F == 0x19)
     with link("inprocess", sim, timeout=0.2, retries=1) as bus:
         m = bus.motor(1)
         m.set_angle(12, 0, 20, mode=0)
@@ -83,7 +67,7 @@ def test_a_lost_position_command_is_sent_again() -> None:
 
 def test_without_retries_the_lost_move_is_reported() -> None:
     sim = SimBus(ids=[1, 2, 3])
-    _lose_first(sim, _to(2, PRESET))
+    lose(sim, _to(2, PRESET))
     with link("inprocess", sim, timeout=0.2) as bus:
         bus.set_angles([1, 2, 3], [10, 10, 10], 30, 60)
         with pytest.raises(drempower.MoveError, match="motor 2") as info:
@@ -93,8 +77,7 @@ def test_without_retries_the_lost_move_is_reported() -> None:
 
 def test_retries_are_counted_per_motor_and_end() -> None:
     sim = SimBus(ids=[1])
-    send = sim.send
-    sim.send = lambda frame, origin=None: None if frame.arbitration_id == 1 << 5 | PRESET else send(frame, origin)  # type: ignore[method-assign]
+    lose(sim, _to(1, PRESET), count=99)
     with link("inprocess", sim, timeout=0.2, retries=2) as bus:
         bus.set_angles([1], [15], 30, 60)
         with pytest.raises(drempower.MoveError, match="motor 1"):
