@@ -195,3 +195,15 @@ def test_set_with_retries_writes_a_lost_write_again(cli: Cli, lossy: list[SimBus
     code, _, err = _run(lossy, seed, cli, "set", "1", "pos_gain", "42", "--retries", "3", timeout="0.1")
     assert code == 0, err
     assert lossy[-1].motors[1].param("axis0.controller.config.pos_gain") == 42.0
+
+
+def test_diff_exits_2_when_values_were_not_compared(cli: Cli, lossy: list[SimBus], tmp_path: Path) -> None:
+    path = tmp_path / "m1.json"
+    code, _, err = _run(lossy, 0, cli, "backup", "1", str(path), "--retries", "8", timeout="0.05")
+    assert code == 0, err
+    code, out, err = _run(lossy, 0, cli, "diff", "1", str(path), timeout="0.05")  # replies lost: trouble, as diff(1)
+    assert code == 2, (out, err)
+    assert "not compared: no answer" in err and "configuration matches" not in out
+    assert err.splitlines()[-1].startswith("drempower: motor 1: ") and "parameters not compared" in err
+    code, out, err = _run(lossy, 0, cli, "diff", "1", str(path), "--retries", "8", timeout="0.05")
+    assert code == 0 and out == f"motor 1: configuration matches {path}\n", err
