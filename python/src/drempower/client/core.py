@@ -237,9 +237,9 @@ class BusCore:
         self.malformed = 0
         self.unmatched = 0
         self.anomalies = 0
+        """Replies for a waiting request whose echoed fields (data type) differ from it: never taken as answers."""
         self.moves_resent = 0
         """Moves sent again because a wait found them lost (see :func:`~drempower.client.ops.wait_done`)."""
-        """Replies for a waiting request whose echoed fields (data type) differ from it: never taken as answers."""
         self.other_hosts = False
         """True once frames of another host were seen (see :meth:`_dispatch`)."""
         self.zero_reply_grace = ZERO_REPLY_GRACE
