@@ -117,3 +117,10 @@ def test_decode_json_is_strict_json_for_nan_and_infinity(
     assert main(["decode", "--json"]) == 0
     rec = json.loads(capsys.readouterr().out, parse_constant=lambda c: pytest.fail(f"non-strict JSON: {c}"))
     assert rec["command"] == "state" and rec["fields"]["position"] == "nan"
+
+
+def test_the_help_names_every_input_it_reads(capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(SystemExit):
+        main(["--help"])
+    (line,) = [ln for ln in capsys.readouterr().out.splitlines() if ln.strip().startswith("decode ")]
+    assert "candump" in line and "MCAP" in line and "python-can logs" in line, line

@@ -101,11 +101,17 @@ def test_dfu_sends_enter_dfu_mode_and_says_what_next(cli: Cli, sim: SimBus, host
     assert r.code == 0
     assert host_frames[-1] == Frame(0x048, bytes.fromhex("0700000000000000"))  # sys 0x07 to motor 2
     assert "firmware-update mode requested" in r.out and "vendor's updater" in r.out
-    assert "`drempower calibrate 2`" in r.out
+    assert "`drempower calibrate 2 --sim 2`" in r.out  # with the connection options, ready to paste
     assert sim.motors[2].in_dfu  # silent from now on, as the message says
     assert cli("state", "2", "--sim", "2", "--timeout", "0.2").code == 1
     (rec,) = cli("dfu", "3", "--yes", "--json", "--sim", "3").records()
     assert rec == {"id": 3, "broadcast": False, "command": "enter_dfu_mode", "sent": True}
+
+
+def test_dfu_next_step_carries_the_connection_options(cli: Cli, sim: SimBus) -> None:
+    r = cli("dfu", "1", "--yes", "--sim", "1", "--timeout", "0.3", "--retries", "2")
+    assert r.code == 0
+    assert "`drempower calibrate 1 --sim 1 --timeout 0.3 --retries 2`" in r.out, r.out
 
 
 @pytest.mark.parametrize("target", ["0", "all"])

@@ -156,6 +156,9 @@ def test_through_drempower_sim_with_drop_rate(cli: Cli) -> None:
         r = cli("move", "1,2,3", "20", "--wait", "--retries", "8", "--json", *link)
         assert r.code == 0, r.err
         assert all(rec["done"] and abs(rec["position_deg"] - 20) < 0.5 for rec in r.records())
+        r = cli("move", "1,2,3", "10", "--wait", "--retries", "3", "--json", *link)  # the reviewer's case
+        assert r.code == 0, r.err
+        assert all(rec["done"] and abs(rec["position_deg"] - 10) < 0.5 for rec in r.records())
     finally:
         stop.set()
         thread.join(10)
@@ -166,3 +169,41 @@ def test_get_asks_a_silent_motor_once(cli: Cli, sim: SimBus, host_frames: list[F
     r = cli("get", "2", "vbus_voltage", "ibus", "fw_version", "--sim", "2", "--timeout", "0.2", "--json")
     assert r.code == 1 and [rec["value"] for rec in r.records()] == ["no answer"] * 3
     assert len(host_frames) == 1
+
+
+MOVE_SEEDS = tuple(range(3, 15))
+
+
+@pytest.mark.parametrize("seed", MOVE_SEEDS)
+def test_move_wait_resends_a_lost_move(cli: Cli, lossy: list[SimBus], seed: int) -> None:
+    code, out, err = _run(lossy, seed, cli, "move", "1,2,3", "10", "--wait", "--retries", "3", "--json")
+    assert code == 0, err
+    recs = [json.loads(line) for line in out.splitlines()]
+    assert all(r["done"] and abs(r["position_deg"] - 10) < 0.5 for r in recs)
+
+
+def test_move_wait_without_retries_reports_the_lost_move(cli: Cli, lossy: list[SimBus]) -> None:
+    """Seed 3 loses motor 2's move (see test_move_wait_resends_a_lost_move); without retries that, or a lost
+    reply, is one error line and exit 1."""
+    code, _, err = _run(lossy, 3, cli, "move", "1,2,3", "10", "--wait")
+    assert code == 1 and err.splitlines()[-1].startswith("drempower: error: motor "), err
+
+
+@pytest.mark.parametrize("seed", (2, 22, 30))
+def test_set_with_retries_writes_a_lost_write_again(cli: Cli, lossy: list[SimBus], seed: int) -> None:
+    """With these seeds the write is lost (without the resend, set fails: "reads 40.0 after writing 42.0")."""
+    code, _, err = _run(lossy, seed, cli, "set", "1", "pos_gain", "42", "--retries", "3", timeout="0.1")
+    assert code == 0, err
+    assert lossy[-1].motors[1].param("axis0.controller.config.pos_gain") == 42.0
+
+
+def test_diff_exits_2_when_values_were_not_compared(cli: Cli, lossy: list[SimBus], tmp_path: Path) -> None:
+    path = tmp_path / "m1.json"
+    code, _, err = _run(lossy, 0, cli, "backup", "1", str(path), "--retries", "8", timeout="0.05")
+    assert code == 0, err
+    code, out, err = _run(lossy, 0, cli, "diff", "1", str(path), timeout="0.05")  # replies lost: trouble, as diff(1)
+    assert code == 2, (out, err)
+    assert "not compared: no answer" in err and "configuration matches" not in out
+    assert err.splitlines()[-1].startswith("drempower: motor 1: ") and "parameters not compared" in err
+    code, out, err = _run(lossy, 0, cli, "diff", "1", str(path), "--retries", "8", timeout="0.05")
+    assert code == 0 and out == f"motor 1: configuration matches {path}\n", err

@@ -53,3 +53,48 @@ def test_python_can_unknown_interface(cli: Cli) -> None:
     r = cli("sim", "--python-can", "x", "--python-can-interface", "nosuch", "--duration", "0.1")
     assert r.code == 1
     assert 'Unknown interface type "nosuch"' in _one_line(r.err)
+
+
+def test_python_can_socketcand_without_host_and_port(cli: Cli) -> None:
+    r = cli("sim", "--python-can", "1", "--python-can-interface", "socketcand", "--duration", "0.1")
+    assert r.code == 1
+    err = _one_line(r.err)
+    assert err == (
+        "drempower: error: sim --python-can 1 --python-can-interface socketcand: the interface needs host and port: "
+        "give --python-can-option host=... --python-can-option port=...\n"
+    )
+
+
+def test_python_can_option_without_python_can(cli: Cli) -> None:
+    r = cli("sim", "--python-can-option", "port=1", "--duration", "0.1")
+    assert (
+        r.code == 2 and r.err.splitlines()[-1] == "drempower sim: error: --python-can-option needs --python-can CHANNEL"
+    )
+
+
+def test_python_can_options_reach_the_interface(cli: Cli) -> None:
+    """The simulator joins another simulator's socketcand server as a python-can client."""
+    from drempower.sim import SimBus, attach_socketcand
+
+    with attach_socketcand(SimBus([5]), 0) as server:
+        r = cli(
+            "sim",
+            "--python-can",
+            server.channel,
+            "--python-can-interface",
+            "socketcand",
+            "--python-can-option",
+            f"host={server.host}",
+            "--python-can-option",
+            f"port={server.port}",
+            "--duration",
+            "0.2",
+            "--json",
+        )
+    assert r.code == 0, r.err
+    assert {
+        "attachment": "python-can",
+        "interface": "socketcand",
+        "channel": server.channel,
+        "options": {"host": server.host, "port": server.port},
+    } in r.records()

@@ -39,6 +39,21 @@ class Recorder:
         sim.send = recording_send  # type: ignore[method-assign]
 
 
+def lose(sim: SimBus, lost: Callable[[Frame], bool], count: int = 1) -> list[Frame]:
+    """Lose the first ``count`` host frames for which ``lost`` is true; returns the lost frames."""
+    gone: list[Frame] = []
+    send = sim.send
+
+    def lossy_send(frame: Frame, origin: Listener | None = None) -> None:
+        if len(gone) < count and lost(frame):
+            gone.append(frame)
+            return
+        send(frame, origin)
+
+    sim.send = lossy_send  # type: ignore[method-assign]
+    return gone
+
+
 @contextmanager
 def link(kind: str, sim: SimBus, time_scale: float = 20.0, **options: Any) -> Iterator[Bus]:
     """A client Bus on ``sim`` through transport ``kind``; the simulation runs ``time_scale`` x real time."""

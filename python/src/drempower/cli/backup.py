@@ -109,12 +109,18 @@ def run_diff(args: argparse.Namespace) -> int:
         for n, old, new in result.written
     ]
     emit(args, ("name", "motor", "backup", "unit"), records, digits=None)
-    if not records:
+    if not records and not result.failed:
         same = {"id": args.id, "file": args.file, "matches": True}
         report(args, f"motor {args.id}: configuration matches {args.file}", [same])
-    if not args.json:
-        for name, why in result.failed:
-            print(clean(f"{name}: not compared: {why}"), file=sys.stderr)
+    for name, why in result.failed:
+        print(clean(f"{name}: not compared: {why}"), file=sys.stderr)
+    if result.failed:  # as diff(1): trouble (2) outranks "they differ" (1)
+        print(
+            f"drempower: motor {args.id}: {len(result.failed)} parameters not compared"
+            "; on a lossy link, --retries N asks again",
+            file=sys.stderr,
+        )
+        return 2
     return 1 if records else 0
 
 

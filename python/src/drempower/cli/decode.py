@@ -1,4 +1,5 @@
-"""``drempower decode``: decode candump lines into DrEmpower messages."""
+"""``drempower decode``: decode captured frames (candump text, MCAP recordings, python-can logs) into
+DrEmpower messages."""
 
 from __future__ import annotations
 
@@ -29,7 +30,7 @@ GROUP = "logs and tools"
 def register(sub: Any) -> None:
     p = sub.add_parser(
         "decode",
-        help="decode candump lines (from files or stdin) into DrEmpower messages",
+        help="decode captured frames (candump text or stdin, MCAP recordings, python-can logs) into DrEmpower messages",
         description=(
             "Decode candump-format lines, e.g. '(ts) can0 039#0000B4420000E803' or '039#0000B4420000E803', "
             "the lines sniff prints, MCAP files written by record, and python-can logs (by extension), "

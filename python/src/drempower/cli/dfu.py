@@ -8,7 +8,7 @@ from typing import Any
 from ..protocol import SystemCommand
 from ..protocol.ids import SysCmd
 from ._confirm import add_yes_arg, confirm
-from ._connect import add_connection_args, open_from_args, parse_ids
+from ._connect import add_connection_args, follow_up, open_from_args, parse_ids
 from ._output import add_json_arg, report, sent
 
 GROUP = "parameters"
@@ -17,7 +17,7 @@ GROUP = "parameters"
 NEXT_STEPS = (
     "the motor has left normal operation and no longer answers on CAN. Next: connect its USB port, flash the "
     "firmware with the vendor's updater (the DrEmpower host tool's firmware update), power-cycle the motor, then "
-    "restore the defaults and recalibrate: `drempower calibrate {id}`"
+    "restore the defaults and recalibrate: `{calibrate}`"
 )
 
 
@@ -59,6 +59,8 @@ def run(args: argparse.Namespace) -> int:
     with open_from_args(args) as bus:
         bus.motor(args.id).get_state()  # it must be there: a DFU request to nobody would say nothing
         bus.send(SystemCommand(args.id, SysCmd.ENTER_DFU_MODE))
-    text = f"motor {args.id}: firmware-update mode requested; " + NEXT_STEPS.format(id=args.id)
+    text = f"motor {args.id}: firmware-update mode requested; " + NEXT_STEPS.format(
+        calibrate=follow_up(args, f"calibrate {args.id}")
+    )
     report(args, text, sent([args.id], "enter_dfu_mode"))
     return 0

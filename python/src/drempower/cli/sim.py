@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 import tempfile
 import threading
@@ -23,7 +24,7 @@ from ..sim import (
     attach_uart_pty,
 )
 from ..sim.bus import DEFAULT_HOST_QUEUE, parse_host_queue
-from ._connect import bitrate, parse_ids, positive
+from ._connect import bitrate, can_option, parse_ids, positive
 from ._output import clean, json_line
 from ._sim_robot import serve_robot
 from ._usage import UsageError
@@ -55,6 +56,15 @@ def register(sub: Any) -> None:
         default="virtual",
         metavar="NAME",
         help="python-can interface of --python-can (default virtual, in-process only; e.g. socketcan for vcan0)",
+    )
+    p.add_argument(
+        "--python-can-option",
+        metavar="KEY=VALUE",
+        action="append",
+        type=can_option,
+        default=[],
+        help="extra python-can bus option of --python-can, repeatable: --python-can-option host=127.0.0.1 "
+        "--python-can-option port=29536 (socketcand)",
     )
     p.add_argument("--bitrate", type=bitrate, help="simulate bus timing at this bit rate, e.g. 1M (default instant)")
     p.add_argument(
@@ -122,6 +132,13 @@ def _explained(option: str, advice: str) -> Iterator[None]:
 
     try:
         yield
+    except TypeError as exc:  # python-can's bus class refused its arguments: a missing or unknown option
+        missing = re.search(r"missing \d+ required (?:positional |keyword-only )?arguments?: (.*)", str(exc))
+        if missing:
+            names = re.findall(r"'(\w+)'", missing[1])
+            given = " ".join(f"--python-can-option {n}=..." for n in names)
+            raise DrEmpowerError(f"sim {option}: the interface needs {' and '.join(names)}: give {given}") from None
+        raise DrEmpowerError(f"sim {option}: {exc}: check the --python-can-option names") from None
     except (OSError, can.CanError, ImportError, ValueError) as exc:
         why = exc.strerror if isinstance(exc, OSError) and exc.strerror else str(exc)
         raise DrEmpowerError(f"sim {option}: {why}: {advice}") from None
@@ -151,6 +168,9 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
     args.ids = args.ids or [1]
     if args.uart_pty is not None and args.uart_pty not in args.ids:
         raise UsageError(f"--uart-pty {args.uart_pty} is not one of --ids")
+    options = dict(getattr(args, "python_can_option", None) or [])
+    if options and not args.python_can:
+        raise UsageError("--python-can-option needs --python-can CHANNEL")
     faults = Faults(
         drop_rate=args.drop_rate,
         corrupt_rate=args.corrupt_rate,
@@ -206,10 +226,12 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
         if args.python_can:
             how = f"--python-can {args.python_can} --python-can-interface {args.python_can_interface}"
             with _explained(how, _python_can_advice(args.python_can_interface, args.python_can)):
-                stack.enter_context(attach_python_can(bus, args.python_can, args.python_can_interface))
+                stack.enter_context(attach_python_can(bus, args.python_can, args.python_can_interface, **options))
+            extra = "".join(f", {k}={v}" for k, v in options.items())
+            record = {"attachment": "python-can", "interface": args.python_can_interface, "channel": args.python_can}
             show(
-                {"attachment": "python-can", "interface": args.python_can_interface, "channel": args.python_can},
-                f"python-can: interface {args.python_can_interface}, channel {args.python_can}",
+                {**record, "options": options} if options else record,
+                f"python-can: interface {args.python_can_interface}, channel {args.python_can}{extra}",
             )
         show({"running": True}, "running; Ctrl-C stops")
         stream.flush()

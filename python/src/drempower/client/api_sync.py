@@ -158,11 +158,11 @@ class Motor(MotorBase):
 
     def set_can_baud_rate(self, baud_rate: int, *, timeout: float | None = None) -> None:
         """Set the CAN bitrate (125000/250000/500000/1000000) and save; applies after a reboot."""
-        self._bus.run(ops.set_can_baud_rate(self._id, baud_rate, timeout))
+        self._bus.run(ops.set_can_baud_rate(self._id, baud_rate, timeout, self._core.retries))
 
     def set_uart_baud_rate(self, baud_rate: int, *, timeout: float | None = None) -> None:
         """Set the UART rate (M series: 9600/19200/57600/115200) and save."""
-        self._bus.run(ops.set_uart_baud_rate(self._id, baud_rate, timeout))
+        self._bus.run(ops.set_uart_baud_rate(self._id, baud_rate, timeout, self._core.retries))
 
     def set_mode(self, mode: int = 2) -> None:
         """1 (AxisMode.IDLE): release the motor; 2 (AxisMode.CLOSED_LOOP): enable control."""
@@ -174,7 +174,7 @@ class Motor(MotorBase):
 
     def set_GPIO_mode(self, mode: str = "tx_rx", param: float = 115200, *, timeout: float | None = None) -> None:
         """Spare pins as UART (``"tx_rx"``, param = baud) or step/dir (param = pulses); saves and reboots."""
-        self._bus.run(ops.set_gpio_mode(self._id, mode, param, timeout))
+        self._bus.run(ops.set_gpio_mode(self._id, mode, param, timeout, self._core.retries))
 
     def get_GPIO_mode(self, *, timeout: float | None = None) -> GpioMode:
         """What the spare pins do (M series)."""
@@ -184,11 +184,11 @@ class Motor(MotorBase):
         self, angle_min: float = -360.0, angle_max: float = 360.0, *, timeout: float | None = None
     ) -> None:
         """Enable software limits [angle_min, angle_max] deg and save; the motor must be inside them."""
-        self._bus.run(ops.set_angle_range(self._id, angle_min, angle_max, timeout))
+        self._bus.run(ops.set_angle_range(self._id, angle_min, angle_max, timeout, self._core.retries))
 
     def set_traj_mode(self, mode: int = TrajMode.TRAPEZOID, *, timeout: float | None = None) -> None:
         """Q-mode profile: 1 trapezoid, 2 S-curve (verified, remembered for set_angles; not saved)."""
-        self._bus.run(ops.set_traj_mode(self._id, mode, timeout))
+        self._bus.run(ops.set_traj_mode(self._id, mode, timeout, self._core.retries))
 
     def get_traj_mode(self, *, timeout: float | None = None) -> TrajMode:
         """The motor's Q-mode profile, read from it."""
@@ -209,9 +209,10 @@ class Motor(MotorBase):
         :class:`~drempower.protocol.parameters.DomainError` naming parameter, value and
         domain, and nothing is sent; ``force=True`` writes one outside a soft domain
         (never outside a hard one, such as can_node_id 1..63, or the type's range).
-        A read-back that differs raises VerifyError.
+        A read-back that differs is written and read again up to the bus's ``retries``
+        times, then raises VerifyError.
         """
-        self._bus.run(ops.write_property(self._id, property, value, verify, timeout, force))
+        self._bus.run(ops.write_property(self._id, property, value, verify, timeout, force, self._core.retries))
 
     def read_property(self, property: str | int, *, timeout: float | None = None) -> int | float:
         """Read parameter ``property`` (name or address)."""
@@ -220,7 +221,14 @@ class Motor(MotorBase):
     def enable_reply_state(self, on: bool = True, *, timeout: float | None = None) -> None:
         """Make the motor answer every control frame with its state (31214), verified."""
         self._bus.run(
-            ops.write_property(self._id, AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE, int(on), True, timeout)
+            ops.write_property(
+                self._id,
+                AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE,
+                int(on),
+                True,
+                timeout,
+                retries=self._core.retries,
+            )
         )
 
     # ------------------------------------------------------------------ queries

@@ -331,7 +331,11 @@ def _write_verified(
     report: RestoreReport,
     verify_at: int | None = None,
 ) -> Op[bool]:
-    """Write, then read back (at ``verify_at`` when the write moves the motor); True when all verified."""
+    """Write, then read back (at ``verify_at`` when the write moves the motor); True when all verified.
+
+    A value that reads back different is written and read again (at the motor's new id when
+    ``verify_at`` is given) up to the bus's ``retries`` times: a lost write gets no reply.
+    """
     if not writes:
         return True
     yield Send([WriteParam(node, p.address, p.dtype, new) for p, _, new in writes])  # checked by _plan
@@ -340,6 +344,19 @@ def _write_verified(
         core.forget(node)
         core.forget(at)
     check = yield from request(_reads(at, [p for p, _, _ in writes]), timeout, missing_ok=True)
+    for _ in range(core.retries):
+        wrong = [
+            i
+            for i, ((p, _, new), r) in enumerate(zip(writes, check, strict=True))
+            if (got := _value(r)) is not None and not _same(p.dtype, new, got)
+        ]
+        if not wrong:
+            break
+        yield Send([WriteParam(at, writes[i][0].address, writes[i][0].dtype, writes[i][2]) for i in wrong])
+        again = yield from request(_reads(at, [writes[i][0] for i in wrong]), timeout, missing_ok=True)
+        check = list(check)
+        for i, r in zip(wrong, again, strict=True):
+            check[i] = r
     ok = True
     for (p, old, new), reply in zip(writes, check, strict=True):
         got = _value(reply)

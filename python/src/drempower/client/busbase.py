@@ -162,7 +162,8 @@ class BusBase(ABC, Generic[M]):
 
     @property
     def stats(self) -> dict[str, int]:
-        """Frames received, malformed ones, those that were no reply and no state, and anomalies.
+        """Frames received, malformed ones, those that were no reply and no state, anomalies, and
+        moves sent again because a wait found them lost (``moves_resent``, with ``retries``).
 
         An anomaly is a reply for a waiting request whose echoed fields (data
         type) differ from the request's: it answers nothing (the request keeps
@@ -174,6 +175,7 @@ class BusBase(ABC, Generic[M]):
             "malformed": c.malformed,
             "unmatched": c.unmatched,
             "anomalies": c.anomalies,
+            "moves_resent": c.moves_resent,
         }
 
     @property

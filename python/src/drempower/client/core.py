@@ -103,6 +103,11 @@ def _preset_goal(preset: Message, q_start: bool) -> tuple[float, float | None]:
     return wire.p1, (wire.p2 if q_start and wire.p2 > 0 else None)
 
 
+def _to_node(msg: Message, node: int) -> Message:
+    """``msg`` addressed to ``node`` (a broadcast preset or start made node-addressed)."""
+    return msg if msg.node == node else dataclasses.replace(msg, node=node)  # type: ignore[type-var]
+
+
 @dataclasses.dataclass(slots=True)
 class MoveRecord:
     """The last position move this bus commanded to one motor (what a wait for it checks).
@@ -111,13 +116,17 @@ class MoveRecord:
     time just before its command or start was sent, ``move_time`` the planned
     duration (s, Q-mode synchronised moves) and ``took`` the arrival time of
     the first state with T = 0 after ``sent`` (the motor showed it took the
-    move; None until then).
+    move; None until then). ``resend`` holds the node-addressed messages that
+    started it (the motor's preset and a start to that motor only, or the
+    direct position command), sent again when a wait finds the move lost
+    (see :func:`~drempower.client.ops.wait_done`); empty when unknown.
     """
 
     target: float | None
     sent: float
     move_time: float | None = None
     took: float | None = None
+    resend: tuple[Message, ...] = ()
 
 
 _RX_SLICE = 1.0
@@ -230,6 +239,8 @@ class BusCore:
         self.unmatched = 0
         self.anomalies = 0
         """Replies for a waiting request whose echoed fields (data type) differ from it: never taken as answers."""
+        self.moves_resent = 0
+        """Moves sent again because a wait found them lost (see :func:`~drempower.client.ops.wait_done`)."""
         self.other_hosts = False
         """True once frames of another host were seen (see :meth:`_dispatch`)."""
         self.zero_reply_grace = ZERO_REPLY_GRACE
@@ -335,7 +346,7 @@ class BusCore:
         if node == 0:
             self.moves.clear()
         elif isinstance(msg, _POSITION_CMDS):
-            self.moves[node] = MoveRecord(msg.position, _monotonic())
+            self.moves[node] = MoveRecord(msg.position, _monotonic(), resend=(msg,))
         else:
             self.moves.pop(node, None)
 
@@ -434,7 +445,8 @@ class BusCore:
             preset = self._preset_msgs.get(n, self._preset_msgs.get(0))
             if kind in _POSITION_STARTS and preset is not None:
                 goal, move_time = _preset_goal(preset, kind == 0x11)
-                moves[n] = MoveRecord(None if getattr(start, "relative", False) else goal, sent, move_time)
+                again = (_to_node(preset, n), _to_node(start, n))
+                moves[n] = MoveRecord(None if getattr(start, "relative", False) else goal, sent, move_time, None, again)
             else:
                 moves.pop(n, None)
         self._send_frames([frame])
@@ -521,8 +533,9 @@ class BusCore:
             moves = self.moves
             if isinstance(start, Start) and start.kind in _POSITION_STARTS:
                 goals = targets if targets is not None else [None] * len(nodes)
-                for n, goal in zip(nodes, goals, strict=True):
-                    moves[n] = MoveRecord(goal, sent, move_time)
+                for p, goal in zip(presets, goals, strict=True):
+                    n = p.node
+                    moves[n] = MoveRecord(goal, sent, move_time, None, (p, dataclasses.replace(start, node=n)))
             else:
                 for n in nodes:
                     moves.pop(n, None)

@@ -59,6 +59,8 @@ __all__ = [
 CAN_BAUD_RATES = (125_000, 250_000, 500_000, 1_000_000)
 UART_BAUD_RATES = (9600, 19200, 57600, 115200)
 _F32 = struct.Struct("<f")
+LOST_MOVE_GRACE = 0.02
+"""How long (s) after a start a state showing no motion counts as a sign that the start (or its preset) was lost."""
 _SAVE_SETTLE = 0.1
 """Pause (s) between save_config and reboot, as the vendor library does."""
 
@@ -90,9 +92,16 @@ def read_property(core: BusCore, node: int, prop: str | int, timeout: float | No
 
 
 def write_property(
-    node: int, prop: str | int, value: float, verify: bool = False, timeout: float | None = None, force: bool = False
+    node: int,
+    prop: str | int,
+    value: float,
+    verify: bool = False,
+    timeout: float | None = None,
+    force: bool = False,
+    retries: int = 0,
 ) -> Op[None]:
-    """Write ``value`` to ``prop``; with ``verify`` read it back and raise :class:`VerifyError` if it differs.
+    """Write ``value`` to ``prop``; with ``verify`` read it back and raise :class:`VerifyError` if it differs
+    after ``retries`` more writes and read-backs (a write lost on the bus gets no reply).
 
     A value outside the parameter's domain raises :class:`~drempower.protocol.parameters.DomainError`
     before anything is sent; ``force`` lets one outside a soft domain through.
@@ -100,22 +109,33 @@ def write_property(
     msg = WriteParam.of(node, prop, value, force=force)
     yield Send([msg])
     if verify:
-        yield from _verify(node, [msg], timeout)
+        yield from _verify(node, [msg], timeout, retries)
 
 
-def _verify(node: int, writes: Sequence[WriteParam], timeout: float | None) -> Op[None]:
-    params = [parameter(w.address) for w in writes]
-    values = yield from read_params(node, params, timeout)
-    for p, w, v in zip(params, writes, values, strict=True):
-        if not _same(p, w.value, v):
-            raise VerifyError(f"motor {node}: {p.name} reads {v!r} after writing {w.value!r}")
+def _verify(node: int, writes: Sequence[WriteParam], timeout: float | None, retries: int = 0) -> Op[None]:
+    """Read ``writes`` back; write the differing ones again and read again, up to ``retries`` times."""
+    params = {w.address: parameter(w.address) for w in writes}
+    left = list(writes)
+    for attempt in range(retries + 1):
+        if attempt:
+            yield Send(left)
+        values = yield from read_params(node, [params[w.address] for w in left], timeout)
+        wrong = [(w, v) for w, v in zip(left, values, strict=True) if not _same(params[w.address], w.value, v)]
+        if not wrong:
+            return
+        left = [w for w, _ in wrong]
+    w, v = wrong[0]
+    raise VerifyError(f"motor {node}: {params[w.address].name} reads {v!r} after writing {w.value!r}")
 
 
-def write_verified(node: int, items: Sequence[tuple[str | int, float]], timeout: float | None = None) -> Op[None]:
-    """Write several parameters, then read them all back in one exchange and check them."""
+def write_verified(
+    node: int, items: Sequence[tuple[str | int, float]], timeout: float | None = None, retries: int = 0
+) -> Op[None]:
+    """Write several parameters, then read them all back in one exchange and check them; the ones that
+    differ are written and read again, up to ``retries`` times."""
     writes = [WriteParam.of(node, prop, value) for prop, value in items]
     yield Send(writes)
-    yield from _verify(node, writes, timeout)
+    yield from _verify(node, writes, timeout, retries)
 
 
 def get_id(node: int, timeout: float | None = None) -> Op[int]:
@@ -169,19 +189,19 @@ def dump_error(node: int, timeout: float | None = None) -> Op[ErrorReport]:
     return ErrorReport(node, {name: int(v) for name, v in zip(ERROR_WORD_NAMES, values, strict=True)})
 
 
-def set_can_baud_rate(node: int, baud_rate: int, timeout: float | None = None) -> Op[None]:
+def set_can_baud_rate(node: int, baud_rate: int, timeout: float | None = None, retries: int = 0) -> Op[None]:
     """Set the CAN bitrate (125k/250k/500k/1M), verify, save; it applies after a reboot."""
     if baud_rate not in CAN_BAUD_RATES:
         raise ValidationError(f"baud_rate={baud_rate!r}: CAN bitrates are {', '.join(map(str, CAN_BAUD_RATES))}")
-    yield from write_verified(node, [("can.config.baud_rate", baud_rate)], timeout)
+    yield from write_verified(node, [("can.config.baud_rate", baud_rate)], timeout, retries)
     yield _system(node, SysCmd.SAVE_CONFIG)
 
 
-def set_uart_baud_rate(node: int, baud_rate: int, timeout: float | None = None) -> Op[None]:
+def set_uart_baud_rate(node: int, baud_rate: int, timeout: float | None = None, retries: int = 0) -> Op[None]:
     """Set the UART rate of an M-series motor (9600/19200/57600/115200), verify, save."""
     if baud_rate not in UART_BAUD_RATES:
         raise ValidationError(f"baud_rate={baud_rate!r}: UART rates are {', '.join(map(str, UART_BAUD_RATES))}")
-    yield from write_verified(node, [("config.uart_baudrate", baud_rate)], timeout)
+    yield from write_verified(node, [("config.uart_baudrate", baud_rate)], timeout, retries)
     yield _system(node, SysCmd.SAVE_CONFIG)
 
 
@@ -209,13 +229,13 @@ def _reported_traj_mode(node: int, value: float) -> TrajMode:
     )
 
 
-def set_traj_mode(node: int, mode: int, timeout: float | None = None) -> Op[None]:
+def set_traj_mode(node: int, mode: int, timeout: float | None = None, retries: int = 0) -> Op[None]:
     """Set the Q-mode profile (1 trapezoid, 2 S-curve), verified and remembered (not saved)."""
     try:
         m = TrajMode(mode)
     except ValueError:
         raise ValidationError(f"mode={mode!r}: 1 (trapezoid) or 2 (S-curve)") from None
-    yield from write_property(node, AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE, int(m), True, timeout)
+    yield from write_property(node, AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE, int(m), True, timeout, retries=retries)
 
 
 def traj_modes(core: BusCore, nodes: Sequence[int], timeout: float | None = None) -> Op[dict[int, int]]:
@@ -229,7 +249,9 @@ def traj_modes(core: BusCore, nodes: Sequence[int], timeout: float | None = None
     return {n: core.traj_mode[n] for n in nodes}
 
 
-def set_angle_range(node: int, angle_min: float, angle_max: float, timeout: float | None = None) -> Op[None]:
+def set_angle_range(
+    node: int, angle_min: float, angle_max: float, timeout: float | None = None, retries: int = 0
+) -> Op[None]:
     """Enable software limits [angle_min, angle_max] deg; the motor must be inside them now."""
     for v, f in ((angle_min, "angle_min"), (angle_max, "angle_max")):
         if not (isinstance(v, (int, float)) and math.isfinite(v)):
@@ -254,6 +276,7 @@ def set_angle_range(node: int, angle_min: float, angle_max: float, timeout: floa
             ("axis0.config.extra_setting.enable_circular_setpoint_limit", 1),
         ],
         timeout,
+        retries,
     )
     yield _system(node, SysCmd.SAVE_CONFIG)
 
@@ -270,7 +293,7 @@ def get_gpio_mode(node: int, timeout: float | None = None) -> Op[GpioMode]:
     return GpioMode("off", False, False, None)
 
 
-def set_gpio_mode(node: int, mode: str, param: float, timeout: float | None = None) -> Op[None]:
+def set_gpio_mode(node: int, mode: str, param: float, timeout: float | None = None, retries: int = 0) -> Op[None]:
     """Switch the spare pins to UART (``"tx_rx"``, param = baud) or step/dir (param = pulses 1..1024).
 
     The writes are verified, then saved, and the motor reboots (as the vendor's does).
@@ -295,7 +318,7 @@ def set_gpio_mode(node: int, mode: str, param: float, timeout: float | None = No
         ]
     else:
         raise ValidationError(f"mode={mode!r}: 'tx_rx' or 'step_dir'")
-    yield from write_verified(node, items, timeout)
+    yield from write_verified(node, items, timeout, retries)
     yield _system(node, SysCmd.SAVE_CONFIG)
     yield from sleep(_SAVE_SETTLE)
     yield _system(node, SysCmd.REBOOT)
@@ -330,6 +353,20 @@ def _finished(st: MotorState, mv: MoveRecord | None, tolerance: float) -> bool:
     return mv.target is not None and abs(st.angle - mv.target) <= tolerance
 
 
+def _lost(st: MotorState, mv: MoveRecord, tolerance: float) -> bool:
+    """Whether ``st`` shows that the motor never got the move ``mv`` (a frame that started it was lost):
+    a state newer than the start by :data:`LOST_MOVE_GRACE`, with T = 1, no T = 0 seen since the start,
+    away from a known target."""
+    return (
+        bool(mv.resend)
+        and mv.took is None
+        and mv.target is not None
+        and st.trajectory_done
+        and st.timestamp > mv.sent + LOST_MOVE_GRACE
+        and abs(st.angle - mv.target) > tolerance
+    )
+
+
 def wait_done(
     core: BusCore,
     nodes: Sequence[int],
@@ -362,6 +399,7 @@ def wait_done(
     deadline = time.monotonic() + timeout
     waiting = list(dict.fromkeys(nodes))
     moves = core.moves
+    resent: dict[int, int] = {}
     done: dict[int, MotorState] = {}
     last: dict[int, MotorState] = {}
     while True:
@@ -375,6 +413,14 @@ def wait_done(
                 flags = yield from _flags(node, request_timeout)
                 target = None if mv is None else mv.target
                 raise MoveFaultError(node, target, st.angle, flags, "reported an error while moving")
+            if mv is not None and resent.get(node, 0) < core.retries and _lost(st, mv, tolerance):
+                resent[node] = resent.get(node, 0) + 1
+                core.moves_resent += 1
+                yield Send(mv.resend)
+                again = moves.get(node)
+                if again is not None and again is not mv:  # the resend's own record: keep what the wait knows
+                    again.target, again.move_time = mv.target, mv.move_time
+                continue
             if _finished(st, mv, tolerance):
                 done[node] = st
         waiting = [n for n in waiting if n not in done]
