@@ -10,12 +10,11 @@ and the ``publish`` callback.
 from __future__ import annotations
 
 import logging
-import queue
 import threading
 from collections.abc import Callable, Sequence
 
 from ..protocol.ids import Cmd, Frame, SysCmd
-from ..transports.base import Transport
+from ..transports.base import QueuedTransport, Transport
 from .tunnel import BRIDGE_ORIGIN
 
 __all__ = ["BusHub", "HubPort", "driven_nodes"]
@@ -39,13 +38,12 @@ def driven_nodes(frames: Sequence[Frame]) -> set[int]:
     return nodes
 
 
-class HubPort(Transport):
+class HubPort(QueuedTransport):
     """The bridge's own attachment to the hub: a transport for its :class:`~drempower.client.Bus`."""
 
     def __init__(self, hub: BusHub) -> None:
+        super().__init__()
         self._hub = hub
-        self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
-        self._closed = False
         self.description = f"bridge hub on {hub.transport.description}"
         self.default_timeout = hub.transport.default_timeout
 
@@ -56,21 +54,10 @@ class HubPort(Transport):
     def send(self, frame: Frame) -> None:
         self._hub.send([frame], BRIDGE_ORIGIN)
 
-    def recv(self, timeout: float | None = None) -> Frame | None:
-        if self._closed:
-            return None
-        try:
-            frame = self._queue.get(timeout=timeout)
-        except queue.Empty:
-            return None
-        if frame is None:
-            self._queue.put(None)
-        return frame
-
     def close(self) -> None:
         if not self._closed:
             self._closed = True
-            self._queue.put(None)
+            self._wake()
 
 
 class BusHub:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import queue
 import time
 from abc import ABC, abstractmethod
 from types import TracebackType
@@ -9,7 +10,7 @@ from typing import Any
 
 from ..protocol.ids import Frame
 
-__all__ = ["Transport", "RECV_SLICE"]
+__all__ = ["Transport", "QueuedTransport", "RECV_SLICE"]
 
 RECV_SLICE = 0.1
 """Default longest single wait inside :meth:`Transport.recv` (s), so that ``close`` is noticed promptly."""
@@ -107,3 +108,32 @@ class Transport(ABC):
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.description}>"
+
+
+class QueuedTransport(Transport):
+    """A transport whose received frames are put in a queue by another thread (a simulated bus, a
+    network session): :meth:`wait_frame` takes from it, and :meth:`_wake` (called by ``close``) queues
+    None so that a waiting receive returns at once."""
+
+    recv_slice = None
+    """``close`` wakes a waiting receive itself."""
+
+    def __init__(self) -> None:
+        self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
+        self._closed = False
+
+    def is_closed(self) -> bool:
+        return self._closed
+
+    def wait_frame(self, timeout: float) -> Frame | None:
+        try:
+            frame = self._queue.get(timeout=timeout) if timeout > 0 else self._queue.get_nowait()
+        except queue.Empty:
+            return None
+        if frame is None:
+            self._queue.put(None)  # closed: the next waiter is woken too
+        return frame
+
+    def _wake(self) -> None:
+        """Make every waiting and later receive return None (after ``_closed`` is set)."""
+        self._queue.put(None)

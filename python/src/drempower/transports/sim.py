@@ -2,19 +2,18 @@
 
 from __future__ import annotations
 
-import queue
 from collections.abc import Iterable
 from typing import Any
 
 from ..errors import ValidationError
 from ..protocol.ids import Frame
 from ..sim import SimBus, SimRunner
-from .base import Transport
+from .base import QueuedTransport
 
 __all__ = ["SimTransport"]
 
 
-class SimTransport(Transport):
+class SimTransport(QueuedTransport):
     """Simulated motors ``motors`` on their own :class:`~drempower.sim.SimBus`, run in real time.
 
     ``time_scale`` > 1 runs the simulation faster than real time. Pass ``bus`` to use an
@@ -25,8 +24,6 @@ class SimTransport(Transport):
 
     default_timeout = 0.5
     """The simulator runs in the client's interpreter, so give replies a little more room than on a bus."""
-    recv_slice = None
-    """``close`` wakes a waiting receive itself (it queues None)."""
 
     def __init__(
         self,
@@ -40,8 +37,7 @@ class SimTransport(Transport):
             raise ValidationError(f"time_scale={time_scale!r}: must be >= 0 (0: the caller advances the clock)")
         self.bus = bus if bus is not None else SimBus(ids=motors, **simbus_kwargs)
         """The simulated bus."""
-        self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
-        self._closed = False
+        super().__init__()
         self.wire_bitrate = self.bus.bitrate
         self.bus.add_listener(self._queue.put, host_frames=True)
         self._runner = SimRunner(self.bus, time_scale).start() if time_scale > 0 else None
@@ -76,18 +72,6 @@ class SimTransport(Transport):
         with bus.tx_done:
             return bus.tx_done.wait_for(lambda: bus.host_pending(origin) == 0, timeout)
 
-    def is_closed(self) -> bool:
-        return self._closed
-
-    def wait_frame(self, timeout: float) -> Frame | None:
-        try:
-            frame = self._queue.get(timeout=timeout) if timeout > 0 else self._queue.get_nowait()
-        except queue.Empty:
-            return None
-        if frame is None:
-            self._queue.put(None)
-        return frame
-
     def close(self) -> None:
         if self._closed:
             return
@@ -95,4 +79,4 @@ class SimTransport(Transport):
         self.bus.remove_listener(self._queue.put)
         if self._runner is not None:
             self._runner.stop()
-        self._queue.put(None)
+        self._wake()

@@ -4,13 +4,12 @@ from __future__ import annotations
 
 import itertools
 import json
-import queue
 import threading
 from collections.abc import Sequence
 from typing import Any
 
 from ..protocol.ids import Frame
-from .base import Transport
+from .base import QueuedTransport
 from .errors import TransportError
 
 __all__ = ["ZenohTransport", "OPEN_TIMEOUT"]
@@ -25,7 +24,7 @@ def _endpoints(value: str | Sequence[str] | None) -> list[str] | None:
     return [value] if isinstance(value, str) else list(value)
 
 
-class ZenohTransport(Transport):
+class ZenohTransport(QueuedTransport):
     """The bus a bridge serves under key prefix ``channel``, reached through Zenoh.
 
     ``connect``/``listen``: Zenoh endpoints (one or a list; ``connect`` defaults
@@ -71,8 +70,7 @@ class ZenohTransport(Transport):
         self._keepalive: threading.Thread | None = None
         self._stop = threading.Event()
         self._seq = itertools.count(1)  # thread-safe: one number per sample, tx and estop alike
-        self._queue: queue.SimpleQueue[Frame | None] = queue.SimpleQueue()
-        self._closed = False
+        super().__init__()
         self._close_lock = threading.Lock()
         where = ", ".join([*(_endpoints(connect) or ["tcp/localhost:7447"]), *(_endpoints(listen) or [])])
         self._session: Any
@@ -176,17 +174,6 @@ class ZenohTransport(Transport):
                 if self._stop.is_set():
                     return
 
-    def recv(self, timeout: float | None = None) -> Frame | None:
-        if self._closed:
-            return None
-        try:
-            frame = self._queue.get(timeout=timeout)
-        except queue.Empty:
-            return None
-        if frame is None:
-            self._queue.put(None)
-        return frame
-
     def close(self) -> None:
         with self._close_lock:
             if self._closed:
@@ -195,7 +182,7 @@ class ZenohTransport(Transport):
         self._stop.set()
         if self._keepalive is not None and self._keepalive is not threading.current_thread():
             self._keepalive.join(1.0)
-        self._queue.put(None)
+        self._wake()
         try:
             self._token.undeclare()
         finally:
