@@ -21,11 +21,10 @@ from typing import Any
 
 from ..client.bus import Bus
 from ..client.commands import make_angles, make_speeds, make_torques
+from ..client.core import idle_frames
 from ..errors import DrEmpowerError
-from ..protocol.addresses import AXIS0_REQUESTED_STATE
 from ..protocol.ids import Frame, SysCmd
-from ..protocol.messages import FastRead, SystemCommand, WriteParam
-from ..protocol.parameters import DataType
+from ..protocol.messages import FastRead, SystemCommand
 from ..robot.config import JOINT_NAME, JointSpec
 from ..robot.joint import Gearing
 from ..transports.base import Transport
@@ -52,7 +51,6 @@ DEFAULT_COMMAND_TIMEOUT = 0.2
 DEFAULT_BANDWIDTH = 20.0
 """T-mode filter bandwidth (1/s) of position commands."""
 NODE_NAME = "drempower_bridge"
-_REQUESTED_STATE, _IDLE = AXIS0_REQUESTED_STATE, 1
 COMMAND_TOPICS = ("position_commands", "velocity_commands", "effort_commands")
 
 
@@ -329,8 +327,7 @@ class BusFace:
         """Set motors ``nodes`` (default: those served; 0: every motor) to idle."""
         nodes = set(self.ids) if nodes is None else nodes
         targets = [0] if 0 in nodes else sorted(nodes)
-        frames = [WriteParam(n, _REQUESTED_STATE, DataType.U32, _IDLE).encode() for n in targets]
-        self.hub.send(frames, BRIDGE_ORIGIN)
+        self.hub.send(idle_frames(targets), BRIDGE_ORIGIN)
 
     def close(self) -> None:
         """Stop serving; idle every motor a client set moving. Idempotent."""

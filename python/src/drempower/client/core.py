@@ -17,7 +17,7 @@ import struct
 import threading
 import time
 import weakref
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Literal
 
 from ..errors import ProtocolError, ValidationError
@@ -68,6 +68,7 @@ __all__ = [
     "DEFAULT_POLL_INTERVAL",
     "MOTION_CMDS",
     "describe_request",
+    "idle_frames",
 ]
 
 _log = logging.getLogger("drempower.client")
@@ -176,6 +177,11 @@ def describe_request(msg: Message) -> str:
         p = find_parameter(msg.address)
         return f"read_property {p.name} ({msg.address})" if p else f"read_property {msg.address}"
     return type(msg).__name__
+
+
+def idle_frames(nodes: Iterable[int]) -> list[Frame]:
+    """The writes of ``axis0.requested_state`` = IDLE that stop motors ``nodes`` driving (0: every motor)."""
+    return [WriteParam(n, _REQUESTED_STATE, DataType.U32, _IDLE).encode() for n in nodes]
 
 
 class BusCore:
@@ -695,7 +701,7 @@ class BusCore:
         nodes = sorted(self._commanded.copy())
         if self.stop_on_close == "estop":
             return [SystemCommand(n, SysCmd.ESTOP).encode() for n in nodes]
-        return [WriteParam(n, _REQUESTED_STATE, DataType.U32, _IDLE).encode() for n in nodes]
+        return idle_frames(nodes)
 
     def close(self, *, lock_timeout: float = -1) -> None:
         """Apply ``stop_on_close``, stop the receive loop, close the transport. Idempotent.
