@@ -372,11 +372,7 @@ class BusCore:
             return
         if cmd != 0x1E:
             self._note(msg, frame)
-        with self._send_lock:
-            self._reserve_wire(1)
-            self.transport.send(frame)
-            if self.frame_taps:
-                self._tap(frame, True)
+        self._send_frames((frame,))
 
     def send_many(self, msgs: Sequence[Message]) -> None:
         """Encode every message first (nothing is sent if one is invalid), then send them in order.
@@ -468,27 +464,23 @@ class BusCore:
         rate = getattr(self.transport, "wire_bitrate", None) or ASSUMED_BITRATE
         self._wire_free = max(_monotonic(), self._wire_free) + count * _WORST_FRAME_BITS / rate
 
-    def _send_frames(self, frames: Sequence[Frame]) -> None:
+    def _send_frames(self, frames: Sequence[Frame], lock_timeout: float = -1) -> None:
+        """Hand ``frames`` to the transport in order, taking the send lock per frame (so an estop from
+        another thread waits one frame at most); with ``lock_timeout`` >= 0 (s), a frame whose lock does
+        not come in that time is sent anyway (a signal handler may interrupt the code holding it)."""
         lock, send, sent = self._send_lock, self.transport.send, self.on_sent
         self._reserve_wire(len(frames))
-        for f in frames:
-            with lock:  # per frame, so an estop from another thread waits one frame at most
-                send(f)
-                if self.frame_taps:
-                    self._tap(f, True)
-            if sent is not None:
-                sent(f, _monotonic())
-
-    def _send_now(self, frames: Sequence[Frame], lock_timeout: float) -> None:
-        """Send ``frames``, waiting at most ``lock_timeout`` (s) for the send lock, then sending anyway."""
-        lock, send = self._send_lock, self.transport.send
         for f in frames:
             held = lock.acquire(timeout=lock_timeout)
             try:
                 send(f)
+                if self.frame_taps:
+                    self._tap(f, True)
             finally:
                 if held:
                     lock.release()
+            if sent is not None:
+                sent(f, _monotonic())
 
     def estop(self, nodes: Sequence[int]) -> None:
         """Emergency stop: one frame per node (0 = every motor), sent at once, no reply awaited.
@@ -718,10 +710,7 @@ class BusCore:
                 return
             stops = self.stop_frames() if self._failure is None else []
             try:
-                if lock_timeout < 0:
-                    self._send_frames(stops)
-                else:
-                    self._send_now(stops, lock_timeout)
+                self._send_frames(stops, lock_timeout)
             except Exception as exc:
                 _log.warning("stopping the motors on close failed: %s", exc)
             self._closed = True
