@@ -23,29 +23,13 @@ from drempower.protocol.enums import AxisState
 from drempower.robot.config import load_robot
 from drempower.transports.sim import SimTransport
 
+from ..robots import GEARED_ROBOT
 from .conftest import free_port, session, wait_for
 from .test_bridge import _call, _command
 
 pytestmark = pytest.mark.timeout(60)
 
-ROBOT = """
-[buses.left]
-interface = "sim"
-[buses.right]
-interface = "sim"
-[joints.shoulder]
-bus = "left"
-id = 1
-[joints.wrist]
-bus = "left"
-id = 2
-gear = 2.0
-[joints.elbow]
-bus = "right"
-id = 1
-gear = -1.0
-offset = 0.5
-"""
+ROBOT = GEARED_ROBOT
 NAMES = ["shoulder", "wrist", "elbow"]
 
 

@@ -11,28 +11,12 @@ import pytest
 from drempower.robot import open_robot
 
 from ..cli.conftest import Cli
+from ..robots import GEARED_ROBOT
 
 highlevel = pytest.importorskip("rosbags.highlevel")
 mcap_reader = pytest.importorskip("mcap.reader")
 
-ROBOT = """
-[buses.left]
-interface = "sim"
-[buses.right]
-interface = "sim"
-[joints.shoulder]
-bus = "left"
-id = 1
-[joints.wrist]
-bus = "left"
-id = 2
-gear = 2.0
-[joints.elbow]
-bus = "right"
-id = 1
-gear = -1.0
-offset = 0.5
-"""
+ROBOT = GEARED_ROBOT
 
 
 @pytest.fixture
