@@ -57,10 +57,10 @@ from collections.abc import Sequence
 from typing import Any
 
 from .client.bus import Bus, open_bus
-from .client.core import DEFAULT_MOVE_TIMEOUT
 from .client.errors import TimeoutError
 from .client.motor import Motor
 from .client.results import ErrorReport
+from .client.session import DEFAULT_MOVE_TIMEOUT
 from .client.state import MotorState
 from .errors import DrEmpowerError, FieldRangeError, ProtocolError, ValidationError
 from .protocol import Frame

@@ -21,7 +21,7 @@ from typing import Any
 
 from ..client.bus import Bus
 from ..client.commands import make_angles, make_speeds, make_torques
-from ..client.core import idle_frames
+from ..client.session import idle_frames
 from ..errors import DrEmpowerError
 from ..protocol.ids import Frame, SysCmd
 from ..protocol.messages import FastRead, SystemCommand

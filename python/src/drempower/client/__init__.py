@@ -26,7 +26,6 @@ from .commands import (
     make_torques,
     q_move_time,
 )
-from .core import DEFAULT_TIMEOUT, MOVE_TOLERANCE
 from .errors import (
     BusClosedError,
     IdTakenError,
@@ -40,6 +39,7 @@ from .errors import (
 )
 from .motor import Motor
 from .results import ErrorReport, GpioMode, MotorInfo
+from .session import DEFAULT_TIMEOUT, MOVE_TOLERANCE
 from .state import MotorState, Subscription
 
 if TYPE_CHECKING:

@@ -15,7 +15,7 @@ from typing import Any
 from ..transports.base import Transport
 from .api_async import AsyncBus, AsyncMotor
 from .bus import connect
-from .core import StartPolicy, StopOnClose
+from .session import StartPolicy, StopOnClose
 
 __all__ = ["AsyncBus", "AsyncMotor", "open_bus_async"]
 

@@ -26,11 +26,11 @@ from .commands import (
     make_speed,
     make_torque,
 )
-from .core import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE
 from .effects import Batch, Op, request
 from .flavours import SyncBusBase
 from .motorbase import MotorBase
 from .results import ErrorReport, GpioMode, MotorInfo
+from .session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE
 from .state import MotorState
 from .timeouts import checks_times
 
@@ -91,7 +91,7 @@ class Motor(MotorBase):
 
         The start goes to this motor only (bus option ``start``); returns the Q move time (s).
         """
-        return self._bus.run(batch.move_angles(self._core, [self._id], [angle], speed, param, mode, True, timeout))
+        return self._bus.run(batch.move_angles(self._session, [self._id], [angle], speed, param, mode, True, timeout))
 
     def set_speed(self, speed: float, param: float = 0.0, mode: int = VelocityMode.PASSTHROUGH) -> None:
         """Run at ``speed`` r/min. mode 1: ``param`` = torque FF Nm; mode 2: ramp ``param`` (r/min)/s."""
@@ -137,7 +137,7 @@ class Motor(MotorBase):
         reports an error and MoveTimeoutError (a TimeoutError) after ``timeout`` s;
         the state is polled every ``poll_interval`` s.
         """
-        done = self._bus.run(ops.wait_done(self._core, [self._id], timeout, poll_interval, tolerance=tolerance))
+        done = self._bus.run(ops.wait_done(self._session, [self._id], timeout, poll_interval, tolerance=tolerance))
         return done[self._id]
 
     def wait_state(self, timeout: float) -> MotorState:
@@ -153,7 +153,7 @@ class Motor(MotorBase):
         Raises IdTakenError when another motor already answers at ``new_id`` and
         VerifyError when the motor is not heard at its new id.
         """
-        self._bus.run(ops.set_id(self._core, self._id, new_id, timeout))
+        self._bus.run(ops.set_id(self._session, self._id, new_id, timeout))
         return self._bus.motor(new_id)
 
     def set_can_baud_rate(self, baud_rate: int, *, timeout: float | None = None) -> None:
@@ -192,7 +192,7 @@ class Motor(MotorBase):
 
     def get_traj_mode(self, *, timeout: float | None = None) -> TrajMode:
         """The motor's Q-mode profile, read from it."""
-        return self._bus.run(ops.get_traj_mode(self._core, self._id, timeout))
+        return self._bus.run(ops.get_traj_mode(self._session, self._id, timeout))
 
     def write_property(
         self,
@@ -216,7 +216,7 @@ class Motor(MotorBase):
 
     def read_property(self, property: str | int, *, timeout: float | None = None) -> int | float:
         """Read parameter ``property`` (name or address)."""
-        return self._bus.run(ops.read_property(self._core, self._id, property, timeout))
+        return self._bus.run(ops.read_property(self._session, self._id, property, timeout))
 
     def enable_reply_state(self, on: bool = True, *, timeout: float | None = None) -> None:
         """Make the motor answer every control frame with its state (31214), verified."""
@@ -298,7 +298,7 @@ class Motor(MotorBase):
         from . import backup as _backup  # loaded on first use, not with drempower
 
         op = _backup.restore(
-            self._core, self._id, source, timeout, include_link=include_link, save=save, dry_run=dry_run, force=force
+            self._session, self._id, source, timeout, include_link=include_link, save=save, dry_run=dry_run, force=force
         )
         return self._bus.run(op)
 
@@ -312,7 +312,7 @@ class Bus(SyncBusBase[Motor]):
     Requests wait at most ``timeout`` seconds (default the transport's, else 0.1;
     each method also takes ``timeout=``) and raise
     :class:`~drempower.client.errors.TimeoutError`. See
-    :class:`~drempower.client.core.BusCore` for ``retries``, ``start`` and
+    :class:`~drempower.client.session.BusSession` for ``retries``, ``start`` and
     ``stop_on_close``; buses left open are closed when Python exits.
     """
 
@@ -352,7 +352,7 @@ class Bus(SyncBusBase[Motor]):
         self, commands: Iterable[Message], *, timeout: float | None = None, reply_state: bool | None = None
     ) -> dict[int, MotorState]:
         """Send one command per motor and return each motor's state (see :func:`drempower.client.batch.cycle`)."""
-        return self.run(batch.cycle(self._core, self._commands(commands), timeout, reply_state))
+        return self.run(batch.cycle(self._session, self._commands(commands), timeout, reply_state))
 
     # ------------------------------------------------------------------ multi-motor (vendor names)
 
@@ -374,7 +374,7 @@ class Bus(SyncBusBase[Motor]):
         ``speed`` = speed FF r/min, ``param`` = torque FF Nm. Nothing is sent if
         any value is invalid.
         """
-        return self.run(batch.move_angles(self._core, id_list, angle_list, speed, param, mode, False, timeout))
+        return self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout))
 
     def step_angles(
         self,
@@ -387,7 +387,7 @@ class Bus(SyncBusBase[Motor]):
         timeout: float | None = None,
     ) -> float | None:
         """Synchronised relative move by ``angle_list`` deg (see :meth:`set_angles`)."""
-        return self.run(batch.move_angles(self._core, id_list, angle_list, speed, param, mode, True, timeout))
+        return self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout))
 
     def set_speeds(
         self,
@@ -440,7 +440,7 @@ class Bus(SyncBusBase[Motor]):
         :func:`drempower.client.ops.wait_done`.
         """
         return self.run(
-            ops.wait_done(self._core, as_list(id_list, "id_list"), timeout, poll_interval, tolerance=tolerance)
+            ops.wait_done(self._session, as_list(id_list, "id_list"), timeout, poll_interval, tolerance=tolerance)
         )
 
     wait_positions_done = positions_done

@@ -31,8 +31,8 @@ from ..protocol.addresses import (
 from ..protocol.ids import SysCmd
 from ..protocol.messages import ParamValue, ReadParam, SystemCommand, WriteParam
 from ..protocol.parameters import Access, DataType, Parameter, encode_value, find_parameter, parameters
-from .core import BusCore
 from .effects import Op, Send, read_states, request
+from .session import BusSession
 
 __all__ = [
     "BackupFileError",
@@ -324,7 +324,7 @@ def _name(address: int) -> str:
 
 
 def _write_verified(
-    core: BusCore,
+    core: BusSession,
     node: int,
     writes: list[tuple[Parameter, int | float, int | float]],
     timeout: float | None,
@@ -375,7 +375,7 @@ def _write_verified(
 
 
 def restore(
-    core: BusCore,
+    core: BusSession,
     node: int,
     source: ConfigBackup | str | os.PathLike[str],
     timeout: float | None = None,

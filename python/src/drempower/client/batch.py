@@ -19,11 +19,11 @@ from .commands import (
     position_mode,
     q_move_time,
 )
-from .core import MOTION_CMDS, BusCore
 from .effects import Batch, Op, read_states, request
 from .ops import traj_modes
 from .requests import reply_key
 from .results import MotorInfo
+from .session import MOTION_CMDS, BusSession
 from .state import MotorState
 
 __all__ = ["move_angles", "set_speeds", "set_torques", "cycle", "scan", "ALL_IDS"]
@@ -33,7 +33,7 @@ _REPLY_STATE = AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE
 
 
 def move_angles(
-    core: BusCore,
+    core: BusSession,
     ids: Sequence[int],
     angles: Sequence[float],
     speed: float,
@@ -99,7 +99,7 @@ def impedance_controls(
 
 
 def cycle(
-    core: BusCore, commands: Iterable[Message], timeout: float | None = None, reply_state: bool | None = None
+    core: BusSession, commands: Iterable[Message], timeout: float | None = None, reply_state: bool | None = None
 ) -> Op[dict[int, MotorState]]:
     """Send one command to each motor and collect one state per motor.
 

@@ -12,7 +12,7 @@ from ..errors import ValidationError
 from ..transports.base import Transport
 from ..transports.factory import open_transport
 from .api_sync import Bus
-from .core import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, StartPolicy, StopOnClose
+from .session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, StartPolicy, StopOnClose
 
 __all__ = ["Bus", "open_bus", "DEFAULT_MOVE_TIMEOUT", "DEFAULT_POLL_INTERVAL"]
 

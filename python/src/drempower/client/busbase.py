@@ -5,14 +5,15 @@ from __future__ import annotations
 import threading
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Sequence
-from typing import Any, Generic, TypeVar
+from typing import Generic, TypeVar
 
 from ..errors import ValidationError
 from ..protocol.ids import Frame, check_node
 from ..protocol.messages import FastRead, Message, ReadParam, WriteParam
 from ..protocol.parameters import find_parameter
 from ..transports.base import Transport
-from .core import DEFAULT_TIMEOUT, BusCore, StartPolicy, StopOnClose
+from .driver import BusDriver
+from .session import DEFAULT_TIMEOUT, BusSession, StartPolicy, StopOnClose
 from .state import MotorState, StateCallback, Subscription
 from .timeouts import seconds
 
@@ -22,7 +23,7 @@ M = TypeVar("M")
 
 
 class BusBase(ABC, Generic[M]):
-    """Owns a :class:`BusCore` (transport, receive thread, matching, state cache) and the motor handles.
+    """Owns a :class:`BusDriver` (transport, receive thread, the session) and the motor handles.
 
     ``timeout`` (s) is the default reply timeout; None takes the transport's
     ``default_timeout`` if it has one (0.5 s for the in-process simulator, which
@@ -41,7 +42,7 @@ class BusBase(ABC, Generic[M]):
     ) -> None:
         if timeout is None:
             timeout = transport.default_timeout or DEFAULT_TIMEOUT
-        self._core = BusCore(
+        self._core = BusDriver(
             transport,
             timeout=timeout,
             retries=retries,
@@ -49,8 +50,9 @@ class BusBase(ABC, Generic[M]):
             start=start,
             on_unsolicited=on_unsolicited,
         )
+        self._session: BusSession = self._core.session
+        self._session.check_request = self._check_broadcast_reads
         self._motors: dict[int, M] = {}
-        self._heard: set[int] = set()
         self._motors_lock = threading.Lock()
 
     @abstractmethod
@@ -60,19 +62,11 @@ class BusBase(ABC, Generic[M]):
     def known_motors(self) -> set[int]:
         """The motors this bus knows are attached: handles made, motors heard from, and those
         the transport declares (``motor_ids``, e.g. the in-process simulator's)."""
-        known = set(self._motors) | self._heard  # set() copies in one step: safe while other threads add
+        known = set(self._motors) | self._session.heard.copy()  # copies in one step: safe while others add
         known.update(self._core.states.snapshot())
         known.update(getattr(self._core.transport, "motor_ids", ()))
         known.discard(0)
         return known
-
-    def _heard_from(self, replies: Any) -> Any:
-        """Note the motors that answered a request (the replies, returned as they are)."""
-        for r in replies:
-            node = getattr(r, "node", 0)
-            if node:
-                self._heard.add(node)
-        return replies
 
     @staticmethod
     def _commands(commands: object) -> list[Message]:
@@ -137,8 +131,8 @@ class BusBase(ABC, Generic[M]):
         return nodes
 
     @property
-    def core(self) -> BusCore:
-        """The shared core (transport, matching, state cache)."""
+    def core(self) -> BusDriver:
+        """The driver (transport, receive thread) and through it the session (matching, learned facts)."""
         return self._core
 
     @property
@@ -169,7 +163,7 @@ class BusBase(ABC, Generic[M]):
         type) differ from the request's: it answers nothing (the request keeps
         waiting or times out) and also counts as unmatched.
         """
-        c = self._core
+        c = self._session
         return {
             "frames_received": c.frames_received,
             "malformed": c.malformed,

@@ -3,9 +3,9 @@
 An operation that needs several exchanges with the motors (read positions,
 then send presets; poll until a move ends; read seven error words...) is
 written once as a generator that yields effects and receives their results.
-:class:`~drempower.client.bus.Bus` runs it with blocking waits,
-:class:`~drempower.client.aio.AsyncBus` with awaits, so both APIs share every
-line of logic.
+The :class:`~drempower.client.session.BusSession` runs it on its own time; the
+threaded and asyncio drivers only wait for it to finish, so both APIs share
+every line of logic.
 """
 
 from __future__ import annotations
@@ -18,7 +18,20 @@ from ..protocol.messages import FastRead, Message, ParamValue, ReadParam, Start,
 from ..protocol.parameters import Parameter, parameter
 from .state import MotorState
 
-__all__ = ["Send", "Batch", "Request", "Sleep", "Effect", "Op", "request", "read_params", "read_states", "sleep"]
+__all__ = [
+    "Send",
+    "Batch",
+    "Request",
+    "Sleep",
+    "AwaitState",
+    "Effect",
+    "Op",
+    "request",
+    "read_params",
+    "read_states",
+    "sleep",
+    "await_state",
+]
 
 T = TypeVar("T")
 
@@ -32,7 +45,7 @@ class Send:
 
 @dataclass(frozen=True, slots=True)
 class Batch:
-    """Send presets and their start atomically (see ``BusCore.send_batch``); result: start targets."""
+    """Send presets and their start atomically (see ``BusSession``); result: where the start(s) went."""
 
     presets: Sequence[Message]
     start: Start | StartImpedance
@@ -60,7 +73,17 @@ class Sleep:
     seconds: float
 
 
-Effect: TypeAlias = Send | Batch | Request | Sleep
+@dataclass(frozen=True, slots=True)
+class AwaitState:
+    """Wait, sending nothing, for a state of motor ``node`` that arrived after ``newer_than`` (s, session
+    time); result: that :class:`MotorState`, or :class:`TimeoutError` after ``timeout`` s."""
+
+    node: int
+    newer_than: float
+    timeout: float
+
+
+Effect: TypeAlias = Send | Batch | Request | Sleep | AwaitState
 Op: TypeAlias = Generator[Effect, Any, T]
 """An operation: yields effects, returns ``T``."""
 
@@ -86,6 +109,12 @@ def read_states(
     """Fast-read several motors in a single exchange."""
     states: list[MotorState | None] = yield from request([FastRead(n) for n in nodes], timeout, missing_ok)
     return states
+
+
+def await_state(node: int, newer_than: float, timeout: float) -> Op[MotorState]:
+    """Yield one :class:`AwaitState` and return the state."""
+    st: MotorState = yield AwaitState(node, newer_than, timeout)
+    return st
 
 
 def sleep(seconds: float) -> Op[None]:

@@ -22,7 +22,8 @@ from .commands import (
     make_speed,
     make_torque,
 )
-from .core import BusCore
+from .driver import BusDriver
+from .session import BusSession
 from .state import MotorState, StateCallback, Subscription
 
 __all__ = ["MotorBase"]
@@ -31,10 +32,11 @@ __all__ = ["MotorBase"]
 class MotorBase:
     """What both motor handles share: the id, command builders and the cached state (no I/O)."""
 
-    __slots__ = ("_core", "_id")
+    __slots__ = ("_core", "_id", "_session")
 
-    def __init__(self, core: BusCore, id: int) -> None:
+    def __init__(self, core: BusDriver, id: int) -> None:
         self._core = core
+        self._session: BusSession = core.session
         self._id = id
 
     @property

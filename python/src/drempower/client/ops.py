@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 import struct
-import time
 from collections.abc import Sequence
 
 from ..errors import DrEmpowerError, FieldRangeError, ValidationError
@@ -17,7 +16,6 @@ from ..protocol.ids import MAX_NODE, SysCmd
 from ..protocol.messages import ReadParam, SystemCommand, WriteParam
 from ..protocol.parameters import DataType, Parameter, parameter
 from .commands import AxisMode, TrajMode
-from .core import MOVE_TOLERANCE, BusCore, MoveRecord
 from .effects import Op, Send, read_params, read_states, request, sleep
 from .errors import (
     IdTakenError,
@@ -31,6 +29,7 @@ from .errors import (
     motors,
 )
 from .results import ERROR_WORD_NAMES, ErrorReport, GpioMode
+from .session import MOVE_TOLERANCE, BusSession, MoveRecord
 from .state import MotorState
 
 __all__ = [
@@ -82,7 +81,7 @@ def get_state(node: int, timeout: float | None = None) -> Op[MotorState]:
     return st
 
 
-def read_property(core: BusCore, node: int, prop: str | int, timeout: float | None = None) -> Op[int | float]:
+def read_property(core: BusSession, node: int, prop: str | int, timeout: float | None = None) -> Op[int | float]:
     """Value of parameter ``prop`` (name or address)."""
     p = parameter(prop)
     (value,) = yield from read_params(node, [p], timeout)
@@ -144,7 +143,7 @@ def get_id(node: int, timeout: float | None = None) -> Op[int]:
     return int(value)
 
 
-def set_id(core: BusCore, node: int, new_id: int, timeout: float | None = None) -> Op[None]:
+def set_id(core: BusSession, node: int, new_id: int, timeout: float | None = None) -> Op[None]:
     """Give the motor ``new_id`` (1..63), check that it answers there, then save.
 
     Before writing: the motor must answer at ``node`` (any motor, for broadcast 0)
@@ -174,7 +173,7 @@ def set_id(core: BusCore, node: int, new_id: int, timeout: float | None = None) 
     if node != new_id:
         for n in (node, new_id):
             core.forget(n)
-            core.states.clear(n)
+            core.states.pop(n, None)
 
 
 def get_volcur(node: int, timeout: float | None = None) -> Op[tuple[float, float]]:
@@ -214,7 +213,7 @@ def set_mode(node: int, mode: int) -> WriteParam:
     return WriteParam.of(node, "axis0.requested_state", 1 if m is AxisMode.IDLE else 8)
 
 
-def get_traj_mode(core: BusCore, node: int, timeout: float | None = None) -> Op[TrajMode]:
+def get_traj_mode(core: BusSession, node: int, timeout: float | None = None) -> Op[TrajMode]:
     """The motor's Q-mode profile (35104), read and remembered."""
     value = yield from read_property(core, node, AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE, timeout)
     return _reported_traj_mode(node, value)
@@ -238,7 +237,7 @@ def set_traj_mode(node: int, mode: int, timeout: float | None = None, retries: i
     yield from write_property(node, AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE, int(m), True, timeout, retries=retries)
 
 
-def traj_modes(core: BusCore, nodes: Sequence[int], timeout: float | None = None) -> Op[dict[int, int]]:
+def traj_modes(core: BusSession, nodes: Sequence[int], timeout: float | None = None) -> Op[dict[int, int]]:
     """The Q-mode profile of each motor: remembered ones, the rest read in one exchange."""
     unknown = [n for n in nodes if n not in core.traj_mode]
     if unknown:
@@ -368,7 +367,7 @@ def _lost(st: MotorState, mv: MoveRecord, tolerance: float) -> bool:
 
 
 def wait_done(
-    core: BusCore,
+    core: BusSession,
     nodes: Sequence[int],
     timeout: float,
     poll_interval: float,
@@ -379,7 +378,7 @@ def wait_done(
     then check that each is within ``tolerance`` deg of its target.
 
     A state counts as the end of a move this bus commanded (see
-    :attr:`BusCore.moves`) only when it arrived after the move's command or
+    :attr:`BusSession.moves`) only when it arrived after the move's command or
     start was sent, has the T bit set, and the motor has shown it took the
     move: a state with T = 0 arrived after the start, or the planned Q move
     time has passed, or it is at the new target. For a motor this bus did not
@@ -396,7 +395,7 @@ def wait_done(
         raise ValidationError(f"timeout={timeout!r} and poll_interval={poll_interval!r} must be > 0 s")
     if not (isinstance(tolerance, (int, float)) and tolerance >= 0 and math.isfinite(tolerance)):
         raise ValidationError(f"tolerance={tolerance!r}: expected a finite number of degrees >= 0")
-    deadline = time.monotonic() + timeout
+    deadline = core.now + timeout
     waiting = list(dict.fromkeys(nodes))
     moves = core.moves
     resent: dict[int, int] = {}
@@ -426,7 +425,7 @@ def wait_done(
         waiting = [n for n in waiting if n not in done]
         if not waiting:
             break
-        left = deadline - time.monotonic()
+        left = deadline - core.now
         if left <= 0:
             late: list[MoveError] = []
             for n in waiting:

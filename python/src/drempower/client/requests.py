@@ -1,4 +1,4 @@
-"""Matching replies to requests.
+"""Matching replies to requests (pure: no threads, no clock).
 
 Every request that expects an answer is registered under a key before its
 frame is sent: ``node << 16 | address`` for a parameter read and
@@ -12,7 +12,6 @@ match nothing are left to the caller (state cache, unsolicited-frame hook).
 
 from __future__ import annotations
 
-import threading
 from collections.abc import Callable, Sequence
 
 from ..protocol.messages import FastRead, Message, ReadParam
@@ -48,18 +47,17 @@ def request_dtype(msg: Message) -> DataType | None:
 
 
 class Waiter:
-    """The answers awaited by one call: ``results[i]`` answers ``keys[i]``.
+    """The answers awaited by one exchange: ``results[i]`` answers ``keys[i]``.
 
-    Completion sets ``event`` (threads) or calls ``notify`` (asyncio bridge),
-    once, from the receive thread or from :meth:`Matcher.fail_all`.
+    ``on_complete`` is called once, when the last answer arrived.
     """
 
-    __slots__ = ("dtypes", "error", "event", "keys", "notify", "remaining", "results")
+    __slots__ = ("dtypes", "keys", "on_complete", "remaining", "results")
 
     def __init__(
         self,
         keys: Sequence[int],
-        notify: Callable[[], None] | None = None,
+        on_complete: Callable[[], None] | None = None,
         dtypes: Sequence[DataType | None] | None = None,
     ) -> None:
         self.keys = keys
@@ -67,15 +65,7 @@ class Waiter:
         """The data type each reply must echo (None: any); None for the whole waiter: no check."""
         self.results: list[object | None] = [None] * len(keys)
         self.remaining = len(keys)
-        self.error: BaseException | None = None
-        self.notify = notify
-        self.event: threading.Event | None = threading.Event() if notify is None else None
-
-    def _complete(self) -> None:
-        if self.notify is not None:
-            self.notify()
-        elif self.event is not None:
-            self.event.set()
+        self.on_complete = on_complete
 
     def missing(self) -> list[int]:
         """Indices of the keys still unanswered."""
@@ -83,10 +73,11 @@ class Waiter:
 
 
 class Matcher:
-    """The table of outstanding requests, safe to use from any thread."""
+    """The table of outstanding requests (not thread-safe: its owner serialises access)."""
+
+    __slots__ = ("_table",)
 
     def __init__(self) -> None:
-        self._lock = threading.Lock()
         self._table: dict[int, list[tuple[Waiter, int]]] = {}
 
     def __len__(self) -> int:
@@ -94,15 +85,14 @@ class Matcher:
 
     def register(self, waiter: Waiter) -> None:
         """Expect the answers to ``waiter.keys`` (call before sending the requests)."""
-        with self._lock:
-            table = self._table
-            for i, key in enumerate(waiter.keys):
-                entry = (waiter, i)
-                lst = table.get(key)
-                if lst is None:
-                    table[key] = [entry]
-                else:
-                    lst.append(entry)
+        table = self._table
+        for i, key in enumerate(waiter.keys):
+            entry = (waiter, i)
+            lst = table.get(key)
+            if lst is None:
+                table[key] = [entry]
+            else:
+                lst.append(entry)
 
     def resolve(self, node: int, address: int, value: object) -> bool:
         """Hand ``value`` to the oldest request waiting for it; False if none is (no data-type check)."""
@@ -117,60 +107,53 @@ class Matcher:
         """
         table = self._table
         key = (node << 16) | address
-        with self._lock:
+        lst = table.get(key)
+        if lst is None:
+            key = address  # a request sent to broadcast (node 0)
             lst = table.get(key)
             if lst is None:
-                key = address  # a request sent to broadcast (node 0)
-                lst = table.get(key)
-                if lst is None:
-                    return UNMATCHED
-            for j, (waiter, i) in enumerate(lst):  # noqa: B007 (j is used after the loop)
-                want = None if dtype is None or waiter.dtypes is None else waiter.dtypes[i]
-                if want is None or want == dtype:
-                    break
-            else:
-                return MISMATCHED
-            del lst[j]
-            if not lst:
-                del table[key]
-            waiter.results[i] = value
-            waiter.remaining -= 1
-            done = waiter.remaining == 0
-        if done:
-            waiter._complete()
+                return UNMATCHED
+        for j, (waiter, i) in enumerate(lst):  # noqa: B007 (j is used after the loop)
+            want = None if dtype is None or waiter.dtypes is None else waiter.dtypes[i]
+            if want is None or want == dtype:
+                break
+        else:
+            return MISMATCHED
+        del lst[j]
+        if not lst:
+            del table[key]
+        waiter.results[i] = value
+        waiter.remaining -= 1
+        if waiter.remaining == 0 and waiter.on_complete is not None:
+            waiter.on_complete()
         return MATCHED
 
     def waiting(self, node: int, address: int, dtype: DataType | None = None) -> bool:
         """True when a request waits for this reply (from ``node``, or sent to broadcast), of ``dtype`` if given."""
         table = self._table
-        with self._lock:
-            for key in ((node << 16) | address, address):
-                for waiter, i in table.get(key, ()):
-                    if dtype is None or waiter.dtypes is None or waiter.dtypes[i] in (None, dtype):
-                        return True
+        for key in ((node << 16) | address, address):
+            for waiter, i in table.get(key, ()):
+                if dtype is None or waiter.dtypes is None or waiter.dtypes[i] in (None, dtype):
+                    return True
         return False
 
     def cancel(self, waiter: Waiter) -> None:
         """Stop waiting for the unanswered keys of ``waiter``."""
-        with self._lock:
-            table = self._table
-            for i in waiter.missing():
-                key = waiter.keys[i]
-                lst = table.get(key)
-                if lst is None:
-                    continue
-                try:
-                    lst.remove((waiter, i))
-                except ValueError:
-                    continue
-                if not lst:
-                    del table[key]
+        table = self._table
+        for i in waiter.missing():
+            key = waiter.keys[i]
+            lst = table.get(key)
+            if lst is None:
+                continue
+            try:
+                lst.remove((waiter, i))
+            except ValueError:
+                continue
+            if not lst:
+                del table[key]
 
-    def fail_all(self, error: BaseException) -> None:
-        """Complete every outstanding request with ``error`` (bus closed or device lost)."""
-        with self._lock:
-            waiters = {w for lst in self._table.values() for w, _ in lst}
-            self._table.clear()
-        for w in waiters:
-            w.error = error
-            w._complete()
+    def clear(self) -> list[Waiter]:
+        """Forget every outstanding request; returns their waiters."""
+        waiters = list({id(w): w for lst in self._table.values() for w, _ in lst}.values())
+        self._table.clear()
+        return waiters

@@ -65,7 +65,7 @@ def exit_code(exc: KeyboardInterrupt) -> int:
 
 
 def register_stopper(stop: Callable[[], None]) -> None:
-    """Called (once) by the client core: ``stop()`` closes every open bus with ``stop_on_close``."""
+    """Called (once) by the client driver: ``stop()`` closes every open bus with ``stop_on_close``."""
     if stop not in _stoppers:
         _stoppers.append(stop)
 

@@ -1,4 +1,4 @@
-"""Per-motor state cache: the latest state frame of every motor, waits and callbacks."""
+"""Per-motor state: the latest state frame of every motor, and callbacks."""
 
 from __future__ import annotations
 
@@ -60,16 +60,14 @@ class Subscription:
 
 
 class StateCache:
-    """Latest :class:`MotorState` per node, with waiting and subscriptions.
+    """Latest :class:`MotorState` per node (the session's table, read without a lock) and subscriptions.
 
-    ``update`` runs in the receive thread; it takes the condition's lock only
-    when some thread is waiting, and calls callbacks from an immutable tuple.
+    :meth:`notify` runs in the thread that received the state; callbacks are
+    called from an immutable tuple, so subscribing from another thread is safe.
     """
 
-    def __init__(self) -> None:
-        self._states: dict[int, MotorState] = {}
-        self._cond = threading.Condition(threading.Lock())
-        self._waiters = 0
+    def __init__(self, states: dict[int, MotorState] | None = None) -> None:
+        self._states: dict[int, MotorState] = {} if states is None else states
         self._subs_lock = threading.Lock()
         self._all: tuple[Subscription, ...] = ()
         self._by_node: dict[int, tuple[Subscription, ...]] = {}
@@ -80,17 +78,19 @@ class StateCache:
 
     def snapshot(self) -> dict[int, MotorState]:
         """The latest state of every motor heard from."""
-        return dict(self._states)
+        return self._states.copy()
 
     def clear(self, node: int) -> None:
         """Forget ``node`` (e.g. after its id changed)."""
         self._states.pop(node, None)
 
-    def update(self, state: MotorState) -> None:
-        self._states[state.node] = state
-        if self._waiters:
-            with self._cond:
-                self._cond.notify_all()
+    @property
+    def subscribed(self) -> bool:
+        """True when some callback is registered."""
+        return bool(self._all or self._by_node)
+
+    def notify(self, state: MotorState) -> None:
+        """Call the callbacks registered for ``state``'s motor and for every motor."""
         for sub in self._all:
             self._call(sub, state)
         subs = self._by_node.get(state.node)
@@ -98,29 +98,17 @@ class StateCache:
             for sub in subs:
                 self._call(sub, state)
 
+    def update(self, state: MotorState) -> None:
+        """Store ``state`` as its motor's latest and call the callbacks."""
+        self._states[state.node] = state
+        self.notify(state)
+
     @staticmethod
     def _call(sub: Subscription, state: MotorState) -> None:
         try:
             sub.callback(state)
         except Exception:
             _log.exception("state callback %r failed", sub.callback)
-
-    def wait(self, node: int, newer_than: float, timeout: float) -> MotorState | None:
-        """Wait until a state of ``node`` newer than ``newer_than`` arrives; None on timeout."""
-        deadline = time.monotonic() + timeout
-        with self._cond:
-            self._waiters += 1
-            try:
-                while True:
-                    st = self._states.get(node)
-                    if st is not None and st.timestamp > newer_than:
-                        return st
-                    left = deadline - time.monotonic()
-                    if left <= 0:
-                        return None
-                    self._cond.wait(left)
-            finally:
-                self._waiters -= 1
 
     def subscribe(self, callback: StateCallback, node: int | None = None) -> Subscription:
         """Call ``callback(state)`` for every state of ``node`` (every motor when None)."""

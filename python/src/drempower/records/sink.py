@@ -77,7 +77,7 @@ class FrameSink(ABC):
     # ------------------------------------------------------------------ input
 
     def attach(self: _S, bus: Any, *, name: str | None = None, joints: Sequence[JointSpec] = ()) -> _S:
-        """Take every frame ``bus`` (a Bus, AsyncBus or BusCore) sends and receives from now on.
+        """Take every frame ``bus`` (a Bus, AsyncBus or BusDriver) sends and receives from now on.
 
         ``name`` (a robot's bus name) puts its raw frames on ``/can/<name>/tx`` and
         ``/can/<name>/rx`` (``frame_id`` ``name``) instead of ``/can/tx`` and ``/can/rx``;

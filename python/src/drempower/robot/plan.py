@@ -16,9 +16,9 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from ..client.commands import PositionMode, make_angles, position_mode, q_move_time
-from ..client.core import BusCore
 from ..client.effects import Op, read_states
 from ..client.ops import traj_modes
+from ..client.session import BusSession
 from ..errors import FieldRangeError, ValidationError
 from ..protocol.ids import Frame
 from ..protocol.messages import S16_MAX, Message, Start
@@ -129,7 +129,7 @@ def check_targets(per_bus: Mapping[str, Sequence[Target]], mode: int) -> Positio
     return m
 
 
-def q_time(core: BusCore, targets: Sequence[Target], relative: bool, timeout: float | None) -> Op[float]:
+def q_time(core: BusSession, targets: Sequence[Target], relative: bool, timeout: float | None) -> Op[float]:
     """The longest Q-mode time (s, unrounded) the motors of one bus need for their part."""
     nodes = [t.id for t in targets]
     modes = yield from traj_modes(core, nodes, timeout)
@@ -164,7 +164,7 @@ def is_start(frame: Frame) -> bool:
 
 
 class StartClock:
-    """A :attr:`BusCore.on_sent` hook that notes when the sending thread last handed a start frame over."""
+    """A :attr:`BusSession.on_sent` hook that notes when the sending thread last handed a start frame over."""
 
     def __init__(self) -> None:
         self._local = threading.local()

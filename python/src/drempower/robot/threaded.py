@@ -184,7 +184,7 @@ class Robot:
             if m is PositionMode.Q:
 
                 def plan(b: str) -> Callable[[], float]:
-                    return lambda: self.buses[b].run(q_time(self.buses[b].core, targets[b], relative, timeout))
+                    return lambda: self.buses[b].run(q_time(self.buses[b].core.session, targets[b], relative, timeout))
 
                 times = self._each({b: plan(b) for b in targets})
                 move_time = round_move_time(max(times.values()))
