@@ -211,16 +211,6 @@ class BusDriver:
         if self._failure is not None:
             raise BusClosedError(f"the receive loop stopped: {self._failure}") from self._failure
 
-    def learn(self, node: int, address: int, value: float) -> None:
-        """See :meth:`BusSession.learn`."""
-        with self._lock:
-            self.session.learn(node, address, value)
-
-    def forget(self, node: int) -> None:
-        """See :meth:`BusSession.forget`."""
-        with self._lock:
-            self.session.forget(node)
-
     def stop_frames(self) -> list[Frame]:
         """The frames ``stop_on_close`` sends: idle or estop to every commanded motor."""
         return self.session.stop_frames()
