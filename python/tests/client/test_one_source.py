@@ -17,13 +17,15 @@ import pytest
 from drempower.client import AsyncBus, AsyncMotor, Bus, Motor, VelocityMode
 from drempower.client.busbase import BusBase
 from drempower.client.motorbase import MotorBase
+from drempower.robot import AsyncJoint, AsyncRobot, Joint, Robot
 
 from ..conftest import REPO_ROOT
 
 _TOOL = REPO_ROOT / "tools" / "gen_sync.py"
 _CLIENT = Path("python/src/drempower/client")
+_ROBOT = Path("python/src/drempower/robot")
 _PAIRS = [(Motor, AsyncMotor, MotorBase), (Bus, AsyncBus, BusBase)]
-_RENAMES = {"AsyncMotor": "Motor", "AsyncBus": "Bus"}
+_RENAMES = {"AsyncMotor": "Motor", "AsyncBus": "Bus", "AsyncJoint": "Joint", "AsyncRobot": "Robot"}
 
 
 def _gen_sync() -> ModuleType:
@@ -46,6 +48,8 @@ def test_an_edit_of_either_side_alone_is_stale(tmp_path: Path) -> None:
         Path("python/pyproject.toml"),
         _CLIENT / "api_async.py",
         _CLIENT / "api_sync.py",
+        _ROBOT / "aio.py",
+        _ROBOT / "threaded.py",
     ]
     for rel in parts:
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
@@ -68,6 +72,10 @@ def test_an_edit_of_either_side_alone_is_stale(tmp_path: Path) -> None:
     assert subprocess.run(script, capture_output=True, text=True, check=False).returncode == 0
     assert check().returncode == 0
     assert "speed: float = 20.0" in generated.read_text()
+    robot = tmp_path / parts[5]
+    robot.write_text(robot.read_text().replace("speed: float = 10.0", "speed: float = 11.0"))
+    r = check()
+    assert r.returncode == 1 and "threaded.py" in r.stderr
 
 
 def test_the_transform() -> None:
@@ -147,7 +155,25 @@ def test_the_drifted_defaults_are_the_threaded_ones() -> None:
     assert inspect.signature(AsyncBus.set_angles).parameters["speed"].default == 10.0
 
 
-@pytest.mark.parametrize("cls", [Motor, AsyncMotor, Bus, AsyncBus])
+@pytest.mark.parametrize(("sync", "aio"), [(Joint, AsyncJoint), (Robot, AsyncRobot)], ids=["Joint", "Robot"])
+def test_both_robots_have_the_same_public_api(sync: type, aio: type) -> None:
+    """The generated threaded robot and its asyncio source: same members, signatures and defaults."""
+    s, a = _public(sync), _public(aio)
+    assert sorted(s) == sorted(a)
+    coroutines = 0
+    for name in s:
+        sm, am = s[name], a[name]
+        assert type(sm) is type(am), name
+        if isinstance(sm, property):
+            continue
+        if inspect.isfunction(sm):
+            assert _signature(sm) == _signature(am), name
+            assert not inspect.iscoroutinefunction(sm), name
+            coroutines += inspect.iscoroutinefunction(am)
+    assert coroutines >= (37 if sync is Joint else 8), coroutines
+
+
+@pytest.mark.parametrize("cls", [Motor, AsyncMotor, Bus, AsyncBus, Joint, AsyncJoint, Robot, AsyncRobot])
 def test_every_public_member_has_a_docstring(cls: type) -> None:
     undocumented = []
     for name, member in _public(cls).items():

@@ -139,9 +139,7 @@ def test_the_bus_timeout_is_checked(value: object) -> None:
 
 def test_every_method_with_a_time_argument_checks_it() -> None:
     """No public method escapes the check (a new method gets it from the class decorator)."""
-    from drempower.robot.aio import AsyncRobot
-    from drempower.robot.joint import AsyncJoint, Joint
-    from drempower.robot.threaded import Robot
+    from drempower.robot import AsyncJoint, AsyncRobot, Joint, Robot
 
     for cls in (Bus, AsyncBus, Motor, AsyncMotor, Robot, AsyncRobot, Joint, AsyncJoint):
         for name, fn in inspect.getmembers(cls, inspect.isfunction):

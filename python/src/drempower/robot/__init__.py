@@ -9,11 +9,11 @@
 The file format is described in :mod:`drempower.robot.config` and docs/robot.md.
 """
 
-from .aio import AsyncRobot, open_robot_async
+from .aio import AsyncJoint, AsyncRobot, open_robot_async
 from .config import BusSpec, JointSpec, RobotSpec, load_robot, parse_robot
-from .joint import AsyncJoint, Gearing, Joint, JointState
+from .joint import Gearing, JointState
 from .plan import SyncMove
-from .threaded import Robot, open_robot
+from .threaded import Joint, Robot, open_robot
 
 __all__ = [
     "AsyncJoint",

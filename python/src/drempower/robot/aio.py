@@ -1,24 +1,28 @@
-"""The asyncio robot: several buses as one, each bus's part of a call run as its own task."""
+"""Several buses as one robot, for asyncio: each bus's part of a call runs as its own task.
+
+The one source of both robots: ``threaded.py`` (:class:`Robot`, on threads) is generated from this
+file by ``tools/gen_sync.py``; the parts that differ by nature are in ``flavours.py``.
+"""
 
 from __future__ import annotations
 
-import asyncio
 import os
-from collections.abc import Awaitable, Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping
 from types import TracebackType
-from typing import Any, TypeVar
+from typing import Any
 
-from ..client.aio import AsyncBus, open_bus_async
-from ..client.bus import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL
+from ..client import AsyncBus, AsyncMotor, open_bus_async
 from ..client.commands import PositionMode
 from ..client.effects import read_states
+from ..client.session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL
 from ..client.state import MotorState
 from ..client.timeouts import checks_times
-from ..errors import BusClosedError, DrEmpowerError, ValidationError
+from ..errors import DrEmpowerError, ValidationError
 from ..protocol.messages import Message
-from .config import RobotSpec, load_robot
-from .joint import AsyncJoint, JointState
-from .names import by_bus, check_commands, note_bus, opening_failed, per_bus
+from .config import JointSpec, RobotSpec, bus_options, load_robot
+from .flavours import AsyncPart, AsyncRobotBase
+from .joint import Gearing, JointState
+from .names import by_bus, check_commands, opening_failed, per_bus
 from .plan import (
     StartClock,
     SyncMove,
@@ -30,20 +34,61 @@ from .plan import (
     q_time,
     round_move_time,
 )
-from .threaded import bus_options
 
-__all__ = ["AsyncRobot", "open_robot_async"]
-
-T = TypeVar("T")
+__all__ = ["AsyncJoint", "AsyncRobot", "open_robot_async"]
 
 
 @checks_times
-class AsyncRobot:
-    """The asyncio counterpart of :class:`~drempower.robot.threaded.Robot` (same methods, as coroutines).
+class AsyncJoint(AsyncMotor):
+    """A motor handle (:class:`AsyncMotor`: every method, in wire units) that also knows its joint.
 
-    Each bus's part of a call runs as its own task; :meth:`estop` sends to
-    every bus from its own thread, so a bus whose device stopped taking data
-    does not delay the others' stop (nor the event loop).
+    ``joint_state`` is the latest state at the joint (no I/O), ``get_joint_state()`` a fresh one;
+    ``gearing`` converts values either way.
+    """
+
+    __slots__ = ("gearing", "name")
+
+    def __init__(self, bus: AsyncBus, spec: JointSpec) -> None:
+        super().__init__(bus, spec.id)
+        self.name = spec.name
+        self.gearing = Gearing(spec)
+
+    @property
+    def joint_state(self) -> JointState | None:
+        """The latest state received from this motor, at the joint (no I/O), or None."""
+        st = self.state
+        return None if st is None else self.gearing.joint_state(st)
+
+    async def get_joint_state(self, *, timeout: float | None = None) -> JointState:
+        """A fresh state (fast read) at the joint: rad, rad/s, Nm."""
+        return self.gearing.joint_state(await self.get_state(timeout=timeout))
+
+    async def set_position(self, position: float, bandwidth: float = 20.0) -> None:
+        """Move the joint to ``position`` rad now (T mode: ``bandwidth`` 0..300 1/s filter)."""
+        await self.set_angle(self.gearing.motor_angle(position), 0.0, bandwidth, 0)
+
+    async def set_velocity(self, velocity: float) -> None:
+        """Turn the joint at ``velocity`` rad/s."""
+        await self.set_speed(self.gearing.motor_speed(velocity))
+
+    async def set_joint_torque(self, torque: float) -> None:
+        """Apply ``torque`` Nm at the joint."""
+        await self.set_torque(self.gearing.motor_torque(torque))
+
+    def __repr__(self) -> str:
+        return f"<AsyncJoint {self.name} motor {self.id}>"
+
+
+@checks_times
+class AsyncRobot(AsyncRobotBase):
+    """Several buses driven as one robot; joints by name.
+
+    Calls that concern several buses (:meth:`cycle`, :meth:`set_angles`,
+    :meth:`move_joints`, :meth:`positions_done`, :meth:`get_states`) run each
+    bus's part at the same time (a task per bus with asyncio, a thread per bus
+    otherwise). :meth:`estop` sends to every bus at
+    once, so a bus whose device stopped taking data does not delay the
+    others' stop. Errors of one bus's part carry a note naming the bus.
     """
 
     def __init__(self, spec: RobotSpec, buses: Mapping[str, AsyncBus]) -> None:
@@ -55,11 +100,13 @@ class AsyncRobot:
         self._clock = StartClock()
         for bus in self.buses.values():
             bus.core.on_sent = self._clock
-        self._move_lock = asyncio.Lock()
         self._closed = False
+        self._setup(len(self.buses))
+
+    # ------------------------------------------------------------------ lookup
 
     def joint(self, name: str) -> AsyncJoint:
-        """The handle of joint ``name``: an :class:`~drempower.client.aio.AsyncMotor` with SI extras."""
+        """The handle of joint ``name``: a motor handle with SI extras."""
         j = self.joints.get(name)
         if j is None:
             raise ValidationError(f"joint {name!r}: no such joint (joints: {', '.join(self.joints)})")
@@ -74,32 +121,17 @@ class AsyncRobot:
             raise ValidationError(f"bus {name!r}: no such bus (buses: {', '.join(self.buses)})")
         return b
 
-    async def _each(self, work: Mapping[str, Callable[[], Awaitable[T]]]) -> dict[str, T]:
-        """Run each bus's part as a task; raise the first error (in bus order), noting its bus."""
-        if self._closed:
-            raise BusClosedError(f"the robot ({self.spec.source}) is closed")
-        tasks = {bus: asyncio.ensure_future(fn()) for bus, fn in work.items()}
-        try:
-            await asyncio.wait(tasks.values())
-        except BaseException:  # cancelled: so are the buses' parts
-            for task in tasks.values():
-                task.cancel()
-            raise
-        for bus, task in tasks.items():
-            exc = task.exception()
-            if exc is not None:
-                note_bus(exc, bus)
-                raise exc
-        return {bus: task.result() for bus, task in tasks.items()}
+    # ------------------------------------------------------------------ control
 
     async def cycle(
         self, commands: Mapping[str, Message], *, timeout: float | None = None, reply_state: bool | None = None
     ) -> dict[str, MotorState]:
-        """Send one command per joint and return each joint's state (see :meth:`Robot.cycle`)."""
+        """Send one command per joint (``{name: message}``, e.g. from ``robot.joint(n).make_angle(...)``)
+        and return each joint's state; the buses run their cycles at the same time."""
         groups = per_bus(self.spec, commands)
         check_commands(self.spec, commands)
 
-        def part(bus: str, msgs: dict[str, Message]) -> Callable[[], Awaitable[dict[str, MotorState]]]:
+        def part(bus: str, msgs: dict[str, Message]) -> AsyncPart[dict[str, MotorState]]:
             async def run() -> dict[str, MotorState]:
                 got = await self.buses[bus].cycle(msgs.values(), timeout=timeout, reply_state=reply_state)
                 return {n: got[m.node] for n, m in msgs.items()}
@@ -121,7 +153,13 @@ class AsyncRobot:
         relative: bool = False,
         timeout: float | None = None,
     ) -> SyncMove:
-        """Synchronised move in wire units across buses (see :meth:`Robot.set_angles`)."""
+        """Synchronised move of joints across buses in wire units: ``{name: motor deg}``, as
+        :meth:`~drempower.client.bus.Bus.set_angles` (``relative``: as ``step_angles``).
+
+        In Q mode every motor of every bus gets one move time, the longest any
+        needs. Nothing is sent on any bus if a value is invalid. Returns the
+        move time and the measured skew between the buses' start frames.
+        """
         targets = angle_targets(self.spec, angles, speed, param)
         return await self._move(targets, mode, relative, timeout)
 
@@ -134,7 +172,8 @@ class AsyncRobot:
         relative: bool = False,
         timeout: float | None = None,
     ) -> SyncMove:
-        """Synchronised Q-mode move in SI units at the joints (see :meth:`Robot.move_joints`)."""
+        """Synchronised Q-mode move in SI units at the joints: ``{name: rad}``; ``speed`` rad/s and ``accel``
+        rad/s² at each joint (converted through its gear). Every joint arrives at the same time."""
         targets = joint_targets(self.spec, positions, speed, accel, relative)
         return await self._move(targets, PositionMode.Q, relative, timeout)
 
@@ -146,36 +185,23 @@ class AsyncRobot:
             move_time: float | None = None
             if m is PositionMode.Q:
 
-                def plan(b: str) -> Callable[[], Awaitable[float]]:
+                def plan(b: str) -> AsyncPart[float]:
                     return lambda: self.buses[b].run(q_time(self.buses[b].core.session, targets[b], relative, timeout))
 
                 times = await self._each({b: plan(b) for b in targets})
                 move_time = round_move_time(max(times.values()))
             batches = {b: bus_batch(t, m, relative, move_time) for b, t in targets.items()}
-            go = asyncio.Event()
 
-            def send(bus: str) -> Callable[[], Awaitable[float]]:
-                async def run() -> float:
-                    await go.wait()
-                    presets, start = batches[bus]
-                    core = self.buses[bus].core
-                    goals = None if relative else [t.angle for t in targets[bus]]  # relative: from unread positions
+            def fire(bus: str) -> float:  # blocking: the start waits until the presets are on the wire
+                presets, start = batches[bus]
+                goals = None if relative else [t.angle for t in targets[bus]]  # relative: from unread positions
+                self._clock.take()
+                self.buses[bus].core.send_batch(presets, start, goals, move_time)
+                when = self._clock.take()
+                assert when is not None
+                return when
 
-                    def fire() -> float:  # in a thread: the start waits until the presets are on the wire
-                        self._clock.take()
-                        core.send_batch(presets, start, goals, move_time)
-                        when = self._clock.take()
-                        assert when is not None
-                        return when
-
-                    return await asyncio.to_thread(fire)
-
-                return run
-
-            sending = asyncio.ensure_future(self._each({b: send(b) for b in batches}))
-            await asyncio.sleep(0)  # every task waits at the gate
-            go.set()
-            starts = await sending
+            starts = await self._together(list(batches), fire)
         return SyncMove(move_time, starts)
 
     async def positions_done(
@@ -185,10 +211,11 @@ class AsyncRobot:
         *,
         poll_interval: float = DEFAULT_POLL_INTERVAL,
     ) -> dict[str, MotorState]:
-        """Wait until every listed joint (all when None) reports its move done (see :meth:`Robot.positions_done`)."""
+        """Wait until every listed joint (all when None) reports its move done, the buses polled at the same
+        time; raises TimeoutError / MotorFaultError as :meth:`~drempower.client.bus.Bus.positions_done`."""
         groups = by_bus(self.spec, names)
 
-        def part(bus: str, group: list[str]) -> Callable[[], Awaitable[dict[str, MotorState]]]:
+        def part(bus: str, group: list[str]) -> AsyncPart[dict[str, MotorState]]:
             async def run() -> dict[str, MotorState]:
                 ids = [self.joints[n].id for n in group]
                 got = await self.buses[bus].positions_done(ids, timeout, poll_interval=poll_interval)
@@ -204,10 +231,10 @@ class AsyncRobot:
     async def get_states(
         self, names: Iterable[str] | None = None, *, timeout: float | None = None
     ) -> dict[str, MotorState]:
-        """Fresh states (wire units) of the listed joints (all when None), the buses read at once."""
+        """Fresh states (fast reads, wire units) of the listed joints (all when None), the buses read at once."""
         groups = by_bus(self.spec, names)
 
-        def part(bus: str, group: list[str]) -> Callable[[], Awaitable[dict[str, MotorState]]]:
+        def part(bus: str, group: list[str]) -> AsyncPart[dict[str, MotorState]]:
             async def run() -> dict[str, MotorState]:
                 states = await self.buses[bus].run(read_states([self.joints[n].id for n in group], timeout))
                 return {n: st for n, st in zip(group, states, strict=True) if st is not None}
@@ -227,20 +254,25 @@ class AsyncRobot:
         return {n: self.joints[n].gearing.joint_state(st) for n, st in states.items()}
 
     async def estop(self, names: Iterable[str] | None = None) -> None:
-        """Emergency stop of every motor (None) or the listed joints on every bus at once (see :meth:`Robot.estop`)."""
+        """Emergency stop: every motor of every bus (one broadcast frame per bus) when ``names`` is None,
+        else the listed joints; sent to all buses at once, no reply awaited. A bus that fails does not
+        keep the others from stopping; its error is raised afterwards."""
         groups = (
             {b: [0] for b in self.buses}
             if names is None
             else {b: [self.joints[n].id for n in g] for b, g in by_bus(self.spec, names).items()}
         )
 
-        def part(bus: str) -> Callable[[], Awaitable[None]]:
-            return lambda: asyncio.to_thread(self.buses[bus].core.estop, groups[bus])
+        def stop(bus: str) -> Callable[[], None]:
+            return lambda: self.buses[bus].core.estop(groups[bus])
 
-        await self._each({b: part(b) for b in groups})
+        await self._stop_each({b: stop(b) for b in groups})
+
+    # ------------------------------------------------------------------ lifetime
 
     @property
     def closed(self) -> bool:
+        """True once the robot is closed (by :meth:`close`, or its context's end)."""
         return self._closed
 
     async def close(self) -> None:
@@ -248,6 +280,7 @@ class AsyncRobot:
         if self._closed:
             return
         self._closed = True
+        self._shutdown()
         first: BaseException | None = None
         for bus in self.buses.values():
             try:
@@ -278,9 +311,13 @@ def open_robot_async(
     start: str | None = None,
     sim: Mapping[str, Any] | None = None,
 ) -> AsyncRobot:
-    """Open every bus of the robot file ``robot``, for asyncio (options as :func:`~drempower.open_robot`).
+    """Open every bus of the robot file ``robot`` (or a :class:`RobotSpec`).
 
-    Use as ``async with open_robot_async("robot.toml") as robot:``, like :func:`~drempower.open_bus_async`.
+    ``timeout``, ``retries``, ``stop_on_close`` and ``start`` (see
+    :func:`~drempower.open_bus`) apply to every bus, over what the file says;
+    ``sim`` options (``time_scale``, ``bitrate``...) to its sim buses. If a bus
+    cannot be opened, the ones already open are closed and the error names the bus.
+    Use it as a context manager.
     """
     spec = robot if isinstance(robot, RobotSpec) else load_robot(robot)
     overrides = {"timeout": timeout, "retries": retries, "stop_on_close": stop_on_close, "start": start, "sim": sim}

@@ -39,7 +39,7 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib  # type: ignore[import-not-found, no-redef, unused-ignore]
 
-__all__ = ["BusSpec", "JointSpec", "RobotSpec", "load_robot", "parse_robot", "JOINT_NAME"]
+__all__ = ["bus_options", "BusSpec", "JointSpec", "RobotSpec", "load_robot", "parse_robot", "JOINT_NAME"]
 
 JOINT_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
 """What a joint or bus name looks like: it starts with a letter or ``_``, so it never reads as a motor id."""
@@ -168,3 +168,16 @@ def load_robot(path: str | os.PathLike[str]) -> RobotSpec:
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{where}: not valid TOML: {exc}") from exc
     return parse_robot(data, where)
+
+
+def bus_options(spec: RobotSpec, bus: str, overrides: Mapping[str, Any]) -> dict[str, Any]:
+    """``open_bus`` arguments of ``bus``: the file's, then ``overrides`` (None values skipped);
+    ``sim`` options go to sim buses only."""
+    kw = spec.open_options(bus)
+    for key, value in overrides.items():
+        if key == "sim":
+            if kw["interface"] == "sim" and value:
+                kw.update(value)
+        elif value is not None:
+            kw[key] = value
+    return kw
