@@ -851,6 +851,8 @@ class BusSession:
         self._finish(opn, None, error or BusClosedError("the operation was cancelled"), notify=False)
 
     def _finish(self, opn: Operation[Any], value: Any, error: BaseException | None, notify: bool = True) -> None:
+        if opn.done:  # cancelled while a held start of its own was still to go out
+            return
         opn._value, opn._error, opn.done, opn._cancel = value, error, True, None
         self._ops.pop(id(opn), None)
         if notify and opn.on_done is not None:
