@@ -436,6 +436,7 @@ static int same_value(const dre_request *r, const dre_msg *msg)
     return msg->u.param.dtype != DRE_F32 && want->i == got->i;
 }
 
+/* Does `msg` answer `r`? 1 yes, 0 no, -1 its node and address match but not the data type it echoes. */
 static int answers(const dre_request *r, const dre_msg *msg)
 {
     if (r->state != SLOT_PENDING || (r->node != DRE_BROADCAST && r->node != msg->node)) {
@@ -444,7 +445,10 @@ static int answers(const dre_request *r, const dre_msg *msg)
     if (msg->type == DRE_MSG_STATE) {
         return r->address == 0u;
     }
-    return r->address != 0u && r->address == msg->u.param.address;
+    if (r->address == 0u || r->address != msg->u.param.address) {
+        return 0;
+    }
+    return r->dtype == msg->u.param.dtype ? 1 : -1;
 }
 
 static void complete(dre_bus *bus, dre_request *r, const dre_msg *msg)
@@ -468,6 +472,7 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
 {
     dre_msg msg;
     dre_request *best = NULL;
+    int mismatched = 0;
     uint8_t i;
 
     bus->stats.rx_frames++;
@@ -481,13 +486,16 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
     for (i = 0u; i < bus->nslots; i++) {
         dre_request *r = &bus->slots[i];
         /* the oldest request is the one furthest behind the sequence counter */
-        if (answers(r, &msg) && (best == NULL || older(bus, r, best))) {
+        int a = answers(r, &msg);
+        if (a > 0 && (best == NULL || older(bus, r, best))) {
             best = r;
         }
+        mismatched |= a < 0;
     }
     if (best != NULL) {
         complete(bus, best, &msg);
     } else {
+        bus->stats.rx_anomalies += mismatched ? 1u : 0u;
         bus->stats.rx_unmatched++;
         if (bus->cfg.on_unmatched != NULL) {
             bus->cfg.on_unmatched(bus->cfg.user, &msg);

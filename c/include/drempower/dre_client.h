@@ -167,6 +167,9 @@ typedef struct {
     uint32_t rx_frames;    /**< frames fed or drained */
     uint32_t rx_malformed; /**< frames that are not valid motor replies */
     uint32_t rx_unmatched; /**< valid replies that completed no request */
+    /** Replies for a waiting read whose echoed data type differs from the request's: never taken as
+     *  answers (also counted in rx_unmatched), as the Python client's `anomalies`. */
+    uint32_t rx_anomalies;
     uint32_t timeouts;     /**< requests that expired (not the probe of a free id in dre_set_id) */
 } dre_bus_stats;
 
@@ -236,7 +239,10 @@ int dre_bus_isr_push(dre_bus *bus, const dre_frame *frame);
 
 /**
  * Main loop: process one received frame now. It completes the oldest pending
- * request it answers (by node, command and address) or goes to on_unmatched.
+ * request it answers (by node, command, address and, for a parameter read,
+ * the data type it echoes) or goes to on_unmatched. A reply whose node and
+ * address a read waits for but whose data type differs answers nothing: it
+ * is counted in stats.rx_anomalies (and rx_unmatched).
  * DRE_E_PROTOCOL when it is not a valid motor reply (ignored, counted).
  */
 dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame);
