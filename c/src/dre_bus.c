@@ -453,6 +453,7 @@ static int answers(const dre_request *r, const dre_msg *msg)
 
 static void complete(dre_bus *bus, dre_request *r, const dre_msg *msg)
 {
+    r->flags &= (uint8_t)~FLAG_HELD;
     if (r->step == STEP_ID_FREE) {
         dre_i_fail(bus, r, SLOT_TAKEN); /* a motor answers at the new id */
     } else if (r->step == STEP_ID_HERE) {
@@ -468,6 +469,27 @@ static void complete(dre_bus *bus, dre_request *r, const dre_msg *msg)
     r->reply = *msg;
 }
 
+/* Are the value bytes of a parameter reply all 0 (the bytes of a read request)? */
+static int zero_value(const dre_frame *frame)
+{
+    return (frame->data[4] | frame->data[5] | frame->data[6] | frame->data[7]) == 0u;
+}
+
+/* Take the reply of value 0 held back for `r` as its answer. */
+static void take_held(dre_bus *bus, dre_request *r)
+{
+    dre_msg msg;
+    memset(&msg, 0, sizeof msg);
+    msg.type = DRE_MSG_PARAM_VALUE;
+    msg.node = r->held_node;
+    msg.u.param.address = r->address;
+    msg.u.param.dtype = r->dtype;
+    if (r->dtype == DRE_F32) {
+        msg.u.param.value.f32 = 0.0f;
+    }
+    complete(bus, r, &msg);
+}
+
 dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
 {
     dre_msg msg;
@@ -476,6 +498,9 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
     uint8_t i;
 
     bus->stats.rx_frames++;
+    if (frame->len == 8u && dre_i_host_only(frame->id)) {
+        bus->other_hosts = 1u;
+    }
     if (dre_decode_reply(frame, &msg) != DRE_OK) {
         bus->stats.rx_malformed++;
         return DRE_E_PROTOCOL;
@@ -491,6 +516,20 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
             best = r;
         }
         mismatched |= a < 0;
+    }
+    if (msg.type == DRE_MSG_PARAM_VALUE && zero_value(frame)) {
+        if (best != NULL && (best->flags & FLAG_HELD) != 0u) {
+            return DRE_OK; /* another such frame: the first one's grace runs on */
+        }
+        if (best != NULL && bus->other_hosts) {
+            best->flags |= FLAG_HELD; /* perhaps another host's read request: wait for the grace */
+            best->held_node = msg.node;
+            best->held_ms = bus->cfg.tick(bus->cfg.user);
+            return DRE_OK;
+        }
+        if (best == NULL) {
+            bus->other_hosts = 1u; /* most likely another host's read request */
+        }
     }
     if (best != NULL) {
         complete(bus, best, &msg);
@@ -564,6 +603,12 @@ void dre_bus_poll(dre_bus *bus)
     release_start(bus, now);
     for (i = 0u; i < bus->nslots; i++) {
         dre_request *r = &bus->slots[i];
+        /* a held reply of value 0 is the answer once its grace ended, or at the request's timeout */
+        if (r->state == SLOT_PENDING && (r->flags & FLAG_HELD) != 0u &&
+            ((uint32_t)(now - r->held_ms) >= DRE_ZERO_REPLY_GRACE_MS ||
+             (uint32_t)(now - r->sent_ms) >= bus->cfg.timeout_ms)) {
+            take_held(bus, r);
+        }
         if (r->state == SLOT_PENDING && (uint32_t)(now - r->sent_ms) >= bus->cfg.timeout_ms) {
             if (r->step == STEP_ID_FREE) {
                 r->state = SLOT_WAIT; /* nobody answers at the new id: it is free */

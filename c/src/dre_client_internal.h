@@ -27,8 +27,17 @@ enum {
 };
 
 /* Request flags: compare the reply with the written value; send save_config
- * when it matches; a failure cancels the save of the next request (seq + 1). */
-enum { FLAG_VERIFY = 1, FLAG_SAVE = 2, FLAG_CHAIN = 4 };
+ * when it matches; a failure cancels the save of the next request (seq + 1);
+ * a reply of value 0 is held back for it (the zero-reply grace: held_ms, held_node). */
+enum { FLAG_VERIFY = 1, FLAG_SAVE = 2, FLAG_CHAIN = 4, FLAG_HELD = 8 };
+
+/* Commands only a host sends (system/start, preset, Q position, velocity, parameter write): seeing
+ * one means another host is on the bus, as this bus never receives its own frames. */
+static inline int dre_i_host_only(uint16_t id)
+{
+    uint16_t cmd = (uint16_t)(id & 0x1Fu);
+    return cmd == 0x08u || cmd == 0x0Cu || cmd == 0x1Au || cmd == 0x1Cu || cmd == 0x1Fu;
+}
 
 /*
  * Steps of dre_set_id before its write (dre_request.step). STEP_ID_FREE: the

@@ -70,6 +70,10 @@ extern "C" {
 #define DRE_DEFAULT_TIMEOUT_MS 50u /**< request timeout when the config gives 0 */
 #define DRE_POLL_INTERVAL_MS 10u   /**< pause between the fast reads of dre_positions_done() */
 #define DRE_ERROR_WORDS 7u         /**< requests of dre_dump_error() */
+#ifndef DRE_ZERO_REPLY_GRACE_MS
+/** How long (ms) a parameter reply of value 0 is held back once another host was seen (see dre_bus_feed). */
+#define DRE_ZERO_REPLY_GRACE_MS 10u
+#endif
 
 /** Queue one frame for transmission; return 0 on success, nonzero if it could not be queued. Never wait. */
 typedef int (*dre_send_fn)(void *user, const dre_frame *frame);
@@ -157,6 +161,8 @@ typedef struct {
     uint8_t flags;
     uint8_t step; /**< the step of a multi-step request (dre_set_id), 0 for others */
     uint8_t link; /**< dre_set_id: the current id; its helper probe: the slot index of the request */
+    uint8_t held_node; /**< the node of a reply of value 0 held back for this request */
+    uint32_t held_ms;  /**< when that reply arrived */
 } dre_request;
 
 /** Handle of a pending request; 0 is never a valid handle. */
@@ -213,6 +219,7 @@ typedef struct {
     dre_msg held_start;  /**< the held start */
     uint32_t held_ms;    /**< tick when the start was held */
     int8_t held_status;  /**< DRE_PENDING while held, then DRE_OK, DRE_E_TIMEOUT or DRE_E_SEND */
+    uint8_t other_hosts; /**< 1 once frames of another host were seen (see dre_bus_feed) */
     uint64_t traj_known;  /**< bit n: the Q profile of motor n is known */
     uint64_t traj_scurve; /**< bit n: motor n runs the S-curve profile */
 } dre_bus;
@@ -243,6 +250,15 @@ int dre_bus_isr_push(dre_bus *bus, const dre_frame *frame);
  * the data type it echoes) or goes to on_unmatched. A reply whose node and
  * address a read waits for but whose data type differs answers nothing: it
  * is counted in stats.rx_anomalies (and rx_unmatched).
+ *
+ * Another host on the bus: a parameter reply of value 0 has the bytes of a
+ * read request, so another host's read of the parameter a request waits for
+ * looks exactly like its answer. Once the bus has seen another host
+ * (bus->other_hosts: a command only a host sends, 0x08, 0x0C, 0x1A, 0x1C or
+ * 0x1F, or a reply of value 0 that answered nothing), such a reply is held
+ * back for DRE_ZERO_REPLY_GRACE_MS: a non-zero reply meanwhile is the answer;
+ * otherwise dre_bus_poll() takes the held one at the end of the grace (or at
+ * the request's timeout, if that comes first). As the Python client.
  * DRE_E_PROTOCOL when it is not a valid motor reply (ignored, counted).
  */
 dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame);
