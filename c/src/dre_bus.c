@@ -137,6 +137,7 @@ void dre_i_note(dre_bus *bus, const dre_msg *msg)
                 msg->u.system.op == DRE_SYS_REBOOT)) {
         dre_i_traj_forget(bus, msg->node);
     }
+    dre_i_move_sent(bus, msg);
 }
 
 /* ----------------------------------------------------------------- bus */
@@ -505,6 +506,9 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
         bus->stats.rx_malformed++;
         return DRE_E_PROTOCOL;
     }
+    if (msg.type == DRE_MSG_STATE) {
+        dre_i_move_state(bus, &msg);
+    }
     if (msg.type == DRE_MSG_PARAM_VALUE && msg.u.param.address == TRAJ_ADDRESS && msg.node != DRE_BROADCAST) {
         traj_learn(bus, msg.node, msg.u.param.dtype, msg.u.param.value.i);
     }
@@ -524,7 +528,7 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
         if (best != NULL && bus->other_hosts) {
             best->flags |= FLAG_HELD; /* perhaps another host's read request: wait for the grace */
             best->held_node = msg.node;
-            best->held_ms = bus->cfg.tick(bus->cfg.user);
+            best->reply_ms = bus->cfg.tick(bus->cfg.user);
             return DRE_OK;
         }
         if (best == NULL) {
@@ -532,6 +536,7 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
         }
     }
     if (best != NULL) {
+        best->reply_ms = bus->cfg.tick(bus->cfg.user);
         complete(bus, best, &msg);
     } else {
         bus->stats.rx_anomalies += mismatched ? 1u : 0u;
@@ -565,11 +570,13 @@ dre_status dre_i_send_starts(dre_bus *bus)
         s.node = node == 0u ? (uint8_t)DRE_BROADCAST : node;
         (void)dre_encode(&s, &f, NULL);
         if (dre_i_transmit(bus, &f) != DRE_OK) {
+            dre_i_moves_started(bus, 0);
             bus->held_status = (int8_t)DRE_E_SEND;
             return DRE_E_SEND;
         }
         bus->presets_pending &= node == 0u ? 0u : ~dre_i_motor_bits(node);
     }
+    dre_i_moves_started(bus, 1);
     bus->held_status = (int8_t)DRE_OK;
     return DRE_OK;
 }
@@ -584,6 +591,7 @@ static void release_start(dre_bus *bus, uint32_t now)
         (void)dre_i_send_starts(bus);
     } else if ((uint32_t)(now - bus->held_ms) >= bus->cfg.timeout_ms) {
         bus->held_nodes = 0u;
+        dre_i_moves_started(bus, 0);
         bus->held_status = (int8_t)DRE_E_TIMEOUT;
         bus->stats.timeouts++;
     }
@@ -605,7 +613,7 @@ void dre_bus_poll(dre_bus *bus)
         dre_request *r = &bus->slots[i];
         /* a held reply of value 0 is the answer once its grace ended, or at the request's timeout */
         if (r->state == SLOT_PENDING && (r->flags & FLAG_HELD) != 0u &&
-            ((uint32_t)(now - r->held_ms) >= DRE_ZERO_REPLY_GRACE_MS ||
+            ((uint32_t)(now - r->reply_ms) >= DRE_ZERO_REPLY_GRACE_MS ||
              (uint32_t)(now - r->sent_ms) >= bus->cfg.timeout_ms)) {
             take_held(bus, r);
         }
@@ -648,6 +656,17 @@ void dre_bus_poll(dre_bus *bus)
             }
         }
     }
+}
+
+static dre_request *slot_of(dre_bus *bus, dre_req req);
+
+dre_status dre_i_result_at(dre_bus *bus, dre_req req, dre_msg *reply, uint32_t *at_ms)
+{
+    dre_request *r = slot_of(bus, req);
+    if (r != NULL) {
+        *at_ms = r->reply_ms;
+    }
+    return dre_result(bus, req, reply);
 }
 
 static dre_request *slot_of(dre_bus *bus, dre_req req)

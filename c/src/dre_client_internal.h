@@ -103,6 +103,20 @@ dre_status dre_i_issue(dre_bus *bus, const dre_request *want, int may_queue, dre
 
 /* The held start of a batch (bus->held_start) to its motors. */
 dre_status dre_i_send_starts(dre_bus *bus);
+/* dre_result, and the tick when the answer arrived (left as is when `req` is unknown). */
+dre_status dre_i_result_at(dre_bus *bus, dre_req req, dre_msg *reply, uint32_t *at_ms);
+
+/* ----------------------------------------------------------------- dre_wait.c: the moves the bus commanded */
+
+/* A message went out: a position command records its move, other motion commands end the record. */
+void dre_i_move_sent(dre_bus *bus, const dre_msg *msg);
+/* A batch's preset to `node` went out: arm the move its start makes (`target` deg when `known`; `move_s` the
+ * planned Q time, 0 = none), or end the record when the start makes no position move (`position` 0). */
+void dre_i_move_armed(dre_bus *bus, uint8_t node, int position, int known, float target, float move_s);
+/* The batch's start went out (`sent` 1: its armed moves start now) or never will (0: they are dropped). */
+void dre_i_moves_started(dre_bus *bus, int sent);
+/* A state frame arrived: a T = 0 state after a move's start shows that the motor took it. */
+void dre_i_move_state(dre_bus *bus, const dre_msg *state);
 
 /* ----------------------------------------------------------------- dre_motor.c */
 

@@ -1552,6 +1552,76 @@ static void test_position_done(void)
     CHECK(dre_positions_done(&bus, 0u, ids, dd, 0u) == DRE_E_ARG);
 }
 
+/* dre_positions_done with the moves the bus commanded (the Python client's rules). */
+static void test_move_done_rules(void)
+{
+    dre_motor m1 = {&bus, 1u};
+    dre_done d;
+
+    /* a T = 1 state before the motor showed it took the move does not end the wait */
+    setup();
+    CHECK(dre_set_angle(&m1, 90.0f, 10.0f, 20.0f, DRE_ANGLE_T) == DRE_OK);
+    memset(&d, 0, sizeof d);
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING && bus_fake.nsent == 2u);
+    bus_fake.now = 2u;
+    feed(0x023, "0000000000000000"); /* T = 1 at 0 deg: the old move's end */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 11u;
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING && bus_fake.nsent == 2u); /* 10 ms after the answer */
+    bus_fake.now = 12u;
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING && bus_fake.nsent == 3u);
+    bus_fake.now = 13u;
+    feed(0x021, "0000344200000000"); /* T = 0 at 45 deg: it took the move */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 23u;
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING && bus_fake.nsent == 4u);
+    bus_fake.now = 24u;
+    feed(0x023, "0000B44200000000"); /* T = 1 at 90 deg */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_OK && d.state.u.state.position == 90.0f);
+
+    /* at the target, T = 1 ends the wait without a T = 0 seen; off the target it is DRE_E_MOVE */
+    CHECK(dre_set_angle(&m1, 90.0f, 10.0f, 20.0f, DRE_ANGLE_T) == DRE_OK);
+    memset(&d, 0, sizeof d);
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 25u;
+    feed(0x023, "CDCCB34200000000"); /* 89.9 deg */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_OK);
+    CHECK(dre_set_angle(&m1, 90.0f, 10.0f, 20.0f, DRE_ANGLE_T) == DRE_OK);
+    memset(&d, 0, sizeof d);
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 26u;
+    feed(0x021, "0000204200000000"); /* T = 0 */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 36u;
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 37u;
+    feed(0x023, "0000A04200000000"); /* T = 1 at 80 deg */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_E_MOVE && bus.bad_index == 0u && d.phase == 0u);
+    CHECK(d.state.u.state.position == 80.0f);
+
+    /* a velocity command ends the record: the first T = 1 state ends the wait */
+    CHECK(dre_set_speed(&m1, 10.0f, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_OK);
+    memset(&d, 0, sizeof d);
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 38u;
+    feed(0x023, "0000000000000000");
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_OK);
+
+    /* a relative move (target unknown) needs the T = 0 sign */
+    CHECK(dre_step_angle(&m1, 30.0f, 10.0f, 20.0f, DRE_ANGLE_T) == DRE_OK);
+    memset(&d, 0, sizeof d);
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 39u;
+    feed(0x023, "0000F04100000000");
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    feed(0x021, "0000F04100000000"); /* a T = 0 state (reply-state on) */
+    bus_fake.now = 49u;
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 50u;
+    feed(0x023, "0000F04100000000");
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_OK && d.state.u.state.position == 30.0f);
+}
+
 static int near(float a, float b)
 {
     return fabsf(a - b) < 1e-5f;
@@ -1608,5 +1678,6 @@ int main(void)
     test_step_angle();
     test_position_done();
     test_q_move_time();
+    test_move_done_rules();
     return check_report("test_client");
 }

@@ -65,9 +65,16 @@ def _get_state(node: int) -> Op[Any]:
 
 
 def _preset_start(step: dict[str, Any]) -> Op[Any]:
+    """A batch as ``move_angles`` yields it: each absolute position move's target is its preset's
+    position, and a Q preset's time is the planned move time."""
     presets = [build(p["message"], p["node"], p["fields"]) for p in step["presets"]]
-    start = Start(0, StartKind[step["start"]["kind"].upper()], step["start"]["relative"])
-    where: Any = yield Batch(presets, start)
+    kind = StartKind[step["start"]["kind"].upper()]
+    relative = step["start"]["relative"]
+    start = Start(0, kind, relative)
+    position = kind in (StartKind.T, StartKind.Q, StartKind.P)
+    targets = [p["fields"]["position"] for p in step["presets"]] if position and not relative else None
+    times = [p["fields"]["time"] for p in step["presets"] if p["message"] == "preset_q"]
+    where: Any = yield Batch(presets, start, targets, times[0] if times else None)
     return where
 
 
