@@ -8,8 +8,8 @@
  *
  * Implemented by job: src/dre_bus.c (the bus, requests, reply matching, the
  * transmit ring), src/dre_motor.c (single-motor commands), src/dre_verified.c
- * (verified writes, dre_set_id), src/dre_wait.c (waiting for moves) and
- * src/dre_batch.c (multi-motor batches).
+ * (verified writes, dre_set_id), src/dre_wait.c (the moves the bus commanded
+ * and waiting for them) and src/dre_batch.c (multi-motor batches).
  *
  * Concurrency: dre_bus_isr_push() is the one function that may run in an
  * interrupt (one producer). Every other dre_bus / dre_motor function belongs
