@@ -114,6 +114,35 @@ dre_status dre_batch_status(const dre_bus *bus)
     return (dre_status)bus->held_status;
 }
 
+/* Arm the move record of preset `p`'s motor for a start of `kind` (see dre_i_move_armed): the target is the
+ * preset's position unless the start is relative; a Q preset carries the planned time. */
+static void arm_move(dre_bus *bus, const dre_msg *p, uint8_t kind, uint8_t relative)
+{
+    int position = kind == DRE_START_T || kind == DRE_START_Q || kind == DRE_START_P;
+    float target = 0.0f, time = 0.0f;
+
+    switch (p->type) {
+    case DRE_MSG_PRESET:
+        target = p->u.preset.p1;
+        time = kind == DRE_START_Q ? p->u.preset.p2 : 0.0f;
+        break;
+    case DRE_MSG_PRESET_T:
+        target = p->u.position_t.position;
+        break;
+    case DRE_MSG_PRESET_Q:
+        target = p->u.preset_q.position;
+        time = p->u.preset_q.time;
+        break;
+    case DRE_MSG_PRESET_P:
+        target = p->u.position_p.position;
+        break;
+    default:
+        position = 0;
+        break;
+    }
+    dre_i_move_armed(bus, p->node, position, !relative, target, time);
+}
+
 /*
  * Validate every preset and the start, choose where the start goes (cfg.start),
  * check there is room for every frame, then send. Motors holding a preset
@@ -169,6 +198,10 @@ static dre_status run_batch(dre_bus *bus, const batch *b, uint8_t n, const dre_m
             return DRE_E_SEND;
         }
         bus->presets_pending |= dre_i_motor_bits(m.node);
+    }
+    for (i = 0u; i < n; i++) {
+        m = batch_msg(b, i);
+        arm_move(bus, &m, kind, s.type == DRE_MSG_START ? s.u.start.relative : 0u);
     }
     bus->held_start = s;
     bus->held_nodes = broadcast ? 1u : mask;

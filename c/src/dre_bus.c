@@ -137,6 +137,7 @@ void dre_i_note(dre_bus *bus, const dre_msg *msg)
                 msg->u.system.op == DRE_SYS_REBOOT)) {
         dre_i_traj_forget(bus, msg->node);
     }
+    dre_i_move_sent(bus, msg);
 }
 
 /* ----------------------------------------------------------------- bus */
@@ -436,6 +437,7 @@ static int same_value(const dre_request *r, const dre_msg *msg)
     return msg->u.param.dtype != DRE_F32 && want->i == got->i;
 }
 
+/* Does `msg` answer `r`? 1 yes, 0 no, -1 its node and address match but not the data type it echoes. */
 static int answers(const dre_request *r, const dre_msg *msg)
 {
     if (r->state != SLOT_PENDING || (r->node != DRE_BROADCAST && r->node != msg->node)) {
@@ -444,11 +446,15 @@ static int answers(const dre_request *r, const dre_msg *msg)
     if (msg->type == DRE_MSG_STATE) {
         return r->address == 0u;
     }
-    return r->address != 0u && r->address == msg->u.param.address;
+    if (r->address == 0u || r->address != msg->u.param.address) {
+        return 0;
+    }
+    return r->dtype == msg->u.param.dtype ? 1 : -1;
 }
 
 static void complete(dre_bus *bus, dre_request *r, const dre_msg *msg)
 {
+    r->flags &= (uint8_t)~FLAG_HELD;
     if (r->step == STEP_ID_FREE) {
         dre_i_fail(bus, r, SLOT_TAKEN); /* a motor answers at the new id */
     } else if (r->step == STEP_ID_HERE) {
@@ -464,16 +470,44 @@ static void complete(dre_bus *bus, dre_request *r, const dre_msg *msg)
     r->reply = *msg;
 }
 
+/* Are the value bytes of a parameter reply all 0 (the bytes of a read request)? */
+static int zero_value(const dre_frame *frame)
+{
+    return (frame->data[4] | frame->data[5] | frame->data[6] | frame->data[7]) == 0u;
+}
+
+/* Take the reply of value 0 held back for `r` as its answer. */
+static void take_held(dre_bus *bus, dre_request *r)
+{
+    dre_msg msg;
+    memset(&msg, 0, sizeof msg);
+    msg.type = DRE_MSG_PARAM_VALUE;
+    msg.node = r->held_node;
+    msg.u.param.address = r->address;
+    msg.u.param.dtype = r->dtype;
+    if (r->dtype == DRE_F32) {
+        msg.u.param.value.f32 = 0.0f;
+    }
+    complete(bus, r, &msg);
+}
+
 dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
 {
     dre_msg msg;
     dre_request *best = NULL;
+    int mismatched = 0;
     uint8_t i;
 
     bus->stats.rx_frames++;
+    if (frame->len == 8u && dre_i_host_only(frame->id)) {
+        bus->other_hosts = 1u;
+    }
     if (dre_decode_reply(frame, &msg) != DRE_OK) {
         bus->stats.rx_malformed++;
         return DRE_E_PROTOCOL;
+    }
+    if (msg.type == DRE_MSG_STATE) {
+        dre_i_move_state(bus, &msg);
     }
     if (msg.type == DRE_MSG_PARAM_VALUE && msg.u.param.address == TRAJ_ADDRESS && msg.node != DRE_BROADCAST) {
         traj_learn(bus, msg.node, msg.u.param.dtype, msg.u.param.value.i);
@@ -481,13 +515,31 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
     for (i = 0u; i < bus->nslots; i++) {
         dre_request *r = &bus->slots[i];
         /* the oldest request is the one furthest behind the sequence counter */
-        if (answers(r, &msg) && (best == NULL || older(bus, r, best))) {
+        int a = answers(r, &msg);
+        if (a > 0 && (best == NULL || older(bus, r, best))) {
             best = r;
+        }
+        mismatched |= a < 0;
+    }
+    if (msg.type == DRE_MSG_PARAM_VALUE && zero_value(frame)) {
+        if (best != NULL && (best->flags & FLAG_HELD) != 0u) {
+            return DRE_OK; /* another such frame: the first one's grace runs on */
+        }
+        if (best != NULL && bus->other_hosts) {
+            best->flags |= FLAG_HELD; /* perhaps another host's read request: wait for the grace */
+            best->held_node = msg.node;
+            best->reply_ms = bus->cfg.tick(bus->cfg.user);
+            return DRE_OK;
+        }
+        if (best == NULL) {
+            bus->other_hosts = 1u; /* most likely another host's read request */
         }
     }
     if (best != NULL) {
+        best->reply_ms = bus->cfg.tick(bus->cfg.user);
         complete(bus, best, &msg);
     } else {
+        bus->stats.rx_anomalies += mismatched ? 1u : 0u;
         bus->stats.rx_unmatched++;
         if (bus->cfg.on_unmatched != NULL) {
             bus->cfg.on_unmatched(bus->cfg.user, &msg);
@@ -518,11 +570,13 @@ dre_status dre_i_send_starts(dre_bus *bus)
         s.node = node == 0u ? (uint8_t)DRE_BROADCAST : node;
         (void)dre_encode(&s, &f, NULL);
         if (dre_i_transmit(bus, &f) != DRE_OK) {
+            dre_i_moves_started(bus, 0);
             bus->held_status = (int8_t)DRE_E_SEND;
             return DRE_E_SEND;
         }
         bus->presets_pending &= node == 0u ? 0u : ~dre_i_motor_bits(node);
     }
+    dre_i_moves_started(bus, 1);
     bus->held_status = (int8_t)DRE_OK;
     return DRE_OK;
 }
@@ -537,6 +591,7 @@ static void release_start(dre_bus *bus, uint32_t now)
         (void)dre_i_send_starts(bus);
     } else if ((uint32_t)(now - bus->held_ms) >= bus->cfg.timeout_ms) {
         bus->held_nodes = 0u;
+        dre_i_moves_started(bus, 0);
         bus->held_status = (int8_t)DRE_E_TIMEOUT;
         bus->stats.timeouts++;
     }
@@ -556,6 +611,12 @@ void dre_bus_poll(dre_bus *bus)
     release_start(bus, now);
     for (i = 0u; i < bus->nslots; i++) {
         dre_request *r = &bus->slots[i];
+        /* a held reply of value 0 is the answer once its grace ended, or at the request's timeout */
+        if (r->state == SLOT_PENDING && (r->flags & FLAG_HELD) != 0u &&
+            ((uint32_t)(now - r->reply_ms) >= DRE_ZERO_REPLY_GRACE_MS ||
+             (uint32_t)(now - r->sent_ms) >= bus->cfg.timeout_ms)) {
+            take_held(bus, r);
+        }
         if (r->state == SLOT_PENDING && (uint32_t)(now - r->sent_ms) >= bus->cfg.timeout_ms) {
             if (r->step == STEP_ID_FREE) {
                 r->state = SLOT_WAIT; /* nobody answers at the new id: it is free */
@@ -595,6 +656,17 @@ void dre_bus_poll(dre_bus *bus)
             }
         }
     }
+}
+
+static dre_request *slot_of(dre_bus *bus, dre_req req);
+
+dre_status dre_i_result_at(dre_bus *bus, dre_req req, dre_msg *reply, uint32_t *at_ms)
+{
+    dre_request *r = slot_of(bus, req);
+    if (r != NULL) {
+        *at_ms = r->reply_ms;
+    }
+    return dre_result(bus, req, reply);
 }
 
 static dre_request *slot_of(dre_bus *bus, dre_req req)

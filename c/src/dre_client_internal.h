@@ -27,8 +27,17 @@ enum {
 };
 
 /* Request flags: compare the reply with the written value; send save_config
- * when it matches; a failure cancels the save of the next request (seq + 1). */
-enum { FLAG_VERIFY = 1, FLAG_SAVE = 2, FLAG_CHAIN = 4 };
+ * when it matches; a failure cancels the save of the next request (seq + 1);
+ * a reply of value 0 is held back for it (the zero-reply grace: held_ms, held_node). */
+enum { FLAG_VERIFY = 1, FLAG_SAVE = 2, FLAG_CHAIN = 4, FLAG_HELD = 8 };
+
+/* Commands only a host sends (system/start, preset, Q position, velocity, parameter write): seeing
+ * one means another host is on the bus, as this bus never receives its own frames. */
+static inline int dre_i_host_only(uint16_t id)
+{
+    uint16_t cmd = (uint16_t)(id & 0x1Fu);
+    return cmd == 0x08u || cmd == 0x0Cu || cmd == 0x1Au || cmd == 0x1Cu || cmd == 0x1Fu;
+}
 
 /*
  * Steps of dre_set_id before its write (dre_request.step). STEP_ID_FREE: the
@@ -94,6 +103,20 @@ dre_status dre_i_issue(dre_bus *bus, const dre_request *want, int may_queue, dre
 
 /* The held start of a batch (bus->held_start) to its motors. */
 dre_status dre_i_send_starts(dre_bus *bus);
+/* dre_result, and the tick when the answer arrived (left as is when `req` is unknown). */
+dre_status dre_i_result_at(dre_bus *bus, dre_req req, dre_msg *reply, uint32_t *at_ms);
+
+/* ----------------------------------------------------------------- dre_wait.c: the moves the bus commanded */
+
+/* A message went out: a position command records its move, other motion commands end the record. */
+void dre_i_move_sent(dre_bus *bus, const dre_msg *msg);
+/* A batch's preset to `node` went out: arm the move its start makes (`target` deg when `known`; `move_s` the
+ * planned Q time, 0 = none), or end the record when the start makes no position move (`position` 0). */
+void dre_i_move_armed(dre_bus *bus, uint8_t node, int position, int known, float target, float move_s);
+/* The batch's start went out (`sent` 1: its armed moves start now) or never will (0: they are dropped). */
+void dre_i_moves_started(dre_bus *bus, int sent);
+/* A state frame arrived: a T = 0 state after a move's start shows that the motor took it. */
+void dre_i_move_state(dre_bus *bus, const dre_msg *state);
 
 /* ----------------------------------------------------------------- dre_motor.c */
 

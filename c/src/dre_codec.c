@@ -566,6 +566,8 @@ const char *dre_status_name(dre_status status)
         return "id taken";
     case DRE_E_NO_MOTOR:
         return "no motor";
+    case DRE_E_MOVE:
+        return "move";
     default:
         return "?";
     }

@@ -150,6 +150,80 @@ static void test_read_matching(void)
     CHECK(dre_read_property(&m, 0u, DRE_F32, &req) == DRE_E_RANGE && bus.bad_field == DRE_FIELD_ADDRESS);
 }
 
+static void test_dtype_echo(void)
+{
+    dre_motor m = {&bus, 1u};
+    dre_req req = 0u;
+    dre_msg reply;
+
+    setup();
+    CHECK(dre_read_property(&m, 31001u, DRE_U32, &req) == DRE_OK && sent_is(0u, 0x03E, "1979030000000000"));
+    feed(0x03E, "1979040001000000"); /* can_node_id as s32: an anomaly, not the answer */
+    CHECK(dre_result(&bus, req, &reply) == DRE_PENDING);
+    CHECK(bus.stats.rx_anomalies == 1u && bus.stats.rx_unmatched == 1u && bus_fake.nunmatched == 1u);
+    feed(0x03E, "1979030001000000");
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.u.param.value.i == 1);
+    feed(0x03E, "1979040001000000"); /* nobody waits: unmatched, no anomaly */
+    CHECK(bus.stats.rx_anomalies == 1u && bus.stats.rx_unmatched == 2u);
+}
+
+static void test_zero_reply_grace(void)
+{
+    dre_motor m = {&bus, 1u};
+    dre_req req = 0u;
+    dre_msg reply;
+
+    /* no other host seen: a reply of value 0 is the answer at once */
+    setup();
+    CHECK(dre_read_property(&m, 30001u, DRE_U32, &req) == DRE_OK);
+    feed(0x03E, "3175030000000000");
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.u.param.value.i == 0 && bus.other_hosts == 0u);
+
+    /* another host's command (an estop to motor 5): a zero reply waits for the grace */
+    {
+        dre_frame f = frame_of((5u << 5) | 0x08u, "0700000000000000");
+        CHECK(dre_bus_feed(&bus, &f) == DRE_E_PROTOCOL && bus.other_hosts == 1u);
+    }
+    bus_fake.now = 1u;
+    CHECK(dre_read_property(&m, 30001u, DRE_U32, &req) == DRE_OK);
+    bus_fake.now = 3u;
+    feed(0x03E, "3175030000000000");
+    feed(0x03E, "3175030000000000"); /* a second one: the first one's grace runs on */
+    bus_fake.now = 3u + DRE_ZERO_REPLY_GRACE_MS - 1u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_PENDING);
+    bus_fake.now++;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.type == DRE_MSG_PARAM_VALUE && reply.node == 1u &&
+          reply.u.param.address == 30001u && reply.u.param.dtype == DRE_U32 && reply.u.param.value.i == 0);
+
+    /* a non-zero reply within the grace is the answer */
+    CHECK(dre_read_property(&m, 30001u, DRE_U32, &req) == DRE_OK);
+    feed(0x03E, "3175030000000000");
+    bus_fake.now += 5u;
+    feed(0x03E, "3175030040000000");
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.u.param.value.i == 0x40);
+    bus_fake.now += 20u;
+    dre_bus_poll(&bus);
+    CHECK(bus.stats.rx_unmatched == 0u);
+
+    /* the held reply is the answer at the request's timeout when the grace runs past it */
+    CHECK(dre_read_property(&m, 30001u, DRE_F32, &req) == DRE_OK);
+    bus_fake.now += DRE_DEFAULT_TIMEOUT_MS - 2u;
+    feed(0x03E, "3175000000000000");
+    bus_fake.now += 1u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_PENDING);
+    bus_fake.now += 1u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.u.param.value.f32 == 0.0f && bus.stats.timeouts == 0u);
+
+    /* a zero reply that answers nothing is taken for another host's read request */
+    setup();
+    feed(0x03E, "3175030000000000");
+    CHECK(bus.other_hosts == 1u && bus.stats.rx_unmatched == 1u);
+}
+
 static void test_oldest_first_and_broadcast(void)
 {
     dre_motor m1 = {&bus, 1u}, all = {&bus, 0u};
@@ -1478,6 +1552,76 @@ static void test_position_done(void)
     CHECK(dre_positions_done(&bus, 0u, ids, dd, 0u) == DRE_E_ARG);
 }
 
+/* dre_positions_done with the moves the bus commanded (the Python client's rules). */
+static void test_move_done_rules(void)
+{
+    dre_motor m1 = {&bus, 1u};
+    dre_done d;
+
+    /* a T = 1 state before the motor showed it took the move does not end the wait */
+    setup();
+    CHECK(dre_set_angle(&m1, 90.0f, 10.0f, 20.0f, DRE_ANGLE_T) == DRE_OK);
+    memset(&d, 0, sizeof d);
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING && bus_fake.nsent == 2u);
+    bus_fake.now = 2u;
+    feed(0x023, "0000000000000000"); /* T = 1 at 0 deg: the old move's end */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 11u;
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING && bus_fake.nsent == 2u); /* 10 ms after the answer */
+    bus_fake.now = 12u;
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING && bus_fake.nsent == 3u);
+    bus_fake.now = 13u;
+    feed(0x021, "0000344200000000"); /* T = 0 at 45 deg: it took the move */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 23u;
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING && bus_fake.nsent == 4u);
+    bus_fake.now = 24u;
+    feed(0x023, "0000B44200000000"); /* T = 1 at 90 deg */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_OK && d.state.u.state.position == 90.0f);
+
+    /* at the target, T = 1 ends the wait without a T = 0 seen; off the target it is DRE_E_MOVE */
+    CHECK(dre_set_angle(&m1, 90.0f, 10.0f, 20.0f, DRE_ANGLE_T) == DRE_OK);
+    memset(&d, 0, sizeof d);
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 25u;
+    feed(0x023, "CDCCB34200000000"); /* 89.9 deg */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_OK);
+    CHECK(dre_set_angle(&m1, 90.0f, 10.0f, 20.0f, DRE_ANGLE_T) == DRE_OK);
+    memset(&d, 0, sizeof d);
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 26u;
+    feed(0x021, "0000204200000000"); /* T = 0 */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 36u;
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 37u;
+    feed(0x023, "0000A04200000000"); /* T = 1 at 80 deg */
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_E_MOVE && bus.bad_index == 0u && d.phase == 0u);
+    CHECK(d.state.u.state.position == 80.0f);
+
+    /* a velocity command ends the record: the first T = 1 state ends the wait */
+    CHECK(dre_set_speed(&m1, 10.0f, 0.0f, DRE_VEL_PASSTHROUGH) == DRE_OK);
+    memset(&d, 0, sizeof d);
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 38u;
+    feed(0x023, "0000000000000000");
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_OK);
+
+    /* a relative move (target unknown) needs the T = 0 sign */
+    CHECK(dre_step_angle(&m1, 30.0f, 10.0f, 20.0f, DRE_ANGLE_T) == DRE_OK);
+    memset(&d, 0, sizeof d);
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 39u;
+    feed(0x023, "0000F04100000000");
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    feed(0x021, "0000F04100000000"); /* a T = 0 state (reply-state on) */
+    bus_fake.now = 49u;
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_PENDING);
+    bus_fake.now = 50u;
+    feed(0x023, "0000F04100000000");
+    CHECK(dre_position_done(&m1, &d, 1000u) == DRE_OK && d.state.u.state.position == 30.0f);
+}
+
 static int near(float a, float b)
 {
     return fabsf(a - b) < 1e-5f;
@@ -1504,6 +1648,8 @@ int main(void)
 {
     test_get_state();
     test_read_matching();
+    test_dtype_echo();
+    test_zero_reply_grace();
     test_oldest_first_and_broadcast();
     test_timeouts();
     test_poll_reads_tick_first();
@@ -1532,5 +1678,6 @@ int main(void)
     test_step_angle();
     test_position_done();
     test_q_move_time();
+    test_move_done_rules();
     return check_report("test_client");
 }

@@ -276,6 +276,7 @@ static void test_names(void)
     CHECK(strcmp(dre_status_name(DRE_E_FAULT), "fault") == 0 && strcmp(dre_status_name(DRE_E_VERIFY), "verify") == 0);
     CHECK(strcmp(dre_status_name(DRE_E_ID_TAKEN), "id taken") == 0);
     CHECK(strcmp(dre_status_name(DRE_E_NO_MOTOR), "no motor") == 0);
+    CHECK(strcmp(dre_status_name(DRE_E_MOVE), "move") == 0);
     CHECK(strcmp(dre_field_name(DRE_FIELD_FROM), "from") == 0);
     CHECK(strcmp(dre_status_name((dre_status)-99), "?") == 0);
 }

@@ -8,8 +8,8 @@
  *
  * Implemented by job: src/dre_bus.c (the bus, requests, reply matching, the
  * transmit ring), src/dre_motor.c (single-motor commands), src/dre_verified.c
- * (verified writes, dre_set_id), src/dre_wait.c (waiting for moves) and
- * src/dre_batch.c (multi-motor batches).
+ * (verified writes, dre_set_id), src/dre_wait.c (the moves the bus commanded
+ * and waiting for them) and src/dre_batch.c (multi-motor batches).
  *
  * Concurrency: dre_bus_isr_push() is the one function that may run in an
  * interrupt (one producer). Every other dre_bus / dre_motor function belongs
@@ -70,6 +70,15 @@ extern "C" {
 #define DRE_DEFAULT_TIMEOUT_MS 50u /**< request timeout when the config gives 0 */
 #define DRE_POLL_INTERVAL_MS 10u   /**< pause between the fast reads of dre_positions_done() */
 #define DRE_ERROR_WORDS 7u         /**< requests of dre_dump_error() */
+#ifndef DRE_MOVE_RECORDS
+/** Position moves the bus remembers (the latest per motor) for dre_positions_done(); 1..63. */
+#define DRE_MOVE_RECORDS 8u
+#endif
+#define DRE_MOVE_TOLERANCE 0.5f /**< largest distance (deg) between a finished move's position and its target */
+#ifndef DRE_ZERO_REPLY_GRACE_MS
+/** How long (ms) a parameter reply of value 0 is held back once another host was seen (see dre_bus_feed). */
+#define DRE_ZERO_REPLY_GRACE_MS 10u
+#endif
 
 /** Queue one frame for transmission; return 0 on success, nonzero if it could not be queued. Never wait. */
 typedef int (*dre_send_fn)(void *user, const dre_frame *frame);
@@ -157,7 +166,19 @@ typedef struct {
     uint8_t flags;
     uint8_t step; /**< the step of a multi-step request (dre_set_id), 0 for others */
     uint8_t link; /**< dre_set_id: the current id; its helper probe: the slot index of the request */
+    uint8_t held_node; /**< the node of a reply of value 0 held back for this request */
+    uint32_t reply_ms; /**< when its answer, or the reply of value 0 held back for it, arrived */
 } dre_request;
+
+/** The last position move the bus commanded to one motor (what dre_positions_done checks). Opaque. */
+typedef struct {
+    float target;     /**< deg, when known */
+    uint32_t sent_ms; /**< tick when its command or start was sent */
+    uint32_t took_ms; /**< tick of the first state with T = 0 after sent_ms */
+    uint32_t move_ms; /**< planned time of a Q move (ms), 0 = none */
+    uint8_t node;     /**< 0 = a free record */
+    uint8_t flags;
+} dre_move;
 
 /** Handle of a pending request; 0 is never a valid handle. */
 typedef uint32_t dre_req;
@@ -167,6 +188,9 @@ typedef struct {
     uint32_t rx_frames;    /**< frames fed or drained */
     uint32_t rx_malformed; /**< frames that are not valid motor replies */
     uint32_t rx_unmatched; /**< valid replies that completed no request */
+    /** Replies for a waiting read whose echoed data type differs from the request's: never taken as
+     *  answers (also counted in rx_unmatched), as the Python client's `anomalies`. */
+    uint32_t rx_anomalies;
     uint32_t timeouts;     /**< requests that expired (not the probe of a free id in dre_set_id) */
 } dre_bus_stats;
 
@@ -210,8 +234,11 @@ typedef struct {
     dre_msg held_start;  /**< the held start */
     uint32_t held_ms;    /**< tick when the start was held */
     int8_t held_status;  /**< DRE_PENDING while held, then DRE_OK, DRE_E_TIMEOUT or DRE_E_SEND */
+    uint8_t other_hosts; /**< 1 once frames of another host were seen (see dre_bus_feed) */
     uint64_t traj_known;  /**< bit n: the Q profile of motor n is known */
     uint64_t traj_scurve; /**< bit n: motor n runs the S-curve profile */
+    dre_move moves[DRE_MOVE_RECORDS]; /**< see dre_positions_done */
+    uint8_t move_next;                /**< the record a new motor takes when all are in use */
 } dre_bus;
 
 /** A motor on a bus. Initialise as {&bus, node} or with dre_motor_init(). */
@@ -236,7 +263,19 @@ int dre_bus_isr_push(dre_bus *bus, const dre_frame *frame);
 
 /**
  * Main loop: process one received frame now. It completes the oldest pending
- * request it answers (by node, command and address) or goes to on_unmatched.
+ * request it answers (by node, command, address and, for a parameter read,
+ * the data type it echoes) or goes to on_unmatched. A reply whose node and
+ * address a read waits for but whose data type differs answers nothing: it
+ * is counted in stats.rx_anomalies (and rx_unmatched).
+ *
+ * Another host on the bus: a parameter reply of value 0 has the bytes of a
+ * read request, so another host's read of the parameter a request waits for
+ * looks exactly like its answer. Once the bus has seen another host
+ * (bus->other_hosts: a command only a host sends, 0x08, 0x0C, 0x1A, 0x1C or
+ * 0x1F, or a reply of value 0 that answered nothing), such a reply is held
+ * back for DRE_ZERO_REPLY_GRACE_MS: a non-zero reply meanwhile is the answer;
+ * otherwise dre_bus_poll() takes the held one at the end of the grace (or at
+ * the request's timeout, if that comes first). As the Python client.
  * DRE_E_PROTOCOL when it is not a valid motor reply (ignored, counted).
  */
 dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame);
@@ -452,26 +491,43 @@ dre_status dre_set_uart_baud_rate(const dre_motor *m, uint32_t baud_rate, dre_re
 typedef struct {
     dre_msg state;     /**< the latest state read (the final one once done) */
     dre_req req;       /**< the fast read in flight, 0 = none */
+    uint32_t state_ms; /**< tick when that state arrived */
     uint32_t start_ms; /**< tick of the first call */
-    uint32_t sent_ms;  /**< tick of the latest fast read */
+    uint32_t sent_ms;  /**< tick of the latest fast read, then of its answer (the next read waits from there) */
     uint8_t phase;     /**< 0 = not started, 1 = polling, 2 = done */
 } dre_done;
 
 /**
- * Poll until the motor reports its move done (vendor position_done, without
- * blocking): call it each main-loop pass with the same `d` (zeroed before the
- * first call). It sends a fast read every DRE_POLL_INTERVAL_MS and returns
- * DRE_PENDING until the state's T bit is set (DRE_OK, final state in
- * d->state); DRE_E_FAULT as soon as the motor reports an error (read the
- * words with dre_dump_error); DRE_E_TIMEOUT when a fast read goes unanswered
- * or `timeout_ms` (0 = no limit) has passed since the first call. After an
+ * Poll until the motor has finished its move (vendor position_done, without
+ * blocking, with the Python client's rules): call it each main-loop pass with
+ * the same `d` (zeroed before the first call). It sends a fast read, and the
+ * next one DRE_POLL_INTERVAL_MS after each answer, and returns DRE_PENDING
+ * until a state shows the move is over, then DRE_OK (final state in
+ * d->state).
+ *
+ * For a position move this bus commanded (dre_set_angle, dre_send of a
+ * position command, or a batch of position presets and their start: the bus
+ * remembers the latest move of up to DRE_MOVE_RECORDS motors) a state ends
+ * the wait only when it arrived after the move's command or start was sent,
+ * has the T bit set, and the motor has shown that it took the move: a state
+ * with T = 0 arrived after the start, or the planned Q move time has passed,
+ * or it is within DRE_MOVE_TOLERANCE of the target. A move whose target is
+ * known then ends DRE_E_MOVE when the final position is further than
+ * DRE_MOVE_TOLERANCE from it (an angle limit, a stall, an estop). For a motor
+ * without a record (not moved by this bus, a relative move, a velocity or
+ * torque command since), the first state with T set ends the wait.
+ *
+ * DRE_E_FAULT as soon as the motor reports an error (read the words with
+ * dre_dump_error); DRE_E_TIMEOUT when a fast read goes unanswered or
+ * `timeout_ms` (0 = no limit) has passed since the first call. After an
  * error `d` is reset, so the next call starts again.
  */
 dre_status dre_position_done(const dre_motor *m, dre_done *d, uint32_t timeout_ms);
 /**
  * dre_position_done for motors ids[0..n-1] (d[] one per motor): DRE_OK when
- * every one is done; on DRE_E_FAULT or DRE_E_TIMEOUT bus->bad_index is the
- * motor's index and every d[] is reset (fast reads in flight are cancelled).
+ * every one is done and at its target; on DRE_E_FAULT, DRE_E_TIMEOUT or
+ * DRE_E_MOVE bus->bad_index is the motor's index and every d[] is reset
+ * (fast reads in flight are cancelled).
  */
 dre_status dre_positions_done(dre_bus *bus, uint8_t n, const uint8_t *ids, dre_done *d, uint32_t timeout_ms);
 

@@ -52,7 +52,8 @@ typedef enum {
     DRE_E_FAULT = -8,      /**< the motor reports an error (E bit of its state) */
     DRE_E_VERIFY = -9,     /**< a value read back differs from the one written */
     DRE_E_ID_TAKEN = -10,  /**< dre_set_id: a motor already answers at the new id; nothing was written */
-    DRE_E_NO_MOTOR = -11   /**< dre_set_id: no motor answers at the current id; nothing was written */
+    DRE_E_NO_MOTOR = -11,  /**< dre_set_id: no motor answers at the current id; nothing was written */
+    DRE_E_MOVE = -12       /**< dre_positions_done: a move ended away from its target */
 } dre_status;
 
 /** Command field (low 5 bits of the id) of host frames. */
