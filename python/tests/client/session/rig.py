@@ -98,7 +98,9 @@ class Rig:
             self.take()
             if stop():
                 return
-            times = [t for t in (self._flight[0][0] if self._flight else None, self.session.next_deadline()) if t is not None]
+            times = [
+                t for t in (self._flight[0][0] if self._flight else None, self.session.next_deadline()) if t is not None
+            ]
             if not times or min(times) > until:
                 return
             self.at(min(times))

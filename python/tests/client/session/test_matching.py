@@ -3,11 +3,13 @@ retries, missing_ok; a request expires at exactly its timeout."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import pytest
 
 from drempower.client.effects import read_states, request
 from drempower.client.errors import TimeoutError
-from drempower.client.session import BusSession
+from drempower.client.session import BusSession, Operation
 from drempower.client.state import MotorState
 from drempower.protocol import DataType, FastRead, ParamValue, ReadParam
 from drempower.protocol.ids import Frame
@@ -22,7 +24,7 @@ VBUS_1_IS_24 = Frame(0x03E, bytes.fromhex("010000000000c041"))
 """Motor 1's reply: address 1, f32, 24.0."""
 
 
-def _read_vbus(s: BusSession, timeout: float | None = None):  # type: ignore[no-untyped-def]
+def _read_vbus(s: BusSession, timeout: float | None = None) -> Operation[list[Any]]:
     opn = s.submit(request([ReadParam(1, VBUS, DataType.F32)], timeout))
     assert s.data_to_send() == [READ_VBUS_1]
     return opn

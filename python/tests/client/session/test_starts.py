@@ -47,9 +47,7 @@ def _kinds(cmds: Sequence[Command]) -> list[str]:
 
 
 @pytest.mark.parametrize(("bitrate", "latency"), [(125_000, 0.005), (1_000_000, 0.0), (10_000, 0.002)])
-def test_timed_the_start_goes_out_at_the_bus_time_of_its_presets_plus_the_latency(
-    bitrate: int, latency: float
-) -> None:
+def test_timed_the_start_goes_out_at_the_bus_time_of_its_presets_plus_the_latency(bitrate: int, latency: float) -> None:
     rig = Rig(tx="timed", bitrate=bitrate, tx_latency=latency)
     rig.at(0.5)
     opn = rig.submit(_batch())
