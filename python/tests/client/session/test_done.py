@@ -10,7 +10,7 @@ from drempower.client.errors import MoveError, MoveFaultError, MoveTimeoutError
 from drempower.client.ops import wait_done
 from drempower.client.state import MotorState
 from drempower.protocol import FastRead, PositionT, Preset, PresetT, ReadParam, Start, StartKind, parameter
-from drempower.protocol.flags import AxisError
+from drempower.protocol.flags import AxisError, CanError
 
 from .rig import Rig
 
@@ -88,6 +88,7 @@ def test_the_timeout_names_each_motor_still_moving_or_that_never_took_the_move()
     rig.session.send([PositionT(1, 30.0, 20.0), PositionT(2, -30.0, 20.0)])
     rig.take()
     rig.motors[1].angle, rig.motors[1].done = 12.0, False  # moving for ever
+    rig.motors[2].params[parameter("can.error").address] = int(CanError.DUPLICATE_CAN_IDS)  # without the E bit
     opn = rig.run(_wait(rig, [1, 2], timeout=0.2, poll=0.03))
     with pytest.raises(MoveTimeoutError) as info:
         opn.result()
@@ -95,6 +96,8 @@ def test_the_timeout_names_each_motor_still_moving_or_that_never_took_the_move()
     assert e.nodes == (1, 2) and e.timeout == 0.2 and (e.node, e.target, e.position) == (1, 30.0, 12.0)
     assert str(e).startswith("motor 1: still moving after 0.2 s (motors 1, 2 not done): target 30.00 deg")
     assert "; motor 2: no sign that it took the move after 0.2 s: target -30.00 deg, reached 0.00 deg" in str(e)
+    assert "(can.error: DUPLICATE_CAN_IDS)" in str(e) and e.flags == {}
+    assert [(o.node, o.target, o.flags) for o in e.others] == [(2, -30.0, {"can.error": ["DUPLICATE_CAN_IDS"]})]
     reads = [t for t, _ in rig.sent(FastRead)]
     assert reads[-1] == pytest.approx(0.2) and all(t <= 0.2 + 1e-9 for t in reads)
 
@@ -160,3 +163,30 @@ def test_the_poll_interval_is_kept_on_scripted_time() -> None:
     rig.settle(lambda: opn.done)
     assert [t for t, _ in rig.sent(FastRead)] == pytest.approx([0.0, 0.051, 0.102])
     assert opn.result()[1].angle == 30.0
+
+
+def test_resends_are_counted_per_motor_and_end_at_retries() -> None:
+    rig = _moved(Rig([1], timeout=0.05, retries=2))
+    opn = rig.run(_wait(rig, [1], timeout=0.3))
+    with pytest.raises(MoveTimeoutError, match="motor 1: no sign that it took the move"):
+        opn.result()
+    assert rig.session.moves_resent == 2 and len(rig.sent(PositionT)) == 3
+
+
+def test_without_retries_a_lost_preset_of_a_timed_move_ends_off_target_naming_the_motor() -> None:
+    rig = Rig([1, 2], timeout=0.05, tx="in_order")
+
+    def batch() -> Op[list[int]]:
+        where: list[int] = yield Batch(
+            [PresetT(n, 10.0, 20.0) for n in (1, 2)], Start(0, StartKind.T), [10.0, 10.0], 0.1
+        )
+        return where
+
+    rig.run(batch())
+    rig.motors[1].angle = 10.0  # motor 2 never got its preset: T = 1 where it was
+    opn = rig.run(_wait(rig, [1, 2], timeout=5.0))
+    with pytest.raises(MoveError, match="motor 2") as info:
+        opn.result()
+    assert not isinstance(info.value, MoveTimeoutError)
+    assert (info.value.target, info.value.position) == (10.0, 0.0)
+    assert 0.1 <= rig.now < 0.2 and rig.session.moves_resent == 0
