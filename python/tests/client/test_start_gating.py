@@ -143,3 +143,13 @@ def test_the_start_waits_for_frames_queued_by_send_before_its_preset() -> None:
     first, start = times[0][0], times[4][0]
     assert times[4][1].arbitration_id == 0x028
     assert start - first >= 4 * 135 / 10_000 - 0.002
+
+
+def test_a_preset_and_a_start_through_send_move_the_motor_over_the_in_order_uart() -> None:
+    """The UART keeps frames in order (one motor on the line): the start goes out at once after its preset."""
+    sim = SimBus(ids=[1])
+    with link("uart", sim, timeout=1.0) as bus:
+        assert bus.core.session.tx == "in_order"
+        bus.send_many([PresetT(1, 15.0, 20.0), Start(0, StartKind.T)])
+        assert bus.motor(1).position_done(timeout=10).angle == pytest.approx(15, abs=0.5)
+    assert sim.motors[1].preset is None  # the start consumed it
