@@ -48,7 +48,7 @@ def test_reply_for_other_parameter_is_not_an_answer() -> None:
     with Bus(t, timeout=0.25, stop_on_close=False) as bus:
         bus.on_unsolicited = unsolicited.append
         with pytest.raises(drempower.TimeoutError):
-            bus.motor(1).read_property("axis0.error")
+            bus.motor(1).read_property("axis0.error", timeout=0.02)
         assert bus.motor(1).read_property("vbus_voltage") == 24.0
     assert len(unsolicited) == 1 and bus.stats["unmatched"] == 1
 
@@ -125,23 +125,6 @@ def test_reads_of_one_motor_are_not_pipelined() -> None:
     assert worst == 1
 
 
-def test_retries_resend_only_missing_reads() -> None:
-    drops = {"left": 1}
-    motors = FakeMotors([1, 2])
-
-    def drop_first_of_node_2(f: Frame) -> list[Frame]:
-        if f.arbitration_id >> 5 == 2 and drops["left"]:
-            drops["left"] -= 1
-            return []
-        return motors(f)
-
-    t = ScriptedTransport(drop_first_of_node_2)
-    with Bus(t, timeout=0.25, retries=1, stop_on_close=False) as bus:
-        states = bus.request([FastRead(1), FastRead(2)])
-    assert [s.node for s in states] == [1, 2]
-    assert [f.arbitration_id >> 5 for f in t.sent] == [1, 2, 2]
-
-
 def test_close_wakes_a_waiting_request() -> None:
     t = ScriptedTransport()  # never answers
     bus = Bus(t, timeout=30, stop_on_close=False)
@@ -208,15 +191,14 @@ def test_invalid_options() -> None:
         Bus(ScriptedTransport(), timeout=0)
 
 
-@pytest.mark.parametrize(("dtype", "value"), [(DataType.S16, 0), (DataType.S16, 7), (DataType.U32, 24)])
-def test_reply_of_another_data_type_is_an_anomaly_not_an_answer(dtype: DataType, value: int) -> None:
-    """vbus_voltage is f32: an s16 (or u32) reply for it answers nothing and is counted."""
+def test_reply_of_another_data_type_is_an_anomaly_not_an_answer() -> None:
+    """vbus_voltage is f32: an s16 reply for it answers nothing and is counted (more cases on scripted time)."""
 
     def wrong_type(f: Frame) -> list[Frame]:
-        return [ParamValue(f.arbitration_id >> 5, 1, dtype, value).encode()]
+        return [ParamValue(f.arbitration_id >> 5, 1, DataType.S16, 0).encode()]
 
     t = ScriptedTransport(wrong_type)
-    with Bus(t, timeout=0.1, stop_on_close=False) as bus:
+    with Bus(t, timeout=0.05, stop_on_close=False) as bus:
         with pytest.raises(drempower.TimeoutError):
             bus.motor(1).read_property("vbus_voltage")
         assert bus.stats["anomalies"] == 1 and bus.stats["unmatched"] == 1

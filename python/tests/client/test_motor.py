@@ -12,7 +12,7 @@ from .scripted import FakeMotors, ScriptedTransport
 
 
 def test_set_id_checks_the_new_id_then_saves(bus: Bus, scripted: ScriptedTransport) -> None:
-    m = bus.motor(3).set_id(9)
+    m = bus.motor(3).set_id(9, timeout=0.1)  # id 9 is free: its read waits the whole timeout
     assert m.id == 9 and m.get_id() == 9
     assert SystemCommand(9, SysCmd.SAVE_CONFIG) in scripted.commands()
 
@@ -22,7 +22,7 @@ def test_set_id_lost_write_saves_nothing(motors: FakeMotors) -> None:
         return [] if f.arbitration_id & 0x1F == 0x1F else motors(f)  # type: ignore[attr-defined]
 
     t = ScriptedTransport(lose_writes)  # type: ignore[arg-type]
-    with Bus(t, timeout=0.25, stop_on_close=False) as bus, pytest.raises(NoMotorError, match="new id 9"):
+    with Bus(t, timeout=0.1, stop_on_close=False) as bus, pytest.raises(NoMotorError, match="new id 9"):
         bus.motor(3).set_id(9)
     assert not any(isinstance(c, SystemCommand) for c in t.commands())
 
@@ -154,7 +154,7 @@ def test_set_id_never_makes_two_motors_share_an_id() -> None:
 
     sim = SimBus(ids=[1, 2])
     rec = Recorder(sim)
-    with link("inprocess", sim, timeout=0.5) as bus:
+    with link("inprocess", sim, timeout=0.1) as bus:
         with pytest.raises(IdTakenError, match="id 1 is already taken"):
             bus.motor(2).set_id(1)
         with pytest.raises(NoMotorError, match="no motor answers at id 3"):

@@ -50,7 +50,7 @@ def compat_bus() -> Iterator[Bus]:
 def test_vendor_recipe_through_compat_moves_every_motor(compat_bus: Bus) -> None:
     """preset_angle x3 (Q mode, 1 s) then send_command's broadcast start 0x11: all three reach their targets."""
     for n, a in zip(IDS, TARGETS, strict=True):
-        compat.preset_angle(n, a, 1.0, 200, 1)
+        compat.preset_angle(n, a, 0.5, 300, 1)
     compat.send_command(0, 0x08, [0x11, 0, 0, 0, 0, 0, 0, 0])
     assert compat.positions_done(IDS, timeout=10) is True
     assert _positions(compat_bus) == pytest.approx(TARGETS, abs=0.5)
@@ -60,7 +60,7 @@ def test_vendor_recipe_through_compat_moves_every_motor(compat_bus: Bus) -> None
 
 @pytest.mark.parametrize("how", ["send_many", "send"])
 def test_presets_and_start_through_send_move_every_motor(how: str) -> None:
-    msgs = [*(PresetQ(n, a, 1.0, 200) for n, a in zip(IDS, TARGETS, strict=True)), Start(0, StartKind.Q)]
+    msgs = [*(PresetQ(n, a, 0.5, 300) for n, a in zip(IDS, TARGETS, strict=True)), Start(0, StartKind.Q)]
     with _mailbox_bus() as bus:
         if how == "send_many":
             bus.send_many(msgs)
@@ -71,11 +71,11 @@ def test_presets_and_start_through_send_move_every_motor(how: str) -> None:
         assert [done[n].angle for n in IDS] == pytest.approx(TARGETS, abs=0.5)
         assert _positions(bus) == pytest.approx(TARGETS, abs=0.5)
         assert [bus.core.moves[n].target for n in IDS] == pytest.approx(TARGETS)
-        assert [bus.core.moves[n].move_time for n in IDS] == [1.0] * 3
+        assert [bus.core.moves[n].move_time for n in IDS] == [0.5] * 3
 
 
 def test_async_send_many_moves_every_motor() -> None:
-    msgs = [*(PresetQ(n, a, 1.0, 200) for n, a in zip(IDS, TARGETS, strict=True)), Start(0, StartKind.Q)]
+    msgs = [*(PresetQ(n, a, 0.5, 300) for n, a in zip(IDS, TARGETS, strict=True)), Start(0, StartKind.Q)]
 
     async def run() -> list[float]:
         async with open_bus_async(
@@ -143,3 +143,13 @@ def test_the_start_waits_for_frames_queued_by_send_before_its_preset() -> None:
     first, start = times[0][0], times[4][0]
     assert times[4][1].arbitration_id == 0x028
     assert start - first >= 4 * 135 / 10_000 - 0.002
+
+
+def test_a_preset_and_a_start_through_send_move_the_motor_over_the_in_order_uart() -> None:
+    """The UART keeps frames in order (one motor on the line): the start goes out at once after its preset."""
+    sim = SimBus(ids=[1])
+    with link("uart", sim, timeout=1.0) as bus:
+        assert bus.core.session.tx == "in_order"
+        bus.send_many([PresetT(1, 15.0, 20.0), Start(0, StartKind.T)])
+        assert bus.motor(1).position_done(timeout=10).angle == pytest.approx(15, abs=0.5)
+    assert sim.motors[1].preset is None  # the start consumed it

@@ -710,6 +710,7 @@ class BusSession:
 
                 if self._hold_start([n for n in started if n] or [0], release, job):
                     return
+                self._start_pending(m, f, started)  # in order: no wait
                 continue
             self._out.append(f)
         self._job_done(job, None, None)
