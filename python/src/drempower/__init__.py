@@ -5,6 +5,7 @@ from typing import TYPE_CHECKING, Any
 from .client import (
     Bus,
     BusClosedError,
+    BusStoppedError,
     Motor,
     MotorFaultError,
     MotorState,
@@ -38,6 +39,7 @@ __all__ = [
     "AsyncMotor",
     "Bus",
     "BusClosedError",
+    "BusStoppedError",
     "ConfigError",
     "DrEmpowerError",
     "FieldRangeError",

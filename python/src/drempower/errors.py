@@ -14,6 +14,7 @@ device, ``TimeoutError`` for a silent motor)::
     ├── TransportError (OSError)               a bus that cannot be opened, a device that failed
     ├── TimeoutError (builtins.TimeoutError)   a motor that did not answer in time
     ├── BusClosedError                         the bus is closed or its receive loop stopped
+    ├── BusStoppedError                        an estop dropped a start still waiting for its presets
     ├── MotorFaultError                        a motor reported an error while a call waited on it
     ├── MoveError                              a position move did not end at its target
     │   ├── MoveFaultError                     (also a MotorFaultError) the motor reported an error
@@ -49,6 +50,7 @@ __all__ = [
     "TransportError",
     "TimeoutError",
     "BusClosedError",
+    "BusStoppedError",
     "MotorFaultError",
     "VerifyError",
     "IdTakenError",
@@ -127,6 +129,10 @@ class TimeoutError(DrEmpowerError, builtins.TimeoutError):
 
 class BusClosedError(DrEmpowerError):
     """The bus was closed, or its receive loop stopped because the device failed."""
+
+
+class BusStoppedError(DrEmpowerError):
+    """An emergency stop on the bus dropped a start that was waiting for its presets to be on the wire."""
 
 
 class MotorFaultError(DrEmpowerError):

@@ -28,6 +28,7 @@ from .commands import (
 )
 from .errors import (
     BusClosedError,
+    BusStoppedError,
     IdTakenError,
     MotorFaultError,
     MoveError,
@@ -52,6 +53,7 @@ __all__ = [
     "AxisMode",
     "Bus",
     "BusClosedError",
+    "BusStoppedError",
     "ConfigBackup",
     "DEFAULT_MOVE_TIMEOUT",
     "DEFAULT_POLL_INTERVAL",

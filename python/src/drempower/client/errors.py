@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from ..errors import (
     BusClosedError,
+    BusStoppedError,
     IdTakenError,
     MotorFaultError,
     MoveError,
@@ -18,6 +19,7 @@ from ..errors import (
 __all__ = [
     "TimeoutError",
     "BusClosedError",
+    "BusStoppedError",
     "MotorFaultError",
     "VerifyError",
     "MoveError",

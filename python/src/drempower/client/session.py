@@ -30,7 +30,7 @@ from collections import deque
 from collections.abc import Callable, Generator, Iterable, Sequence
 from typing import Any, Generic, Literal, TypeVar
 
-from ..errors import ProtocolError, ValidationError
+from ..errors import BusStoppedError, ProtocolError, ValidationError
 from ..protocol.addresses import (
     AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE,
     AXIS0_REQUESTED_STATE,
@@ -127,6 +127,10 @@ _MIN_CONFIRM = 0.1
 _new_state = tuple.__new__
 _WAIT: Any = object()
 """What starting an effect returns when the operation must wait for it."""
+
+
+def _motors(nodes: Sequence[int]) -> str:
+    return "every motor" if 0 in nodes else "motor" + ("s " if len(nodes) > 1 else " ") + ", ".join(map(str, nodes))
 
 
 def describe_request(msg: Message) -> str:
@@ -368,7 +372,9 @@ class _Hold:
 
     __slots__ = ("confirmed", "due", "fail", "release", "timed")
 
-    def __init__(self, timed: bool, release: Callable[[], None], fail: Callable[[], None], due: float) -> None:
+    def __init__(
+        self, timed: bool, release: Callable[[], None], fail: Callable[[BaseException | None], None], due: float
+    ) -> None:
         self.timed = timed
         self.confirmed = False
         self.release = release
@@ -649,6 +655,10 @@ class BusSession:
     def estop(self, nodes: Sequence[int]) -> None:
         """Queue an emergency stop to each of ``nodes`` (0 = every motor) before anything else queued.
 
+        A start held until its presets are on the wire is dropped: its operation raises
+        :class:`~drempower.errors.BusStoppedError` (its motors keep the presets marked as pending,
+        so no later broadcast start fires them).
+
         Works even after the receive loop failed; only a closed session refuses.
         """
         frames = [SystemCommand(n, SysCmd.ESTOP).encode() for n in nodes]
@@ -656,6 +666,9 @@ class BusSession:
             assert self.closed_error is not None
             raise self.closed_error
         self._out[:0] = frames
+        hold = self._hold
+        if hold is not None:  # a start waiting for its presets never follows an estop
+            hold.fail(BusStoppedError(f"an emergency stop to {_motors(nodes)} came before the start went out"))
 
     def stop_frames(self) -> list[Frame]:
         """The frames ``stop_on_close`` sends: idle or estop to every commanded motor."""
@@ -803,9 +816,11 @@ class BusSession:
             self._hold = None
             release()
 
-        def give_up() -> None:
+        def give_up(error: BaseException | None = None) -> None:
             self._hold = None
-            self._job_done(job, None, TimeoutError(nodes, "the transmission of the presets", wait))
+            if error is None:
+                error = TimeoutError(nodes, "the transmission of the presets", wait)
+            self._job_done(job, None, error)
 
         self._hold = _Hold(self.tx == "timed", ready, give_up, self.now + wait)
         self._timer_seq += 1
@@ -823,7 +838,7 @@ class BusSession:
         elif hold.confirmed:
             hold.release()
         elif now >= hold.due:
-            hold.fail()
+            hold.fail(None)
 
     # ------------------------------------------------------------------ operations
 

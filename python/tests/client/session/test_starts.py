@@ -10,6 +10,7 @@ import pytest
 
 from drempower.client.effects import Batch, Op
 from drempower.client.errors import TimeoutError
+from drempower.errors import BusStoppedError
 from drempower.client.session import Operation, StartPolicy
 from drempower.protocol import (
     FastRead,
@@ -220,6 +221,21 @@ def test_a_second_batch_goes_out_after_the_held_start_in_order() -> None:
     assert not second.done and rig.session.next_deadline() == pytest.approx(4 * frame)
     rig.at(4 * frame)
     assert _kinds(rig.take()) == ["Start3"] and second.result() == [3]
+
+
+def test_an_estop_drops_a_start_held_for_its_presets() -> None:
+    rig = Rig(tx="timed", bitrate=125_000)
+    s = rig.session
+    opn = rig.submit(_batch([1, 2]))
+    assert _kinds(rig.take()) == ["Preset1", "Preset2"]
+    s.estop([2])
+    assert rig.take() == [SystemCommand(2, SysCmd.ESTOP)]
+    assert opn.done and isinstance(opn.error, BusStoppedError)
+    assert "motor 2" in str(opn.error)
+    rig.settle(until=1.0)  # the hold's time passes: nothing more goes out
+    assert rig.take() == [] and not [c for _, c in rig.sent() if isinstance(c, Start)]
+    assert s.pending_presets == {1, 2}  # marked: no later broadcast start fires them
+    assert s.next_deadline() is None
 
 
 def test_an_estop_goes_before_everything_queued() -> None:
