@@ -10,8 +10,8 @@ import pytest
 
 from drempower.client.effects import Batch, Op
 from drempower.client.errors import TimeoutError
-from drempower.errors import BusStoppedError
 from drempower.client.session import Operation, StartPolicy
+from drempower.errors import BusStoppedError
 from drempower.protocol import (
     FastRead,
     PositionT,
