@@ -200,7 +200,8 @@ def cycle(seconds: float) -> None:
             done += 1
         got = done / (time.perf_counter() - t0)
     limit = rate / bench_client.cycle_bits(1, True)
-    row("bus.cycle, 1 motor, reply-state on, 1 Mbit/s", f"{got:.0f} /s", f"{limit:.0f} /s", f"{got / limit:.0%} of limit")
+    ratio = f"{got / limit:.0%} of limit"
+    row("bus.cycle, 1 motor, reply-state on, 1 Mbit/s", f"{got:.0f} /s", f"{limit:.0f} /s", ratio)
 
 
 def idle(seconds: float) -> None:
