@@ -134,6 +134,11 @@ class BusDriver:
     is closed.
     """
 
+    caller_reads: bool = True
+    """Whether callers read a transport with a descriptor themselves (see the module docstring); False
+    leaves every read to the receive thread, which hands replies over (``bench/bench_table.py`` measures
+    both). Read when a driver is made."""
+
     def __init__(
         self,
         transport: Transport,
@@ -180,7 +185,7 @@ class BusDriver:
         self._collect: Callable[[Frame], list[Frame]] | None = (
             collect if collect is not None and getattr(transport, "instant", False) else None
         )
-        fd = transport.fileno()
+        fd = transport.fileno() if self.caller_reads else None
         self._fd = fd
         self._reader = threading.Lock()
         """Held by whoever reads a transport with a descriptor (a caller, or the receive thread)."""
@@ -561,10 +566,75 @@ class BusDriver:
             self._callers -= 1
             self._last_caller = _monotonic()
 
-    def _release_reader(self) -> None:
+    def _release_reader(self, own: Callable[[], None] | None = None) -> None:
         self._reader.release()
         for wake in list(self._sleepers):  # another caller may take over the reading
-            wake()
+            if wake is not own:
+                wake()
+
+    def _submit_timed(self, op: Op[T], on_done: Callable[[], None] | None) -> tuple[Operation[T], float | None]:
+        """:meth:`submit`, also returning how long (s) the caller may wait before stepping (None: step now)."""
+        self.check_open()
+        with self._lock:
+            s = self.session
+            s.advance(_monotonic())
+            opn = s.submit(op, on_done)
+            self._flush()
+            events = self._take_events()
+            wait = None
+            if not opn.done and not s.awaiting_confirmation:
+                due = s.next_deadline()
+                wait = _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - _monotonic()))
+        if events:
+            self._dispatch(events)
+        return opn, wait
+
+    def _run_reading(self, op: Op[T]) -> T:
+        """:meth:`run` on a transport with a descriptor: the reader role is taken before the requests go
+        out, so that once they are written this thread goes straight to ``select``. A caller that does
+        not get the role sleeps on its event until its operation is done or the role is free."""
+        reader = self._reader
+        self._enter_reading()
+        reading = reader.acquire(False)
+        ev: threading.Event | None = None
+        wake: Callable[[], None] | None = None
+        if not reading:
+            ev = self._event()
+            wake = ev.set
+            self._sleepers.add(wake)
+        opn: Operation[T] | None = None
+        try:
+            opn, wait = self._submit_timed(op, wake)
+            while not opn.done:
+                if not reading:
+                    reading = reader.acquire(False)
+                if reading:
+                    self._read_until(opn, wait)
+                    if self._is_closed():
+                        break
+                    continue
+                assert ev is not None
+                wait = self._step(opn)
+                if wait is None:
+                    break
+                if wait > 0:
+                    ev.wait(wait)
+                    ev.clear()
+                wait = None
+        except BaseException:
+            if opn is not None:
+                with self._lock:
+                    self.session.cancel(opn)
+            raise
+        finally:
+            if reading:
+                self._release_reader(wake)
+            self._leave_reading()
+            if ev is not None:
+                self._sleepers.discard(ev.set)
+                ev.clear()
+                self._tls.pool.append(ev)
+        return opn.result()
 
     def _wait_reading(self, opn: Operation[Any], done: threading.Event) -> None:
         """Wait for ``opn`` reading the transport's descriptor in this thread when no other caller does."""
@@ -575,7 +645,7 @@ class BusDriver:
             while not opn.done:
                 if self._reader.acquire(False):
                     try:
-                        self._read_until(opn)
+                        self._read_until(opn, None)
                     finally:
                         self._release_reader()
                     continue
@@ -593,15 +663,17 @@ class BusDriver:
             self._sleepers.discard(wake)
             self._leave_reading()
 
-    def _read_until(self, opn: Operation[Any]) -> None:
-        """Read and feed frames (the reader lock is held) until ``opn`` is done or the bus closes."""
+    def _read_until(self, opn: Operation[Any], wait: float | None) -> None:
+        """Read and feed frames (the reader lock is held) until ``opn`` is done or the bus closes;
+        the first wait is ``wait`` s (None: as the session says)."""
         fd = self._fd
         assert fd is not None
         fds = [fd, self._close_r]
-        while not opn.done and not self._closed:
-            wait = self._step(opn)
+        while not opn.done and not self._is_closed():
             if wait is None:
-                return
+                wait = self._step(opn)
+                if wait is None:
+                    return
             if wait > 0:
                 try:
                     select.select(fds, [], [], wait)
@@ -609,6 +681,7 @@ class BusDriver:
                     if self._is_closed():
                         return
                     raise
+            wait = None
             self._read_feed()
 
     def _read_feed(self) -> None:
@@ -659,6 +732,8 @@ class BusDriver:
 
     def run(self, op: Op[T]) -> T:
         """Run operation ``op`` to completion in the calling thread; returns its result or raises its error."""
+        if self._fd is not None:
+            return self._run_reading(op)
         opn = self.submit(op)
         if not opn.done:
             self._wait_op(opn)
