@@ -14,10 +14,13 @@ Rows (the floor of each in brackets):
    ``struct`` pack/unpack on plain tuples, without validation];
 5. the 0xAA stream decoder, per frame [cutting the frames out of the stream with no checks];
 6. ``bus.cycle`` of one motor with reply-state on, on the simulator's 1 Mbit/s
-   timing model [the bus limit: 1 Mbit/s over the bits one cycle puts on the wire];
+   timing model run in 20 us steps [the bus limit: 1 Mbit/s over the bits one cycle puts on the wire];
 7. wake-ups per second of the receive thread of an idle open bus, adapter and UART
    ptys [a thread blocked in ``select`` with no timeout];
 8. CPU time of ``import drempower`` in a fresh interpreter [``python -c pass``].
+
+Rows 1, 2 and 6 are also measured with callers leaving every read to the receive
+thread (``BusDriver.caller_reads = False``), the way replies reached callers before.
 """
 
 from __future__ import annotations
@@ -44,6 +47,7 @@ import bench_client  # noqa: E402  (the raw pty floor, the fine simulated clock,
 import bench_idle  # noqa: E402  (import CPU time, wake-up counting)
 
 import drempower  # noqa: E402
+from drempower.client import driver  # noqa: E402
 from drempower.protocol import (  # noqa: E402
     AADecoder,
     DataType,
@@ -94,8 +98,8 @@ async def async_median_us(fn: Callable[[], object], n: int) -> float:
     return statistics.median(out) * 1e6
 
 
-def latency(n: int) -> None:
-    floor = bench_client.raw_floor("adapter", n)[0]
+def adapter_latency(n: int) -> tuple[float, float]:
+    """Median ``get_state`` (us) over the adapter pty, threaded and asyncio."""
     sim = SimBus(ids=[1])
     pty = attach_adapter_pty(sim)
     try:
@@ -106,11 +110,26 @@ def latency(n: int) -> None:
             async with drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False) as abus:
                 return await async_median_us(abus.motor(1).get_state, n)
 
-        asy = asyncio.run(run_async())
+        return sync, asyncio.run(run_async())
     finally:
         pty.close()
-    row("get_state, adapter pty (0xAA), threaded", f"{sync:.0f} us", f"{floor:.0f} us", f"{sync / floor:.2f}x floor")
-    row("get_state, adapter pty (0xAA), asyncio", f"{asy:.0f} us", f"{floor:.0f} us", f"{asy / floor:.2f}x floor")
+
+
+def latency(n: int) -> None:
+    floor = bench_client.raw_floor("adapter", n)[0]
+    sync, asy = adapter_latency(n)
+    driver.BusDriver.caller_reads = False
+    try:
+        sync_rx, asy_rx = adapter_latency(n)
+    finally:
+        driver.BusDriver.caller_reads = True
+    for label, got in (
+        ("get_state, adapter pty (0xAA), threaded", sync),
+        ("  the same, receive thread + event handoff", sync_rx),
+        ("get_state, adapter pty (0xAA), asyncio", asy),
+        ("  the same, receive thread + call_soon_threadsafe", asy_rx),
+    ):
+        row(label, f"{got:.0f} us", f"{floor:.0f} us", f"{got / floor:.2f}x floor")
 
     sim = SimBus(ids=[1])
     with drempower.open_bus("sim", bus=sim, time_scale=0, timeout=1.0, stop_on_close=False) as bus:
@@ -182,11 +201,24 @@ def codec(seconds: float) -> None:
     row("0xAA stream decoder, one frame a feed", f"{e * 1e6:.2f} us/frame", f"{fe * 1e6:.2f} us", f"{e / fe:.1f}x")
 
 
-def cycle(seconds: float) -> None:
-    rate = 1_000_000
-    sim = SimBus(ids=[1], bitrate=rate)
+class FineClock(bench_client.FineClock):
+    """Runs the simulated bus in real time in steps of 20 us, with the thread's timer slack at 1 ns
+    (Linux), so that the clock's steps stay well below a frame's 111-125 us at 1 Mbit/s."""
+
+    def _run(self) -> None:
+        try:
+            import ctypes
+
+            ctypes.CDLL(None).prctl(29, 1, 0, 0, 0)  # PR_SET_TIMERSLACK
+        except (OSError, AttributeError):
+            pass
+        super()._run()
+
+
+def cycle_rate(seconds: float) -> float:
+    sim = SimBus(ids=[1], bitrate=1_000_000)
     with (
-        bench_client.FineClock(sim),
+        FineClock(sim, 20e-6),
         drempower.open_bus("sim", bus=sim, time_scale=0, stop_on_close=False) as bus,
     ):
         m = bus.motor(1)
@@ -198,10 +230,22 @@ def cycle(seconds: float) -> None:
         while time.perf_counter() - t0 < seconds:
             bus.cycle(cmd, reply_state=True)
             done += 1
-        got = done / (time.perf_counter() - t0)
-    limit = rate / bench_client.cycle_bits(1, True)
-    ratio = f"{got / limit:.0%} of limit"
-    row("bus.cycle, 1 motor, reply-state on, 1 Mbit/s", f"{got:.0f} /s", f"{limit:.0f} /s", ratio)
+        return done / (time.perf_counter() - t0)
+
+
+def cycle(seconds: float) -> None:
+    limit = 1_000_000 / bench_client.cycle_bits(1, True)
+    got = cycle_rate(seconds)
+    driver.BusDriver.caller_reads = False
+    try:
+        got_rx = cycle_rate(seconds)
+    finally:
+        driver.BusDriver.caller_reads = True
+    for label, rate in (
+        ("bus.cycle, 1 motor, reply-state on, 1 Mbit/s", got),
+        ("  the same, receive thread + event handoff", got_rx),
+    ):
+        row(label, f"{rate:.0f} /s", f"{limit:.0f} /s", f"{rate / limit:.0%} of limit")
 
 
 def idle(seconds: float) -> None:

@@ -109,7 +109,7 @@ def test_late_frames_queued_before_a_send_are_taken_first() -> None:
         transport = bus.transport
         assert isinstance(transport, SimTransport)
         with transport.bus.lock:  # delivered while no receive can run: it waits in the queue
-            transport._deliver(stray)  # type: ignore[attr-defined]
+            transport._deliver(stray)
         assert bus.motor(1).get_state().node == 1
         assert seen == [stray]  # taken before the reply to the request sent after it
         assert bus.stats["frames_received"] == 2

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import queue
+import weakref
 from collections.abc import Iterable
 from typing import Any
 
@@ -40,6 +43,8 @@ class SimTransport(QueuedTransport):
         super().__init__()
         self.wire_bitrate = self.bus.bitrate
         self._capture: list[Frame] | None = None
+        self._signal_w: int | None = None
+        self._signal_r: int | None = None
         self._sink = self._deliver
         self.bus.add_listener(self._sink, host_frames=True)
         self._runner = SimRunner(self.bus, time_scale).start() if time_scale > 0 else None
@@ -62,6 +67,47 @@ class SimTransport(QueuedTransport):
             capture.append(frame)
         else:
             self._queue.put(frame)
+            w = self._signal_w
+            if w is not None:
+                try:
+                    os.write(w, b"\0")
+                except OSError:  # full: a byte is already waiting; closed: nobody reads
+                    pass
+
+    def fileno(self) -> int | None:
+        """A pipe that turns readable when a frame is queued (made on first use; frames are then taken
+        with :meth:`read_nowait`, which empties it)."""
+        if self._signal_r is None:
+            r, w = os.pipe()
+            os.set_blocking(r, False)
+            os.set_blocking(w, False)
+            weakref.finalize(self, _close_fds, r, w)
+            self._signal_r, self._signal_w = r, w
+            if not self._queue.empty():
+                os.write(w, b"\0")
+        return self._signal_r
+
+    def read_nowait(self) -> list[Frame]:
+        """The frames queued so far (empties the :meth:`fileno` pipe first, so a frame queued meanwhile
+        leaves it readable)."""
+        r = self._signal_r
+        if r is not None:
+            try:
+                while os.read(r, 512):
+                    pass
+            except OSError:
+                pass
+        out: list[Frame] = []
+        q = self._queue
+        while True:
+            try:
+                f = q.get_nowait()
+            except queue.Empty:
+                return out
+            if f is None:  # closed: leave the wake-up in place
+                q.put(None)
+                return out
+            out.append(f)
 
     @property
     def instant(self) -> bool:
@@ -114,3 +160,16 @@ class SimTransport(QueuedTransport):
         if self._runner is not None:
             self._runner.stop()
         self._wake()
+        if self._signal_w is not None:
+            try:
+                os.write(self._signal_w, b"\0")
+            except OSError:
+                pass
+
+
+def _close_fds(*fds: int) -> None:
+    for fd in fds:
+        try:
+            os.close(fd)
+        except OSError:
+            pass
