@@ -32,11 +32,13 @@ def caller_reads(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch
     yield request.param
 
 
-@pytest.mark.parametrize("kind", ["adapter", "uart", "inprocess"])
+@pytest.mark.parametrize("kind", ["adapter", "uart", "inprocess", "inprocess-1M"])
 def test_four_threads_get_their_own_motors_answers(kind: str, caller_reads: bool) -> None:
     ids = [1] if kind == "uart" else IDS  # a UART reaches one motor
-    sim = SimBus(ids=ids)
-    with link(kind, sim, time_scale=0 if kind == "inprocess" else 20.0, timeout=1.0) as bus:
+    timed = kind == "inprocess-1M"  # frames take their time on a 1 Mbit/s bus, delivered by the runner
+    sim = SimBus(ids=ids, bitrate=1_000_000 if timed else None)
+    scale = 1.0 if timed else 0 if kind == "inprocess" else 20.0
+    with link(kind.split("-")[0], sim, time_scale=scale, timeout=1.0) as bus:
         assert (bus.core._fd is not None) == caller_reads
         errors: list[BaseException] = []
         seen: dict[int, list[int]] = {i: [] for i in range(4)}

@@ -669,6 +669,7 @@ class BusDriver:
         fd = self._fd
         assert fd is not None
         fds = [fd, self._close_r]
+        rest: Callable[[], float] | None = getattr(self.transport, "rest_time", None)
         while not opn.done and not self._is_closed():
             if wait is None:
                 wait = self._step(opn)
@@ -683,6 +684,10 @@ class BusDriver:
                     raise
             wait = None
             self._read_feed()
+            if rest is not None and not opn.done:
+                pause = rest()
+                if pause > 0:  # part of a frame is here: let the rest arrive rather than wake per byte
+                    time.sleep(pause)
 
     def _read_feed(self) -> None:
         """One non-blocking read of the transport, fed to the session (the reader lock is held)."""
@@ -740,13 +745,15 @@ class BusDriver:
         return opn.result()
 
     async def run_async(self, op: Op[T]) -> T:
-        """Run operation ``op`` to completion on the running event loop; returns its result or raises its error."""
+        """Run operation ``op`` to completion on the running event loop; returns its result or raises its error.
+
+        On a transport with a descriptor the coroutine that holds the reader role waits for it with
+        ``loop.add_reader`` and reads it on the loop; others (and every coroutine on other
+        transports) are woken by the thread that finished their operation. No thread per call.
+        """
         import asyncio
 
         loop = asyncio.get_running_loop()
-        opn = self.submit(op)
-        if opn.done:
-            return opn.result()
         holder: list[asyncio.Future[None]] = [loop.create_future()]
         loop_thread = threading.get_ident()
 
@@ -762,30 +769,32 @@ class BusDriver:
         def readable() -> None:
             _wake(holder[0])
 
-        opn.on_done = wake
-        self._sleepers.add(wake)
         fd = self._fd
         reading = False
+        self._sleepers.add(wake)
         if fd is not None:
             self._enter_reading()
+            if self._reader.acquire(False):
+                reading = True
+                loop.add_reader(fd, readable)
+        opn: Operation[T] | None = None
         try:
+            opn, wait = self._submit_timed(op, wake)
             while not opn.done:
-                if fd is not None:
-                    if not reading and self._reader.acquire(False):
-                        reading = True
-                        loop.add_reader(fd, readable)
-                    if reading:
-                        self._read_feed()
-                        if opn.done or self._closed:
-                            break
-                with self._lock:
-                    confirm = self.session.awaiting_confirmation
-                if confirm:  # the transport's confirmation blocks: not on the event loop
-                    await asyncio.to_thread(self._step, opn)
+                if fd is not None and not reading and self._reader.acquire(False):
+                    reading = True
+                    loop.add_reader(fd, readable)
+                    self._read_feed()
                     continue
-                wait = self._step(opn)
                 if wait is None:
-                    break
+                    with self._lock:
+                        confirm = self.session.awaiting_confirmation
+                    if confirm:  # the transport's confirmation blocks: not on the event loop
+                        await asyncio.to_thread(self._step, opn)
+                        continue
+                    wait = self._step(opn)
+                    if wait is None:
+                        break
                 if wait > 0:
                     fut = holder[0]
                     if not fut.done():
@@ -795,15 +804,21 @@ class BusDriver:
                         finally:
                             timer.cancel()
                     holder[0] = loop.create_future()
+                wait = None
+                if reading:
+                    if self._is_closed():
+                        break
+                    self._read_feed()
         except BaseException:
-            with self._lock:
-                self.session.cancel(opn)
+            if opn is not None:
+                with self._lock:
+                    self.session.cancel(opn)
             raise
         finally:
             self._sleepers.discard(wake)
             if reading:
                 loop.remove_reader(fd)  # type: ignore[arg-type]
-                self._release_reader()
+                self._release_reader(wake)
             if fd is not None:
                 self._leave_reading()
         return opn.result()

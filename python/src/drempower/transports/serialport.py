@@ -236,6 +236,14 @@ class SerialFrameTransport(Transport):
         """The port's descriptor (None for URLs and ports without one): readable when bytes arrived."""
         return self._fd
 
+    def rest_time(self) -> float:
+        """How long (s) the rest of a partly received frame takes on the line (0 when none is):
+        a reader waits that long before reading again instead of waking for every byte."""
+        decoder = self._decoder
+        if not decoder.pending:
+            return 0.0
+        return min(decoder.needed * self._byte_time, _MAX_REST_WAIT)
+
     def read_nowait(self) -> list[Frame]:
         """Every frame received so far: those buffered plus one non-blocking read of the port.
 
