@@ -162,10 +162,10 @@ class BusDriver:
         )
         self.transport = transport
         self.on_unsolicited = on_unsolicited
-        """Called in the receive thread with every frame that is no reply to a request and no state frame."""
+        """Called with every frame that is no reply to a request and no state frame (in the thread that took it)."""
         self.frame_taps: tuple[FrameTap, ...] = ()
-        """Called with every frame this bus sends (``tx`` True) or receives (``tx`` False, in the receive
-        thread) as it passes the transport: for recorders. See :meth:`add_tap`."""
+        """Called with every frame this bus sends (``tx`` True) or receives (``tx`` False, in the
+        thread that took it) as it passes the transport: for recorders. See :meth:`add_tap`."""
         self.on_sent: Callable[[Frame, float], None] | None = None
         """Called after each frame is handed to the transport, with the frame and :func:`time.monotonic`
         of the hand-over (s); keep it short."""
