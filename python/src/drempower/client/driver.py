@@ -57,7 +57,8 @@ FrameTap = Callable[[Frame, bool], None]
 """``tap(frame, tx)``: a frame this bus sent (``tx`` True) or received (False)."""
 
 _RX_SLICE = 1.0
-"""Longest wait (s) of the receive loop for a frame; closing the transport wakes it sooner."""
+"""Longest wait (s) of the receive loop for a frame on a transport without a descriptor; closing the
+transport wakes it sooner. On a transport with one it waits in ``select`` with no timeout."""
 _WAIT_SLICE = 1.0
 """Longest single wait (s) of a caller for its operation (the session's deadlines are usually sooner)."""
 _LINGER = 0.02
@@ -878,7 +879,7 @@ class BusDriver:
                         return
                     self._rx_selecting = True
                 try:
-                    ready = select.select(fds, [], [], _RX_SLICE)[0]
+                    ready = select.select(fds, [], [])[0]  # no timeout: the pipes wake it
                 finally:
                     with gate:
                         self._rx_selecting = False
