@@ -772,12 +772,13 @@ class BusDriver:
 
         fd = self._fd
         reading = False
-        self._sleepers.add(wake)
         if fd is not None:
             self._enter_reading()
             if self._reader.acquire(False):
                 reading = True
                 loop.add_reader(fd, readable)
+        if not reading:  # woken when the reader's turn may be ours, or a deadline changed
+            self._sleepers.add(wake)
         opn: Operation[T] | None = None
         try:
             opn, wait = self._submit_timed(op, wake)
@@ -804,7 +805,11 @@ class BusDriver:
                             await fut
                         finally:
                             timer.cancel()
+                    if reading:
+                        self._read_feed()
                     holder[0] = loop.create_future()
+                    wait = None
+                    continue
                 wait = None
                 if reading:
                     if self._is_closed():
