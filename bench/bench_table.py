@@ -19,8 +19,10 @@ Rows (the floor of each in brackets):
    ptys [a thread blocked in ``select`` with no timeout];
 8. CPU time of ``import drempower`` in a fresh interpreter [``python -c pass``].
 
-Rows 1, 2 and 6 are also measured with callers leaving every read to the receive
-thread (``BusDriver.caller_reads = False``), the way replies reached callers before.
+Rows 1 and 2 alternate blocks of the client with blocks of the floor; their ratio is the median
+of the blocks' ratios (a shared machine's load changes within a run). Rows 1, 2 and 6 are also
+measured with callers leaving every read to the receive thread (``BusDriver.caller_reads =
+False``), the way replies reached callers before.
 """
 
 from __future__ import annotations
@@ -124,9 +126,9 @@ class RawFloor:
         self.pty.close()
 
 
-ROUNDS = 10
+ROUNDS = 20
 """The floor and the client are measured in alternating blocks, so that a change of the machine's
-load during the run moves both."""
+load during the run moves both; the ratio printed is the median of the blocks' ratios."""
 
 
 def _timed(fn: Callable[[], object], n: int, out: list[float]) -> None:
@@ -143,53 +145,67 @@ async def _timed_async(fn: Callable[[], Any], n: int, out: list[float]) -> None:
         out.append(time.perf_counter() - t0)
 
 
-def adapter_latency(n: int) -> tuple[float, float, float]:
-    """Median (us) of the raw floor, and of ``get_state`` over the adapter pty, threaded and asyncio."""
+def _ratio(client: list[list[float]], floor: list[list[float]]) -> tuple[float, float, float]:
+    """Overall medians (us) of the floor and the client, and the median over the blocks of the
+    client's median over the floor's median in the block beside it (steady under a changing load)."""
+    per_block = [statistics.median(c) / statistics.median(f) for c, f in zip(client, floor, strict=True)]
+    flat_f = [x for b in floor for x in b]
+    flat_c = [x for b in client for x in b]
+    return statistics.median(flat_f) * 1e6, statistics.median(flat_c) * 1e6, statistics.median(per_block)
+
+
+def adapter_latency(n: int) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """(floor us, get_state us, ratio) over the adapter pty, threaded and asyncio (see :func:`_ratio`)."""
     sim = SimBus(ids=[1])
     pty = attach_adapter_pty(sim)
     floor = RawFloor()
     block = max(1, n // ROUNDS)
-    f: list[float] = []
-    sy: list[float] = []
-    asy: list[float] = []
+    f_sync: list[list[float]] = []
+    sync: list[list[float]] = []
+    f_async: list[list[float]] = []
+    asy: list[list[float]] = []
     try:
         with drempower.open_bus("adapter", pty.path, timeout=1.0, stop_on_close=False) as bus:
             get = bus.motor(1).get_state
             _timed(get, 50, [])
             _timed(floor, 50, [])
             for _ in range(ROUNDS):
-                _timed(floor, block, f)
-                _timed(get, block, sy)
+                f_sync.append([])
+                sync.append([])
+                _timed(floor, block, f_sync[-1])
+                _timed(get, block, sync[-1])
 
         async def run_async() -> None:
             async with drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False) as abus:
                 aget = abus.motor(1).get_state
                 await _timed_async(aget, 50, [])
                 for _ in range(ROUNDS):
-                    _timed(floor, block, f)
-                    await _timed_async(aget, block, asy)
+                    f_async.append([])
+                    asy.append([])
+                    _timed(floor, block, f_async[-1])
+                    await _timed_async(aget, block, asy[-1])
 
         asyncio.run(run_async())
     finally:
         floor.close()
         pty.close()
-    return statistics.median(f) * 1e6, statistics.median(sy) * 1e6, statistics.median(asy) * 1e6
+    return _ratio(sync, f_sync), _ratio(asy, f_async)
 
 
 def latency(n: int) -> None:
-    floor, sync, asy = adapter_latency(n)
+    sync, asy = adapter_latency(n)
     driver.BusDriver.caller_reads = False
     try:
-        floor_rx, sync_rx, asy_rx = adapter_latency(n)
+        sync_rx, asy_rx = adapter_latency(n)
     finally:
         driver.BusDriver.caller_reads = True
-    for label, got, fl in (
-        ("get_state, adapter pty (0xAA), threaded", sync, floor),
-        ("get_state, adapter pty (0xAA), asyncio", asy, floor),
-        ("  threaded, receive thread + event handoff", sync_rx, floor_rx),
-        ("  asyncio, receive thread + call_soon_threadsafe", asy_rx, floor_rx),
+    for label, (fl, got, ratio) in (
+        ("get_state, adapter pty (0xAA), threaded", sync),
+        ("get_state, adapter pty (0xAA), asyncio", asy),
+        ("  threaded, receive thread + event handoff", sync_rx),
+        ("  asyncio, receive thread + call_soon_threadsafe", asy_rx),
     ):
-        row(label, f"{got:.0f} us", f"{fl:.0f} us", f"{got / fl:.2f}x floor")
+        row(label, f"{got:.0f} us", f"{fl:.0f} us", f"{ratio:.2f}x floor")
 
     sim = SimBus(ids=[1])
     with drempower.open_bus("sim", bus=sim, time_scale=0, timeout=1.0, stop_on_close=False) as bus:

@@ -190,7 +190,9 @@ class BusDriver:
         self._fd = fd
         self._reader = threading.Lock()
         """Held by whoever reads a transport with a descriptor (a caller, or the receive thread)."""
-        self._gate = threading.Condition(threading.Lock())
+        self._gate_lock = threading.Lock()
+        self._gate = threading.Condition(self._gate_lock)
+        """Guards the count of reading callers; the parked receive thread waits on it."""
         self._callers = 0
         self._last_caller = 0.0
         self._rx_selecting = False
@@ -554,7 +556,7 @@ class BusDriver:
 
     def _enter_reading(self) -> None:
         """Count a caller that may read the transport; a receive thread waiting in ``select`` parks."""
-        with self._gate:
+        with self._gate_lock:
             self._callers += 1
             if self._rx_selecting:
                 try:
@@ -563,7 +565,7 @@ class BusDriver:
                     pass
 
     def _leave_reading(self) -> None:
-        with self._gate:
+        with self._gate_lock:
             self._callers -= 1
             self._last_caller = _monotonic()
 
