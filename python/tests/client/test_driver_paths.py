@@ -167,3 +167,50 @@ def test_a_caller_reading_the_descriptor_times_out_and_the_bus_still_works() -> 
     finally:
         bus.close()
         os.close(master)
+
+
+def test_frames_nobody_asked_for_reach_subscribers_through_the_receive_thread() -> None:
+    t, master = _pty_adapter()
+    bus = drempower.Bus(t, timeout=0.05, stop_on_close=False)
+    try:
+        got = threading.Event()
+        states: list[tuple[int, int]] = []
+
+        def seen(st: object) -> None:
+            states.append((getattr(st, "node", 0), threading.get_ident()))
+            got.set()
+
+        bus.subscribe(seen, 4)
+        with pytest.raises(drempower.TimeoutError):  # a caller read the descriptor just now
+            bus.motor(4).get_state()
+        os.write(master, encode_aa(State(4, 1.0, 0.0, 0.0, False, False).encode()))
+        assert got.wait(2.0)
+        assert states[0][0] == 4
+        assert states[0][1] != threading.get_ident()  # the receive thread took it, no caller was waiting
+    finally:
+        bus.close()
+        os.close(master)
+
+
+def test_closing_the_bus_ends_a_caller_waiting_in_select() -> None:
+    t, master = _pty_adapter()
+    bus = drempower.Bus(t, timeout=30.0, stop_on_close=False)
+    try:
+        errors: list[BaseException] = []
+
+        def wait() -> None:
+            try:
+                bus.motor(1).get_state()
+            except BaseException as exc:  # reported below
+                errors.append(exc)
+
+        th = threading.Thread(target=wait)
+        th.start()
+        assert select.select([master], [], [], 2.0)[0]  # the request is out: the caller waits for its reply
+        bus.close()
+        th.join(2.0)
+        assert not th.is_alive()
+        assert len(errors) == 1 and isinstance(errors[0], drempower.BusClosedError)
+    finally:
+        bus.close()
+        os.close(master)

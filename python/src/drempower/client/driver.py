@@ -637,7 +637,14 @@ class BusDriver:
                 self._sleepers.discard(ev.set)
                 ev.clear()
                 self._tls.pool.append(ev)
+        self._end_closed(opn)
         return opn.result()
+
+    def _end_closed(self, opn: Operation[Any]) -> None:
+        """A wait that stopped because the bus closed: fail ``opn`` if the close has not yet."""
+        if not opn.done:
+            with self._lock:
+                self.session.cancel(opn, BusClosedError(f"the bus ({self.transport.description}) was closed"))
 
     def _wait_reading(self, opn: Operation[Any], done: threading.Event) -> None:
         """Wait for ``opn`` reading the transport's descriptor in this thread when no other caller does."""
@@ -829,6 +836,7 @@ class BusDriver:
                 self._release_reader(wake)
             if fd is not None:
                 self._leave_reading()
+        self._end_closed(opn)
         return opn.result()
 
     # ------------------------------------------------------------------ receiving
