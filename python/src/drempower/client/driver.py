@@ -657,7 +657,9 @@ class BusDriver:
                     try:
                         self._read_until(opn, None)
                     finally:
-                        self._release_reader()
+                        self._release_reader(wake)
+                    if self._is_closed():
+                        break
                     continue
                 wait = self._step(opn)
                 if wait is None:
@@ -672,6 +674,7 @@ class BusDriver:
         finally:
             self._sleepers.discard(wake)
             self._leave_reading()
+        self._end_closed(opn)
 
     def _read_until(self, opn: Operation[Any], wait: float | None) -> None:
         """Read and feed frames (the reader lock is held) until ``opn`` is done or the bus closes;
