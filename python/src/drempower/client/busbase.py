@@ -174,7 +174,8 @@ class BusBase(ABC, Generic[M]):
 
     @property
     def on_unsolicited(self) -> Callable[[Frame], None] | None:
-        """Hook called in the receive thread with frames that match no request and are no state."""
+        """Hook called with frames that match no request and are no state (in the thread that took the
+        frame: the receive thread, or a caller reading the transport while it waits for a reply)."""
         return self._core.on_unsolicited
 
     @on_unsolicited.setter
@@ -190,7 +191,8 @@ class BusBase(ABC, Generic[M]):
         return self._core.states.snapshot()
 
     def subscribe(self, callback: StateCallback, id: int | None = None) -> Subscription:
-        """Call ``callback(state)`` in the receive thread for each state of motor ``id`` (all when None)."""
+        """Call ``callback(state)`` for each state of motor ``id`` (all when None), in the thread that took
+        the frame (the receive thread, or a caller reading the transport while it waits)."""
         return self._core.states.subscribe(callback, id)
 
     def __repr__(self) -> str:

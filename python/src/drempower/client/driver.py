@@ -5,12 +5,30 @@ thread that feeds received frames in, and the waits of the threaded and the
 asyncio front ends (:meth:`BusDriver.run`, :meth:`BusDriver.run_async`). One
 lock serialises every call into the session; frames are written in the order
 the session gives them, under that lock. Closing applies ``stop_on_close``.
+
+How replies reach a waiting caller depends on the transport:
+
+* a transport with a file descriptor (:meth:`Transport.fileno`: the adapter and
+  UART serial ports) is read by the caller itself while it waits: the threaded
+  caller in ``select``, the asyncio one through ``loop.add_reader``. One reader
+  at a time (a lock; other callers wait for their operation or their turn), and
+  the receive thread stays parked while callers read and for
+  :data:`_LINGER` s after, so a reply costs no thread handoff;
+* the in-process simulator with instant delivery answers inside the send
+  (``send_collect``): the replies are taken at once, with no wait at all;
+* any other transport is read by the receive thread, which hands each finished
+  operation to its caller (a reusable event per thread, or the event loop).
+
+State callbacks and the unsolicited-frame hook run in whichever thread took the
+frame, never under the session's lock.
 """
 
 from __future__ import annotations
 
 import atexit
 import logging
+import os
+import select
 import threading
 import time
 import weakref
@@ -39,9 +57,13 @@ FrameTap = Callable[[Frame, bool], None]
 """``tap(frame, tx)``: a frame this bus sent (``tx`` True) or received (False)."""
 
 _RX_SLICE = 1.0
-"""Longest wait (s) of the receive loop for a frame; closing the transport wakes it sooner."""
+"""Longest wait (s) of the receive loop for a frame on a transport without a descriptor; closing the
+transport wakes it sooner. On a transport with one it waits in ``select`` with no timeout."""
 _WAIT_SLICE = 1.0
 """Longest single wait (s) of a caller for its operation (the session's deadlines are usually sooner)."""
+_LINGER = 0.02
+"""How long (s) the receive thread stays parked after a caller read the transport itself: calls in a
+row keep it asleep; a frame nobody asked for waits at most this long for it."""
 _SIGNAL_LOCK_WAIT = 0.2
 """Longest wait (s) for a lock when a signal handler closes a bus or sends an estop: the
 interrupted code may hold it."""
@@ -80,6 +102,29 @@ def _wake(fut: asyncio.Future[Any]) -> None:
         fut.set_result(None)
 
 
+def _drain(fd: int) -> None:
+    try:
+        while os.read(fd, 512):
+            pass
+    except OSError:  # empty (non-blocking) or closed
+        pass
+
+
+def _close_fds(*fds: int) -> None:
+    for fd in fds:
+        try:
+            os.close(fd)
+        except OSError:
+            pass
+
+
+def _nonblocking_pipe() -> tuple[int, int]:
+    r, w = os.pipe()
+    os.set_blocking(r, False)
+    os.set_blocking(w, False)
+    return r, w
+
+
 class BusDriver:
     """One bus: a :class:`BusSession` driven over ``transport`` by a receive thread and the callers' waits.
 
@@ -89,6 +134,11 @@ class BusDriver:
     :mod:`drempower.client.signals`); every bus still open when Python exits
     is closed.
     """
+
+    caller_reads: bool = True
+    """Whether callers read a transport with a descriptor themselves (see the module docstring); False
+    leaves every read to the receive thread, which hands replies over (``bench/bench_table.py`` measures
+    both). Read when a driver is made."""
 
     def __init__(
         self,
@@ -113,10 +163,10 @@ class BusDriver:
         )
         self.transport = transport
         self.on_unsolicited = on_unsolicited
-        """Called in the receive thread with every frame that is no reply to a request and no state frame."""
+        """Called with every frame that is no reply to a request and no state frame (in the thread that took it)."""
         self.frame_taps: tuple[FrameTap, ...] = ()
-        """Called with every frame this bus sends (``tx`` True) or receives (``tx`` False, in the receive
-        thread) as it passes the transport: for recorders. See :meth:`add_tap`."""
+        """Called with every frame this bus sends (``tx`` True) or receives (``tx`` False, in the
+        thread that took it) as it passes the transport: for recorders. See :meth:`add_tap`."""
         self.on_sent: Callable[[Frame, float], None] | None = None
         """Called after each frame is handed to the transport, with the frame and :func:`time.monotonic`
         of the hand-over (s); keep it short."""
@@ -129,8 +179,34 @@ class BusDriver:
         self._failure: BaseException | None = None
         self._sleepers: set[Callable[[], None]] = set()
         """How to wake each caller sleeping until its operation's next deadline."""
+        self._events: list[MotorState | Frame] = []
+        """Events of frames taken in a sending caller's thread (instant delivery), dispatched after the lock."""
+        self._tls = threading.local()
+        collect = getattr(transport, "send_collect", None)
+        self._collect: Callable[[Frame], list[Frame]] | None = (
+            collect if collect is not None and getattr(transport, "instant", False) else None
+        )
+        fd = transport.fileno() if self.caller_reads else None
+        self._fd = fd
+        self._reader = threading.Lock()
+        """Held by whoever reads a transport with a descriptor (a caller, or the receive thread)."""
+        self._gate_lock = threading.Lock()
+        self._gate = threading.Condition(self._gate_lock)
+        """Guards the count of reading callers; the parked receive thread waits on it."""
+        self._callers = 0
+        self._last_caller = 0.0
+        self._rx_selecting = False
+        self._pipes: list[int] = []
+        if fd is not None:
+            self._poke_r, self._poke_w = _nonblocking_pipe()  # wakes the receive thread so that it parks
+            self._close_r, self._close_w = _nonblocking_pipe()  # readable once closed: wakes every select
+            self._pipes = [self._poke_r, self._poke_w, self._close_r, self._close_w]
+            # closed with the driver: a late select on them (a caller still returning) stays valid
+            weakref.finalize(self, _close_fds, *self._pipes)
         self._thread = threading.Thread(
-            target=self._rx_loop, name=f"drempower rx ({transport.description})", daemon=True
+            target=self._rx_loop if fd is None else self._rx_loop_fd,
+            name=f"drempower rx ({transport.description})",
+            daemon=True,
         )
         self._thread.start()
         _open_drivers.add(self)
@@ -204,6 +280,9 @@ class BusDriver:
     def closed(self) -> bool:
         return self._closed
 
+    def _is_closed(self) -> bool:
+        return self._closed
+
     def check_open(self) -> None:
         """Raise :class:`BusClosedError` if the bus is closed or its receive loop stopped."""
         if self._closed:
@@ -236,41 +315,91 @@ class BusDriver:
 
     def _flush(self) -> None:
         """Write what the session wants sent (the lock is held). A failed write fails the operations
-        waiting on the session and is raised."""
+        waiting on the session and is raised. Replies a transport gives back at once (instant
+        delivery) are taken here; their events wait in ``_events`` for :meth:`_dispatch_pending`."""
         s = self.session
         s.now = _monotonic()
         frames = s.data_to_send()
-        if not frames:
-            return
-        try:
-            self._write(frames)
-        except Exception as exc:
-            s.abort(exc)
-            raise
+        while frames:
+            try:
+                back = self._write(frames, self._collect)
+            except Exception as exc:
+                s.abort(exc)
+                raise
+            if not back:
+                return
+            now = _monotonic()
+            taps = self.frame_taps
+            for f in back:
+                if taps:
+                    self._tap(f, False)
+                try:
+                    event = s.receive(f, now)
+                except Exception:
+                    _log.exception("dispatching %r failed", f)
+                    continue
+                if event is not None:
+                    self._events.append(event)
+            s.now = _monotonic()
+            frames = s.data_to_send()
 
-    def _write(self, frames: Sequence[Frame]) -> None:
+    def _write(self, frames: Sequence[Frame], collect: Callable[[Frame], list[Frame]] | None = None) -> list[Frame]:
+        """Hand ``frames`` to the transport; with ``collect``, returns the frames it gave back at once."""
         send, sent, taps = self.transport.send, self.on_sent, self.frame_taps
+        back: list[Frame] = []
         for f in frames:
-            send(f)
+            if collect is not None:
+                got = collect(f)
+                if got:
+                    back.extend(got)
+            else:
+                send(f)
             if taps:
                 self._tap(f, True)
             if sent is not None:
                 sent(f, _monotonic())
+        return back
+
+    def _take_events(self) -> list[MotorState | Frame] | None:
+        """The events waiting for dispatch (the lock is held), or None."""
+        if not self._events:
+            return None
+        events, self._events = self._events, []
+        return events
+
+    def _dispatch(self, events: Sequence[MotorState | Frame]) -> None:
+        """Hand state frames to the subscribers and other unanswered frames to the hook (no lock held)."""
+        states = self.states
+        for event in events:
+            if event.__class__ is MotorState:
+                if states.subscribed:
+                    states.notify(event)
+            else:
+                hook = self.on_unsolicited
+                if hook is not None:
+                    try:
+                        hook(event)  # type: ignore[arg-type]
+                    except Exception:
+                        _log.exception("unsolicited-frame hook %r failed", hook)
 
     def _send_frames(self, frames: Sequence[Frame], lock_timeout: float = -1) -> None:
         """Write ``frames`` as they are, after anything queued (no tracking: frames the protocol does not
         define, the stop frames of a close). With ``lock_timeout`` >= 0 (s), frames whose lock does not
         come in that time are written anyway (a signal handler may interrupt the code holding it)."""
         held = self._lock.acquire(timeout=lock_timeout)
+        events = None
         try:
             if held:
                 self.session.send_frames(frames)
                 self._flush()
+                events = self._take_events()
             else:
                 self._write(frames)
         finally:
             if held:
                 self._lock.release()
+        if events:
+            self._dispatch(events)
 
     # ------------------------------------------------------------------ sending
 
@@ -283,12 +412,15 @@ class BusDriver:
         """Encode every message first (nothing is sent if one is invalid), then send them in order
         (see :meth:`BusSession.send`)."""
         self.check_open()
-        done = threading.Event()
         with self._lock:
-            opn = self.session.send(msgs, done.set)
+            opn = self.session.send(msgs)
             self._flush()
+            events = self._take_events()
+        if events:
+            self._dispatch(events)
+        if opn is not None and not opn.done:
+            self._wait_op(opn)
         if opn is not None:
-            self._wait(opn, done)
             opn.result()
 
     @staticmethod
@@ -340,6 +472,9 @@ class BusDriver:
             s.advance(_monotonic())
             opn = s.submit(op, on_done)
             self._flush()
+            events = self._take_events()
+        if events:
+            self._dispatch(events)
         return opn
 
     def _step(self, opn: Operation[Any]) -> float | None:
@@ -349,18 +484,47 @@ class BusDriver:
             s = self.session
             s.advance(_monotonic())
             self._flush()
+            events = self._take_events()
             if opn.done:
-                return None
-            confirm = s.awaiting_confirmation
-            due = s.next_deadline()
-            wait = _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - _monotonic()))
+                wait = None
+            else:
+                confirm = s.awaiting_confirmation
+                due = s.next_deadline()
+                wait = _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - _monotonic()))
+        if events:
+            self._dispatch(events)
         if confirm:
-            ok = self.transport.wait_sent(wait)
+            ok = self.transport.wait_sent(wait or 0.0)
             with self._lock:
                 s.transmitted(_monotonic(), ok)
                 self._flush()
+                events = self._take_events()
+            if events:
+                self._dispatch(events)
             return 0.0
         return wait
+
+    def _event(self) -> threading.Event:
+        """A cleared event of the calling thread (reused across its calls; nested calls get their own)."""
+        pool: list[threading.Event] | None = getattr(self._tls, "pool", None)
+        if pool is None:
+            pool = self._tls.pool = []
+        ev = pool.pop() if pool else threading.Event()
+        ev.clear()
+        return ev
+
+    def _wait_op(self, opn: Operation[Any]) -> None:
+        """Wait in the calling thread until ``opn`` is done (it was submitted without ``on_done``)."""
+        ev = self._event()
+        try:
+            opn.on_done = ev.set
+            if self._fd is not None:
+                self._wait_reading(opn, ev)
+            else:
+                self._wait(opn, ev)
+        finally:
+            ev.clear()
+            self._tls.pool.append(ev)
 
     def _wait(self, opn: Operation[Any], done: threading.Event) -> None:
         wake = done.set
@@ -380,49 +544,292 @@ class BusDriver:
         finally:
             self._sleepers.discard(wake)
 
-    def run(self, op: Op[T]) -> T:
-        """Run operation ``op`` to completion in the calling thread; returns its result or raises its error."""
-        done = threading.Event()
-        opn = self.submit(op, done.set)
-        if not opn.done:
-            self._wait(opn, done)
-        return opn.result()
+    def _enter_reading(self) -> None:
+        """Count a caller that may read the transport; a receive thread waiting in ``select`` parks."""
+        with self._gate_lock:
+            self._callers += 1
+            if self._rx_selecting:
+                try:
+                    os.write(self._poke_w, b"p")
+                except OSError:  # the pipe is full (the thread wakes anyway) or closed
+                    pass
 
-    async def run_async(self, op: Op[T]) -> T:
-        """Run operation ``op`` to completion on the running event loop; returns its result or raises its error."""
-        import asyncio
+    def _leave_reading(self) -> None:
+        with self._gate_lock:
+            self._callers -= 1
+            self._last_caller = _monotonic()
 
-        loop = asyncio.get_running_loop()
-        holder: list[asyncio.Future[None]] = [loop.create_future()]
+    def _release_reader(self, own: Callable[[], None] | None = None) -> None:
+        self._reader.release()
+        for wake in list(self._sleepers):  # another caller may take over the reading
+            if wake is not own:
+                wake()
 
-        def wake() -> None:
-            try:
-                loop.call_soon_threadsafe(_wake, holder[0])
-            except RuntimeError:  # the loop is closed; nobody waits any more
-                pass
+    def _submit_timed(self, op: Op[T], on_done: Callable[[], None] | None) -> tuple[Operation[T], float | None]:
+        """:meth:`submit`, also returning how long (s) the caller may wait before stepping (None: step now)."""
+        self.check_open()
+        with self._lock:
+            s = self.session
+            s.advance(_monotonic())
+            opn = s.submit(op, on_done)
+            self._flush()
+            events = self._take_events()
+            wait = None
+            if not opn.done and not s.awaiting_confirmation:
+                due = s.next_deadline()
+                wait = _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - _monotonic()))
+        if events:
+            self._dispatch(events)
+        return opn, wait
 
-        opn = self.submit(op, wake)
-        self._sleepers.add(wake)
+    def _run_reading(self, op: Op[T]) -> T:
+        """:meth:`run` on a transport with a descriptor: the reader role is taken before the requests go
+        out, so that once they are written this thread goes straight to ``select``. A caller that does
+        not get the role sleeps on its event until its operation is done or the role is free."""
+        reader = self._reader
+        self._enter_reading()
+        reading = reader.acquire(False)
+        ev: threading.Event | None = None
+        wake: Callable[[], None] | None = None
+        if not reading:
+            ev = self._event()
+            wake = ev.set
+            self._sleepers.add(wake)
+        opn: Operation[T] | None = None
         try:
+            opn, wait = self._submit_timed(op, wake)
             while not opn.done:
-                with self._lock:
-                    confirm = self.session.awaiting_confirmation
-                if confirm:  # the transport's confirmation blocks: not on the event loop
-                    await asyncio.to_thread(self._step, opn)
+                if not reading:
+                    reading = reader.acquire(False)
+                if reading:
+                    self._read_until(opn, wait)
+                    if self._is_closed():
+                        break
                     continue
+                assert ev is not None
                 wait = self._step(opn)
                 if wait is None:
                     break
                 if wait > 0:
-                    await asyncio.wait((holder[0],), timeout=wait)
-                    if holder[0].done():
-                        holder[0] = loop.create_future()
+                    ev.wait(wait)
+                    ev.clear()
+                wait = None
+        except BaseException:
+            if opn is not None:
+                with self._lock:
+                    self.session.cancel(opn)
+            raise
+        finally:
+            if reading:
+                self._release_reader(wake)
+            self._leave_reading()
+            if ev is not None:
+                self._sleepers.discard(ev.set)
+                ev.clear()
+                self._tls.pool.append(ev)
+        self._end_closed(opn)
+        return opn.result()
+
+    def _end_closed(self, opn: Operation[Any]) -> None:
+        """A wait that stopped because the bus closed: fail ``opn`` if the close has not yet."""
+        if not opn.done:
+            with self._lock:
+                self.session.cancel(opn, BusClosedError(f"the bus ({self.transport.description}) was closed"))
+
+    def _wait_reading(self, opn: Operation[Any], done: threading.Event) -> None:
+        """Wait for ``opn`` reading the transport's descriptor in this thread when no other caller does."""
+        wake = done.set
+        self._sleepers.add(wake)
+        self._enter_reading()
+        try:
+            while not opn.done:
+                if self._reader.acquire(False):
+                    try:
+                        self._read_until(opn, None)
+                    finally:
+                        self._release_reader(wake)
+                    if self._is_closed():
+                        break
+                    continue
+                wait = self._step(opn)
+                if wait is None:
+                    return
+                if wait > 0:
+                    done.wait(wait)
+                    done.clear()
         except BaseException:
             with self._lock:
                 self.session.cancel(opn)
             raise
         finally:
             self._sleepers.discard(wake)
+            self._leave_reading()
+        self._end_closed(opn)
+
+    def _read_until(self, opn: Operation[Any], wait: float | None) -> None:
+        """Read and feed frames (the reader lock is held) until ``opn`` is done or the bus closes;
+        the first wait is ``wait`` s (None: as the session says)."""
+        fd = self._fd
+        assert fd is not None
+        fds = [fd, self._close_r]
+        rest: Callable[[], float] | None = getattr(self.transport, "rest_time", None)
+        while not opn.done and not self._is_closed():
+            if wait is None:
+                wait = self._step(opn)
+                if wait is None:
+                    return
+            if wait > 0:
+                try:
+                    select.select(fds, [], [], wait)
+                except (OSError, ValueError):  # closed under us
+                    if self._is_closed():
+                        return
+                    raise
+            wait = None
+            self._read_feed()
+            if rest is not None and not opn.done:
+                pause = rest()
+                if pause > 0:  # part of a frame is here: let the rest arrive rather than wake per byte
+                    time.sleep(pause)
+
+    def _read_feed(self) -> None:
+        """One non-blocking read of the transport, fed to the session (the reader lock is held)."""
+        try:
+            frames = self.transport.read_nowait()
+        except Exception as exc:
+            if not self._closed:
+                self._rx_failed(exc)
+            return
+        if frames:
+            self._feed(frames)
+
+    def _feed(self, frames: Sequence[Frame]) -> None:
+        """Feed received ``frames`` to the session; dispatch their events after the lock."""
+        if self.frame_taps:
+            for f in frames:
+                self._tap(f, False)
+        s = self.session
+        with self._lock:
+            changes = s.changes
+            now = _monotonic()
+            for f in frames:
+                try:
+                    event = s.receive(f, now)
+                except Exception:
+                    _log.exception("dispatching %r failed", f)
+                    continue
+                if event is not None:
+                    self._events.append(event)
+            if s.wants_to_send:
+                try:
+                    self._flush()
+                except Exception as exc:
+                    _log.warning("sending after a received frame failed: %s", exc)
+            if s.changes != changes:  # new deadlines: sleeping callers must look again
+                for wake in list(self._sleepers):
+                    wake()
+            events = self._take_events()
+        if events:
+            self._dispatch(events)
+
+    def _rx_failed(self, exc: BaseException) -> None:
+        _log.error("receive loop on %s stopped: %s", self.transport.description, exc)
+        self._failure = exc
+        with self._lock:
+            self.session.close(BusClosedError(f"the receive loop stopped: {exc}"), final=False)
+
+    def run(self, op: Op[T]) -> T:
+        """Run operation ``op`` to completion in the calling thread; returns its result or raises its error."""
+        if self._fd is not None:
+            return self._run_reading(op)
+        opn = self.submit(op)
+        if not opn.done:
+            self._wait_op(opn)
+        return opn.result()
+
+    async def run_async(self, op: Op[T]) -> T:
+        """Run operation ``op`` to completion on the running event loop; returns its result or raises its error.
+
+        On a transport with a descriptor the coroutine that holds the reader role waits for it with
+        ``loop.add_reader`` and reads it on the loop; others (and every coroutine on other
+        transports) are woken by the thread that finished their operation. No thread per call.
+        """
+        import asyncio
+
+        loop = asyncio.get_running_loop()
+        holder: list[asyncio.Future[None]] = [loop.create_future()]
+        loop_thread = threading.get_ident()
+
+        def wake() -> None:
+            if threading.get_ident() == loop_thread:
+                _wake(holder[0])
+                return
+            try:
+                loop.call_soon_threadsafe(_wake, holder[0])
+            except RuntimeError:  # the loop is closed; nobody waits any more
+                pass
+
+        def readable() -> None:
+            _wake(holder[0])
+
+        fd = self._fd
+        reading = False
+        if fd is not None:
+            self._enter_reading()
+            if self._reader.acquire(False):
+                reading = True
+                loop.add_reader(fd, readable)
+        if not reading:  # woken when the reader's turn may be ours, or a deadline changed
+            self._sleepers.add(wake)
+        opn: Operation[T] | None = None
+        try:
+            opn, wait = self._submit_timed(op, wake)
+            while not opn.done:
+                if fd is not None and not reading and self._reader.acquire(False):
+                    reading = True
+                    loop.add_reader(fd, readable)
+                    self._read_feed()
+                    continue
+                if wait is None:
+                    with self._lock:
+                        confirm = self.session.awaiting_confirmation
+                    if confirm:  # the transport's confirmation blocks: not on the event loop
+                        await asyncio.to_thread(self._step, opn)
+                        continue
+                    wait = self._step(opn)
+                    if wait is None:
+                        break
+                if wait > 0:
+                    fut = holder[0]
+                    if not fut.done():
+                        timer = loop.call_later(wait, _wake, fut)
+                        try:
+                            await fut
+                        finally:
+                            timer.cancel()
+                    if reading:
+                        self._read_feed()
+                    holder[0] = loop.create_future()
+                    wait = None
+                    continue
+                wait = None
+                if reading:
+                    if self._is_closed():
+                        break
+                    self._read_feed()
+        except BaseException:
+            if opn is not None:
+                with self._lock:
+                    self.session.cancel(opn)
+            raise
+        finally:
+            self._sleepers.discard(wake)
+            if reading:
+                loop.remove_reader(fd)  # type: ignore[arg-type]
+                self._release_reader(wake)
+            if fd is not None:
+                self._leave_reading()
+        self._end_closed(opn)
         return opn.result()
 
     # ------------------------------------------------------------------ receiving
@@ -431,7 +838,6 @@ class BusDriver:
         recv = self.transport.recv
         s = self.session
         lock = self._lock
-        states = self.states
         try:
             while not self._closed:
                 frame = recv(_RX_SLICE)
@@ -454,24 +860,50 @@ class BusDriver:
                     if s.changes != changes:  # new deadlines: sleeping callers must look again
                         for wake in list(self._sleepers):
                             wake()
-                if event is None:
-                    continue
-                if event.__class__ is MotorState:
-                    if states.subscribed:
-                        states.notify(event)
-                else:
-                    hook = self.on_unsolicited
-                    if hook is not None:
-                        try:
-                            hook(event)  # type: ignore[arg-type]
-                        except Exception:
-                            _log.exception("unsolicited-frame hook %r failed", hook)
+                    events = self._take_events()
+                if event is not None:
+                    self._dispatch((event,))
+                if events:
+                    self._dispatch(events)
         except Exception as exc:
             if not self._closed:
-                _log.error("receive loop on %s stopped: %s", self.transport.description, exc)
-                self._failure = exc
-                with lock:
-                    s.close(BusClosedError(f"the receive loop stopped: {exc}"), final=False)
+                self._rx_failed(exc)
+
+    def _rx_loop_fd(self) -> None:
+        """The receive thread of a transport with a descriptor: reads while no caller does."""
+        fd = self._fd
+        assert fd is not None
+        fds = [fd, self._poke_r, self._close_r]
+        gate, reader = self._gate, self._reader
+        try:
+            while not self._is_closed():
+                with gate:
+                    while not self._is_closed():
+                        left = _LINGER if self._callers else self._last_caller + _LINGER - _monotonic()
+                        if left <= 0:
+                            break
+                        gate.wait(left)
+                    if self._is_closed():
+                        return
+                    self._rx_selecting = True
+                try:
+                    ready = select.select(fds, [], [])[0]  # no timeout: the pipes wake it
+                finally:
+                    with gate:
+                        self._rx_selecting = False
+                if self._is_closed():
+                    return
+                if self._poke_r in ready:
+                    _drain(self._poke_r)
+                if fd not in ready or not reader.acquire(False):
+                    continue  # a caller reads: park
+                try:
+                    self._read_feed()
+                finally:
+                    reader.release()
+        except Exception as exc:
+            if not self._closed:
+                self._rx_failed(exc)
 
     # ------------------------------------------------------------------ closing
 
@@ -495,6 +927,13 @@ class BusDriver:
                 _log.warning("stopping the motors on close failed: %s", exc)
             self._closed = True
             self.closed_event.set()
+            if self._pipes:
+                try:
+                    os.write(self._close_w, b"c")  # wakes every select on this bus, for good
+                except OSError:
+                    pass
+                with self._gate:
+                    self._gate.notify_all()
             _open_drivers.discard(self)
             held = self._lock.acquire(timeout=lock_timeout)
             try:

@@ -70,7 +70,7 @@ class MotorBase:
         return self._core.states.get(self._id)
 
     def subscribe(self, callback: StateCallback) -> Subscription:
-        """Call ``callback(state)`` (in the receive thread) for each state frame of this motor."""
+        """Call ``callback(state)`` (in the thread that took the frame) for each state frame of this motor."""
         return self._core.states.subscribe(callback, self._id)
 
     def _system(self, op: SysCmd) -> None:

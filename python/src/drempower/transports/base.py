@@ -50,6 +50,15 @@ class Transport(ABC):
         ``timeout`` s passed first, None when this transport cannot tell (the default)."""
         return None
 
+    def fileno(self) -> int | None:
+        """A file descriptor that turns readable when :meth:`read_nowait` has frames to give, or None
+        when this transport has none (the driver then receives through :meth:`recv` in a thread)."""
+        return None
+
+    def read_nowait(self) -> list[Frame]:
+        """The frames received so far, without waiting (only for transports with a :meth:`fileno`)."""
+        raise NotImplementedError(f"{type(self).__name__} has no non-blocking read")
+
     recv_slice: float | None = RECV_SLICE
     """Longest single :meth:`wait_frame` of :meth:`recv` (s); None when ``close`` itself wakes a wait."""
 

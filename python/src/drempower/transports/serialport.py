@@ -110,6 +110,7 @@ class SerialFrameTransport(Transport):
         self._closing = threading.Event()
         self._broken: str | None = None
         self._fd: int | None = None
+        self._last_chunk = 0.0
         self._wake_w: int | None = None
         self._wait_fds: list[int] = []
         posix = _PosixSerial is not None and isinstance(self._ser, _PosixSerial)
@@ -230,6 +231,49 @@ class SerialFrameTransport(Transport):
         elif decoder.pending:
             decoder.flush()
         return None
+
+    def fileno(self) -> int | None:
+        """The port's descriptor (None for URLs and ports without one): readable when bytes arrived."""
+        return self._fd
+
+    def rest_time(self) -> float:
+        """How long (s) the rest of a partly received frame takes on the line (0 when none is):
+        a reader waits that long before reading again instead of waking for every byte."""
+        decoder = self._decoder
+        if not decoder.pending:
+            return 0.0
+        return min(decoder.needed * self._byte_time, _MAX_REST_WAIT)
+
+    def read_nowait(self) -> list[Frame]:
+        """Every frame received so far: those buffered plus one non-blocking read of the port.
+
+        Only for ports with a :meth:`fileno`. A partial frame stays buffered for
+        the next read unless :data:`READ_TIMEOUT` passed since its bytes came (then
+        it is dropped, as :meth:`wait_frame` does).
+        """
+        frames = self._frames
+        out = list(frames) if frames else []
+        frames.clear()
+        fd = self._fd
+        assert fd is not None, "read_nowait needs a port with a file descriptor"
+        try:
+            chunk = os.read(fd, 4096)
+        except (BlockingIOError, InterruptedError):
+            return out
+        except OSError as exc:
+            if self._closing.is_set():
+                return out
+            raise TransportError(f"{self.description}: read failed: {exc}") from exc
+        if chunk:
+            decoder = self._decoder
+            now = time.monotonic()
+            if decoder.pending and now - self._last_chunk > READ_TIMEOUT:
+                decoder.flush()
+            self._last_chunk = now
+            got = decoder.feed(chunk)
+            if got:
+                out.extend(got)
+        return out
 
     # ------------------------------------------------------------------ closing
 

@@ -2,6 +2,9 @@
 
 from __future__ import annotations
 
+import os
+import queue
+import weakref
 from collections.abc import Iterable
 from typing import Any
 
@@ -39,7 +42,11 @@ class SimTransport(QueuedTransport):
         """The simulated bus."""
         super().__init__()
         self.wire_bitrate = self.bus.bitrate
-        self.bus.add_listener(self._queue.put, host_frames=True)
+        self._capture: list[Frame] | None = None
+        self._signal_w: int | None = None
+        self._signal_r: int | None = None
+        self._sink = self._deliver
+        self.bus.add_listener(self._sink, host_frames=True)
         self._runner = SimRunner(self.bus, time_scale).start() if time_scale > 0 else None
         ids = ",".join(str(m.node_id) for m in self.bus.motors.values())
         pace = f"time x{time_scale:g}" if time_scale > 0 else "manual clock"
@@ -54,8 +61,81 @@ class SimTransport(QueuedTransport):
     def __enter__(self) -> SimTransport:
         return self
 
+    def _deliver(self, frame: Frame) -> None:
+        capture = self._capture
+        if capture is not None:  # set only while send_collect holds the bus's lock: this is its answer
+            capture.append(frame)
+        else:
+            self._queue.put(frame)
+            w = self._signal_w
+            if w is not None:
+                try:
+                    os.write(w, b"\0")
+                except OSError:  # full: a byte is already waiting; closed: nobody reads
+                    pass
+
+    def fileno(self) -> int | None:
+        """A pipe that turns readable when a frame is queued (made on first use; frames are then taken
+        with :meth:`read_nowait`, which empties it)."""
+        if self._signal_r is None:
+            r, w = os.pipe()
+            os.set_blocking(r, False)
+            os.set_blocking(w, False)
+            weakref.finalize(self, _close_fds, r, w)
+            self._signal_r, self._signal_w = r, w
+            if not self._queue.empty():
+                os.write(w, b"\0")
+        return self._signal_r
+
+    def read_nowait(self) -> list[Frame]:
+        """The frames queued so far (empties the :meth:`fileno` pipe first, so a frame queued meanwhile
+        leaves it readable)."""
+        r = self._signal_r
+        if r is not None:
+            try:
+                while os.read(r, 512):
+                    pass
+            except OSError:
+                pass
+        out: list[Frame] = []
+        q = self._queue
+        while True:
+            try:
+                f = q.get_nowait()
+            except queue.Empty:
+                return out
+            if f is None:  # closed: leave the wake-up in place
+                q.put(None)
+                return out
+            out.append(f)
+
+    @property
+    def instant(self) -> bool:
+        """True when the simulated bus delivers at once (no bit rate): :meth:`send_collect` returns the answers."""
+        return self.bus.bitrate is None
+
     def send(self, frame: Frame) -> None:
-        self.bus.send(frame, self._queue.put)
+        self.bus.send(frame, self._sink)
+
+    def send_collect(self, frame: Frame) -> list[Frame]:
+        """Send ``frame`` and return the frames queued for :meth:`recv` before it, then those the bus
+        delivered to this transport meanwhile (with instant delivery: the motors' answers), in order."""
+        out: list[Frame] = []
+        bus = self.bus
+        with bus.lock:  # no other thread delivers while it is held
+            q = self._queue
+            while not q.empty():
+                f = q.get_nowait()
+                if f is None:  # closed: leave the wake-up for the receive thread
+                    q.put(None)
+                    break
+                out.append(f)
+            self._capture = out
+            try:
+                bus.send(frame, self._sink)
+            finally:
+                self._capture = None
+        return out
 
     def wait_sent(self, timeout: float) -> bool | None:
         """Wait until every frame sent through this transport has been transmitted on the simulated bus.
@@ -68,7 +148,7 @@ class SimTransport(QueuedTransport):
             return True
         if self._runner is None:
             return None
-        origin = self._queue.put
+        origin = self._sink
         with bus.tx_done:
             return bus.tx_done.wait_for(lambda: bus.host_pending(origin) == 0, timeout)
 
@@ -76,7 +156,20 @@ class SimTransport(QueuedTransport):
         if self._closed:
             return
         self._closed = True
-        self.bus.remove_listener(self._queue.put)
+        self.bus.remove_listener(self._sink)
         if self._runner is not None:
             self._runner.stop()
         self._wake()
+        if self._signal_w is not None:
+            try:
+                os.write(self._signal_w, b"\0")
+            except OSError:
+                pass
+
+
+def _close_fds(*fds: int) -> None:
+    for fd in fds:
+        try:
+            os.close(fd)
+        except OSError:
+            pass

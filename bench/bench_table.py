@@ -1,0 +1,383 @@
+#!/usr/bin/env python3
+"""The speed table in one run: every figure beside its floor, measured on this machine now.
+
+Run: ``python3 bench/bench_table.py [--requests N] [--seconds S]``. Prints figures; asserts nothing.
+
+Rows (the floor of each in brackets):
+
+1. ``get_state`` median over the simulator's USB-CAN adapter pty (0xAA), threaded
+   client [a minimal client doing ``os.write`` / ``select`` / ``os.read`` on the same pty];
+2. the same through the asyncio client [the same raw floor];
+3. ``get_state`` through the in-process simulator with instant delivery [the
+   simulated bus answering the fast read by itself: ``SimBus.send``];
+4. codec: encode + decode of one frame, a mix of commands and replies [the same
+   ``struct`` pack/unpack on plain tuples, without validation];
+5. the 0xAA stream decoder, per frame [cutting the frames out of the stream with no checks];
+6. ``bus.cycle`` of one motor with reply-state on, on the simulator's 1 Mbit/s
+   timing model run in 20 us steps [the bus limit: 1 Mbit/s over the bits one cycle puts on the wire];
+7. wake-ups per second of the receive thread of an idle open bus, adapter and UART
+   ptys [a thread blocked in ``select`` with no timeout];
+8. CPU time of ``import drempower`` in a fresh interpreter [``python -c pass``].
+
+Rows 1 and 2 alternate blocks of the client with blocks of the floor; their ratio is the median
+of the blocks' ratios (a shared machine's load changes within a run). Rows 1, 2 and 6 are also
+measured with callers leaving every read to the receive thread (``BusDriver.caller_reads =
+False``), the way replies reached callers before.
+"""
+
+from __future__ import annotations
+
+import argparse
+import asyncio
+import os
+import platform
+import select
+import statistics
+import struct
+import sys
+import threading
+import time
+import timeit
+import tty
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+HERE = Path(__file__).resolve().parent
+sys.path.insert(0, str(HERE.parent / "python" / "src"))
+sys.path.insert(0, str(HERE))
+
+import bench_client  # noqa: E402  (the raw pty floor, the fine simulated clock, the cycle's bits)
+import bench_idle  # noqa: E402  (import CPU time, wake-up counting)
+
+import drempower  # noqa: E402
+from drempower.client import driver  # noqa: E402
+from drempower.protocol import (  # noqa: E402
+    AADecoder,
+    DataType,
+    FastRead,
+    Frame,
+    ParamValue,
+    PositionQ,
+    PositionT,
+    ReadParam,
+    State,
+    Velocity,
+    VelocityMode,
+    WriteParam,
+    decode_command,
+    decode_reply,
+    encode_aa,
+)
+from drempower.sim import SimBus, attach_adapter_pty, attach_uart_pty  # noqa: E402
+
+ROWS: list[tuple[str, str, str, str]] = []
+
+
+def row(measure: str, figure: str, floor: str, ratio: str) -> None:
+    ROWS.append((measure, figure, floor, ratio))
+    print(f"  {measure:<52} {figure:>14}   floor {floor:>12}   {ratio}", flush=True)
+
+
+def best(fn: Callable[[], object], items: int, seconds: float, repeat: int = 5) -> float:
+    """Best of ``repeat`` timed runs, in seconds per item."""
+    timer = timeit.Timer(fn)
+    loops, _ = timer.autorange()
+    loops = max(1, int(loops * seconds / repeat / 0.2))
+    return min(timer.repeat(repeat=repeat, number=loops)) / loops / items
+
+
+def median_us(fn: Callable[[], object], n: int) -> float:
+    return bench_client.timings(fn, n)[0]
+
+
+async def async_median_us(fn: Callable[[], object], n: int) -> float:
+    for _ in range(min(50, n)):
+        await fn()  # type: ignore[misc]
+    out = []
+    for _ in range(n):
+        t0 = time.perf_counter()
+        await fn()  # type: ignore[misc]
+        out.append(time.perf_counter() - t0)
+    return statistics.median(out) * 1e6
+
+
+class RawFloor:
+    """A minimal client on its own simulator's adapter pty: ``os.write`` the fast read, ``select`` +
+    ``os.read`` the whole reply, no decoding."""
+
+    def __init__(self) -> None:
+        self.pty = attach_adapter_pty(SimBus(ids=[1]))
+        self.fd = os.open(self.pty.path, os.O_RDWR | os.O_NOCTTY)
+        tty.setraw(self.fd)
+        self.request = encode_aa(FastRead(1).encode())
+
+    def __call__(self) -> None:
+        fd, size = self.fd, len(self.request)
+        os.write(fd, self.request)
+        got = 0
+        while got < size:
+            if not select.select([fd], [], [], 1.0)[0]:
+                raise TimeoutError("no reply on the adapter pty")
+            got += len(os.read(fd, size - got))
+
+    def close(self) -> None:
+        os.close(self.fd)
+        self.pty.close()
+
+
+ROUNDS = 20
+"""The floor and the client are measured in alternating blocks, so that a change of the machine's
+load during the run moves both; the ratio printed is the median of the blocks' ratios."""
+
+
+def _timed(fn: Callable[[], object], n: int, out: list[float]) -> None:
+    for _ in range(n):
+        t0 = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - t0)
+
+
+async def _timed_async(fn: Callable[[], Any], n: int, out: list[float]) -> None:
+    for _ in range(n):
+        t0 = time.perf_counter()
+        await fn()
+        out.append(time.perf_counter() - t0)
+
+
+def _ratio(client: list[list[float]], floor: list[list[float]]) -> tuple[float, float, float]:
+    """Overall medians (us) of the floor and the client, and the median over the blocks of the
+    client's median over the floor's median in the block beside it (steady under a changing load)."""
+    per_block = [statistics.median(c) / statistics.median(f) for c, f in zip(client, floor, strict=True)]
+    flat_f = [x for b in floor for x in b]
+    flat_c = [x for b in client for x in b]
+    return statistics.median(flat_f) * 1e6, statistics.median(flat_c) * 1e6, statistics.median(per_block)
+
+
+def adapter_latency(n: int) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """(floor us, get_state us, ratio) over the adapter pty, threaded and asyncio (see :func:`_ratio`)."""
+    sim = SimBus(ids=[1])
+    pty = attach_adapter_pty(sim)
+    floor = RawFloor()
+    block = max(1, n // ROUNDS)
+    f_sync: list[list[float]] = []
+    sync: list[list[float]] = []
+    f_async: list[list[float]] = []
+    asy: list[list[float]] = []
+    try:
+        with drempower.open_bus("adapter", pty.path, timeout=1.0, stop_on_close=False) as bus:
+            get = bus.motor(1).get_state
+            _timed(get, 50, [])
+            _timed(floor, 50, [])
+            for _ in range(ROUNDS):
+                f_sync.append([])
+                sync.append([])
+                _timed(floor, block, f_sync[-1])
+                _timed(get, block, sync[-1])
+
+        async def run_async() -> None:
+            async with drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False) as abus:
+                aget = abus.motor(1).get_state
+                await _timed_async(aget, 50, [])
+                for _ in range(ROUNDS):
+                    f_async.append([])
+                    asy.append([])
+                    _timed(floor, block, f_async[-1])
+                    await _timed_async(aget, block, asy[-1])
+
+        asyncio.run(run_async())
+    finally:
+        floor.close()
+        pty.close()
+    return _ratio(sync, f_sync), _ratio(asy, f_async)
+
+
+def latency(n: int) -> None:
+    sync, asy = adapter_latency(n)
+    driver.BusDriver.caller_reads = False
+    try:
+        sync_rx, asy_rx = adapter_latency(n)
+    finally:
+        driver.BusDriver.caller_reads = True
+    for label, (fl, got, ratio) in (
+        ("get_state, adapter pty (0xAA), threaded", sync),
+        ("get_state, adapter pty (0xAA), asyncio", asy),
+        ("  threaded, receive thread + event handoff", sync_rx),
+        ("  asyncio, receive thread + call_soon_threadsafe", asy_rx),
+    ):
+        row(label, f"{got:.0f} us", f"{fl:.0f} us", f"{ratio:.2f}x floor")
+
+    sim = SimBus(ids=[1])
+    with drempower.open_bus("sim", bus=sim, time_scale=0, timeout=1.0, stop_on_close=False) as bus:
+        inproc = median_us(bus.motor(1).get_state, n)
+    bare = SimBus(ids=[1])
+    bare.add_listener(lambda f: None)
+    request = FastRead(1).encode()
+    sim_floor = median_us(lambda: bare.send(request), n)
+    row("get_state, in-process simulator", f"{inproc:.1f} us", f"{sim_floor:.1f} us", f"{inproc / sim_floor:.1f}x")
+
+
+def codec(seconds: float) -> None:
+    msgs = [
+        PositionT(1, 90.0, 10.0),
+        PositionQ(2, -150.0, 10.0, 5.0),
+        Velocity(4, 20.0, 1.5, VelocityMode.PASSTHROUGH),
+        ReadParam(7, 38007, DataType.F32),
+        WriteParam(8, 31214, DataType.U32, 1),
+        FastRead(9),
+    ]
+    replies = [State(1, 90.0, 1.5, -0.25, True, False), ParamValue(7, 38007, DataType.F32, -92.5)]
+    n = len(msgs) + len(replies)
+
+    def pair() -> None:
+        for m in msgs:
+            f = m.encode()
+            decode_command(f.arbitration_id, f.data)
+        for r in replies:
+            f = r.encode()
+            decode_reply(f.arbitration_id, f.data)
+
+    fss = struct.Struct("<fhh")
+    pack, unpack = fss.pack, fss.unpack
+    values = [(m.node, 0x1A, -150.0, 10.0, 5.0) for m in msgs + replies]  # type: ignore[operator]
+
+    def floor_pair() -> None:
+        for node, cmd, a, b, c in values:
+            f = ((node << 5) | cmd, pack(a, round(b * 100), round(c * 100)))
+            p, v, t = unpack(f[1])
+            (f[0] >> 5, p, v / 100, t / 100)
+
+    cost, fl = best(pair, n, seconds), best(floor_pair, n, seconds)
+    row("codec: encode + decode, one frame (mix)", f"{cost * 1e6:.2f} us", f"{fl * 1e6:.2f} us", f"{cost / fl:.1f}x")
+
+    frames = [r.encode() for r in replies] + [m.encode() for m in msgs]
+    stream = b"".join(encode_aa(f) for f in frames) * 16
+    count = 16 * len(frames)
+    frame_new = tuple.__new__
+
+    def floor_aa() -> None:
+        for i in range(0, len(stream), 16):
+            frame_new(Frame, ((stream[i + 6] << 8) | stream[i + 7], stream[i + 8 : i + 16], False, False))
+
+    one = [encode_aa(f) for f in frames]
+    dec = AADecoder()
+
+    def each() -> None:
+        for chunk in one:
+            dec.feed(chunk)
+
+    def floor_each() -> None:
+        for chunk in one:
+            for i in range(0, len(chunk), 16):
+                frame_new(Frame, ((chunk[i + 6] << 8) | chunk[i + 7], chunk[i + 8 : i + 16], False, False))
+
+    s, fs = best(lambda: AADecoder().feed(stream), count, seconds), best(floor_aa, count, seconds)
+    row("0xAA stream decoder, 128 frames a feed", f"{s * 1e6:.2f} us/frame", f"{fs * 1e6:.2f} us", f"{s / fs:.1f}x")
+    e, fe = best(each, len(one), seconds), best(floor_each, len(one), seconds)
+    row("0xAA stream decoder, one frame a feed", f"{e * 1e6:.2f} us/frame", f"{fe * 1e6:.2f} us", f"{e / fe:.1f}x")
+
+
+class FineClock(bench_client.FineClock):
+    """Runs the simulated bus in real time in steps of 20 us, with the thread's timer slack at 1 ns
+    (Linux), so that the clock's steps stay well below a frame's 111-125 us at 1 Mbit/s."""
+
+    def _run(self) -> None:
+        try:
+            import ctypes
+
+            ctypes.CDLL(None).prctl(29, 1, 0, 0, 0)  # PR_SET_TIMERSLACK
+        except (OSError, AttributeError):
+            pass
+        super()._run()
+
+
+def cycle_rate(seconds: float) -> float:
+    sim = SimBus(ids=[1], bitrate=1_000_000)
+    with (
+        FineClock(sim, 20e-6),
+        drempower.open_bus("sim", bus=sim, time_scale=0, stop_on_close=False) as bus,
+    ):
+        m = bus.motor(1)
+        m.enable_reply_state(True)
+        cmd = [m.make_angle(12.34, 0, 100)]
+        for _ in range(50):
+            bus.cycle(cmd, reply_state=True)
+        done, t0 = 0, time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            bus.cycle(cmd, reply_state=True)
+            done += 1
+        return done / (time.perf_counter() - t0)
+
+
+def cycle(seconds: float) -> None:
+    limit = 1_000_000 / bench_client.cycle_bits(1, True)
+    got = cycle_rate(seconds)
+    driver.BusDriver.caller_reads = False
+    try:
+        got_rx = cycle_rate(seconds)
+    finally:
+        driver.BusDriver.caller_reads = True
+    for label, rate in (
+        ("bus.cycle, 1 motor, reply-state on, 1 Mbit/s", got),
+        ("  the same, receive thread + event handoff", got_rx),
+    ):
+        row(label, f"{rate:.0f} /s", f"{limit:.0f} /s", f"{rate / limit:.0%} of limit")
+
+
+def idle(seconds: float) -> None:
+    rd, wr = os.pipe()
+    t = threading.Thread(target=select.select, args=([rd], [], []), daemon=True)
+    t.start()
+    time.sleep(0.1)
+    floor = bench_idle.wakeups(t.native_id, seconds)
+    os.write(wr, b"x")
+    t.join()
+    os.close(rd)
+    os.close(wr)
+    for kind in ("adapter", "uart"):
+        sim = SimBus(ids=[1])
+        pty = attach_adapter_pty(sim) if kind == "adapter" else attach_uart_pty(sim, 1)
+        try:
+            with drempower.open_bus(kind, pty.path, timeout=1.0, stop_on_close=False) as bus:
+                bus.motor(1).get_state()
+                time.sleep(0.3)
+                rx = [t for t in threading.enumerate() if t.name.startswith("drempower rx")]
+                rate = bench_idle.wakeups(rx[0].native_id if rx else None, seconds)
+        finally:
+            pty.close()
+        shown = "n/a" if rate is None else f"{rate:.1f} /s"
+        row(f"wake-ups of an idle open bus, {kind} pty", shown, "n/a" if floor is None else f"{floor:.1f} /s", "")
+
+
+def import_cpu(runs: int) -> None:
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ)
+        env.pop("PYTHONDONTWRITEBYTECODE", None)
+        env["PYTHONPYCACHEPREFIX"] = cache
+        env["PYTHONPATH"] = os.pathsep.join(filter(None, (str(bench_idle.SRC), env.get("PYTHONPATH"))))
+        for code in ("pass", "import drempower"):
+            bench_idle.cpu_ms(code, env)
+        bare = statistics.median(bench_idle.cpu_ms("pass", env) for _ in range(runs))
+        full = statistics.median(bench_idle.cpu_ms("import drempower", env) for _ in range(runs))
+    row("import drempower, CPU time", f"{full:.0f} ms", f"{bare:.0f} ms", f"+{full - bare:.0f} ms")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--requests", type=int, default=2000, help="calls per latency figure (default 2000)")
+    ap.add_argument("--seconds", type=float, default=1.0, help="time per throughput figure (default 1)")
+    ap.add_argument("--idle-seconds", type=float, default=3.0, help="time per wake-up figure (default 3)")
+    ap.add_argument("--runs", type=int, default=5, help="fresh interpreters for the import figure (default 5)")
+    args = ap.parse_args()
+    print(f"drempower speed table: Python {platform.python_version()} ({platform.python_implementation()})")
+    latency(args.requests)
+    codec(args.seconds)
+    cycle(args.seconds)
+    idle(args.idle_seconds)
+    import_cpu(args.runs)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,216 @@
+"""The driver's ways of taking replies: callers reading the descriptor, the receive thread, the
+instant simulator's replies taken in the send; several callers at once on one bus."""
+
+from __future__ import annotations
+
+import asyncio
+import os
+import select
+import threading
+import tty
+from collections.abc import Iterator
+
+import pytest
+
+import drempower
+from drempower.client import driver
+from drempower.protocol import FastRead, State, encode_aa
+from drempower.protocol.ids import Frame
+from drempower.sim import SimBus, attach_adapter_pty
+from drempower.transports.serial_adapter import AdapterTransport
+from drempower.transports.sim import SimTransport
+
+from .links import link
+
+IDS = [1, 2, 3, 4]
+ROUNDS = 40
+
+
+@pytest.fixture(params=[True, False], ids=["caller-reads", "receive-thread"])
+def caller_reads(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> Iterator[bool]:
+    monkeypatch.setattr(driver.BusDriver, "caller_reads", request.param)
+    yield request.param
+
+
+@pytest.mark.parametrize("kind", ["adapter", "uart", "inprocess", "inprocess-1M"])
+def test_four_threads_get_their_own_motors_answers(kind: str, caller_reads: bool) -> None:
+    ids = [1] if kind == "uart" else IDS  # a UART reaches one motor
+    timed = kind == "inprocess-1M"  # frames take their time on a 1 Mbit/s bus, delivered by the runner
+    sim = SimBus(ids=ids, bitrate=1_000_000 if timed else None)
+    scale = 1.0 if timed else 0 if kind == "inprocess" else 20.0
+    with link(kind.split("-")[0], sim, time_scale=scale, timeout=1.0) as bus:
+        assert (bus.core._fd is not None) == caller_reads
+        errors: list[BaseException] = []
+        seen: dict[int, list[int]] = {i: [] for i in range(4)}
+        start = threading.Barrier(4)
+
+        def worker(t: int) -> None:
+            node = ids[t % len(ids)]
+            m = bus.motor(node)
+            try:
+                start.wait(5)
+                for _ in range(ROUNDS):
+                    st = m.get_state()
+                    seen[t].append(st.node)
+                    seen[t].append(int(m.read_property("axis0.config.can_node_id")))
+            except BaseException as exc:  # reported below
+                errors.append(exc)
+
+        threads = [threading.Thread(target=worker, args=(t,)) for t in range(4)]
+        for th in threads:
+            th.start()
+        for th in threads:
+            th.join(60)
+        assert not any(th.is_alive() for th in threads)
+        assert errors == []
+        for t in range(4):
+            assert seen[t] == [ids[t % len(ids)]] * (2 * ROUNDS)
+        assert bus.stats["anomalies"] == 0
+
+
+def test_four_coroutines_share_one_adapter_bus(caller_reads: bool) -> None:
+    sim = SimBus(ids=IDS)
+    pty = attach_adapter_pty(sim)
+    try:
+
+        async def main() -> list[list[int]]:
+            async with drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False) as abus:
+
+                async def one(node: int) -> list[int]:
+                    got = []
+                    for _ in range(ROUNDS):
+                        got.append((await abus.motor(node).get_state()).node)
+                        got.append(int(await abus.motor(node).read_property("axis0.config.can_node_id")))
+                    return got
+
+                return list(await asyncio.gather(*(one(n) for n in IDS)))
+
+        results = asyncio.run(main())
+    finally:
+        pty.close()
+    assert results == [[n] * (2 * ROUNDS) for n in IDS]
+
+
+def test_instant_simulator_answers_in_the_calling_thread() -> None:
+    sim = SimBus(ids=[1])
+    with link("inprocess", sim, time_scale=0, timeout=1.0) as bus:
+        callers: list[int] = []
+        bus.subscribe(lambda st: callers.append(threading.get_ident()), 1)
+        st = bus.motor(1).get_state()
+        assert st.node == 1
+        # the reply was taken in the send: the state reached the subscriber in this thread, not the receive thread
+        assert callers == [threading.get_ident()]
+
+
+def test_late_frames_queued_before_a_send_are_taken_first() -> None:
+    sim = SimBus(ids=[1])
+    with link("inprocess", sim, time_scale=0, timeout=1.0) as bus:
+        seen: list[Frame] = []
+        bus.on_unsolicited = seen.append
+        stray = State(1, 1.0, 0.0, 0.0, False, False).encode()._replace(arbitration_id=(1 << 5) | 0x1E)
+        transport = bus.transport
+        assert isinstance(transport, SimTransport)
+        with transport.bus.lock:  # delivered while no receive can run: it waits in the queue
+            transport._deliver(stray)
+        assert bus.motor(1).get_state().node == 1
+        assert seen == [stray]  # taken before the reply to the request sent after it
+        assert bus.stats["frames_received"] == 2
+
+
+def _pty_adapter() -> tuple[AdapterTransport, int]:
+    master, slave = os.openpty()
+    tty.setraw(master)
+    path = os.ttyname(slave)
+    t = AdapterTransport(path, exclusive=False)
+    os.close(slave)
+    return t, master
+
+
+def test_adapter_read_nowait_takes_what_is_there_and_keeps_a_partial_frame() -> None:
+    t, master = _pty_adapter()
+    try:
+        fd = t.fileno()
+        assert isinstance(fd, int)
+        assert t.read_nowait() == []  # nothing there: no wait
+        frame = State(3, 12.5, 1.0, -0.5, True, False).encode()
+        raw = encode_aa(frame)
+        os.write(master, raw + raw[:5])
+        assert select.select([fd], [], [], 2.0)[0] == [fd]
+        assert t.read_nowait() == [frame]
+        os.write(master, raw[5:])
+        assert select.select([fd], [], [], 2.0)[0] == [fd]
+        assert t.read_nowait() == [frame]
+    finally:
+        t.close()
+        os.close(master)
+
+
+def test_a_caller_reading_the_descriptor_times_out_and_the_bus_still_works() -> None:
+    t, master = _pty_adapter()
+    bus = drempower.Bus(t, timeout=0.05, stop_on_close=False)
+    try:
+        with pytest.raises(drempower.TimeoutError):
+            bus.motor(2).get_state()
+        request = encode_aa(FastRead(2).encode())
+        assert os.read(master, 64) == request  # the request went out once, and nothing else
+        reply = encode_aa(State(2, 5.0, 0.0, 0.0, True, False).encode())
+
+        def answer() -> None:
+            if select.select([master], [], [], 2.0)[0]:
+                os.read(master, 64)
+                os.write(master, reply)
+
+        th = threading.Thread(target=answer)
+        th.start()
+        assert bus.motor(2).get_state(timeout=2.0).angle == pytest.approx(5.0)
+        th.join(5)
+    finally:
+        bus.close()
+        os.close(master)
+
+
+def test_frames_nobody_asked_for_reach_subscribers_through_the_receive_thread() -> None:
+    t, master = _pty_adapter()
+    bus = drempower.Bus(t, timeout=0.05, stop_on_close=False)
+    try:
+        got = threading.Event()
+        states: list[tuple[int, int]] = []
+
+        def seen(st: object) -> None:
+            states.append((getattr(st, "node", 0), threading.get_ident()))
+            got.set()
+
+        bus.subscribe(seen, 4)
+        with pytest.raises(drempower.TimeoutError):  # a caller read the descriptor just now
+            bus.motor(4).get_state()
+        os.write(master, encode_aa(State(4, 1.0, 0.0, 0.0, False, False).encode()))
+        assert got.wait(2.0)
+        assert states[0][0] == 4
+        assert states[0][1] != threading.get_ident()  # the receive thread took it, no caller was waiting
+    finally:
+        bus.close()
+        os.close(master)
+
+
+def test_closing_the_bus_ends_a_caller_waiting_in_select() -> None:
+    t, master = _pty_adapter()
+    bus = drempower.Bus(t, timeout=30.0, stop_on_close=False)
+    try:
+        errors: list[BaseException] = []
+
+        def wait() -> None:
+            try:
+                bus.motor(1).get_state()
+            except BaseException as exc:  # reported below
+                errors.append(exc)
+
+        th = threading.Thread(target=wait)
+        th.start()
+        assert select.select([master], [], [], 2.0)[0]  # the request is out: the caller waits for its reply
+        bus.close()
+        th.join(2.0)
+        assert not th.is_alive()
+        assert len(errors) == 1 and isinstance(errors[0], drempower.BusClosedError)
+    finally:
+        bus.close()
+        os.close(master)
