@@ -246,7 +246,7 @@ class AsyncMotor(MotorBase):
 
     async def get_state(self, *, timeout: float | None = None) -> MotorState:
         """Fresh state (angle deg, speed r/min, torque Nm, done, error) by fast read."""
-        return await self._bus.run(ops.get_state(self._id, timeout))
+        return await self._bus.run(ops.fast_read(self._id, timeout))
 
     async def get_volcur(self, *, timeout: float | None = None) -> tuple[float, float]:
         """Supply voltage (V) and q-axis current (A)."""

@@ -239,7 +239,7 @@ class Motor(MotorBase):
 
     def get_state(self, *, timeout: float | None = None) -> MotorState:
         """Fresh state (angle deg, speed r/min, torque Nm, done, error) by fast read."""
-        return self._bus.run(ops.get_state(self._id, timeout))
+        return self._bus.run(ops.fast_read(self._id, timeout))
 
     def get_volcur(self, *, timeout: float | None = None) -> tuple[float, float]:
         """Supply voltage (V) and q-axis current (A)."""

@@ -39,7 +39,7 @@ from ..protocol.ids import Frame
 from ..protocol.messages import Message, Start, StartImpedance
 from ..transports.base import Transport
 from . import signals
-from .effects import Batch, Op
+from .effects import Batch, Op, Runnable
 from .errors import BusClosedError
 from .requests import Matcher
 from .session import DEFAULT_TIMEOUT, BusSession, MoveRecord, Operation, StartPolicy, StopOnClose, TxOrder
@@ -464,7 +464,7 @@ class BusDriver:
 
     # ------------------------------------------------------------------ running operations
 
-    def submit(self, op: Op[T], on_done: Callable[[], None] | None = None) -> Operation[T]:
+    def submit(self, op: Runnable[T], on_done: Callable[[], None] | None = None) -> Operation[T]:
         """Start ``op`` in the session now and write what it sends first."""
         self.check_open()
         with self._lock:
@@ -565,7 +565,7 @@ class BusDriver:
             if wake is not own:
                 wake()
 
-    def _submit_timed(self, op: Op[T], on_done: Callable[[], None] | None) -> tuple[Operation[T], float | None]:
+    def _submit_timed(self, op: Runnable[T], on_done: Callable[[], None] | None) -> tuple[Operation[T], float | None]:
         """:meth:`submit`, also returning how long (s) the caller may wait before stepping (None: step now)."""
         self.check_open()
         with self._lock:
@@ -582,7 +582,7 @@ class BusDriver:
             self._dispatch(events)
         return opn, wait
 
-    def _run_reading(self, op: Op[T]) -> T:
+    def _run_reading(self, op: Runnable[T]) -> T:
         """:meth:`run` on a transport with a descriptor: the reader role is taken before the requests go
         out, so that once they are written this thread goes straight to ``select``. A caller that does
         not get the role sleeps on its event until its operation is done or the role is free."""
@@ -738,7 +738,7 @@ class BusDriver:
         with self._lock:
             self.session.close(BusClosedError(f"the receive loop stopped: {exc}"), final=False)
 
-    def run(self, op: Op[T]) -> T:
+    def run(self, op: Runnable[T]) -> T:
         """Run operation ``op`` to completion in the calling thread; returns its result or raises its error."""
         if self._fd is not None:
             return self._run_reading(op)
@@ -747,7 +747,7 @@ class BusDriver:
             self._wait_op(opn)
         return opn.result()
 
-    async def run_async(self, op: Op[T]) -> T:
+    async def run_async(self, op: Runnable[T]) -> T:
         """Run operation ``op`` to completion on the running event loop; returns its result or raises its error.
 
         On a transport with a descriptor the coroutine that holds the reader role waits for it with

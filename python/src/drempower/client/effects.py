@@ -12,7 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Generator, Sequence
 from dataclasses import dataclass
-from typing import Any, TypeAlias, TypeVar
+from typing import Any, Generic, TypeAlias, TypeVar
 
 from ..protocol.messages import FastRead, Message, ParamValue, ReadParam, Start, StartImpedance
 from ..protocol.parameters import Parameter, parameter
@@ -26,6 +26,8 @@ __all__ = [
     "AwaitState",
     "Effect",
     "Op",
+    "Runnable",
+    "Single",
     "request",
     "read_params",
     "read_states",
@@ -84,8 +86,20 @@ class AwaitState:
 
 
 Effect: TypeAlias = Send | Batch | Request | Sleep | AwaitState
+
+
+@dataclass(frozen=True, slots=True)
+class Single(Generic[T]):
+    """An operation of one :class:`Request` whose first answer is the result (a fast read...): the
+    session runs it without a generator, the shortest path a call can take."""
+
+    request: Request
+
+
 Op: TypeAlias = Generator[Effect, Any, T]
 """An operation: yields effects, returns ``T``."""
+Runnable: TypeAlias = Op[T] | Single[T]
+"""What a session runs: an operation, or a :class:`Single` request."""
 
 
 def request(

@@ -14,7 +14,7 @@ from typing import TypeVar
 from ..protocol.ids import check_node
 from ..protocol.messages import Message
 from .busbase import BusBase
-from .effects import Op, await_state
+from .effects import Runnable, await_state
 from .state import MotorState
 from .timeouts import checks_times
 
@@ -28,7 +28,7 @@ T = TypeVar("T")
 class SyncBusBase(BusBase[M]):
     """The threaded bus's own parts: operations run in the session, the caller's thread waits."""
 
-    def run(self, op: Op[T]) -> T:
+    def run(self, op: Runnable[T]) -> T:
         """Run an operation (a generator of effects, see :mod:`drempower.client.effects`) to completion;
         returns its result and raises what it raises (TimeoutError, ValidationError...)."""
         return self._core.run(op)
@@ -57,7 +57,7 @@ class AsyncBusBase(BusBase[M]):
     """The asyncio bus's own parts: operations run in the session, the event loop awaits them (replies
     are handed to it with ``loop.call_soon_threadsafe``, so no thread is used per call)."""
 
-    async def run(self, op: Op[T]) -> T:
+    async def run(self, op: Runnable[T]) -> T:
         """Run an operation (a generator of effects, see :mod:`drempower.client.effects`) to completion;
         returns its result and raises what it raises (TimeoutError, ValidationError...)."""
         return await self._core.run_async(op)

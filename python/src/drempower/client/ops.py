@@ -13,10 +13,10 @@ from ..protocol.addresses import (
     AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE,
 )
 from ..protocol.ids import MAX_NODE, SysCmd
-from ..protocol.messages import ReadParam, SystemCommand, WriteParam
+from ..protocol.messages import FastRead, ReadParam, SystemCommand, WriteParam
 from ..protocol.parameters import DataType, Parameter, parameter
 from .commands import AxisMode, TrajMode
-from .effects import Op, Send, read_params, read_states, request, sleep
+from .effects import Op, Request, Send, Single, read_params, read_states, request, sleep
 from .errors import (
     IdTakenError,
     MotorFaultError,
@@ -72,6 +72,11 @@ def _same(p: Parameter, written: float, read: float) -> bool:
 
 def _system(node: int, op: SysCmd) -> Send:
     return Send([SystemCommand(node, op)])
+
+
+def fast_read(node: int, timeout: float | None = None) -> Single[MotorState]:
+    """Fresh state by fast read, as one :class:`~drempower.client.effects.Single` request (no generator)."""
+    return Single(Request([FastRead(node)], timeout))
 
 
 def get_state(node: int, timeout: float | None = None) -> Op[MotorState]:

@@ -58,7 +58,7 @@ from ..protocol.messages import (
     decode_reply,
 )
 from ..protocol.parameters import DataType, find_parameter
-from .effects import AwaitState, Batch, Effect, Request, Send, Sleep
+from .effects import AwaitState, Batch, Effect, Request, Runnable, Send, Single, Sleep
 from .errors import BusClosedError, TimeoutError
 from .requests import MATCHED, MISMATCHED, Matcher, Waiter, request_dtype, request_key
 from .state import MotorState
@@ -842,7 +842,7 @@ class BusSession:
 
     # ------------------------------------------------------------------ operations
 
-    def submit(self, op: Generator[Effect, Any, T], on_done: Callable[[], None] | None = None) -> Operation[T]:
+    def submit(self, op: Runnable[T], on_done: Callable[[], None] | None = None) -> Operation[T]:
         """Start running operation ``op`` (a generator of effects) at :attr:`now`.
 
         Returns its :class:`Operation`, which may already be done; ``on_done``
@@ -850,7 +850,21 @@ class BusSession:
         Raises :class:`BusClosedError` when the session is closed.
         """
         self._check_open()
-        opn: Operation[T] = Operation(op, on_done)
+        if op.__class__ is Single:
+            single: Operation[T] = Operation(None, on_done)
+            self._ops[id(single)] = single
+            effect = op.request
+            try:
+                if self.check_request is not None:
+                    self.check_request(effect.messages)
+                ex = _Exchange(self, single, effect)
+                ex.start()
+            except Exception as exc:
+                self._finish(single, None, exc)
+            else:
+                single._cancel = ex.cancel
+            return single
+        opn: Operation[T] = Operation(op, on_done)  # type: ignore[arg-type]
         self._ops[id(opn)] = opn
         self._resume(opn, None, None)
         return opn
@@ -880,7 +894,9 @@ class BusSession:
             return
         opn._cancel = None
         gen = opn._gen
-        assert gen is not None
+        if gen is None:  # a Single request: its first answer is the result
+            self._finish(opn, None if value is None else value[0], error)
+            return
         while True:
             try:
                 effect = gen.send(value) if error is None else gen.throw(error)
