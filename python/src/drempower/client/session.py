@@ -351,6 +351,66 @@ class _Exchange:
             self.start()
 
 
+class _OneRequest:
+    """A :class:`~drempower.client.effects.Single` request of one message: :class:`_Exchange`'s rules
+    (matching on every echoed field, retries, the held-back zero replies at expiry) for the
+    commonest call, without its bookkeeping for many requests."""
+
+    __slots__ = ("frame", "key", "msg", "op", "session", "timeout", "timer", "tries", "waiter")
+
+    def __init__(self, session: BusSession, op: Operation[Any], effect: Request) -> None:
+        self.session = session
+        self.op = op
+        msg = self.msg = effect.messages[0]
+        self.frame = msg.encode()
+        self.key = request_key(msg)
+        timeout = effect.timeout
+        self.timeout = session.timeout if timeout is None else timeout
+        if not self.timeout > 0:
+            raise ValidationError(f"timeout={timeout!r}: must be > 0 s")
+        self.tries = 0
+        dtype = request_dtype(msg)
+        self.waiter = Waiter((self.key,), self._answered, None if dtype is None else (dtype,))
+        self.timer = 0
+
+    def start(self) -> None:
+        s = self.session
+        w = self.waiter
+        w.results[0] = None
+        w.remaining = 1
+        s.matcher.register(w)
+        s._out.append(self.frame)
+        self.timer = s._add_timer(s.now + self.timeout, self._expire)
+
+    def cancel(self) -> None:
+        s = self.session
+        s._timers.pop(self.timer, None)
+        s.matcher.cancel(self.waiter)
+
+    def _answered(self) -> None:
+        s = self.session
+        s._timers.pop(self.timer, None)
+        r = self.waiter.results[0]
+        node = getattr(r, "node", 0)
+        if node:
+            s.heard.add(node)
+        s._finish(self.op, r, None)
+
+    def _expire(self) -> None:
+        s = self.session
+        key = self.key
+        if s._provisional:
+            s._settle(0.0, [(key >> 16, key & 0xFFFF)])
+            if not self.waiter.remaining:
+                return  # a held-back reply answered it
+        s.matcher.cancel(self.waiter)
+        self.tries += 1
+        if self.tries <= s.retries:
+            self.start()
+            return
+        s._finish(self.op, None, TimeoutError([key >> 16], describe_request(self.msg), self.timeout))
+
+
 class _SeqJob:
     """Presets and starts being sent in order; a start that starts a pending preset waits until
     the presets are on the wire (see :meth:`BusSession._hold`)."""
@@ -857,7 +917,11 @@ class BusSession:
             try:
                 if self.check_request is not None:
                     self.check_request(effect.messages)
-                ex = _Exchange(self, single, effect)
+                ex: _Exchange | _OneRequest
+                if len(effect.messages) == 1 and effect.expect is None and not effect.missing_ok:
+                    ex = _OneRequest(self, single, effect)
+                else:
+                    ex = _Exchange(self, single, effect)
                 ex.start()
             except Exception as exc:
                 self._finish(single, None, exc)
