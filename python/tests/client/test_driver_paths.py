@@ -7,6 +7,7 @@ import asyncio
 import os
 import select
 import threading
+import time
 import tty
 from collections.abc import Iterator
 
@@ -212,5 +213,40 @@ def test_closing_the_bus_ends_a_caller_waiting_in_select() -> None:
         assert not th.is_alive()
         assert len(errors) == 1 and isinstance(errors[0], drempower.BusClosedError)
     finally:
+        bus.close()
+        os.close(master)
+
+
+def test_a_caller_that_found_the_receive_thread_reading_takes_over_when_it_is_done() -> None:
+    """The receive thread is busy in a state callback when a call starts: once it is done it hands the
+    reading over, so the reply that came meanwhile answers the call (no timeout)."""
+    t, master = _pty_adapter()
+    bus = drempower.Bus(t, timeout=1.0, stop_on_close=False)
+    busy, release = threading.Event(), threading.Event()
+
+    def slow(st: object) -> None:
+        busy.set()
+        release.wait(5.0)
+
+    try:
+        bus.subscribe(slow, 4)
+        os.write(master, encode_aa(State(4, 1.0, 0.0, 0.0, False, False).encode()))
+        assert busy.wait(2.0)  # the receive thread holds the reader role, inside the callback
+        result: list[object] = []
+        caller = threading.Thread(target=lambda: result.append(bus.motor(1).get_state()))
+        started = time.monotonic()
+        caller.start()
+        request = encode_aa(FastRead(1).encode())
+        seen = b""
+        while request not in seen:  # the call's fast read reached the wire
+            assert select.select([master], [], [], 2.0)[0]
+            seen += os.read(master, 64)
+        os.write(master, encode_aa(State(1, 7.0, 0.0, 0.0, True, False).encode()))
+        release.set()
+        caller.join(3.0)
+        assert result and getattr(result[0], "angle", None) == 7.0
+        assert time.monotonic() - started < 0.9  # answered, not woken by its 1 s deadline
+    finally:
+        release.set()
         bus.close()
         os.close(master)

@@ -190,6 +190,8 @@ class BusDriver:
         self._fd = fd
         self._reader = threading.Lock()
         """Held by whoever reads a transport with a descriptor (a caller, or the receive thread)."""
+        self._stopped: tuple[int, ...] = ()
+        """Motors an estop was written to without the session lock (see :meth:`estop`)."""
         self._gate_lock = threading.Lock()
         self._gate = threading.Condition(self._gate_lock)
         """Guards the count of reading callers; the parked receive thread waits on it."""
@@ -318,6 +320,9 @@ class BusDriver:
         waiting on the session and is raised. Replies a transport gives back at once (instant
         delivery) are taken here; their events wait in ``_events`` for :meth:`_dispatch_pending`."""
         s = self.session
+        if self._stopped:  # estops written without the lock: what the session holds must not follow them
+            stopped, self._stopped = self._stopped, ()
+            s.stopped(stopped)
         s.now = _monotonic()
         frames = s.data_to_send()
         while frames:
@@ -457,6 +462,7 @@ class BusDriver:
                 from ..protocol.ids import SysCmd
                 from ..protocol.messages import SystemCommand
 
+                self._stopped = (*self._stopped, *nodes)  # the session drops held starts when next entered
                 self._write([SystemCommand(n, SysCmd.ESTOP).encode() for n in nodes])
         finally:
             if held:
@@ -900,7 +906,7 @@ class BusDriver:
                 try:
                     self._read_feed()
                 finally:
-                    reader.release()
+                    self._release_reader()  # wakes a caller that found the role taken
         except Exception as exc:
             if not self._closed:
                 self._rx_failed(exc)
@@ -920,7 +926,7 @@ class BusDriver:
         try:
             if self._closed:
                 return
-            stops = self.session.stop_frames() if self._failure is None else []
+            stops = self.session.stop_frames()  # tried after a receive failure too: writing may still work
             try:
                 self._send_frames(stops, lock_timeout)
             except Exception as exc:
@@ -932,8 +938,11 @@ class BusDriver:
                     os.write(self._close_w, b"c")  # wakes every select on this bus, for good
                 except OSError:
                     pass
-                with self._gate:
-                    self._gate.notify_all()
+                if self._gate_lock.acquire(timeout=lock_timeout):  # a signal may interrupt its holder
+                    try:
+                        self._gate.notify_all()
+                    finally:
+                        self._gate_lock.release()
             _open_drivers.discard(self)
             held = self._lock.acquire(timeout=lock_timeout)
             try:

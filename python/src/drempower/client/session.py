@@ -715,9 +715,9 @@ class BusSession:
     def estop(self, nodes: Sequence[int]) -> None:
         """Queue an emergency stop to each of ``nodes`` (0 = every motor) before anything else queued.
 
-        A start held until its presets are on the wire is dropped: its operation raises
-        :class:`~drempower.errors.BusStoppedError` (its motors keep the presets marked as pending,
-        so no later broadcast start fires them).
+        A start held until its presets are on the wire is dropped, and so are the presets and
+        starts queued behind it: their operations raise :class:`~drempower.errors.BusStoppedError`
+        (the motors keep the presets marked as pending, so no later broadcast start fires them).
 
         Works even after the receive loop failed; only a closed session refuses.
         """
@@ -726,9 +726,24 @@ class BusSession:
             assert self.closed_error is not None
             raise self.closed_error
         self._out[:0] = frames
+        self.stopped(nodes)
+
+    def stopped(self, nodes: Sequence[int]) -> None:
+        """An emergency stop to ``nodes`` went out: drop the start held for its presets and the presets
+        and starts queued behind it; their operations raise :class:`~drempower.errors.BusStoppedError`."""
         hold = self._hold
-        if hold is not None:  # a start waiting for its presets never follows an estop
-            hold.fail(BusStoppedError(f"an emergency stop to {_motors(nodes)} came before the start went out"))
+        if hold is None:
+            return
+        queued = list(self._seq)
+        self._seq.clear()
+        why = f"an emergency stop to {_motors(nodes)} came before the start went out"
+        hold.fail(BusStoppedError(why))
+        for job in queued:
+            if job.op is not None:
+                if job.op._gen is None:
+                    self._finish(job.op, None, BusStoppedError(why))
+                else:
+                    self._resume(job.op, None, BusStoppedError(why))
 
     def stop_frames(self) -> list[Frame]:
         """The frames ``stop_on_close`` sends: idle or estop to every commanded motor."""

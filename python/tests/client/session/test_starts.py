@@ -238,6 +238,20 @@ def test_an_estop_drops_a_start_held_for_its_presets() -> None:
     assert s.next_deadline() is None
 
 
+def test_an_estop_drops_the_batches_queued_behind_a_held_start() -> None:
+    rig = Rig(tx="confirmed")
+    s = rig.session
+    first = rig.submit(_batch([1, 2]))
+    second = rig.submit(_batch([3]))  # waits behind the first's held start
+    assert _kinds(rig.take()) == ["Preset1", "Preset2"]
+    s.stopped([0])  # an estop the driver wrote without the session lock
+    for opn in (first, second):
+        assert opn.done and isinstance(opn.error, BusStoppedError) and "every motor" in str(opn.error)
+    s.transmitted(rig.now, True)
+    rig.settle(until=1.0)
+    assert rig.take() == [] and [type(c).__name__ for _, c in rig.sent()] == ["Preset", "Preset"]
+
+
 def test_an_estop_goes_before_everything_queued() -> None:
     rig = Rig(tx="timed", bitrate=125_000)
     s = rig.session
