@@ -143,6 +143,6 @@ def test_ctrl_c_during_a_request_leaves_nothing_waiting() -> None:
         threading.Timer(0.05, _thread.interrupt_main).start()
         with pytest.raises(KeyboardInterrupt):
             bus.motor(1).get_state()
-        assert len(bus._core.matcher) == 0
+        assert len(bus._core.session.matcher) == 0
         sim.faults.silent.discard(1)
         assert bus.motor(1).get_state(timeout=2.0).node == 1

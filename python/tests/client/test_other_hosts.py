@@ -40,15 +40,15 @@ def test_reads_beside_a_host_polling_the_same_parameter(
 ) -> None:
     sim, bus, channel = two_hosts
     expected = sim.motors[1].param(address)
-    bus.core.zero_reply_grace = 0.25  # the simulator shares this CPU: its replies can lag
+    bus.core.session.zero_reply_grace = 0.25  # the simulator shares this CPU: its replies can lag
     stop = threading.Event()
     other = threading.Thread(target=_other_host, args=(channel, address, stop))
     other.start()
     try:
         deadline = time.monotonic() + 5
-        while not bus.core.other_hosts and time.monotonic() < deadline:
+        while not bus.core.session.other_hosts and time.monotonic() < deadline:
             time.sleep(0.01)
-        assert bus.core.other_hosts
+        assert bus.core.session.other_hosts
         values = [bus.motor(1).read_property(address) for _ in range(n)]
     finally:
         stop.set()
@@ -66,13 +66,13 @@ def test_no_transport_echoes_our_own_frames(kind: str) -> None:
         m.write_property("axis0.output_shaft.vel_limit", 100.0)
         assert not m.dump_error()
         assert m.read_property("axis0.error") == 0
-        assert not bus.core.other_hosts
+        assert not bus.core.session.other_hosts
 
 
 def test_a_lone_reply_of_zero_is_taken_after_the_grace() -> None:
     sim = SimBus(ids=[1])
     with link("inprocess", sim, timeout=1.0) as bus:
-        bus.core.other_hosts = True
+        bus.core.session.other_hosts = True
         t0 = time.monotonic()
         assert bus.motor(1).read_property("axis0.error") == 0
         assert time.monotonic() - t0 < 0.9  # settled by the grace, not by the timeout

@@ -86,7 +86,7 @@ def run(args: argparse.Namespace) -> int:
         print(f"drempower: replaying onto simulated motors {','.join(map(str, nodes))}", file=sys.stderr)
     sent = 0
     with open_from_args(args, quiet=True) as bus, _sigterm_interrupts():
-        bus.core.stop_on_close = not args.leave_running
+        bus.core.session.stop_on_close = not args.leave_running
         start = time.monotonic()
         t0 = frames[0][0].timestamp
         try:

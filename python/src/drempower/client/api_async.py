@@ -165,11 +165,11 @@ class AsyncMotor(MotorBase):
 
     async def set_can_baud_rate(self, baud_rate: int, *, timeout: float | None = None) -> None:
         """Set the CAN bitrate (125000/250000/500000/1000000) and save; applies after a reboot."""
-        await self._bus.run(ops.set_can_baud_rate(self._id, baud_rate, timeout, self._core.retries))
+        await self._bus.run(ops.set_can_baud_rate(self._id, baud_rate, timeout, self._session.retries))
 
     async def set_uart_baud_rate(self, baud_rate: int, *, timeout: float | None = None) -> None:
         """Set the UART rate (M series: 9600/19200/57600/115200) and save."""
-        await self._bus.run(ops.set_uart_baud_rate(self._id, baud_rate, timeout, self._core.retries))
+        await self._bus.run(ops.set_uart_baud_rate(self._id, baud_rate, timeout, self._session.retries))
 
     async def set_mode(self, mode: int = 2) -> None:
         """1 (AxisMode.IDLE): release the motor; 2 (AxisMode.CLOSED_LOOP): enable control."""
@@ -181,7 +181,7 @@ class AsyncMotor(MotorBase):
 
     async def set_GPIO_mode(self, mode: str = "tx_rx", param: float = 115200, *, timeout: float | None = None) -> None:
         """Spare pins as UART (``"tx_rx"``, param = baud) or step/dir (param = pulses); saves and reboots."""
-        await self._bus.run(ops.set_gpio_mode(self._id, mode, param, timeout, self._core.retries))
+        await self._bus.run(ops.set_gpio_mode(self._id, mode, param, timeout, self._session.retries))
 
     async def get_GPIO_mode(self, *, timeout: float | None = None) -> GpioMode:
         """What the spare pins do (M series)."""
@@ -191,11 +191,11 @@ class AsyncMotor(MotorBase):
         self, angle_min: float = -360.0, angle_max: float = 360.0, *, timeout: float | None = None
     ) -> None:
         """Enable software limits [angle_min, angle_max] deg and save; the motor must be inside them."""
-        await self._bus.run(ops.set_angle_range(self._id, angle_min, angle_max, timeout, self._core.retries))
+        await self._bus.run(ops.set_angle_range(self._id, angle_min, angle_max, timeout, self._session.retries))
 
     async def set_traj_mode(self, mode: int = TrajMode.TRAPEZOID, *, timeout: float | None = None) -> None:
         """Q-mode profile: 1 trapezoid, 2 S-curve (verified, remembered for set_angles; not saved)."""
-        await self._bus.run(ops.set_traj_mode(self._id, mode, timeout, self._core.retries))
+        await self._bus.run(ops.set_traj_mode(self._id, mode, timeout, self._session.retries))
 
     async def get_traj_mode(self, *, timeout: float | None = None) -> TrajMode:
         """The motor's Q-mode profile, read from it."""
@@ -219,7 +219,9 @@ class AsyncMotor(MotorBase):
         A read-back that differs is written and read again up to the bus's ``retries``
         times, then raises VerifyError.
         """
-        await self._bus.run(ops.write_property(self._id, property, value, verify, timeout, force, self._core.retries))
+        await self._bus.run(
+            ops.write_property(self._id, property, value, verify, timeout, force, self._session.retries)
+        )
 
     async def read_property(self, property: str | int, *, timeout: float | None = None) -> int | float:
         """Read parameter ``property`` (name or address)."""
@@ -234,7 +236,7 @@ class AsyncMotor(MotorBase):
                 int(on),
                 True,
                 timeout,
-                retries=self._core.retries,
+                retries=self._session.retries,
             )
         )
 

@@ -143,11 +143,11 @@ class BusBase(ABC, Generic[M]):
     @property
     def timeout(self) -> float:
         """Default reply timeout (s)."""
-        return self._core.timeout
+        return self._session.timeout
 
     @timeout.setter
     def timeout(self, value: float) -> None:
-        self._core.timeout = seconds(value)
+        self._session.timeout = seconds(value)
 
     @property
     def closed(self) -> bool:

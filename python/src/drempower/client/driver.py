@@ -38,11 +38,11 @@ from typing import TYPE_CHECKING, Any, TypeVar
 from ..protocol.ids import Frame
 from ..protocol.messages import Message, Start, StartImpedance
 from ..transports.base import Transport
+from ..transports.fds import close_fds, drain, nonblocking_pipe
 from . import signals
 from .effects import Batch, Op, Runnable
 from .errors import BusClosedError
-from .requests import Matcher
-from .session import DEFAULT_TIMEOUT, BusSession, MoveRecord, Operation, StartPolicy, StopOnClose, TxOrder
+from .session import DEFAULT_TIMEOUT, BusSession, Operation, StartPolicy, StopOnClose, TxOrder
 from .state import MotorState, StateCache
 
 if TYPE_CHECKING:
@@ -81,7 +81,7 @@ def _close_open_buses() -> None:
 def _close_stopping_buses() -> None:
     """From a signal handler: close every open bus with ``stop_on_close``, never waiting long on a lock."""
     for d in list(_open_drivers):
-        if d.stop_on_close:
+        if d.session.stop_on_close:
             d.close(lock_timeout=_SIGNAL_LOCK_WAIT)
 
 
@@ -100,29 +100,6 @@ def tx_order(transport: Transport) -> TxOrder:
 def _wake(fut: asyncio.Future[Any]) -> None:
     if not fut.done():
         fut.set_result(None)
-
-
-def _drain(fd: int) -> None:
-    try:
-        while os.read(fd, 512):
-            pass
-    except OSError:  # empty (non-blocking) or closed
-        pass
-
-
-def _close_fds(*fds: int) -> None:
-    for fd in fds:
-        try:
-            os.close(fd)
-        except OSError:
-            pass
-
-
-def _nonblocking_pipe() -> tuple[int, int]:
-    r, w = os.pipe()
-    os.set_blocking(r, False)
-    os.set_blocking(w, False)
-    return r, w
 
 
 class BusDriver:
@@ -200,11 +177,11 @@ class BusDriver:
         self._rx_selecting = False
         self._pipes: list[int] = []
         if fd is not None:
-            self._poke_r, self._poke_w = _nonblocking_pipe()  # wakes the receive thread so that it parks
-            self._close_r, self._close_w = _nonblocking_pipe()  # readable once closed: wakes every select
+            self._poke_r, self._poke_w = nonblocking_pipe()  # wakes the receive thread so that it parks
+            self._close_r, self._close_w = nonblocking_pipe()  # readable once closed: wakes every select
             self._pipes = [self._poke_r, self._poke_w, self._close_r, self._close_w]
             # closed with the driver: a late select on them (a caller still returning) stays valid
-            weakref.finalize(self, _close_fds, *self._pipes)
+            weakref.finalize(self, close_fds, *self._pipes)
         self._thread = threading.Thread(
             target=self._rx_loop if fd is None else self._rx_loop_fd,
             name=f"drempower rx ({transport.description})",
@@ -216,62 +193,6 @@ class BusDriver:
             signals.install_stop_handlers()
 
     # ------------------------------------------------------------------ the session's facts
-
-    @property
-    def timeout(self) -> float:
-        return self.session.timeout
-
-    @timeout.setter
-    def timeout(self, value: float) -> None:
-        self.session.timeout = value
-
-    @property
-    def retries(self) -> int:
-        return self.session.retries
-
-    @property
-    def stop_on_close(self) -> StopOnClose:
-        return self.session.stop_on_close
-
-    @stop_on_close.setter
-    def stop_on_close(self, value: StopOnClose) -> None:
-        self.session.stop_on_close = value
-
-    @property
-    def start_policy(self) -> StartPolicy:
-        return self.session.start_policy
-
-    @property
-    def matcher(self) -> Matcher:
-        return self.session.matcher
-
-    @property
-    def moves(self) -> dict[int, MoveRecord]:
-        return self.session.moves
-
-    @property
-    def traj_mode(self) -> dict[int, int]:
-        return self.session.traj_mode
-
-    @property
-    def reply_state(self) -> dict[int, bool]:
-        return self.session.reply_state
-
-    @property
-    def other_hosts(self) -> bool:
-        return self.session.other_hosts
-
-    @other_hosts.setter
-    def other_hosts(self, value: bool) -> None:
-        self.session.other_hosts = value
-
-    @property
-    def zero_reply_grace(self) -> float:
-        return self.session.zero_reply_grace
-
-    @zero_reply_grace.setter
-    def zero_reply_grace(self, value: float) -> None:
-        self.session.zero_reply_grace = value
 
     @property
     def commanded(self) -> frozenset[int]:
@@ -291,10 +212,6 @@ class BusDriver:
             raise BusClosedError(f"the bus ({self.transport.description}) is closed")
         if self._failure is not None:
             raise BusClosedError(f"the receive loop stopped: {self._failure}") from self._failure
-
-    def stop_frames(self) -> list[Frame]:
-        """The frames ``stop_on_close`` sends: idle or estop to every commanded motor."""
-        return self.session.stop_frames()
 
     # ------------------------------------------------------------------ taps
 
@@ -428,11 +345,6 @@ class BusDriver:
         if opn is not None:
             opn.result()
 
-    @staticmethod
-    def sequenced(msgs: Sequence[Message]) -> bool:
-        """Whether sending ``msgs`` involves presets or starts (and so may wait for the wire)."""
-        return any(m.cmd == 0x0C or isinstance(m, (Start, StartImpedance)) for m in msgs)
-
     def send_batch(
         self,
         presets: Sequence[Message],
@@ -524,31 +436,10 @@ class BusDriver:
         ev = self._event()
         try:
             opn.on_done = ev.set
-            if self._fd is not None:
-                self._wait_reading(opn, ev)
-            else:
-                self._wait(opn, ev)
+            self._wait(opn, ev)
         finally:
             ev.clear()
             self._tls.pool.append(ev)
-
-    def _wait(self, opn: Operation[Any], done: threading.Event) -> None:
-        wake = done.set
-        self._sleepers.add(wake)
-        try:
-            while not opn.done:
-                wait = self._step(opn)
-                if wait is None:
-                    return
-                if wait > 0:
-                    done.wait(wait)
-                    done.clear()
-        except BaseException:  # Ctrl-C: the operation must not take the next request's reply
-            with self._lock:
-                self.session.cancel(opn)
-            raise
-        finally:
-            self._sleepers.discard(wake)
 
     def _enter_reading(self) -> None:
         """Count a caller that may read the transport; a receive thread waiting in ``select`` parks."""
@@ -642,14 +533,18 @@ class BusDriver:
             with self._lock:
                 self.session.cancel(opn, BusClosedError(f"the bus ({self.transport.description}) was closed"))
 
-    def _wait_reading(self, opn: Operation[Any], done: threading.Event) -> None:
-        """Wait for ``opn`` reading the transport's descriptor in this thread when no other caller does."""
+    def _wait(self, opn: Operation[Any], done: threading.Event) -> None:
+        """Wait in the calling thread until ``opn`` is done: on a transport with a descriptor, reading it
+        whenever no other caller does; else (and meanwhile) sleeping on ``done`` until the session's next
+        deadline or a wake-up."""
         wake = done.set
+        reads = self._fd is not None
         self._sleepers.add(wake)
-        self._enter_reading()
+        if reads:
+            self._enter_reading()
         try:
             while not opn.done:
-                if self._reader.acquire(False):
+                if reads and self._reader.acquire(False):
                     try:
                         self._read_until(opn, None)
                     finally:
@@ -663,13 +558,14 @@ class BusDriver:
                 if wait > 0:
                     done.wait(wait)
                     done.clear()
-        except BaseException:
+        except BaseException:  # Ctrl-C: the operation must not take the next request's reply
             with self._lock:
                 self.session.cancel(opn)
             raise
         finally:
             self._sleepers.discard(wake)
-            self._leave_reading()
+            if reads:
+                self._leave_reading()
         self._end_closed(opn)
 
     def _read_until(self, opn: Operation[Any], wait: float | None) -> None:
@@ -900,7 +796,7 @@ class BusDriver:
                 if self._is_closed():
                     return
                 if self._poke_r in ready:
-                    _drain(self._poke_r)
+                    drain(self._poke_r)
                 if fd not in ready or not reader.acquire(False):
                     continue  # a caller reads: park
                 try:

@@ -15,6 +15,7 @@ from ..protocol.ids import check_node
 from ..protocol.messages import Message
 from .busbase import BusBase
 from .effects import Runnable, await_state
+from .session import sequenced
 from .state import MotorState
 from .timeouts import checks_times
 
@@ -67,7 +68,7 @@ class AsyncBusBase(BusBase[M]):
         thread, so the event loop never blocks on that wait."""
         import asyncio
 
-        if self._core.sequenced(msgs):
+        if sequenced(msgs):
             await asyncio.to_thread(self._core.send_many, msgs)
         else:
             self._core.send_many(msgs)

@@ -79,6 +79,7 @@ __all__ = [
     "ZERO_REPLY_GRACE",
     "ASSUMED_BITRATE",
     "describe_request",
+    "sequenced",
     "idle_frames",
 ]
 
@@ -131,6 +132,11 @@ _WAIT: Any = object()
 
 def _motors(nodes: Sequence[int]) -> str:
     return "every motor" if 0 in nodes else "motor" + ("s " if len(nodes) > 1 else " ") + ", ".join(map(str, nodes))
+
+
+def sequenced(msgs: Sequence[Message]) -> bool:
+    """Whether sending ``msgs`` involves presets or starts (so a start may wait for its presets)."""
+    return any(m.cmd == 0x0C or isinstance(m, _STARTS) for m in msgs)
 
 
 def describe_request(msg: Message) -> str:
@@ -694,16 +700,24 @@ class BusSession:
         """
         frames = [m.encode() for m in msgs]
         self._check_open()
-        if any(m.cmd == 0x0C or isinstance(m, _STARTS) for m in msgs):
-            op: Operation[None] = Operation(None, on_done)
-            self._ops[id(op)] = op
+        op: Operation[None] = Operation(None, on_done)
+        self._ops[id(op)] = op
+        if self._queue(op, msgs, frames) and not op.done:
+            return op
+        self._ops.pop(id(op), None)
+        return None
+
+    def _queue(self, op: Operation[Any], msgs: Sequence[Message], frames: Sequence[Frame]) -> bool:
+        """Queue sent messages for ``op``; True when presets or starts among them made it a sequenced
+        job (``op`` then ends when its last frame is queued), False when every frame is queued now."""
+        if sequenced(msgs):
             self._sequence(_SeqJob(op, msgs, frames, None))
-            return None if op.done else op
+            return True
         for m, f in zip(msgs, frames, strict=True):
             if m.cmd != 0x1E:
                 self._note(m, f)
         self._out.extend(frames)
-        return None
+        return False
 
     def send_frames(self, frames: Sequence[Frame], *, first: bool = False) -> None:
         """Queue frames as they are (no tracking): ``first`` puts them before anything queued."""
@@ -739,11 +753,7 @@ class BusSession:
         why = f"an emergency stop to {_motors(nodes)} came before the start went out"
         hold.fail(BusStoppedError(why))
         for job in queued:
-            if job.op is not None:
-                if job.op._gen is None:
-                    self._finish(job.op, None, BusStoppedError(why))
-                else:
-                    self._resume(job.op, None, BusStoppedError(why))
+            self._end_job(job, None, BusStoppedError(why))
 
     def stop_frames(self) -> list[Frame]:
         """The frames ``stop_on_close`` sends: idle or estop to every commanded motor."""
@@ -764,14 +774,18 @@ class BusSession:
         self._seq_busy = True
         self._run_job(job)
 
-    def _job_done(self, job: _SeqJob, value: Any, error: BaseException | None) -> None:
-        self._seq_busy = False
+    def _end_job(self, job: _SeqJob, value: Any, error: BaseException | None) -> None:
+        """Hand a job's outcome to its operation: a send's own (it ends here) or a generator's effect."""
         op = job.op
         if op is not None:
             if op._gen is None:
                 self._finish(op, value, error)
             else:
                 self._resume(op, value, error)
+
+    def _job_done(self, job: _SeqJob, value: Any, error: BaseException | None) -> None:
+        self._seq_busy = False
+        self._end_job(job, value, error)
         while self._seq and not self._seq_busy:
             nxt = self._seq.popleft()
             self._seq_busy = True
@@ -1006,16 +1020,7 @@ class BusSession:
             return _WAIT
         if isinstance(effect, Send):
             msgs = effect.messages
-            frames = [m.encode() for m in msgs]
-            if any(m.cmd == 0x0C or isinstance(m, _STARTS) for m in msgs):
-                job = _SeqJob(opn, msgs, frames, None)
-                self._sequence(job)
-                return _WAIT
-            for m, f in zip(msgs, frames, strict=True):
-                if m.cmd != 0x1E:
-                    self._note(m, f)
-            self._out.extend(frames)
-            return None
+            return _WAIT if self._queue(opn, msgs, [m.encode() for m in msgs]) else None
         if isinstance(effect, Batch):
             frames = [p.encode() for p in effect.presets]
             effect.start.encode()

@@ -17,6 +17,7 @@ import serial
 from ..protocol.ids import Frame
 from .base import Transport
 from .errors import TransportError
+from .fds import close_fds
 
 try:
     from serial.serialposix import Serial as _PosixSerial
@@ -120,7 +121,7 @@ class SerialFrameTransport(Transport):
             # close() writes a byte to this pipe, which wakes a wait in select at once; the pipe
             # stays open (and readable) until the transport is collected, so a late wait returns too
             wake_r, self._wake_w = os.pipe()
-            weakref.finalize(self, _close_fds, wake_r, self._wake_w)
+            weakref.finalize(self, close_fds, wake_r, self._wake_w)
             self._wait_fds = [self._fd, wake_r]
             self.recv_slice = None
         self.description = f"{what} on {port} at {self._ser.baudrate} Bd"
@@ -299,11 +300,3 @@ class SerialFrameTransport(Transport):
         finally:
             if locked:
                 self._wlock.release()
-
-
-def _close_fds(*fds: int) -> None:
-    for fd in fds:
-        try:
-            os.close(fd)
-        except OSError:
-            pass

@@ -12,6 +12,7 @@ from ..errors import ValidationError
 from ..protocol.ids import Frame
 from ..sim import SimBus, SimRunner
 from .base import QueuedTransport
+from .fds import close_fds, drain, nonblocking_pipe
 
 __all__ = ["SimTransport"]
 
@@ -78,10 +79,8 @@ class SimTransport(QueuedTransport):
         """A pipe that turns readable when a frame is queued (made on first use; frames are then taken
         with :meth:`read_nowait`, which empties it)."""
         if self._signal_r is None:
-            r, w = os.pipe()
-            os.set_blocking(r, False)
-            os.set_blocking(w, False)
-            weakref.finalize(self, _close_fds, r, w)
+            r, w = nonblocking_pipe()
+            weakref.finalize(self, close_fds, r, w)
             self._signal_r, self._signal_w = r, w
             if not self._queue.empty():
                 os.write(w, b"\0")
@@ -92,11 +91,7 @@ class SimTransport(QueuedTransport):
         leaves it readable)."""
         r = self._signal_r
         if r is not None:
-            try:
-                while os.read(r, 512):
-                    pass
-            except OSError:
-                pass
+            drain(r)
         out: list[Frame] = []
         q = self._queue
         while True:
@@ -165,11 +160,3 @@ class SimTransport(QueuedTransport):
                 os.write(self._signal_w, b"\0")
             except OSError:
                 pass
-
-
-def _close_fds(*fds: int) -> None:
-    for fd in fds:
-        try:
-            os.close(fd)
-        except OSError:
-            pass
