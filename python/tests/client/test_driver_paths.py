@@ -334,3 +334,31 @@ def test_closing_from_a_worker_thread_unregisters_the_descriptor_in_the_loop_fir
     finally:
         for pty in ptys:
             pty.close()
+
+
+@pytest.mark.parametrize("order", ["short-first", "long-first"])
+def test_coroutines_of_one_loop_time_out_each_at_its_own_deadline(order: str) -> None:
+    sim = SimBus(ids=[1])
+    pty = attach_adapter_pty(sim)
+    try:
+
+        async def main() -> dict[float, float]:
+            async with drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False) as abus:
+                assert (await abus.motor(1).get_state()).node == 1  # the loop takes the reader role
+                t0 = time.monotonic()
+                ended: dict[float, float] = {}
+
+                async def silent(timeout: float) -> None:
+                    with pytest.raises(drempower.TimeoutError):
+                        await abus.motor(9).get_state(timeout=timeout)  # nobody answers at id 9
+                    ended[timeout] = time.monotonic() - t0
+
+                first, second = (0.1, 0.3) if order == "short-first" else (0.3, 0.1)
+                await asyncio.gather(silent(first), silent(second))
+                return ended
+
+        ended = asyncio.run(main())
+    finally:
+        pty.close()
+    assert 0.1 <= ended[0.1] < 0.25  # not held back by the other coroutine's later deadline
+    assert 0.3 <= ended[0.3] < 0.45  # nor dropped when the earlier one's timer fired

@@ -27,6 +27,7 @@ from __future__ import annotations
 
 import atexit
 import logging
+import math
 import os
 import select
 import threading
@@ -109,7 +110,7 @@ class _LoopReader:
     loop's callback. Let go when idle, when the bus closes, or (by the receive thread) when the
     loop was closed while holding it."""
 
-    __slots__ = ("_once", "driver", "fd", "last", "loop", "thread", "timer", "users")
+    __slots__ = ("_once", "driver", "due", "due_at", "fd", "last", "loop", "thread", "timer", "users", "waits")
 
     def __init__(self, driver: BusDriver, loop: asyncio.AbstractEventLoop) -> None:
         self.driver = driver
@@ -124,6 +125,35 @@ class _LoopReader:
         self.timer: asyncio.TimerHandle | None = None
         self._once = threading.Lock()
         """Taken by the one :meth:`let_go` that acts (never blocks: a signal handler may call it)."""
+        self.waits: dict[Callable[[], None], float] = {}
+        """When (monotonic s) to wake each waiting coroutine at the latest (its operation's next deadline)."""
+        self.due: asyncio.TimerHandle | None = None
+        self.due_at = math.inf
+
+    def wake_at(self, wake: Callable[[], None], at: float) -> None:
+        """Call ``wake`` by monotonic time ``at`` (s). One timer serves every coroutine of the loop: it is
+        armed anew only when ``at`` comes before it (calls in a row, each with its timeout, share one)."""
+        self.waits[wake] = at
+        if at < self.due_at:
+            if self.due is not None:
+                self.due.cancel()
+            self.due_at = at
+            self.due = self.loop.call_later(max(0.0, at - _monotonic()), self._due)
+
+    def _due(self) -> None:
+        """The shared timer: wake the coroutines whose time came, re-arm for the next."""
+        self.due, self.due_at = None, math.inf
+        now = _monotonic()
+        later = math.inf
+        for wake, at in list(self.waits.items()):
+            if at <= now:
+                del self.waits[wake]
+                wake()
+            elif at < later:
+                later = at
+        if later < math.inf:
+            self.due_at = later
+            self.due = self.loop.call_later(later - now, self._due)
 
     def arm(self) -> None:
         self.timer = self.loop.call_later(_LINGER, self.check)
@@ -158,6 +188,9 @@ class _LoopReader:
         if self.timer is not None:
             self.timer.cancel()
             self.timer = None
+        if self.due is not None:
+            self.due.cancel()
+            self.due = None
         if not loop_closed:
             try:
                 self.loop.remove_reader(self.fd)
@@ -789,11 +822,8 @@ class BusDriver:
                 if wait > 0:
                     fut = holder[0]
                     if not fut.done():
-                        timer = loop.call_later(wait, _wake, fut)
-                        try:
-                            await fut
-                        finally:
-                            timer.cancel()
+                        rd.wake_at(wake, _monotonic() + wait)
+                        await fut
                     holder[0] = loop.create_future()
                 wait = None
                 if self._is_closed():
@@ -805,6 +835,7 @@ class BusDriver:
             raise
         finally:
             self._sleepers.discard(wake)
+            rd.waits.pop(wake, None)
             rd.users -= 1
             rd.last = _monotonic()
         self._end_closed(opn)
