@@ -280,6 +280,8 @@ class BusDriver:
             self._poke_r, self._poke_w = nonblocking_pipe()  # wakes the receive thread so that it parks
             self._close_r, self._close_w = nonblocking_pipe()  # readable once closed: wakes every select
             self._pipes = [self._poke_r, self._poke_w, self._close_r, self._close_w]
+            self._read_fds = [fd, self._close_r]
+            self._rest_time: Callable[[], float] | None = getattr(transport, "rest_time", None)
             # closed with the driver: a late select on them (a caller still returning) stays valid
             weakref.finalize(self, close_fds, *self._pipes)
         self._thread = threading.Thread(
@@ -671,10 +673,7 @@ class BusDriver:
     def _read_until(self, opn: Operation[Any], wait: float | None) -> None:
         """Read and feed frames (the reader lock is held) until ``opn`` is done or the bus closes;
         the first wait is ``wait`` s (None: as the session says)."""
-        fd = self._fd
-        assert fd is not None
-        fds = [fd, self._close_r]
-        rest: Callable[[], float] | None = getattr(self.transport, "rest_time", None)
+        fds, rest = self._read_fds, self._rest_time
         while not opn.done and not self._is_closed():
             if wait is None:
                 wait = self._step(opn)
