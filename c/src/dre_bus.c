@@ -618,7 +618,11 @@ void dre_bus_poll(dre_bus *bus)
             take_held(bus, r);
         }
         if (r->state == SLOT_PENDING && (uint32_t)(now - r->sent_ms) >= bus->cfg.timeout_ms) {
-            if (r->step == STEP_ID_FREE) {
+            if (r->tries < bus->cfg.retries) {
+                r->tries++; /* sent again below, to the same motor, with a whole timeout */
+                r->state = SLOT_QUEUED;
+                r->sent_ms = now;
+            } else if (r->step == STEP_ID_FREE) {
                 r->state = SLOT_WAIT; /* nobody answers at the new id: it is free */
                 r->sent_ms = now;
             } else {

@@ -142,6 +142,7 @@ void dre_i_set_id_write(dre_bus *bus, dre_request *r, uint32_t now)
     }
     r->step = STEP_NONE;
     r->link = 0u;
+    r->tries = 0u; /* the read of the new id is a request of its own, with retries of its own */
     r->address = DRE_PARAM_ADDRESS(DRE_P_AXIS0_CONFIG_CAN_NODE_ID);
     r->dtype = w.u.param.dtype;
     r->flags = FLAG_VERIFY | FLAG_SAVE;

@@ -152,6 +152,17 @@ typedef struct {
      *  has not learned (see dre_get_traj_mode); 0 = trapezoid. */
     uint8_t traj_mode;
     uint8_t start; /**< dre_start_to; 0 = DRE_START_TO_AUTO */
+    /**
+     * How often a request whose reply did not come is sent again, as the
+     * Python client's `retries`: at its timeout a request (a read, a fast
+     * read, the read-back of a verified write, a probe of dre_set_id) goes
+     * out again to the same motor, with a whole timeout of its own, up to
+     * `retries` times; DRE_E_TIMEOUT comes after the last try. A reply of
+     * value 0 held back for it (see dre_bus_feed) is its answer at the
+     * timeout, before any retry. 0 = sent once, so a timeout is exactly the
+     * time waited. Motion commands get no reply and are never sent again.
+     */
+    uint8_t retries;
 } dre_bus_config;
 
 /** A request slot; the caller provides an array of them. Opaque. */
@@ -167,6 +178,7 @@ typedef struct {
     uint8_t step; /**< the step of a multi-step request (dre_set_id), 0 for others */
     uint8_t link; /**< dre_set_id: the current id; its helper probe: the slot index of the request */
     uint8_t held_node; /**< the node of a reply of value 0 held back for this request */
+    uint8_t tries;     /**< times sent again after a timeout (up to cfg.retries) */
     uint32_t reply_ms; /**< when its answer, or the reply of value 0 held back for it, arrived */
 } dre_request;
 
