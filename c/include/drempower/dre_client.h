@@ -294,8 +294,10 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame);
 
 /**
  * Main loop: read the tick, feed every queued frame, expire requests older
- * than the timeout at that tick, take dre_set_id requests to their next step,
- * then send the requests whose turn has come.
+ * than the timeout at that tick (or queue them to be sent again, while they
+ * have cfg.retries left), take dre_set_id requests to their next step, then
+ * send the requests whose turn has come (a retry before any later request to
+ * its motor).
  */
 void dre_bus_poll(dre_bus *bus);
 
@@ -449,7 +451,8 @@ dre_status dre_get_id(const dre_motor *m, dre_req *req);
  *  1. Fast reads at the current id (m->node; 0: any motor) and at `new_id`,
  *     sent together. A motor answering at `new_id` ends the request
  *     DRE_E_ID_TAKEN at once (the reply is its state); once that read has
- *     timed out, no answer at the current id ends it DRE_E_NO_MOTOR. Both
+ *     timed out (after cfg.retries more reads, as every read of the steps
+ *     below), no answer at the current id ends it DRE_E_NO_MOTOR. Both
  *     leave the motor untouched: no write is sent. When `new_id` is the
  *     current id, only the motor's own read goes out, and it must answer.
  *  2. The write of axis0.config.can_node_id = new_id to the current id.
@@ -530,9 +533,9 @@ typedef struct {
  * torque command since), the first state with T set ends the wait.
  *
  * DRE_E_FAULT as soon as the motor reports an error (read the words with
- * dre_dump_error); DRE_E_TIMEOUT when a fast read goes unanswered or
- * `timeout_ms` (0 = no limit) has passed since the first call. After an
- * error `d` is reset, so the next call starts again.
+ * dre_dump_error); DRE_E_TIMEOUT when a fast read goes unanswered (after
+ * cfg.retries more tries) or `timeout_ms` (0 = no limit) has passed since
+ * the first call. After an error `d` is reset, so the next call starts again.
  */
 dre_status dre_position_done(const dre_motor *m, dre_done *d, uint32_t timeout_ms);
 /**
