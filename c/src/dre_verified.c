@@ -43,7 +43,7 @@ static dre_status verified_writes(const dre_motor *m, uint8_t k, const dre_param
     for (i = 0u; i < k; i++) {
         uint8_t last = i + 1u == k;
         dre_request r = dre_i_request(m->node, DRE_PARAM_ADDRESS(params[i]), DRE_PARAM_DTYPE(params[i]));
-        r.flags = (uint8_t)(FLAG_VERIFY | (last ? (save ? FLAG_SAVE : 0u) : FLAG_CHAIN));
+        r.flags = (uint8_t)(FLAG_VERIFY | FLAG_REWRITE | (last ? (save ? FLAG_SAVE : 0u) : FLAG_CHAIN));
         r.reply.u.param.value = values[i];
         (void)dre_i_issue(bus, &r, 1, &req[i]);
     }

@@ -1284,6 +1284,79 @@ static void test_verified_writes(void)
     CHECK(bus_fake.nsent == 13u);
 }
 
+/* cfg.retries and verified writes: a read-back that differs is written and read again, as the Python client. */
+static void test_verified_rewrites(void)
+{
+    dre_motor m1 = {&bus, 1u};
+    dre_req req[3];
+    dre_msg reply;
+
+    /* the first read-back differs: written again, read again, then DRE_OK and remembered */
+    setup();
+    bus.cfg.retries = 1u;
+    CHECK(dre_set_traj_mode(&m1, DRE_TRAJ_S_CURVE, req) == DRE_OK && bus_fake.nsent == 2u);
+    feed(0x03E, "2089030001000000"); /* still the trapezoid */
+    CHECK(bus_fake.nsent == 3u && sent_is(2u, 0x03F, "2089030002000000"));
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_PENDING);
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 4u && sent_is(3u, 0x03E, "2089030000000000"));
+    feed(0x03E, "2089030002000000");
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_OK && reply.u.param.value.i == 2);
+    CHECK(bus.traj_known == (1u << 1) && bus.traj_scurve == (1u << 1));
+
+    /* every read-back differs: retries + 1 writes, then DRE_E_VERIFY with the value read */
+    CHECK(dre_set_traj_mode(&m1, DRE_TRAJ_TRAPEZOID, req) == DRE_OK && bus_fake.nsent == 6u);
+    feed(0x03E, "2089030002000000");
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 8u && sent_is(6u, 0x03F, "2089030001000000") && sent_is(7u, 0x03E, "2089030000000000"));
+    feed(0x03E, "2089030002000000");
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_E_VERIFY && reply.u.param.value.i == 2);
+    bus_fake.now = 500u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 8u);
+
+    /* the read after a rewrite has its timeout retries; the save follows once the value reads back */
+    setup();
+    bus.cfg.retries = 1u;
+    CHECK(dre_set_can_baud_rate(&m1, 1000000u, req) == DRE_OK);
+    feed(0x03E, "0952030020A10700"); /* 500000 */
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 4u && sent_is(2u, 0x03F, "0952030040420F00") && sent_is(3u, 0x03E, "0952030000000000"));
+    bus_fake.now = DRE_DEFAULT_TIMEOUT_MS;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 5u && sent_is(4u, 0x03E, "0952030000000000"));
+    feed(0x03E, "0952030040420F00");
+    CHECK(bus_fake.nsent == 6u && sent_is(5u, 0x028, "0100000000000000"));
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_OK && bus.stats.timeouts == 0u);
+
+    /* three writes: a limit read back wrong is written again before the next one is read, saved at the end */
+    setup();
+    bus.cfg.retries = 1u;
+    CHECK(dre_set_angle_range(&m1, -90.0f, 90.0f, 0.0f, req) == DRE_OK && bus_fake.nsent == 4u);
+    feed(0x03E, "7A94000000000000"); /* 0, not -90 */
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 6u && sent_is(4u, 0x03F, "7A9400000000B4C2") && sent_is(5u, 0x03E, "7A94000000000000"));
+    feed(0x03E, "7A9400000000B4C2");
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 7u && sent_is(6u, 0x03E, "7B94000000000000"));
+    feed(0x03E, "7B9400000000B442");
+    dre_bus_poll(&bus);
+    feed(0x03E, "E279030001000000");
+    CHECK(bus_fake.nsent == 9u && sent_is(8u, 0x028, "0100000000000000"));
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_OK && dre_result(&bus, req[1], &reply) == DRE_OK &&
+          dre_result(&bus, req[2], &reply) == DRE_OK);
+
+    /* dre_set_id's read at the new id is never a rewrite: another id there is DRE_E_VERIFY at once */
+    setup();
+    bus.cfg.retries = 1u;
+    CHECK(dre_set_id(&m1, 1u, req) == DRE_OK);
+    feed(0x021, "0000000000000000");
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 3u && sent_is(1u, 0x03F, "1979030001000000") && sent_is(2u, 0x03E, "1979030000000000"));
+    feed(0x03E, "1979030007000000");
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_E_VERIFY && bus_fake.nsent == 3u);
+}
+
 /* Request slots in use (the helper probe of set_id included). */
 static unsigned busy_slots(void)
 {
@@ -1787,6 +1860,7 @@ int main(void)
     test_start_after_presets();
     test_reads();
     test_verified_writes();
+    test_verified_rewrites();
     test_set_id();
     test_mode_params();
     test_param_domains();

@@ -159,8 +159,11 @@ typedef struct {
      * out again to the same motor, with a whole timeout of its own, up to
      * `retries` times; DRE_E_TIMEOUT comes after the last try. A reply of
      * value 0 held back for it (see dre_bus_feed) is its answer at the
-     * timeout, before any retry. 0 = sent once, so a timeout is exactly the
-     * time waited. Motion commands get no reply and are never sent again.
+     * timeout, before any retry. A verified write (dre_set_traj_mode,
+     * dre_set_angle_range, the baud rates) whose read-back differs is written
+     * and read again, up to `retries` times, before DRE_E_VERIFY. 0 = sent
+     * once, so a timeout is exactly the time waited. Motion commands get no
+     * reply and are never sent again.
      */
     uint8_t retries;
 } dre_bus_config;
@@ -438,7 +441,8 @@ dre_status dre_get_state(const dre_motor *m, dre_req *req);
  * sends at once (cfg.tx_free) and free slots for its requests, or returns
  * DRE_E_BUSY having sent nothing. A verified write reads the value back; its
  * request ends DRE_OK when the motor holds what was written, DRE_E_VERIFY
- * when not; "then save" means save_config goes out only after that check
+ * when not (after cfg.retries more writes and reads; not for dre_set_id,
+ * which reports another id at once); "then save" means save_config goes out only after that check
  * succeeded (of every value, for set_angle_range). */
 
 /** Start reading the id the motor reports (axis0.config.can_node_id); reply value in .i. */
