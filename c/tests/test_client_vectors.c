@@ -233,7 +233,7 @@ static void run_vector(const cv_vector *v)
 int main(void)
 {
     unsigned i;
-    CHECK(cv_nvectors >= 15u);
+    CHECK(cv_nvectors >= 35u); /* every vector of spec/vectors/client (35 when written) */
     for (i = 0u; i < cv_nvectors; i++) {
         run_vector(&cv_vectors[i]);
     }
