@@ -179,7 +179,8 @@ typedef struct {
     uint8_t state;
     uint8_t flags;
     uint8_t step; /**< the step of a multi-step request (dre_set_id), 0 for others */
-    uint8_t link; /**< dre_set_id: the current id; its helper probe: the slot index of the request */
+    uint8_t link; /**< dre_set_id: the current id; its helper probe: the slot index of the request;
+                       a verified write: the times it was written again (up to cfg.retries) */
     uint8_t held_node; /**< the node of a reply of value 0 held back for this request */
     uint8_t tries;     /**< times sent again after a timeout (up to cfg.retries) */
     uint32_t reply_ms; /**< when its answer, or the reply of value 0 held back for it, arrived */
@@ -442,8 +443,8 @@ dre_status dre_get_state(const dre_motor *m, dre_req *req);
  * DRE_E_BUSY having sent nothing. A verified write reads the value back; its
  * request ends DRE_OK when the motor holds what was written, DRE_E_VERIFY
  * when not (after cfg.retries more writes and reads; not for dre_set_id,
- * which reports another id at once); "then save" means save_config goes out only after that check
- * succeeded (of every value, for set_angle_range). */
+ * which reports another id at once); "then save" means save_config goes out
+ * only after that check succeeded (of every value, for set_angle_range). */
 
 /** Start reading the id the motor reports (axis0.config.can_node_id); reply value in .i. */
 dre_status dre_get_id(const dre_motor *m, dre_req *req);
