@@ -87,7 +87,7 @@ class AwaitState:
     timeout: float
 
 
-@dataclass(frozen=True, slots=True)
+@dataclass(slots=True)  # not frozen (treat it as such): a frozen one costs ~0.8 us more to build, per cycle
 class Cycle(Generic[T]):
     """One control cycle (see :func:`~drempower.client.batch.cycle`): send ``messages`` (commands, then
     fast reads) as the encoded ``frames`` and collect the next state of each motor of ``nodes``; result:

@@ -422,30 +422,31 @@ class _CycleRun:
     per motor is awaited (matched as any fast read's), sent once, never retried. What the commands
     change is recorded as for any sent message (commanded motors, moves, pending presets)."""
 
-    __slots__ = ("cycle", "op", "session", "timeout", "timer", "waiter")
+    __slots__ = ("nodes", "op", "session", "timeout", "timer", "waiter")
 
     def __init__(self, session: BusSession, op: Operation[Any], cycle: Cycle[Any]) -> None:
+        """Queue the cycle's frames, expect its states and start its timer."""
+        timeout = cycle.timeout
+        if timeout is None:
+            timeout = session.timeout
+        elif not timeout > 0:
+            raise ValidationError(f"timeout={timeout!r}: must be > 0 s")
         self.session = session
         self.op = op
-        self.cycle = cycle
-        timeout = cycle.timeout
-        self.timeout = session.timeout if timeout is None else timeout
-        if not self.timeout > 0:
-            raise ValidationError(f"timeout={timeout!r}: must be > 0 s")
-        self.waiter = Waiter([n << 16 for n in cycle.nodes], self._answered)
-        self.timer = 0
-
-    def start(self) -> None:
-        s = self.session
-        c = self.cycle
-        s.matcher.register(self.waiter)
-        for m, f in zip(c.messages, c.frames, strict=True):
-            if m.cmd != 0x1E:
-                s._note(m, f)
-                if m.cmd == 0x0C:
-                    s._hold_preset(m)
-        s._out.extend(c.frames)
-        self.timer = s._add_timer(s.now + self.timeout, self._expire)
+        self.timeout = timeout
+        nodes = self.nodes = cycle.nodes
+        w = self.waiter = Waiter([n << 16 for n in nodes], self._answered)
+        session.matcher.register(w)
+        frames = cycle.frames
+        note, hold = session._note, session._hold_preset
+        for m, f in zip(cycle.messages, frames, strict=True):
+            cmd = m.cmd
+            if cmd != 0x1E:
+                note(m, f)
+                if cmd == 0x0C:
+                    hold(m)
+        session._out.extend(frames)
+        self.timer = session._add_timer(session.now + timeout, self._expire)
 
     def cancel(self) -> None:
         s = self.session
@@ -455,7 +456,7 @@ class _CycleRun:
     def _answered(self) -> None:
         s = self.session
         s._timers.pop(self.timer, None)
-        nodes = self.cycle.nodes
+        nodes = self.nodes
         s.heard.update(nodes)
         s._effect_done(self.op, dict(zip(nodes, self.waiter.results, strict=True)), None)
 
@@ -467,7 +468,7 @@ class _CycleRun:
             if not w.remaining:
                 return  # held-back replies answered it (and _answered ran)
         s.matcher.cancel(w)
-        nodes = self.cycle.nodes
+        nodes = self.nodes
         silent = sorted(nodes[i] for i in w.missing())
         s._effect_done(self.op, None, TimeoutError(silent, "a control cycle", self.timeout))
 
@@ -1019,7 +1020,6 @@ class BusSession:
                 if self.check_request is not None:
                     self.check_request(op.messages)
                 cyc = _CycleRun(self, run, op)
-                cyc.start()
             except Exception as exc:
                 self._finish(run, None, exc)
             else:
@@ -1098,7 +1098,6 @@ class BusSession:
             if self.check_request is not None:
                 self.check_request(effect.messages)
             cyc = _CycleRun(self, opn, effect)
-            cyc.start()
             opn._cancel = cyc.cancel
             return _WAIT
         if isinstance(effect, Send):
@@ -1205,7 +1204,7 @@ class BusSession:
                 if mv is not None and mv.took is None and st.timestamp > mv.sent:
                     mv.took = st.timestamp
             self.states[node] = st
-            self.matcher.resolve(node, 0, st)
+            self.matcher.resolve_state(node, st)
             waits = self._state_waits.get(node)
             if waits:
                 for opn, since in list(waits):
