@@ -420,7 +420,8 @@ class _OneRequest:
 class _CycleRun:
     """A control cycle (:class:`~drempower.client.effects.Cycle`): its frames go out at once, one state
     per motor is awaited (matched as any fast read's), sent once, never retried. What the commands
-    change is recorded as for any sent message (commanded motors, moves, pending presets)."""
+    change is recorded as for any sent message (commanded motors, moves, learned parameters); a
+    preset in a cycle is answered, so on the wire, when the cycle ends: no start waits for it."""
 
     __slots__ = ("nodes", "op", "session", "timeout", "timer", "waiter")
 
@@ -438,13 +439,10 @@ class _CycleRun:
         w = self.waiter = Waiter([n << 16 for n in nodes], self._answered)
         session.matcher.register(w)
         frames = cycle.frames
-        note, hold = session._note, session._hold_preset
+        note = session._note
         for m, f in zip(cycle.messages, frames, strict=True):
-            cmd = m.cmd
-            if cmd != 0x1E:
+            if m.cmd != 0x1E:
                 note(m, f)
-                if cmd == 0x0C:
-                    hold(m)
         session._out.extend(frames)
         self.timer = session._add_timer(session.now + timeout, self._expire)
 

@@ -16,6 +16,8 @@ from drempower.protocol import (
     PositionT,
     PresetT,
     ReadParam,
+    Start,
+    StartKind,
     State,
     Velocity,
     decode_command,
@@ -61,10 +63,15 @@ def test_a_cycle_records_what_its_commands_change_so_that_closing_stops_the_moto
     assert s.stop_frames() == idle_frames([1, 2])
 
 
-def test_a_preset_in_a_cycle_is_held_as_pending_for_its_start() -> None:
-    s = BusSession()
-    s.submit(batch.cycle(s, [PresetT(1, 30.0, 20.0)], reply_state=True))
-    assert s.pending_presets == {1}
+def test_a_start_after_a_cycle_of_presets_goes_out_at_once() -> None:
+    s = BusSession(tx="timed", bitrate=1_000_000, tx_latency=0.005)
+    opn = s.submit(batch.cycle(s, [PresetT(n, 30.0, 20.0) for n in (1, 2)], reply_state=True))
+    s.data_to_send()
+    s.receive(_state(1), 0.0003)
+    s.receive(_state(2), 0.0005)
+    assert set(opn.result()) == {1, 2} and s.commanded == {1, 2}
+    assert s.send([Start(0, StartKind.T)]) is None  # not held for the answered presets
+    assert _sent(s) == [Start(0, StartKind.T)]
 
 
 def test_motors_without_reply_state_get_a_fast_read_after_the_commands() -> None:
