@@ -3,10 +3,11 @@
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 
 from ..errors import FieldRangeError, ValidationError
 from ..protocol.addresses import AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE
+from ..protocol.ids import Frame
 from ..protocol.messages import S16_MAX, FastRead, Message, ReadParam
 from ..protocol.parameters import DataType
 from .commands import (
@@ -19,9 +20,8 @@ from .commands import (
     position_mode,
     q_move_time,
 )
-from .effects import Batch, Op, read_states, request
+from .effects import Batch, Cycle, Op, Runnable, read_states, request
 from .ops import traj_modes
-from .requests import reply_key
 from .results import MotorInfo
 from .session import MOTION_CMDS, BusSession
 from .state import MotorState
@@ -100,33 +100,59 @@ def impedance_controls(
 
 def cycle(
     core: BusSession, commands: Iterable[Message], timeout: float | None = None, reply_state: bool | None = None
-) -> Op[dict[int, MotorState]]:
+) -> Runnable[dict[int, MotorState]]:
     """Send one command to each motor and collect one state per motor.
 
     A motor with ``enable_reply_state`` on answers a control or preset frame
     with its state, so it costs one frame each way; the others get a fast read
     after the commands. ``reply_state`` None uses what the bus knows about each
     motor (reading 31214 once for motors it does not know yet); True or False
-    asserts it for all.
+    asserts it for all. The commands are validated (encoded) here, before
+    anything is sent; when nothing is to be read first, the result is a
+    :class:`~drempower.client.effects.Cycle` the session runs without a generator.
     """
     cmds = list(commands)
     nodes = check_ids([c.node for c in cmds])
+    frames = []
     for c in cmds:
         if c.cmd == 0x1E:
             raise ValidationError("a control cycle sends commands; reads are answered by the cycle itself")
-        c.encode()
+        frames.append(c.encode())
     if reply_state is None:
-        unknown = [n for n in nodes if n not in core.reply_state]
+        known = core.reply_state
+        unknown = [n for n in nodes if n not in known]
         if unknown:
-            replies = yield from request([ReadParam(n, _REPLY_STATE, DataType.U32) for n in unknown], timeout)
-            for n, r in zip(unknown, replies, strict=True):
-                core.learn(n, _REPLY_STATE, r.value)
-        replying = {n for n in nodes if core.reply_state[n]}
-    else:
-        replying = set(nodes) if reply_state else set()
-    msgs = cmds + [FastRead(c.node) for c in cmds if not (c.node in replying and c.cmd in MOTION_CMDS)]
-    states = yield from request(msgs, timeout, expect=[reply_key(n, 0) for n in nodes], what="a control cycle")
-    return dict(zip(nodes, states, strict=True))
+            return _learn_then_cycle(core, cmds, frames, nodes, unknown, timeout)
+        return _cycle(cmds, frames, nodes, {n for n in nodes if known[n]}, timeout)
+    return _cycle(cmds, frames, nodes, nodes if reply_state else (), timeout)
+
+
+def _cycle(
+    cmds: list[Message], frames: list[Frame], nodes: list[int], replying: Collection[int], timeout: float | None
+) -> Cycle[dict[int, MotorState]]:
+    """The cycle of ``cmds``: a fast read after the commands for each motor that will not answer its command."""
+    reads = [FastRead(c.node) for c in cmds if not (c.cmd in MOTION_CMDS and c.node in replying)]
+    if reads:
+        cmds = [*cmds, *reads]
+        frames = frames + [r.encode() for r in reads]
+    return Cycle(cmds, frames, nodes, timeout)
+
+
+def _learn_then_cycle(
+    core: BusSession,
+    cmds: list[Message],
+    frames: list[Frame],
+    nodes: list[int],
+    unknown: list[int],
+    timeout: float | None,
+) -> Op[dict[int, MotorState]]:
+    """Read ``enable_reply_state`` of the motors the bus knows nothing of, then run the cycle."""
+    replies = yield from request([ReadParam(n, _REPLY_STATE, DataType.U32) for n in unknown], timeout)
+    for n, r in zip(unknown, replies, strict=True):
+        core.learn(n, _REPLY_STATE, r.value)
+    known = core.reply_state
+    states: dict[int, MotorState] = yield _cycle(cmds, frames, nodes, {n for n in nodes if known.get(n)}, timeout)
+    return states
 
 
 def scan(ids: Iterable[int] = ALL_IDS, timeout: float | None = None, versions: bool = False) -> Op[list[MotorInfo]]:

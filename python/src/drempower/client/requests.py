@@ -128,6 +128,25 @@ class Matcher:
             waiter.on_complete()
         return MATCHED
 
+    def resolve_state(self, node: int, value: object) -> bool:
+        """:meth:`resolve` for a state frame of ``node`` (address 0), the commonest reply, in fewer steps."""
+        table = self._table
+        key = node << 16
+        lst = table.get(key)
+        if lst is None:
+            key = 0  # a fast read sent to broadcast
+            lst = table.get(0)
+            if lst is None:
+                return False
+        waiter, i = lst.pop(0)
+        if not lst:
+            del table[key]
+        waiter.results[i] = value
+        waiter.remaining -= 1
+        if waiter.remaining == 0 and waiter.on_complete is not None:
+            waiter.on_complete()
+        return True
+
     def waiting(self, node: int, address: int, dtype: DataType | None = None) -> bool:
         """True when a request waits for this reply (from ``node``, or sent to broadcast), of ``dtype`` if given."""
         table = self._table

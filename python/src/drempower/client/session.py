@@ -59,7 +59,7 @@ from ..protocol.messages import (
     decode_reply,
 )
 from ..protocol.parameters import DataType, find_parameter
-from .effects import AwaitState, Batch, Effect, Request, Runnable, Send, Single, Sleep
+from .effects import AwaitState, Batch, Cycle, Effect, Request, Runnable, Send, Single, Sleep
 from .errors import BusClosedError, TimeoutError
 from .requests import MATCHED, MISMATCHED, Matcher, Waiter, request_dtype, request_key
 from .state import MotorState
@@ -416,6 +416,60 @@ class _OneRequest:
             self.start()
             return
         s._finish(self.op, None, TimeoutError([key >> 16], describe_request(self.msg), self.timeout))
+
+
+class _CycleRun:
+    """A control cycle (:class:`~drempower.client.effects.Cycle`): its frames go out at once, one state
+    per motor is awaited (matched as any fast read's), sent once, never retried. What the commands
+    change is recorded as for any sent message (commanded motors, moves, learned parameters); a
+    preset in a cycle is answered, so on the wire, when the cycle ends: no start waits for it."""
+
+    __slots__ = ("nodes", "op", "session", "timeout", "timer", "waiter")
+
+    def __init__(self, session: BusSession, op: Operation[Any], cycle: Cycle[Any]) -> None:
+        """Queue the cycle's frames, expect its states and start its timer."""
+        timeout = cycle.timeout
+        if timeout is None:
+            timeout = session.timeout
+        elif not timeout > 0:
+            raise ValidationError(f"timeout={timeout!r}: must be > 0 s")
+        self.session = session
+        self.op = op
+        self.timeout = timeout
+        nodes = self.nodes = cycle.nodes
+        w = self.waiter = Waiter([n << 16 for n in nodes], self._answered)
+        session.matcher.register(w)
+        frames = cycle.frames
+        note = session._note
+        for m, f in zip(cycle.messages, frames, strict=True):
+            if m.cmd != 0x1E:
+                note(m, f)
+        session._out.extend(frames)
+        self.timer = session._add_timer(session.now + timeout, self._expire)
+
+    def cancel(self) -> None:
+        s = self.session
+        s._timers.pop(self.timer, None)
+        s.matcher.cancel(self.waiter)
+
+    def _answered(self) -> None:
+        s = self.session
+        s._timers.pop(self.timer, None)
+        nodes = self.nodes
+        s.heard.update(nodes)
+        s._effect_done(self.op, dict(zip(nodes, self.waiter.results, strict=True)), None)
+
+    def _expire(self) -> None:
+        s = self.session
+        w = self.waiter
+        if s._provisional:
+            s._settle(0.0, [(k >> 16, k & 0xFFFF) for k in w.keys])
+            if not w.remaining:
+                return  # held-back replies answered it (and _answered ran)
+        s.matcher.cancel(w)
+        nodes = self.nodes
+        silent = sorted(nodes[i] for i in w.missing())
+        s._effect_done(self.op, None, TimeoutError(silent, "a control cycle", self.timeout))
 
 
 class _SeqJob:
@@ -971,6 +1025,19 @@ class BusSession:
             else:
                 single._cancel = ex.cancel
             return single
+        if op.__class__ is Cycle:
+            run: Operation[T] = Operation(None, on_done)
+            self._ops[id(run)] = run
+            try:
+                if self.check_request is not None:
+                    self.check_request(op.messages)
+                cyc = _CycleRun(self, run, op)
+            except Exception as exc:
+                self._finish(run, None, exc)
+            else:
+                if not run.done:
+                    run._cancel = cyc.cancel
+            return run
         opn: Operation[T] = Operation(op, on_done)  # type: ignore[arg-type]
         self._ops[id(opn)] = opn
         self._resume(opn, None, None)
@@ -994,6 +1061,13 @@ class BusSession:
         self._ops.pop(id(opn), None)
         if notify and opn.on_done is not None:
             opn.on_done()
+
+    def _effect_done(self, opn: Operation[Any], value: Any, error: BaseException | None) -> None:
+        """An effect of ``opn`` ended: a runnable without a generator ends with it, a generator resumes."""
+        if opn._gen is None:
+            self._finish(opn, value, error)
+        else:
+            self._resume(opn, value, error)
 
     def _resume(self, opn: Operation[Any], value: Any, error: BaseException | None) -> None:
         """Run ``opn``'s generator until it waits for an effect or ends."""
@@ -1031,6 +1105,12 @@ class BusSession:
             ex = _Exchange(self, opn, effect)
             ex.start()
             opn._cancel = ex.cancel
+            return _WAIT
+        if effect.__class__ is Cycle:
+            if self.check_request is not None:
+                self.check_request(effect.messages)
+            cyc = _CycleRun(self, opn, effect)
+            opn._cancel = cyc.cancel
             return _WAIT
         if isinstance(effect, Send):
             msgs = effect.messages
@@ -1137,7 +1217,7 @@ class BusSession:
                 if mv is not None and mv.took is None and st.timestamp > mv.sent:
                     mv.took = st.timestamp
             self.states[node] = st
-            self.matcher.resolve(node, 0, st)
+            self.matcher.resolve_state(node, st)
             waits = self._state_waits.get(node)
             if waits:
                 for opn, since in list(waits):
