@@ -14,10 +14,12 @@ from ..sim import SimBus, SimRunner
 from .base import QueuedTransport
 from .fds import close_fds, drain, nonblocking_pipe
 
-__all__ = ["SimTransport", "CLOCKS"]
+__all__ = ["SimTransport", "CLOCKS", "FOREVER"]
 
 CLOCKS = ("wall", "virtual")
 """The clocks of :class:`SimTransport`: wall time (a runner thread), or the simulated bus's own time."""
+FOREVER = 3600.0
+"""The simulated time (s) a receive without a timeout lets pass on the virtual clock before it gives up."""
 
 
 class SimTransport(QueuedTransport):
@@ -173,6 +175,15 @@ class SimTransport(QueuedTransport):
             return not q.empty() or (until is not None and until())
 
         return self.bus.advance(seconds, stop)
+
+    def recv(self, timeout: float | None = None) -> Frame | None:
+        """Next received frame, or None after ``timeout`` s (or once closed); with ``clock="virtual"`` the
+        wait lets simulated time pass (``timeout=None``: at most :data:`FOREVER`)."""
+        if not self.virtual_clock:
+            return super().recv(timeout)
+        if self._closed:
+            return None
+        return self.wait_frame(FOREVER if timeout is None else max(timeout, 0.0))
 
     def wait_frame(self, timeout: float) -> Frame | None:
         """The next received frame, or None after ``timeout`` s (simulated time with ``clock="virtual"``)."""
