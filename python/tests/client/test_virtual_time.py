@@ -21,6 +21,7 @@ from drempower.client import BusClosedError, PositionMode, open_bus_async
 from drempower.client import signals as sig
 from drempower.client.effects import sleep
 from drempower.client.session import idle_frames
+from drempower.protocol.ids import Frame
 from drempower.sim import Faults, SimBus, SimRunner
 from drempower.transports import TransportError
 from drempower.transports.sim import SimTransport
@@ -261,3 +262,33 @@ def test_faults_act_on_simulated_time() -> None:
         bus.run(sleep(0.2))  # the late reply arrives now, 0.6 s after t0: it answers nothing
         assert bus.stats["unmatched"] == 1
         assert bus.core.now() - t0 == pytest.approx(0.7)
+
+
+def test_pass_time_takes_frames_until_its_condition() -> None:
+    sim = SimBus(ids=[1], faults=Faults(reply_delay=0.3))
+    with drempower.open_bus("sim", bus=sim, clock="virtual", timeout=0.1, stop_on_close=False) as bus:
+        got: list[Frame] = []
+        bus.on_unsolicited = got.append
+        with pytest.raises(drempower.TimeoutError):
+            bus.motor(1).read_property("axis0.error")
+        t0 = bus.core.now()
+        bus.core.pass_time(1.0, until=lambda: bool(got))
+        assert len(got) == 1 and bus.core.now() - t0 == pytest.approx(0.2)  # the reply came 0.3 s after the read
+        bus.core.pass_time(0.5)
+        assert bus.core.now() - t0 == pytest.approx(0.7)
+
+
+def test_compat_receive_data_waits_on_simulated_time() -> None:
+    from drempower import compat
+
+    bus = compat.open("sim", motors=[1], clock="virtual", timeout=1.0, faults=Faults(reply_delay=0.3))
+    try:
+        t0 = bus.core.now()
+        compat.send_command(1, 0x1E, [0] * 8)  # a fast read by hand: its reply is 0.3 s late
+        data = compat.receive_data()
+        assert data is not None and compat.READ_FLAG == 1
+        assert bus.core.now() - t0 == pytest.approx(0.3)
+        assert compat.receive_data(timeout=0.25) is None and compat.READ_FLAG == -1
+        assert bus.core.now() - t0 == pytest.approx(0.55)
+    finally:
+        compat.close()

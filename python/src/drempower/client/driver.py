@@ -40,7 +40,7 @@ from ..protocol.messages import Message, Start, StartImpedance
 from ..transports.base import Transport
 from ..transports.fds import close_fds, drain, nonblocking_pipe
 from . import signals
-from .effects import Batch, Op, Runnable
+from .effects import Batch, Op, Runnable, sleep
 from .errors import BusClosedError
 from .session import DEFAULT_TIMEOUT, BusSession, Operation, StartPolicy, StopOnClose, TxOrder
 from .state import MotorState, StateCache
@@ -76,6 +76,8 @@ _VIRTUAL_IDLE = 0.01
 """Wall time (s) a caller on a virtual clock waits for other threads when the session has nothing due."""
 _VIRTUAL_TURN = 0.005
 """Longest wall wait (s) for the turn to let virtual time pass before a caller looks at its operation again."""
+_WALL_POLL = 0.01
+"""Longest sleep (s) of :meth:`BusDriver.pass_time` on a wall clock before it checks its condition again."""
 _monotonic = time.monotonic
 _open_drivers: weakref.WeakSet[BusDriver] = weakref.WeakSet()
 
@@ -618,10 +620,29 @@ class BusDriver:
             self._wait_virtual(opn)
         return opn.result()
 
-    def _wait_virtual(self, opn: Operation[Any]) -> None:
-        """Let simulated time pass until ``opn`` is done: up to the session's next deadline at a time,
-        ending early when a frame arrives, which is fed at once. One caller lets time pass at a time
-        (the lock); the others look at their operation meanwhile, which that caller's frames may finish."""
+    def pass_time(self, seconds: float, until: Callable[[], bool] | None = None) -> None:
+        """Let ``seconds`` of the bus's time pass, taking the frames that arrive meanwhile; end early once
+        ``until()`` is true (checked after each frame taken). On a virtual clock no wall time passes; on a
+        wall clock it sleeps (the receive thread takes the frames)."""
+        self.check_open()
+        if self._clock is None:
+            end = _monotonic() + seconds
+            while not (until is not None and until()) and (left := end - _monotonic()) > 0:
+                self.closed_event.wait(min(left, _WALL_POLL))
+                if self._closed:
+                    return
+            return
+        opn = self.submit(sleep(seconds))
+        if not opn.done:
+            self._wait_virtual(opn, until)
+        if not opn.done:
+            with self._lock:
+                self.session.cancel(opn)
+
+    def _wait_virtual(self, opn: Operation[Any], until: Callable[[], bool] | None = None) -> None:
+        """Let simulated time pass until ``opn`` is done (or ``until()``): up to the session's next deadline
+        at a time, ending early when a frame arrives, which is fed at once. One caller lets time pass at a
+        time (the lock); the others look at their operation meanwhile, which that caller's frames may finish."""
         clock = self._clock
         assert clock is not None
         session, vlock = self.session, self._vlock
@@ -630,10 +651,10 @@ class BusDriver:
                 if not vlock.acquire(timeout=_VIRTUAL_TURN):
                     continue
                 try:
-                    if self._take_queued(opn):
+                    if self._take_queued(opn) or (until is not None and until()):
                         break
                     wait = self._step(opn)
-                    if wait is None or self._take_queued(opn):
+                    if wait is None or self._take_queued(opn) or (until is not None and until()):
                         break
                     with self._lock:
                         idle = session.next_deadline() is None
@@ -651,7 +672,8 @@ class BusDriver:
             with self._lock:
                 session.cancel(opn)
             raise
-        self._end_closed(opn)
+        if self._closed:
+            self._end_closed(opn)
 
     def _take_queued(self, opn: Operation[Any]) -> bool:
         """Feed the frames a virtual-clock transport queued while time passed (there is no receive
