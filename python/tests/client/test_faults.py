@@ -134,12 +134,19 @@ def test_validation_errors_send_nothing_to_the_simulator() -> None:
 def test_ctrl_c_during_a_request_leaves_nothing_waiting() -> None:
     """An interrupted request must not stay registered and take the next request's reply."""
     import _thread
+    import signal
     import threading
+
+    def ctrl_c() -> None:  # a real SIGINT to the main thread interrupts its wait at once
+        if hasattr(signal, "pthread_kill"):
+            signal.pthread_kill(threading.main_thread().ident or 0, signal.SIGINT)
+        else:
+            _thread.interrupt_main()
 
     sim = SimBus(ids=[1])
     with link("inprocess", sim, time_scale=1, clock="wall", timeout=2.0) as bus:  # a real interrupt: real time
         sim.faults.silent.add(1)
-        threading.Timer(0.05, _thread.interrupt_main).start()
+        threading.Timer(0.05, ctrl_c).start()
         with pytest.raises(KeyboardInterrupt):
             bus.motor(1).get_state()
         assert len(bus._core.session.matcher) == 0

@@ -142,8 +142,11 @@ def test_socketcand_to_a_closed_port_fails_at_once_naming_host_and_port(caplog: 
     assert not [r for r in caplog.records if r.levelname == "WARNING"]
 
 
-def test_socketcand_to_a_silent_server_fails_naming_host_and_port() -> None:
+def test_socketcand_to_a_silent_server_fails_naming_host_and_port(monkeypatch: pytest.MonkeyPatch) -> None:
     """Something listens but never greets: no hang in python-can's handshake."""
+    from drempower.transports import pythoncan
+
+    monkeypatch.setattr(pythoncan, "CONNECT_TIMEOUT", 0.3)  # short: the test waits it out
     with socket.socket() as server:
         server.bind(("127.0.0.1", 0))
         server.listen(4)

@@ -17,7 +17,12 @@ How replies reach a waiting caller depends on the transport:
 * the in-process simulator with instant delivery answers inside the send
   (``send_collect``): the replies are taken at once, with no wait at all;
 * any other transport is read by the receive thread, which hands each finished
-  operation to its caller (a reusable event per thread, or the event loop).
+  operation to its caller (a reusable event per thread, or the event loop);
+* a transport with a virtual clock (the in-process simulator with
+  ``clock="virtual"``, :attr:`Transport.virtual_clock`) is the bus's clock: there is
+  no receive thread, and wherever a caller would wait it lets that much simulated
+  time pass instead (:meth:`BusDriver.pass_time`), taking the frames that arrive
+  meanwhile; asyncio calls run the same way, inside the call.
 
 State callbacks and the unsolicited-frame hook run in whichever thread took the
 frame, never under the session's lock.
@@ -126,7 +131,8 @@ def _wake(fut: asyncio.Future[Any]) -> None:
 
 
 class BusDriver:
-    """One bus: a :class:`BusSession` driven over ``transport`` by a receive thread and the callers' waits.
+    """One bus: a :class:`BusSession` driven over ``transport`` by a receive thread and the callers' waits
+    (or, on a transport with a virtual clock, by the callers letting its time pass).
 
     The options are the session's (``timeout`` s, ``retries``, ``start``,
     ``stop_on_close``; see :class:`BusSession`). With ``stop_on_close`` a bus
