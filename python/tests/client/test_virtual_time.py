@@ -292,3 +292,18 @@ def test_compat_receive_data_waits_on_simulated_time() -> None:
         assert bus.core.now() - t0 == pytest.approx(0.55)
     finally:
         compat.close()
+
+
+def test_heartbeats_arrive_at_their_period_of_simulated_time() -> None:
+    with drempower.open_bus("sim", motors=[1], clock="virtual", stop_on_close=False) as bus:
+        m = bus.motor(1)
+        m.write_property("can.config.heartbeat_ms", 100)
+        seen: list[float] = []
+        with m.subscribe(lambda st: seen.append(st.timestamp)):
+            wall = time.perf_counter()
+            first = m.wait_state(timeout=1.0)
+            bus.run(sleep(1.0))
+        assert time.perf_counter() - wall < 0.2
+        assert seen[0] == first.timestamp
+        gaps = [b - a for a, b in zip(seen, seen[1:], strict=False)]
+        assert len(gaps) >= 9 and gaps == pytest.approx([0.1] * len(gaps), abs=1e-3)
