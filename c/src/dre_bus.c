@@ -452,6 +452,31 @@ static int answers(const dre_request *r, const dre_msg *msg)
     return r->dtype == msg->u.param.dtype ? 1 : -1;
 }
 
+/*
+ * A verified write read back another value: write it again, and read it
+ * again (queued: dre_bus_poll sends it before any later request to the
+ * motor, with retries of its own), as the Python client does.
+ */
+static void rewrite(dre_bus *bus, dre_request *r)
+{
+    dre_msg w;
+
+    memset(&w, 0, sizeof w);
+    w.type = DRE_MSG_WRITE_PARAM;
+    w.node = r->node;
+    w.u.param.address = r->address;
+    w.u.param.dtype = r->dtype;
+    w.u.param.value = r->reply.u.param.value; /* what was written */
+    r->link++;
+    r->tries = 0u;
+    r->sent_ms = bus->cfg.tick(bus->cfg.user);
+    if (!dre_i_room(bus, 1u) || dre_i_send_as(bus, &w, 0) != DRE_OK) {
+        dre_i_fail(bus, r, SLOT_SEND_FAILED);
+        return;
+    }
+    r->state = SLOT_QUEUED;
+}
+
 static void complete(dre_bus *bus, dre_request *r, const dre_msg *msg)
 {
     r->flags &= (uint8_t)~FLAG_HELD;
@@ -461,6 +486,10 @@ static void complete(dre_bus *bus, dre_request *r, const dre_msg *msg)
         r->state = SLOT_WAIT; /* the motor answers: on to the write */
         r->sent_ms = bus->cfg.tick(bus->cfg.user);
     } else if ((r->flags & FLAG_VERIFY) != 0u && !same_value(r, msg)) {
+        if ((r->flags & FLAG_REWRITE) != 0u && r->link < bus->cfg.retries) {
+            rewrite(bus, r);
+            return; /* the reply keeps the value written */
+        }
         dre_i_fail(bus, r, SLOT_MISMATCH);
     } else if ((r->flags & FLAG_SAVE) != 0u && dre_i_system_op(bus, r->node, DRE_SYS_SAVE_CONFIG) != DRE_OK) {
         dre_i_fail(bus, r, SLOT_SEND_FAILED);
@@ -618,7 +647,11 @@ void dre_bus_poll(dre_bus *bus)
             take_held(bus, r);
         }
         if (r->state == SLOT_PENDING && (uint32_t)(now - r->sent_ms) >= bus->cfg.timeout_ms) {
-            if (r->step == STEP_ID_FREE) {
+            if (r->tries < bus->cfg.retries) {
+                r->tries++; /* sent again below, to the same motor, with a whole timeout */
+                r->state = SLOT_QUEUED;
+                r->sent_ms = now;
+            } else if (r->step == STEP_ID_FREE) {
                 r->state = SLOT_WAIT; /* nobody answers at the new id: it is free */
                 r->sent_ms = now;
             } else {

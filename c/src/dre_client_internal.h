@@ -28,8 +28,10 @@ enum {
 
 /* Request flags: compare the reply with the written value; send save_config
  * when it matches; a failure cancels the save of the next request (seq + 1);
- * a reply of value 0 is held back for it (the zero-reply grace: held_ms, held_node). */
-enum { FLAG_VERIFY = 1, FLAG_SAVE = 2, FLAG_CHAIN = 4, FLAG_HELD = 8 };
+ * a reply of value 0 is held back for it (the zero-reply grace: held_ms, held_node);
+ * a read-back that differs writes the value again and reads again, up to cfg.retries
+ * times (counted in `link`; the verified writes, not dre_set_id). */
+enum { FLAG_VERIFY = 1, FLAG_SAVE = 2, FLAG_CHAIN = 4, FLAG_HELD = 8, FLAG_REWRITE = 16 };
 
 /* Commands only a host sends (system/start, preset, Q position, velocity, parameter write): seeing
  * one means another host is on the bus, as this bus never receives its own frames. */

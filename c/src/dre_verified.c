@@ -43,7 +43,7 @@ static dre_status verified_writes(const dre_motor *m, uint8_t k, const dre_param
     for (i = 0u; i < k; i++) {
         uint8_t last = i + 1u == k;
         dre_request r = dre_i_request(m->node, DRE_PARAM_ADDRESS(params[i]), DRE_PARAM_DTYPE(params[i]));
-        r.flags = (uint8_t)(FLAG_VERIFY | (last ? (save ? FLAG_SAVE : 0u) : FLAG_CHAIN));
+        r.flags = (uint8_t)(FLAG_VERIFY | FLAG_REWRITE | (last ? (save ? FLAG_SAVE : 0u) : FLAG_CHAIN));
         r.reply.u.param.value = values[i];
         (void)dre_i_issue(bus, &r, 1, &req[i]);
     }
@@ -142,6 +142,7 @@ void dre_i_set_id_write(dre_bus *bus, dre_request *r, uint32_t now)
     }
     r->step = STEP_NONE;
     r->link = 0u;
+    r->tries = 0u; /* the read of the new id is a request of its own, with retries of its own */
     r->address = DRE_PARAM_ADDRESS(DRE_P_AXIS0_CONFIG_CAN_NODE_ID);
     r->dtype = w.u.param.dtype;
     r->flags = FLAG_VERIFY | FLAG_SAVE;

@@ -39,6 +39,7 @@ typedef struct {
     const char *name;
     uint32_t timeout_ms;
     uint8_t tx_confirmed; /* 1: "tx": "confirmed" (cfg.tx_done), 0: "in_order" */
+    uint8_t retries;      /* cfg.retries */
     uint16_t first, count; /* into cv_steps */
 } cv_vector;
 

@@ -281,6 +281,120 @@ static void test_timeouts(void)
     CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.u.state.position == 1.0f);
 }
 
+static unsigned busy_slots(void);
+
+/* cfg.retries: a request whose reply did not come goes out again, each try with the whole timeout. */
+static void test_retries(void)
+{
+    dre_motor m1 = {&bus, 1u}, m2 = {&bus, 2u};
+    dre_req req = 0u, other = 0u;
+    dre_msg reply;
+    dre_bus_config cfg;
+
+    /* the first reply lost: the fast read goes out again at the timeout and its reply is the answer */
+    setup();
+    cfg = bus.cfg;
+    cfg.retries = 2u;
+    CHECK(dre_bus_init(&bus, &cfg, slots, 4u, rxq, 4u) == DRE_OK && bus.cfg.retries == 2u);
+    CHECK(dre_get_state(&m1, &req) == DRE_OK && bus_fake.nsent == 1u);
+    bus_fake.now = DRE_DEFAULT_TIMEOUT_MS - 1u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 1u && dre_result(&bus, req, &reply) == DRE_PENDING);
+    bus_fake.now = DRE_DEFAULT_TIMEOUT_MS;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 2u && sent_is(1u, 0x03E, "0000000000000000"));
+    CHECK(dre_result(&bus, req, &reply) == DRE_PENDING && bus.stats.timeouts == 0u);
+    bus_fake.now = 70u;
+    feed(0x021, "0000B44200000000");
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.type == DRE_MSG_STATE && reply.u.state.position == 90.0f);
+    bus_fake.now = 500u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 2u && bus.stats.timeouts == 0u && busy_slots() == 0u);
+
+    /* every reply lost: retries + 1 sends, at 0, 50 and 100 ms, then DRE_E_TIMEOUT at 150 ms */
+    setup();
+    bus.cfg.retries = 2u;
+    CHECK(dre_read_property(&m1, 31001u, DRE_U32, &req) == DRE_OK);
+    for (bus_fake.now = 1u; bus_fake.now < 3u * DRE_DEFAULT_TIMEOUT_MS; bus_fake.now++) {
+        dre_bus_poll(&bus);
+        CHECK(bus_fake.nsent == 1u + bus_fake.now / DRE_DEFAULT_TIMEOUT_MS);
+    }
+    CHECK(sent_is(0u, 0x03E, "1979030000000000") && sent_is(1u, 0x03E, "1979030000000000") &&
+          sent_is(2u, 0x03E, "1979030000000000"));
+    CHECK(dre_result(&bus, req, &reply) == DRE_PENDING && bus.stats.timeouts == 0u);
+    bus_fake.now = 3u * DRE_DEFAULT_TIMEOUT_MS;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_E_TIMEOUT && bus_fake.nsent == 3u && bus.stats.timeouts == 1u);
+    bus_fake.now += 200u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 3u);
+
+    /* a retry keeps its motor's turn: a request queued behind it waits until it is answered */
+    setup();
+    bus.cfg.retries = 1u;
+    CHECK(dre_read_property(&m1, 31001u, DRE_U32, &req) == DRE_OK);
+    CHECK(dre_get_state(&m1, &other) == DRE_OK && bus_fake.nsent == 1u);
+    bus_fake.now = DRE_DEFAULT_TIMEOUT_MS;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 2u && sent_is(1u, 0x03E, "1979030000000000"));
+    feed(0x03E, "1979030001000000");
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.u.param.value.i == 1);
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 3u && sent_is(2u, 0x03E, "0000000000000000"));
+
+    /* a retry the port cannot take waits as a queued request: sent when it can be, or expired a timeout later */
+    setup();
+    bus.cfg.retries = 1u;
+    CHECK(dre_get_state(&m1, &req) == DRE_OK && dre_get_state(&m2, &other) == DRE_OK);
+    bus_fake.fail_from = 2;
+    bus_fake.now = DRE_DEFAULT_TIMEOUT_MS;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_PENDING && dre_result(&bus, other, &reply) == DRE_PENDING);
+    bus_fake.now = 70u;
+    bus_fake.fail_from = 3; /* room for one: motor 1's retry (the older request) */
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 3u && sent_is(2u, 0x03E, "0000000000000000"));
+    feed(0x021, "0000000000000000");
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK);
+    bus_fake.now = 2u * DRE_DEFAULT_TIMEOUT_MS - 1u;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, other, &reply) == DRE_PENDING && bus.stats.timeouts == 0u);
+    bus_fake.now = 2u * DRE_DEFAULT_TIMEOUT_MS;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, other, &reply) == DRE_E_TIMEOUT && bus_fake.nsent == 3u && bus.stats.timeouts == 1u);
+
+    /* dre_set_id: a silent new id is read again before it counts as free; then the write */
+    setup();
+    bus.cfg.retries = 1u;
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_OK && bus_fake.nsent == 2u);
+    feed(0x021, "0000000000000000"); /* motor 1 answers */
+    bus_fake.now = DRE_DEFAULT_TIMEOUT_MS;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 3u && sent_is(2u, 0x0BE, "0000000000000000"));
+    CHECK(dre_result(&bus, req, &reply) == DRE_PENDING);
+    bus_fake.now = 2u * DRE_DEFAULT_TIMEOUT_MS;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 5u && sent_is(3u, 0x03F, "1979030005000000") && sent_is(4u, 0x0BE, "1979030000000000"));
+    /* the read of the new id has retries of its own */
+    bus_fake.now = 3u * DRE_DEFAULT_TIMEOUT_MS;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 6u && sent_is(5u, 0x0BE, "1979030000000000"));
+    feed(0x0BE, "1979030005000000");
+    CHECK(bus_fake.nsent == 7u && sent_is(6u, 0x0A8, "0100000000000000"));
+    CHECK(dre_result(&bus, req, &reply) == DRE_OK && reply.node == 5u && bus.stats.timeouts == 0u);
+
+    /* a motor that has gone: the new id is read twice, then the current id's silence ends it */
+    setup();
+    bus.cfg.retries = 1u;
+    CHECK(dre_set_id(&m1, 5u, &req) == DRE_OK);
+    bus_fake.now = DRE_DEFAULT_TIMEOUT_MS;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 4u && dre_result(&bus, req, &reply) == DRE_PENDING);
+    bus_fake.now = 2u * DRE_DEFAULT_TIMEOUT_MS;
+    dre_bus_poll(&bus);
+    CHECK(dre_result(&bus, req, &reply) == DRE_E_NO_MOTOR && bus_fake.nsent == 4u && busy_slots() == 0u);
+}
+
 /* The interrupt queues a reply while dre_bus_poll reads the tick, and the tick passes the deadline then. */
 static uint32_t racing_tick(void *user)
 {
@@ -1170,6 +1284,79 @@ static void test_verified_writes(void)
     CHECK(bus_fake.nsent == 13u);
 }
 
+/* cfg.retries and verified writes: a read-back that differs is written and read again, as the Python client. */
+static void test_verified_rewrites(void)
+{
+    dre_motor m1 = {&bus, 1u};
+    dre_req req[3];
+    dre_msg reply;
+
+    /* the first read-back differs: written again, read again, then DRE_OK and remembered */
+    setup();
+    bus.cfg.retries = 1u;
+    CHECK(dre_set_traj_mode(&m1, DRE_TRAJ_S_CURVE, req) == DRE_OK && bus_fake.nsent == 2u);
+    feed(0x03E, "2089030001000000"); /* still the trapezoid */
+    CHECK(bus_fake.nsent == 3u && sent_is(2u, 0x03F, "2089030002000000"));
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_PENDING);
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 4u && sent_is(3u, 0x03E, "2089030000000000"));
+    feed(0x03E, "2089030002000000");
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_OK && reply.u.param.value.i == 2);
+    CHECK(bus.traj_known == (1u << 1) && bus.traj_scurve == (1u << 1));
+
+    /* every read-back differs: retries + 1 writes, then DRE_E_VERIFY with the value read */
+    CHECK(dre_set_traj_mode(&m1, DRE_TRAJ_TRAPEZOID, req) == DRE_OK && bus_fake.nsent == 6u);
+    feed(0x03E, "2089030002000000");
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 8u && sent_is(6u, 0x03F, "2089030001000000") && sent_is(7u, 0x03E, "2089030000000000"));
+    feed(0x03E, "2089030002000000");
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_E_VERIFY && reply.u.param.value.i == 2);
+    bus_fake.now = 500u;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 8u);
+
+    /* the read after a rewrite has its timeout retries; the save follows once the value reads back */
+    setup();
+    bus.cfg.retries = 1u;
+    CHECK(dre_set_can_baud_rate(&m1, 1000000u, req) == DRE_OK);
+    feed(0x03E, "0952030020A10700"); /* 500000 */
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 4u && sent_is(2u, 0x03F, "0952030040420F00") && sent_is(3u, 0x03E, "0952030000000000"));
+    bus_fake.now = DRE_DEFAULT_TIMEOUT_MS;
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 5u && sent_is(4u, 0x03E, "0952030000000000"));
+    feed(0x03E, "0952030040420F00");
+    CHECK(bus_fake.nsent == 6u && sent_is(5u, 0x028, "0100000000000000"));
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_OK && bus.stats.timeouts == 0u);
+
+    /* three writes: a limit read back wrong is written again before the next one is read, saved at the end */
+    setup();
+    bus.cfg.retries = 1u;
+    CHECK(dre_set_angle_range(&m1, -90.0f, 90.0f, 0.0f, req) == DRE_OK && bus_fake.nsent == 4u);
+    feed(0x03E, "7A94000000000000"); /* 0, not -90 */
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 6u && sent_is(4u, 0x03F, "7A9400000000B4C2") && sent_is(5u, 0x03E, "7A94000000000000"));
+    feed(0x03E, "7A9400000000B4C2");
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 7u && sent_is(6u, 0x03E, "7B94000000000000"));
+    feed(0x03E, "7B9400000000B442");
+    dre_bus_poll(&bus);
+    feed(0x03E, "E279030001000000");
+    CHECK(bus_fake.nsent == 9u && sent_is(8u, 0x028, "0100000000000000"));
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_OK && dre_result(&bus, req[1], &reply) == DRE_OK &&
+          dre_result(&bus, req[2], &reply) == DRE_OK);
+
+    /* dre_set_id's read at the new id is never a rewrite: another id there is DRE_E_VERIFY at once */
+    setup();
+    bus.cfg.retries = 1u;
+    CHECK(dre_set_id(&m1, 1u, req) == DRE_OK);
+    feed(0x021, "0000000000000000");
+    dre_bus_poll(&bus);
+    CHECK(bus_fake.nsent == 3u && sent_is(1u, 0x03F, "1979030001000000") && sent_is(2u, 0x03E, "1979030000000000"));
+    feed(0x03E, "1979030007000000");
+    CHECK(dre_result(&bus, req[0], &reply) == DRE_E_VERIFY && bus_fake.nsent == 3u);
+}
+
 /* Request slots in use (the helper probe of set_id included). */
 static unsigned busy_slots(void)
 {
@@ -1652,6 +1839,7 @@ int main(void)
     test_zero_reply_grace();
     test_oldest_first_and_broadcast();
     test_timeouts();
+    test_retries();
     test_poll_reads_tick_first();
     test_slots_and_send_failure();
     test_one_request_per_motor();
@@ -1672,6 +1860,7 @@ int main(void)
     test_start_after_presets();
     test_reads();
     test_verified_writes();
+    test_verified_rewrites();
     test_set_id();
     test_mode_params();
     test_param_domains();

@@ -152,6 +152,20 @@ typedef struct {
      *  has not learned (see dre_get_traj_mode); 0 = trapezoid. */
     uint8_t traj_mode;
     uint8_t start; /**< dre_start_to; 0 = DRE_START_TO_AUTO */
+    /**
+     * How often a request whose reply did not come is sent again, as the
+     * Python client's `retries`: at its timeout a request (a read, a fast
+     * read, the read-back of a verified write, a probe of dre_set_id) goes
+     * out again to the same motor, with a whole timeout of its own, up to
+     * `retries` times; DRE_E_TIMEOUT comes after the last try. A reply of
+     * value 0 held back for it (see dre_bus_feed) is its answer at the
+     * timeout, before any retry. A verified write (dre_set_traj_mode,
+     * dre_set_angle_range, the baud rates) whose read-back differs is written
+     * and read again, up to `retries` times, before DRE_E_VERIFY. 0 = sent
+     * once, so a timeout is exactly the time waited. Motion commands get no
+     * reply and are never sent again.
+     */
+    uint8_t retries;
 } dre_bus_config;
 
 /** A request slot; the caller provides an array of them. Opaque. */
@@ -165,8 +179,10 @@ typedef struct {
     uint8_t state;
     uint8_t flags;
     uint8_t step; /**< the step of a multi-step request (dre_set_id), 0 for others */
-    uint8_t link; /**< dre_set_id: the current id; its helper probe: the slot index of the request */
+    uint8_t link; /**< dre_set_id: the current id; its helper probe: the slot index of the request;
+                       a verified write: the times it was written again (up to cfg.retries) */
     uint8_t held_node; /**< the node of a reply of value 0 held back for this request */
+    uint8_t tries;     /**< times sent again after a timeout (up to cfg.retries) */
     uint32_t reply_ms; /**< when its answer, or the reply of value 0 held back for it, arrived */
 } dre_request;
 
@@ -282,8 +298,10 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame);
 
 /**
  * Main loop: read the tick, feed every queued frame, expire requests older
- * than the timeout at that tick, take dre_set_id requests to their next step,
- * then send the requests whose turn has come.
+ * than the timeout at that tick (or queue them to be sent again, while they
+ * have cfg.retries left), take dre_set_id requests to their next step, then
+ * send the requests whose turn has come (a retry before any later request to
+ * its motor).
  */
 void dre_bus_poll(dre_bus *bus);
 
@@ -424,8 +442,9 @@ dre_status dre_get_state(const dre_motor *m, dre_req *req);
  * sends at once (cfg.tx_free) and free slots for its requests, or returns
  * DRE_E_BUSY having sent nothing. A verified write reads the value back; its
  * request ends DRE_OK when the motor holds what was written, DRE_E_VERIFY
- * when not; "then save" means save_config goes out only after that check
- * succeeded (of every value, for set_angle_range). */
+ * when not (after cfg.retries more writes and reads; not for dre_set_id,
+ * which reports another id at once); "then save" means save_config goes out
+ * only after that check succeeded (of every value, for set_angle_range). */
 
 /** Start reading the id the motor reports (axis0.config.can_node_id); reply value in .i. */
 dre_status dre_get_id(const dre_motor *m, dre_req *req);
@@ -437,7 +456,8 @@ dre_status dre_get_id(const dre_motor *m, dre_req *req);
  *  1. Fast reads at the current id (m->node; 0: any motor) and at `new_id`,
  *     sent together. A motor answering at `new_id` ends the request
  *     DRE_E_ID_TAKEN at once (the reply is its state); once that read has
- *     timed out, no answer at the current id ends it DRE_E_NO_MOTOR. Both
+ *     timed out (after cfg.retries more reads, as every read of the steps
+ *     below), no answer at the current id ends it DRE_E_NO_MOTOR. Both
  *     leave the motor untouched: no write is sent. When `new_id` is the
  *     current id, only the motor's own read goes out, and it must answer.
  *  2. The write of axis0.config.can_node_id = new_id to the current id.
@@ -518,9 +538,9 @@ typedef struct {
  * torque command since), the first state with T set ends the wait.
  *
  * DRE_E_FAULT as soon as the motor reports an error (read the words with
- * dre_dump_error); DRE_E_TIMEOUT when a fast read goes unanswered or
- * `timeout_ms` (0 = no limit) has passed since the first call. After an
- * error `d` is reset, so the next call starts again.
+ * dre_dump_error); DRE_E_TIMEOUT when a fast read goes unanswered (after
+ * cfg.retries more tries) or `timeout_ms` (0 = no limit) has passed since
+ * the first call. After an error `d` is reset, so the next call starts again.
  */
 dre_status dre_position_done(const dre_motor *m, dre_done *d, uint32_t timeout_ms);
 /**

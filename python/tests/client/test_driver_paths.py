@@ -253,3 +253,115 @@ def test_a_caller_that_found_the_receive_thread_reading_takes_over_when_it_is_do
         release.set()
         bus.close()
         os.close(master)
+
+
+def test_the_event_loop_keeps_the_reader_role_while_in_use_and_lets_it_go_when_idle() -> None:
+    sim = SimBus(ids=[1])
+    pty = attach_adapter_pty(sim)
+    try:
+
+        async def main() -> None:
+            async with drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False) as abus:
+                core = abus.core
+                for _ in range(5):
+                    assert (await abus.motor(1).get_state()).node == 1
+                    held = core._loop_reader
+                    assert held is not None and held.loop is asyncio.get_running_loop()  # one registration, kept
+                assert core._reader.locked()
+                await asyncio.sleep(10 * driver._LINGER)
+                assert core._loop_reader is None  # idle: the role is free again
+                assert not core._reader.locked()
+                # the receive thread reads again: a frame nobody asked for reaches the hook
+                seen: list[Frame] = []
+                got = threading.Event()
+                abus.on_unsolicited = lambda f: (seen.append(f), got.set())
+                stray = State(1, 1.0, 0.0, 0.0, False, False).encode()._replace(arbitration_id=(1 << 5) | 0x1E)
+                sim.send(stray)
+                assert await asyncio.to_thread(got.wait, 2.0)
+                assert seen == [stray]
+
+        asyncio.run(main())
+    finally:
+        pty.close()
+
+
+def test_a_loop_closed_while_holding_the_reader_role_leaves_the_bus_usable() -> None:
+    from drempower.client.ops import fast_read
+
+    sim = SimBus(ids=[1])
+    pty = attach_adapter_pty(sim)
+    try:
+        holder: list[drempower.AsyncBus] = []
+
+        async def first() -> None:
+            abus = drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False)
+            holder.append(abus)
+            assert (await abus.motor(1).get_state()).node == 1
+            assert abus.core._loop_reader is not None  # still held when asyncio.run closes the loop
+
+        asyncio.run(first())
+        core = holder[0].core
+        try:
+            t0 = time.monotonic()
+            st = core.run(fast_read(1))  # a threaded caller: the receive thread reclaims the role
+            assert st.node == 1
+            assert time.monotonic() - t0 < 0.5
+            assert core._loop_reader is None
+
+            async def second() -> int:
+                return (await holder[0].motor(1).get_state()).node  # another loop takes the role
+
+            assert asyncio.run(second()) == 1
+        finally:
+            core.close()
+    finally:
+        pty.close()
+
+
+def test_closing_from_a_worker_thread_unregisters_the_descriptor_in_the_loop_first() -> None:
+    sims = [SimBus(ids=[1]), SimBus(ids=[2])]
+    ptys = [attach_adapter_pty(s) for s in sims]
+    try:
+
+        async def main() -> list[int]:
+            nodes = []
+            for k, pty in enumerate(ptys):
+                for _ in range(2):  # the second bus may get the first one's descriptor number
+                    abus = drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False)
+                    nodes.append((await abus.motor(k + 1).get_state()).node)
+                    await abus.close()  # in a worker thread, while this loop holds the role
+                    assert abus.core._loop_reader is None
+            return nodes
+
+        assert asyncio.run(main()) == [1, 1, 2, 2]
+    finally:
+        for pty in ptys:
+            pty.close()
+
+
+@pytest.mark.parametrize("order", ["short-first", "long-first"])
+def test_coroutines_of_one_loop_time_out_each_at_its_own_deadline(order: str) -> None:
+    sim = SimBus(ids=[1])
+    pty = attach_adapter_pty(sim)
+    try:
+
+        async def main() -> dict[float, float]:
+            async with drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False) as abus:
+                assert (await abus.motor(1).get_state()).node == 1  # the loop takes the reader role
+                t0 = time.monotonic()
+                ended: dict[float, float] = {}
+
+                async def silent(timeout: float) -> None:
+                    with pytest.raises(drempower.TimeoutError):
+                        await abus.motor(9).get_state(timeout=timeout)  # nobody answers at id 9
+                    ended[timeout] = time.monotonic() - t0
+
+                first, second = (0.1, 0.3) if order == "short-first" else (0.3, 0.1)
+                await asyncio.gather(silent(first), silent(second))
+                return ended
+
+        ended = asyncio.run(main())
+    finally:
+        pty.close()
+    assert 0.1 <= ended[0.1] < 0.25  # not held back by the other coroutine's later deadline
+    assert 0.3 <= ended[0.3] < 0.45  # nor dropped when the earlier one's timer fired

@@ -7,6 +7,7 @@ none in wall time; stopping (close, estop, signals) behaves as on real time.
 from __future__ import annotations
 
 import asyncio
+import itertools
 import os
 import signal
 import threading
@@ -305,5 +306,5 @@ def test_heartbeats_arrive_at_their_period_of_simulated_time() -> None:
             bus.run(sleep(1.0))
         assert time.perf_counter() - wall < 0.2
         assert seen[0] == first.timestamp
-        gaps = [b - a for a, b in zip(seen, seen[1:], strict=False)]
+        gaps = [b - a for a, b in itertools.pairwise(seen)]
         assert len(gaps) >= 9 and gaps == pytest.approx([0.1] * len(gaps), abs=1e-3)

@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import atexit
 import logging
+import math
 import os
 import select
 import threading
@@ -130,6 +131,103 @@ def _wake(fut: asyncio.Future[Any]) -> None:
         fut.set_result(None)
 
 
+class _LoopReader:
+    """The reader role held by an event loop: the transport's descriptor stays registered with
+    ``loop.add_reader`` while coroutines of that loop use the bus and for :data:`_LINGER` s after
+    (one timer per linger, not one registration per call), and frames are read and fed in the
+    loop's callback. Let go when idle, when the bus closes, or (by the receive thread) when the
+    loop was closed while holding it."""
+
+    __slots__ = ("_once", "driver", "due", "due_at", "fd", "last", "loop", "thread", "timer", "users", "waits")
+
+    def __init__(self, driver: BusDriver, loop: asyncio.AbstractEventLoop) -> None:
+        self.driver = driver
+        self.loop = loop
+        self.thread = threading.get_ident()
+        fd = driver._fd
+        assert fd is not None
+        self.fd = fd
+        self.users = 0
+        """Coroutines of this loop running an operation on the bus."""
+        self.last = _monotonic()
+        self.timer: asyncio.TimerHandle | None = None
+        self._once = threading.Lock()
+        """Taken by the one :meth:`let_go` that acts (never blocks: a signal handler may call it)."""
+        self.waits: dict[Callable[[], None], float] = {}
+        """When (monotonic s) to wake each waiting coroutine at the latest (its operation's next deadline)."""
+        self.due: asyncio.TimerHandle | None = None
+        self.due_at = math.inf
+
+    def wake_at(self, wake: Callable[[], None], at: float) -> None:
+        """Call ``wake`` by monotonic time ``at`` (s). One timer serves every coroutine of the loop: it is
+        armed anew only when ``at`` comes before it (calls in a row, each with its timeout, share one)."""
+        self.waits[wake] = at
+        if at < self.due_at:
+            if self.due is not None:
+                self.due.cancel()
+            self.due_at = at
+            self.due = self.loop.call_later(max(0.0, at - _monotonic()), self._due)
+
+    def _due(self) -> None:
+        """The shared timer: wake the coroutines whose time came, re-arm for the next."""
+        self.due, self.due_at = None, math.inf
+        now = _monotonic()
+        later = math.inf
+        for wake, at in list(self.waits.items()):
+            if at <= now:
+                del self.waits[wake]
+                wake()
+            elif at < later:
+                later = at
+        if later < math.inf:
+            self.due_at = later
+            self.due = self.loop.call_later(later - now, self._due)
+
+    def arm(self) -> None:
+        self.timer = self.loop.call_later(_LINGER, self.check)
+
+    def readable(self) -> None:
+        """The loop's callback: read and feed what arrived (wakes the coroutines whose operation ends)."""
+        d = self.driver
+        if d._is_closed():
+            self.let_go()
+            return
+        d._read_feed()
+
+    def check(self) -> None:
+        """The linger timer: let go once no coroutine used the bus for :data:`_LINGER` s."""
+        self.timer = None
+        if self.driver._loop_reader is not self:
+            return
+        left = self.last + _LINGER - _monotonic()
+        if self.users or left > 0:
+            self.timer = self.loop.call_later(max(left, _LINGER / 4), self.check)
+            return
+        self.let_go()
+
+    def let_go(self, loop_closed: bool = False) -> None:
+        """Unregister (unless the loop is closed), give the reader role back; in the loop's thread, or
+        from the receive thread for a closed loop. Idempotent."""
+        if not self._once.acquire(False):
+            return
+        d = self.driver
+        if d._loop_reader is self:
+            d._loop_reader = None
+        if self.timer is not None:
+            self.timer.cancel()
+            self.timer = None
+        if self.due is not None:
+            self.due.cancel()
+            self.due = None
+        if not loop_closed:
+            try:
+                self.loop.remove_reader(self.fd)
+            except (OSError, ValueError, RuntimeError):  # the descriptor or the loop closed meanwhile
+                pass
+        d._release_reader()
+        d._leave_reading()
+
+
 class BusDriver:
     """One bus: a :class:`BusSession` driven over ``transport`` by a receive thread and the callers' waits
     (or, on a transport with a virtual clock, by the callers letting its time pass).
@@ -209,12 +307,16 @@ class BusDriver:
         """Guards the count of reading callers; the parked receive thread waits on it."""
         self._callers = 0
         self._last_caller = 0.0
+        self._loop_reader: _LoopReader | None = None
+        """The event loop holding the reader role, if one does (see :meth:`run_async`)."""
         self._rx_selecting = False
         self._pipes: list[int] = []
         if fd is not None:
             self._poke_r, self._poke_w = nonblocking_pipe()  # wakes the receive thread so that it parks
             self._close_r, self._close_w = nonblocking_pipe()  # readable once closed: wakes every select
             self._pipes = [self._poke_r, self._poke_w, self._close_r, self._close_w]
+            self._read_fds = [fd, self._close_r]
+            self._rest_time: Callable[[], float] | None = getattr(transport, "rest_time", None)
             # closed with the driver: a late select on them (a caller still returning) stays valid
             weakref.finalize(self, close_fds, *self._pipes)
         self._thread: threading.Thread | None = None
@@ -697,10 +799,7 @@ class BusDriver:
     def _read_until(self, opn: Operation[Any], wait: float | None) -> None:
         """Read and feed frames (the reader lock is held) until ``opn`` is done or the bus closes;
         the first wait is ``wait`` s (None: as the session says)."""
-        fd = self._fd
-        assert fd is not None
-        fds = [fd, self._close_r]
-        rest: Callable[[], float] | None = getattr(self.transport, "rest_time", None)
+        fds, rest = self._read_fds, self._rest_time
         while not opn.done and not self._is_closed():
             if wait is None:
                 wait = self._step(opn)
@@ -780,13 +879,101 @@ class BusDriver:
     async def run_async(self, op: Runnable[T]) -> T:
         """Run operation ``op`` to completion on the running event loop; returns its result or raises its error.
 
-        On a transport with a descriptor the coroutine that holds the reader role waits for it with
-        ``loop.add_reader`` and reads it on the loop; others (and every coroutine on other
-        transports) are woken by the thread that finished their operation. No thread per call.
+        On a transport with a descriptor the event loop takes the reader role and keeps the descriptor
+        registered (``loop.add_reader``) while its coroutines use the bus and :data:`_LINGER` s after:
+        replies are read and fed in the loop's callback, which wakes the waiting coroutine directly.
+        When another thread reads, and on other transports, the coroutine is woken by the thread that
+        finished its operation. No thread per call.
         """
         import asyncio
 
         loop = asyncio.get_running_loop()
+        if self._fd is not None:
+            rd = self._loop_reader
+            if rd is None or rd.loop is not loop:
+                rd = self._attach_loop(loop)
+            if rd is not None:
+                return await self._run_async_held(op, rd)
+        return await self._run_async_woken(op, loop)
+
+    def _attach_loop(self, loop: asyncio.AbstractEventLoop) -> _LoopReader | None:
+        """Give the reader role to ``loop`` if it is free (None when another thread or loop holds it)."""
+        self.check_open()
+        self._enter_reading()
+        if not self._reader.acquire(False):
+            self._leave_reading()
+            return None
+        rd = _LoopReader(self, loop)
+        try:
+            loop.add_reader(rd.fd, rd.readable)
+        except BaseException:
+            self._release_reader()
+            self._leave_reading()
+            raise
+        self._loop_reader = rd
+        rd.arm()
+        return rd
+
+    async def _run_async_held(self, op: Runnable[T], rd: _LoopReader) -> T:
+        """:meth:`run_async` while this coroutine's event loop holds the reader role."""
+        import asyncio
+
+        loop = rd.loop
+        holder: list[asyncio.Future[None]] = [loop.create_future()]
+        loop_thread = rd.thread
+
+        def wake() -> None:
+            if threading.get_ident() == loop_thread:
+                _wake(holder[0])
+                return
+            try:
+                loop.call_soon_threadsafe(_wake, holder[0])
+            except RuntimeError:  # the loop is closed; nobody waits any more
+                pass
+
+        rd.users += 1
+        self._sleepers.add(wake)  # new deadlines (a frame fed in the callback) must be looked at
+        opn: Operation[T] | None = None
+        try:
+            opn, wait = self._submit_timed(op, wake)
+            while not opn.done:
+                if wait is None:
+                    with self._lock:
+                        confirm = self.session.awaiting_confirmation
+                    if confirm:  # the transport's confirmation blocks: not on the event loop
+                        await asyncio.to_thread(self._step, opn)
+                        continue
+                    wait = self._step(opn)
+                    if wait is None:
+                        break
+                if wait > 0:
+                    fut = holder[0]
+                    if not fut.done():
+                        rd.wake_at(wake, _monotonic() + wait)
+                        await fut
+                    holder[0] = loop.create_future()
+                wait = None
+                if self._is_closed():
+                    break
+        except BaseException:
+            if opn is not None:
+                with self._lock:
+                    self.session.cancel(opn)
+            raise
+        finally:
+            self._sleepers.discard(wake)
+            rd.waits.pop(wake, None)
+            rd.users -= 1
+            rd.last = _monotonic()
+        self._end_closed(opn)
+        return opn.result()
+
+    async def _run_async_woken(self, op: Runnable[T], loop: asyncio.AbstractEventLoop) -> T:
+        """:meth:`run_async` when the event loop does not hold the reader role: a coroutine that gets the
+        role reads on the loop through ``loop.add_reader`` while it waits; others (and every coroutine on a
+        transport without a descriptor) are woken by the thread that finished their operation."""
+        import asyncio
+
         holder: list[asyncio.Future[None]] = [loop.create_future()]
         loop_thread = threading.get_ident()
 
@@ -907,15 +1094,24 @@ class BusDriver:
         gate, reader = self._gate, self._reader
         try:
             while not self._is_closed():
+                orphan: _LoopReader | None = None
                 with gate:
                     while not self._is_closed():
+                        rd = self._loop_reader
+                        if rd is not None and rd.loop.is_closed():  # closed while holding the role
+                            orphan = rd
+                            break
                         left = _LINGER if self._callers else self._last_caller + _LINGER - _monotonic()
                         if left <= 0:
                             break
                         gate.wait(left)
                     if self._is_closed():
                         return
-                    self._rx_selecting = True
+                    if orphan is None:
+                        self._rx_selecting = True
+                if orphan is not None:
+                    orphan.let_go(loop_closed=True)
+                    continue
                 try:
                     ready = select.select(fds, [], [])[0]  # no timeout: the pipes wake it
                 finally:
@@ -936,6 +1132,33 @@ class BusDriver:
                 self._rx_failed(exc)
 
     # ------------------------------------------------------------------ closing
+
+    def _let_go_loop(self, lock_timeout: float) -> None:
+        """On close: the event loop holding the reader role unregisters the descriptor before the
+        transport closes it (in the loop's thread: waits up to 0.5 s for a running loop elsewhere)."""
+        rd = self._loop_reader
+        if rd is None:
+            return
+        if rd.loop.is_closed():
+            rd.let_go(loop_closed=True)
+            return
+        if threading.get_ident() == rd.thread:
+            rd.let_go()
+            return
+        gone = threading.Event()
+
+        def go() -> None:
+            try:
+                rd.let_go()
+            finally:
+                gone.set()
+
+        try:
+            rd.loop.call_soon_threadsafe(go)
+        except RuntimeError:  # closed meanwhile
+            rd.let_go(loop_closed=True)
+            return
+        gone.wait(0.5 if lock_timeout < 0 else min(lock_timeout, 0.5))
 
     def close(self, *, lock_timeout: float = -1) -> None:
         """Apply ``stop_on_close``, stop the receive loop, close the transport. Idempotent.
@@ -967,6 +1190,7 @@ class BusDriver:
                         self._gate.notify_all()
                     finally:
                         self._gate_lock.release()
+            self._let_go_loop(lock_timeout)
             _open_drivers.discard(self)
             held = self._lock.acquire(timeout=lock_timeout)
             try:

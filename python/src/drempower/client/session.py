@@ -28,6 +28,7 @@ import dataclasses
 import struct
 from collections import deque
 from collections.abc import Callable, Generator, Iterable, Sequence
+from heapq import heappop, heappush
 from typing import Any, Generic, Literal, TypeVar
 
 from ..errors import BusStoppedError, ProtocolError, ValidationError
@@ -534,6 +535,8 @@ class BusSession:
         self._out: list[Frame] = []
         self._wire_free = now
         self._timers: dict[int, tuple[float, Callable[[], None]]] = {}
+        self._heap: list[tuple[float, int]] = []
+        """(due, timer id) of every timer, earliest first; a dropped timer's entry stays until it surfaces."""
         self._timer_seq = 0
         self._ops: dict[int, Operation[Any]] = {}
         self._state_waits: dict[int, list[tuple[Operation[Any], float]]] = {}
@@ -610,11 +613,15 @@ class BusSession:
     def _add_timer(self, due: float, fire: Callable[[], None]) -> int:
         self._timer_seq = tid = self._timer_seq + 1
         self._timers[tid] = (due, fire)
+        heappush(self._heap, (due, tid))
         return tid
 
     def next_deadline(self) -> float | None:
         """The earliest time (s) at which :meth:`advance` has something to do, or None."""
-        due = min((d for d, _ in self._timers.values()), default=None)
+        heap, timers = self._heap, self._timers
+        while heap and heap[0][1] not in timers:  # dropped timers leave their entry behind
+            heappop(heap)
+        due = heap[0][0] if heap else None
         if self._provisional:
             p = min(d for d, _ in self._provisional.values())
             due = p if due is None or p < due else due
@@ -631,13 +638,20 @@ class BusSession:
             self.now = now
         if self._provisional:
             self._settle(now)
-        timers = self._timers
-        if timers:
-            due = sorted((d, tid) for tid, (d, _) in timers.items() if d <= now)
-            for _, tid in due:
-                entry = timers.pop(tid, None)
+        heap, timers = self._heap, self._timers
+        if heap and heap[0][0] <= now:
+            newest = self._timer_seq  # timers set while these fire wait for the next advance
+            later: list[tuple[float, int]] = []
+            while heap and heap[0][0] <= now:
+                item = heappop(heap)
+                if item[1] > newest:
+                    later.append(item)
+                    continue
+                entry = timers.pop(item[1], None)
                 if entry is not None:
                     entry[1]()
+            for item in later:
+                heappush(heap, item)
         if self._hold is not None:
             self._check_hold()
 
@@ -1071,6 +1085,7 @@ class BusSession:
         for w in self.matcher.clear():
             w.on_complete = None
         self._timers.clear()
+        self._heap.clear()
         self._state_waits.clear()
         self._provisional.clear()
         self._seq.clear()
