@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 import drempower
+from drempower.client.effects import sleep
 from drempower.protocol import AxisError, MotorError
 from drempower.sim import Faults, SimBus
 
@@ -59,14 +60,15 @@ def test_a_silent_motor_is_named_and_nothing_moves() -> None:
 
 
 def test_late_replies_are_never_taken_for_another_request() -> None:
-    sim = SimBus(ids=[1], faults=Faults(reply_delay=0.1))
-    with link("inprocess", sim, time_scale=0, timeout=0.1) as bus:  # the test moves the clock
+    sim = SimBus(ids=[1], faults=Faults(reply_delay=0.3))
+    with link("inprocess", sim, timeout=0.1) as bus:
         m = bus.motor(1)
         with pytest.raises(drempower.TimeoutError):
             m.read_property("axis0.output_shaft.vel_limit")
         sim.faults.reply_delay = 0.0
         assert m.read_property("axis0.config.can_node_id") == 1
-        sim.advance(0.2)  # the late vel_limit reply arrives now: nobody asks for it any more
+        assert bus.stats["unmatched"] == 0
+        bus.run(sleep(0.3))  # the late vel_limit reply arrives meanwhile: nobody asks for it any more
         assert m.read_property("axis0.config.can_node_id") == 1
         assert bus.stats["unmatched"] == 1
 
