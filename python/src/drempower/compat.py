@@ -524,9 +524,13 @@ def receive_data(return_id: bool = False, timeout: float | None = None) -> bytes
     ``0x08, id high, id low, data``; None when none came within ``timeout`` s (the bus's by default)."""
     global READ_FLAG
     READ_FLAG = -1
-    wait = current_bus().timeout if timeout is None else timeout
+    bus = current_bus()
+    wait = bus.timeout if timeout is None else timeout
+    if bus.core.virtual and _frames.empty():  # simulated time passes only while the client waits
+        bus.core.pass_time(wait, until=lambda: not _frames.empty())
+        wait = 0.0
     try:
-        frame = _frames.get(timeout=wait)
+        frame = _frames.get(timeout=wait) if wait > 0 else _frames.get_nowait()
     except queue.Empty:
         return None
     READ_FLAG = 1

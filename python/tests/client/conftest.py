@@ -18,7 +18,8 @@ def motors() -> FakeMotors:
 
 @pytest.fixture
 def scripted(motors: FakeMotors) -> ScriptedTransport:
-    return ScriptedTransport(motors)
+    """The fake motors behind a transport on a scripted virtual clock: timeouts take no wall time."""
+    return ScriptedTransport(motors, virtual=True)
 
 
 @pytest.fixture

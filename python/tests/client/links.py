@@ -55,12 +55,20 @@ def lose(sim: SimBus, lost: Callable[[Frame], bool], count: int = 1) -> list[Fra
 
 
 @contextmanager
-def link(kind: str, sim: SimBus, time_scale: float = 20.0, **options: Any) -> Iterator[Bus]:
-    """A client Bus on ``sim`` through transport ``kind``; the simulation runs ``time_scale`` x real time."""
+def link(kind: str, sim: SimBus, time_scale: float = 20.0, clock: str = "virtual", **options: Any) -> Iterator[Bus]:
+    """A client Bus on ``sim`` through transport ``kind``.
+
+    In process the bus runs on the simulator's virtual clock (no real waits), unless ``clock="wall"``
+    or ``time_scale=0`` (the test advances ``sim`` itself); every other transport needs a runner: the
+    simulation then runs ``time_scale`` x real time.
+    """
     options.setdefault("stop_on_close", False)
     with ExitStack() as stack:
         if kind == "inprocess":
-            bus = open_bus("sim", bus=sim, time_scale=time_scale, **options)
+            if clock == "virtual" and time_scale != 0:
+                bus = open_bus("sim", bus=sim, clock="virtual", **options)
+            else:
+                bus = open_bus("sim", bus=sim, time_scale=time_scale, **options)
         else:
             stack.callback(SimRunner(sim, time_scale).start().stop)
             if kind == "virtual":

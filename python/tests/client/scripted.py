@@ -23,16 +23,45 @@ Responder = Callable[[Frame], Iterable[Frame]]
 
 
 class ScriptedTransport(Transport):
-    """Records every frame sent; ``respond(frame)`` returns the frames that come back."""
+    """Records every frame sent; ``respond(frame)`` returns the frames that come back.
+
+    With ``virtual`` the bus runs on this transport's clock (as on the simulator's virtual clock):
+    a wait of the client lets that much scripted time pass at once, or until a frame is injected.
+    """
 
     description = "scripted"
 
-    def __init__(self, respond: Responder | None = None) -> None:
+    def __init__(self, respond: Responder | None = None, *, virtual: bool = False) -> None:
         self.respond = respond or (lambda f: ())
         self.sent: list[Frame] = []
         self._q: queue.Queue[Frame | None] = queue.Queue()
         self._lock = threading.Lock()
         self.closed = False
+        self.virtual_clock = virtual
+        self.time = 1000.0
+        """The scripted clock (s), when ``virtual`` (like :func:`time.monotonic`, it does not start at 0)."""
+
+    def now(self) -> float:
+        return self.time
+
+    def advance(self, seconds: float, until: Callable[[], bool] | None = None) -> bool:
+        """Let ``seconds`` pass, unless a frame is waiting already."""
+        if not self._q.empty() or (until is not None and until()):
+            return True
+        self.time += seconds
+        return False
+
+    def read_nowait(self) -> list[Frame]:
+        out: list[Frame] = []
+        while True:
+            try:
+                f = self._q.get_nowait()
+            except queue.Empty:
+                return out
+            if f is None:
+                self._q.put(None)
+                return out
+            out.append(f)
 
     def send(self, frame: Frame) -> None:
         with self._lock:

@@ -189,7 +189,7 @@ def test_cycle_rejects_reads_and_duplicates(bus: Bus, scripted: ScriptedTranspor
 
 def test_scan_finds_motors_in_one_window(motors: FakeMotors) -> None:
     motors.params[2].update({5: 3, 6: 0x10203})
-    t = ScriptedTransport(motors)
+    t = ScriptedTransport(motors, virtual=True)
     with Bus(t, timeout=0.25, stop_on_close=False) as bus:
         found = bus.scan()
         assert [m.id for m in found] == [1, 2, 3]

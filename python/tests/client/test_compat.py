@@ -12,7 +12,7 @@ from drempower import compat
 
 @pytest.fixture
 def sim() -> Iterator[None]:
-    compat.open("sim", motors=[1, 2], time_scale=20, timeout=1.0)
+    compat.open("sim", motors=[1, 2], clock="virtual", timeout=1.0)
     yield
     compat.close()
 

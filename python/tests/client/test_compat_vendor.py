@@ -16,7 +16,7 @@ from drempower.sim import SimBus
 @pytest.fixture
 def sim() -> Iterator[tuple[SimBus, list[Frame]]]:
     """Motors 1 and 2 through compat; the frames the host sends, in order."""
-    bus = dr.open("sim", motors=[1, 2], time_scale=20, timeout=1.0)
+    bus = dr.open("sim", motors=[1, 2], clock="virtual", timeout=1.0)
     simbus: SimBus = bus.transport.bus  # type: ignore[attr-defined]
     sent: list[Frame] = []
     simbus.add_listener(lambda f: None, host_frames=True)
@@ -119,7 +119,7 @@ def test_values_the_wire_cannot_hold_send_nothing(sim: tuple[SimBus, list[Frame]
 
 
 def test_motors_keep_holding_when_the_script_ends() -> None:
-    bus = dr.open("sim", motors=[1], time_scale=20, timeout=1.0)
+    bus = dr.open("sim", motors=[1], clock="virtual", timeout=1.0)
     simbus: SimBus = bus.transport.bus  # type: ignore[attr-defined]
     dr.set_mode(1, 2)
     dr.set_angle(1, 30, 60, 300, 1)
@@ -127,7 +127,7 @@ def test_motors_keep_holding_when_the_script_ends() -> None:
     dr.close()  # what the interpreter does at exit
     assert simbus.motors[1].state is AxisState.CLOSED_LOOP_CONTROL
     # the Bus default stays: motors it commanded go idle
-    bus = dr.open("sim", motors=[1], time_scale=20, timeout=1.0, stop_on_close=True)
+    bus = dr.open("sim", motors=[1], clock="virtual", timeout=1.0, stop_on_close=True)
     simbus = bus.transport.bus  # type: ignore[attr-defined]
     dr.set_mode(1, 2)
     dr.set_angle(1, 30, 60, 300, 1)

@@ -33,14 +33,17 @@ def caller_reads(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch
     yield request.param
 
 
-@pytest.mark.parametrize("kind", ["adapter", "uart", "inprocess", "inprocess-1M"])
+@pytest.mark.parametrize("kind", ["adapter", "uart", "inprocess", "inprocess-1M", "vclock-1M"])
 def test_four_threads_get_their_own_motors_answers(kind: str, caller_reads: bool) -> None:
     ids = [1] if kind == "uart" else IDS  # a UART reaches one motor
-    timed = kind == "inprocess-1M"  # frames take their time on a 1 Mbit/s bus, delivered by the runner
+    timed = kind.endswith("-1M")  # frames take their time on a 1 Mbit/s bus, delivered by the runner
+    virtual = kind.startswith("vclock")  # ...or as the callers let the simulator's virtual time pass
     sim = SimBus(ids=ids, bitrate=1_000_000 if timed else None)
     scale = 1.0 if timed else 0 if kind == "inprocess" else 20.0
-    with link(kind.split("-")[0], sim, time_scale=scale, timeout=1.0) as bus:
-        assert (bus.core._fd is not None) == caller_reads
+    where = "inprocess" if virtual else kind.split("-")[0]
+    with link(where, sim, time_scale=scale, clock="virtual" if virtual else "wall", timeout=1.0) as bus:
+        assert bus.core.virtual == virtual
+        assert (bus.core._fd is not None) == (caller_reads and not virtual)
         errors: list[BaseException] = []
         seen: dict[int, list[int]] = {i: [] for i in range(4)}
         start = threading.Barrier(4)

@@ -23,7 +23,13 @@ def test_get_state_and_cache(bus: Bus, motors: FakeMotors) -> None:
     assert (st.node, st.angle, st.trajectory_done, st.error) == (2, 12.5, True, False)
     assert bus.motor(2).state == st
     assert bus.state(2) == st and bus.states() == {2: st}
-    assert 0 <= st.age < 5
+    assert st.timestamp == bus.core.now()  # stamped on the bus's clock (scripted here)
+
+
+def test_state_age_is_wall_seconds_since_arrival(motors: FakeMotors) -> None:
+    with Bus(ScriptedTransport(motors), timeout=0.5, stop_on_close=False) as bus:  # a wall-clock bus
+        st = bus.motor(2).get_state()
+        assert st.timestamp <= time.monotonic() and 0 <= st.age < 5
 
 
 def test_timeout_names_motor_and_request(bus: Bus, motors: FakeMotors) -> None:
@@ -61,6 +67,7 @@ def test_state_frames_are_cached_not_answers_to_reads(bus: Bus, scripted: Script
     assert (st.angle, st.speed, st.torque, st.trajectory_done, st.error) == (1.0, 2.0, 3.0, False, True)
     assert seen == [st]
     sub.cancel()
+    scripted.time += 0.001  # a moment later on the scripted clock
     with bus.motor(5).subscribe(seen.append):
         scripted.inject(State(5, 2.0, 0, 0, True, False).encode())
         bus.wait_state(5, timeout=1, newer_than=st.timestamp)

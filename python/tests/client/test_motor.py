@@ -21,7 +21,7 @@ def test_set_id_lost_write_saves_nothing(motors: FakeMotors) -> None:
     def lose_writes(f: object) -> list[object]:
         return [] if f.arbitration_id & 0x1F == 0x1F else motors(f)  # type: ignore[attr-defined]
 
-    t = ScriptedTransport(lose_writes)  # type: ignore[arg-type]
+    t = ScriptedTransport(lose_writes, virtual=True)  # type: ignore[arg-type]
     with Bus(t, timeout=0.1, stop_on_close=False) as bus, pytest.raises(NoMotorError, match="new id 9"):
         bus.motor(3).set_id(9)
     assert not any(isinstance(c, SystemCommand) for c in t.commands())

@@ -56,7 +56,7 @@ def test_async_and_compat_waits_wait_for_the_move() -> None:
     sim = SimBus(ids=[1, 2])
 
     async def run() -> float:
-        async with open_bus_async("sim", bus=sim, time_scale=2, timeout=1.0, stop_on_close=False) as bus:
+        async with open_bus_async("sim", bus=sim, clock="virtual", timeout=1.0, stop_on_close=False) as bus:
             for i in (1, 2):
                 await bus.motor(i).enable_reply_state(True)
             await bus.set_angles([1, 2], [40, -40], 60, 200, 1)

@@ -17,7 +17,7 @@ def test_every_transport(kind: str) -> None:
     ids = [1] if kind == "uart" else [1, 2, 3]
     sim = SimBus(ids=ids)
     with link(kind, sim, timeout=2.0) as bus:
-        found = bus.scan(versions=True)
+        found = bus.scan(timeout=0.3, versions=True)  # the window the absent ids take to time out
         assert [m.id for m in found] == ids
         assert all(m.fw_version == sim.motors[m.id].param("fw_version") for m in found)
         m = bus.motor(1)

@@ -27,6 +27,8 @@ TARGETS = [30.0, -30.0, 60.0]
 
 
 def _mailbox_bus(**options: object) -> Bus:
+    """Three motors on a 1 Mbit/s bus behind a host with three transmit mailboxes, on the virtual clock."""
+    options.setdefault("clock", "virtual")
     return drempower.open_bus(
         "sim", motors=IDS, bitrate=1_000_000, host_queue="priority:3", stop_on_close=False, **options
     )
@@ -74,12 +76,13 @@ def test_presets_and_start_through_send_move_every_motor(how: str) -> None:
         assert [bus.core.session.moves[n].move_time for n in IDS] == [0.5] * 3
 
 
-def test_async_send_many_moves_every_motor() -> None:
+@pytest.mark.parametrize("clock", ["virtual", "wall"])  # wall: the start's wait runs in a worker thread
+def test_async_send_many_moves_every_motor(clock: str) -> None:
     msgs = [*(PresetQ(n, a, 0.5, 300) for n, a in zip(IDS, TARGETS, strict=True)), Start(0, StartKind.Q)]
 
     async def run() -> list[float]:
         async with open_bus_async(
-            "sim", motors=IDS, bitrate=1_000_000, host_queue="priority:3", stop_on_close=False
+            "sim", motors=IDS, bitrate=1_000_000, host_queue="priority:3", stop_on_close=False, clock=clock
         ) as bus:
             await bus.send_many(msgs)
             done = await bus.positions_done(IDS, timeout=10)

@@ -17,7 +17,12 @@ How replies reach a waiting caller depends on the transport:
 * the in-process simulator with instant delivery answers inside the send
   (``send_collect``): the replies are taken at once, with no wait at all;
 * any other transport is read by the receive thread, which hands each finished
-  operation to its caller (a reusable event per thread, or the event loop).
+  operation to its caller (a reusable event per thread, or the event loop);
+* a transport with a virtual clock (the in-process simulator with
+  ``clock="virtual"``, :attr:`Transport.virtual_clock`) is the bus's clock: there is
+  no receive thread, and wherever a caller would wait it lets that much simulated
+  time pass instead (:meth:`BusDriver.pass_time`), taking the frames that arrive
+  meanwhile; asyncio calls run the same way, inside the call.
 
 State callbacks and the unsolicited-frame hook run in whichever thread took the
 frame, never under the session's lock.
@@ -34,14 +39,14 @@ import threading
 import time
 import weakref
 from collections.abc import Callable, Sequence
-from typing import TYPE_CHECKING, Any, TypeVar
+from typing import TYPE_CHECKING, Any, Protocol, TypeVar, cast
 
 from ..protocol.ids import Frame
 from ..protocol.messages import Message, Start, StartImpedance
 from ..transports.base import Transport
 from ..transports.fds import close_fds, drain, nonblocking_pipe
 from . import signals
-from .effects import Batch, Op, Runnable
+from .effects import Batch, Op, Runnable, sleep
 from .errors import BusClosedError
 from .session import DEFAULT_TIMEOUT, BusSession, Operation, StartPolicy, StopOnClose, TxOrder
 from .state import MotorState, StateCache
@@ -68,6 +73,17 @@ row keep it asleep; a frame nobody asked for waits at most this long for it."""
 _SIGNAL_LOCK_WAIT = 0.2
 """Longest wait (s) for a lock when a signal handler closes a bus or sends an estop: the
 interrupted code may hold it."""
+_VIRTUAL_SLICE = 0.05
+"""Most simulated time (s) one step of a caller waiting on a virtual clock lets pass before it looks at the
+session's deadlines again (other threads may have added sooner ones)."""
+_VIRTUAL_TICK = 1e-6
+"""Least simulated time (s) such a step lets pass, so that a deadline due now cannot stall it."""
+_VIRTUAL_IDLE = 0.01
+"""Wall time (s) a caller on a virtual clock waits for other threads when the session has nothing due."""
+_VIRTUAL_TURN = 0.005
+"""Longest wall wait (s) for the turn to let virtual time pass before a caller looks at its operation again."""
+_WALL_POLL = 0.01
+"""Longest sleep (s) of :meth:`BusDriver.pass_time` on a wall clock before it checks its condition again."""
 _monotonic = time.monotonic
 _open_drivers: weakref.WeakSet[BusDriver] = weakref.WeakSet()
 
@@ -87,6 +103,18 @@ def _close_stopping_buses() -> None:
 
 
 signals.register_stopper(_close_stopping_buses)
+
+
+class VirtualClock(Protocol):
+    """What a transport with ``virtual_clock`` offers: its simulated time, and letting it pass."""
+
+    def now(self) -> float:
+        """The simulated time (s)."""
+        ...
+
+    def advance(self, seconds: float, until: Callable[[], bool] | None = None) -> bool:
+        """Let up to ``seconds`` pass; end early once a frame is queued (or ``until()``)."""
+        ...
 
 
 def tx_order(transport: Transport) -> TxOrder:
@@ -201,7 +229,8 @@ class _LoopReader:
 
 
 class BusDriver:
-    """One bus: a :class:`BusSession` driven over ``transport`` by a receive thread and the callers' waits.
+    """One bus: a :class:`BusSession` driven over ``transport`` by a receive thread and the callers' waits
+    (or, on a transport with a virtual clock, by the callers letting its time pass).
 
     The options are the session's (``timeout`` s, ``retries``, ``start``,
     ``stop_on_close``; see :class:`BusSession`). With ``stop_on_close`` a bus
@@ -225,6 +254,12 @@ class BusDriver:
         start: StartPolicy = "auto",
         on_unsolicited: Callable[[Frame], None] | None = None,
     ) -> None:
+        clock: VirtualClock | None = cast(VirtualClock, transport) if transport.virtual_clock else None
+        self._clock = clock
+        self._now: Callable[[], float] = _monotonic if clock is None else clock.now
+        """The bus's clock (s): :func:`time.monotonic`, or the simulated time of a virtual-clock transport."""
+        self._vlock = threading.RLock()
+        """Held by the caller letting virtual time pass (one at a time)."""
         self.session = BusSession(
             timeout=timeout,
             retries=retries,
@@ -234,7 +269,7 @@ class BusDriver:
             bitrate=transport.wire_bitrate,
             tx_latency=transport.tx_latency,
             motor_ids=getattr(transport, "motor_ids", ()),
-            now=_monotonic(),
+            now=self._now(),
         )
         self.transport = transport
         self.on_unsolicited = on_unsolicited
@@ -261,7 +296,7 @@ class BusDriver:
         self._collect: Callable[[Frame], list[Frame]] | None = (
             collect if collect is not None and getattr(transport, "instant", False) else None
         )
-        fd = transport.fileno() if self.caller_reads else None
+        fd = transport.fileno() if self.caller_reads and clock is None else None
         self._fd = fd
         self._reader = threading.Lock()
         """Held by whoever reads a transport with a descriptor (a caller, or the receive thread)."""
@@ -284,12 +319,14 @@ class BusDriver:
             self._rest_time: Callable[[], float] | None = getattr(transport, "rest_time", None)
             # closed with the driver: a late select on them (a caller still returning) stays valid
             weakref.finalize(self, close_fds, *self._pipes)
-        self._thread = threading.Thread(
-            target=self._rx_loop if fd is None else self._rx_loop_fd,
-            name=f"drempower rx ({transport.description})",
-            daemon=True,
-        )
-        self._thread.start()
+        self._thread: threading.Thread | None = None
+        if clock is None:  # on a virtual clock frames arrive only while a caller lets time pass: it takes them
+            self._thread = threading.Thread(
+                target=self._rx_loop if fd is None else self._rx_loop_fd,
+                name=f"drempower rx ({transport.description})",
+                daemon=True,
+            )
+            self._thread.start()
         _open_drivers.add(self)
         if stop_on_close:
             signals.install_stop_handlers()
@@ -304,6 +341,16 @@ class BusDriver:
     @property
     def closed(self) -> bool:
         return self._closed
+
+    @property
+    def virtual(self) -> bool:
+        """True when the bus runs on its transport's simulated time (see :meth:`now`)."""
+        return self._clock is not None
+
+    def now(self) -> float:
+        """The bus's clock (s): :func:`time.monotonic`, or the simulated time of a transport with a virtual
+        clock (``open_bus("sim", clock="virtual")``). Session times and state timestamps are on it."""
+        return self._now()
 
     def _is_closed(self) -> bool:
         return self._closed
@@ -342,7 +389,7 @@ class BusDriver:
         if self._stopped:  # estops written without the lock: what the session holds must not follow them
             stopped, self._stopped = self._stopped, ()
             s.stopped(stopped)
-        s.now = _monotonic()
+        s.now = self._now()
         frames = s.data_to_send()
         while frames:
             try:
@@ -352,7 +399,7 @@ class BusDriver:
                 raise
             if not back:
                 return
-            now = _monotonic()
+            now = self._now()
             taps = self.frame_taps
             for f in back:
                 if taps:
@@ -364,7 +411,7 @@ class BusDriver:
                     continue
                 if event is not None:
                     self._events.append(event)
-            s.now = _monotonic()
+            s.now = self._now()
             frames = s.data_to_send()
 
     def _write(self, frames: Sequence[Frame], collect: Callable[[Frame], list[Frame]] | None = None) -> list[Frame]:
@@ -489,7 +536,7 @@ class BusDriver:
         self.check_open()
         with self._lock:
             s = self.session
-            s.advance(_monotonic())
+            s.advance(self._now())
             opn = s.submit(op, on_done)
             self._flush()
             events = self._take_events()
@@ -502,7 +549,7 @@ class BusDriver:
         confirm = False
         with self._lock:
             s = self.session
-            s.advance(_monotonic())
+            s.advance(self._now())
             self._flush()
             events = self._take_events()
             if opn.done:
@@ -510,13 +557,13 @@ class BusDriver:
             else:
                 confirm = s.awaiting_confirmation
                 due = s.next_deadline()
-                wait = _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - _monotonic()))
+                wait = _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - self._now()))
         if events:
             self._dispatch(events)
         if confirm:
             ok = self.transport.wait_sent(wait or 0.0)
             with self._lock:
-                s.transmitted(_monotonic(), ok)
+                s.transmitted(self._now(), ok)
                 self._flush()
                 events = self._take_events()
             if events:
@@ -569,14 +616,14 @@ class BusDriver:
         self.check_open()
         with self._lock:
             s = self.session
-            s.advance(_monotonic())
+            s.advance(self._now())
             opn = s.submit(op, on_done)
             self._flush()
             events = self._take_events()
             wait = None
             if not opn.done and not s.awaiting_confirmation:
                 due = s.next_deadline()
-                wait = _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - _monotonic()))
+                wait = _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - self._now()))
         if events:
             self._dispatch(events)
         return opn, wait
@@ -639,6 +686,9 @@ class BusDriver:
         """Wait in the calling thread until ``opn`` is done: on a transport with a descriptor, reading it
         whenever no other caller does; else (and meanwhile) sleeping on ``done`` until the session's next
         deadline or a wake-up."""
+        if self._clock is not None:
+            self._wait_virtual(opn)
+            return
         wake = done.set
         reads = self._fd is not None
         self._sleepers.add(wake)
@@ -669,6 +719,82 @@ class BusDriver:
             if reads:
                 self._leave_reading()
         self._end_closed(opn)
+
+    def _run_virtual(self, op: Runnable[T]) -> T:
+        """:meth:`run` on a virtual clock: replies came inside the send; what else the operation waits
+        for, simulated time brings (:meth:`_wait_virtual`)."""
+        opn = self.submit(op)
+        if not opn.done:
+            self._wait_virtual(opn)
+        return opn.result()
+
+    def pass_time(self, seconds: float, until: Callable[[], bool] | None = None) -> None:
+        """Let ``seconds`` of the bus's time pass, taking the frames that arrive meanwhile; end early once
+        ``until()`` is true (checked after each frame taken). On a virtual clock no wall time passes; on a
+        wall clock it sleeps (the receive thread takes the frames)."""
+        self.check_open()
+        if self._clock is None:
+            end = _monotonic() + seconds
+            while not (until is not None and until()) and (left := end - _monotonic()) > 0:
+                self.closed_event.wait(min(left, _WALL_POLL))
+                if self._closed:
+                    return
+            return
+        opn = self.submit(sleep(seconds))
+        if not opn.done:
+            self._wait_virtual(opn, until)
+        if not opn.done:
+            with self._lock:
+                self.session.cancel(opn)
+
+    def _wait_virtual(self, opn: Operation[Any], until: Callable[[], bool] | None = None) -> None:
+        """Let simulated time pass until ``opn`` is done (or ``until()``): up to the session's next deadline
+        at a time, ending early when a frame arrives, which is fed at once. One caller lets time pass at a
+        time (the lock); the others look at their operation meanwhile, which that caller's frames may finish."""
+        clock = self._clock
+        assert clock is not None
+        session, vlock = self.session, self._vlock
+        try:
+            while not opn.done and not self._closed:
+                if not vlock.acquire(timeout=_VIRTUAL_TURN):
+                    continue
+                try:
+                    if self._take_queued(opn) or (until is not None and until()):
+                        break
+                    wait = self._step(opn)
+                    if wait is None or self._take_queued(opn) or (until is not None and until()):
+                        break
+                    with self._lock:
+                        idle = session.next_deadline() is None
+                    if not idle:
+                        clock.advance(min(max(wait, _VIRTUAL_TICK), _VIRTUAL_SLICE))
+                        self._take_queued(opn)
+                finally:
+                    vlock.release()
+                if idle:  # nothing is due: what it waits for is another thread's to do; then time goes on
+                    time.sleep(_VIRTUAL_IDLE)
+                    with vlock:
+                        clock.advance(_VIRTUAL_SLICE)
+                        self._take_queued(opn)
+        except BaseException:  # Ctrl-C: the operation must not take the next request's reply
+            with self._lock:
+                session.cancel(opn)
+            raise
+        if self._closed:
+            self._end_closed(opn)
+
+    def _take_queued(self, opn: Operation[Any]) -> bool:
+        """Feed the frames a virtual-clock transport queued while time passed (there is no receive
+        thread); returns whether ``opn`` is done."""
+        try:
+            frames = self.transport.read_nowait()
+        except Exception as exc:
+            if not self._closed:
+                self._rx_failed(exc)
+            return opn.done
+        if frames:
+            self._feed(frames)
+        return opn.done
 
     def _read_until(self, opn: Operation[Any], wait: float | None) -> None:
         """Read and feed frames (the reader lock is held) until ``opn`` is done or the bus closes;
@@ -712,7 +838,7 @@ class BusDriver:
         s = self.session
         with self._lock:
             changes = s.changes
-            now = _monotonic()
+            now = self._now()
             for f in frames:
                 try:
                     event = s.receive(f, now)
@@ -743,6 +869,8 @@ class BusDriver:
         """Run operation ``op`` to completion in the calling thread; returns its result or raises its error."""
         if self._fd is not None:
             return self._run_reading(op)
+        if self._clock is not None:
+            return self._run_virtual(op)
         opn = self.submit(op)
         if not opn.done:
             self._wait_op(opn)
@@ -937,7 +1065,7 @@ class BusDriver:
                 with lock:
                     changes = s.changes
                     try:
-                        event = s.receive(frame, _monotonic())
+                        event = s.receive(frame, self._now())
                     except Exception:
                         _log.exception("dispatching %r failed", frame)
                         continue
@@ -1075,5 +1203,5 @@ class BusDriver:
         try:
             self.transport.close()
         finally:
-            if self._thread is not threading.current_thread():
+            if self._thread is not None and self._thread is not threading.current_thread():
                 self._thread.join(1.0)

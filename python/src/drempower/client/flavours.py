@@ -7,7 +7,6 @@ comes from one source (``api_async.py``, from which ``api_sync.py`` is generated
 
 from __future__ import annotations
 
-import time
 from collections.abc import Sequence
 from typing import TypeVar
 
@@ -39,13 +38,14 @@ class SyncBusBase(BusBase[M]):
         self._core.send_many(msgs)
 
     def wait_state(self, id: int, timeout: float, newer_than: float | None = None) -> MotorState:
-        """Wait for a state of motor ``id`` newer than ``newer_than`` (monotonic s; default: now), sending nothing.
+        """Wait for a state of motor ``id`` newer than ``newer_than`` (s on the bus's clock, see
+        :meth:`BusDriver.now`; default: now), sending nothing.
 
         Raises :class:`~drempower.client.errors.TimeoutError` after ``timeout`` s without one,
         :class:`~drempower.client.errors.BusClosedError` when the bus closes meanwhile.
         """
         check_node(id, "id")
-        since = time.monotonic() if newer_than is None else newer_than
+        since = self._core.now() if newer_than is None else newer_than
         return self._core.run(await_state(id, since, timeout))
 
     def close(self) -> None:
@@ -61,27 +61,31 @@ class AsyncBusBase(BusBase[M]):
     async def run(self, op: Runnable[T]) -> T:
         """Run an operation (a generator of effects, see :mod:`drempower.client.effects`) to completion;
         returns its result and raises what it raises (TimeoutError, ValidationError...)."""
-        return await self._core.run_async(op)
+        core = self._core
+        if core.virtual:  # virtual time passes inside the call: nothing to await
+            return core.run(op)
+        return await core.run_async(op)
 
     async def _send_all(self, msgs: Sequence[Message]) -> None:
         """Send ``msgs``; when a start among them waits until its presets are on the wire, in a worker
         thread, so the event loop never blocks on that wait."""
         import asyncio
 
-        if sequenced(msgs):
+        if sequenced(msgs) and not self._core.virtual:
             await asyncio.to_thread(self._core.send_many, msgs)
         else:
             self._core.send_many(msgs)
 
     async def wait_state(self, id: int, timeout: float, newer_than: float | None = None) -> MotorState:
-        """Wait for a state of motor ``id`` newer than ``newer_than`` (monotonic s; default: now), sending nothing.
+        """Wait for a state of motor ``id`` newer than ``newer_than`` (s on the bus's clock, see
+        :meth:`BusDriver.now`; default: now), sending nothing.
 
         Raises :class:`~drempower.client.errors.TimeoutError` after ``timeout`` s without one,
         :class:`~drempower.client.errors.BusClosedError` when the bus closes meanwhile.
         """
         check_node(id, "id")
-        since = time.monotonic() if newer_than is None else newer_than
-        return await self._core.run_async(await_state(id, since, timeout))
+        since = self._core.now() if newer_than is None else newer_than
+        return await self.run(await_state(id, since, timeout))
 
     async def close(self) -> None:
         """Apply ``stop_on_close`` to the motors this bus commanded, then release the transport

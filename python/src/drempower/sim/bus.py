@@ -204,8 +204,13 @@ class SimBus:
         with self.lock:
             heapq.heappush(self._events, (at, next(self._seq), action))
 
-    def advance(self, seconds: float) -> None:
-        """Let ``seconds`` of simulated time pass: step every motor and deliver what falls due."""
+    def advance(self, seconds: float, stop: Callable[[], bool] | None = None) -> bool:
+        """Let ``seconds`` of simulated time pass: step every motor and deliver what falls due.
+
+        With ``stop``, checked after each thing that happens (a frame's end, an event, a step),
+        the advance ends early, at the time of that thing, once ``stop()`` is true. Returns
+        True when it ended early.
+        """
         with self.lock:
             target = self.now + seconds
             step = self.STEP
@@ -231,8 +236,11 @@ class SimBus:
                     self._steps += 1
                     for m in order:
                         m.step(step, t)
+                if stop is not None and stop():
+                    return True
             if target > self.now:
                 self.now = target
+            return False
 
     def uart_request(self, ident: int, frame: Frame) -> list[Frame]:
         """Deliver ``frame`` through the UART of motor ``ident`` only; returns its answers.

@@ -44,6 +44,10 @@ class Transport(ABC):
     """The bus's bit rate (bit/s) when this transport knows it; used to time what is queued."""
     tx_latency: float = 0.005
     """Longest time (s) a sent frame may wait in drivers, adapters or servers before it competes for the bus."""
+    virtual_clock: bool = False
+    """True when the transport runs on its own simulated time (the in-process simulator with
+    ``clock="virtual"``): it then offers ``now()`` (s) and ``advance(seconds)``, and the client lets that
+    time pass instead of waiting."""
 
     def wait_sent(self, timeout: float) -> bool | None:
         """Wait until every frame sent so far is on the wire: True once confirmed, False when

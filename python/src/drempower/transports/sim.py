@@ -5,7 +5,7 @@ from __future__ import annotations
 import os
 import queue
 import weakref
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 from ..errors import ValidationError
@@ -14,7 +14,12 @@ from ..sim import SimBus, SimRunner
 from .base import QueuedTransport
 from .fds import close_fds, drain, nonblocking_pipe
 
-__all__ = ["SimTransport"]
+__all__ = ["SimTransport", "CLOCKS", "FOREVER"]
+
+CLOCKS = ("wall", "virtual")
+"""The clocks of :class:`SimTransport`: wall time (a runner thread), or the simulated bus's own time."""
+FOREVER = 3600.0
+"""The simulated time (s) a receive without a timeout lets pass on the virtual clock before it gives up."""
 
 
 class SimTransport(QueuedTransport):
@@ -24,6 +29,14 @@ class SimTransport(QueuedTransport):
     existing SimBus (``motors`` and the SimBus options are then ignored); ``time_scale=0``
     starts no runner, so the caller advances the bus's clock itself. Other keyword
     arguments go to SimBus (``bitrate``, ``faults``, ``seed``, ``config_dir``...).
+
+    ``clock="virtual"`` runs no thread at all: the SimBus's simulated time is the
+    client's clock. Whenever the client would wait (for a reply, a timeout, a sleep,
+    a move to end) it advances the simulated bus instead, by exactly as long, so a
+    2 s move returns in milliseconds of wall time with every timeout, retry and
+    sleep behaving as on real time. Time passes only while a call waits: between
+    calls the motors stand still in time. The default ``clock="wall"`` runs the
+    simulation on wall time (scaled by ``time_scale``).
     """
 
     default_timeout = 0.5
@@ -34,13 +47,26 @@ class SimTransport(QueuedTransport):
         motors: Iterable[int] = (1,),
         *,
         time_scale: float = 1.0,
+        clock: str = "wall",
         bus: SimBus | None = None,
         **simbus_kwargs: Any,
     ) -> None:
+        if clock not in CLOCKS:
+            allowed = ", ".join(map(repr, CLOCKS))
+            raise ValidationError(f"clock={clock!r}: must be one of {allowed}")
+        virtual = clock == "virtual"
+        if virtual and time_scale != 1.0:
+            raise ValidationError(
+                f"time_scale={time_scale!r}: takes no value with clock='virtual' (simulated time passes as the "
+                "client waits); leave it out"
+            )
         if time_scale < 0:
             raise ValidationError(f"time_scale={time_scale!r}: must be >= 0 (0: the caller advances the clock)")
+        if virtual and bus is not None and bus.clock_sync is not None:
+            raise ValidationError("clock='virtual': the SimBus given is already run by a SimRunner; stop it first")
         self.bus = bus if bus is not None else SimBus(ids=motors, **simbus_kwargs)
         """The simulated bus."""
+        self.virtual_clock = virtual
         super().__init__()
         self.wire_bitrate = self.bus.bitrate
         self._capture: list[Frame] | None = None
@@ -48,9 +74,9 @@ class SimTransport(QueuedTransport):
         self._signal_r: int | None = None
         self._sink = self._deliver
         self.bus.add_listener(self._sink, host_frames=True)
-        self._runner = SimRunner(self.bus, time_scale).start() if time_scale > 0 else None
+        self._runner = SimRunner(self.bus, time_scale).start() if time_scale > 0 and not virtual else None
         ids = ",".join(str(m.node_id) for m in self.bus.motors.values())
-        pace = f"time x{time_scale:g}" if time_scale > 0 else "manual clock"
+        pace = "virtual clock" if virtual else f"time x{time_scale:g}" if time_scale > 0 else "manual clock"
         rate = f"{self.bus.bitrate} bit/s" if self.bus.bitrate else "instant delivery"
         self.description = f"simulator: motors {ids} ({rate}, {pace})"
 
@@ -132,18 +158,60 @@ class SimTransport(QueuedTransport):
                 self._capture = None
         return out
 
+    # ------------------------------------------------------------------ the virtual clock
+
+    def now(self) -> float:
+        """The simulated bus's time (s): the client's clock with ``clock="virtual"``."""
+        return self.bus.now
+
+    def advance(self, seconds: float, until: Callable[[], bool] | None = None) -> bool:
+        """Let up to ``seconds`` of simulated time pass, ending early (at the time it happened) once a
+        frame is queued for :meth:`read_nowait` or ``until()`` is true. Returns True when it ended early."""
+        if seconds <= 0 or self._closed:
+            return False
+        q = self._queue
+
+        def stop() -> bool:
+            return not q.empty() or (until is not None and until())
+
+        return self.bus.advance(seconds, stop)
+
+    def recv(self, timeout: float | None = None) -> Frame | None:
+        """Next received frame, or None after ``timeout`` s (or once closed); with ``clock="virtual"`` the
+        wait lets simulated time pass (``timeout=None``: at most :data:`FOREVER`)."""
+        if not self.virtual_clock:
+            return super().recv(timeout)
+        if self._closed:
+            return None
+        return self.wait_frame(FOREVER if timeout is None else max(timeout, 0.0))
+
+    def wait_frame(self, timeout: float) -> Frame | None:
+        """The next received frame, or None after ``timeout`` s (simulated time with ``clock="virtual"``)."""
+        if not self.virtual_clock:
+            return super().wait_frame(timeout)
+        if self._queue.empty():
+            self.advance(timeout)
+        return super().wait_frame(0.0)
+
     def wait_sent(self, timeout: float) -> bool | None:
         """Wait until every frame sent through this transport has been transmitted on the simulated bus.
 
         True once they have, False when ``timeout`` s passed first, None with a manual
-        clock (nothing advances the bus while we wait).
+        clock (nothing advances the bus while we wait). With ``clock="virtual"`` the
+        wait lets simulated time pass.
         """
         bus = self.bus
         if bus.bitrate is None:
             return True
+        origin = self._sink
+        if self.virtual_clock:
+            with bus.lock:
+                if bus.host_pending(origin) == 0:
+                    return True
+                self.bus.advance(timeout, lambda: bus.host_pending(origin) == 0)
+                return bus.host_pending(origin) == 0
         if self._runner is None:
             return None
-        origin = self._sink
         with bus.tx_done:
             return bus.tx_done.wait_for(lambda: bus.host_pending(origin) == 0, timeout)
 
