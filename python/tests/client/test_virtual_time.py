@@ -104,7 +104,11 @@ def test_the_asyncio_bus_runs_on_the_virtual_clock() -> None:
                 await bus.motor(2).get_state()
             with pytest.raises(drempower.TimeoutError):
                 await bus.motor(1).wait_state(timeout=0.25)  # no heartbeats: nothing comes
-            return moved, bus.core.now() - t1, t0
+            waited = bus.core.now() - t1
+            t2 = bus.core.now()
+            await bus.core.run_async(sleep(2.0))  # the driver's own entry point, not only the front end's
+            assert bus.core.now() - t2 == pytest.approx(2.0)
+            return moved, waited, t0
 
     wall = time.perf_counter()
     moved, waited, _ = asyncio.run(main())

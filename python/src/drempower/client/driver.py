@@ -883,8 +883,11 @@ class BusDriver:
         registered (``loop.add_reader``) while its coroutines use the bus and :data:`_LINGER` s after:
         replies are read and fed in the loop's callback, which wakes the waiting coroutine directly.
         When another thread reads, and on other transports, the coroutine is woken by the thread that
-        finished its operation. No thread per call.
+        finished its operation. No thread per call. On a virtual clock the call runs as :meth:`run` does
+        (simulated time passes inside it).
         """
+        if self._clock is not None:
+            return self.run(op)
         import asyncio
 
         loop = asyncio.get_running_loop()
