@@ -76,6 +76,12 @@ def _header(arbitration_id: int, dlc: int, is_extended: bool) -> tuple[str, int]
 def frame_bits(arbitration_id: int, data: bytes, is_extended: bool = False) -> int:
     """Bits a data frame with ``arbitration_id`` and ``data`` (0..8 bytes) occupies on the bus,
     interframe space included. A standard frame with 8 data bytes takes 111 to 135 bits."""
+    return _frame_bits(arbitration_id, bytes(data), is_extended)
+
+
+@lru_cache(maxsize=4096)
+def _frame_bits(arbitration_id: int, data: bytes, is_extended: bool) -> int:
+    """:func:`frame_bits`, remembered: a control loop sends the same few frames again and again."""
     head, crc = _header(arbitration_id, len(data), is_extended)
     for byte in data:
         crc = _crc_byte(crc, byte)
