@@ -365,3 +365,78 @@ def test_coroutines_of_one_loop_time_out_each_at_its_own_deadline(order: str) ->
         pty.close()
     assert 0.1 <= ended[0.1] < 0.25  # not held back by the other coroutine's later deadline
     assert 0.3 <= ended[0.3] < 0.45  # nor dropped when the earlier one's timer fired
+
+
+def test_a_stopped_or_busy_loop_gives_the_reader_role_to_threads_that_need_it() -> None:
+    from drempower.client.ops import fast_read
+
+    sim = SimBus(ids=[1])
+    pty = attach_adapter_pty(sim)
+    loop = asyncio.new_event_loop()
+    try:
+        abus = drempower.open_bus_async("adapter", pty.path, timeout=0.3, stop_on_close=False)
+        core = abus.core
+        assert loop.run_until_complete(abus.motor(1).get_state()).node == 1
+        assert core._loop_reader is not None  # the loop stopped with the role
+
+        def timed() -> float:
+            t0 = time.monotonic()
+            assert core.run(fast_read(1)).node == 1
+            return time.monotonic() - t0
+
+        assert timed() < 0.2  # this thread, the loop's own: takes the role back at once
+        assert loop.run_until_complete(abus.motor(1).get_state()).node == 1
+        took: list[float] = []
+        worker = threading.Thread(target=lambda: took.append(timed()))
+        worker.start()
+        worker.join(5)
+        assert took and took[0] < 0.2  # another thread, while the loop is stopped
+
+        async def blocking_inside() -> float:
+            await abus.motor(1).get_state()
+            return timed()  # a blocking call from a coroutine: the loop cannot read meanwhile
+
+        assert loop.run_until_complete(blocking_inside()) < 0.2
+        assert loop.run_until_complete(abus.motor(1).get_state()).node == 1  # the loop takes it again
+        core.close()
+    finally:
+        loop.close()
+        pty.close()
+
+
+def test_a_close_never_waits_for_a_busy_loop_and_its_descriptor_is_not_left_registered() -> None:
+    sims = [SimBus(ids=[1]), SimBus(ids=[2])]
+    ptys = [attach_adapter_pty(s) for s in sims]
+    try:
+
+        async def main() -> tuple[float, int]:
+            loop = asyncio.get_running_loop()
+            first = drempower.open_bus_async("adapter", ptys[0].path, timeout=1.0, stop_on_close=False)
+            assert (await first.motor(1).get_state()).node == 1
+            rd = first.core._loop_reader
+            assert rd is not None
+            registered = rd.fd
+            took: list[float] = []
+
+            def close_elsewhere() -> None:
+                t0 = time.monotonic()
+                first.core.close()
+                took.append(time.monotonic() - t0)
+
+            worker = threading.Thread(target=close_elsewhere)
+            worker.start()
+            time.sleep(0.3)  # the loop is blocked while the other thread closes the bus
+            worker.join(5)
+            second = drempower.open_bus_async("adapter", ptys[1].path, timeout=1.0, stop_on_close=False)
+            node = (await second.motor(2).get_state()).node  # whatever descriptor number it got
+            await asyncio.sleep(0)
+            assert rd.fd == -1 and not loop.remove_reader(registered)  # unregistered in the loop, closed
+            await second.close()
+            return took[0], node
+
+        took, node = asyncio.run(main())
+        assert took < 0.2
+        assert node == 2
+    finally:
+        for pty in ptys:
+            pty.close()

@@ -132,13 +132,32 @@ def _wake(fut: asyncio.Future[Any]) -> None:
 
 
 class _LoopReader:
-    """The reader role held by an event loop: the transport's descriptor stays registered with
-    ``loop.add_reader`` while coroutines of that loop use the bus and for :data:`_LINGER` s after
-    (one timer per linger, not one registration per call), and frames are read and fed in the
-    loop's callback. Let go when idle, when the bus closes, or (by the receive thread) when the
-    loop was closed while holding it."""
+    """The reader role held by an event loop: a duplicate of the transport's descriptor stays
+    registered with ``loop.add_reader`` while coroutines of that loop use the bus and for
+    :data:`_LINGER` s after (one registration per linger, not per call), and frames are read and fed
+    in the loop's callback.
 
-    __slots__ = ("_once", "driver", "due", "due_at", "fd", "last", "loop", "thread", "timer", "users", "waits")
+    The role is given back when the loop is idle, when the bus closes, and to a thread that needs to
+    read while the loop cannot (not running, closed, or blocked by that very thread). The
+    registration is on a duplicate so that closing the transport never leaves a descriptor number
+    registered that another file may reuse: the duplicate is unregistered and closed in the loop's
+    own thread (or at once when the loop is closed).
+    """
+
+    __slots__ = (
+        "_busy",
+        "_once",
+        "driver",
+        "due",
+        "due_at",
+        "fd",
+        "last",
+        "loop",
+        "thread",
+        "timer",
+        "users",
+        "waits",
+    )
 
     def __init__(self, driver: BusDriver, loop: asyncio.AbstractEventLoop) -> None:
         self.driver = driver
@@ -146,17 +165,29 @@ class _LoopReader:
         self.thread = threading.get_ident()
         fd = driver._fd
         assert fd is not None
-        self.fd = fd
+        self.fd = os.dup(fd)
+        """The registered duplicate of the transport's descriptor (-1 once closed)."""
         self.users = 0
         """Coroutines of this loop running an operation on the bus."""
         self.last = _monotonic()
         self.timer: asyncio.TimerHandle | None = None
         self._once = threading.Lock()
         """Taken by the one :meth:`let_go` that acts (never blocks: a signal handler may call it)."""
+        self._busy = threading.Lock()
+        """Held while the loop's callback reads, and while another thread takes the role back."""
         self.waits: dict[Callable[[], None], float] = {}
         """When (monotonic s) to wake each waiting coroutine at the latest (its operation's next deadline)."""
         self.due: asyncio.TimerHandle | None = None
         self.due_at = math.inf
+
+    def register(self) -> None:
+        try:
+            self.loop.add_reader(self.fd, self.readable)
+        except BaseException:
+            os.close(self.fd)
+            self.fd = -1
+            raise
+        self.timer = self.loop.call_later(_LINGER, self.check)
 
     def wake_at(self, wake: Callable[[], None], at: float) -> None:
         """Call ``wake`` by monotonic time ``at`` (s). One timer serves every coroutine of the loop: it is
@@ -183,16 +214,21 @@ class _LoopReader:
             self.due_at = later
             self.due = self.loop.call_later(later - now, self._due)
 
-    def arm(self) -> None:
-        self.timer = self.loop.call_later(_LINGER, self.check)
-
     def readable(self) -> None:
         """The loop's callback: read and feed what arrived (wakes the coroutines whose operation ends)."""
         d = self.driver
-        if d._is_closed():
-            self.let_go()
+        if d._loop_reader is not self:  # given back meanwhile (by another thread): only unregister here
+            self.unregister()
             return
-        d._read_feed()
+        if not self._busy.acquire(False):
+            return  # being taken back this instant; the descriptor stays readable for whoever reads next
+        try:
+            if d._is_closed():
+                self.let_go(held=True)
+                return
+            d._read_feed()
+        finally:
+            self._busy.release()
 
     def check(self) -> None:
         """The linger timer: let go once no coroutine used the bus for :data:`_LINGER` s."""
@@ -205,27 +241,63 @@ class _LoopReader:
             return
         self.let_go()
 
-    def let_go(self, loop_closed: bool = False) -> None:
-        """Unregister (unless the loop is closed), give the reader role back; in the loop's thread, or
-        from the receive thread for a closed loop. Idempotent."""
-        if not self._once.acquire(False):
-            return
-        d = self.driver
-        if d._loop_reader is self:
-            d._loop_reader = None
-        if self.timer is not None:
-            self.timer.cancel()
-            self.timer = None
-        if self.due is not None:
-            self.due.cancel()
-            self.due = None
-        if not loop_closed:
+    def stalled(self) -> bool:
+        """Whether the loop cannot read for the calling thread: closed, not running, or run by this thread
+        (which is busy with something else)."""
+        loop = self.loop
+        return loop.is_closed() or not loop.is_running() or threading.get_ident() == self.thread
+
+    def let_go(self, lock_timeout: float = -1, held: bool = False, force: bool = False) -> bool:
+        """Give the reader role back, from any thread; idempotent. False when the loop's callback is reading
+        at this instant (try again; ``force``, for a close, gives up the role without waiting for it).
+        The duplicate is unregistered now in the loop's thread, else when the loop next runs."""
+        busy = held or self._busy.acquire(False)
+        if not busy and not force:
+            return False
+        try:
+            if not self._once.acquire(False):
+                return True
+            d = self.driver
+            if d._loop_reader is self:
+                d._loop_reader = None
+            if busy:
+                d._release_reader()
+            d._leave_reading(lock_timeout)
+        finally:
+            if busy and not held:
+                self._busy.release()
+        loop = self.loop
+        if loop.is_closed():
+            self._close_fd()
+        elif threading.get_ident() == self.thread:
+            self.unregister()
+        else:
+            try:
+                loop.call_soon_threadsafe(self.unregister)
+            except RuntimeError:  # closed meanwhile
+                self._close_fd()
+        return True
+
+    def unregister(self) -> None:
+        """In the loop's thread: stop the timers, remove and close the duplicate."""
+        for handle in (self.timer, self.due):
+            if handle is not None:
+                handle.cancel()
+        self.timer = self.due = None
+        if self.fd >= 0:
             try:
                 self.loop.remove_reader(self.fd)
-            except (OSError, ValueError, RuntimeError):  # the descriptor or the loop closed meanwhile
+            except (OSError, ValueError, RuntimeError):  # the loop closed meanwhile
                 pass
-        d._release_reader()
-        d._leave_reading()
+            self._close_fd()
+
+    def _close_fd(self) -> None:
+        fd, self.fd = self.fd, -1
+        if fd >= 0:
+            try:
+                os.close(fd)
+            except OSError:
+                pass
 
 
 class BusDriver:
@@ -600,10 +672,15 @@ class BusDriver:
                 except OSError:  # the pipe is full (the thread wakes anyway) or closed
                     pass
 
-    def _leave_reading(self) -> None:
-        with self._gate_lock:
+    def _leave_reading(self, lock_timeout: float = -1) -> None:
+        """Count a reading caller out (``lock_timeout`` s: a signal handler may interrupt the lock's holder)."""
+        held = self._gate_lock.acquire(timeout=lock_timeout)
+        try:
             self._callers -= 1
             self._last_caller = _monotonic()
+        finally:
+            if held:
+                self._gate_lock.release()
 
     def _release_reader(self, own: Callable[[], None] | None = None) -> None:
         self._reader.release()
@@ -633,6 +710,8 @@ class BusDriver:
         out, so that once they are written this thread goes straight to ``select``. A caller that does
         not get the role sleeps on its event until its operation is done or the role is free."""
         reader = self._reader
+        if self._loop_reader is not None:
+            self._take_back()
         self._enter_reading()
         reading = reader.acquire(False)
         ev: threading.Event | None = None
@@ -693,6 +772,8 @@ class BusDriver:
         reads = self._fd is not None
         self._sleepers.add(wake)
         if reads:
+            if self._loop_reader is not None:
+                self._take_back()
             self._enter_reading()
         try:
             while not opn.done:
@@ -893,7 +974,7 @@ class BusDriver:
         loop = asyncio.get_running_loop()
         if self._fd is not None:
             rd = self._loop_reader
-            if rd is None or rd.loop is not loop:
+            if rd is None or rd.loop is not loop or rd.fd < 0:
                 rd = self._attach_loop(loop)
             if rd is not None:
                 return await self._run_async_held(op, rd)
@@ -902,20 +983,31 @@ class BusDriver:
     def _attach_loop(self, loop: asyncio.AbstractEventLoop) -> _LoopReader | None:
         """Give the reader role to ``loop`` if it is free (None when another thread or loop holds it)."""
         self.check_open()
+        self._take_back()
         self._enter_reading()
         if not self._reader.acquire(False):
             self._leave_reading()
             return None
+        if self._is_closed():
+            self._release_reader()
+            self._leave_reading()
+            raise BusClosedError(f"the bus ({self.transport.description}) is closed")
         rd = _LoopReader(self, loop)
+        self._loop_reader = rd
         try:
-            loop.add_reader(rd.fd, rd.readable)
+            rd.register()
         except BaseException:
+            self._loop_reader = None
             self._release_reader()
             self._leave_reading()
             raise
-        self._loop_reader = rd
-        rd.arm()
         return rd
+
+    def _take_back(self) -> None:
+        """Take the reader role back from an event loop that cannot read now (see :meth:`_LoopReader.stalled`)."""
+        rd = self._loop_reader
+        if rd is not None and rd.stalled():
+            rd.let_go()
 
     async def _run_async_held(self, op: Runnable[T], rd: _LoopReader) -> T:
         """:meth:`run_async` while this coroutine's event loop holds the reader role."""
@@ -1101,7 +1193,7 @@ class BusDriver:
                 with gate:
                     while not self._is_closed():
                         rd = self._loop_reader
-                        if rd is not None and rd.loop.is_closed():  # closed while holding the role
+                        if rd is not None and rd.stalled():  # a loop closed or stopped while holding the role
                             orphan = rd
                             break
                         left = _LINGER if self._callers else self._last_caller + _LINGER - _monotonic()
@@ -1113,7 +1205,8 @@ class BusDriver:
                     if orphan is None:
                         self._rx_selecting = True
                 if orphan is not None:
-                    orphan.let_go(loop_closed=True)
+                    if not orphan.let_go():
+                        time.sleep(_LINGER / 4)  # its callback reads this instant: look again shortly
                     continue
                 try:
                     ready = select.select(fds, [], [])[0]  # no timeout: the pipes wake it
@@ -1137,31 +1230,11 @@ class BusDriver:
     # ------------------------------------------------------------------ closing
 
     def _let_go_loop(self, lock_timeout: float) -> None:
-        """On close: the event loop holding the reader role unregisters the descriptor before the
-        transport closes it (in the loop's thread: waits up to 0.5 s for a running loop elsewhere)."""
+        """On close: the event loop holding the reader role gives it up (its duplicate descriptor is
+        unregistered in its own thread, so closing the transport never waits for the loop)."""
         rd = self._loop_reader
-        if rd is None:
-            return
-        if rd.loop.is_closed():
-            rd.let_go(loop_closed=True)
-            return
-        if threading.get_ident() == rd.thread:
-            rd.let_go()
-            return
-        gone = threading.Event()
-
-        def go() -> None:
-            try:
-                rd.let_go()
-            finally:
-                gone.set()
-
-        try:
-            rd.loop.call_soon_threadsafe(go)
-        except RuntimeError:  # closed meanwhile
-            rd.let_go(loop_closed=True)
-            return
-        gone.wait(0.5 if lock_timeout < 0 else min(lock_timeout, 0.5))
+        if rd is not None:
+            rd.let_go(lock_timeout, force=True)
 
     def close(self, *, lock_timeout: float = -1) -> None:
         """Apply ``stop_on_close``, stop the receive loop, close the transport. Idempotent.
