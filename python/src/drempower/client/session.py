@@ -421,10 +421,12 @@ class _OneRequest:
 class _CycleRun:
     """A control cycle (:class:`~drempower.client.effects.Cycle`): its frames go out at once, one state
     per motor is awaited (matched as any fast read's), sent once, never retried. What the commands
-    change is recorded as for any sent message (commanded motors, moves, learned parameters); a
-    preset in a cycle is answered, so on the wire, when the cycle ends: no start waits for it."""
+    change is recorded as for any sent message (commanded motors, moves, learned parameters, presets
+    pending until started); a start in a cycle goes out in order with the cycle's frames, without
+    waiting for the presets it starts. Answered, a cycle's frames are known to be on the wire, so a
+    start sent after it does not wait for its presets."""
 
-    __slots__ = ("nodes", "op", "session", "timeout", "timer", "waiter")
+    __slots__ = ("last", "nodes", "op", "session", "timeout", "timer", "waiter")
 
     def __init__(self, session: BusSession, op: Operation[Any], cycle: Cycle[Any]) -> None:
         """Queue the cycle's frames, expect its states and start its timer."""
@@ -433,18 +435,30 @@ class _CycleRun:
             timeout = session.timeout
         elif not timeout > 0:
             raise ValidationError(f"timeout={timeout!r}: must be > 0 s")
+        msgs, frames = cycle.messages, cycle.frames
+        if len(msgs) != len(frames):
+            raise ValidationError(f"a cycle of {len(msgs)} messages came with {len(frames)} frames")
         self.session = session
         self.op = op
         self.timeout = timeout
         nodes = self.nodes = cycle.nodes
         w = self.waiter = Waiter([n << 16 for n in nodes], self._answered)
+        out = session._out
+        for m, f in zip(msgs, frames, strict=True):
+            if m.cmd == 0x1E:
+                out.append(f)
+                continue
+            session._note(m, f)
+            if m.cmd == 0x0C:  # pending until started, as when sent alone (later starts go per motor)
+                session._hold_preset(m)
+            elif isinstance(m, _STARTS) and session._starts_pending(m.node):
+                started = sorted(session.pending_presets) if m.node == 0 else [m.node]
+                session._start_pending(m, f, started)  # queues it, in order, without waiting
+                continue
+            out.append(f)
+        self.last = session._handed + len(out)
+        """The count of handed frames once this cycle's are: answered, they (and those before) are on the wire."""
         session.matcher.register(w)
-        frames = cycle.frames
-        note = session._note
-        for m, f in zip(cycle.messages, frames, strict=True):
-            if m.cmd != 0x1E:
-                note(m, f)
-        session._out.extend(frames)
         self.timer = session._add_timer(session.now + timeout, self._expire)
 
     def cancel(self) -> None:
@@ -457,6 +471,8 @@ class _CycleRun:
         s._timers.pop(self.timer, None)
         nodes = self.nodes
         s.heard.update(nodes)
+        if s._handed <= self.last:  # every frame handed over is on the wire: a start need not wait for them
+            s._wire_free = min(s._wire_free, s.now - s.tx_latency)
         s._effect_done(self.op, dict(zip(nodes, self.waiter.results, strict=True)), None)
 
     def _expire(self) -> None:
@@ -588,6 +604,8 @@ class BusSession:
         self._provisional: dict[tuple[int, int], tuple[float, Any]] = {}
         self._out: list[Frame] = []
         self._wire_free = now
+        self._handed = 0
+        """Frames handed to the transport so far."""
         self._timers: dict[int, tuple[float, Callable[[], None]]] = {}
         self._heap: list[tuple[float, int]] = []
         """(due, timer id) of every timer, earliest first; a dropped timer's entry stays until it surfaces."""
@@ -722,6 +740,7 @@ class BusSession:
             return out
         self._out = []
         now = self.now
+        self._handed += len(out)
         self._wire_free = max(now, self._wire_free) + len(out) * _WORST_FRAME_BITS / self.bitrate
         if self._hold is not None:
             self._check_hold()

@@ -74,6 +74,39 @@ def test_a_start_after_a_cycle_of_presets_goes_out_at_once() -> None:
     assert _sent(s) == [Start(0, StartKind.T)]
 
 
+def test_a_preset_cycled_to_one_motor_keeps_a_later_batch_of_others_from_broadcasting_its_start() -> None:
+    from drempower.client.effects import Batch
+
+    s = BusSession(tx="in_order")
+    opn = s.submit(batch.cycle(s, [PresetT(3, 30.0, 20.0)], reply_state=True))
+    s.data_to_send()
+    s.receive(_state(3), 0.001)
+    assert opn.done and s.pending_presets == {3}
+
+    def move() -> object:
+        yield Batch([PresetT(1, 10.0, 20.0), PresetT(2, 20.0, 20.0)], Start(0, StartKind.T))
+
+    s.submit(move())
+    # a broadcast start would also fire motor 3's preset: each motor of the batch gets its own
+    expected = [PresetT(1, 10.0, 20.0), PresetT(2, 20.0, 20.0), Start(1, StartKind.T), Start(2, StartKind.T)]
+    assert s.data_to_send() == [m.encode() for m in expected]
+    assert s.pending_presets == {3}
+
+
+def test_a_cycle_whose_frames_do_not_match_its_messages_is_refused_and_leaves_nothing_waiting() -> None:
+    s = BusSession()
+    opn = s.submit(Cycle([Velocity(1, 1.0)], [], [1]))
+    assert opn.done
+    with pytest.raises(ValidationError, match="1 messages came with 0 frames"):
+        opn.result()
+    assert s.data_to_send() == []
+    assert s.receive(_state(1), 0.0) is not None  # a state as any other, no stale waiter behind it
+    read = s.submit(batch.read_states([1]))
+    s.data_to_send()
+    s.receive(_state(1, 5.0), 0.001)
+    assert read.result()[0].angle == pytest.approx(5.0)
+
+
 def test_motors_without_reply_state_get_a_fast_read_after_the_commands() -> None:
     s = BusSession()
     cmds = [PositionT(1, 1.0, 50.0), PositionT(2, 2.0, 50.0)]
