@@ -17,7 +17,7 @@ def test_dropped_frames_give_correct_values_or_timeouts() -> None:
     for i in (1, 2):
         sim.motors[i].set_param("axis0.output_shaft.vel_limit", 100.0 + i)
     outcomes = {"ok": 0, "timeout": 0}
-    with link("inprocess", sim, time_scale=1, timeout=0.02) as bus:
+    with link("inprocess", sim, timeout=0.02) as bus:
         for k in range(100):
             node = 1 + k % 2
             try:
@@ -31,7 +31,7 @@ def test_dropped_frames_give_correct_values_or_timeouts() -> None:
 
 def test_retries_ride_out_dropped_frames() -> None:
     sim = SimBus(ids=[1, 2, 3], faults=Faults(drop_rate=0.2), seed=5)
-    with link("inprocess", sim, time_scale=1, timeout=0.05, retries=6) as bus:
+    with link("inprocess", sim, timeout=0.05, retries=6) as bus:
         for _ in range(3):
             assert [s.node for s in bus.request([drempower.protocol.FastRead(i) for i in (1, 2, 3)])] == [1, 2, 3]
             assert not bus.motor(2).dump_error()
@@ -40,7 +40,7 @@ def test_retries_ride_out_dropped_frames() -> None:
 def test_a_silent_motor_is_named_and_nothing_moves() -> None:
     sim = SimBus(ids=[1, 2, 3])
     rec = Recorder(sim)
-    with link("inprocess", sim, time_scale=1, timeout=0.1) as bus:
+    with link("inprocess", sim, timeout=0.1) as bus:
         sim.faults.silent.add(2)
         t0 = bus.core.now()  # the simulated clock
         with pytest.raises(drempower.TimeoutError, match="motor 2"):
@@ -86,7 +86,7 @@ def test_garbage_on_the_serial_line(kind: str) -> None:
 
 def test_motor_error_mid_move_ends_the_wait() -> None:
     sim = SimBus(ids=[1, 2])
-    with link("inprocess", sim, time_scale=5, timeout=1.0) as bus:
+    with link("inprocess", sim, timeout=1.0) as bus:
         bus.set_angles([1, 2], [180, 180], 10, 20, 1)  # about 3.5 s of simulated time
         sim.schedule(sim.now + 0.5, lambda: sim.motors[2].inject_error(MotorError.DRV_FAULT))
         t0 = bus.core.now()
@@ -114,7 +114,7 @@ def test_estop_mid_move_from_another_thread() -> None:
 def test_validation_errors_send_nothing_to_the_simulator() -> None:
     sim = SimBus(ids=[1, 2])
     rec = Recorder(sim)
-    with link("inprocess", sim, time_scale=1) as bus:
+    with link("inprocess", sim) as bus:
         calls = [
             lambda: bus.set_angles([1, 2], [10, 20], 500, 20, 1),
             lambda: bus.set_angles([1, 2], [10], 10, 20, 1),

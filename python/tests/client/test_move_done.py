@@ -31,7 +31,7 @@ def _chatty(bus: Bus, ids: list[int], source: str) -> None:
 def test_positions_done_waits_for_the_move_despite_stale_states(source: str) -> None:
     """Every motor frame takes 20 ms to arrive: states sent before the start are still in flight after it."""
     sim = SimBus(ids=[1, 2, 3], faults=Faults(reply_delay=0.02))
-    with link("inprocess", sim, time_scale=1, timeout=1.0) as bus:
+    with link("inprocess", sim, timeout=1.0) as bus:
         _chatty(bus, [1, 2, 3], source)
         t = bus.set_angles([1, 2, 3], TARGETS, speed=60, param=200, mode=1)
         assert t is not None and t > 0.1
@@ -44,7 +44,7 @@ def test_positions_done_waits_for_the_move_despite_stale_states(source: str) -> 
 def test_single_motor_waits_t_mode(source: str) -> None:
     """T mode has no planned time: the wait needs T = 0 after the command, or the motor at its target."""
     sim = SimBus(ids=[1], faults=Faults(reply_delay=0.02))
-    with link("inprocess", sim, time_scale=1, timeout=1.0) as bus:
+    with link("inprocess", sim, timeout=1.0) as bus:
         _chatty(bus, [1], source)
         m = bus.motor(1)
         m.set_angle(45, 0, 5, 0)  # a slow filter: the T bit stays 1 for a moment after the command
@@ -67,7 +67,7 @@ def test_async_and_compat_waits_wait_for_the_move() -> None:
             return st.angle
 
     assert asyncio.run(run()) == pytest.approx(10, abs=0.5)
-    with link("inprocess", sim, time_scale=2, timeout=1.0) as bus:
+    with link("inprocess", sim, timeout=1.0) as bus:
         compat.use_bus(bus)
         try:
             bus.motor(1).enable_reply_state(True)
@@ -80,7 +80,7 @@ def test_async_and_compat_waits_wait_for_the_move() -> None:
 
 def test_a_move_stopped_by_angle_limits_raises_move_error() -> None:
     sim = SimBus(ids=[1])
-    with link("inprocess", sim, time_scale=5, timeout=1.0) as bus:
+    with link("inprocess", sim, timeout=1.0) as bus:
         m = bus.motor(1)
         m.enable_reply_state(True)
         m.set_angle_range(-20, 20)
@@ -95,7 +95,7 @@ def test_a_move_stopped_by_angle_limits_raises_move_error() -> None:
 
 def test_an_estop_during_the_wait_raises_move_fault_error_with_flags() -> None:
     sim = SimBus(ids=[1])
-    with link("inprocess", sim, time_scale=2, timeout=1.0) as bus:
+    with link("inprocess", sim, timeout=1.0) as bus:
         m = bus.motor(1)
         m.set_angle(90, 30, 60, 1)
         sim.schedule(sim.now + 0.3, lambda: sim.motors[1].receive(_estop(), lambda f: None))
@@ -108,7 +108,7 @@ def test_an_estop_during_the_wait_raises_move_fault_error_with_flags() -> None:
 
 def test_tolerance_is_checked() -> None:
     sim = SimBus(ids=[1])
-    with link("inprocess", sim, time_scale=2, timeout=1.0) as bus, pytest.raises(drempower.ValidationError):
+    with link("inprocess", sim, timeout=1.0) as bus, pytest.raises(drempower.ValidationError):
         bus.motor(1).wait_position_done(1, tolerance=-1)
 
 

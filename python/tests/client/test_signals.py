@@ -5,7 +5,6 @@ from __future__ import annotations
 import os
 import signal
 import threading
-from collections.abc import Iterator
 from types import FrameType
 
 import pytest
@@ -16,22 +15,12 @@ from drempower.protocol import DataType, WriteParam
 
 from .scripted import FakeMotors, ScriptedTransport
 
-pytestmark = pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
+pytestmark = [
+    pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals"),
+    pytest.mark.usefixtures("_restore_handlers"),
+]
 
 IDLE = WriteParam(1, 30003, DataType.U32, 1).encode()
-
-
-@pytest.fixture(autouse=True)
-def _restore_handlers() -> Iterator[None]:
-    saved = {s: signal.getsignal(s) for s in sig.TERMINATING_SIGNALS}
-    previous = dict(sig._previous)
-    try:
-        yield
-    finally:
-        for s, h in saved.items():
-            signal.signal(s, h)
-        sig._previous.clear()
-        sig._previous.update(previous)
 
 
 def test_sigterm_closes_the_bus_then_calls_the_previous_handler() -> None:

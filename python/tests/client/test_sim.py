@@ -48,7 +48,7 @@ def test_every_transport(kind: str) -> None:
 def test_sync_q_move_arrives_together() -> None:
     """On a manual clock: halfway through, every motor has covered the same fraction of its move."""
     sim = SimBus(ids=[1, 2, 3])
-    with link("inprocess", sim, time_scale=0) as bus:
+    with link("inprocess", sim) as bus:
         t = bus.set_angles([1, 2, 3], [90, -45, 180], 30, 60, 1)
         assert t == pytest.approx(1.5)  # 180 deg at 30 r/min, 60 (r/min)/s: v/a + d/(6v)
         sim.advance(t / 2)
@@ -62,7 +62,7 @@ def test_sync_q_move_arrives_together() -> None:
 def test_q_time_from_real_positions_and_s_curve() -> None:
     sim = SimBus(ids=[1, 2])
     sim.motors[2].set_param("axis0.trap_traj.config.traj_mode", 2)
-    with link("inprocess", sim, time_scale=50) as bus:
+    with link("inprocess", sim) as bus:
         bus.motor(1).set_angle(60, 60, 300, 1)  # motor 1 moves away; a stale cache would still say 0
         bus.positions_done([1], timeout=5)
         t = bus.set_angles([1, 2], [90, 90], 30, 60, 1)
@@ -73,7 +73,7 @@ def test_q_time_from_real_positions_and_s_curve() -> None:
 
 def test_single_motor_moves_never_start_other_motors() -> None:
     sim = SimBus(ids=[1, 2])
-    with link("inprocess", sim, time_scale=50, start="auto") as bus:
+    with link("inprocess", sim, start="auto") as bus:
         bus.send(PresetQ(2, 90, 1.0, 60))  # a preset left on motor 2 (by this or another program)
         bus.motor(1).step_angle(20, 60, 300, 1)
         bus.motor(1).impedance_control(20, 0, 0, 1, 0.05)
@@ -81,7 +81,7 @@ def test_single_motor_moves_never_start_other_motors() -> None:
         assert bus.motor(2).get_state().angle == pytest.approx(0, abs=0.01)
         bus.motor(1).set_angle(20, 60, 300, 1)  # hold still: the relative move below starts from 20
         bus.positions_done([1], timeout=5)
-    with link("inprocess", sim, time_scale=50, start="broadcast") as bus:  # the vendor library's way
+    with link("inprocess", sim, start="broadcast") as bus:  # the vendor library's way
         bus.motor(1).step_angle(20, 60, 300, 1)
         bus.positions_done([1, 2], timeout=5)
         assert bus.motor(2).get_state().angle == pytest.approx(90, abs=0.05)
@@ -89,7 +89,7 @@ def test_single_motor_moves_never_start_other_motors() -> None:
 
 def test_set_speeds_torques_and_stop_on_close() -> None:
     sim = SimBus(ids=[1, 2, 3])
-    with link("inprocess", sim, time_scale=0, stop_on_close=True) as bus:
+    with link("inprocess", sim, stop_on_close=True) as bus:
         bus.set_speeds([1, 2], [30, -30], 300, 2)
         sim.advance(0.5)
         assert [bus.motor(i).get_state().speed for i in (1, 2)] == pytest.approx([30, -30], abs=0.5)
@@ -100,7 +100,7 @@ def test_set_speeds_torques_and_stop_on_close() -> None:
 
 def test_heartbeats_update_the_cache() -> None:
     sim = SimBus(ids=[1])
-    with link("inprocess", sim, time_scale=1) as bus:
+    with link("inprocess", sim) as bus:
         bus.motor(1).write_property("can.config.heartbeat_ms", 10)
         seen = []
         with bus.motor(1).subscribe(seen.append):
@@ -111,7 +111,7 @@ def test_heartbeats_update_the_cache() -> None:
 
 def test_control_cycle_with_reply_state() -> None:
     sim = SimBus(ids=[1, 2, 3])
-    with link("inprocess", sim, time_scale=10) as bus:
+    with link("inprocess", sim) as bus:
         for i in (1, 2, 3):
             bus.motor(i).enable_reply_state()
         n = len(sim.motors)
@@ -123,7 +123,7 @@ def test_control_cycle_with_reply_state() -> None:
 
 def test_set_id_and_gpio_on_the_simulator() -> None:
     sim = SimBus(ids=[4])
-    with link("inprocess", sim, time_scale=10) as bus:
+    with link("inprocess", sim) as bus:
         m = bus.motor(4).set_id(7)
         assert m.get_id() == 7 and sim.motors[4].node_id == 7
         m.set_GPIO_mode("step_dir", 256)

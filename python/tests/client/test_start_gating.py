@@ -94,7 +94,7 @@ def test_async_send_many_moves_every_motor(clock: str) -> None:
 def test_a_sent_start_records_targets_so_the_wait_sees_the_angle_limit() -> None:
     """The wait knows the preset's target: a joint stopped at its limit raises instead of returning done."""
     sim = SimBus(ids=[1, 2])
-    with link("inprocess", sim, time_scale=5, timeout=1.0) as bus:
+    with link("inprocess", sim, timeout=1.0) as bus:
         bus.motor(2).set_angle_range(-20, 20)
         bus.send_many([PresetT(1, 10, 20), PresetT(2, 90, 20), Start(0, StartKind.T)])
         with pytest.raises(MoveError) as info:
@@ -105,7 +105,7 @@ def test_a_sent_start_records_targets_so_the_wait_sees_the_angle_limit() -> None
 
 def test_a_node_start_consumes_only_its_preset_and_later_batches_do_not_fire_the_rest() -> None:
     sim = SimBus(ids=IDS)
-    with link("inprocess", sim, time_scale=5, timeout=1.0) as bus:
+    with link("inprocess", sim, timeout=1.0) as bus:
         bus.send_many([PresetT(1, 15, 20), PresetT(2, 25, 20), Start(1, StartKind.T)])
         assert bus.motor(1).wait_position_done(10).angle == pytest.approx(15, abs=0.5)
         bus.set_angles([1, 3], [5, 35], 0, 20, 0)  # motor 2 still holds its preset: starts go per node

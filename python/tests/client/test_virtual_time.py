@@ -12,14 +12,12 @@ import os
 import signal
 import threading
 import time
-from collections.abc import Iterator
 from types import FrameType
 
 import pytest
 
 import drempower
 from drempower.client import BusClosedError, PositionMode, open_bus_async
-from drempower.client import signals as sig
 from drempower.client.effects import sleep
 from drempower.client.session import idle_frames
 from drempower.protocol.ids import Frame
@@ -59,7 +57,7 @@ def test_a_silent_motor_times_out_after_its_timeout_of_simulated_time() -> None:
         wall, t0 = time.perf_counter(), bus.core.now()
         with pytest.raises(drempower.TimeoutError, match="motor 2: no answer to a fast read") as info:
             bus.motor(2).get_state()
-        assert time.perf_counter() - wall < 0.1
+        assert time.perf_counter() - wall < 0.5  # of a 1 s wait
         assert bus.core.now() - t0 == pytest.approx(1.0)
         assert info.value.nodes == (2,)
         assert bus.motor(1).get_state().node == 1  # the other motor answers at once, no time passing
@@ -135,19 +133,6 @@ def test_stop_on_close_and_estop_stop_the_motors() -> None:
     held = sim.motors[1].position
     sim.advance(1.0)
     assert sim.motors[1].position == pytest.approx(held, abs=0.01)  # idle: it no longer turns
-
-
-@pytest.fixture
-def _restore_handlers() -> Iterator[None]:
-    saved = {s: signal.getsignal(s) for s in sig.TERMINATING_SIGNALS}
-    previous = dict(sig._previous)
-    try:
-        yield
-    finally:
-        for s, h in saved.items():
-            signal.signal(s, h)
-        sig._previous.clear()
-        sig._previous.update(previous)
 
 
 @pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals")
@@ -228,7 +213,7 @@ def test_the_transport_receives_on_simulated_time() -> None:
         wall = time.perf_counter()
         assert t.recv(0.5) is None
         assert t.now() == pytest.approx(0.5)
-        assert time.perf_counter() - wall < 0.1
+        assert time.perf_counter() - wall < 0.25  # of a 0.5 s wait
         assert t.wait_sent(0.1) is True  # instant delivery: nothing waits on the wire
     finally:
         t.close()

@@ -131,6 +131,23 @@ def _wake(fut: asyncio.Future[Any]) -> None:
         fut.set_result(None)
 
 
+def _waker(loop: asyncio.AbstractEventLoop, holder: list[asyncio.Future[None]]) -> Callable[[], None]:
+    """A wake-up of the coroutine awaiting ``holder[0]`` on ``loop`` (made in the loop's thread) that any
+    thread may call."""
+    loop_thread = threading.get_ident()
+
+    def wake() -> None:
+        if threading.get_ident() == loop_thread:
+            _wake(holder[0])
+            return
+        try:
+            loop.call_soon_threadsafe(_wake, holder[0])
+        except RuntimeError:  # the loop is closed; nobody waits any more
+            pass
+
+    return wake
+
+
 class _LoopReader:
     """The reader role held by an event loop: a duplicate of the transport's descriptor stays
     registered with ``loop.add_reader`` while coroutines of that loop use the bus and for
@@ -1011,21 +1028,10 @@ class BusDriver:
 
     async def _run_async_held(self, op: Runnable[T], rd: _LoopReader) -> T:
         """:meth:`run_async` while this coroutine's event loop holds the reader role."""
-        import asyncio
 
         loop = rd.loop
         holder: list[asyncio.Future[None]] = [loop.create_future()]
-        loop_thread = rd.thread
-
-        def wake() -> None:
-            if threading.get_ident() == loop_thread:
-                _wake(holder[0])
-                return
-            try:
-                loop.call_soon_threadsafe(_wake, holder[0])
-            except RuntimeError:  # the loop is closed; nobody waits any more
-                pass
-
+        wake = _waker(loop, holder)
         rd.users += 1
         self._sleepers.add(wake)  # new deadlines (a frame fed in the callback) must be looked at
         opn: Operation[T] | None = None
@@ -1033,12 +1039,7 @@ class BusDriver:
             opn, wait = self._submit_timed(op, wake)
             while not opn.done:
                 if wait is None:
-                    with self._lock:
-                        confirm = self.session.awaiting_confirmation
-                    if confirm:  # the transport's confirmation blocks: not on the event loop
-                        await asyncio.to_thread(self._step, opn)
-                        continue
-                    wait = self._step(opn)
+                    wait = await self._step_async(opn)
                     if wait is None:
                         break
                 if wait > 0:
@@ -1063,23 +1064,25 @@ class BusDriver:
         self._end_closed(opn)
         return opn.result()
 
+    async def _step_async(self, opn: Operation[Any]) -> float | None:
+        """:meth:`_step` from a coroutine: a transport's blocking wait for a confirmation runs in a worker
+        thread, never on the event loop (then 0.0: step again at once)."""
+        with self._lock:
+            confirm = self.session.awaiting_confirmation
+        if confirm:
+            import asyncio
+
+            await asyncio.to_thread(self._step, opn)
+            return 0.0
+        return self._step(opn)
+
     async def _run_async_woken(self, op: Runnable[T], loop: asyncio.AbstractEventLoop) -> T:
         """:meth:`run_async` when the event loop does not hold the reader role: a coroutine that gets the
         role reads on the loop through ``loop.add_reader`` while it waits; others (and every coroutine on a
         transport without a descriptor) are woken by the thread that finished their operation."""
-        import asyncio
 
         holder: list[asyncio.Future[None]] = [loop.create_future()]
-        loop_thread = threading.get_ident()
-
-        def wake() -> None:
-            if threading.get_ident() == loop_thread:
-                _wake(holder[0])
-                return
-            try:
-                loop.call_soon_threadsafe(_wake, holder[0])
-            except RuntimeError:  # the loop is closed; nobody waits any more
-                pass
+        wake = _waker(loop, holder)
 
         def readable() -> None:
             _wake(holder[0])
@@ -1103,12 +1106,7 @@ class BusDriver:
                     self._read_feed()
                     continue
                 if wait is None:
-                    with self._lock:
-                        confirm = self.session.awaiting_confirmation
-                    if confirm:  # the transport's confirmation blocks: not on the event loop
-                        await asyncio.to_thread(self._step, opn)
-                        continue
-                    wait = self._step(opn)
+                    wait = await self._step_async(opn)
                     if wait is None:
                         break
                 if wait > 0:

@@ -61,10 +61,7 @@ class AsyncBusBase(BusBase[M]):
     async def run(self, op: Runnable[T]) -> T:
         """Run an operation (a generator of effects, see :mod:`drempower.client.effects`) to completion;
         returns its result and raises what it raises (TimeoutError, ValidationError...)."""
-        core = self._core
-        if core.virtual:  # virtual time passes inside the call: nothing to await
-            return core.run(op)
-        return await core.run_async(op)
+        return await self._core.run_async(op)  # on a virtual clock it runs inside the call
 
     async def _send_all(self, msgs: Sequence[Message]) -> None:
         """Send ``msgs``; when a start among them waits until its presets are on the wire, in a worker

@@ -18,7 +18,7 @@ __all__ = ["SimTransport", "CLOCKS", "FOREVER"]
 
 CLOCKS = ("wall", "virtual")
 """The clocks of :class:`SimTransport`: wall time (a runner thread), or the simulated bus's own time."""
-FOREVER = 3600.0
+FOREVER = 60.0
 """The simulated time (s) a receive without a timeout lets pass on the virtual clock before it gives up."""
 
 
