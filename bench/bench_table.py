@@ -7,7 +7,9 @@ Rows (the floor of each in brackets):
 
 1. ``get_state`` median over the simulator's USB-CAN adapter pty (0xAA), threaded
    client [a minimal client doing ``os.write`` / ``select`` / ``os.read`` on the same pty];
-2. the same through the asyncio client [the same raw floor];
+2. the same through the asyncio client [the same raw floor]; rows 1 and 2 are also measured with
+   the simulators (the client's and the floor's) each in a process of its own, as an adapter is its
+   own device: then they do not share the client's interpreter lock;
 3. ``get_state`` through the in-process simulator with instant delivery [the
    simulated bus answering the fast read by itself: ``SimBus.send``];
 4. codec: encode + decode of one frame, a mix of commands and replies [the same
@@ -39,17 +41,20 @@ from __future__ import annotations
 
 import argparse
 import asyncio
+import contextlib
+import json
 import os
 import platform
 import select
 import statistics
 import struct
+import subprocess
 import sys
 import threading
 import time
 import timeit
 import tty
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
 
@@ -114,12 +119,15 @@ async def async_median_us(fn: Callable[[], object], n: int) -> float:
 
 
 class RawFloor:
-    """A minimal client on its own simulator's adapter pty: ``os.write`` the fast read, ``select`` +
-    ``os.read`` the whole reply, no decoding."""
+    """A minimal client on an adapter pty (its own simulator's, in this process, unless ``path`` is
+    given): ``os.write`` the fast read, ``select`` + ``os.read`` the whole reply, no decoding."""
 
-    def __init__(self) -> None:
-        self.pty = attach_adapter_pty(SimBus(ids=[1]))
-        self.fd = os.open(self.pty.path, os.O_RDWR | os.O_NOCTTY)
+    def __init__(self, path: str | None = None) -> None:
+        self.pty = None
+        if path is None:
+            self.pty = attach_adapter_pty(SimBus(ids=[1]))
+            path = self.pty.path
+        self.fd = os.open(path, os.O_RDWR | os.O_NOCTTY)
         tty.setraw(self.fd)
         self.request = encode_aa(FastRead(1).encode())
 
@@ -134,7 +142,31 @@ class RawFloor:
 
     def close(self) -> None:
         os.close(self.fd)
-        self.pty.close()
+        if self.pty is not None:
+            self.pty.close()
+
+
+@contextlib.contextmanager
+def sim_process() -> Iterator[str]:
+    """A simulator of motor 1 in its own process (``drempower sim --adapter-pty``), as an adapter is its
+    own device; yields the adapter pty's path."""
+    cmd = [sys.executable, "-m", "drempower", "sim", "--adapter-pty", "--json"]
+    env = {**os.environ, "PYTHONPATH": str(HERE.parent / "python" / "src")}
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        path = None
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            info = json.loads(line)
+            path = info.get("path", path)
+            if info.get("running"):
+                break
+        if path is None:
+            raise RuntimeError("the simulator process gave no adapter pty")
+        yield path
+    finally:
+        proc.terminate()
+        proc.wait(5)
 
 
 ROUNDS = 20
@@ -165,46 +197,55 @@ def _ratio(client: list[list[float]], floor: list[list[float]]) -> tuple[float, 
     return statistics.median(flat_f) * 1e6, statistics.median(flat_c) * 1e6, statistics.median(per_block)
 
 
-def adapter_latency(n: int) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    """(floor us, get_state us, ratio) over the adapter pty, threaded and asyncio (see :func:`_ratio`)."""
-    sim = SimBus(ids=[1])
-    pty = attach_adapter_pty(sim)
-    floor = RawFloor()
+def adapter_latency(n: int, own_process: bool = False) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """(floor us, get_state us, ratio) over the adapter pty, threaded and asyncio (see :func:`_ratio`);
+    with ``own_process`` the client's and the floor's simulators each run in a process of their own."""
+    with contextlib.ExitStack() as stack:
+        if own_process:
+            path, floor = stack.enter_context(sim_process()), RawFloor(stack.enter_context(sim_process()))
+        else:
+            pty = attach_adapter_pty(SimBus(ids=[1]))
+            stack.callback(pty.close)
+            path, floor = pty.path, RawFloor()
+        stack.callback(floor.close)
+        return _adapter_latency(n, path, floor)
+
+
+def _adapter_latency(
+    n: int, path: str, floor: RawFloor
+) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
     block = max(1, n // ROUNDS)
     f_sync: list[list[float]] = []
     sync: list[list[float]] = []
     f_async: list[list[float]] = []
     asy: list[list[float]] = []
-    try:
-        with drempower.open_bus("adapter", pty.path, timeout=1.0, stop_on_close=False) as bus:
-            get = bus.motor(1).get_state
-            _timed(get, 50, [])
-            _timed(floor, 50, [])
+    with drempower.open_bus("adapter", path, timeout=1.0, stop_on_close=False) as bus:
+        get = bus.motor(1).get_state
+        _timed(get, 50, [])
+        _timed(floor, 50, [])
+        for _ in range(ROUNDS):
+            f_sync.append([])
+            sync.append([])
+            _timed(floor, block, f_sync[-1])
+            _timed(get, block, sync[-1])
+
+    async def run_async() -> None:
+        async with drempower.open_bus_async("adapter", path, timeout=1.0, stop_on_close=False) as abus:
+            aget = abus.motor(1).get_state
+            await _timed_async(aget, 50, [])
             for _ in range(ROUNDS):
-                f_sync.append([])
-                sync.append([])
-                _timed(floor, block, f_sync[-1])
-                _timed(get, block, sync[-1])
+                f_async.append([])
+                asy.append([])
+                _timed(floor, block, f_async[-1])
+                await _timed_async(aget, block, asy[-1])
 
-        async def run_async() -> None:
-            async with drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False) as abus:
-                aget = abus.motor(1).get_state
-                await _timed_async(aget, 50, [])
-                for _ in range(ROUNDS):
-                    f_async.append([])
-                    asy.append([])
-                    _timed(floor, block, f_async[-1])
-                    await _timed_async(aget, block, asy[-1])
-
-        asyncio.run(run_async())
-    finally:
-        floor.close()
-        pty.close()
+    asyncio.run(run_async())
     return _ratio(sync, f_sync), _ratio(asy, f_async)
 
 
 def latency(n: int) -> None:
     sync, asy = adapter_latency(n)
+    own_sync, own_asy = adapter_latency(n, own_process=True)
     driver.BusDriver.caller_reads = False
     try:
         sync_rx, asy_rx = adapter_latency(n)
@@ -213,6 +254,8 @@ def latency(n: int) -> None:
     for label, (fl, got, ratio) in (
         ("get_state, adapter pty (0xAA), threaded", sync),
         ("get_state, adapter pty (0xAA), asyncio", asy),
+        ("  threaded, simulator in its own process", own_sync),
+        ("  asyncio, simulator in its own process", own_asy),
         ("  threaded, receive thread + event handoff", sync_rx),
         ("  asyncio, receive thread + call_soon_threadsafe", asy_rx),
     ):
