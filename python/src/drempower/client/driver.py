@@ -701,9 +701,11 @@ class BusDriver:
 
     def _release_reader(self, own: Callable[[], None] | None = None) -> None:
         self._reader.release()
-        for wake in list(self._sleepers):  # another caller may take over the reading
-            if wake is not own:
-                wake()
+        sleepers = self._sleepers
+        if sleepers:
+            for wake in list(sleepers):  # another caller may take over the reading
+                if wake is not own:
+                    wake()
 
     def _submit_timed(self, op: Runnable[T], on_done: Callable[[], None] | None) -> tuple[Operation[T], float | None]:
         """:meth:`submit`, also returning how long (s) the caller may wait before stepping (None: step now)."""

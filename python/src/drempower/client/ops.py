@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 import struct
 from collections.abc import Sequence
@@ -74,8 +75,10 @@ def _system(node: int, op: SysCmd) -> Send:
     return Send([SystemCommand(node, op)])
 
 
+@functools.lru_cache(maxsize=256)
 def fast_read(node: int, timeout: float | None = None) -> Single[MotorState]:
-    """Fresh state by fast read, as one :class:`~drempower.client.effects.Single` request (no generator)."""
+    """Fresh state by fast read, as one :class:`~drempower.client.effects.Single` request (no generator);
+    immutable, so the same arguments give the same object (a polling loop builds it once)."""
     return Single(Request([FastRead(node)], timeout))
 
 
