@@ -415,10 +415,10 @@ def cycle(seconds: float) -> None:
     rate, floor = statistics.median(got), statistics.median(raw)
     of_raw = statistics.median(g / r for g, r in zip(got, raw, strict=True))
     lim = f"{limit:.0f} /s"
-    row("bus.cycle, 1 motor, reply-state on, 1 Mbit/s", f"{rate:.0f} /s", lim, f"{rate / limit:.0%} of limit")
-    row("  a minimal client on the same clock", f"{floor:.0f} /s", lim, f"{floor / limit:.0%} of limit")
-    row("  bus.cycle against that minimal client", f"{of_raw:.0%}", "100%", "")
-    row("  the same, receive thread + event handoff", f"{got_rx:.0f} /s", lim, f"{got_rx / limit:.0%} of limit")
+    row("bus.cycle, 1 motor, reply-state on, 1 Mbit/s", f"{rate:.0f} /s", lim, f"{rate / limit:.1%} of limit")
+    row("  a minimal client on the same clock", f"{floor:.0f} /s", lim, f"{floor / limit:.1%} of limit")
+    row("  bus.cycle against that minimal client", f"{of_raw:.1%}", "100%", "")
+    row("  the same, receive thread + event handoff", f"{got_rx:.0f} /s", lim, f"{got_rx / limit:.1%} of limit")
 
 
 def idle(seconds: float) -> None:
