@@ -488,18 +488,10 @@ class BusDriver:
                 raise
             if not back:
                 return
-            now = self._now()
-            taps = self.frame_taps
-            for f in back:
-                if taps:
+            if self.frame_taps:
+                for f in back:
                     self._tap(f, False)
-                try:
-                    event = s.receive(f, now)
-                except Exception:
-                    _log.exception("dispatching %r failed", f)
-                    continue
-                if event is not None:
-                    self._events.append(event)
+            self._take(back, self._now())
             s.now = self._now()
             frames = s.data_to_send()
 
@@ -930,6 +922,19 @@ class BusDriver:
         if frames:
             self._feed(frames)
 
+    def _take(self, frames: Sequence[Frame], now: float) -> None:
+        """Feed received ``frames`` to the session at ``now`` (the lock is held); their events wait in
+        ``_events`` for dispatch after the lock."""
+        receive, events = self.session.receive, self._events
+        for f in frames:
+            try:
+                event = receive(f, now)
+            except Exception:
+                _log.exception("dispatching %r failed", f)
+                continue
+            if event is not None:
+                events.append(event)
+
     def _feed(self, frames: Sequence[Frame]) -> None:
         """Feed received ``frames`` to the session; dispatch their events after the lock."""
         if self.frame_taps:
@@ -938,15 +943,7 @@ class BusDriver:
         s = self.session
         with self._lock:
             changes = s.changes
-            now = self._now()
-            for f in frames:
-                try:
-                    event = s.receive(f, now)
-                except Exception:
-                    _log.exception("dispatching %r failed", f)
-                    continue
-                if event is not None:
-                    self._events.append(event)
+            self._take(frames, self._now())
             if s.wants_to_send:
                 try:
                     self._flush()
@@ -1147,36 +1144,13 @@ class BusDriver:
     # ------------------------------------------------------------------ receiving
 
     def _rx_loop(self) -> None:
-        recv = self.transport.recv
-        s = self.session
-        lock = self._lock
+        """The receive thread of a transport without a descriptor: every frame is fed as a caller's are."""
+        recv, feed = self.transport.recv, self._feed
         try:
             while not self._closed:
                 frame = recv(_RX_SLICE)
-                if frame is None:
-                    continue
-                if self.frame_taps:
-                    self._tap(frame, False)
-                with lock:
-                    changes = s.changes
-                    try:
-                        event = s.receive(frame, self._now())
-                    except Exception:
-                        _log.exception("dispatching %r failed", frame)
-                        continue
-                    if s.wants_to_send:
-                        try:
-                            self._flush()
-                        except Exception as exc:
-                            _log.warning("sending from the receive loop failed: %s", exc)
-                    if s.changes != changes:  # new deadlines: sleeping callers must look again
-                        for wake in list(self._sleepers):
-                            wake()
-                    events = self._take_events()
-                if event is not None:
-                    self._dispatch((event,))
-                if events:
-                    self._dispatch(events)
+                if frame is not None:
+                    feed((frame,))
         except Exception as exc:
             if not self._closed:
                 self._rx_failed(exc)
