@@ -614,16 +614,7 @@ class BusDriver:
 
     def submit(self, op: Runnable[T], on_done: Callable[[], None] | None = None) -> Operation[T]:
         """Start ``op`` in the session now and write what it sends first."""
-        self.check_open()
-        with self._lock:
-            s = self.session
-            s.advance(self._now())
-            opn = s.submit(op, on_done)
-            self._flush()
-            events = self._take_events()
-        if events:
-            self._dispatch(events)
-        return opn
+        return self._submit_timed(op, on_done)[0]
 
     def _step(self, opn: Operation[Any]) -> float | None:
         """Act on the time now; returns how long (s) the caller may sleep before stepping again."""
@@ -637,8 +628,7 @@ class BusDriver:
                 wait = None
             else:
                 confirm = s.awaiting_confirmation
-                due = s.next_deadline()
-                wait = _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - self._now()))
+                wait = self._until(s.next_deadline())
         if events:
             self._dispatch(events)
         if confirm:
@@ -699,6 +689,10 @@ class BusDriver:
                 if wake is not own:
                     wake()
 
+    def _until(self, due: float | None) -> float:
+        """How long (s) a caller may wait for the session's next deadline ``due`` (at most :data:`_WAIT_SLICE`)."""
+        return _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - self._now()))
+
     def _submit_timed(self, op: Runnable[T], on_done: Callable[[], None] | None) -> tuple[Operation[T], float | None]:
         """:meth:`submit`, also returning how long (s) the caller may wait before stepping (None: step now)."""
         self.check_open()
@@ -710,8 +704,7 @@ class BusDriver:
             events = self._take_events()
             wait = None
             if not opn.done and not s.awaiting_confirmation:
-                due = s.next_deadline()
-                wait = _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - self._now()))
+                wait = self._until(s.next_deadline())
         if events:
             self._dispatch(events)
         return opn, wait
