@@ -473,7 +473,7 @@ class BusDriver:
     def _flush(self) -> None:
         """Write what the session wants sent (the lock is held). A failed write fails the operations
         waiting on the session and is raised. Replies a transport gives back at once (instant
-        delivery) are taken here; their events wait in ``_events`` for :meth:`_dispatch_pending`."""
+        delivery) are taken here; their events wait in ``_events`` for :meth:`_dispatch` after the lock."""
         s = self.session
         if self._stopped:  # estops written without the lock: what the session holds must not follow them
             stopped, self._stopped = self._stopped, ()
