@@ -78,6 +78,20 @@ static int fail(const dre_tour_port *p, const char *what, uint8_t id, dre_status
         put(&l, ")");
     }
     p->print(p->user, l.text);
+    l.len = 0u;
+    l.text[0] = '\0';
+    put(&l, "bus: ");
+    put_uint(&l, p->bus->stats.rx_frames);
+    put(&l, " frames received, ");
+    put_uint(&l, p->bus->stats.rx_unmatched);
+    put(&l, " unmatched, ");
+    put_uint(&l, p->bus->stats.rx_malformed);
+    put(&l, " malformed, ");
+    put_uint(&l, p->bus->stats.timeouts);
+    put(&l, " timeouts, ");
+    put_uint(&l, p->bus->rx_overflows);
+    put(&l, " receive queue overflows");
+    p->print(p->user, l.text);
     return 1;
 }
 
