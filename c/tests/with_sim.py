@@ -1,7 +1,8 @@
 #!/usr/bin/env python3
 """Run one of the C examples against `drempower sim` and check what the library's tour printed.
 
-    with_sim.py --drempower PATH --link socketcand|adapter [--need PROGRAM] [--skip WHY] -- COMMAND ARG...
+    with_sim.py --drempower PATH --link socketcand|adapter [--need PROGRAM] [--skip WHY]
+                [--absent] -- COMMAND ARG...
 
 Starts the simulator with motors 1 and 2 and one attachment (a socketcand
 server on 127.0.0.1 or the USB-CAN adapter pty), runs COMMAND with {host},
@@ -9,6 +10,9 @@ server on 127.0.0.1 or the USB-CAN adapter pty), runs COMMAND with {host},
 simulator and checks the output of examples/tour: the reads, the verified
 write, the synchronised move (its wait as long as the move must take, each
 motor at its target), the estop (E flag, ESTOP_REQUESTED) and "tour: ok".
+With --absent the simulator has motor 3 only: the tour's first read must end
+in a timeout, the program must exit 1 within the time a timeout takes, and
+nothing after it may run.
 Exits 77 (ctest's skip) with a message when drempower or a --need program is
 missing, 1 on a failed check, 0 when every check passed.
 """
@@ -106,12 +110,25 @@ def check_tour(text: str, code: int) -> list[str]:
     return bad
 
 
+def check_absent(text: str, code: int) -> list[str]:
+    """What is wrong in the output of a tour whose motors do not answer."""
+    bad: list[str] = []
+    if code != 1:
+        bad.append(f"the program exited {code}, not 1")
+    if not re.search(r"^FAIL 1: get_state: timeout$", text, re.M):
+        bad.append("no timeout of the first read")
+    if re.search(r"^(state|verified|move|tour):? ", text, re.M):
+        bad.append("the tour went on after the timeout")
+    return bad
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--drempower", default="")
     ap.add_argument("--link", choices=("socketcand", "adapter"), required=True)
     ap.add_argument("--need", action="append", default=[], help="a program the command needs")
     ap.add_argument("--skip", default="", help="skip at once, saying why")
+    ap.add_argument("--absent", action="store_true", help="motors 1 and 2 absent: the tour must time out")
     ap.add_argument("command", nargs="+")
     args = ap.parse_args()
 
@@ -127,7 +144,7 @@ def main() -> int:
             return skip(f"{prog.removesuffix('-NOTFOUND') or 'a program'} not found")
 
     attach = ["--socketcand-port", "0"] if args.link == "socketcand" else ["--adapter-pty"]
-    ids = ",".join(str(i) for i in IDS)
+    ids = "3" if args.absent else ",".join(str(i) for i in IDS)
     sim = subprocess.Popen(
         [args.drempower, "sim", "--ids", ids, *attach, "--json", "--duration", str(START_S + RUN_S + 10)],
         stdout=subprocess.PIPE,
@@ -169,10 +186,11 @@ def main() -> int:
         except subprocess.TimeoutExpired:
             sim.kill()
             sim.wait()
-    bad = check_tour(run.stdout, run.returncode)
     frames = next((o.get("frames") for o in summary if "stopped" in o), None)
     print(f"simulator: {frames} frames on its bus")
-    if not isinstance(frames, int) or frames < 20:
+    check = check_absent if args.absent else check_tour
+    bad = check(run.stdout, run.returncode)
+    if not isinstance(frames, int) or frames < (1 if args.absent else 20):
         bad.append(f"the simulator saw {frames} frames")
     for b in bad:
         print(f"FAILED: {b}")
