@@ -37,7 +37,7 @@ test-python: $(DEVSTAMP) sysdeps
 # System packages some tests drive: Debian's chromium for the dashboard's browser tests (Playwright's own
 # browser download is not used), zsh and fish for the completion scripts. Installed with apt-get when run as
 # root; otherwise those tests are skipped.
-SYSDEPS ?= chromium zsh fish
+SYSDEPS ?= chromium zsh fish qemu-system-arm gcc-arm-none-eabi libnewlib-arm-none-eabi
 sysdeps:
 	@missing=""; for c in $(SYSDEPS); do command -v $$c >/dev/null 2>&1 || missing="$$missing $$c"; done; \
 	if [ -n "$$missing" ]; then \

@@ -26,8 +26,8 @@ out=build/c-size
 mkdir -p "$out/soft" "$out/hard"
 common=(-std=c99 -Os -mcpu=cortex-m4 -mthumb -ffunction-sections -fdata-sections
         -Wall -Wextra -Wpedantic -Werror -Ic/include)
-modules=(codec params errors framing bus motor verified wait batch)
-client_modules=" bus motor verified wait batch "
+modules=(codec params errors framing bus moves motor verified wait batch)
+client_modules=" bus moves motor verified wait batch "
 
 for m in "${modules[@]}"; do
     arm-none-eabi-gcc "${common[@]}" -c "c/src/dre_$m.c" -o "$out/soft/dre_$m.o"
@@ -81,6 +81,10 @@ read -r linked_hard _ < <(arm-none-eabi-size "$out/codec_hard.elf" | tail -n 1)
 echo
 echo "codec linked alone (encode + both decoders + libgcc/libc helpers): $linked_soft bytes, M4F $linked_hard bytes"
 echo "All state lives in caller-owned structs; params is the name table (const, in flash)."
+
+# The same layering check as the ctest (no call cycle between the modules), on the Cortex-M objects.
+python3 c/scripts/layers.py arm-none-eabi-nm "$out"/soft/*.o >/dev/null
+echo "layers: no call cycle between the modules (Cortex-M4 objects)"
 
 # 16-bit int: every module must compile cleanly, conversions included.
 mkdir -p "$out/avr"

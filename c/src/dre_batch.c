@@ -364,6 +364,11 @@ static dre_status move_angles(dre_bus *bus, uint8_t n, const uint8_t *ids, const
     return run_batch(bus, &b, n, &start);
 }
 
+dre_status dre_step_angle(const dre_motor *m, float delta, float speed, float param, uint8_t mode)
+{
+    return dre_step_angles(m->bus, 1u, &m->node, &delta, speed, param, mode);
+}
+
 dre_status dre_set_angles(dre_bus *bus, uint8_t n, const uint8_t *ids, const float *angles, const float *from,
                           float speed, float param, uint8_t mode)
 {

@@ -3,7 +3,9 @@
  * checks of parameter writes), what the bus learns of each motor, request
  * slots and reply matching (dre_bus_feed), timeouts and queued requests
  * (dre_bus_poll), a batch's start held until its presets are out, and the
- * transmit ring (see dre_client.h).
+ * transmit ring (see dre_client.h). It calls no module above it: the move
+ * records and the verified writes learn what they need through the hooks they
+ * attach (bus->move_hooks, bus->request_hooks).
  */
 #include "dre_client_internal.h"
 
@@ -137,7 +139,9 @@ void dre_i_note(dre_bus *bus, const dre_msg *msg)
                 msg->u.system.op == DRE_SYS_REBOOT)) {
         dre_i_traj_forget(bus, msg->node);
     }
-    dre_i_move_sent(bus, msg);
+    if (bus->move_hooks != NULL) {
+        bus->move_hooks->sent(bus, msg);
+    }
 }
 
 /* ----------------------------------------------------------------- bus */
@@ -240,11 +244,6 @@ dre_status dre_i_send_as(dre_bus *bus, const dre_msg *msg, int force)
     return st;
 }
 
-dre_status dre_send(dre_bus *bus, const dre_msg *msg)
-{
-    return dre_i_send_as(bus, msg, 0);
-}
-
 dre_status dre_i_system_op(dre_bus *bus, uint8_t node, uint8_t op)
 {
     dre_msg msg;
@@ -252,7 +251,7 @@ dre_status dre_i_system_op(dre_bus *bus, uint8_t node, uint8_t op)
     msg.type = DRE_MSG_SYSTEM;
     msg.node = node;
     msg.u.system.op = op;
-    return dre_send(bus, &msg);
+    return dre_i_send_as(bus, &msg, 0);
 }
 
 /* ----------------------------------------------------------------- requests */
@@ -427,16 +426,6 @@ dre_status dre_i_issue(dre_bus *bus, const dre_request *want, int may_queue, dre
     return DRE_OK;
 }
 
-/* Did the motor send back what was written? Compared as the Python client does: f32 bit for bit. */
-static int same_value(const dre_request *r, const dre_msg *msg)
-{
-    const dre_value *want = &r->reply.u.param.value, *got = &msg->u.param.value;
-    if (r->dtype == DRE_F32) {
-        return msg->u.param.dtype == DRE_F32 && memcmp(&want->f32, &got->f32, sizeof got->f32) == 0;
-    }
-    return msg->u.param.dtype != DRE_F32 && want->i == got->i;
-}
-
 /* Does `msg` answer `r`? 1 yes, 0 no, -1 its node and address match but not the data type it echoes. */
 static int answers(const dre_request *r, const dre_msg *msg)
 {
@@ -452,50 +441,15 @@ static int answers(const dre_request *r, const dre_msg *msg)
     return r->dtype == msg->u.param.dtype ? 1 : -1;
 }
 
-/*
- * A verified write read back another value: write it again, and read it
- * again (queued: dre_bus_poll sends it before any later request to the
- * motor, with retries of its own), as the Python client does.
- */
-static void rewrite(dre_bus *bus, dre_request *r)
-{
-    dre_msg w;
-
-    memset(&w, 0, sizeof w);
-    w.type = DRE_MSG_WRITE_PARAM;
-    w.node = r->node;
-    w.u.param.address = r->address;
-    w.u.param.dtype = r->dtype;
-    w.u.param.value = r->reply.u.param.value; /* what was written */
-    r->link++;
-    r->tries = 0u;
-    r->sent_ms = bus->cfg.tick(bus->cfg.user);
-    if (!dre_i_room(bus, 1u) || dre_i_send_as(bus, &w, 0) != DRE_OK) {
-        dre_i_fail(bus, r, SLOT_SEND_FAILED);
-        return;
-    }
-    r->state = SLOT_QUEUED;
-}
-
+/* A reply answered `r`: a request with a step or a check goes to the hooks of dre_verified.c, which issued it. */
 static void complete(dre_bus *bus, dre_request *r, const dre_msg *msg)
 {
     r->flags &= (uint8_t)~FLAG_HELD;
-    if (r->step == STEP_ID_FREE) {
-        dre_i_fail(bus, r, SLOT_TAKEN); /* a motor answers at the new id */
-    } else if (r->step == STEP_ID_HERE) {
-        r->state = SLOT_WAIT; /* the motor answers: on to the write */
-        r->sent_ms = bus->cfg.tick(bus->cfg.user);
-    } else if ((r->flags & FLAG_VERIFY) != 0u && !same_value(r, msg)) {
-        if ((r->flags & FLAG_REWRITE) != 0u && r->link < bus->cfg.retries) {
-            rewrite(bus, r);
-            return; /* the reply keeps the value written */
-        }
-        dre_i_fail(bus, r, SLOT_MISMATCH);
-    } else if ((r->flags & FLAG_SAVE) != 0u && dre_i_system_op(bus, r->node, DRE_SYS_SAVE_CONFIG) != DRE_OK) {
-        dre_i_fail(bus, r, SLOT_SEND_FAILED);
-    } else {
-        r->state = SLOT_DONE;
+    if ((r->step != STEP_NONE || (r->flags & (FLAG_VERIFY | FLAG_SAVE)) != 0u) && bus->request_hooks != NULL) {
+        bus->request_hooks->reply(bus, r, msg);
+        return;
     }
+    r->state = SLOT_DONE;
     r->reply = *msg;
 }
 
@@ -535,8 +489,8 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
         bus->stats.rx_malformed++;
         return DRE_E_PROTOCOL;
     }
-    if (msg.type == DRE_MSG_STATE) {
-        dre_i_move_state(bus, &msg);
+    if (msg.type == DRE_MSG_STATE && bus->move_hooks != NULL) {
+        bus->move_hooks->state(bus, &msg);
     }
     if (msg.type == DRE_MSG_PARAM_VALUE && msg.u.param.address == TRAJ_ADDRESS && msg.node != DRE_BROADCAST) {
         traj_learn(bus, msg.node, msg.u.param.dtype, msg.u.param.value.i);
@@ -579,6 +533,14 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
 
 /* ----------------------------------------------------------------- starts held until the presets are out */
 
+/* Tell the move records that the held start went out (`sent` 1) or never will (0). */
+static void moves_started(dre_bus *bus, int sent)
+{
+    if (bus->move_hooks != NULL) {
+        bus->move_hooks->started(bus, sent);
+    }
+}
+
 /*
  * Send the start of a batch (bus->held_start) to broadcast (held_nodes == 1)
  * or to each motor of held_nodes; a motor leaves presets_pending when its
@@ -599,13 +561,13 @@ dre_status dre_i_send_starts(dre_bus *bus)
         s.node = node == 0u ? (uint8_t)DRE_BROADCAST : node;
         (void)dre_encode(&s, &f, NULL);
         if (dre_i_transmit(bus, &f) != DRE_OK) {
-            dre_i_moves_started(bus, 0);
+            moves_started(bus, 0);
             bus->held_status = (int8_t)DRE_E_SEND;
             return DRE_E_SEND;
         }
         bus->presets_pending &= node == 0u ? 0u : ~dre_i_motor_bits(node);
     }
-    dre_i_moves_started(bus, 1);
+    moves_started(bus, 1);
     bus->held_status = (int8_t)DRE_OK;
     return DRE_OK;
 }
@@ -620,7 +582,7 @@ static void release_start(dre_bus *bus, uint32_t now)
         (void)dre_i_send_starts(bus);
     } else if ((uint32_t)(now - bus->held_ms) >= bus->cfg.timeout_ms) {
         bus->held_nodes = 0u;
-        dre_i_moves_started(bus, 0);
+        moves_started(bus, 0);
         bus->held_status = (int8_t)DRE_E_TIMEOUT;
         bus->stats.timeouts++;
     }
@@ -661,8 +623,8 @@ void dre_bus_poll(dre_bus *bus)
         }
     }
     for (i = 0u; i < bus->nslots; i++) {
-        if (bus->slots[i].state == SLOT_WAIT) {
-            dre_i_set_id_write(bus, &bus->slots[i], now);
+        if (bus->slots[i].state == SLOT_WAIT && bus->request_hooks != NULL) {
+            bus->request_hooks->step(bus, &bus->slots[i], now);
         }
     }
     /* Send the requests whose turn has come; one that cannot be sent for a

@@ -1,8 +1,16 @@
 /*
- * What the client modules share (dre_bus.c, dre_motor.c, dre_verified.c,
- * dre_wait.c, dre_batch.c): request slot states and flags, and the bus, request
- * and message-building functions the others call. Private: not installed, not
+ * What the client modules share (dre_bus.c, dre_moves.c, dre_motor.c,
+ * dre_verified.c, dre_wait.c, dre_batch.c): request slot states and flags,
+ * the hooks the modules above the bus attach to it, and the bus, request and
+ * message-building functions the others call. Private: not installed, not
  * part of the API; every name with external linkage starts with dre_i_.
+ *
+ * The modules call one another in layers, never in a cycle (c/scripts/layers.py
+ * checks it on the object files): bus < moves < motor < {wait, verified, batch}.
+ * The bus keeps the slots, reply matching and timers; what the higher modules
+ * must learn from it (a message sent, a state received, a batch's start, a
+ * verified reply) it tells through the hooks they attach (struct
+ * dre_move_hooks, struct dre_request_hooks).
  */
 #ifndef DRE_CLIENT_INTERNAL_H
 #define DRE_CLIENT_INTERNAL_H
@@ -108,17 +116,39 @@ dre_status dre_i_send_starts(dre_bus *bus);
 /* dre_result, and the tick when the answer arrived (left as is when `req` is unknown). */
 dre_status dre_i_result_at(dre_bus *bus, dre_req req, dre_msg *reply, uint32_t *at_ms);
 
-/* ----------------------------------------------------------------- dre_wait.c: the moves the bus commanded */
+/* ----------------------------------------------------------------- hooks the higher modules attach */
 
-/* A message went out: a position command records its move, other motion commands end the record. */
-void dre_i_move_sent(dre_bus *bus, const dre_msg *msg);
+/* The move records (dre_moves.c): attached by every function that sends a command that can move a motor. */
+struct dre_move_hooks {
+    /* A message went out: a position command records its move, other motion commands end the record. */
+    void (*sent)(dre_bus *bus, const dre_msg *msg);
+    /* The batch's start went out (`sent` 1: its armed moves start now) or never will (0: they are dropped). */
+    void (*started)(dre_bus *bus, int sent);
+    /* A state frame arrived: a T = 0 state after a move's start shows that the motor took it. */
+    void (*state)(dre_bus *bus, const dre_msg *state);
+};
+
+/* The verified writes and dre_set_id (dre_verified.c): attached before their first request is issued. */
+struct dre_request_hooks {
+    /* The reply `msg` answered `r`, a request with a step or FLAG_VERIFY / FLAG_SAVE: finish it or take it on. */
+    void (*reply)(dre_bus *bus, dre_request *r, const dre_msg *msg);
+    /* `r` waits in SLOT_WAIT (its probes are over): its next step, at tick `now`. */
+    void (*step)(dre_bus *bus, dre_request *r, uint32_t now);
+};
+
+/* ----------------------------------------------------------------- dre_moves.c: the moves the bus commanded */
+
+/* dre_move.flags: the target is known; a T = 0 state came after the start; armed by a batch whose start
+ * has not gone out yet (not a move until it has). */
+enum { MOVE_TARGET = 1, MOVE_TOOK = 2, MOVE_ARMED = 4 };
+
+/* Attach the move records to the bus (bus->move_hooks); before sending anything that can move a motor. */
+void dre_i_moves_attach(dre_bus *bus);
+/* The record of `node`, or NULL. */
+dre_move *dre_i_move_of(dre_bus *bus, uint8_t node);
 /* A batch's preset to `node` went out: arm the move its start makes (`target` deg when `known`; `move_s` the
  * planned Q time, 0 = none), or end the record when the start makes no position move (`position` 0). */
 void dre_i_move_armed(dre_bus *bus, uint8_t node, int position, int known, float target, float move_s);
-/* The batch's start went out (`sent` 1: its armed moves start now) or never will (0: they are dropped). */
-void dre_i_moves_started(dre_bus *bus, int sent);
-/* A state frame arrived: a T = 0 state after a move's start shows that the motor took it. */
-void dre_i_move_state(dre_bus *bus, const dre_msg *state);
 
 /* ----------------------------------------------------------------- dre_motor.c */
 
@@ -127,10 +157,5 @@ dre_msg dre_i_msg_for(const dre_motor *m, uint8_t type);
 dre_msg dre_i_write_msg(const dre_motor *m, uint16_t address, uint8_t dtype, dre_value value);
 /* The T-mode filter bandwidth, or DRE_E_RANGE. */
 dre_status dre_i_bandwidth(dre_bus *bus, float param, float *bw);
-
-/* ----------------------------------------------------------------- dre_verified.c */
-
-/* Step 2 of dre_set_id, called by dre_bus_poll() for a request in SLOT_WAIT. */
-void dre_i_set_id_write(dre_bus *bus, dre_request *r, uint32_t now);
 
 #endif /* DRE_CLIENT_INTERNAL_H */

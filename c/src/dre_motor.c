@@ -80,16 +80,18 @@ static dre_status angle_msg(dre_bus *bus, dre_msg *msg, float angle, float speed
     }
 }
 
+/* Raw messages go out here (not in dre_bus.c) so that the move records see every command that can move. */
+dre_status dre_send(dre_bus *bus, const dre_msg *msg)
+{
+    dre_i_moves_attach(bus);
+    return dre_i_send_as(bus, msg, 0);
+}
+
 dre_status dre_set_angle(const dre_motor *m, float angle, float speed, float param, uint8_t mode)
 {
     dre_msg msg = dre_i_msg_for(m, DRE_MSG_NONE);
     dre_status st = angle_msg(m->bus, &msg, angle, speed, param, mode);
     return st == DRE_OK ? dre_send(m->bus, &msg) : st;
-}
-
-dre_status dre_step_angle(const dre_motor *m, float delta, float speed, float param, uint8_t mode)
-{
-    return dre_step_angles(m->bus, 1u, &m->node, &delta, speed, param, mode);
 }
 
 dre_status dre_set_speed(const dre_motor *m, float speed, float param, uint8_t mode)

@@ -1,11 +1,78 @@
 /*
  * Verified operations: writes read back and compared before save_config
  * (trajectory mode, angle range, baud rates) and the steps of dre_set_id
- * (see dre_client.h).
+ * (see dre_client.h). The bus hands their replies and their waiting steps
+ * back through the hooks attached here (bus->request_hooks).
  */
 #include "dre_client_internal.h"
 
 #include <string.h>
+
+static void on_reply(dre_bus *bus, dre_request *r, const dre_msg *msg);
+static void set_id_write(dre_bus *bus, dre_request *r, uint32_t now);
+
+static const struct dre_request_hooks hooks = {on_reply, set_id_write};
+
+/* Did the motor send back what was written? Compared as the Python client does: f32 bit for bit. */
+static int same_value(const dre_request *r, const dre_msg *msg)
+{
+    const dre_value *want = &r->reply.u.param.value, *got = &msg->u.param.value;
+    if (r->dtype == DRE_F32) {
+        return msg->u.param.dtype == DRE_F32 && memcmp(&want->f32, &got->f32, sizeof got->f32) == 0;
+    }
+    return msg->u.param.dtype != DRE_F32 && want->i == got->i;
+}
+
+/*
+ * A verified write read back another value: write it again, and read it
+ * again (queued: dre_bus_poll sends it before any later request to the
+ * motor, with retries of its own), as the Python client does.
+ */
+static void rewrite(dre_bus *bus, dre_request *r)
+{
+    dre_msg w;
+
+    memset(&w, 0, sizeof w);
+    w.type = DRE_MSG_WRITE_PARAM;
+    w.node = r->node;
+    w.u.param.address = r->address;
+    w.u.param.dtype = r->dtype;
+    w.u.param.value = r->reply.u.param.value; /* what was written */
+    r->link++;
+    r->tries = 0u;
+    r->sent_ms = bus->cfg.tick(bus->cfg.user);
+    if (!dre_i_room(bus, 1u) || dre_i_send_as(bus, &w, 0) != DRE_OK) {
+        dre_i_fail(bus, r, SLOT_SEND_FAILED);
+        return;
+    }
+    r->state = SLOT_QUEUED;
+}
+
+/*
+ * Hook: the reply `msg` answered `r`. A probe of dre_set_id ends it (a motor
+ * answers at the new id) or takes it to its write; a verified read-back that
+ * differs is written again or fails; a match sends save_config when asked.
+ */
+static void on_reply(dre_bus *bus, dre_request *r, const dre_msg *msg)
+{
+    if (r->step == STEP_ID_FREE) {
+        dre_i_fail(bus, r, SLOT_TAKEN); /* a motor answers at the new id */
+    } else if (r->step == STEP_ID_HERE) {
+        r->state = SLOT_WAIT; /* the motor answers: on to the write */
+        r->sent_ms = bus->cfg.tick(bus->cfg.user);
+    } else if ((r->flags & FLAG_VERIFY) != 0u && !same_value(r, msg)) {
+        if ((r->flags & FLAG_REWRITE) != 0u && r->link < bus->cfg.retries) {
+            rewrite(bus, r);
+            return; /* the reply keeps the value written */
+        }
+        dre_i_fail(bus, r, SLOT_MISMATCH);
+    } else if ((r->flags & FLAG_SAVE) != 0u && dre_i_system_op(bus, r->node, DRE_SYS_SAVE_CONFIG) != DRE_OK) {
+        dre_i_fail(bus, r, SLOT_SEND_FAILED);
+    } else {
+        r->state = SLOT_DONE;
+    }
+    r->reply = *msg;
+}
 
 /*
  * Write params[i] = values[i] (i < k) to motor m, then read each back to
@@ -33,6 +100,7 @@ static dre_status verified_writes(const dre_motor *m, uint8_t k, const dre_param
     if (dre_i_free_slots(bus) < k || !dre_i_room(bus, k + (dre_i_node_idle(bus, m->node) ? 1u : 0u))) {
         return DRE_E_BUSY;
     }
+    bus->request_hooks = &hooks;
     for (i = 0u; i < k; i++) {
         st = dre_i_transmit(bus, &f[i]);
         if (st != DRE_OK) {
@@ -53,7 +121,7 @@ static dre_status verified_writes(const dre_motor *m, uint8_t k, const dre_param
 /*
  * Step 1 of set_id: the fast reads of the current id (the helper, sent first
  * as the Python client does) and of the new id (the caller's request). Steps
- * 2 to 4 follow in dre_bus_poll() (dre_i_set_id_write) and complete() (dre_bus.c).
+ * 2 to 4 follow in the hooks: set_id_write (from dre_bus_poll) and on_reply.
  */
 dre_status dre_set_id(const dre_motor *m, uint8_t new_id, dre_req *req)
 {
@@ -77,6 +145,7 @@ dre_status dre_set_id(const dre_motor *m, uint8_t new_id, dre_req *req)
     if (dre_i_free_slots(bus) < (apart ? 2u : 1u) || !dre_i_room(bus, frames)) {
         return DRE_E_BUSY;
     }
+    bus->request_hooks = &hooks;
     probe.link = node;
     if (!apart) {
         probe.step = STEP_ID_HERE;
@@ -94,11 +163,11 @@ dre_status dre_set_id(const dre_motor *m, uint8_t new_id, dre_req *req)
 }
 
 /*
- * Step 2 of dre_set_id, once its probes are over (SLOT_WAIT): with the current
+ * Hook, step 2 of dre_set_id, once its probes are over (SLOT_WAIT): with the current
  * id answering and the new one silent, send the write and turn `r` into the
  * verified read of the new id (step 3, saved when it matches: step 4).
  */
-void dre_i_set_id_write(dre_bus *bus, dre_request *r, uint32_t now)
+static void set_id_write(dre_bus *bus, dre_request *r, uint32_t now)
 {
     uint8_t old = r->link, new_id = r->node;
     dre_value id;

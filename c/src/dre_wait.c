@@ -1,7 +1,6 @@
 /*
- * Waiting for moves: the position moves the bus commanded (one record per
- * motor, up to DRE_MOVE_RECORDS) and polled fast reads until each move is
- * over and at its target (see dre_client.h).
+ * Waiting for moves: polled fast reads until each move the bus commanded
+ * (its record in dre_moves.c) is over and at its target (see dre_client.h).
  */
 #include "dre_client_internal.h"
 
@@ -9,130 +8,6 @@
 #include <stddef.h>
 
 enum { DONE_IDLE = 0, DONE_POLLING, DONE_FINISHED };
-
-/* dre_move.flags: the target is known; a T = 0 state came after the start; armed by a batch whose start
- * has not gone out yet (not a move until it has). */
-enum { MOVE_TARGET = 1, MOVE_TOOK = 2, MOVE_ARMED = 4 };
-
-/* ----------------------------------------------------------------- the moves the bus commanded */
-
-static dre_move *move_of(dre_bus *bus, uint8_t node)
-{
-    uint8_t i;
-    for (i = 0u; i < DRE_MOVE_RECORDS; i++) {
-        if (bus->moves[i].node == node && node != DRE_BROADCAST) {
-            return &bus->moves[i];
-        }
-    }
-    return NULL;
-}
-
-/* End the record of `node` (every record for a broadcast). */
-static void move_drop(dre_bus *bus, uint8_t node)
-{
-    uint8_t i;
-    for (i = 0u; i < DRE_MOVE_RECORDS; i++) {
-        if (node == DRE_BROADCAST || bus->moves[i].node == node) {
-            bus->moves[i].node = 0u;
-        }
-    }
-}
-
-/* The record of `node`, new or reused: a free one, else the next in turn. */
-static dre_move *move_new(dre_bus *bus, uint8_t node)
-{
-    dre_move *mv = move_of(bus, node);
-    uint8_t i;
-
-    for (i = 0u; i < DRE_MOVE_RECORDS && mv == NULL; i++) {
-        if (bus->moves[i].node == 0u) {
-            mv = &bus->moves[i];
-        }
-    }
-    if (mv == NULL) {
-        mv = &bus->moves[bus->move_next];
-        bus->move_next = (uint8_t)((bus->move_next + 1u) % DRE_MOVE_RECORDS);
-    }
-    mv->node = node;
-    mv->flags = 0u;
-    mv->target = 0.0f;
-    mv->move_ms = 0u;
-    mv->took_ms = 0u;
-    mv->sent_ms = bus->cfg.tick(bus->cfg.user);
-    return mv;
-}
-
-void dre_i_move_sent(dre_bus *bus, const dre_msg *msg)
-{
-    switch (msg->type) {
-    case DRE_MSG_POSITION_T:
-    case DRE_MSG_POSITION_Q:
-    case DRE_MSG_POSITION_P:
-        if (msg->node == DRE_BROADCAST) {
-            move_drop(bus, DRE_BROADCAST); /* which motors it reached is unknown */
-        } else {
-            dre_move *mv = move_new(bus, msg->node);
-            /* position is the first field of the three position commands */
-            mv->target = msg->type == DRE_MSG_POSITION_T   ? msg->u.position_t.position
-                         : msg->type == DRE_MSG_POSITION_Q ? msg->u.position_q.position
-                                                           : msg->u.position_p.position;
-            mv->flags = MOVE_TARGET;
-        }
-        break;
-    case DRE_MSG_VELOCITY:
-    case DRE_MSG_TORQUE:
-    case DRE_MSG_START:
-    case DRE_MSG_START_IMPEDANCE:
-        move_drop(bus, msg->node); /* a start sent on its own: what it starts is unknown */
-        break;
-    default:
-        break;
-    }
-}
-
-void dre_i_move_armed(dre_bus *bus, uint8_t node, int position, int known, float target, float move_s)
-{
-    dre_move *mv;
-    if (!position) {
-        move_drop(bus, node);
-        return;
-    }
-    mv = move_new(bus, node);
-    mv->flags = (uint8_t)(MOVE_ARMED | (known ? MOVE_TARGET : 0u));
-    mv->target = target;
-    mv->move_ms = move_s > 0.0f ? (uint32_t)(move_s * 1000.0f + 0.5f) : 0u;
-}
-
-void dre_i_moves_started(dre_bus *bus, int sent)
-{
-    uint32_t now = bus->cfg.tick(bus->cfg.user);
-    uint8_t i;
-    for (i = 0u; i < DRE_MOVE_RECORDS; i++) {
-        dre_move *mv = &bus->moves[i];
-        if (mv->node != 0u && (mv->flags & MOVE_ARMED) != 0u) {
-            mv->flags &= (uint8_t)~MOVE_ARMED;
-            mv->sent_ms = now;
-            if (!sent) {
-                mv->node = 0u;
-            }
-        }
-    }
-}
-
-void dre_i_move_state(dre_bus *bus, const dre_msg *state)
-{
-    dre_move *mv = move_of(bus, state->node);
-    uint32_t now;
-
-    if (mv == NULL || state->u.state.trajectory_done || (mv->flags & (MOVE_TOOK | MOVE_ARMED)) != 0u) {
-        return;
-    }
-    now = bus->cfg.tick(bus->cfg.user);
-    if (now != mv->sent_ms && (uint32_t)(now - mv->sent_ms) < 0x80000000u) {
-        mv->flags |= MOVE_TOOK;
-        mv->took_ms = now;
-    }
-}
 
 /* Is tick `a` later than tick `b` (wrapping)? */
 static int later(uint32_t a, uint32_t b)
@@ -143,7 +18,7 @@ static int later(uint32_t a, uint32_t b)
 /* Does the state in `p` show that the move of its motor is over? */
 static int finished(const dre_bus *bus, const dre_done *p, uint8_t node)
 {
-    const dre_move *mv = move_of((dre_bus *)bus, node);
+    const dre_move *mv = dre_i_move_of((dre_bus *)bus, node);
 
     if (!p->state.u.state.trajectory_done) {
         return 0;
@@ -166,7 +41,7 @@ static int finished(const dre_bus *bus, const dre_done *p, uint8_t node)
 /* Is the motor that finished in `p` away from its move's known target? */
 static int off_target(const dre_bus *bus, const dre_done *p, uint8_t node)
 {
-    const dre_move *mv = move_of((dre_bus *)bus, node);
+    const dre_move *mv = dre_i_move_of((dre_bus *)bus, node);
     return mv != NULL && (mv->flags & (MOVE_TARGET | MOVE_ARMED)) == MOVE_TARGET &&
            !(fabsf(p->state.u.state.position - mv->target) <= DRE_MOVE_TOLERANCE);
 }

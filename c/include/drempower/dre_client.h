@@ -6,10 +6,11 @@
  * The user supplies a send callback and a millisecond tick, feeds received
  * frames in, and polls requests for their replies.
  *
- * Implemented by job: src/dre_bus.c (the bus, requests, reply matching, the
- * transmit ring), src/dre_motor.c (single-motor commands), src/dre_verified.c
- * (verified writes, dre_set_id), src/dre_wait.c (the moves the bus commanded
- * and waiting for them) and src/dre_batch.c (multi-motor batches).
+ * Implemented by job, in layers: src/dre_bus.c (the bus, requests, reply
+ * matching, timers, the transmit ring), src/dre_moves.c (the moves the bus
+ * commanded), src/dre_motor.c (single-motor commands), src/dre_verified.c
+ * (verified writes, dre_set_id), src/dre_wait.c (waiting for the moves) and
+ * src/dre_batch.c (multi-motor batches).
  *
  * Concurrency: dre_bus_isr_push() is the one function that may run in an
  * interrupt (one producer). Every other dre_bus / dre_motor function belongs
@@ -210,6 +211,9 @@ typedef struct {
     uint32_t timeouts;     /**< requests that expired (not the probe of a free id in dre_set_id) */
 } dre_bus_stats;
 
+struct dre_move_hooks;    /* private: see dre_bus.move_hooks */
+struct dre_request_hooks; /* private: see dre_bus.request_hooks */
+
 /**
  * One CAN bus. Fields are private except bad_field, bad_index, bad_address,
  * stats, rx_overflows and presets_pending, which the caller may read.
@@ -255,6 +259,10 @@ typedef struct {
     uint64_t traj_scurve; /**< bit n: motor n runs the S-curve profile */
     dre_move moves[DRE_MOVE_RECORDS]; /**< see dre_positions_done */
     uint8_t move_next;                /**< the record a new motor takes when all are in use */
+    /** What the modules above the bus attach (private): the move records, once a command that can move was
+     *  sent (dre_moves.c), and the verified writes' steps, once one was issued (dre_verified.c). */
+    const struct dre_move_hooks *move_hooks;
+    const struct dre_request_hooks *request_hooks;
 } dre_bus;
 
 /** A motor on a bus. Initialise as {&bus, node} or with dre_motor_init(). */
