@@ -31,6 +31,8 @@ model's joints (see :mod:`drempower.sim.twin`)::
     id = 1
     model_joint = "shoulder"   # the model's joint (default: the joint's name)
     friction = "model"         # only the model's damping and friction act (default "motor": both)
+    [joints.shoulder.sim_params]   # a simulated motor's configuration (its gains tuned for the arm)
+    "axis0.controller.config.pos_gain" = 20.0
 """
 
 from __future__ import annotations
@@ -45,6 +47,7 @@ from typing import Any
 
 from ..errors import ConfigError
 from ..protocol.ids import MAX_NODE
+from ..protocol.parameters import parameter
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -90,6 +93,8 @@ class JointSpec:
     """The physics model's joint this joint is (None: the joint's own name)."""
     friction: str = "motor"
     """``"motor"``: the motor's friction and rotor inertia act besides the model's; ``"model"``: only the model's."""
+    sim_params: Mapping[str, float] = field(default_factory=dict)
+    """Parameters (by name) a simulated motor of this joint starts with when it has no saved configuration."""
 
 
 @dataclass(frozen=True)
@@ -222,7 +227,7 @@ def bus_options(spec: RobotSpec, bus: str, overrides: Mapping[str, Any]) -> dict
 
 FRICTIONS = ("motor", "model")
 """A joint's ``friction``: the motor's own friction and rotor inertia act too, or only the model's."""
-_MODEL_JOINT_KEYS = frozenset(("model_joint", "friction"))
+_MODEL_JOINT_KEYS = frozenset(("model_joint", "friction", "sim_params"))
 _MODEL_KEYS = frozenset(("file",))
 
 
@@ -248,12 +253,21 @@ def _model(value: object, source: str, base: str | None) -> ModelSpec:
     return ModelSpec(path)
 
 
-def _model_joint(j: Mapping[str, Any], where: str) -> tuple[str | None, str]:
-    """A joint entry's ``model_joint`` and ``friction``."""
+def _model_joint(j: Mapping[str, Any], where: str) -> tuple[str | None, str, dict[str, float]]:
+    """A joint entry's ``model_joint``, ``friction`` and ``sim_params``."""
     model_joint = j.get("model_joint")
     if model_joint is not None and (not isinstance(model_joint, str) or not model_joint):
         raise ConfigError(f"{where}: model_joint={model_joint!r}: give the name of a joint of the model")
     friction = j.get("friction", "motor")
     if friction not in FRICTIONS:
         raise ConfigError(f"{where}: friction={friction!r}: one of {', '.join(map(repr, FRICTIONS))}")
-    return model_joint, friction
+    params: dict[str, float] = {}
+    for key, value in _table(j.get("sim_params", {}), f"{where}: sim_params").items():
+        try:
+            p = parameter(key)
+        except ValueError:
+            raise ConfigError(f"{where}: sim_params: {key!r} is not a parameter name (see drempower params)") from None
+        if not p.writable:
+            raise ConfigError(f"{where}: sim_params: {key!r} is read-only")
+        params[p.name] = _number(value, f"{where}: sim_params: {key}")
+    return model_joint, friction, params

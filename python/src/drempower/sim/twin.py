@@ -39,6 +39,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..errors import ConfigError, ValidationError
 from .drive import TAU
+from .params import CONFIG
 
 if TYPE_CHECKING:
     from ..robot.config import RobotSpec
@@ -319,7 +320,8 @@ class Twin:
             return {
                 m.joint(i).name: float(self.data.qpos[m.jnt_qposadr[i]])
                 for i in range(m.njnt)
-                if m.joint(i).name and m.jnt_type[i] in (mj.mjtJoint.mjJNT_HINGE, mj.mjtJoint.mjJNT_SLIDE)
+                if m.joint(i).name
+                and int(m.jnt_type[i]) in (int(mj.mjtJoint.mjJNT_HINGE), int(mj.mjtJoint.mjJNT_SLIDE))
             }
 
     def set_joint(self, joint: str, position: float, velocity: float = 0.0) -> None:
@@ -358,11 +360,11 @@ class Twin:
     def _joint_id(self, joint: str) -> int:
         mj = self._mj
         jid = int(mj.mj_name2id(self.model, mj.mjtObj.mjOBJ_JOINT, joint))
-        if jid < 0 or self.model.jnt_type[jid] != mj.mjtJoint.mjJNT_HINGE:
+        if jid < 0 or int(self.model.jnt_type[jid]) != int(mj.mjtJoint.mjJNT_HINGE):
             hinges = [
                 self.model.joint(i).name
                 for i in range(self.model.njnt)
-                if self.model.jnt_type[i] == mj.mjtJoint.mjJNT_HINGE
+                if int(self.model.jnt_type[i]) == int(mj.mjtJoint.mjJNT_HINGE)
             ]
             raise ValidationError(f"joint={joint!r}: not a hinge of the model ({', '.join(hinges)})")
         return jid
@@ -395,6 +397,10 @@ def couple_robot(spec: RobotSpec, buses: Mapping[str, SimBus]) -> Twin | None:
     """
     if spec.model is None:
         return None
+    for j in spec.joints.values():
+        bus = buses.get(j.bus)
+        if bus is not None and j.sim_params:
+            configure(bus.motors[j.id], j.sim_params)
     couplings = [
         Coupling(
             j.name,
@@ -411,3 +417,13 @@ def couple_robot(spec: RobotSpec, buses: Mapping[str, SimBus]) -> Twin | None:
     for bus in buses.values():
         _TWINS[bus] = twin
     return twin
+
+
+def configure(motor: SimMotor, params: Mapping[str, float]) -> None:
+    """Start ``motor`` with ``params`` (by name) as its saved configuration, unless it has one."""
+    store = motor.params
+    if store.saved is not None:
+        return
+    for name, value in params.items():
+        motor.set_param(name, value)
+    store.saved = {a: store.ram[a] for a in CONFIG}
