@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 from pathlib import Path
 
@@ -11,7 +12,7 @@ import drempower
 from drempower.client.effects import sleep
 from drempower.sim.twin import twin_of
 
-from .conftest import G, PENDULUM_GAINS, ROBOTS, pendulum_arm, pendulum_inertia, robot_file
+from .conftest import PENDULUM_GAINS, ROBOTS, G, pendulum_arm, pendulum_inertia, robot_file
 
 
 def _agm(a: float, b: float) -> float:
@@ -41,7 +42,7 @@ def test_period_of_the_released_pendulum_is_the_analytic_one(tmp_path: Path) -> 
                 frac = -prev.angle / (st.angle - prev.angle)
                 crossings.append(prev.timestamp + frac * (st.timestamp - prev.timestamp))
             prev = st
-    periods = [b - a for a, b in zip(crossings, crossings[1:])]
+    periods = [b - a for a, b in itertools.pairwise(crossings)]
     assert len(periods) >= 3
     measured = sum(periods) / len(periods)
     print(f"pendulum period: measured {measured:.5f} s, analytic {analytic:.5f} s, {measured / analytic - 1:+.3%}")
