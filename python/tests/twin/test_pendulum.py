@@ -21,12 +21,14 @@ def _agm(a: float, b: float) -> float:
     return a
 
 
-def test_period_of_the_released_pendulum_is_the_analytic_one(tmp_path: Path) -> None:
-    """Released from 10 deg with the motor idle, the period is 2 pi sqrt(I / m g d) / agm(1, cos(a/2))."""
+@pytest.mark.parametrize("model", ["pendulum.xml", "pendulum.urdf"])
+def test_period_of_the_released_pendulum_is_the_analytic_one(tmp_path: Path, model: str) -> None:
+    """Released from 10 deg with the motor idle, the period is 2 pi sqrt(I / m g d) / agm(1, cos(a/2))
+    (the same pendulum as MJCF and as URDF)."""
     m, d = pendulum_arm()
     amplitude = math.radians(10.0)
     analytic = 2 * math.pi * math.sqrt(pendulum_inertia() / (m * G * d)) / _agm(1.0, math.cos(amplitude / 2))
-    path = robot_file(tmp_path, ROBOTS / "pendulum.xml", {"swing": {"id": 1, "friction": "model"}})
+    path = robot_file(tmp_path, ROBOTS / model, {"swing": {"id": 1, "friction": "model"}})
     with drempower.open_bus("sim", robot=path, clock="virtual") as bus:
         motor = bus.motor(1)
         motor.set_mode(1)  # idle: the motor applies no torque
@@ -45,7 +47,7 @@ def test_period_of_the_released_pendulum_is_the_analytic_one(tmp_path: Path) -> 
     periods = [b - a for a, b in itertools.pairwise(crossings)]
     assert len(periods) >= 3
     measured = sum(periods) / len(periods)
-    print(f"pendulum period: measured {measured:.5f} s, analytic {analytic:.5f} s, {measured / analytic - 1:+.3%}")
+    print(f"{model} period: measured {measured:.5f} s, analytic {analytic:.5f} s, {measured / analytic - 1:+.3%}")
     assert measured == pytest.approx(analytic, rel=0.01)
 
 
