@@ -106,3 +106,16 @@ def test_the_twin_behind_adapter_uart_python_can_and_socketcand(tmp_path: Path) 
         thread.join(10)
     assert not thread.is_alive()
     assert '"stopped": true' in out.getvalue()
+
+
+def test_sim_robot_names_a_joint_the_model_lacks(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from drempower.cli import main
+
+    path = tmp_path / "bad.toml"
+    path.write_text(
+        f'[model]\nfile = "{ROBOTS / "pendulum.xml"}"\n[buses.a]\ninterface = "sim"\n[joints.knee]\nbus = "a"\nid = 1\n'
+    )
+    code = main(["sim", "--robot", str(path), "--duration", "0.1"])
+    err = capsys.readouterr().err
+    assert code == 1
+    assert err.count("\n") == 1 and "joint 'knee': model_joint='knee' is not a joint of the model (swing)" in err
