@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import pytest
@@ -133,3 +134,26 @@ def test_sim_params_are_the_motors_starting_configuration(tmp_path: Path) -> Non
         motor.reboot()
         bus.run(sleep(1.0))
         assert motor.read_property("axis0.controller.config.pos_gain") == pytest.approx(10.0)
+
+
+def test_the_twin_runner_keeps_the_buses_in_lockstep(tmp_path: Path) -> None:
+    from drempower.sim.twin import TwinRunner
+
+    joints = {name: {"id": i % 3 + 1, "bus": "a" if i < 3 else "b"} for i, name in enumerate(_ARM)}
+    path = robot_file(tmp_path, ROBOTS / "arm6.xml", joints, bus="a")
+    path.write_text(path.read_text().replace("[joints.", '[buses.b]\ninterface = "sim"\n\n[joints.', 1))
+    buses = {"a": SimBus([1, 2, 3]), "b": SimBus([1, 2, 3])}
+    twin = couple_robot(load_robot(path), buses)
+    assert twin is not None
+    gaps: list[float] = []
+    with TwinRunner(buses.values(), time_scale=2.0):
+        deadline = time.monotonic() + 5.0
+        while buses["b"].now < 0.3 and time.monotonic() < deadline:
+            with buses["a"].lock, buses["b"].lock:  # between two rounds' bus advances
+                gaps.append(abs(buses["a"].now - buses["b"].now))
+            time.sleep(0.001)
+    assert len(gaps) > 10 and max(gaps) <= 0.001 + 1e-9  # never a step apart
+    assert buses["a"].now >= 0.3 and buses["b"].now >= 0.3
+    assert abs(buses["a"].now - buses["b"].now) <= 0.001 + 1e-9
+    assert twin.time == pytest.approx(min(buses["a"].now, buses["b"].now) - 0.001, abs=0.0011)
+    assert buses["a"].on_activity is None and buses["b"].on_activity is None

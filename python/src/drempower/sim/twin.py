@@ -22,7 +22,8 @@ The physics lags the motors' clock by one step: at a bus step at time t the twin
 first integrates up to t - 1 ms with the torques of the previous step, then the
 motors compute their torques from that state. Buses of one robot share one twin;
 the first bus to reach a step integrates it, so on several buses the twin follows
-the one furthest ahead (the runners of ``drempower sim --robot`` keep them together).
+the one furthest ahead; :class:`TwinRunner` advances them in lockstep, 1 ms at a time
+(``drempower sim --robot`` runs one).
 
 ``twin.push(body="link3", force=(0, 0, -5), duration=1.0)`` and
 ``twin.push_joint("elbow", torque=2.0, duration=0.5)`` are a hand from outside.
@@ -32,6 +33,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 import weakref
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -46,7 +48,7 @@ if TYPE_CHECKING:
     from .bus import SimBus
     from .motor import SimMotor
 
-__all__ = ["Coupling", "Push", "Twin", "couple_robot", "twin_of", "require_mujoco"]
+__all__ = ["Coupling", "Push", "Twin", "TwinRunner", "couple_robot", "twin_of", "require_mujoco"]
 
 _EPS = 1e-9
 _ACTUATOR_PREFIX = "drempower:"
@@ -427,3 +429,77 @@ def configure(motor: SimMotor, params: Mapping[str, float]) -> None:
     for name, value in params.items():
         motor.set_param(name, value)
     store.saved = {a: store.ram[a] for a in CONFIG}
+
+
+class TwinRunner:
+    """A thread that advances several buses in lockstep in real time (scaled by ``time_scale``).
+
+    Every bus reaches each 1 ms step before any goes on to the next, so the twin
+    they share always integrates the torques every motor computed at the step
+    before. Host frames wake it (each bus's ``on_activity``). ``start()``/``stop()``,
+    or use it as a context manager.
+    """
+
+    IDLE = 0.02
+    """Longest sleep (wall s) when nothing is due."""
+    MAX_CATCH_UP = 0.05
+    """Most wall time one round makes up for (s); beyond it the simulation falls behind."""
+
+    def __init__(self, buses: Iterable[SimBus], time_scale: float = 1.0) -> None:
+        if not time_scale > 0:
+            raise ValidationError(f"time_scale={time_scale!r}: must be > 0 simulated seconds per second")
+        self.buses = list(buses)
+        self.time_scale = time_scale
+        self._stop = False
+        self._wake = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> TwinRunner:
+        """Start advancing the buses (no-op when already running)."""
+        if self._thread is None:
+            self._stop = False
+            for bus in self.buses:
+                with bus.lock:
+                    bus.on_activity = self._wake.set
+            self._thread = threading.Thread(target=self._run, name="drempower-twin", daemon=True)
+            self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        """Stop advancing and wait for the thread to end."""
+        self._stop = True
+        self._wake.set()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        for bus in self.buses:
+            with bus.lock:
+                if bus.on_activity == self._wake.set:
+                    bus.on_activity = None
+
+    def _run(self) -> None:
+        buses, wake, scale = self.buses, self._wake, self.time_scale
+        step = Twin.STEP
+        goal = max(b.now for b in buses)
+        last = time.monotonic()
+        while not self._stop:
+            wake.clear()
+            now = time.monotonic()
+            goal += min(now - last, self.MAX_CATCH_UP) * scale
+            last = now
+            while True:
+                t = min(b.now for b in buses)
+                if t >= goal - _EPS:
+                    break
+                nxt = min(goal, (math.floor(t / step + _EPS) + 1) * step)
+                for bus in buses:
+                    if bus.now < nxt:
+                        bus.advance(nxt - bus.now)
+            due = min(b.next_due() for b in buses)
+            wake.wait(min(self.IDLE, max((due - goal) / scale, 0.0)))
+
+    def __enter__(self) -> TwinRunner:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()
