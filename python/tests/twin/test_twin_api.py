@@ -157,3 +157,30 @@ def test_the_twin_runner_keeps_the_buses_in_lockstep(tmp_path: Path) -> None:
     assert abs(buses["a"].now - buses["b"].now) <= 0.001 + 1e-9
     assert twin.time == pytest.approx(min(buses["a"].now, buses["b"].now) - 0.001, abs=0.0011)
     assert buses["a"].on_activity is None and buses["b"].on_activity is None
+
+
+@pytest.mark.parametrize(("gear", "offset"), [(1.0, 0.0), (-2.0, 0.3)])
+def test_the_joint_reads_the_model_angle_through_gear_and_offset(tmp_path: Path, gear: float, offset: float) -> None:
+    path = robot_file(tmp_path, ROBOTS / "pendulum.xml", {"swing": {"id": 1, "gear": gear, "offset": offset}})
+    with drempower.open_robot(path, sim={"clock": "virtual"}) as robot:
+        twin = robot.twin
+        assert twin is not None
+        joint = robot.joint("swing")
+        joint.set_mode(1)
+        for q in (0.0, 0.7, -1.2):
+            twin.set_joint("swing", q, velocity=0.5)
+            st = joint.get_joint_state()
+            assert st.position == pytest.approx(q, abs=1e-6)
+            assert st.velocity == pytest.approx(0.5, abs=0.002)  # the state frame carries 0.01 r/min
+            assert st.motor.angle == pytest.approx(math.degrees((q - offset) * gear), abs=1e-4)
+
+
+def test_motors_hold_the_models_starting_pose(tmp_path: Path) -> None:
+    """A motor in closed loop from power-up holds where the model starts, whatever the joint's offset."""
+    joints = {"swing": {"id": 1, "gear": -2.0, "offset": 0.3, "sim_params": PENDULUM_GAINS}}
+    path = robot_file(tmp_path, ROBOTS / "pendulum.xml", joints)
+    with drempower.open_robot(path, sim={"clock": "virtual"}) as robot:
+        robot.bus("can0").run(sleep(1.0))
+        st = robot.joint("swing").get_joint_state()
+    assert st.position == pytest.approx(0.0, abs=1e-3)
+    assert abs(st.velocity) < 1e-3

@@ -194,11 +194,16 @@ class Twin:
             self._by_name[c.name] = link
             self._by_name.setdefault(c.model_joint, link)
         mujoco.mj_forward(m, self.data)
-        for link in self._links:
+        for link, c in zip(self._links, couplings, strict=True):
             d = link.drive
-            link.zero = d.pos - (float(self.data.qpos[link.qadr]) - link.offset) * link.per_rad
+            link.zero = d.pos - c.motor.position / 360.0  # the turns at which the motor reads 0 deg
             d.plant = self
         self._publish()
+        for link in self._links:  # a motor in closed loop since power-up holds where the joint is
+            d = link.drive
+            if d.active:
+                d.hold(d.pos)
+                d.integ = 0.0
 
     # ------------------------------------------------------------------ stepping
 
