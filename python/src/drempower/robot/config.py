@@ -112,10 +112,13 @@ class RobotSpec:
         return [j for j in self.joints.values() if j.bus == bus]
 
     def open_options(self, bus: str) -> dict[str, Any]:
-        """The :func:`~drempower.open_bus` keyword arguments of bus ``bus`` (a sim bus gets its joints' ids)."""
+        """The :func:`~drempower.open_bus` keyword arguments of bus ``bus`` (a sim bus gets its joints' ids;
+        with a model, the robot and the bus's name, to simulate its joints on the model)."""
         spec = self.buses[bus]
         kw: dict[str, Any] = {"interface": spec.interface, **spec.options}
-        if spec.interface == "sim":
+        if spec.interface == "sim" and self.model is not None:
+            kw.update(robot=self, robot_bus=bus)
+        elif spec.interface == "sim":
             kw["motors"] = sorted(j.id for j in self.joints_on(bus))
         return kw
 

@@ -37,9 +37,13 @@ def open_options(spec: RobotSpec, overrides: Mapping[str, Any]) -> dict[str, dic
     return opts
 
 
+_SPEC_KEYS = frozenset(("robot", "robot_bus", "motors"))
+"""What :meth:`RobotSpec.open_options` adds to a sim bus's own options."""
+
+
 def simulated_buses(spec: RobotSpec, options: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
-    """A :class:`~drempower.sim.SimBus` for each bus name in ``options`` (its SimBus arguments, with
-    ``motors``), all coupled to the twin of ``spec``'s model. Without MuJoCo: a warning, and
+    """A :class:`~drempower.sim.SimBus` for each bus name in ``options`` (its SimBus arguments), with the
+    motors of its joints, all coupled to the twin of ``spec``'s model. Without MuJoCo: a warning, and
     an empty dict (the buses then simulate each motor's own mechanics)."""
     from ..sim import SimBus
     from ..sim.twin import couple_robot
@@ -55,8 +59,8 @@ def simulated_buses(spec: RobotSpec, options: Mapping[str, Mapping[str, Any]]) -
         return {}
     buses: dict[str, SimBus] = {}
     for name, given in options.items():
-        kw = dict(given)
-        ids = kw.pop("motors")
+        kw = {k: v for k, v in given.items() if k not in _SPEC_KEYS}
+        ids = sorted(j.id for j in spec.joints_on(name))
         try:
             buses[name] = SimBus(ids, **kw)
         except TypeError as exc:
