@@ -176,6 +176,10 @@ class Twin:
         except Exception as exc:
             raise ConfigError(f"model {model_file}: {exc}") from None
         self.data = mujoco.MjData(self.model)
+        self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
+        self._bias = self.model.actuator_biasprm
+        self._mj_step = mujoco.mj_step
+        self._v: list[float] = []
         self.step_s = step
         self.time = 0.0
         """Physics time (s): one step behind the motors' clock."""
@@ -216,31 +220,28 @@ class Twin:
                 self._step()
 
     def _step(self) -> None:
-        m, d = self.model, self.data
-        ctrl = d.ctrl
-        qvel = d.qvel
-        bias = m.actuator_biasprm
+        ctrl, bias, v = self._ctrl, self._bias, self._v
         for link in self._links:
             drv = link.drive
             k = drv.gain * link.g2
             if k != link.k:
                 bias[link.act, 2] = -k
                 link.k = k
-            ctrl[link.act] = link.gear * (drv.torque + drv.ext) + k * qvel[link.dof]
+            ctrl[link.act] = link.gear * (drv.torque + drv.ext) + k * v[link.dof]
         if (self._pushes and self._pushes[0].end <= self.time + _EPS) or self._pushes_dirty:
             self._apply_pushes()
-        self._mj.mj_step(m, d)
+        self._mj_step(self.model, self.data)
         self.time += self.step_s
         self._publish()
 
     def _publish(self) -> None:
         """The model joints' angle and speed to the motors."""
-        qpos = self.data.qpos.tolist()
-        qvel = self.data.qvel.tolist()
+        q = self._qpos.tolist()
+        self._v = v = self._qvel.tolist()
         for link in self._links:
             drv = link.drive
-            drv.pos = (qpos[link.qadr] - link.offset) * link.per_rad + link.zero
-            drv.vel = qvel[link.dof] * link.per_rad
+            drv.pos = (q[link.qadr] - link.offset) * link.per_rad + link.zero
+            drv.vel = v[link.dof] * link.per_rad
 
     # ------------------------------------------------------------------ the hand
 
