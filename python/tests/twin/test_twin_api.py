@@ -184,3 +184,24 @@ def test_motors_hold_the_models_starting_pose(tmp_path: Path) -> None:
         st = robot.joint("swing").get_joint_state()
     assert st.position == pytest.approx(0.0, abs=1e-3)
     assert abs(st.velocity) < 1e-3
+
+
+def test_without_mujoco_the_plain_simulator_runs_and_says_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import sys
+
+    from drempower.cli import main
+
+    monkeypatch.setitem(sys.modules, "mujoco", None)  # import mujoco now raises ImportError
+    path = robot_file(tmp_path, ROBOTS / "pendulum.xml", {"swing": {"id": 1}})
+    with pytest.warns(
+        UserWarning, match=r"not simulated \(MuJoCo is not installed\): pip install 'drempower\[physics\]'"
+    ):
+        robot = drempower.open_robot(path, sim={"clock": "virtual"})
+    with robot:
+        assert robot.twin is None
+        assert robot.joint("swing").get_state().angle == 0.0
+    assert main(["sim", "--robot", str(path), "--duration", "0.1"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "pip install 'drempower[physics]'" in err
