@@ -205,3 +205,27 @@ def test_without_mujoco_the_plain_simulator_runs_and_says_so(
     assert main(["sim", "--robot", str(path), "--duration", "0.1"]) == 1
     err = capsys.readouterr().err
     assert err.count("\n") == 1 and "pip install 'drempower[physics]'" in err
+
+
+def test_open_robot_runs_a_twins_buses_on_one_clock_until_closed(tmp_path: Path) -> None:
+    import threading
+
+    joints = {name: {"id": i % 3 + 1, "bus": "a" if i < 3 else "b"} for i, name in enumerate(_ARM)}
+    path = robot_file(tmp_path, ROBOTS / "arm6.xml", joints, bus="a")
+    path.write_text(path.read_text().replace("[joints.", '[buses.b]\ninterface = "sim"\n\n[joints.', 1))
+    with drempower.open_robot(path, timeout=1.0) as robot:
+        sims = [robot.bus(name).transport.bus for name in ("a", "b")]  # type: ignore[attr-defined]
+        robot.joint("wrist_pitch").set_position(0.3)
+        gaps = []
+        deadline = time.monotonic() + 10.0
+        while sims[1].now < 0.5 and time.monotonic() < deadline:
+            with sims[0].lock, sims[1].lock:
+                gaps.append(abs(sims[0].now - sims[1].now))
+            time.sleep(0.005)
+        assert max(gaps) <= 0.001 + 1e-9
+        assert robot.joint("wrist_pitch").get_joint_state().position == pytest.approx(0.3, abs=0.05)
+    deadline = time.monotonic() + 5.0
+    while any(t.name == "drempower-twin" for t in threading.enumerate()) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert not any(t.name == "drempower-twin" for t in threading.enumerate())
+    assert sims[0].on_activity is None and sims[1].on_activity is None

@@ -443,7 +443,8 @@ class TwinRunner:
     Every bus reaches each 1 ms step before any goes on to the next, so the twin
     they share always integrates the torques every motor computed at the step
     before. Host frames wake it (each bus's ``on_activity``). ``start()``/``stop()``,
-    or use it as a context manager.
+    or use it as a context manager; with ``while_attached`` it also ends once the
+    in-process clients of every bus have closed (``open_robot`` runs one so).
     """
 
     IDLE = 0.02
@@ -451,11 +452,16 @@ class TwinRunner:
     MAX_CATCH_UP = 0.05
     """Most wall time one round makes up for (s); beyond it the simulation falls behind."""
 
-    def __init__(self, buses: Iterable[SimBus], time_scale: float = 1.0) -> None:
+    ATTACH_GRACE = 10.0
+    """With ``while_attached``: how long (wall s) the buses may wait for their first listener."""
+
+    def __init__(self, buses: Iterable[SimBus], time_scale: float = 1.0, *, while_attached: bool = False) -> None:
         if not time_scale > 0:
             raise ValidationError(f"time_scale={time_scale!r}: must be > 0 simulated seconds per second")
         self.buses = list(buses)
         self.time_scale = time_scale
+        self.while_attached = while_attached
+        """End by itself once every bus has lost its listeners (its clients closed)."""
         self._stop = False
         self._wake = threading.Event()
         self._thread: threading.Thread | None = None
@@ -478,6 +484,9 @@ class TwinRunner:
         if self._thread is not None:
             self._thread.join()
             self._thread = None
+        self._detach()
+
+    def _detach(self) -> None:
         for bus in self.buses:
             with bus.lock:
                 if bus.on_activity == self._wake.set:
@@ -487,8 +496,14 @@ class TwinRunner:
         buses, wake, scale = self.buses, self._wake, self.time_scale
         step = Twin.STEP
         goal = max(b.now for b in buses)
-        last = time.monotonic()
+        last = start = time.monotonic()
+        seen = False
         while not self._stop:
+            if self.while_attached:
+                attached = any(b._listeners for b in buses)  # SimTransport.close removes its listener
+                seen = seen or attached
+                if not attached and (seen or time.monotonic() - start > self.ATTACH_GRACE):
+                    break
             wake.clear()
             now = time.monotonic()
             goal += min(now - last, self.MAX_CATCH_UP) * scale
@@ -503,6 +518,7 @@ class TwinRunner:
                         bus.advance(nxt - bus.now)
             due = min(b.next_due() for b in buses)
             wake.wait(min(self.IDLE, max((due - goal) / scale, 0.0)))
+        self._detach()
 
     def __enter__(self) -> TwinRunner:
         return self.start()
