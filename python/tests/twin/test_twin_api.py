@@ -229,3 +229,21 @@ def test_open_robot_runs_a_twins_buses_on_one_clock_until_closed(tmp_path: Path)
         time.sleep(0.02)
     assert not any(t.name == "drempower-twin" for t in threading.enumerate())
     assert sims[0].on_activity is None and sims[1].on_activity is None
+
+
+def test_the_motor_replaces_the_models_own_actuator_of_its_joint(tmp_path: Path) -> None:
+    """A model from elsewhere often has position servos of its own: on a coupled joint only the motor acts."""
+    import xml.etree.ElementTree as ET
+
+    from .conftest import model_copy
+
+    def servo(root: ET.Element) -> None:
+        act = ET.SubElement(root, "actuator")
+        ET.SubElement(act, "position", name="servo", joint="swing", kp="500")
+
+    model = model_copy(tmp_path, "pendulum.xml", servo)
+    path = robot_file(tmp_path, model, {"swing": {"id": 1, "friction": "model"}})
+    with drempower.open_robot(path, sim={"clock": "virtual"}) as robot:
+        twin = robot.twin
+        assert twin is not None
+        assert [twin.model.actuator(i).name for i in range(twin.model.nu)] == ["drempower:swing"]

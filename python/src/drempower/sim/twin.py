@@ -11,7 +11,8 @@ come back to the motor through the joint's ``gear`` and ``offset``::
     motor output turns = (joint rad - offset) * gear / 2 pi   (+ the motor's zero at coupling)
     joint torque Nm    = motor torque Nm * gear
 
-The motor's own rotor inertia, viscous and Coulomb friction are added to the
+The model's own actuators of a coupled joint are removed (the motor is its
+actuator). The motor's own rotor inertia, viscous and Coulomb friction are added to the
 model joint's armature, damping and friction loss (reflected through the gear),
 unless the joint's ``friction`` is ``"model"``. The speed-proportional part of the
 controller's torque goes to the actuator's velocity bias, which MuJoCo's
@@ -170,6 +171,10 @@ class Twin:
             act.gainprm = [1.0] + [0.0] * (len(act.gainprm) - 1)
             act.biasprm = [0.0] * len(act.biasprm)
             act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        coupled = set(seen)
+        for own in list(spec.actuators):  # the motors replace the model's own actuators of their joints
+            if own.target in coupled and not own.name.startswith(_ACTUATOR_PREFIX):
+                spec.delete(own)
         spec.option.timestep = step
         try:
             self.model = spec.compile()
