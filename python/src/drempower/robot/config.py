@@ -176,7 +176,8 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         extra = sorted(set(j) - _JOINT_KEYS - _MODEL_JOINT_KEYS)
         if extra:
             raise ConfigError(
-                f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear, offset, model_joint, friction and sim_params"
+                f"{where}: unknown key {extra[0]!r}: "
+                "a joint has bus, id, gear, offset, model_joint, friction and sim_params"
             )
         bus = j.get("bus")
         if bus not in buses:
