@@ -214,7 +214,7 @@ def test_open_robot_runs_a_twins_buses_on_one_clock_until_closed(tmp_path: Path)
     path = robot_file(tmp_path, ROBOTS / "arm6.xml", joints, bus="a")
     path.write_text(path.read_text().replace("[joints.", '[buses.b]\ninterface = "sim"\n\n[joints.', 1))
     with drempower.open_robot(path, timeout=1.0) as robot:
-        sims = [robot.bus(name).transport.bus for name in ("a", "b")]  # type: ignore[attr-defined]
+        sims = [robot.bus(name).transport.bus for name in ("a", "b")]
         robot.joint("wrist_pitch").set_position(0.3)
         gaps = []
         deadline = time.monotonic() + 10.0
