@@ -1,0 +1,262 @@
+"""The dashboard's 3D view: the model's scene, the page posing it from the live states, and the hand from outside."""
+
+from __future__ import annotations
+
+import math
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+aiohttp = pytest.importorskip("aiohttp")
+
+from drempower import open_robot  # noqa: E402
+from drempower.dash.model_scene import load_scene, mjcf_scene  # noqa: E402
+from drempower.dash.model_view import NO_TWIN  # noqa: E402
+from drempower.errors import ConfigError  # noqa: E402
+from drempower.protocol.flags import MotorError  # noqa: E402
+
+from .conftest import serve_in_thread  # noqa: E402
+
+ARM = """
+<mujoco model="test arm">
+  <compiler angle="degree"/>
+  <default>
+    <geom size="0.05"/>
+    <default class="link"><geom type="capsule" size="0.03" rgba="0.2 0.5 0.8 1"/></default>
+  </default>
+  <asset><material name="red" rgba="0.9 0.2 0.2 1"/></asset>
+  <worldbody>
+    <geom name="floor" type="plane" size="0.5 0.5 0.01" rgba="0.9 0.9 0.9 1"/>
+    <body name="base" pos="0 0 0.1">
+      <geom type="cylinder" size="0.06 0.05" material="red"/>
+      <body name="upper" pos="0 0 0.05" euler="0 0 30">
+        <joint name="shoulder" axis="0 0 1"/>
+        <geom class="link" fromto="0 0 0 0 0 0.3"/>
+        <body name="fore" pos="0 0 0.3" quat="0.9 0.1 0 0">
+          <joint name="elbow" axis="0 1 0" pos="0 0 0.01" ref="10"/>
+          <geom class="link" fromto="0 0 0 0.25 0 0"/>
+          <body name="hand" pos="0.25 0 0">
+            <joint name="wrist" axis="1 1 0"/>
+            <geom type="box" size="0.02 0.03 0.04" pos="0 0 0.01" axisangle="1 0 0 45"/>
+            <geom type="sphere" size="0.02" group="3"/>
+          </body>
+        </body>
+      </body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+"""Three hinges (one with a reference angle, one on a skew axis), every primitive, defaults and a material."""
+
+ROBOT = """
+[buses.arm]
+interface = "sim"
+[joints.shoulder]
+bus = "arm"
+id = 1
+[joints.elbow]
+bus = "arm"
+id = 2
+gear = -2.0
+offset = 0.2
+[joints.wrist]
+bus = "arm"
+id = 3
+"""
+"""The elbow is geared: its model angle is -angle/2 + 0.2 rad."""
+
+
+@pytest.fixture
+def model(tmp_path: Path) -> Path:
+    path = tmp_path / "arm.xml"
+    path.write_text(ARM)
+    return path
+
+
+@pytest.fixture
+def served_arm(tmp_path: Path, model: Path) -> Iterator[tuple[str, Any, Any, Any]]:
+    (tmp_path / "robot.toml").write_text(ROBOT)
+    robot = open_robot(tmp_path / "robot.toml", stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(robot, model=str(model))
+    try:
+        yield url, hub, dash, robot
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        robot.close()
+
+
+def test_the_plain_mjcf_reading_agrees_with_mujoco(model: Path) -> None:
+    mujoco = pytest.importorskip("mujoco")
+    from drempower.dash.model_scene import mujoco_scene
+
+    a, b = mujoco_scene(str(model), mujoco), mjcf_scene(str(model))
+    assert a["engine"] == "mujoco" and b["engine"] == "mjcf" and b.pop("files") == []
+    for part in ("bodies", "joints", "geoms"):
+        assert a[part] == b[part], part
+    assert [j["name"] for j in a["joints"]] == ["shoulder", "elbow", "wrist"]
+    assert a["joints"][1]["ref"] == pytest.approx(math.radians(10), abs=1e-6)
+    assert a["joints"][2]["axis"] == pytest.approx([math.sqrt(0.5), math.sqrt(0.5), 0], abs=1e-6)
+    assert [g["type"] for g in a["geoms"]] == ["plane", "cylinder", "capsule", "capsule", "box"]  # group 3 left out
+    assert a["geoms"][1]["rgba"] == [0.9, 0.2, 0.2, 1.0]  # the material's colour
+
+
+def test_a_model_that_cannot_be_read_is_named(tmp_path: Path) -> None:
+    bad = tmp_path / "bad.xml"
+    bad.write_text("<mujoco><worldbody><body><geom type='cone'/></body></worldbody></mujoco>")
+    with pytest.raises(ConfigError, match="type='cone': one of plane"):
+        mjcf_scene(str(bad))
+    urdf = tmp_path / "r.urdf"
+    urdf.write_text("<robot name='r'/>")
+    with pytest.raises(ConfigError, match="not MJCF; a URDF model needs the physics extra"):
+        mjcf_scene(str(urdf))
+    with pytest.raises(ConfigError, match="no such file"):
+        load_scene(str(tmp_path / "missing.xml"))
+
+
+async def _ws_call(url: str, req: dict[str, Any]) -> dict[str, Any]:
+    async with aiohttp.ClientSession() as s, s.ws_connect(url.rstrip("/") + "/ws") as ws:
+        await ws.receive_json()  # hello
+        await ws.send_json({**req, "req": 1})
+        while True:
+            m = await ws.receive_json(timeout=5)
+            if m.get("t") == "reply":
+                return m  # type: ignore[no-any-return]
+
+
+async def test_the_model_document_maps_joints_and_refuses_the_hand_without_a_twin(
+    served_arm: tuple[str, Any, Any, Any],
+) -> None:
+    url = served_arm[0]
+    async with aiohttp.ClientSession() as s, s.get(url + "model") as r:
+        assert r.status == 200
+        doc = await r.json()
+    assert doc["error"] is None and doc["twin"] is False and doc["hand"] == NO_TWIN
+    assert [b["name"] for b in doc["scene"]["bodies"]] == ["world", "base", "upper", "fore", "hand"]
+    assert doc["joints"] == [
+        {"key": 1, "joint": "shoulder", "model_joint": "shoulder", "gear": 1.0, "offset": 0.0},
+        {"key": 2, "joint": "elbow", "model_joint": "elbow", "gear": -2.0, "offset": 0.2},
+        {"key": 3, "joint": "wrist", "model_joint": "wrist", "gear": 1.0, "offset": 0.0},
+    ]
+    reply = await _ws_call(url, {"op": "push", "kind": "joint", "target": "elbow", "torque": 1.0, "duration": 0.5})
+    assert reply["ok"] is False and reply["error"] == NO_TWIN
+    async with aiohttp.ClientSession() as s, s.get(url + "model/file/..%2Frobot.toml") as r:
+        assert r.status == 404  # only the meshes the scene names are served
+
+
+class Hand:
+    """Records the pushes the dashboard hands to a twin (the twin's own behaviour is tested with it)."""
+
+    def __init__(self) -> None:
+        self.calls: list[tuple[Any, ...]] = []
+
+    def push(self, body: str, force: Any = (0, 0, 0), torque: Any = (0, 0, 0), duration: float = 1.0) -> None:
+        self.calls.append(("push", body, tuple(force), tuple(torque), duration))
+
+    def push_joint(self, joint: str, torque: float, duration: float = 1.0) -> None:
+        self.calls.append(("push_joint", joint, torque, duration))
+
+
+async def test_a_push_is_checked_whole_before_it_reaches_the_twin(served_arm: tuple[str, Any, Any, Any]) -> None:
+    url, _, dash, _ = served_arm
+    hand = Hand()
+    dash.view._twin = hand
+    fore = {"kind": "body", "target": "fore", "duration": 1}
+    bad = [
+        ({**fore, "force": [0, 0, 5000]}, "force z=5000: outside -1000..1000 N"),
+        ({"kind": "body", "target": "nose", "force": [0, 0, 1], "duration": 1}, "target='nose': not a body"),
+        ({"kind": "joint", "target": "elbow", "torque": 1, "duration": 0}, "duration=0: outside above 0..10 s"),
+        ({"kind": "joint", "target": "elbow", "torque": "x", "duration": 1}, "torque='x': expected a finite number"),
+        ({"kind": "spin", "target": "elbow", "duration": 1}, "kind='spin': expected 'body' or 'joint'"),
+    ]
+    for req, error in bad:
+        reply = await _ws_call(url, {"op": "push", **req})
+        assert reply["ok"] is False and error in reply["error"], reply
+    assert hand.calls == []
+    ok = await _ws_call(url, {"op": "push", "kind": "body", "target": "fore", "force": [1, 0, -5], "duration": 0.5})
+    assert ok["ok"] is True and ok["result"].startswith("push body fore")
+    ok = await _ws_call(url, {"op": "push", "kind": "joint", "target": "elbow", "torque": -2, "duration": 1})
+    assert ok["ok"] is True
+    assert hand.calls == [
+        ("push", "fore", (1.0, 0.0, -5.0), (0.0, 0.0, 0.0), 0.5),
+        ("push_joint", "elbow", -2.0, 1.0),
+    ]
+
+
+def _drawn_vs_state(p: Any) -> tuple[dict[str, float], dict[str, float]]:
+    """The angles drawn (read from the three.js objects) and those the states give, in one page evaluation."""
+    got = p.evaluate("[window.drempowerView.jointAngles(), window.drempowerView.motorAngles()]")
+    drawn, motor = got[0], {int(k): v for k, v in got[1].items()}
+    expect = {
+        "shoulder": motor[1],
+        "elbow": math.degrees(math.radians(motor[2]) / -2.0 + 0.2),
+        "wrist": motor[3],
+    }
+    return drawn, expect
+
+
+def test_the_3d_view_follows_a_moving_joint(browser: Any, served_arm: tuple[str, Any, Any, Any], shots: Path) -> None:
+    url, hub, _, robot = served_arm
+    ctx = browser.new_context(viewport={"width": 800, "height": 500})
+    errors: list[str] = []
+    try:
+        p = ctx.new_page()
+        p.set_default_timeout(10_000)
+        p.on("pageerror", lambda e: errors.append(str(e)))
+        p.goto(url)
+        p.wait_for_function("window.dashStats && window.dashStats.connected")
+        p.get_by_role("button", name="Scan ids 1-63").click()
+        p.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
+        p.get_by_role("tab", name="3D").click()
+        p.wait_for_function("window.drempowerView && window.drempowerView.ready")
+        assert p.evaluate("window.drempowerView.joints()") == ["shoulder", "elbow", "wrist"]
+        assert "arm.xml" in p.locator("#v3d-note").inner_text()
+        assert p.locator("#hand-go").is_disabled() and "needs the robot twin" in p.locator("#hand-note").inner_text()
+        p.wait_for_function("Object.keys(window.drempowerView.motorAngles()).length === 3")
+        bus = robot.buses["arm"]
+        sims = bus.transport.bus.motors
+        for i, angle in ((1, 120.0), (2, -90.0), (3, 45.0)):
+            bus.motor(i).set_angle(angle, 20.0, 20.0, 1)  # trapezoid moves of about a second
+            hub.commanded.add(i)
+        seen: list[float] = []
+        t_end = time.monotonic() + 8
+        while time.monotonic() < t_end:
+            drawn, expect = _drawn_vs_state(p)
+            for name, want in expect.items():
+                assert abs(drawn[name] - want) < 0.5, (name, drawn[name], want)
+            seen.append(drawn["shoulder"])
+            if all(abs(sims[i].position - a) < 0.05 for i, a in ((1, 120), (2, -90), (3, 45))):
+                break
+            time.sleep(0.05)
+        # it moved through the way, not only to the end
+        assert len({round(a) for a in seen if 10 < a < 110}) >= 5, seen
+        time.sleep(0.3)  # the last states reach the page
+        drawn, _ = _drawn_vs_state(p)
+        truth = {  # the simulated motors themselves
+            "shoulder": sims[1].position,
+            "elbow": math.degrees(math.radians(sims[2].position) / -2.0 + 0.2),
+            "wrist": sims[3].position,
+        }
+        for name, want in truth.items():
+            assert abs(drawn[name] - want) < 0.5, (name, drawn[name], want)
+        assert p.evaluate("window.drempowerView.highlighted()") == []
+        sims[2].inject_error(MotorError.DRV_FAULT)
+        p.wait_for_function("window.drempowerView.highlighted().join() === 'elbow'")
+        assert "error: elbow" in p.locator("#v3d-errors").inner_text()
+        p.screenshot(path=str(shots / "twin-3d.png"))
+        bus.motor(2).clear_error()
+        p.wait_for_function("window.drempowerView.highlighted().length === 0")
+    finally:
+        ctx.close()
+    assert not errors, errors
+
+
+def test_without_a_model_the_view_says_how_to_get_one(page: Any) -> None:
+    page.get_by_role("tab", name="3D").click()
+    page.wait_for_function("window.drempowerView && window.drempowerView.error")
+    assert "no model: give the dashboard a robot file whose [model]" in page.locator("#v3d-note").inner_text()
+    assert page.locator("#hand-go").is_disabled()
