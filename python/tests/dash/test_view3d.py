@@ -1,8 +1,13 @@
-"""The dashboard's 3D view: the model's scene, the page posing it from the live states, and the hand from outside."""
+"""The dashboard's 3D view: the model's scene, the page posing it from the live states, and the hand from outside.
+
+The asynchronous tests come first: once the module's browser (Playwright's synchronous API) runs, it holds an
+event loop in this thread.
+"""
 
 from __future__ import annotations
 
 import math
+import struct
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -14,7 +19,7 @@ aiohttp = pytest.importorskip("aiohttp")
 
 from drempower import open_robot  # noqa: E402
 from drempower.dash.model_scene import load_scene, mjcf_scene  # noqa: E402
-from drempower.dash.model_view import NO_TWIN  # noqa: E402
+from drempower.dash.model_view import NO_TWIN, ModelView  # noqa: E402
 from drempower.errors import ConfigError  # noqa: E402
 from drempower.protocol.flags import MotorError  # noqa: E402
 
@@ -260,3 +265,83 @@ def test_without_a_model_the_view_says_how_to_get_one(page: Any) -> None:
     page.wait_for_function("window.drempowerView && window.drempowerView.error")
     assert "no model: give the dashboard a robot file whose [model]" in page.locator("#v3d-note").inner_text()
     assert page.locator("#hand-go").is_disabled()
+
+
+MESHES = """
+<mujoco>
+  <compiler meshdir="meshes"/>
+  <asset>
+    <mesh name="tet" file="tet.stl" scale="0.1 0.1 0.1"/>
+    <mesh file="cube.obj"/>
+  </asset>
+  <worldbody>
+    <body name="base">
+      <joint name="spin"/>
+      <geom name="tet" type="mesh" mesh="tet" rgba="0.8 0.3 0.1 1"/>
+      <geom name="cube" type="mesh" mesh="cube" pos="0.2 0 0"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+TET = [(0.0, 0.0, 0.0), (1.0, 0.0, 0.0), (0.0, 1.0, 0.0), (0.0, 0.0, 1.0)]
+TET_FACES = [(0, 2, 1), (0, 1, 3), (0, 3, 2), (1, 2, 3)]
+CUBE_OBJ = "".join(f"v {x} {y} {z}\n" for x in (-0.05, 0.05) for y in (-0.05, 0.05) for z in (-0.05, 0.05)) + (
+    "f 1 3 4 2\nf 5 6 8 7\nf 1 2 6 5\nf 3 7 8 4\nf 1 5 7 3\nf 2 4 8 6\n"
+)
+
+
+@pytest.fixture
+def mesh_model(tmp_path: Path) -> Path:
+    """A model of two meshes: a binary STL tetrahedron (scaled) and an OBJ cube, in a mesh folder."""
+    (tmp_path / "meshes").mkdir()
+    stl = bytearray(80) + struct.pack("<I", len(TET_FACES))
+    for face in TET_FACES:
+        stl += struct.pack("<3f", 0, 0, 0) + b"".join(struct.pack("<3f", *TET[i]) for i in face) + b"\0\0"
+    (tmp_path / "meshes" / "tet.stl").write_bytes(bytes(stl))
+    (tmp_path / "meshes" / "cube.obj").write_text(CUBE_OBJ)
+    path = tmp_path / "meshes.xml"
+    path.write_text(MESHES)
+    return path
+
+
+def test_meshes_come_from_mujoco_or_from_their_files(mesh_model: Path) -> None:
+    plain = mjcf_scene(str(mesh_model))
+    tet, cube = plain["geoms"]
+    assert tet["url"] == "meshes/tet.stl" and tet["format"] == "stl" and tet["scale"] == [0.1, 0.1, 0.1]
+    assert cube["url"] == "meshes/cube.obj" and cube["format"] == "obj" and cube["pos"] == [0.2, 0.0, 0.0]
+    assert plain["files"] == ["meshes/tet.stl", "meshes/cube.obj"]
+    mujoco = pytest.importorskip("mujoco")
+    from drempower.dash.model_scene import mujoco_scene
+
+    compiled = mujoco_scene(str(mesh_model), mujoco)
+    tet, cube = compiled["geoms"]
+    assert len(tet["vertices"]) == 3 * 4 and len(tet["faces"]) == 3 * 4  # MuJoCo merges the STL's repeated vertices
+    assert len(cube["vertices"]) == 3 * 8 and len(cube["faces"]) == 3 * 12  # the quads split in triangles
+    v = [tet["vertices"][i : i + 3] for i in range(0, 12, 3)]
+    longest = max(math.dist(a, b) for a in v for b in v)  # MuJoCo turns a mesh to its principal axes
+    assert longest == pytest.approx(0.1 * math.sqrt(2), abs=1e-6)  # scaled
+
+
+def test_the_page_loads_the_mesh_files_the_model_names(browser: Any, tmp_path: Path, mesh_model: Path) -> None:
+    (tmp_path / "robot.toml").write_text('[buses.b]\ninterface = "sim"\n[joints.spin]\nbus = "b"\nid = 1\n')
+    robot = open_robot(tmp_path / "robot.toml", stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(robot, model=str(mesh_model))
+    dash.view.scene = mjcf_scene(str(mesh_model))  # as without MuJoCo: the page reads the files
+    ctx = browser.new_context(viewport={"width": 800, "height": 500})
+    try:
+        p = ctx.new_page()
+        p.set_default_timeout(10_000)
+        p.goto(url)
+        p.get_by_role("tab", name="3D").click()
+        p.wait_for_function("window.drempowerView && window.drempowerView.ready")
+        count = "n => window.drempowerView.world.getObjectByName(n).geometry.getAttribute('position')?.count || 0"
+        p.wait_for_function(f"({count})('tet') > 0 && ({count})('cube') > 0")
+        assert p.evaluate(f"({count})('tet')") == 3 * 4  # STLLoader: three vertices per triangle
+        assert p.evaluate("window.drempowerView.world.getObjectByName('tet').scale.x") == pytest.approx(0.1)
+        assert ModelView.mesh_path(dash.view, "meshes.xml") is None  # the model itself is not a mesh
+    finally:
+        ctx.close()
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        robot.close()

@@ -293,6 +293,7 @@ async function start() {
   }
   for (const j of doc.joints) V.mapping.set(j.key, j);
   V.world = build(doc);
+  window.drempowerView.world = V.world;
   const missing = doc.joints.filter((j) => !V.joints.has(j.model_joint)).map((j) => `${j.joint} (model joint ${j.model_joint})`);
   $("#v3d-note").textContent = `${doc.scene.file} (${doc.scene.engine}): ${V.joints.size} joint(s)` +
     (missing.length ? `; not in the model: ${missing.join(", ")}` : "");
