@@ -260,6 +260,50 @@ def test_the_3d_view_follows_a_moving_joint(browser: Any, served_arm: tuple[str,
     assert not errors, errors
 
 
+def test_the_hand_pushes_the_twin_and_the_view_follows(browser: Any, tmp_path: Path, model: Path) -> None:
+    """On the robot twin (the robot file names the model): a joint torque from the page turns the joint."""
+    pytest.importorskip("mujoco")
+    pytest.importorskip("drempower.sim.twin")
+    (tmp_path / "robot.toml").write_text('[model]\nfile = "arm.xml"\n' + ROBOT)
+    robot = open_robot(tmp_path / "robot.toml", stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(robot)  # the model the robot file names
+    ctx = browser.new_context(viewport={"width": 800, "height": 500})
+    try:
+        bus = robot.buses["arm"]
+        sims = bus.transport.bus.motors
+        p = ctx.new_page()
+        p.set_default_timeout(10_000)
+        p.goto(url)
+        p.get_by_role("button", name="Scan ids 1-63").click()
+        p.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
+        p.get_by_role("tab", name="3D").click()
+        p.wait_for_function("window.drempowerView && window.drempowerView.ready")
+        assert p.evaluate("window.drempowerView.twin") is True and p.locator("#hand-go").is_enabled()
+        bus.motor(1).set_mode(1)  # idle: the shoulder turns freely about its vertical axis
+        start = sims[1].position
+        p.locator("#hand-kind").select_option("joint")
+        p.locator("#hand-target").select_option("shoulder")
+        p.locator("#hand-torque").fill("0.2")
+        p.locator("#hand-duration").fill("0.2")
+        p.get_by_role("button", name="Push").click()
+        p.wait_for_function("document.querySelector('#msg').textContent.startsWith('push joint shoulder')")
+        deadline = time.monotonic() + 5
+        while abs(sims[1].position - start) < 10 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert sims[1].position - start > 10  # turned the way it was pushed
+        drawn, expect = _drawn_vs_state(p)
+        assert abs(drawn["shoulder"] - expect["shoulder"]) < 0.5
+        p.locator("#hand-torque").fill("500")
+        p.get_by_role("button", name="Push").click()
+        assert "hand-torque: 500 is outside -200..200 Nm" in p.locator("#msg").inner_text()
+    finally:
+        ctx.close()
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        robot.close()
+
+
 def test_without_a_model_the_view_says_how_to_get_one(page: Any) -> None:
     page.get_by_role("tab", name="3D").click()
     page.wait_for_function("window.drempowerView && window.drempowerView.error")
