@@ -39,7 +39,7 @@ ARM = """
       <geom type="cylinder" size="0.06 0.05" material="red"/>
       <body name="upper" pos="0 0 0.05" euler="0 0 30">
         <joint name="shoulder" axis="0 0 1"/>
-        <geom class="link" fromto="0 0 0 0 0 0.3"/>
+        <geom class="link" fromto="0 0 0.04 0 0 0.3"/>
         <body name="fore" pos="0 0 0.3" quat="0.9 0.1 0 0">
           <joint name="elbow" axis="0 1 0" pos="0 0 0.01" ref="10"/>
           <geom class="link" fromto="0 0 0 0.25 0 0"/>
@@ -283,8 +283,8 @@ def test_the_hand_pushes_the_twin_and_the_view_follows(browser: Any, tmp_path: P
         start = sims[1].position
         p.locator("#hand-kind").select_option("joint")
         p.locator("#hand-target").select_option("shoulder")
-        p.locator("#hand-torque").fill("0.2")
-        p.locator("#hand-duration").fill("0.2")
+        p.locator("#hand-torque").fill("1")
+        p.locator("#hand-duration").fill("0.3")
         p.get_by_role("button", name="Push").click()
         p.wait_for_function("document.querySelector('#msg').textContent.startsWith('push joint shoulder')")
         deadline = time.monotonic() + 5
