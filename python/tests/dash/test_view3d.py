@@ -23,6 +23,7 @@ from drempower.dash.model_view import NO_TWIN, ModelView  # noqa: E402
 from drempower.errors import ConfigError  # noqa: E402
 from drempower.protocol.flags import MotorError  # noqa: E402
 
+from ..conftest import REPO_ROOT  # noqa: E402
 from .conftest import serve_in_thread  # noqa: E402
 
 ARM = """
@@ -252,7 +253,7 @@ def test_the_3d_view_follows_a_moving_joint(browser: Any, served_arm: tuple[str,
         sims[2].inject_error(MotorError.DRV_FAULT)
         p.wait_for_function("window.drempowerView.highlighted().join() === 'elbow'")
         assert "error: elbow" in p.locator("#v3d-errors").inner_text()
-        p.screenshot(path=str(shots / "twin-3d.png"))
+        p.screenshot(path=str(shots / "dash-3d.png"))
         bus.motor(2).clear_error()
         p.wait_for_function("window.drempowerView.highlighted().length === 0")
     finally:
@@ -296,6 +297,55 @@ def test_the_hand_pushes_the_twin_and_the_view_follows(browser: Any, tmp_path: P
         p.locator("#hand-torque").fill("500")
         p.get_by_role("button", name="Push").click()
         assert "hand-torque: 500 is outside -200..200 Nm" in p.locator("#msg").inner_text()
+    finally:
+        ctx.close()
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        robot.close()
+
+
+ARM6 = REPO_ROOT / "examples" / "robots" / "arm6.toml"
+
+
+def test_the_example_arm_on_its_twin(browser: Any, shots: Path) -> None:
+    """The 6-joint example arm, posed by its motors on the twin: every drawn joint within 0.5 deg of its state."""
+    pytest.importorskip("mujoco")
+    pytest.importorskip("drempower.sim.twin")
+    if not ARM6.exists():
+        pytest.skip(f"{ARM6.name} is not in this tree")
+    robot = open_robot(ARM6, stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(robot)
+    ctx = browser.new_context(viewport={"width": 800, "height": 500})
+    try:
+        p = ctx.new_page()
+        p.set_default_timeout(10_000)
+        p.goto(url)
+        p.get_by_role("button", name="Scan ids 1-63").click()
+        p.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
+        p.get_by_role("tab", name="3D").click()
+        p.wait_for_function("window.drempowerView && window.drempowerView.ready")
+        pose = {"base_yaw": 0.6, "shoulder": 0.5, "elbow": -0.9, "wrist_pitch": 0.7}
+        for name, rad in pose.items():
+            robot.joint(name).set_position(rad)
+        mapping = {j["joint"]: j for j in dash.view.mapping()}
+        deadline = time.monotonic() + 8
+        while time.monotonic() < deadline:
+            drawn, motor = p.evaluate("[window.drempowerView.jointAngles(), window.drempowerView.motorAngles()]")
+            state = {
+                n: math.degrees(math.radians(motor[str(j["key"])]) / j["gear"] + j["offset"])
+                for n, j in mapping.items()
+                if str(j["key"]) in motor
+            }
+            assert len(state) == 6
+            for n, want in state.items():
+                assert abs(drawn[mapping[n]["model_joint"]] - want) < 0.5, (n, drawn, want)
+            if all(abs(state[n] - math.degrees(rad)) < 1 for n, rad in pose.items()):
+                break
+            time.sleep(0.1)
+        assert all(abs(state[n] - math.degrees(rad)) < 1 for n, rad in pose.items()), state
+        time.sleep(0.3)
+        p.screenshot(path=str(shots / "twin-3d.png"))
     finally:
         ctx.close()
         loop.call_soon_threadsafe(dash.stopping.set)

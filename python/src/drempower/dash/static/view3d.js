@@ -199,7 +199,7 @@ function startRenderer() {
   V.three.add(grid);
   V.camera = new THREE.PerspectiveCamera(40, 1, size / 100, size * 50);
   V.camera.up.set(0, 0, 1);
-  V.camera.position.copy(centre).add(new THREE.Vector3(0.9 * size, -1.2 * size, 0.7 * size));
+  V.camera.position.copy(centre).add(new THREE.Vector3(0.85 * size, -1.15 * size, 0.65 * size));
   V.controls = new THREE.OrbitControls(V.camera, V.renderer.domElement);
   V.controls.target.copy(centre);
   V.controls.addEventListener("change", () => { V.drawn = false; });
