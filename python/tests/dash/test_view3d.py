@@ -168,7 +168,7 @@ class Hand:
 
 
 async def test_a_push_is_checked_whole_before_it_reaches_the_twin(served_arm: tuple[str, Any, Any, Any]) -> None:
-    url, _, dash, _ = served_arm
+    url, hub, dash, _ = served_arm
     hand = Hand()
     dash.view._twin = hand
     fore = {"kind": "body", "target": "fore", "duration": 1}
@@ -191,6 +191,36 @@ async def test_a_push_is_checked_whole_before_it_reaches_the_twin(served_arm: tu
         ("push", "fore", (1.0, 0.0, -5.0), (0.0, 0.0, 0.0), 0.5),
         ("push_joint", "elbow", -2.0, 1.0),
     ]
+    hub.read_only = True
+    reply = await _ws_call(url, {"op": "push", "kind": "joint", "target": "elbow", "torque": -2, "duration": 1})
+    assert reply["ok"] is False and reply["error"] == "read-only dashboard: the hand from outside is refused"
+    assert len(hand.calls) == 2
+
+
+URDF = """
+<robot name="two">
+  <link name="base"><collision><geometry><cylinder radius="0.05" length="0.1"/></geometry></collision>
+    <inertial><mass value="1"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <link name="arm"><collision><origin xyz="0 0 0.15"/><geometry><box size="0.04 0.04 0.3"/></geometry></collision>
+    <inertial><mass value="0.5"/><inertia ixx="0.01" iyy="0.01" izz="0.01" ixy="0" ixz="0" iyz="0"/></inertial></link>
+  <joint name="lift" type="revolute"><parent link="base"/><child link="arm"/><origin xyz="0 0 0.05" rpy="0 0 0.5"/>
+    <axis xyz="0 1 0"/><limit lower="-1" upper="1" effort="10" velocity="5"/></joint>
+</robot>
+"""
+
+
+def test_a_urdf_model_is_read_by_mujoco(tmp_path: Path) -> None:
+    pytest.importorskip("mujoco")
+    path = tmp_path / "two.urdf"
+    path.write_text(URDF)
+    scene = load_scene(str(path))
+    assert scene["engine"] == "mujoco"
+    assert [b["name"] for b in scene["bodies"]] == ["world", "arm"]  # the fixed base is part of the world
+    assert scene["bodies"][1]["quat"] == pytest.approx([math.cos(0.25), 0, 0, math.sin(0.25)], abs=1e-6)  # yaw 0.5
+    lift = {"name": "lift", "body": 1, "type": "hinge", "axis": [0, 1, 0], "pos": [0, 0, 0], "ref": 0}
+    assert scene["joints"] == [lift]
+    shapes = [(g["type"], g["size"]) for g in scene["geoms"]]
+    assert shapes == [("cylinder", [0.05, 0.05, 0]), ("box", [0.02, 0.02, 0.15])]
 
 
 def _drawn_vs_state(p: Any) -> tuple[dict[str, float], dict[str, float]]:
@@ -215,10 +245,13 @@ def test_the_3d_view_follows_a_moving_joint(browser: Any, served_arm: tuple[str,
         p.on("pageerror", lambda e: errors.append(str(e)))
         p.goto(url)
         p.wait_for_function("window.dashStats && window.dashStats.connected")
+        p.get_by_role("tab", name="3D").click()
+        p.wait_for_function("window.drempowerView && window.drempowerView.ready")
+        p.wait_for_function("document.querySelector('#v3d-waiting').textContent.startsWith('no joint states yet')")
+        p.get_by_role("tab", name="Bus").click()
         p.get_by_role("button", name="Scan ids 1-63").click()
         p.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
         p.get_by_role("tab", name="3D").click()
-        p.wait_for_function("window.drempowerView && window.drempowerView.ready")
         assert p.evaluate("window.drempowerView.joints()") == ["shoulder", "elbow", "wrist"]
         assert "arm.xml" in p.locator("#v3d-note").inner_text()
         assert p.locator("#hand-go").is_disabled() and "needs the robot twin" in p.locator("#hand-note").inner_text()
@@ -256,6 +289,12 @@ def test_the_3d_view_follows_a_moving_joint(browser: Any, served_arm: tuple[str,
         p.screenshot(path=str(shots / "dash-3d.png"))
         bus.motor(2).clear_error()
         p.wait_for_function("window.drempowerView.highlighted().length === 0")
+        # pinned beside the other views: the plots and the 3D view side by side
+        p.get_by_label("keep beside the other views").check()
+        p.get_by_role("tab", name="Plots").click()
+        assert p.locator("#plot").is_visible() and p.locator("#v3d-canvas canvas").is_visible()
+        plot, view = (p.locator(s).bounding_box() for s in ("#plot", "#v3d-canvas"))
+        assert plot is not None and view is not None and plot["x"] + plot["width"] <= view["x"]
     finally:
         ctx.close()
     assert not errors, errors

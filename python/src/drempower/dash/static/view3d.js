@@ -298,6 +298,12 @@ async function start() {
   $("#v3d-note").textContent = `${doc.scene.file} (${doc.scene.engine}): ${V.joints.size} joint(s)` +
     (missing.length ? `; not in the model: ${missing.join(", ")}` : "");
   (window.dashListeners = window.dashListeners || []).push(onMessage);
+  const waiting = $("#v3d-waiting");
+  const hint = setInterval(() => {
+    const some = Object.keys(V.angles).length > 0;
+    waiting.textContent = some ? "" : "no joint states yet: scan the bus (Bus view) to start reading the motors";
+    if (some) clearInterval(hint);
+  }, 2000);
   startRenderer();
   window.drempowerView.ready = true;
 }
