@@ -25,6 +25,7 @@ from drempower.protocol.flags import MotorError  # noqa: E402
 
 from ..conftest import REPO_ROOT  # noqa: E402
 from .conftest import serve_in_thread  # noqa: E402
+from .test_browser import eventually  # noqa: E402
 
 ARM = """
 <mujoco model="test arm">
@@ -166,6 +167,9 @@ class Hand:
     def push_joint(self, joint: str, torque: float, duration: float = 1.0) -> None:
         self.calls.append(("push_joint", joint, torque, duration))
 
+    def release(self) -> None:
+        self.calls.append(("release",))
+
 
 async def test_a_push_is_checked_whole_before_it_reaches_the_twin(served_arm: tuple[str, Any, Any, Any]) -> None:
     url, hub, dash, _ = served_arm
@@ -191,10 +195,12 @@ async def test_a_push_is_checked_whole_before_it_reaches_the_twin(served_arm: tu
         ("push", "fore", (1.0, 0.0, -5.0), (0.0, 0.0, 0.0), 0.5),
         ("push_joint", "elbow", -2.0, 1.0),
     ]
+    reply = await _ws_call(url, {"op": "estop"})
+    assert reply["ok"] is True and hand.calls[-1] == ("release",)  # ESTOP lets go of the twin too
     hub.read_only = True
     reply = await _ws_call(url, {"op": "push", "kind": "joint", "target": "elbow", "torque": -2, "duration": 1})
     assert reply["ok"] is False and reply["error"] == "read-only dashboard: the hand from outside is refused"
-    assert len(hand.calls) == 2
+    assert len(hand.calls) == 3
 
 
 URDF = """
@@ -333,6 +339,13 @@ def test_the_hand_pushes_the_twin_and_the_view_follows(browser: Any, tmp_path: P
         assert sims[1].position - start > 10  # turned the way it was pushed
         drawn, expect = _drawn_vs_state(p)
         assert abs(drawn["shoulder"] - expect["shoulder"]) < 0.5
+        twin = robot.twin
+        p.locator("#hand-duration").fill("10")
+        p.get_by_role("button", name="Push").click()
+        p.wait_for_function("document.querySelector('#msg').textContent.endsWith('for 10 s')")
+        assert len(twin.pushes) == 1
+        p.get_by_role("button", name="ESTOP").click()
+        assert eventually(lambda: twin.pushes == [], 2)  # ESTOP lets go of the twin too
         p.locator("#hand-torque").fill("500")
         p.get_by_role("button", name="Push").click()
         assert "hand-torque: 500 is outside -200..200 Nm" in p.locator("#msg").inner_text()

@@ -48,6 +48,8 @@ class TwinHand(Protocol):
 
     def push_joint(self, joint: str, torque: float, duration: float = ...) -> None: ...
 
+    def release(self) -> None: ...
+
 
 def model_of(hub: Hub) -> str | None:
     """The model file the robot file of ``hub`` names (absolute), or None."""
@@ -164,6 +166,13 @@ class ModelView:
         if self.scene is None or self.file is None or rel not in self.scene.get("files", ()):
             return None
         return os.path.join(os.path.dirname(self.file), rel)
+
+    def release(self, who: str) -> None:
+        """End every push on the twin now (ESTOP does it: nothing from outside keeps moving a joint)."""
+        twin = self.twin
+        if twin is not None:
+            twin.release()
+            log(f"{who}: the twin's pushes released")
 
     def do_push(self, who: str, args: dict[str, Any]) -> str:
         """One push from a page: ``kind`` ``body`` (``force``, ``torque`` vectors) or ``joint`` (``torque`` Nm),
