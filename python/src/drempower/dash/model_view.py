@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 from aiohttp import web
 
 from ..errors import ConfigError, DrEmpowerError, ValidationError
-from .hub import KEYS_PER_BUS, log
+from .hub import KEYS_PER_BUS
 from .model_scene import load_scene
 
 if TYPE_CHECKING:
@@ -118,8 +118,7 @@ class ModelView:
             try:
                 self.scene = load_scene(self.file)
             except ConfigError as exc:
-                self.error = str(exc)
-                log(f"3D view: {exc}")
+                self.error = str(exc)  # shown in the view
 
     @property
     def twin(self) -> TwinHand | None:
@@ -167,18 +166,15 @@ class ModelView:
             return None
         return os.path.join(os.path.dirname(self.file), rel)
 
-    def release(self, who: str) -> None:
+    def release(self) -> None:
         """End every push on the twin now (ESTOP does it: nothing from outside keeps moving a joint)."""
         twin = self.twin
         if twin is not None:
             twin.release()
-            log(f"{who}: the twin's pushes released")
 
     def do_push(self, who: str, args: dict[str, Any]) -> str:
         """One push from a page: ``kind`` ``body`` (``force``, ``torque`` vectors) or ``joint`` (``torque`` Nm),
         on ``target`` for ``duration`` s. Checked whole before the twin is touched; returns what was done."""
-        if self.hub.read_only:
-            raise DrEmpowerError("read-only dashboard: the hand from outside is refused")
         twin = self.twin
         if twin is None or self.scene is None:
             raise DrEmpowerError(NO_TWIN)
@@ -192,7 +188,7 @@ class ModelView:
             force = _vector(args, "force", PUSH_LIMITS["force"], "N")
             torque = _vector(args, "torque", PUSH_LIMITS["torque"], "Nm")
             what = f"push body {target}: force {force} N, torque {torque} Nm for {duration:g} s"
-            log(f"{who}: {what}")
+            self.hub._control(who, what)  # refused when read-only; logged like every control action
             twin.push(str(target), force=force, torque=torque, duration=duration)
         elif kind == "joint":
             joints = [j["joint"] for j in self.mapping()]
@@ -201,7 +197,7 @@ class ModelView:
             limit = PUSH_LIMITS["torque"]
             tq = _number(args, "torque", -limit, limit, "Nm")
             what = f"push joint {target}: torque {tq:g} Nm for {duration:g} s"
-            log(f"{who}: {what}")
+            self.hub._control(who, what)
             twin.push_joint(str(target), tq, duration=duration)
         else:
             raise ValidationError(f"kind={kind!r}: expected 'body' or 'joint'")

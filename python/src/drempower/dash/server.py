@@ -229,7 +229,7 @@ class Dashboard:
         try:
             if op == "estop":
                 hub.estop(who)  # frames only, no reply awaited: sent from the loop at once
-                self.view.release(who)  # and on a twin, the hand from outside lets go
+                self.view.release()  # and on a twin, the hand from outside lets go
                 result: Any = None
             elif op == "scan":
                 loop = asyncio.get_running_loop()
