@@ -235,7 +235,7 @@ function handKind() {
   const kind = $("#hand-kind").value;
   const sc = V.doc.scene;
   const names = kind === "body" ? sc.bodies.slice(1).map((b) => b.name) : V.doc.joints.map((j) => j.joint);
-  $("#hand-target").innerHTML = names.map((n) => `<option>${n}</option>`).join("");
+  $("#hand-target").replaceChildren(...names.map((n) => new Option(n, n)));
   for (const e of document.querySelectorAll(".hand-body")) e.hidden = kind !== "body";
   for (const e of document.querySelectorAll(".hand-joint")) e.hidden = kind !== "joint";
 }
