@@ -33,6 +33,7 @@ from aiohttp import WSMsgType, web
 
 from ..errors import DrEmpowerError
 from .hub import Hub, bandwidth_range, log, param_table
+from .model_view import ModelView, add_routes
 
 __all__ = ["Dashboard", "format_url"]
 
@@ -71,10 +72,13 @@ class Dashboard:
     ``token``: required from every request and WebSocket (query ``token=`` or
     the cookie the page sets) when not None; when None, only requests whose ``Host``
     is a loopback name with the bound port are served. ``keep_running``: do not idle the
-    dashboard's motors when the last browser goes away.
+    dashboard's motors when the last browser goes away. ``model``: the model file the 3D view draws
+    (default: the one the robot file names).
     """
 
-    def __init__(self, hub: Hub, *, token: str | None = None, keep_running: bool = False) -> None:
+    def __init__(
+        self, hub: Hub, *, token: str | None = None, keep_running: bool = False, model: str | None = None
+    ) -> None:
         self.hub = hub
         self.token = token
         self.keep_running = keep_running
@@ -94,6 +98,8 @@ class Dashboard:
         self.app.router.add_get("/ws", self._ws)
         self.app.router.add_get("/static/{path:.+}", self._asset)
         self.app.router.add_get("/favicon.ico", self._no_icon)
+        self.view = ModelView(hub, model)
+        add_routes(self.app, self.view)
 
     # ------------------------------------------------------------------ http
 
@@ -223,6 +229,7 @@ class Dashboard:
         try:
             if op == "estop":
                 hub.estop(who)  # frames only, no reply awaited: sent from the loop at once
+                self.view.release()  # and on a twin, the hand from outside lets go
                 result: Any = None
             elif op == "scan":
                 loop = asyncio.get_running_loop()
@@ -256,6 +263,8 @@ class Dashboard:
                 await self._broadcast(json.dumps({"t": "watched", "watched": result}))
             elif op == "step":
                 result = await self._run(hub.do_step, who, req)
+            elif op == "push":
+                result = await self._run(self.view.do_push, who, req)
             else:
                 raise DrEmpowerError(f"op={op!r}: unknown request")
             reply.update(ok=True, result=result)

@@ -18,6 +18,7 @@
     names: {}, watched: [], pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
   };
   window.dashParams = (key) => S.pdata.get(key);
+  window.dashListeners = window.dashListeners || []; // other views' handlers of every server message
   window.dashStats = { received: 0, firstTotal: 0, serverTotal: 0, batches: 0, frames: 0, fps: 0, rate: 0, connected: false };
 
   function say(text, info) {
@@ -64,6 +65,8 @@
       S.ws.send(JSON.stringify(Object.assign({ op, req }, args || {})));
     });
   }
+  window.dashCall = call;
+  window.dashSay = say;
   async function act(op, args, okText) {
     try {
       const r = await call(op, args);
@@ -88,6 +91,7 @@
   }
 
   function onMessage(m) {
+    for (const f of window.dashListeners) f(m);
     switch (m.t) {
       case "hello":
         S.params = m.params; S.readOnly = m.read_only; S.bandwidth = m.bandwidth;
