@@ -275,7 +275,7 @@ class Hub:
 
     def budget_text(self) -> str:
         """The polling budget as the page and the docs word it."""
-        return f"{POLL_BUDGET:.0%} of the bus ({self.budget():.0f} requests/s with their replies)"
+        return f"{POLL_BUDGET * 100:.0f} % of the bus ({self.budget():.0f} requests/s with their replies)"
 
     def _planned(self, k: int) -> float:
         """Requests per second bus ``k``'s polling asks for: the state fast reads and the parameter plots."""
@@ -330,7 +330,7 @@ class Hub:
             alive = bool(self.watchdog_before) and now >= keep_alive
             if alive:
                 keep_alive = now + (self.watchdog_ms or 0) / 3000.0
-            if self.motors and (alive or not self.heartbeat_ms) and not self.scanning:
+            if self.motors and (alive or (not self.heartbeat_ms and not self.scanning)):
                 for k, (_, bus) in enumerate(self.buses):
                     ids = [key % KEYS_PER_BUS for key in sorted(self.motors) if key // KEYS_PER_BUS == k]
                     if ids and not bus.closed and (self._spend(k, len(ids)) or alive):
