@@ -714,7 +714,9 @@ class Hub:
         read of the motor, replaced by what it holds after each *Save to flash* from here.
         """
         values = self.motor(i).backup().values()
-        saved = self.saved.setdefault(i, dict(values))
+        saved = self.saved.setdefault(i, {})
+        for k, v in values.items():  # the first read of each value is its baseline
+            saved.setdefault(k, v)
         changed = [k for k, v in values.items() if k in saved and saved[k] != v]
         return {"id": i, "values": values, "changed": changed}
 
@@ -737,11 +739,15 @@ class Hub:
         forced = ", force=True" if force and p.has_domain and not p.in_domain(sent) else ""
         self._control(who, f"{self.label(i)} write_property({name!r}, {value}{forced})")
         m = self.motor(i)
+        baseline = self.saved.setdefault(i, {})
+        if p.name not in baseline:  # what it held before this session's first write of it
+            baseline[p.name] = m.read_property(name)
         m.write_property(name, sent, force=bool(forced))
         back = m.read_property(name)
         if any(name == n for _, n in _LIMIT_READS):
             self.do_limits(i)
-        return {"id": i, "name": name, "value": back, "limits": self.limits.get(i)}
+        changed = back != baseline[p.name]
+        return {"id": i, "name": name, "value": back, "limits": self.limits.get(i), "changed": changed}
 
     def do_save(self, who: str, i: int) -> None:
         """Store motor ``i``'s RAM configuration in flash; what it holds becomes the saved set."""

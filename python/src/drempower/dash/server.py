@@ -374,6 +374,7 @@ class Dashboard:
                 self.scanned.set()
             self._broadcast(json.dumps({"t": "names", "names": self.hub.names()}))
             self._broadcast(json.dumps({"t": "cards", "cards": list(self.cards.values())}))
+            self._broadcast(json.dumps({"t": "scanned", "found": found}))
             return found
 
     async def _first_scan(self) -> None:
