@@ -149,7 +149,7 @@ def test_dash_takes_a_robot_file(robot_file: Path) -> None:
         h = asyncio.run(hello())
         assert sorted(n["joint"] for n in h["names"].values()) == ["elbow", "shoulder", "wrist"]
         p.send_signal(signal.SIGTERM)
-        assert p.wait(10) == 0
+        assert p.wait(10) == 128 + signal.SIGTERM
     finally:
         if p.poll() is None:
             p.kill()
