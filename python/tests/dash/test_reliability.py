@@ -154,6 +154,27 @@ async def test_a_client_that_never_reads_is_dropped_and_its_motor_idled() -> Non
             stuck.close()
 
 
+async def test_the_dashboard_stops_at_once_with_a_client_that_never_reads() -> None:
+    bus = open_bus("sim", motors=[1], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    stuck = RawClient(_port(url))
+    try:
+        for k in range(12):  # about 5 MB of replies waiting: under the limit that drops the client
+            stuck.send({"op": "x" * 200_000, "req": k})
+        await asyncio.sleep(0.5)
+        t0 = time.monotonic()
+        loop.call_soon_threadsafe(dash.stopping.set)
+        await asyncio.to_thread(thread.join, 10)
+        assert not thread.is_alive() and time.monotonic() - t0 < 3
+    finally:
+        stuck.close()
+        if thread.is_alive():
+            loop.call_soon_threadsafe(dash.stopping.set)
+            thread.join(10)
+        hub.close()
+        bus.close()
+
+
 @pytest.fixture
 def external_sim() -> Iterator[tuple[SimBus, list[str]]]:
     sim = SimBus([1])

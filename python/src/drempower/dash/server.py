@@ -476,9 +476,12 @@ class Dashboard:
                 await asyncio.wait(self._tasks, timeout=5)
         finally:
             await self._idle("dashboard stopping")  # again: what a request under way commanded meanwhile
-            for c in list(self.clients):
+            for c in list(self.clients):  # a browser that stopped reading is not waited for
+                if c.backlog:
+                    c.drop("the dashboard is stopping")
+                    continue
                 with contextlib.suppress(Exception):
-                    await c.ws.close()
+                    await asyncio.wait_for(c.ws.close(), 1.0)
             await runner.cleanup()
             self._stop_pool.shutdown(wait=False)
 
