@@ -175,6 +175,25 @@ async def test_the_dashboard_stops_at_once_with_a_client_that_never_reads() -> N
         bus.close()
 
 
+async def test_the_watchdog_is_kept_alive_while_the_motors_send_heartbeats() -> None:
+    with dashboard([1], keep_running=True) as d:  # no browser needed to keep the motor going
+        hub, sim = d.hub, d.sim
+        deadline = time.monotonic() + 10
+        while not hub.motors and time.monotonic() < deadline:  # the first scan
+            await asyncio.sleep(0.05)
+        hub.watchdog_ms = 150
+        await asyncio.to_thread(hub.arm_watchdog, [1])
+        assert sim.motors[1].param("can.config.timeout_ms") == 150
+        await asyncio.to_thread(hub.do_rate, "test", 100)  # heartbeats: the dashboard polls no more
+        await asyncio.to_thread(hub.do_control, "test", {"action": "V", "id": 1, "speed": 20})
+        await asyncio.sleep(1.0)
+        assert sim.motors[1].state == AxisState.CLOSED_LOOP_CONTROL and sim.motors[1].speed > 10
+        await asyncio.to_thread(hub.do_rate, "test", 0)
+        await asyncio.to_thread(hub.idle_commanded, "test")
+        await asyncio.to_thread(hub.restore_watchdog)
+        assert sim.motors[1].param("can.config.timeout_ms") == 0
+
+
 @pytest.fixture
 def external_sim() -> Iterator[tuple[SimBus, list[str]]]:
     sim = SimBus([1])

@@ -98,6 +98,16 @@ def test_default_serves_three_simulated_motors_on_loopback(proc: subprocess.Pope
     assert proc.wait(10) == 128 + signal.SIGINT
 
 
+def test_help_names_one_default_connection_and_the_watchdog() -> None:
+    r = subprocess.run(
+        [sys.executable, "-m", "drempower", "dash", "--help"], capture_output=True, text=True, timeout=30
+    )
+    assert r.returncode == 0
+    assert "connection (one of; default: simulated motors 1,2,3)" in r.stdout
+    assert "python-can's configuration" not in r.stdout
+    assert "--watchdog MS" in r.stdout and "128 + the signal number" in r.stdout
+
+
 def test_bad_host_is_a_usage_error() -> None:
     r = subprocess.run(
         [sys.executable, "-m", "drempower", "dash", "--host", "not an address", "--port", "0"],

@@ -46,7 +46,11 @@ def register(sub: Any) -> None:
         help="leave the motors moving when the last browser goes away (signals still idle them)",
     )
     p.add_argument(
-        "--poll-rate", type=positive, default=50.0, metavar="HZ", help="fast reads per second per motor (default 50)"
+        "--poll-rate",
+        type=positive,
+        default=50.0,
+        metavar="HZ",
+        help="fast reads per second per motor (default 50), within a polling budget of 30 %% of the bus",
     )
     add_watchdog_arg(p)
     add_connection_args(p)

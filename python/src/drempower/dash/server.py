@@ -92,6 +92,8 @@ class Client:
         if self.gone:
             return False
         if droppable and self.backlog > SEND_BACKLOG_SAMPLES:
+            if not self.dropped:
+                log(f"{self.name} is not keeping up: sample batches to it are dropped")
             self.dropped += 1
             return False
         if self.backlog + len(text) > SEND_BACKLOG_DROP:
