@@ -335,7 +335,7 @@ def test_the_control_view_plots_the_selected_motor(page: Any, served: Served) ->
     page.wait_for_function("document.querySelectorAll('.card').length === 3")
     tab(page, "Control")
     page.locator("#ctl-motor").select_option("2")
-    page.wait_for_function("window.dashStats.controlPoints > 20")
+    page.wait_for_function("window.dashStats.controlMotor === 2 && window.dashStats.controlPoints > 20")
     labels = page.locator("#ctl-plot .u-legend .u-label").all_inner_texts()
     assert labels[1:] == ["m2 angle", "m2 angle target", "m2 speed", "m2 speed target"]
 

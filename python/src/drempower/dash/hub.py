@@ -261,7 +261,7 @@ class Hub:
         )
 
     def bitrate(self) -> int | None:
-        """The CAN bit rate (bit/s) when the transport knows it (the busiest bus's over a robot); a serial
+        """The CAN bit rate (bit/s) when the transport knows it (the slowest bus's over a robot); a serial
         link's baud rate is not the CAN bit rate and is never taken for it."""
         rates = [b.transport.wire_bitrate for _, b in self.buses]
         known = [r for r in rates if r]
@@ -331,8 +331,9 @@ class Hub:
             if alive:
                 keep_alive = now + (self.watchdog_ms or 0) / 3000.0
             if self.motors and (alive or (not self.heartbeat_ms and not self.scanning)):
+                keys = sorted(set(self.motors) | set(self.watchdog_before))
                 for k, (_, bus) in enumerate(self.buses):
-                    ids = [key % KEYS_PER_BUS for key in sorted(self.motors) if key // KEYS_PER_BUS == k]
+                    ids = [key % KEYS_PER_BUS for key in keys if key // KEYS_PER_BUS == k]
                     if ids and not bus.closed and (self._spend(k, len(ids)) or alive):
                         try:
                             bus.request([FastRead(i) for i in ids], missing_ok=True)

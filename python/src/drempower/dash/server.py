@@ -174,7 +174,7 @@ class Dashboard:
         """The signal that stopped the dashboard (SIGINT, SIGTERM, SIGHUP), if one did."""
         self.scanned = asyncio.Event()
         """Set once the first scan (started when serving begins) ended."""
-        self._scan_lock = asyncio.Lock()
+        self._scanning: asyncio.Future[list[dict[str, Any]]] | None = None
         self._stop_pool = ThreadPoolExecutor(1, thread_name_prefix="dash stop")
         """Idling runs here, never queued behind scans, steps or parameter reads."""
         self.port: int | None = None
@@ -360,24 +360,28 @@ class Dashboard:
         client.put(json.dumps(reply))
 
     async def _scan(self) -> list[dict[str, Any]]:
-        """Scan every bus (one scan at a time: a caller during a scan gets its result) and send the
-        progress, the names and the cards to every browser."""
-        async with self._scan_lock:
-            loop = asyncio.get_running_loop()
+        """Scan every bus and send the progress, the names and the cards to every browser; one scan at a
+        time: a caller during a scan gets that scan's result."""
+        if self._scanning is None or self._scanning.done():
+            self._scanning = asyncio.ensure_future(self._scan_now())
+        return await asyncio.shield(self._scanning)
 
-            def progress(done: int, of: int, found: list[dict[str, Any]]) -> None:
-                msg = json.dumps({"t": "scan", "done": done, "of": of, "found": found})
-                loop.call_soon_threadsafe(self._broadcast, msg)
+    async def _scan_now(self) -> list[dict[str, Any]]:
+        loop = asyncio.get_running_loop()
 
-            try:
-                found: list[dict[str, Any]] = await self._run(self.hub.do_scan, progress)
-                self.cards = await self._run(self.hub.do_cards)
-            finally:
-                self.scanned.set()
-            self._broadcast(json.dumps({"t": "names", "names": self.hub.names()}))
-            self._broadcast(json.dumps({"t": "cards", "cards": list(self.cards.values())}))
-            self._broadcast(json.dumps({"t": "scanned", "found": found}))
-            return found
+        def progress(done: int, of: int, found: list[dict[str, Any]]) -> None:
+            msg = json.dumps({"t": "scan", "done": done, "of": of, "found": found})
+            loop.call_soon_threadsafe(self._broadcast, msg)
+
+        try:
+            found: list[dict[str, Any]] = await self._run(self.hub.do_scan, progress)
+            self.cards = await self._run(self.hub.do_cards)
+        finally:
+            self.scanned.set()
+        self._broadcast(json.dumps({"t": "names", "names": self.hub.names()}))
+        self._broadcast(json.dumps({"t": "cards", "cards": list(self.cards.values())}))
+        self._broadcast(json.dumps({"t": "scanned", "found": found}))
+        return found
 
     async def _first_scan(self) -> None:
         try:

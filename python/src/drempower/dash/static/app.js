@@ -547,8 +547,10 @@
     }
     ctlPlot.setData(cols);
     window.dashStats.controlPoints = cols[0].length;
+    window.dashStats.controlMotor = id;
   }
   setInterval(drawControlPlot, 100);
+  on("#ctl-motor", drawControlPlot, "change");
   setInterval(() => {
     const r = latest(ctlId());
     $("#ctl-state").textContent = r ? `angle ${fmt(r[2], 2)} deg, speed ${fmt(r[3], 2)} r/min, torque ${fmt(r[4], 2)} Nm${r[5] & 1 ? ", done" : ""}${r[5] & 2 ? ", ERROR" : ""}` : "";
