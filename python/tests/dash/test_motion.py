@@ -140,3 +140,17 @@ async def test_the_first_scan_runs_by_itself_and_the_cards_carry_the_versions(pa
     fw = page.sim.motors[1].param("fw_version")
     hw = page.sim.motors[1].param("hw_version")
     assert all(c["fw"] == fw and c["hw"] == hw for c in cards), cards
+
+
+async def test_an_enable_that_does_not_take_is_an_error_not_a_success(page: Page) -> None:
+    from drempower.protocol.flags import MotorError
+
+    motor = page.sim.motors[1]
+    motor.inject_error(MotorError.DRV_FAULT)  # the axis drops to idle and refuses closed loop
+    assert motor.state == AxisState.IDLE
+    r = await page.ask("control", action="enable", id=1)
+    assert not r["ok"]
+    assert r["error"].startswith("motor 1 did not enter closed loop (state idle): its error flags are set")
+    assert (await page.ask("control", action="clear_errors", id=1))["ok"]
+    assert (await page.ask("control", action="enable", id=1))["ok"]
+    assert motor.state == AxisState.CLOSED_LOOP_CONTROL

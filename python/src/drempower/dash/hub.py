@@ -548,6 +548,21 @@ class Hub:
         if self.watchdog_ms:
             self.arm_watchdog(keys)
 
+    def _confirm_enabled(self, i: int, within: float = 0.3) -> None:
+        """After an enable: wait up to ``within`` s for closed loop, else say why not (never a silent success)."""
+        deadline = time.monotonic() + within
+        while True:
+            state = self.motor(i).read_property(_STATE, timeout=0.2)
+            if int(state) == AxisState.CLOSED_LOOP_CONTROL:
+                return
+            if time.monotonic() >= deadline:
+                error = self.motor(i).get_state().error
+                why = "its error flags are set: clear errors first" if error else "see its card"
+                raise DrEmpowerError(
+                    f"{self.label(i)} did not enter closed loop (state {state_name(state)}): {why}, then enable again"
+                )
+            time.sleep(0.02)
+
     def _target(
         self, i: int, angle: float | None = None, speed: float | None = None, torque: float | None = None
     ) -> None:
@@ -644,6 +659,7 @@ class Hub:
         elif action == "enable":
             self._control(who, f"{self.label(i)} set_mode(2) (closed loop)")
             m.set_mode(2)
+            self._confirm_enabled(i)
         elif action == "clear_errors":
             self._control(who, f"{self.label(i)} clear_error()")
             m.clear_error()
