@@ -326,7 +326,8 @@ def test_the_page_shows_what_is_on_the_bus_at_once(page: Any, served: Served) ->
     page.wait_for_function(f"document.querySelector('.card').innerText.includes('{fw}/{hw}')")
     assert "-/-" not in page.locator("#cards").inner_text()
     # the header names the CAN bit rate the load is reckoned against (the simulator delivers instantly)
-    assert page.locator("#load-of").inner_text() == "of 1 Mbit/s (CAN bit rate unknown)"
+    assert page.locator("#load-of").inner_text() == "of 1 Mbit/s (assumed)"
+    assert "the CAN bit rate is unknown" in (page.locator("#load-of").get_attribute("title") or "")
     assert page.get_by_role("button", name="Rescan ids 1-63").is_visible()
 
 
@@ -379,7 +380,7 @@ def test_tuning_axes_carry_units_and_the_step_uses_the_bandwidth_shown(page: Any
     tab(page, "Tuning")
     page.locator("#tun-motor").select_option("2")
     bw = "axis0.controller.config.input_filter_bandwidth"
-    box = page.locator(f'#tun-gains input[data-gain="{bw}"]')
+    box = page.locator(f'#tun-gains[data-motor="2"] input[data-gain="{bw}"]')
     box.wait_for()
     assert float(box.input_value()) == served.sim.motors[2].param(bw)
     box.fill("25")

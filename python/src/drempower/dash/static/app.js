@@ -15,7 +15,7 @@
     data: new Map(), // id -> {t:[], rows:[]} raw samples, oldest first
     lastT: 0, paused: false, frozen: null, xRange: null, dirty: true,
     received: 0, frames: 0, rateWin: [], paramValues: {}, changed: new Set(), runs: [],
-    names: {}, watched: [], pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
+    names: {}, watched: [], gainsSeq: 0, pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
   };
   window.dashParams = (key) => S.pdata.get(key);
   window.dashStats = { received: 0, firstTotal: 0, serverTotal: 0, batches: 0, frames: 0, fps: 0, rate: 0, connected: false };
@@ -97,8 +97,8 @@
         lockReadOnly();
         $("#busname").textContent = m.bus;
         // the load is reckoned against the CAN bit rate; a serial link's baud rate is not it
-        $("#load-of").textContent = m.bitrate ? `of CAN ${m.bitrate / 1e6} Mbit/s` : "of 1 Mbit/s (CAN bit rate unknown)";
-        $("#load-of").title = `polling budget: ${m.budget}`;
+        $("#load-of").textContent = m.bitrate ? `of CAN ${m.bitrate / 1e6} Mbit/s` : "of 1 Mbit/s (assumed)";
+        $("#load-of").title = (m.bitrate ? "" : "the CAN bit rate is unknown to this connection; ") + `polling budget: ${m.budget}`;
         $("#plot-rate").value = m.heartbeat_ms ? String(Math.round(1000 / m.heartbeat_ms)) : "0";
         if (m.motors.length) setMotors(m.motors);
         buildParamTable();
@@ -674,8 +674,10 @@
   let tunPlot = null;
   async function loadGains() {
     if (!S.motors.length) return;
-    const mode = $("#tun-mode").value, id = Number($("#tun-motor").value);
+    const mode = $("#tun-mode").value, id = Number($("#tun-motor").value), seq = ++S.gainsSeq;
     const r = await act("params", { id });
+    if (seq !== S.gainsSeq) return; // a later load (another motor or mode) owns the box
+    $("#tun-gains").dataset.motor = String(id);
     $("#tun-gains").innerHTML = GAINS[mode].map((n) =>
       `<label>${n.split(".").pop()} <input type="number" step="any" data-gain="${n}" value="${+Number(r.values[n]).toPrecision(6)}" size="8"></label>`).join("") +
       ' <button id="tun-apply">Write gains</button>';
