@@ -355,6 +355,11 @@ def test_a_move_to_an_idle_motor_shows_an_error_not_success(page: Any, served: S
     assert msg.inner_text().startswith("motor 3 is idle: it would ignore this motion, so nothing was sent")
     assert "info" not in (msg.get_attribute("class") or "")  # shown as an error, never green
     assert served.hub.targets.get(3) is None and abs(served.sim.motors[3].position - at) < 0.5
+    # the synchronised move too: an error in the message line, none in the page (the fixture checks)
+    page.evaluate("document.querySelector('#msg').textContent = ''")
+    page.get_by_role("button", name="Move selected together").click()
+    page.wait_for_function("document.querySelector('#msg').textContent.includes('motor 3 is idle')")
+    assert served.hub.targets.get(3) is None
     reset(served)
 
 
@@ -363,7 +368,10 @@ def test_a_set_counts_as_changed_this_session(page: Any, served: Served) -> None
     tab(page, "Parameters")
     page.locator("#par-motor").select_option("3")
     page.get_by_role("button", name="Read all").click()
-    page.wait_for_function("document.querySelector('#par-status').textContent.includes('changed this session')")
+    page.wait_for_function(
+        "(t => t.startsWith('motor 3:') && t.includes('changed this session'))"
+        "(document.querySelector('#par-status').textContent)"
+    )
     before = int(page.locator("#par-status").inner_text().split("; ")[-1].split()[0])
     name = "axis0.controller.config.vel_integrator_gain"
     old = served.sim.motors[3].param(name)

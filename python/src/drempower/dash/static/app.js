@@ -15,7 +15,7 @@
     data: new Map(), // id -> {t:[], rows:[]} raw samples, oldest first
     lastT: 0, paused: false, frozen: null, xRange: null, dirty: true,
     received: 0, frames: 0, rateWin: [], paramValues: {}, changed: new Set(), runs: [],
-    names: {}, watched: [], gainsSeq: 0, pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
+    names: {}, watched: [], gainsSeq: 0, paramsSeq: 0, pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
   };
   window.dashParams = (key) => S.pdata.get(key);
   window.dashStats = { received: 0, firstTotal: 0, serverTotal: 0, batches: 0, frames: 0, fps: 0, rate: 0, connected: false };
@@ -292,7 +292,7 @@
     const b = e.target.closest("button[data-card]");
     if (!b) return;
     const id = Number(b.closest(".card").dataset.id);
-    act("control", { action: b.dataset.card, id }, `${motorName(id)}: ${b.dataset.card}`);
+    return act("control", { action: b.dataset.card, id }, `${motorName(id)}: ${b.dataset.card}`);
   });
   setInterval(() => { if (!$("#view-bus").hidden) renderCards(); }, 500);
 
@@ -478,8 +478,10 @@
   function control(args, text) {
     try { return act("control", Object.assign({ id: ctlId() }, args), text); } catch (e) { return null; }
   }
-  $$("#view-control button[data-act]").forEach((b) => b.addEventListener("click", () =>
-    control({ action: b.dataset.act }, `${motorName(ctlId())}: ${b.dataset.act}`)));
+  $$("#view-control button[data-act]").forEach((b) => b.addEventListener("click", () => {
+    const r = control({ action: b.dataset.act }, `${motorName(ctlId())}: ${b.dataset.act}`);
+    if (r) r.catch(() => {}); // a refusal is shown in #msg
+  }));
   on("#pos-go", () => control({ action: $("#pos-mode").value, angle: num("#pos-angle"),
     speed: num("#pos-speed"), param: num("#pos-param") }, `${motorName(ctlId())}: move to ${$("#pos-angle").value} deg`));
   on("#jog-plus", () => control({ action: "jog", delta: num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
@@ -492,7 +494,7 @@
   on("#sync-go", () => {
     const ids = $$(".sync-on:checked").map((e) => Number(e.value));
     const angles = ids.map((i) => Number($(`.sync-angle[data-id="${i}"]`).value));
-    act("control", { action: "sync_move", ids, angles, speed: num("#sync-speed"), accel: num("#sync-accel") },
+    return act("control", { action: "sync_move", ids, angles, speed: num("#sync-speed"), accel: num("#sync-accel") },
       `synchronised move of ${ids.join(",")}`);
   });
   // the Control inputs bounded by the limits the selected motor holds (read by the server) and by the
@@ -587,8 +589,9 @@
   function markChanged(tr, on) { tr.classList.toggle("changed", on); tr.title = on ? CHANGED_TIP : ""; }
   async function readParams() {
     if (!S.motors.length) return;
-    const id = parId();
+    const id = parId(), seq = ++S.paramsSeq;
     const r = await act("params", { id });
+    if (seq !== S.paramsSeq) return; // a later read (another motor) owns the table
     S.paramValues = r.values; S.changed = new Set(r.changed);
     for (const el of $$("#par-table span.val")) {
       const v = r.values[el.dataset.val];
