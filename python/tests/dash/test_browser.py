@@ -23,7 +23,7 @@ def eventually(cond: Callable[[], bool], limit: float = 5.0) -> bool:
 
 def scan(page: Any) -> None:
     page.get_by_role("tab", name="Bus").click()
-    page.get_by_role("button", name="Scan ids 1-63").click()
+    page.get_by_role("button", name="Rescan ids 1-63").click()
     page.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
     page.wait_for_function("document.querySelectorAll('.card').length === 3")
 
@@ -114,7 +114,8 @@ def test_move_from_the_page_reaches_the_motor(page: Any, served: Served, shots: 
     # an input outside its domain is refused in the page and nothing is sent
     page.locator("#pos-speed").fill("500")
     page.get_by_role("button", name="Move", exact=True).click()
-    assert "pos-speed: 500 is outside -300..300" in page.locator("#msg").inner_text()  # the motor's vel_limit
+    msg = page.locator("#msg").inner_text()
+    assert "Position: speed r/min 500 is outside -300..300" in msg and "pos-speed" not in msg  # as labelled
     time.sleep(0.3)
     assert served.hub.targets[2][0] == 45.0  # no new command
     assert abs(served.sim.motors[2].position - 45.0) < 0.2
@@ -288,7 +289,7 @@ def test_the_read_only_page_offers_no_control_but_estop(browser: Any) -> None:
         p.goto(url)
         p.wait_for_function("window.dashStats && window.dashStats.connected")
         p.locator("#ro").wait_for(state="visible")  # shown once the server's hello says read-only
-        p.get_by_role("button", name="Scan ids 1-63").click()  # watching: scanning is allowed
+        p.get_by_role("button", name="Rescan ids 1-63").click()  # watching: scanning is allowed
         p.wait_for_function("document.querySelectorAll('.card').length === 1")
         for b in p.locator(".card button").all():
             assert b.is_disabled()
@@ -316,3 +317,95 @@ def test_the_read_only_page_offers_no_control_but_estop(browser: Any) -> None:
         thread.join(10)
         hub.close()
         bus.close()
+
+
+def test_the_page_shows_what_is_on_the_bus_at_once(page: Any, served: Served) -> None:
+    # no click: the dashboard scanned when it started, and the page shows the cards it found
+    page.wait_for_function("document.querySelectorAll('.card').length === 3")
+    fw, hw = served.sim.motors[1].param("fw_version"), served.sim.motors[1].param("hw_version")
+    page.wait_for_function(f"document.querySelector('.card').innerText.includes('{fw}/{hw}')")
+    assert "-/-" not in page.locator("#cards").inner_text()
+    # the header names the CAN bit rate the load is reckoned against (the simulator delivers instantly)
+    assert page.locator("#load-of").inner_text() == "of 1 Mbit/s (assumed)"
+    assert "the CAN bit rate is unknown" in (page.locator("#load-of").get_attribute("title") or "")
+    assert page.get_by_role("button", name="Rescan ids 1-63").is_visible()
+
+
+def test_the_control_view_plots_the_selected_motor(page: Any, served: Served) -> None:
+    reset(served)
+    page.wait_for_function("document.querySelectorAll('.card').length === 3")
+    tab(page, "Control")
+    page.locator("#ctl-motor").select_option("2")
+    page.wait_for_function("window.dashStats.controlMotor === 2 && window.dashStats.controlPoints > 20")
+    labels = page.locator("#ctl-plot .u-legend .u-label").all_inner_texts()
+    assert labels[1:] == ["m2 angle", "m2 angle target", "m2 speed", "m2 speed target"]
+
+
+def test_a_move_to_an_idle_motor_shows_an_error_not_success(page: Any, served: Served) -> None:
+    reset(served)
+    served.bus.motor(3).set_mode(1)
+    at = served.sim.motors[3].position
+    page.wait_for_function("document.querySelectorAll('.card').length === 3")
+    tab(page, "Control")
+    page.locator("#ctl-motor").select_option("3")
+    page.locator("#pos-angle").fill("90")
+    page.get_by_role("button", name="Move", exact=True).click()
+    page.wait_for_function("document.querySelector('#msg').textContent.includes('idle')")
+    msg = page.locator("#msg")
+    assert msg.inner_text().startswith("motor 3 is idle: it would ignore this motion, so nothing was sent")
+    assert "info" not in (msg.get_attribute("class") or "")  # shown as an error, never green
+    assert served.hub.targets.get(3) is None and abs(served.sim.motors[3].position - at) < 0.5
+    # the synchronised move too: an error in the message line, none in the page (the fixture checks)
+    page.evaluate("document.querySelector('#msg').textContent = ''")
+    page.get_by_role("button", name="Move selected together").click()
+    page.wait_for_function("document.querySelector('#msg').textContent.includes('motor 3 is idle')")
+    assert served.hub.targets.get(3) is None
+    reset(served)
+
+
+def test_a_set_counts_as_changed_this_session(page: Any, served: Served) -> None:
+    page.wait_for_function("document.querySelectorAll('.card').length === 3")
+    tab(page, "Parameters")
+    page.locator("#par-motor").select_option("3")
+    page.get_by_role("button", name="Read all").click()
+    page.wait_for_function(
+        "(t => t.startsWith('motor 3:') && t.includes('changed this session'))"
+        "(document.querySelector('#par-status').textContent)"
+    )
+    before = int(page.locator("#par-status").inner_text().split("; ")[-1].split()[0])
+    name = "axis0.controller.config.vel_integrator_gain"
+    old = served.sim.motors[3].param(name)
+    page.get_by_label(name, exact=True).fill(str(old + 1))
+    page.locator(f'button[data-set="{name}"]').click()
+    page.wait_for_function("document.querySelector('#par-status').textContent.includes('written')")
+    assert page.locator("#par-status").inner_text().endswith(f"; {before + 1} changed this session")
+    served.sim.motors[3].set_param(name, old)
+
+
+def test_tuning_axes_carry_units_and_the_step_uses_the_bandwidth_shown(page: Any, served: Served) -> None:
+    reset(served)
+    page.wait_for_function("document.querySelectorAll('.card').length === 3")
+    tab(page, "Tuning")
+    page.locator("#tun-motor").select_option("2")
+    bw = "axis0.controller.config.input_filter_bandwidth"
+    box = page.locator(f'#tun-gains[data-motor="2"] input[data-gain="{bw}"]')
+    box.wait_for()
+    assert float(box.input_value()) == served.sim.motors[2].param(bw)
+    box.fill("25")
+    page.locator("#tun-amp").fill("10")
+    page.locator("#tun-dur").fill("0.5")
+    page.get_by_role("button", name="Run step").click()
+    page.wait_for_selector("#tun-runs tbody tr")
+    assert served.sim.motors[2].param(bw) == 25  # the T frame carried the box's bandwidth
+    assert page.evaluate("window.dashStats.tuningAxes") == ["angle change from start / deg"]
+    assert page.locator("#tun-runs tbody tr td").nth(2).inner_text().endswith("deg")
+    page.locator("#tun-mode").select_option("velocity")
+    assert page.locator("#tun-amp-label").inner_text() == "amplitude r/min"
+    page.get_by_role("button", name="Run step").click()
+    page.wait_for_selector("#tun-runs tbody tr:nth-child(2)")
+    assert page.evaluate("window.dashStats.tuningAxes") == [
+        "angle change from start / deg",
+        "speed change from start / r/min",
+    ]
+    assert eventually(lambda: abs(served.sim.motors[2].speed) < 0.5, 2)  # the velocity step ended
+    reset(served)

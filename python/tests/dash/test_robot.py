@@ -149,7 +149,7 @@ def test_dash_takes_a_robot_file(robot_file: Path) -> None:
         h = asyncio.run(hello())
         assert sorted(n["joint"] for n in h["names"].values()) == ["elbow", "shoulder", "wrist"]
         p.send_signal(signal.SIGTERM)
-        assert p.wait(10) == 0
+        assert p.wait(10) == 128 + signal.SIGTERM
     finally:
         if p.poll() is None:
             p.kill()
@@ -176,7 +176,7 @@ def test_the_robot_page_names_joints_and_its_estop_stops_both_buses(
         p.set_default_timeout(10_000)
         p.goto(url)
         p.wait_for_function("window.dashStats && window.dashStats.connected")
-        p.get_by_role("button", name="Scan ids 1-63").click()
+        p.get_by_role("button", name="Rescan ids 1-63").click()
         p.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
         assert p.locator("#scan-text").inner_text() == "done: 3 motor(s): shoulder, elbow, wrist"
         p.wait_for_function("document.querySelectorAll('.card').length === 3")

@@ -5,12 +5,13 @@ from __future__ import annotations
 import argparse
 import ipaddress
 import json
-import sys
+import signal
 import webbrowser
 from typing import Any
 
 from ..errors import DrEmpowerError
 from ._connect import add_connection_args, open_from_args, positive
+from ._motion import add_watchdog_arg
 from ._usage import UsageError
 
 DEFAULT_HOST = "127.0.0.1"
@@ -26,8 +27,10 @@ def register(sub: Any) -> None:
             f"it serves simulated motors {','.join(map(str, DEFAULT_SIM))}. Binding beyond {DEFAULT_HOST} "
             "(--host) needs the token that the printed URL carries. When the last browser goes away (or its "
             "heartbeat stops for 0.5 s) the motors the dashboard moved are idled; Ctrl-C, SIGTERM and SIGHUP "
-            "idle them too. Control actions are logged on stderr. With --robot FILE it serves every bus of the "
-            "robot: motor cards, plots and control by joint; ESTOP stops every bus."
+            "idle them, and the command then exits with 128 + the signal number. With --watchdog MS the motors "
+            "also stop by themselves when the dashboard is killed. Control actions are logged on stderr. With "
+            "--robot FILE it serves every bus of the robot: motor cards, plots and control by joint; ESTOP stops "
+            "every bus."
         ),
     )
     p.add_argument(
@@ -43,14 +46,23 @@ def register(sub: Any) -> None:
         help="leave the motors moving when the last browser goes away (signals still idle them)",
     )
     p.add_argument(
-        "--poll-rate", type=positive, default=50.0, metavar="HZ", help="fast reads per second per motor (default 50)"
+        "--poll-rate",
+        type=positive,
+        default=50.0,
+        metavar="HZ",
+        help="fast reads per second per motor (default 50), within a polling budget of 30 %% of the bus",
     )
+    add_watchdog_arg(p)
     add_connection_args(p)
+    for group in p._action_groups:  # the dashboard's own default connection, not python-can's
+        if group.title and group.title.startswith("connection"):
+            group.title = f"connection (one of; default: simulated motors {','.join(map(str, DEFAULT_SIM))})"
     p.set_defaults(func=run, robot_whole=True)  # --robot: one dashboard over every bus
 
 
 def run(args: argparse.Namespace) -> int:
     try:
+        from ..dash import logline
         from ..dash.hub import Hub
         from ..dash.server import Dashboard, new_token
     except ImportError as exc:  # pragma: no cover - depends on the installed extras
@@ -76,7 +88,8 @@ def run(args: argparse.Namespace) -> int:
     else:
         bus = open_from_args(args, quiet=True)
     try:
-        hub = Hub(bus, read_only=args.read_only, poll_hz=args.poll_rate)
+        hub = Hub(bus, read_only=args.read_only, poll_hz=args.poll_rate, watchdog_ms=args.watchdog)
+        dash = Dashboard(hub, token=token, keep_running=args.keep_running)
         try:
 
             def ready(url: str) -> None:
@@ -85,7 +98,6 @@ def run(args: argparse.Namespace) -> int:
                     webbrowser.open(url)
 
             async def main() -> None:
-                dash = Dashboard(hub, token=token, keep_running=args.keep_running)
                 await dash.serve(args.host, args.port, ready)
 
             try:
@@ -96,5 +108,7 @@ def run(args: argparse.Namespace) -> int:
             hub.close()
     finally:
         bus.close()
-    print("drempower dash: stopped", file=sys.stderr)
-    return 0
+    how = f" ({signal.Signals(dash.signal).name})" if dash.signal else ""
+    logline.write(f"drempower dash: stopped{how}")
+    logline.flush(0.5)  # a stderr nobody reads does not hold up the exit
+    return 128 + dash.signal if dash.signal else 0

@@ -11,7 +11,6 @@ from __future__ import annotations
 
 import math
 import os
-import sys
 import threading
 import time
 from collections import deque
@@ -24,6 +23,7 @@ from ..protocol import ERROR_WORDS, FastRead, flag_info
 from ..protocol.enums import AxisState, TorqueMode, VelocityMode
 from ..protocol.parameters import Parameter, find_parameter, parameters
 from . import tuning
+from .logline import log
 
 if TYPE_CHECKING:
     from ..robot import Robot
@@ -37,9 +37,10 @@ KEYS_PER_BUS = 64
 """A motor's key on the page: ``bus index * KEYS_PER_BUS + motor id`` (on one bus: the motor id)."""
 
 _HEARTBEAT = "can.config.heartbeat_ms"
+_STATE = "axis0.current_state"
 _CARD_READS = (
     ("vbus", "vbus_voltage"),
-    ("state", "axis0.current_state"),
+    ("state", _STATE),
     ("fet_temp", "axis0.fet_thermistor.temperature"),
     ("motor_temp", "axis0.motor_thermistor.temperature"),
 )
@@ -52,9 +53,18 @@ _LIMIT_READS = (
 """The limits a motor holds that bound the Control inputs (read at scan and after a write of one)."""
 _BANDWIDTH = "axis0.controller.config.input_filter_bandwidth"
 """Its domain bounds the T-mode ``param`` (the input filter bandwidth, 1/s)."""
+MOTION_ACTIONS = frozenset({"T", "Q", "P", "jog", "step", "V", "C", "impedance", "sync_move"})
+"""Control actions that move a motor: refused while it is not in closed loop."""
 _LABEL = {w.name: w.label for w in ERROR_WORDS}
 BITS_PER_FRAME = 130
 """Bits on the wire of one 8-byte standard CAN frame with stuffing (about), for the bus load."""
+ASSUMED_BITRATE = 1_000_000
+"""The CAN bit rate (bit/s) the bus load is reckoned against when the transport does not know it."""
+POLL_BUDGET = 0.30
+"""Share of a bus the dashboard's polling (state fast reads and parameter plots of every browser
+together, request and reply frames) may take."""
+_TIMEOUT_MS = "can.config.timeout_ms"
+"""The motor's CAN timeout (ms): with ``--watchdog`` a motor idles by itself when the dashboard is gone."""
 
 
 def state_name(value: float | None) -> str | None:
@@ -88,12 +98,6 @@ def param_table() -> list[dict[str, Any]]:
         }
         for p in parameters()
     ]
-
-
-def log(text: str) -> None:
-    """One line on standard error with the wall-clock time (control actions, stops)."""
-    stamp = time.strftime("%H:%M:%S") + f".{int(time.time() * 1000) % 1000:03d}"
-    print(f"{stamp} dash: {text}", file=sys.stderr, flush=True)
 
 
 def _num(args: dict[str, Any], key: str, default: float | None = None) -> float:
@@ -162,7 +166,9 @@ class Hub:
     that sends a command.
     """
 
-    def __init__(self, bus: Bus | Robot, *, read_only: bool = False, poll_hz: float = 50.0) -> None:
+    def __init__(
+        self, bus: Bus | Robot, *, read_only: bool = False, poll_hz: float = 50.0, watchdog_ms: int | None = None
+    ) -> None:
         self.robot: Robot | None = None if isinstance(bus, Bus) else bus
         self.buses: list[tuple[str, Bus]] = [("", bus)] if isinstance(bus, Bus) else list(bus.buses.items())
         self.bus = self.buses[0][1]
@@ -174,6 +180,12 @@ class Hub:
                 self.joints[index[j.bus] * KEYS_PER_BUS + j.id] = {"joint": j.name, "bus": j.bus, "id": j.id}
         self.read_only = read_only
         self.poll_hz = poll_hz
+        self.watchdog_ms = watchdog_ms
+        """With a value, each motor found gets this CAN timeout (ms) while the dashboard runs."""
+        self.watchdog_before: dict[int, int] = {}
+        """The CAN timeout each armed motor held before (put back by :meth:`close`)."""
+        self._tokens = [0.0 for _ in self.buses]
+        self._scan_lock = threading.Lock()
         self.t0 = time.monotonic()
         self.samples: deque[Sample] = deque()
         self.samples_total = 0
@@ -248,6 +260,30 @@ class Hub:
             f"{name}: {bus.transport.description}" for name, bus in self.buses
         )
 
+    def bitrate(self) -> int | None:
+        """The CAN bit rate (bit/s) when the transport knows it (the slowest bus's over a robot); a serial
+        link's baud rate is not the CAN bit rate and is never taken for it."""
+        rates = [b.transport.wire_bitrate for _, b in self.buses]
+        known = [r for r in rates if r]
+        return min(known) if known and len(known) == len(rates) else None
+
+    def budget(self, k: int = 0) -> float:
+        """Requests per second the dashboard's polling may send on bus ``k`` (each has a reply):
+        POLL_BUDGET of its bit rate (ASSUMED_BITRATE when unknown) in frames of BITS_PER_FRAME."""
+        rate = self.buses[k][1].transport.wire_bitrate or ASSUMED_BITRATE
+        return POLL_BUDGET * rate / BITS_PER_FRAME / 2
+
+    def budget_text(self) -> str:
+        """The polling budget as the page and the docs word it."""
+        return f"{POLL_BUDGET * 100:.0f} % of the bus ({self.budget():.0f} requests/s with their replies)"
+
+    def _planned(self, k: int) -> float:
+        """Requests per second bus ``k``'s polling asks for: the state fast reads and the parameter plots."""
+        ids = [key for key in self.motors if key // KEYS_PER_BUS == k]
+        state = 0.0 if self.heartbeat_ms else len(ids) * self.poll_hz
+        plots = sum(1.0 / period for (i, _), (period, _) in self._watch.items() if i // KEYS_PER_BUS == k)
+        return state + plots
+
     def names(self) -> dict[int, dict[str, Any]]:
         """What the page shows of each key over a robot: joints of the file and motors found (none on one bus)."""
         if self.robot is None:
@@ -275,13 +311,30 @@ class Hub:
         q = self.samples
         return [q.popleft() for _ in range(len(q))]
 
+    def _spend(self, k: int, n: int) -> bool:
+        """Take ``n`` requests from bus ``k``'s polling budget; False (nothing taken) when it lacks them."""
+        if self._tokens[k] < n:
+            return False
+        self._tokens[k] -= n
+        return True
+
     def _poll_loop(self) -> None:
-        next_t = time.monotonic()
+        next_t = last = time.monotonic()
+        keep_alive = 0.0
         while not self._stop.is_set():
-            if self.motors and not self.heartbeat_ms and not self.scanning:
+            now = time.monotonic()
+            for k in range(len(self.buses)):  # the budget refills; at most 0.1 s of it is saved up
+                self._tokens[k] = min(self._tokens[k] + (now - last) * self.budget(k), self.budget(k) * 0.1)
+            last = now
+            # with --watchdog and heartbeats on, a fast read every third of the timeout keeps the motors going
+            alive = bool(self.watchdog_before) and now >= keep_alive
+            if alive:
+                keep_alive = now + (self.watchdog_ms or 0) / 3000.0
+            if self.motors and (alive or (not self.heartbeat_ms and not self.scanning)):
+                keys = sorted(set(self.motors) | set(self.watchdog_before))
                 for k, (_, bus) in enumerate(self.buses):
-                    ids = [key % KEYS_PER_BUS for key in sorted(self.motors) if key // KEYS_PER_BUS == k]
-                    if ids and not bus.closed:
+                    ids = [key % KEYS_PER_BUS for key in keys if key // KEYS_PER_BUS == k]
+                    if ids and not bus.closed and (self._spend(k, len(ids)) or alive):
                         try:
                             bus.request([FastRead(i) for i in ids], missing_ok=True)
                         except DrEmpowerError:
@@ -301,8 +354,17 @@ class Hub:
             raise ValidationError(f"rate={hz!r}: 0 (stop) or up to {self.poll_hz:g} readings/s")
         if hz == 0:
             self._watch.pop((i, p.name), None)
-        else:
-            self._watch[(i, p.name)] = (1.0 / hz, time.monotonic())
+            return
+        k = i // KEYS_PER_BUS
+        old = self._watch.get((i, p.name))
+        planned = self._planned(k) - (1.0 / old[0] if old else 0.0) + hz
+        if planned > self.budget(k):
+            raise ValidationError(
+                f"rate={hz:g}: plotting {p.name} would take this dashboard's polling to {planned:.0f} requests/s, "
+                f"over its budget of {self.budget_text()} for every browser together; "
+                "stop another parameter plot or choose a lower rate"
+            )
+        self._watch[(i, p.name)] = (1.0 / hz, time.monotonic())
 
     def _read_watched(self) -> None:
         now = time.monotonic()
@@ -310,6 +372,8 @@ class Hub:
             if now < due:
                 continue
             i, name = key
+            if not self._spend(i // KEYS_PER_BUS, 1):
+                continue  # over budget: this reading waits for a later round
             try:
                 value = self.motor(i).read_property(name, timeout=0.1)
             except DrEmpowerError:
@@ -340,12 +404,25 @@ class Hub:
             rates.append((frames - f) / (now - t))
             self._frames_mark[k] = (now, frames)
         self.frame_rate = sum(rates)
-        self.load = max(rates) * BITS_PER_FRAME / 1_000_000
+        self.load = max(
+            r * BITS_PER_FRAME / (b.transport.wire_bitrate or ASSUMED_BITRATE)
+            for r, (_, b) in zip(rates, self.buses, strict=True)
+        )
 
     # ------------------------------------------------------------------ bus view
 
     def do_scan(self, progress: Callable[[int, int, list[dict[str, Any]]], None]) -> list[dict[str, Any]]:
         """Scan ids 1-63 of every bus in four groups, calling ``progress(done, 63 * buses, found)`` after each."""
+        with self._scan_lock:
+            found = self._scan(progress)
+        self.motors = {m["id"]: m for m in found}
+        for i in self.motors:
+            self.do_limits(i)
+        if self.watchdog_ms:
+            self.arm_watchdog(sorted(self.motors))
+        return found
+
+    def _scan(self, progress: Callable[[int, int, list[dict[str, Any]]], None]) -> list[dict[str, Any]]:
         found: list[dict[str, Any]] = []
         self.scanning = True
         try:
@@ -363,10 +440,34 @@ class Hub:
                     progress(k * 63 + group[-1], 63 * len(self.buses), found)
         finally:
             self.scanning = False
-        self.motors = {m["id"]: m for m in found}
-        for i in self.motors:
-            self.do_limits(i)
         return found
+
+    def arm_watchdog(self, keys: list[int]) -> None:
+        """Give each motor of ``keys`` not yet armed the CAN timeout ``watchdog_ms``, keeping what it held
+        before: killed or cut off, the dashboard leaves no motor driving for longer than that."""
+        for i in keys:
+            if i in self.watchdog_before or self.watchdog_ms is None:
+                continue
+            m = self.motor(i)
+            try:
+                before = int(m.read_property(_TIMEOUT_MS))
+                m.write_property(_TIMEOUT_MS, self.watchdog_ms, verify=True)
+            except DrEmpowerError as exc:
+                log(f"{self.label(i)}: could not arm the watchdog ({_TIMEOUT_MS} = {self.watchdog_ms}): {exc}")
+                continue
+            self.watchdog_before[i] = before
+            log(f"{self.label(i)}: watchdog armed: {_TIMEOUT_MS} = {self.watchdog_ms} (was {before})")
+
+    def restore_watchdog(self) -> None:
+        """Put back the CAN timeout each armed motor held before."""
+        for i, ms in sorted(self.watchdog_before.items()):
+            if self.where(i)[0].closed:
+                continue
+            try:
+                self.motor(i).write_property(_TIMEOUT_MS, ms, verify=True)
+            except DrEmpowerError as exc:
+                log(f"{self.label(i)}: could not restore {_TIMEOUT_MS} to {ms}: {exc}")
+        self.watchdog_before.clear()
 
     def do_limits(self, i: int) -> dict[str, Any]:
         """Read the limits motor ``i`` holds and keep the Control-input :func:`bounds` they give."""
@@ -396,7 +497,8 @@ class Hub:
         cards: dict[int, dict[str, Any]] = {}
         for i in sorted(self.motors):
             m = self.motor(i)
-            card: dict[str, Any] = {"id": i}
+            found = self.motors.get(i, {})
+            card: dict[str, Any] = {"id": i, "fw": found.get("fw"), "hw": found.get("hw")}
             for key, name in _CARD_READS:
                 try:
                     card[key] = m.read_property(name, timeout=0.2)
@@ -428,6 +530,39 @@ class Hub:
             raise ValidationError("this dashboard is read-only (--read-only)")
         log(f"{who}: {what}")
 
+    def require_enabled(self, keys: list[int]) -> None:
+        """Refuse a motion to a motor that is not in closed loop (it would ignore it): one read of each
+        motor's axis state; then, with ``--watchdog``, arm the motors not armed yet."""
+        if self._halt.is_set():
+            raise ValidationError("the dashboard is stopping: no motion is started any more")
+        for i in keys:
+            state = self.motor(i).read_property(_STATE, timeout=0.2)
+            if int(state) != AxisState.CLOSED_LOOP_CONTROL:
+                name = state_name(state)
+                what = "is idle" if name == "idle" else f"is in state {name}, not closed loop"
+                _, node = self.where(i)
+                raise ValidationError(
+                    f"{self.label(i)} {what}: it would ignore this motion, so nothing was sent; "
+                    f"enable it first (the Enable button, or `drempower enable {node}`)"
+                )
+        if self.watchdog_ms:
+            self.arm_watchdog(keys)
+
+    def _confirm_enabled(self, i: int, within: float = 0.3) -> None:
+        """After an enable: wait up to ``within`` s for closed loop, else say why not (never a silent success)."""
+        deadline = time.monotonic() + within
+        while True:
+            state = self.motor(i).read_property(_STATE, timeout=0.2)
+            if int(state) == AxisState.CLOSED_LOOP_CONTROL:
+                return
+            if time.monotonic() >= deadline:
+                error = self.motor(i).get_state().error
+                why = "its error flags are set: clear errors first" if error else "see its card"
+                raise DrEmpowerError(
+                    f"{self.label(i)} did not enter closed loop (state {state_name(state)}): {why}, then enable again"
+                )
+            time.sleep(0.02)
+
     def _target(
         self, i: int, angle: float | None = None, speed: float | None = None, torque: float | None = None
     ) -> None:
@@ -437,6 +572,8 @@ class Hub:
     def do_control(self, who: str, args: dict[str, Any]) -> Any:
         """One control action from a page: ``args["action"]`` names it; returns what the page shows."""
         action = args.get("action")
+        if action in MOTION_ACTIONS:
+            self.require_enabled(self.keys(args) if action == "sync_move" else [self.key(args)])
         if action == "sync_move":
             ids = self.keys(args)
             angles = args.get("angles")
@@ -522,6 +659,7 @@ class Hub:
         elif action == "enable":
             self._control(who, f"{self.label(i)} set_mode(2) (closed loop)")
             m.set_mode(2)
+            self._confirm_enabled(i)
         elif action == "clear_errors":
             self._control(who, f"{self.label(i)} clear_error()")
             m.clear_error()
@@ -593,7 +731,9 @@ class Hub:
         read of the motor, replaced by what it holds after each *Save to flash* from here.
         """
         values = self.motor(i).backup().values()
-        saved = self.saved.setdefault(i, dict(values))
+        saved = self.saved.setdefault(i, {})
+        for k, v in values.items():  # the first read of each value is its baseline
+            saved.setdefault(k, v)
         changed = [k for k, v in values.items() if k in saved and saved[k] != v]
         return {"id": i, "values": values, "changed": changed}
 
@@ -616,11 +756,15 @@ class Hub:
         forced = ", force=True" if force and p.has_domain and not p.in_domain(sent) else ""
         self._control(who, f"{self.label(i)} write_property({name!r}, {value}{forced})")
         m = self.motor(i)
+        baseline = self.saved.setdefault(i, {})
+        if p.name not in baseline:  # what it held before this session's first write of it
+            baseline[p.name] = m.read_property(name)
         m.write_property(name, sent, force=bool(forced))
         back = m.read_property(name)
         if any(name == n for _, n in _LIMIT_READS):
             self.do_limits(i)
-        return {"id": i, "name": name, "value": back, "limits": self.limits.get(i)}
+        changed = back != baseline[p.name]
+        return {"id": i, "name": name, "value": back, "limits": self.limits.get(i), "changed": changed}
 
     def do_save(self, who: str, i: int) -> None:
         """Store motor ``i``'s RAM configuration in flash; what it holds becomes the saved set."""
@@ -649,7 +793,9 @@ class Hub:
     # ------------------------------------------------------------------ tuning
 
     def do_step(self, who: str, args: dict[str, Any]) -> dict[str, Any]:
-        """A step response of one motor (position: T mode with ``bandwidth``, default 300; or velocity).
+        """A step response of one motor: position (T mode with ``bandwidth`` 1/s, default the motor's
+        input filter bandwidth) or velocity. A velocity step ends here at its duration (speed 0), however
+        the run ends; a position step leaves the motor holding its target.
 
         Returns the actual series (``t`` s from the step, ``y`` deg or r/min) and its figures.
         """
@@ -663,6 +809,13 @@ class Hub:
         if not 0.1 <= duration <= 10:
             raise ValidationError(f"duration={duration}: 0.1..10 s")
         m = self.motor(i)
+        bandwidth = None
+        if mode == "position":
+            bandwidth = _num(args, "bandwidth") if "bandwidth" in args else float(m.read_property(_BANDWIDTH))
+            lo, hi = bandwidth_range()
+            if not lo <= bandwidth <= hi:
+                raise ValidationError(f"bandwidth={bandwidth:g}: the input filter bandwidth is {lo:g}..{hi:g} 1/s")
+        self.require_enabled([i])
         st = m.get_state()
         base = st.angle if mode == "position" else st.speed
         target = base + amp
@@ -675,15 +828,20 @@ class Hub:
                 m.write_property(_HEARTBEAT, 2)
             start = time.monotonic()
             if mode == "position":
-                bandwidth = _num(args, "bandwidth", 300.0)
                 self.do_control(who, {"action": "T", "id": i, "angle": target, "param": bandwidth})
             else:
                 self.do_control(who, {"action": "V", "id": i, "speed": target})
             self._halt.wait(duration)
         finally:
             sub.cancel()
-            if fast:
-                m.write_property(_HEARTBEAT, 0)
+            try:
+                if mode == "velocity" and i in self.commanded:  # the step ends here, not in the page
+                    log(f"{who}: {self.label(i)} velocity step ended: set_speed(0)")
+                    m.set_speed(0.0)
+                    self._target(i, speed=0.0)
+            finally:
+                if fast:
+                    m.write_property(_HEARTBEAT, 0)
         key = 1 if mode == "position" else 2
         ts = [s.timestamp - start for s in got if s.timestamp >= start]
         ys = [s[key] for s in got if s.timestamp >= start]
@@ -702,6 +860,7 @@ class Hub:
         for sub in self._subs:
             sub.cancel()
         self._poller.join(2.0)
+        self.restore_watchdog()
         if self.heartbeat_ms:
             for i in sorted(self.motors):
                 if self.where(i)[0].closed:

@@ -32,7 +32,8 @@ from urllib.parse import urlsplit
 from aiohttp import WSMsgType, web
 
 from ..errors import DrEmpowerError
-from .hub import Hub, bandwidth_range, log, param_table
+from .hub import Hub, bandwidth_range, param_table
+from .logline import log
 from .model_view import ModelView, add_routes
 
 __all__ = ["Dashboard", "format_url"]
@@ -59,11 +60,96 @@ def format_url(host: str, port: int, token: str | None) -> str:
     return f"http://{h}:{port}/" + (f"?token={token}" if token else "")
 
 
+SEND_BACKLOG_SAMPLES = 1 << 20
+"""Bytes a browser may have waiting to be sent before sample batches to it are dropped."""
+SEND_BACKLOG_DROP = 8 << 20
+"""Bytes waiting for one browser beyond which it is disconnected (it stopped reading)."""
+MAX_DEPTH = 32
+"""Deepest nesting of lists and objects accepted in a WebSocket message."""
+MAX_PATH = 255
+"""Longest static path served (characters); longer ones are not found."""
+
+
 @dataclass(eq=False)
 class Client:
+    """One browser: its socket, and what waits to be sent to it (sent by its own task, so a browser
+    that stops reading holds up nothing but itself)."""
+
     ws: web.WebSocketResponse
     name: str
+    transport: asyncio.Transport | None = None
     last_hb: float = field(default_factory=time.monotonic)
+    backlog: int = 0
+    dropped: int = 0
+    queue: asyncio.Queue[str] = field(default_factory=asyncio.Queue)
+    gone: bool = False
+
+    def put(self, text: str, droppable: bool = False) -> bool:
+        """Queue ``text`` for this browser without waiting; False when it was dropped instead.
+
+        A droppable message (a sample batch) is dropped while more than SEND_BACKLOG_SAMPLES
+        bytes wait; beyond SEND_BACKLOG_DROP bytes the browser is disconnected.
+        """
+        if self.gone:
+            return False
+        if droppable and self.backlog > SEND_BACKLOG_SAMPLES:
+            if not self.dropped:
+                log(f"{self.name} is not keeping up: sample batches to it are dropped")
+            self.dropped += 1
+            return False
+        if self.backlog + len(text) > SEND_BACKLOG_DROP:
+            self.drop(f"{self.backlog + len(text)} bytes waiting: it stopped reading")
+            return False
+        self.backlog += len(text)
+        self.queue.put_nowait(text)
+        return True
+
+    def drop(self, why: str) -> None:
+        """Disconnect at once (the socket is aborted, no closing handshake to wait on)."""
+        if self.gone:
+            return
+        self.gone = True
+        log(f"{self.name} dropped: {why}")
+        if self.transport is not None:
+            self.transport.abort()
+
+    async def send_loop(self) -> None:
+        """Send what is queued, in order, until the socket closes."""
+        while not self.gone:
+            text = await self.queue.get()
+            try:
+                await self.ws.send_str(text)
+            except (ConnectionError, RuntimeError):
+                self.gone = True
+                return
+            finally:
+                self.backlog -= len(text)
+
+
+def nesting(value: Any) -> int:
+    """How deep lists and objects nest in ``value`` (a scalar: 0), counted without recursion."""
+    deepest, stack = 0, [(value, 1)]
+    while stack:
+        v, d = stack.pop()
+        if isinstance(v, dict):
+            v = list(v.values())
+        if isinstance(v, list):
+            deepest = max(deepest, d)
+            stack.extend((x, d + 1) for x in v)
+    return deepest
+
+
+def parse_request(text: str) -> dict[str, Any]:
+    """A WebSocket message as a request object; ValueError naming what is wrong."""
+    try:
+        req = json.loads(text)
+    except RecursionError:
+        raise ValueError(f"message refused: lists and objects nested deeper than {MAX_DEPTH} levels") from None
+    if not isinstance(req, dict):
+        raise ValueError("message refused: expected a JSON object")
+    if nesting(req) > MAX_DEPTH:
+        raise ValueError(f"message refused: lists and objects nested deeper than {MAX_DEPTH} levels")
+    return req
 
 
 class Dashboard:
@@ -88,6 +174,11 @@ class Dashboard:
         self._n = 0
         self.cards: dict[int, dict[str, Any]] = {}
         self._tasks: set[asyncio.Future[None]] = set()
+        self.signal: int | None = None
+        """The signal that stopped the dashboard (SIGINT, SIGTERM, SIGHUP), if one did."""
+        self.scanned = asyncio.Event()
+        """Set once the first scan (started when serving begins) ended."""
+        self._scanning: asyncio.Future[list[dict[str, Any]]] | None = None
         self._stop_pool = ThreadPoolExecutor(1, thread_name_prefix="dash stop")
         """Idling runs here, never queued behind scans, steps or parameter reads."""
         self.port: int | None = None
@@ -149,12 +240,16 @@ class Dashboard:
     }
 
     async def _asset(self, request: web.Request) -> web.StreamResponse:
-        parts = request.match_info["path"].split("/")
-        if any(p in ("", ".", "..") for p in parts):
+        path = request.match_info["path"]
+        parts = path.split("/")
+        if len(path) > MAX_PATH or any(p in ("", ".", "..") for p in parts):
             raise web.HTTPNotFound()
         f = self._static.joinpath(*parts)
-        if not f.is_file():
-            raise web.HTTPNotFound()
+        try:
+            if not f.is_file():
+                raise web.HTTPNotFound()
+        except OSError:  # a name the file system refuses (too long, bad bytes): not found either
+            raise web.HTTPNotFound() from None
         ctype = self._TYPES.get("." + parts[-1].rsplit(".", 1)[-1], "application/octet-stream")
         return web.Response(body=f.read_bytes(), content_type=ctype)
 
@@ -173,11 +268,12 @@ class Dashboard:
         ws = web.WebSocketResponse(heartbeat=None, max_msg_size=8 * 1024 * 1024)
         await ws.prepare(request)
         self._n += 1
-        client = Client(ws, f"browser {self._n} ({request.remote})")
+        client = Client(ws, f"browser {self._n} ({request.remote})", request.transport)
+        sender = asyncio.ensure_future(client.send_loop())
         self.clients.add(client)
         log(f"{client.name} connected")
         hub = self.hub
-        await ws.send_str(
+        client.put(
             json.dumps(
                 {
                     "t": "hello",
@@ -190,19 +286,23 @@ class Dashboard:
                     "poll_hz": hub.poll_hz,
                     "watched": hub.watched(),
                     "bus": hub.description(),
+                    "bitrate": hub.bitrate(),
+                    "budget": hub.budget_text(),
+                    "scanning": hub.scanning or not self.scanned.is_set(),
                     "names": hub.names(),
                 }
             )
         )
+        if self.cards:
+            client.put(json.dumps({"t": "cards", "cards": list(self.cards.values())}))
         try:
             async for msg in ws:
                 if msg.type is not WSMsgType.TEXT:
                     continue
                 try:
-                    req = json.loads(msg.data)
-                except ValueError:
-                    continue
-                if not isinstance(req, dict):
+                    req = parse_request(msg.data)
+                except ValueError as exc:
+                    client.put(json.dumps({"t": "reply", "req": None, "op": None, "ok": False, "error": str(exc)}))
                     continue
                 client.last_hb = time.monotonic()
                 if req.get("op") == "hb":
@@ -211,6 +311,8 @@ class Dashboard:
                 self._tasks.add(task)
                 task.add_done_callback(self._tasks.discard)
         finally:
+            client.gone = True
+            sender.cancel()
             self.clients.discard(client)
             log(f"{client.name} disconnected")
             await self._check_watchers(f"{client.name} disconnected")
@@ -232,16 +334,7 @@ class Dashboard:
                 self.view.release()  # and on a twin, the hand from outside lets go
                 result: Any = None
             elif op == "scan":
-                loop = asyncio.get_running_loop()
-
-                def progress(done: int, of: int, found: list[dict[str, Any]]) -> None:
-                    msg = json.dumps({"t": "scan", "done": done, "of": of, "found": found})
-                    asyncio.run_coroutine_threadsafe(self._broadcast(msg), loop)
-
-                result = await self._run(hub.do_scan, progress)
-                self.cards = await self._run(hub.do_cards)
-                await self._broadcast(json.dumps({"t": "names", "names": hub.names()}))
-                await self._broadcast(json.dumps({"t": "cards", "cards": list(self.cards.values())}))
+                result = await self._scan()
             elif op == "control":
                 result = await self._run(hub.do_control, who, req)
             elif op == "rate":
@@ -260,7 +353,7 @@ class Dashboard:
             elif op == "watch":
                 hub.watch(hub.key(req), str(req.get("name")), float(req.get("hz", 0)))
                 result = hub.watched()
-                await self._broadcast(json.dumps({"t": "watched", "watched": result}))
+                self._broadcast(json.dumps({"t": "watched", "watched": result}))
             elif op == "step":
                 result = await self._run(hub.do_step, who, req)
             elif op == "push":
@@ -273,15 +366,42 @@ class Dashboard:
         except Exception as exc:  # a bug must still answer the page
             log(f"{who}: {op} failed: {exc!r}")
             reply.update(ok=False, error=f"internal error: {exc!r}")
-        if not client.ws.closed:
-            with contextlib.suppress(ConnectionError, RuntimeError):
-                await client.ws.send_str(json.dumps(reply))
+        client.put(json.dumps(reply))
 
-    async def _broadcast(self, text: str) -> None:
+    async def _scan(self) -> list[dict[str, Any]]:
+        """Scan every bus and send the progress, the names and the cards to every browser; one scan at a
+        time: a caller during a scan gets that scan's result."""
+        if self._scanning is None or self._scanning.done():
+            self._scanning = asyncio.ensure_future(self._scan_now())
+        return await asyncio.shield(self._scanning)
+
+    async def _scan_now(self) -> list[dict[str, Any]]:
+        loop = asyncio.get_running_loop()
+
+        def progress(done: int, of: int, found: list[dict[str, Any]]) -> None:
+            msg = json.dumps({"t": "scan", "done": done, "of": of, "found": found})
+            loop.call_soon_threadsafe(self._broadcast, msg)
+
+        try:
+            found: list[dict[str, Any]] = await self._run(self.hub.do_scan, progress)
+            self.cards = await self._run(self.hub.do_cards)
+        finally:
+            self.scanned.set()
+        self._broadcast(json.dumps({"t": "names", "names": self.hub.names()}))
+        self._broadcast(json.dumps({"t": "cards", "cards": list(self.cards.values())}))
+        self._broadcast(json.dumps({"t": "scanned", "found": found}))
+        return found
+
+    async def _first_scan(self) -> None:
+        try:
+            await self._scan()
+        except DrEmpowerError as exc:
+            log(f"scan failed: {exc}")
+
+    def _broadcast(self, text: str, droppable: bool = False) -> None:
+        """Queue ``text`` for every browser (never waits on a socket)."""
         for c in list(self.clients):
-            if not c.ws.closed:
-                with contextlib.suppress(ConnectionError, RuntimeError):
-                    await c.ws.send_str(text)
+            c.put(text, droppable)
 
     # ------------------------------------------------------------------ periodic work
 
@@ -296,8 +416,15 @@ class Dashboard:
         why = why if not self.clients else "no browser heartbeat for 0.5 s"
         await self._idle(why)
 
+    async def _watch_heartbeats(self) -> None:
+        """Every FLUSH_S: idle the dashboard's motors when no browser's heartbeat is live (it waits on no
+        socket, so a browser that stops reading cannot hold it up)."""
+        while not self.stopping.is_set():
+            await asyncio.sleep(FLUSH_S)
+            await self._check_watchers("last browser gone")
+
     async def _pump(self) -> None:
-        """Send samples every FLUSH_S and the status every STATUS_S; watch the browsers' heartbeats."""
+        """Queue samples every FLUSH_S and the status every STATUS_S for every browser."""
         hub = self.hub
         next_status = next_cards = 0.0
         cards_task: asyncio.Future[Any] | None = None
@@ -306,11 +433,10 @@ class Dashboard:
             samples = hub.take_samples()
             if samples:
                 self.sent_total += len(samples)
-                await self._broadcast(json.dumps({"t": "samples", "total": self.sent_total, "s": samples}))
+                self._broadcast(json.dumps({"t": "samples", "total": self.sent_total, "s": samples}), True)
             psamples = hub.take_param_samples()
             if psamples:
-                await self._broadcast(json.dumps({"t": "params", "s": psamples}))
-            await self._check_watchers("last browser gone")
+                self._broadcast(json.dumps({"t": "params", "s": psamples}), True)
             now = time.monotonic()
             if now >= next_status:
                 next_status = now + STATUS_S
@@ -324,7 +450,7 @@ class Dashboard:
                     "commanded": sorted(hub.commanded),
                     "heartbeat_ms": hub.heartbeat_ms,
                 }
-                await self._broadcast(json.dumps(status))
+                self._broadcast(json.dumps(status))
             if now >= next_cards and hub.motors and not hub.scanning and (cards_task is None or cards_task.done()):
                 next_cards = now + CARDS_S
                 cards_task = asyncio.ensure_future(self._send_cards())
@@ -332,7 +458,7 @@ class Dashboard:
     async def _send_cards(self) -> None:
         with contextlib.suppress(DrEmpowerError):
             self.cards = await self._run(self.hub.do_cards)
-            await self._broadcast(json.dumps({"t": "cards", "cards": list(self.cards.values())}))
+            self._broadcast(json.dumps({"t": "cards", "cards": list(self.cards.values())}))
 
     # ------------------------------------------------------------------ lifetime
 
@@ -349,26 +475,36 @@ class Dashboard:
             await site.start()
             self.port = int(runner.addresses[0][1])
             on_ready(format_url(host, self.port, self.token))
-            pump = asyncio.ensure_future(self._pump())
+            periodic = [asyncio.ensure_future(self._pump()), asyncio.ensure_future(self._watch_heartbeats())]
+            first_scan = asyncio.ensure_future(self._first_scan())  # what is on the bus, before any page asks
+            self._tasks.add(first_scan)
+            first_scan.add_done_callback(self._tasks.discard)
             await self.stopping.wait()
             self.hub.halt()  # step runs end early
             await self._idle("dashboard stopping")  # first, before waiting for anything
-            pump.cancel()
-            with contextlib.suppress(asyncio.CancelledError):
-                await pump
+            for task in periodic:
+                task.cancel()
+            for task in periodic:
+                with contextlib.suppress(asyncio.CancelledError):
+                    await task
             if self._tasks:  # requests under way finish (their bus calls are bounded by timeouts)
                 await asyncio.wait(self._tasks, timeout=5)
         finally:
             await self._idle("dashboard stopping")  # again: what a request under way commanded meanwhile
-            for c in list(self.clients):
+            for c in list(self.clients):  # a browser that stopped reading is not waited for
+                if c.backlog:
+                    c.drop("the dashboard is stopping")
+                    continue
                 with contextlib.suppress(Exception):
-                    await c.ws.close()
+                    await asyncio.wait_for(c.ws.close(), 1.0)
             await runner.cleanup()
             self._stop_pool.shutdown(wait=False)
 
     def _on_signal(self, sig: int) -> None:
+        if self.signal is None:
+            self.signal = sig
+        self.stopping.set()  # first: the log below never holds up the stop
         log(f"{signal.Signals(sig).name}: stopping")
-        self.stopping.set()
 
 
 def new_token() -> str:

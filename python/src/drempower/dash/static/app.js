@@ -15,7 +15,7 @@
     data: new Map(), // id -> {t:[], rows:[]} raw samples, oldest first
     lastT: 0, paused: false, frozen: null, xRange: null, dirty: true,
     received: 0, frames: 0, rateWin: [], paramValues: {}, changed: new Set(), runs: [],
-    names: {}, watched: [], pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
+    names: {}, watched: [], gainsSeq: 0, paramsSeq: 0, pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
   };
   window.dashParams = (key) => S.pdata.get(key);
   window.dashListeners = window.dashListeners || []; // other views' handlers of every server message
@@ -100,11 +100,19 @@
         $("#ro").hidden = !m.read_only;
         lockReadOnly();
         $("#busname").textContent = m.bus;
+        // the load is reckoned against the CAN bit rate; a serial link's baud rate is not it
+        $("#load-of").textContent = m.bitrate ? `of CAN ${m.bitrate / 1e6} Mbit/s` : "of 1 Mbit/s (assumed)";
+        $("#load-of").title = (m.bitrate ? "" : "the CAN bit rate is unknown to this connection; ") + `polling budget: ${m.budget}`;
         $("#plot-rate").value = m.heartbeat_ms ? String(Math.round(1000 / m.heartbeat_ms)) : "0";
         if (m.motors.length) setMotors(m.motors);
         buildParamTable();
         $("#pw-names").innerHTML = m.params.map((p) => `<option value="${p.name}">`).join("");
         setWatched(m.watched);
+        if (m.scanning) $("#scan-text").textContent = "scanning...";
+        else if (!m.motors.length) scanBus().catch(() => {}); // what is on the bus, at once
+        break;
+      case "scanned":
+        $("#scan-text").textContent = `done: ${m.found.length} motor(s): ${m.found.map((f) => shortName(f.id)).join(", ")}`;
         break;
       case "samples": onSamples(m); break;
       case "watched": setWatched(m.watched); break;
@@ -251,11 +259,12 @@
   });
 
   // ------------------------------------------------------------ bus view
-  on("#scan", async () => {
+  function scanBus() {
     $("#scan-progress").value = 0;
-    const found = await act("scan", {});
-    $("#scan-text").textContent = `done: ${found.length} motor(s): ${found.map((f) => shortName(f.id)).join(", ")}`;
-  });
+    $("#scan-text").textContent = "scanning...";
+    return act("scan", {});
+  }
+  on("#scan", scanBus);
   function fmt(v, d) { return v === null || v === undefined ? "-" : Number(v).toFixed(d); }
   function latest(id) {
     const d = S.data.get(id);
@@ -287,7 +296,7 @@
     const b = e.target.closest("button[data-card]");
     if (!b) return;
     const id = Number(b.closest(".card").dataset.id);
-    act("control", { action: b.dataset.card, id }, `${motorName(id)}: ${b.dataset.card}`);
+    return act("control", { action: b.dataset.card, id }, `${motorName(id)}: ${b.dataset.card}`);
   });
   setInterval(() => { if (!$("#view-bus").hidden) renderCards(); }, 500);
 
@@ -457,16 +466,26 @@
 
   // ------------------------------------------------------------ control
   const ctlId = () => Number($("#ctl-motor").value);
+  // an input as the page labels it: "Position: speed r/min", "jog deg", "duration s"
+  function fieldName(el) {
+    const lab = el.closest("label");
+    let name = el.getAttribute("aria-label") || (lab ? lab.textContent.trim() : el.id);
+    const fs = el.closest("fieldset");
+    if (fs) name = `${fs.querySelector("legend").textContent}: ${name}`;
+    return name;
+  }
   const num = (sel) => {
     const el = $(sel);
-    if (!el.checkValidity() || el.value === "") { say(`${el.id}: ${el.value || "(empty)"} is outside ${el.min}..${el.max}`); throw new Error("invalid"); }
+    if (!el.checkValidity() || el.value === "") { say(`${fieldName(el)} ${el.value || "(empty)"} is outside ${el.min}..${el.max}`); throw new Error("invalid"); }
     return Number(el.value);
   };
   function control(args, text) {
     try { return act("control", Object.assign({ id: ctlId() }, args), text); } catch (e) { return null; }
   }
-  $$("#view-control button[data-act]").forEach((b) => b.addEventListener("click", () =>
-    control({ action: b.dataset.act }, `${motorName(ctlId())}: ${b.dataset.act}`)));
+  $$("#view-control button[data-act]").forEach((b) => b.addEventListener("click", () => {
+    const r = control({ action: b.dataset.act }, `${motorName(ctlId())}: ${b.dataset.act}`);
+    if (r) r.catch(() => {}); // a refusal is shown in #msg
+  }));
   on("#pos-go", () => control({ action: $("#pos-mode").value, angle: num("#pos-angle"),
     speed: num("#pos-speed"), param: num("#pos-param") }, `${motorName(ctlId())}: move to ${$("#pos-angle").value} deg`));
   on("#jog-plus", () => control({ action: "jog", delta: num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
@@ -479,7 +498,7 @@
   on("#sync-go", () => {
     const ids = $$(".sync-on:checked").map((e) => Number(e.value));
     const angles = ids.map((i) => Number($(`.sync-angle[data-id="${i}"]`).value));
-    act("control", { action: "sync_move", ids, angles, speed: num("#sync-speed"), accel: num("#sync-accel") },
+    return act("control", { action: "sync_move", ids, angles, speed: num("#sync-speed"), accel: num("#sync-accel") },
       `synchronised move of ${ids.join(",")}`);
   });
   // the Control inputs bounded by the limits the selected motor holds (read by the server) and by the
@@ -505,6 +524,39 @@
   }
   const fmtL = (v) => (v === null || v === undefined ? "?" : String(+Number(v).toPrecision(6)));
   for (const sel of ["#ctl-motor", "#pos-mode", "#vel-mode"]) on(sel, applyLimits, "change");
+  // the live plot of the selected motor: angle (deg, left) and speed (r/min, right), targets dashed
+  let ctlPlot = null, ctlPlotId = null;
+  function drawControlPlot() {
+    const el = $("#ctl-plot");
+    if ($("#view-control").hidden) return;
+    const id = ctlId();
+    if (!ctlPlot || ctlPlotId !== id) {
+      if (ctlPlot) ctlPlot.destroy();
+      ctlPlotId = id;
+      ctlPlot = new uPlot({
+        width: Math.max(400, el.clientWidth || window.innerWidth - 30), height: 200, scales: { x: { time: false } },
+        axes: [{ label: "t / s" }, { scale: "deg", label: "angle / deg" }, { scale: "rpm", side: 1, label: "speed / r/min", grid: { show: false } }],
+        series: [{ label: "t" },
+          { label: `${legendName(id)} angle`, scale: "deg", stroke: COLORS[0], points: { show: false }, spanGaps: true },
+          { label: `${legendName(id)} angle target`, scale: "deg", stroke: COLORS[0], dash: [6, 4], points: { show: false }, spanGaps: true },
+          { label: `${legendName(id)} speed`, scale: "rpm", stroke: COLORS[1], points: { show: false }, spanGaps: true },
+          { label: `${legendName(id)} speed target`, scale: "rpm", stroke: COLORS[1], dash: [6, 4], points: { show: false }, spanGaps: true }],
+      }, [[], [], [], [], []], el);
+    }
+    const d = S.data.get(id), cols = [[], [], [], [], []];
+    if (d) {
+      const step = Math.max(1, Math.floor((d.t.length - lowerBound(d.t, S.lastT - 10)) / 800));
+      for (let i = lowerBound(d.t, S.lastT - 10); i < d.t.length; i += step) {
+        const r = d.rows[i];
+        cols[0].push(r[1]); cols[1].push(r[2]); cols[2].push(r[6]); cols[3].push(r[3]); cols[4].push(r[7]);
+      }
+    }
+    ctlPlot.setData(cols);
+    window.dashStats.controlPoints = cols[0].length;
+    window.dashStats.controlMotor = id;
+  }
+  setInterval(drawControlPlot, 100);
+  on("#ctl-motor", drawControlPlot, "change");
   setInterval(() => {
     const r = latest(ctlId());
     $("#ctl-state").textContent = r ? `angle ${fmt(r[2], 2)} deg, speed ${fmt(r[3], 2)} r/min, torque ${fmt(r[4], 2)} Nm${r[5] & 1 ? ", done" : ""}${r[5] & 2 ? ", ERROR" : ""}` : "";
@@ -541,8 +593,9 @@
   function markChanged(tr, on) { tr.classList.toggle("changed", on); tr.title = on ? CHANGED_TIP : ""; }
   async function readParams() {
     if (!S.motors.length) return;
-    const id = parId();
+    const id = parId(), seq = ++S.paramsSeq;
     const r = await act("params", { id });
+    if (seq !== S.paramsSeq) return; // a later read (another motor) owns the table
     S.paramValues = r.values; S.changed = new Set(r.changed);
     for (const el of $$("#par-table span.val")) {
       const v = r.values[el.dataset.val];
@@ -571,8 +624,9 @@
     if (r.limits) { S.cards[r.id] = Object.assign(S.cards[r.id] || { id: r.id }, { limits: r.limits }); applyLimits(); }
     $(`#par-table span[data-val="${name}"]`).textContent = shown(r.value);
     say(`${motorName(r.id)}: ${name} = ${shown(r.value)} (read back)`, true);
-    S.changed.add(name);
-    markChanged($(`#par-table tr[data-name="${name}"]`), true);
+    if (r.changed) S.changed.add(name); else S.changed.delete(name);
+    markChanged($(`#par-table tr[data-name="${name}"]`), r.changed);
+    $("#par-status").textContent = `${motorName(r.id)}: ${name} written; ${S.changed.size} changed this session`;
   });
   $("#par-filter").addEventListener("input", (e) => {
     const f = e.target.value.toLowerCase();
@@ -627,8 +681,10 @@
   let tunPlot = null;
   async function loadGains() {
     if (!S.motors.length) return;
-    const mode = $("#tun-mode").value, id = Number($("#tun-motor").value);
+    const mode = $("#tun-mode").value, id = Number($("#tun-motor").value), seq = ++S.gainsSeq;
     const r = await act("params", { id });
+    if (seq !== S.gainsSeq) return; // a later load (another motor or mode) owns the box
+    $("#tun-gains").dataset.motor = String(id);
     $("#tun-gains").innerHTML = GAINS[mode].map((n) =>
       `<label>${n.split(".").pop()} <input type="number" step="any" data-gain="${n}" value="${+Number(r.values[n]).toPrecision(6)}" size="8"></label>`).join("") +
       ' <button id="tun-apply">Write gains</button>';
@@ -641,18 +697,23 @@
       say(`${motorName(id)}: gains written and read back`, true);
     });
   }
-  on("#tun-mode", loadGains, "change");
+  const UNIT = { position: "deg", velocity: "r/min" };
+  on("#tun-mode", () => { $("#tun-amp-label").textContent = `amplitude ${UNIT[$("#tun-mode").value]}`; return loadGains(); }, "change");
   on("#tun-motor", loadGains, "change");
   on("#tun-run", async () => {
     const gains = $$("#tun-gains input[data-gain]").map((e) => `${e.dataset.gain.split(".").pop()}=${e.value}`).join(" ");
     say("running step...", true);
-    const r = await act("step", { id: Number($("#tun-motor").value), mode: $("#tun-mode").value,
-      amplitude: num("#tun-amp"), duration: num("#tun-dur") });
+    const args = { id: Number($("#tun-motor").value), mode: $("#tun-mode").value,
+      amplitude: num("#tun-amp"), duration: num("#tun-dur") };
+    // the position step runs with the filter bandwidth the gains box shows
+    const bw = $('#tun-gains input[data-gain$="input_filter_bandwidth"]');
+    if (args.mode === "position" && bw) args.bandwidth = Number(bw.value);
+    const r = await act("step", args);
     r.gains = gains; r.n = S.runs.length + 1;
     S.runs.push(r);
     const f = r.figures;
     $("#tun-runs tbody").insertAdjacentHTML("beforeend", `<tr><td>${r.n}</td><td>${r.mode}</td>
-      <td>${fmt(r.base, 2)} &rarr; ${fmt(r.target, 2)}</td><td>${fmt(f.rise_s, 3)}</td><td>${fmt(f.overshoot_pct, 1)}</td>
+      <td>${fmt(r.base, 2)} &rarr; ${fmt(r.target, 2)} ${UNIT[r.mode]}</td><td>${fmt(f.rise_s, 3)}</td><td>${fmt(f.overshoot_pct, 1)}</td>
       <td>${fmt(f.settling_s, 3)}</td><td>${fmt(f.steady_error, 3)}</td><td>${gains}</td></tr>`);
     say(`step run ${r.n}: rise ${fmt(f.rise_s, 3)} s, overshoot ${fmt(f.overshoot_pct, 1)} %`, true);
     drawRuns();
@@ -662,16 +723,21 @@
     const el = $("#tun-plot");
     if (tunPlot) { tunPlot.destroy(); tunPlot = null; }
     if (!S.runs.length || $("#view-tuning").hidden) return;
-    // each run relative to its start, as the step's fraction 0 -> 1 of its own amplitude
+    // each run relative to its start: position runs in deg (left axis), velocity runs in r/min (right)
     const tables = S.runs.map((r) => [r.t, r.y.map((v) => v - r.base), r.t.map(() => r.target - r.base)]);
     const data = uPlot.join(tables);
     const ser = [{ label: "t / s" }];
     S.runs.forEach((r, k) => {
-      ser.push({ label: `run ${r.n} actual`, stroke: COLORS[k % COLORS.length], spanGaps: true, points: { show: false } });
-      ser.push({ label: `run ${r.n} target`, stroke: COLORS[k % COLORS.length], dash: [6, 4], spanGaps: true, points: { show: false } });
+      const scale = UNIT[r.mode];
+      ser.push({ label: `run ${r.n} actual`, scale, stroke: COLORS[k % COLORS.length], spanGaps: true, points: { show: false } });
+      ser.push({ label: `run ${r.n} target`, scale, stroke: COLORS[k % COLORS.length], dash: [6, 4], spanGaps: true, points: { show: false } });
     });
+    const modes = ["position", "velocity"].filter((m) => S.runs.some((r) => r.mode === m));
+    const axes = [{ label: "t / s" }].concat(modes.map((m, k) => ({ scale: UNIT[m], side: k ? 1 : 3,
+      label: m === "position" ? "angle change from start / deg" : "speed change from start / r/min", grid: { show: k === 0 } })));
     tunPlot = new uPlot({ width: Math.max(400, el.clientWidth || 800), height: 320, scales: { x: { time: false } },
-      axes: [{ label: "t / s" }, { label: "change from start" }], series: ser }, data, el);
+      axes, series: ser }, data, el);
+    window.dashStats.tuningAxes = axes.slice(1).map((a) => a.label);
   }
 
   connect();
