@@ -10,7 +10,7 @@ import threading
 from contextlib import ExitStack
 from typing import Any
 
-from ..bridge.zconfig import check_endpoint
+from ..transports.zenoh_config import check_endpoint
 from ._connect import add_connection_args, connection_kwargs, parse_ids, positive, sim_time_scale
 from ._output import add_json_arg, json_line
 from ._usage import UsageError
@@ -121,7 +121,7 @@ def _prefixes(bridge: Any) -> str:
 def run(args: argparse.Namespace) -> int:
     try:
         from ..bridge.server import Bridge, BridgeOptions
-        from ..bridge.zconfig import open_session
+        from ..transports.zenoh_config import open_session
     except ImportError as exc:
         print(f"drempower bridge: {exc}; install the extra: pip install 'drempower[bridge]'", file=sys.stderr)
         return 1
