@@ -38,10 +38,10 @@ import numpy as np
 import drempower
 from drempower.bridge import rmw, rosmsg
 from drempower.bridge.server import Bridge, BridgeOptions
-from drempower.transports.zenoh_config import open_session
 from drempower.protocol.ids import Cmd, Frame, SysCmd
 from drempower.sim import SimBus
 from drempower.transports.sim import SimTransport
+from drempower.transports.zenoh_config import open_session
 
 
 def free_endpoint() -> str:

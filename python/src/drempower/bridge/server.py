@@ -15,10 +15,11 @@ import math
 import threading
 import time
 from collections import deque
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..client import ops
 from ..client.bus import Bus
 from ..client.commands import make_angles, make_speeds, make_torques
 from ..client.session import idle_frames
@@ -28,9 +29,11 @@ from ..protocol.messages import FastRead, SystemCommand
 from ..robot.config import JOINT_NAME, JointSpec
 from ..robot.joint import Gearing
 from ..transports.base import Transport
+from ..transports.zenoh_wire import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
 from . import rmw, rosmsg
 from .hub import BusHub, driven_nodes
-from .tunnel import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
+from .logs import RateLimit
+from .order import ServiceOrder
 
 __all__ = [
     "Bridge",
@@ -43,6 +46,7 @@ __all__ = [
 ]
 
 _log = logging.getLogger("drempower.bridge")
+_log.addFilter(RateLimit())  # a flood of malformed samples or commands logs one line per kind per second
 
 DEFAULT_RATE = 100.0
 """JointState messages per second."""
@@ -255,6 +259,19 @@ class BusFace:
         """Emergency stop of every motor of this bus that the bridge serves, ahead of queued client frames."""
         self.estop_now([SystemCommand(i, SysCmd.ESTOP).encode() for i in self.ids])
 
+    def send_unless(self, frames: Sequence[Frame], stale: Callable[[], bool]) -> bool:
+        """The bridge's ``frames`` on the bus ahead of queued client samples, unless ``stale()`` once the bus is free.
+
+        ``stale`` is asked while the bus is held, so an estop that makes it
+        true either finds these frames written already (and comes after them) or
+        keeps them off the bus. False when nothing was sent.
+        """
+        with self._write_lock:
+            if stale():
+                return False
+            self.hub.send(frames, BRIDGE_ORIGIN)
+            return True
+
     def _writer_loop(self) -> None:
         cv = self._queue_cv
         while True:
@@ -329,8 +346,8 @@ class BusFace:
         targets = [0] if 0 in nodes else sorted(nodes)
         self.hub.send(idle_frames(targets), BRIDGE_ORIGIN)
 
-    def close(self) -> None:
-        """Stop serving; idle every motor a client set moving. Idempotent."""
+    def stop(self) -> None:
+        """Stop serving; idle every motor a client set moving. The bus stays open (:meth:`close`). Idempotent."""
         if self._closed.is_set():
             return
         self._closed.set()
@@ -346,6 +363,10 @@ class BusFace:
             self._clients.clear()
         if nodes:
             self.idle(nodes)
+
+    def close(self) -> None:
+        """:meth:`stop`, then close the bridge's bus (idling what it commanded) and the hub. Idempotent."""
+        self.stop()
         self.bus.close()
         self.hub.close()
         try:
@@ -384,6 +405,7 @@ class Bridge:
             if not any(j.bus == name for j in specs):
                 raise ValueError(f"bus {name!r}: no joint is on it")
         self._closed = threading.Event()
+        self._order = ServiceOrder()
         self.faces: dict[str, BusFace] = {}
         """The drempower face of each bus by name (``""`` for a bus served alone)."""
         self._joints: list[tuple[JointSpec, Gearing, BusFace]] = []
@@ -474,11 +496,10 @@ class Bridge:
             self._streams[topic] = _Stream()
             self._decls.append(s.declare_subscriber(key, lambda sample, t=topic: self._on_command(t, sample)))
         self.service_keys: dict[str, str] = {}
-        services = (("estop", self._srv_estop), ("clear_errors", self._srv_clear_errors), ("enable", self._srv_enable))
-        for name, handler in services:
+        for name in ("estop", "clear_errors", "enable"):
             key, _ = declare("SS", name, rosmsg.TRIGGER)
             self.service_keys[name] = key
-            self._decls.append(s.declare_queryable(key, lambda q, h=handler: self._serve(q, h), complete=True))
+            self._decls.append(s.declare_queryable(key, lambda q, n=name: self._serve(q, n), complete=True))
         self._publisher_topics = {
             (rmw.mangle(rmw.qualify(ns, topic)), rosmsg.dds_type_name(rosmsg.FLOAT64_MULTI_ARRAY)): topic
             for topic in COMMAND_TOPICS
@@ -647,13 +668,20 @@ class Bridge:
                             _log.info("%s silent for %.3f s: idling %s", topic, timeout, ", ".join(self._names))
                             self._idle_all()
 
-    def _serve(self, query: Any, handler: Any) -> None:
+    def _serve(self, query: Any, name: str) -> None:
+        """Answer a call of service ``name``: an estop at once, the others one at a time in arrival order."""
+        if name == "estop":
+            success, message = self._srv_estop()
+        else:
+            ticket = self._order.arrive()
+            with self._order.turn(ticket):
+                handler = self._srv_enable if name == "enable" else self._srv_clear_errors
+                success, message = handler(ticket)
         att = query.attachment.to_bytes() if query.attachment is not None else b""
         try:
             req = rmw.Attachment.decode(att)
         except ValueError:
             req = rmw.Attachment(0, 0, bytes(rmw.GID_SIZE))
-        success, message = handler()
         t = rosmsg.typestore().types
         payload = rosmsg.encode(
             t[rosmsg.TRIGGER + "_Response"](success=success, message=message), rosmsg.TRIGGER + "_Response"
@@ -666,8 +694,10 @@ class Bridge:
 
         The first bus is stopped from the calling thread, every other one from
         a thread of its own, so a bus whose device stopped taking data does not
-        delay the others' stop.
+        delay the others' stop. Every ``enable`` or ``clear_errors`` call that
+        arrived before it sends nothing more (see :mod:`.order`).
         """
+        self._order.arrive(estop=True)
         failures: list[str] = []
 
         def stop(face: BusFace) -> None:
@@ -698,30 +728,31 @@ class Bridge:
             return "motors " + ", ".join(map(str, self._face.ids))
         return "joints " + ", ".join(self._names)
 
-    def _srv_clear_errors(self) -> tuple[bool, str]:
+    def _send_each(self, ticket: int, what: str, frame_of: Callable[[int], Frame]) -> tuple[bool, str]:
+        """``frame_of(id)`` to every motor served, one frame at a time, until an estop that arrived later fences it."""
         failures = []
         for face in self.faces.values():
             try:
                 for i in face.ids:
-                    face.bus.motor(i).clear_error()
-            except DrEmpowerError as exc:
-                failures.append(f"{face.name or face.prefix}: {exc}")
-        if failures:
-            return False, "clear_errors failed: " + "; ".join(failures)
-        return True, "errors cleared on " + self._served()
-
-    def _srv_enable(self) -> tuple[bool, str]:
-        """Closed loop for every joint served, on every bus (a bus that fails does not keep the others from it)."""
-        failures = []
-        for face in self.faces.values():
-            try:
-                for i in face.ids:
-                    face.bus.motor(i).set_mode(2)
+                    if not face.send_unless([frame_of(i)], lambda: self._order.stale(ticket)):
+                        return False, (
+                            f"{what} not done: an estop called after it came first (call clear_errors, then enable)"
+                        )
             except Exception as exc:  # a reply in every case: the caller waits for one
                 failures.append(f"{face.name or face.prefix}: {exc}")
         if failures:
-            return False, "enable failed: " + "; ".join(failures)
-        return True, "closed loop on " + self._served()
+            return False, f"{what} failed: " + "; ".join(failures)
+        return True, ""
+
+    def _srv_clear_errors(self, ticket: int) -> tuple[bool, str]:
+        """Clear the errors of every joint served, unless an estop that arrived later came first."""
+        ok, message = self._send_each(ticket, "clear_errors", lambda i: SystemCommand(i, SysCmd.CLEAR_ERRORS).encode())
+        return ok, message or "errors cleared on " + self._served()
+
+    def _srv_enable(self, ticket: int) -> tuple[bool, str]:
+        """Closed loop for every joint served, on every bus (a bus that fails does not keep the others from it)."""
+        ok, message = self._send_each(ticket, "enable", lambda i: ops.set_mode(i, 2).encode())
+        return ok, message or "closed loop on " + self._served()
 
     # ------------------------------------------------------------------ lifetime
 
@@ -733,8 +764,12 @@ class Bridge:
                 return face.hub.failure
         return None
 
-    def close(self) -> None:
-        """Stop serving; idle every motor set moving by the bridge or a client. Idempotent."""
+    def stop(self) -> None:
+        """Stop serving; idle every motor set moving by the bridge or a client; the buses stay open. Idempotent.
+
+        Between :meth:`stop` and :meth:`close` the buses (:attr:`faces`' ``bus``)
+        still answer: the CLI restores the motors' CAN timeout there.
+        """
         if self._closed.is_set():
             return
         self._closed.set()
@@ -745,5 +780,13 @@ class Bridge:
                 d.undeclare()
             except Exception as exc:
                 _log.debug("undeclare: %s", exc)
+        for face in self.faces.values():
+            face.stop()
+        if any(stream.driven for stream in getattr(self, "_streams", {}).values()):
+            self._idle_all()
+
+    def close(self) -> None:
+        """:meth:`stop`, then close every bus the bridge opened a client on. Idempotent."""
+        self.stop()
         for face in self.faces.values():
             face.close()
