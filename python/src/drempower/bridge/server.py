@@ -72,6 +72,8 @@ class BridgeOptions:
     command_timeout: float = DEFAULT_COMMAND_TIMEOUT
     bandwidth: float = DEFAULT_BANDWIDTH
     node_name: str = NODE_NAME
+    timeout: float | None = None
+    """Reply timeout (s) of the bridge's own requests (state stream, arming a CAN timeout); None: the transport's."""
 
     def __post_init__(self) -> None:
         if not self.joints:
@@ -128,6 +130,7 @@ class BusFace:
         prefix: str,
         joints: Sequence[JointSpec],
         command_timeout: float = DEFAULT_COMMAND_TIMEOUT,
+        timeout: float | None = None,
     ) -> None:
         import zenoh
 
@@ -161,7 +164,7 @@ class BusFace:
             self._keys["rx"], priority=zenoh.Priority.DATA_HIGH, congestion_control=zenoh.CongestionControl.DROP
         )
         self.hub = BusHub(transport, self._publish_rx, self._client_sent)
-        self.bus = Bus(self.hub.local, stop_on_close=True)
+        self.bus = Bus(self.hub.local, stop_on_close=True, timeout=timeout)
         self._decls: list[Any] = []
         self._writer = threading.Thread(target=self._writer_loop, name=f"drempower bridge writer {name}", daemon=True)
         try:
@@ -415,7 +418,7 @@ class Bridge:
             for name, t in transports.items():
                 prefix = o.prefix if not name else f"{o.prefix.strip('/')}/{name}"
                 self.faces[name] = BusFace(
-                    name, t, session, prefix, [j for j in specs if j.bus == name], o.command_timeout
+                    name, t, session, prefix, [j for j in specs if j.bus == name], o.command_timeout, o.timeout
                 )
             self._joints = [(j, Gearing(j), self.faces[j.bus]) for j in specs]
             self._names = [j.name for j in specs]

@@ -202,6 +202,7 @@ def run(args: argparse.Namespace) -> int:
             rate=args.rate,
             command_timeout=args.command_timeout,
             bandwidth=args.bandwidth,
+            timeout=args.timeout,
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
@@ -215,7 +216,7 @@ def run(args: argparse.Namespace) -> int:
     log = logging.getLogger("drempower")
     log.addHandler(err)
     propagate, log.propagate = log.propagate, False
-    previous = _stop_on_signals(stop, got)
+    previous: dict[int, Any] = {}
     try:
         with ExitStack() as stack:
             transports: dict[str, Any] = {}
@@ -228,6 +229,9 @@ def run(args: argparse.Namespace) -> int:
             bridge = Bridge(transports if spec is not None else transports[""], session, options)
             armed: list[tuple[Any, dict[int, int]]] = []
             try:
+                # After the bridge's bus (whose SIGTERM handler would close it at once): the way out below idles
+                # the motors, then puts their CAN timeout back on the still open bus.
+                previous = _stop_on_signals(stop, got)
                 for face in bridge.faces.values():
                     armed.append((face.bus, arm_watchdog(face.bus, face.ids, args.watchdog) if args.watchdog else {}))
                 if args.json:
