@@ -55,6 +55,8 @@ DEFAULT_COMMAND_TIMEOUT = 0.2
 DEFAULT_BANDWIDTH = 20.0
 """T-mode filter bandwidth (1/s) of position commands."""
 NODE_NAME = "drempower_bridge"
+FORGET_AFTER = 10.0
+"""s of silence after which a client that drives nothing is forgotten (its last estop's number too)."""
 COMMAND_TOPICS = ("position_commands", "velocity_commands", "effort_commands")
 
 
@@ -306,13 +308,23 @@ class BusFace:
                 self._heard[origin] = max(self._heard.get(origin, 0.0), time.monotonic())
 
     def check_clients(self) -> None:
-        """Idle the motors of every client that drove some and was not heard from for ``command_timeout`` s."""
+        """Idle the motors of every client that drove some and was not heard from for ``command_timeout`` s.
+
+        Also forgets clients that drive nothing and were silent for :data:`FORGET_AFTER` s (or ten
+        command timeouts), so that clients coming and going, or samples naming made-up clients,
+        leave nothing behind.
+        """
         now = time.monotonic()
         gone: list[tuple[bytes, set[int]]] = []
+        forget = now - max(FORGET_AFTER, 10 * self.command_timeout)
         with self._clients_lock:
             for client in list(self._clients):
                 if now - self._heard.get(client, 0.0) > self.command_timeout:
                     gone.append((client, self._clients.pop(client)))
+            for client, heard in list(self._heard.items()):
+                if heard < forget and client not in self._clients:
+                    del self._heard[client]
+                    self._stopped_at.pop(client, None)
         for client, nodes in gone:
             _log.info(
                 "client %s silent for %.3f s on %s; idling motors %s",
@@ -335,6 +347,7 @@ class BusFace:
         with self._clients_lock:
             nodes = self._clients.pop(client, set())
             self._heard.pop(client, None)
+            self._stopped_at.pop(client, None)
         _log.info("client %s left %s; idling motors %s", client.decode(), self.prefix, sorted(nodes) or "none")
         if nodes:
             self.clients_idled += 1  # counted first: whoever sees the motors idle sees the count
