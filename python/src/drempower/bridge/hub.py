@@ -15,7 +15,7 @@ from collections.abc import Callable, Sequence
 
 from ..protocol.ids import Cmd, Frame, SysCmd
 from ..transports.base import QueuedTransport, Transport
-from .tunnel import BRIDGE_ORIGIN
+from ..transports.zenoh_wire import BRIDGE_ORIGIN
 
 __all__ = ["BusHub", "HubPort", "driven_nodes"]
 
