@@ -7,6 +7,9 @@
   adapter (or the motor's UART); when the entry's ``channel`` names a path that does
   not exist, a symbolic link there points at the pty while the simulator runs;
 * ``sim``: a USB-CAN adapter pty (a client's own ``sim`` bus needs no server).
+
+When the file names a physics model, every bus's motors drive its joints: one
+:class:`~drempower.sim.twin.Twin` behind all the buses.
 """
 
 from __future__ import annotations
@@ -28,6 +31,7 @@ from ..sim import (
     attach_socketcand,
     attach_uart_pty,
 )
+from ..sim.twin import couple_robot
 from ._usage import UsageError
 
 __all__ = ["serve_robot"]
@@ -102,6 +106,12 @@ def serve_robot(args: argparse.Namespace, show: Callable[..., None], stop: threa
         )
         for name in spec.buses
     }
+    twin = couple_robot(spec, buses)
+    if twin is not None:
+        show(
+            {"model": twin.source, "joints": twin.joints},
+            f"physics: {os.path.basename(twin.source)} (MuJoCo), joints {', '.join(twin.joints)}",
+        )
     with ExitStack() as stack:
         for name, bus in buses.items():
             stack.enter_context(SimRunner(bus, args.time_scale))

@@ -9,7 +9,7 @@ from __future__ import annotations
 import os
 from collections.abc import Callable, Iterable, Mapping
 from types import TracebackType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..client import AsyncBus, AsyncMotor, open_bus_async
 from ..client.commands import PositionMode
@@ -19,7 +19,7 @@ from ..client.state import MotorState
 from ..client.timeouts import checks_times
 from ..errors import DrEmpowerError, ValidationError
 from ..protocol.messages import Message
-from .config import JointSpec, RobotSpec, bus_options, load_robot
+from .config import JointSpec, RobotSpec, load_robot
 from .flavours import AsyncPart, AsyncRobotBase
 from .joint import Gearing, JointState
 from .names import by_bus, check_commands, opening_failed, per_bus
@@ -34,6 +34,10 @@ from .plan import (
     q_time,
     round_move_time,
 )
+from .sim_twin import open_options
+
+if TYPE_CHECKING:
+    from ..sim.twin import Twin
 
 __all__ = ["AsyncJoint", "AsyncRobot", "open_robot_async"]
 
@@ -268,6 +272,18 @@ class AsyncRobot(AsyncRobotBase):
 
         await self._stop_each({b: stop(b) for b in groups})
 
+    @property
+    def twin(self) -> Twin | None:
+        """The physics twin the robot's simulated buses drive (None: no model, or no sim bus)."""
+        from ..sim.twin import twin_of
+
+        for bus in self.buses.values():
+            sim = getattr(bus.transport, "bus", None)
+            twin = None if sim is None else twin_of(sim)
+            if twin is not None:
+                return twin
+        return None
+
     # ------------------------------------------------------------------ lifetime
 
     @property
@@ -323,9 +339,10 @@ def open_robot_async(
     overrides = {"timeout": timeout, "retries": retries, "stop_on_close": stop_on_close, "start": start, "sim": sim}
     buses: dict[str, AsyncBus] = {}
     try:
+        options = open_options(spec, overrides)
         for name in spec.buses:
             try:
-                buses[name] = open_bus_async(**bus_options(spec, name, overrides))
+                buses[name] = open_bus_async(**options[name])
             except DrEmpowerError as exc:
                 raise opening_failed(spec, name, exc) from exc
         return AsyncRobot(spec, buses)

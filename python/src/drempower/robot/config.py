@@ -19,6 +19,20 @@
 Every key of a bus entry but ``interface`` goes to :func:`drempower.open_bus`
 (``channel``, ``bitrate``, ``host``, ``port``, ``timeout``, ``time_scale``...).
 A ``"sim"`` bus simulates the motors of its joints.
+
+A robot file may name a physics model (MJCF, or URDF through MuJoCo's import;
+the path is relative to the robot file): its simulated motors then drive the
+model's joints (see :mod:`drempower.sim.twin`)::
+
+    [model]
+    file = "arm.xml"
+    [joints.shoulder]
+    bus = "left"
+    id = 1
+    model_joint = "shoulder"   # the model's joint (default: the joint's name)
+    friction = "model"         # only the model's damping and friction act (default "motor": both)
+    [joints.shoulder.sim_params]   # a simulated motor's configuration (its gains tuned for the arm)
+    "axis0.controller.config.pos_gain" = 20.0
 """
 
 from __future__ import annotations
@@ -33,13 +47,24 @@ from typing import Any
 
 from ..errors import ConfigError
 from ..protocol.ids import MAX_NODE
+from ..protocol.parameters import parameter
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib  # type: ignore[import-not-found, no-redef, unused-ignore]
 
-__all__ = ["bus_options", "BusSpec", "JointSpec", "RobotSpec", "load_robot", "parse_robot", "JOINT_NAME"]
+__all__ = [
+    "bus_options",
+    "BusSpec",
+    "JointSpec",
+    "ModelSpec",
+    "RobotSpec",
+    "load_robot",
+    "parse_robot",
+    "JOINT_NAME",
+    "FRICTIONS",
+]
 
 JOINT_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
 """What a joint or bus name looks like: it starts with a letter or ``_``, so it never reads as a motor id."""
@@ -64,15 +89,23 @@ class JointSpec:
     id: int
     gear: float = 1.0
     offset: float = 0.0
+    model_joint: str | None = None
+    """The physics model's joint this joint is (None: the joint's own name)."""
+    friction: str = "motor"
+    """``"motor"``: the motor's friction and rotor inertia act besides the model's; ``"model"``: only the model's."""
+    sim_params: Mapping[str, float] = field(default_factory=dict)
+    """Parameters (by name) a simulated motor of this joint starts with when it has no saved configuration."""
 
 
 @dataclass(frozen=True)
 class RobotSpec:
-    """Buses and joints, in the order of the file; ``source`` names where they came from."""
+    """Buses and joints, in the order of the file; ``source`` names where they came from;
+    ``model`` the physics model of the robot, if the file names one."""
 
     buses: Mapping[str, BusSpec]
     joints: Mapping[str, JointSpec]
     source: str = "robot"
+    model: ModelSpec | None = None
 
     def joints_on(self, bus: str) -> list[JointSpec]:
         """The joints of bus ``bus``, in file order."""
@@ -109,11 +142,15 @@ def _number(value: object, where: str, *, nonzero: bool = False) -> float:
     return float(value)
 
 
-def parse_robot(data: Mapping[str, Any], source: str = "robot") -> RobotSpec:
-    """Check a robot description (the TOML file as a dict); raises :class:`ConfigError` naming the entry and key."""
-    unknown = sorted(set(data) - {"buses", "joints"})
+def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None = None) -> RobotSpec:
+    """Check a robot description (the TOML file as a dict); raises :class:`ConfigError` naming the entry and key.
+
+    ``base``: the folder a model's relative path starts from (default: the current one)."""
+    unknown = sorted(set(data) - {"buses", "joints", "model"})
     if unknown:
-        raise ConfigError(f"{source}: unknown section {unknown[0]!r}: a robot file has [buses.NAME] and [joints.NAME]")
+        raise ConfigError(
+            f"{source}: unknown section {unknown[0]!r}: a robot file has [buses.NAME], [joints.NAME] and [model]"
+        )
     buses: dict[str, BusSpec] = {}
     for name, entry in _table(data.get("buses", {}), f"{source}: buses").items():
         where = f"{source}: [buses.{name}]"
@@ -133,9 +170,11 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot") -> RobotSpec:
         where = f"{source}: [joints.{name}]"
         _name("joint", name, where)
         j = _table(entry, where)
-        extra = sorted(set(j) - _JOINT_KEYS)
+        extra = sorted(set(j) - _JOINT_KEYS - _MODEL_JOINT_KEYS)
         if extra:
-            raise ConfigError(f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear and offset")
+            raise ConfigError(
+                f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear, offset, model_joint and friction"
+            )
         bus = j.get("bus")
         if bus not in buses:
             raise ConfigError(f"{where}: bus={bus!r}: not one of the buses ({', '.join(buses)})")
@@ -148,13 +187,14 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot") -> RobotSpec:
         taken[(bus, ident)] = name
         gear = _number(j.get("gear", 1.0), f"{where}: gear", nonzero=True)
         offset = _number(j.get("offset", 0.0), f"{where}: offset")
-        joints[name] = JointSpec(name, bus, ident, gear, offset)
+        joints[name] = JointSpec(name, bus, ident, gear, offset, *_model_joint(j, where))
     if not joints:
         raise ConfigError(f"{source}: no [joints.NAME] entry: a robot needs at least one joint")
     empty = [b for b in buses if not any(j.bus == b for j in joints.values())]
     if empty:
         raise ConfigError(f"{source}: [buses.{empty[0]}] carries no joint: give it one or remove it")
-    return RobotSpec(buses, joints, source)
+    model = _model(data["model"], source, base) if "model" in data else None
+    return RobotSpec(buses, joints, source, model)
 
 
 def load_robot(path: str | os.PathLike[str]) -> RobotSpec:
@@ -167,7 +207,7 @@ def load_robot(path: str | os.PathLike[str]) -> RobotSpec:
         raise ConfigError(f"cannot read robot file {where}: {exc.strerror or exc}") from exc
     except tomllib.TOMLDecodeError as exc:
         raise ConfigError(f"{where}: not valid TOML: {exc}") from exc
-    return parse_robot(data, where)
+    return parse_robot(data, where, os.path.dirname(os.path.abspath(where)))
 
 
 def bus_options(spec: RobotSpec, bus: str, overrides: Mapping[str, Any]) -> dict[str, Any]:
@@ -181,3 +221,53 @@ def bus_options(spec: RobotSpec, bus: str, overrides: Mapping[str, Any]) -> dict
         elif value is not None:
             kw[key] = value
     return kw
+
+
+# ---------------------------------------------------------------------- the physics model
+
+FRICTIONS = ("motor", "model")
+"""A joint's ``friction``: the motor's own friction and rotor inertia act too, or only the model's."""
+_MODEL_JOINT_KEYS = frozenset(("model_joint", "friction", "sim_params"))
+_MODEL_KEYS = frozenset(("file",))
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """The robot's physics model: ``file`` (absolute path) of an MJCF or URDF model."""
+
+    file: str
+
+
+def _model(value: object, source: str, base: str | None) -> ModelSpec:
+    where = f"{source}: [model]"
+    entry = _table(value, where)
+    extra = sorted(set(entry) - _MODEL_KEYS)
+    if extra:
+        raise ConfigError(f"{where}: unknown key {extra[0]!r}: [model] has file")
+    file = entry.get("file")
+    if not isinstance(file, str) or not file:
+        raise ConfigError(f"{where}: file={file!r}: give the model's MJCF or URDF file, e.g. 'arm.xml'")
+    path = os.path.normpath(os.path.join(base or os.getcwd(), os.path.expanduser(file)))
+    if not os.path.isfile(path):
+        raise ConfigError(f"{where}: file={file!r}: no such file ({path})")
+    return ModelSpec(path)
+
+
+def _model_joint(j: Mapping[str, Any], where: str) -> tuple[str | None, str, dict[str, float]]:
+    """A joint entry's ``model_joint``, ``friction`` and ``sim_params``."""
+    model_joint = j.get("model_joint")
+    if model_joint is not None and (not isinstance(model_joint, str) or not model_joint):
+        raise ConfigError(f"{where}: model_joint={model_joint!r}: give the name of a joint of the model")
+    friction = j.get("friction", "motor")
+    if friction not in FRICTIONS:
+        raise ConfigError(f"{where}: friction={friction!r}: one of {', '.join(map(repr, FRICTIONS))}")
+    params: dict[str, float] = {}
+    for key, value in _table(j.get("sim_params", {}), f"{where}: sim_params").items():
+        try:
+            p = parameter(key)
+        except ValueError:
+            raise ConfigError(f"{where}: sim_params: {key!r} is not a parameter name (see drempower params)") from None
+        if not p.writable:
+            raise ConfigError(f"{where}: sim_params: {key!r} is read-only")
+        params[p.name] = _number(value, f"{where}: sim_params: {key}")
+    return model_joint, friction, params

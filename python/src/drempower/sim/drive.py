@@ -12,16 +12,18 @@ setpoint with the current-mode speed limiter; impedance mode applies
 The mechanics: inertia with viscous and Coulomb friction (the shaft sticks while
 the net torque stays below the Coulomb torque). The speed-proportional part of
 the controller torque is integrated implicitly, so that large gains stay stable
-at the 1 ms step.
+at the 1 ms step. A :class:`Plant` (a physics model, :mod:`drempower.sim.twin`)
+may move the shaft instead: the drive then only computes its torque.
 """
 
 from __future__ import annotations
 
 import math
+from typing import Protocol
 
 from .profile import Profile, plan
 
-__all__ = ["Drive", "TORQUE", "VELOCITY", "POSITION", "IMPEDANCE"]
+__all__ = ["Drive", "Plant", "TORQUE", "VELOCITY", "POSITION", "IMPEDANCE"]
 
 TORQUE, VELOCITY, POSITION, IMPEDANCE = 1, 2, 3, 4
 """Control modes (ControlMode values)."""
@@ -29,6 +31,18 @@ PASSTHROUGH, VEL_RAMP, POS_FILTER, TRAP_TRAJ, TORQUE_RAMP = 1, 2, 3, 5, 6
 """Input modes (InputMode values)."""
 
 TAU = 2.0 * math.pi
+
+
+class Plant(Protocol):
+    """What moves the output shaft in place of the drive's own mechanics.
+
+    Each step the drive computes ``torque`` (Nm) and ``gain``, the torque's
+    derivative with respect to the shaft speed (Nm per turn/s, to integrate
+    implicitly); the plant applies them and writes ``pos`` (turns) and ``vel`` (turn/s).
+    """
+
+    def sync(self, now: float) -> None:
+        """Bring the drives' ``pos`` and ``vel`` up to simulated time ``now`` (s), before their step."""
 
 
 class Drive:
@@ -41,6 +55,7 @@ class Drive:
         "ext",
         "fc",
         "g_idle",
+        "gain",
         "imp_kd",
         "imp_kp",
         "in_pos",
@@ -59,6 +74,7 @@ class Drive:
         "locked",
         "mode",
         "omega",
+        "plant",
         "pos",
         "pos_sp",
         "prof_t",
@@ -101,6 +117,10 @@ class Drive:
         self.g_idle = 0.0
         """Idle damping (Nm per turn/s) applied while not in closed loop."""
         self.locked = False
+        self.plant: Plant | None = None
+        """Moves the shaft instead of the mechanics below (None: the drive's own)."""
+        self.gain = 0.0
+        """The last step's torque derivative with respect to speed (Nm per turn/s), for a plant."""
 
     # ------------------------------------------------------------------ commands
 
@@ -253,6 +273,9 @@ class Drive:
             g = self.g_idle
             tq = -g * vel
         self.torque = tq
+        if self.plant is not None:
+            self.gain = g
+            return
         if self.locked:
             self.vel = 0.0
             return

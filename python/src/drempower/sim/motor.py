@@ -312,6 +312,9 @@ class SimMotor:
     def step(self, dt: float, now: float) -> None:
         """Advance by ``dt`` s to simulated time ``now``."""
         d = self.drive
+        plant = d.plant
+        if plant is not None:
+            plant.sync(now)
         d.step(dt)
         self.time = now
         if self.state == AxisState.ENCODER_OFFSET_CALIBRATION:

@@ -10,6 +10,7 @@ from typing import Any
 
 from ..errors import ValidationError
 from ..protocol.ids import Frame
+from ..robot.config import RobotSpec, load_robot
 from ..sim import SimBus, SimRunner
 from .base import QueuedTransport
 from .fds import close_fds, drain, nonblocking_pipe
@@ -37,6 +38,10 @@ class SimTransport(QueuedTransport):
     sleep behaving as on real time. Time passes only while a call waits: between
     calls the motors stand still in time. The default ``clock="wall"`` runs the
     simulation on wall time (scaled by ``time_scale``).
+
+    ``robot`` (a robot file or :class:`~drempower.robot.RobotSpec`) simulates the motors
+    of its bus ``robot_bus`` (default: its only bus), coupled to its physics model when
+    it names one (see :mod:`drempower.sim.twin`).
     """
 
     default_timeout = 0.5
@@ -49,6 +54,8 @@ class SimTransport(QueuedTransport):
         time_scale: float = 1.0,
         clock: str = "wall",
         bus: SimBus | None = None,
+        robot: str | os.PathLike[str] | RobotSpec | None = None,
+        robot_bus: str | None = None,
         **simbus_kwargs: Any,
     ) -> None:
         if clock not in CLOCKS:
@@ -64,6 +71,12 @@ class SimTransport(QueuedTransport):
             raise ValidationError(f"time_scale={time_scale!r}: must be >= 0 (0: the caller advances the clock)")
         if virtual and bus is not None and bus.clock_sync is not None:
             raise ValidationError("clock='virtual': the SimBus given is already run by a SimRunner; stop it first")
+        if robot is not None:
+            if bus is not None:
+                raise ValidationError("pass robot= or bus=, not both")
+            bus = _robot_bus(robot, robot_bus, simbus_kwargs)
+        elif robot_bus is not None:
+            raise ValidationError(f"robot_bus={robot_bus!r} needs robot= (a robot file)")
         self.bus = bus if bus is not None else SimBus(ids=motors, **simbus_kwargs)
         """The simulated bus."""
         self.virtual_clock = virtual
@@ -228,3 +241,22 @@ class SimTransport(QueuedTransport):
                 os.write(self._signal_w, b"\0")
             except OSError:
                 pass
+
+
+def _robot_bus(robot: str | os.PathLike[str] | RobotSpec, name: str | None, kwargs: dict[str, Any]) -> SimBus:
+    """The simulated bus ``name`` of robot ``robot``, coupled to its model when it has one."""
+    from ..robot.sim_twin import simulated_buses
+
+    spec = robot if isinstance(robot, RobotSpec) else load_robot(robot)
+    if name is None:
+        if len(spec.buses) != 1:
+            raise ValidationError(f"robot={spec.source}: it has buses {', '.join(spec.buses)}: give robot_bus=NAME")
+        (name,) = spec.buses
+    elif name not in spec.buses:
+        raise ValidationError(f"robot_bus={name!r}: not a bus of {spec.source} ({', '.join(spec.buses)})")
+    kw = {**kwargs, "motors": sorted(j.id for j in spec.joints_on(name))}
+    bus = simulated_buses(spec, {name: kw}).get(name)
+    if bus is None:
+        ids = kw.pop("motors")
+        bus = SimBus(ids, **kw)
+    return bus

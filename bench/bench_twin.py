@@ -1,0 +1,178 @@
+#!/usr/bin/env python3
+"""Robot twin speed: the 6-joint arm on MuJoCo at a 1 kHz physics step, beside the floor.
+
+Run: ``python3 bench/bench_twin.py [--seconds S]``. Prints figures; asserts nothing.
+
+* floor: MuJoCo stepping ``examples/robots/arm6.xml`` alone (no motors, no protocol);
+* in-process: the six simulated motors' controllers, each step, on the twin
+  (a 1 Mbit/s bus, a host reading every joint's state every 10 ms, moves going on);
+* ``drempower sim --robot``: the same robot served on an adapter pty, a client
+  moving it and reading its six joints at 100 Hz; the figure is simulated seconds
+  per CPU second of the server process (1.0: it just keeps real time on one core);
+* client ``cycle`` of the six joints (T command, state reply) on the twin at
+  1 Mbit/s, as a share of the bus limit (the bits one cycle puts on the wire).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import platform
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python" / "src"))
+
+from bench_client import FineClock, cycle_bits
+
+import drempower
+from drempower.client.commands import PositionMode
+from drempower.protocol import FastRead, PositionT
+from drempower.robot import load_robot
+from drempower.sim import SimBus
+from drempower.sim.twin import couple_robot
+
+ROOT = Path(__file__).resolve().parent.parent
+ARM = ROOT / "examples" / "robots" / "arm6.toml"
+BITRATE = 1_000_000
+POSES = ((0.0, 0.6, 0.9, 0.0, 0.5, 0.0), (0.8, -0.4, 1.2, 1.0, -0.6, 1.5))
+"""Joint angles (rad) the arm moves between."""
+
+
+def floor(seconds: float) -> float:
+    """Simulated seconds per wall second of MuJoCo alone on the arm's model."""
+    import mujoco
+
+    model = mujoco.MjModel.from_xml_path(str(ARM.parent / "arm6.xml"))
+    model.opt.timestep = 0.001
+    data = mujoco.MjData(model)
+    steps = round(seconds / 0.001)
+    t0 = time.perf_counter()
+    for _ in range(steps):
+        mujoco.mj_step(model, data)
+    return seconds / (time.perf_counter() - t0)
+
+
+def _angles(k: int) -> list[float]:
+    spec = load_robot(ARM)
+    return [math.degrees(a * j.gear) for a, j in zip(POSES[k % 2], spec.joints.values(), strict=True)]
+
+
+def in_process(seconds: float) -> tuple[float, float]:
+    """Simulated seconds per wall second of the twin with its six motors, and the bus load."""
+    spec = load_robot(ARM)
+    sim = SimBus(range(1, 7), bitrate=BITRATE)
+    couple_robot(spec, {"arm": sim})
+    reads = [FastRead(i).encode() for i in range(1, 7)]
+    t0 = time.perf_counter()
+    for k in range(round(seconds / 0.01)):
+        if k % 100 == 0:
+            for i, angle in enumerate(_angles(k // 100), start=1):
+                sim.send(PositionT(i, angle, 10.0).encode())
+        for f in reads:
+            sim.send(f)
+        sim.advance(0.01)
+    return seconds / (time.perf_counter() - t0), sim.stats.utilisation
+
+
+def _cpu(pid: int) -> float:
+    """CPU seconds (user + system) used so far by process ``pid`` (Linux)."""
+    fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def served(seconds: float) -> float | None:
+    """Simulated seconds per CPU second of ``drempower sim --robot`` serving the arm (None off Linux)."""
+    if not Path("/proc/self/stat").exists():
+        return None
+    cmd = [sys.executable, "-m", "drempower", "sim", "--robot", str(ARM), "--json"]
+    env = {**os.environ, "PYTHONPATH": str(ROOT / "python" / "src")}
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, env=env)
+    try:
+        assert proc.stdout is not None
+        path = None
+        for line in proc.stdout:
+            record = json.loads(line)
+            path = record.get("path", path)
+            if record.get("running"):
+                break
+        spec_text = ARM.read_text().replace('interface = "sim"', f'interface = "adapter"\nchannel = "{path}"')
+        spec_text = spec_text.replace('file = "arm6.xml"', f'file = "{ARM.parent / "arm6.xml"}"')
+        robot_file = Path(os.environ.get("TMPDIR", "/tmp")) / f"bench-twin-{os.getpid()}.toml"
+        robot_file.write_text(spec_text.replace("bitrate = 1000000\n", ""))
+        try:
+            with drempower.open_robot(robot_file, timeout=1.0, stop_on_close=False) as robot:
+                cpu0, t0 = _cpu(proc.pid), time.perf_counter()
+                k = 0
+                while time.perf_counter() - t0 < seconds:
+                    if k % 100 == 0:
+                        robot.set_angles(
+                            dict(zip(robot.joints, _angles(k // 100), strict=True)), 0.0, 10.0, PositionMode.T
+                        )
+                    robot.get_states()
+                    k += 1
+                    time.sleep(max(0.0, t0 + k * 0.01 - time.perf_counter()))
+                wall, cpu = time.perf_counter() - t0, _cpu(proc.pid) - cpu0
+        finally:
+            robot_file.unlink(missing_ok=True)
+        return wall / cpu if cpu > 0 else math.inf
+    finally:
+        proc.terminate()
+        proc.wait(10)
+
+
+def cycle_rate(seconds: float, twin: bool) -> float:
+    """Cycles per second of the six joints at 1 Mbit/s, on the twin or on the plain simulator."""
+    sim = SimBus(range(1, 7), bitrate=BITRATE)
+    if twin:
+        couple_robot(load_robot(ARM), {"arm": sim})
+    with FineClock(sim), drempower.open_bus("sim", bus=sim, time_scale=0, stop_on_close=False) as bus:
+        motors = [bus.motor(i) for i in range(1, 7)]
+        for m in motors:
+            m.enable_reply_state(True)
+        done = 0
+        t0 = time.perf_counter()
+        while time.perf_counter() - t0 < seconds:
+            angles = _angles(done // 500)
+            bus.cycle([m.make_angle(a, 0, 10) for m, a in zip(motors, angles, strict=True)], reply_state=True)
+            done += 1
+        return done / (time.perf_counter() - t0)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--seconds", type=float, default=5.0, help="seconds per figure (default 5)")
+    args = parser.parse_args()
+    try:
+        import mujoco
+    except ImportError:
+        print("bench_twin: MuJoCo is not installed (pip install 'drempower[physics]'); nothing to measure")
+        return
+    print(f"Python {platform.python_version()}, MuJoCo {mujoco.__version__}, {os.cpu_count()} CPUs; 1 kHz physics step")
+    base = floor(args.seconds)
+    print(f"  {'floor: MuJoCo alone on arm6.xml':<46} {base:7.1f} x real time")
+    rtf, load = in_process(args.seconds)
+    what = "in-process: 6 motors' controllers + MuJoCo"
+    print(f"  {what:<46} {rtf:7.1f} x real time (goal >= 1.0; bus load {load:.0%})")
+    cpu_rtf = served(args.seconds)
+    if cpu_rtf is not None:
+        what = "drempower sim --robot, client at 100 Hz"
+        print(f"  {what:<46} {cpu_rtf:7.1f} x real time per CPU second of the server (goal >= 1.0)")
+    limit = BITRATE / cycle_bits(6, True)
+    rates: dict[bool, list[float]] = {False: [], True: []}
+    for _ in range(3):  # alternating, best of three: other load on the machine only slows a run down
+        for twin in (False, True):
+            rates[twin].append(cycle_rate(args.seconds / 3, twin))
+    plain, rate = max(rates[False]), max(rates[True])
+    what = "client cycle of 6 joints at 1 Mbit/s"
+    print(f"  {what:<46} {rate:7.0f} /s, bus limit {limit:.0f} /s: {rate / limit:.1%} (goal >= 80 %)")
+    what = "the same on the plain simulator (no physics)"
+    print(f"  {what:<46} {plain:7.0f} /s: {plain / limit:.1%}")
+
+
+if __name__ == "__main__":
+    main()
