@@ -16,7 +16,19 @@ from ..client.effects import read_states, sleep
 from ..client.state import MotorState
 from ..errors import ValidationError
 from ..robot.flavours import AsyncPart
-from .plan import AsyncEach, FollowError, FollowPlan, FollowReport, Lane, Units, as_trajectory, make_plan
+from .plan import (
+    AsyncEach,
+    FollowError,
+    FollowPlan,
+    FollowReport,
+    Lane,
+    Units,
+    as_trajectory,
+    make_plan,
+    model_ranges,
+    robot_lanes,
+    robot_limits,
+)
 from .trajectory import Rows, Trajectory
 
 if TYPE_CHECKING:
@@ -52,25 +64,18 @@ async def follow_robot(
     tr = as_trajectory(times, positions, velocities, joints, list(robot.joints))
     for name in tr.joints:
         robot.joint(name)  # an unknown joint is named before anything else
-    lanes: dict[str, Lane] = {}
-    for j, name in enumerate(tr.joints):
-        spec = robot.spec.joints[name]
-        bus = robot.buses[spec.bus]
-        lane = lanes.get(spec.bus)
-        if lane is None:
-            lane = lanes[spec.bus] = Lane(
-                spec.bus, [], [], [], [], [], bus.transport.wire_bitrate, bus.core.session.reply_state
-            )
-        lane.names.append(name)
-        lane.ids.append(spec.id)
-        lane.units.append(Units(spec.gear, spec.offset))
-        lane.index.append(j)
-        lane.on_timeout.append(str(getattr(spec, "on_timeout", "hold")))
-    known = robot_limits(robot, tr.joints)
+    lanes = robot_lanes(
+        robot.spec,
+        tr.joints,
+        lambda b: robot.buses[b].transport.wire_bitrate,
+        lambda b: robot.buses[b].core.session.reply_state,
+    )
+    twin = robot.twin
+    known = robot_limits(robot.spec, tr.joints, None if twin is None else model_ranges(twin.model))
     known.update({name: dict(lim) for name, lim in (limits or {}).items()})
     plan = make_plan(
         tr,
-        list(lanes.values()),
+        lanes,
         rate=rate,
         mode=mode,
         max_error=max_error,
@@ -140,31 +145,6 @@ async def follow_bus(
         return {key: await fn() for key, fn in work.items()}
 
     return await stream(plan, {"bus": bus}, inline, start_tolerance, trace)
-
-
-def robot_limits(robot: AsyncRobot, joints: Sequence[str]) -> dict[str, dict[str, Any]]:
-    """What the robot knows of each joint's limits: the robot file's, else the twin model's range."""
-    out: dict[str, dict[str, Any]] = {}
-    twin = robot.twin
-    for name in joints:
-        spec = robot.spec.joints[name]
-        own = dict(getattr(spec, "limits", None) or {})
-        if own:
-            out[name] = {**own, "source": f"{robot.spec.source} [joints.{name}] limits"}
-        elif twin is not None:
-            rng = _model_range(twin, spec.model_joint or name)
-            if rng is not None:
-                out[name] = {"position": rng, "source": f"the range of model joint {spec.model_joint or name!r}"}
-    return out
-
-
-def _model_range(twin: Any, joint: str) -> tuple[float, float] | None:
-    mj = twin._mj
-    m = twin.model
-    jid = mj.mj_name2id(m, mj.mjtObj.mjOBJ_JOINT, joint)
-    if jid < 0 or not m.jnt_limited[jid]:
-        return None
-    return float(m.jnt_range[jid][0]), float(m.jnt_range[jid][1])
 
 
 async def stream(

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 from collections.abc import Awaitable, Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from ..client.commands import AxisMode, PositionMode, make_angle, make_impedance
 from ..client.effects import Batch, Op, read_states
@@ -19,6 +19,9 @@ from ..errors import DrEmpowerError, ValidationError
 from ..protocol.messages import Message, StartImpedance
 from ..sim.timing import frame_bits
 from .trajectory import Rows, Trajectory
+
+if TYPE_CHECKING:
+    from ..robot.config import RobotSpec
 
 _States = dict[int, MotorState]
 AsyncEach = Callable[[Mapping[str, Callable[[], Awaitable[_States]]]], Awaitable[dict[str, _States]]]
@@ -36,6 +39,9 @@ __all__ = [
     "Lane",
     "Units",
     "bus_rate_limit",
+    "model_ranges",
+    "robot_lanes",
+    "robot_limits",
     "make_plan",
     "as_trajectory",
 ]
@@ -182,6 +188,61 @@ def as_trajectory(
         raise ValidationError("follow: positions missing: one row per time, or joint -> positions")
     names = joints if joints is not None or isinstance(positions, Mapping) else default
     return Trajectory(times, positions, velocities, joints=names)
+
+
+def robot_lanes(
+    spec: RobotSpec,
+    joints: Sequence[str],
+    bitrate: Callable[[str], int | None],
+    reply_state: Callable[[str], Mapping[int, bool]],
+) -> list[Lane]:
+    """The lanes (one per bus, in the order met) of the robot joints ``joints`` (trajectory order);
+    ``bitrate(bus)`` and ``reply_state(bus)`` say what is known of each bus."""
+    lanes: dict[str, Lane] = {}
+    for j, name in enumerate(joints):
+        js = spec.joints.get(name)
+        if js is None:
+            raise ValidationError(f"joint {name!r}: no such joint (joints: {', '.join(spec.joints)})")
+        lane = lanes.get(js.bus)
+        if lane is None:
+            lane = lanes[js.bus] = Lane(js.bus, [], [], [], [], [], bitrate(js.bus), reply_state(js.bus))
+        lane.names.append(name)
+        lane.ids.append(js.id)
+        lane.units.append(Units(js.gear, js.offset))
+        lane.index.append(j)
+        lane.on_timeout.append(str(getattr(js, "on_timeout", "hold")))
+    return list(lanes.values())
+
+
+def robot_limits(
+    spec: RobotSpec, joints: Sequence[str], model_range: Callable[[str], tuple[float, float] | None] | None
+) -> dict[str, dict[str, Any]]:
+    """What is known of each joint's limits: the robot file's ``limits``, else the model's joint range
+    (``model_range(model_joint)``)."""
+    out: dict[str, dict[str, Any]] = {}
+    for name in joints:
+        js = spec.joints[name]
+        own = dict(getattr(js, "limits", None) or {})
+        if own:
+            out[name] = {**own, "source": f"{spec.source} [joints.{name}] limits"}
+        elif model_range is not None:
+            rng = model_range(js.model_joint or name)
+            if rng is not None:
+                out[name] = {"position": rng, "source": f"the range of model joint {js.model_joint or name!r}"}
+    return out
+
+
+def model_ranges(model: Any) -> Callable[[str], tuple[float, float] | None]:
+    """``range(joint)`` of a MuJoCo model (``mujoco.MjModel``): the joint's (low, high) rad, None when unlimited."""
+    import mujoco
+
+    def joint_range(joint: str) -> tuple[float, float] | None:
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint)
+        if jid < 0 or not model.jnt_limited[jid]:
+            return None
+        return float(model.jnt_range[jid][0]), float(model.jnt_range[jid][1])
+
+    return joint_range
 
 
 def bus_rate_limit(lane: Lane, mode: str) -> tuple[float | None, int]:
