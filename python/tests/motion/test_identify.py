@@ -75,3 +75,23 @@ def test_identify_refuses_an_excitation_beyond_the_limits(tmp_path: Path) -> Non
         with pytest.raises(ValidationError, match=r"leaves its limits -0.2..0.2 rad"):
             identify(robot, "swing", limits={"position": (-0.2, 0.2)})
         assert len(sent) == 1  # the one state read that says where the joint is; no motion command
+
+
+def test_drempower_identify_json(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from drempower.cli import main
+
+    model = model_copy(tmp_path, "pendulum.xml", lambda root: None)
+    path = robot_file(
+        tmp_path, model, {"swing": {"id": 1, "friction": "model", "sim_params": PENDULUM_GAINS}}, clock="virtual"
+    )
+    assert main(["identify", "swing", "--robot", str(path), "--yes", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert set(out) == {"joint", "inertia", "viscous", "coulomb", "gravity", "fit"}
+    assert out["inertia"] == pytest.approx(_ROD, rel=0.1) and out["gravity"] == pytest.approx(2 * _G * 0.25, rel=0.1)
+    assert out["fit"] > 0.95
+    assert main(["identify", "elbow", "--robot", str(path), "--yes"]) == 2
+    assert "joint 'elbow': no such joint" in capsys.readouterr().err
+    assert main(["identify", "swing", "--robot", str(path)]) == 2  # no terminal to ask on: --yes needed
+    assert "needs confirmation" in capsys.readouterr().err

@@ -109,7 +109,7 @@ def identify(
     *,
     amplitude: float = 0.3,
     seconds: float = 6.0,
-    rate: float = 500.0,
+    rate: float = 200.0,
     kp: float = 5.0,
     kd: float = 0.2,
     max_torque: float | None = None,
