@@ -56,6 +56,7 @@ async def follow_robot(
     bandwidth: float | None = None,
     limits: Mapping[str, Mapping[str, Any]] | None = None,
     torques: Callable[[float], Sequence[float]] | None = None,
+    feedforward: str | None = None,
     start_tolerance: float = _START_TOLERANCE,
     timeout: float | None = None,
     trace: bool = False,
@@ -73,6 +74,8 @@ async def follow_robot(
     twin = robot.twin
     known = robot_limits(robot.spec, tr.joints, None if twin is None else model_ranges(twin.model))
     known.update({name: dict(lim) for name, lim in (limits or {}).items()})
+    if feedforward is not None:
+        torques = model_torques(robot, tr, feedforward, torques)
     plan = make_plan(
         tr,
         lanes,
@@ -145,6 +148,29 @@ async def follow_bus(
         return {key: await fn() for key, fn in work.items()}
 
     return await stream(plan, {"bus": bus}, inline, start_tolerance, trace)
+
+
+def model_torques(
+    robot: AsyncRobot, tr: Trajectory, kind: str, given: Callable[[float], Sequence[float]] | None
+) -> Callable[[float], Sequence[float]]:
+    """Feed-forward torques (Nm at the joints) along ``tr`` from the robot's model: ``"gravity"`` (holding) or
+    ``"inverse"`` (rigid-body inverse dynamics of the path's accelerations too), added to ``given``."""
+    from .teach import GravityModel
+
+    if kind not in ("gravity", "inverse"):
+        raise ValidationError(f"feedforward={kind!r}: 'gravity', 'inverse' or None")
+    model = GravityModel(robot.spec, tr.joints)
+
+    def at(t: float) -> Sequence[float]:
+        s = tr.sample(t)
+        tau = (
+            model.torques(s.positions)
+            if kind == "gravity"
+            else model.inverse(s.positions, s.velocities, s.accelerations)
+        )
+        return tau if given is None else [a + b for a, b in zip(tau, given(t), strict=True)]
+
+    return at
 
 
 async def stream(

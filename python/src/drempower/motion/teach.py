@@ -34,9 +34,11 @@ class GravityModel:
             raise ConfigError(f"{spec.source}: no [model]: gravity compensation needs the robot's model")
         try:
             import mujoco
+            import numpy as np
         except ImportError:
             raise DrEmpowerError("gravity compensation needs MuJoCo: pip install 'drempower[physics]'") from None
         self._mj = mujoco
+        self._np = np
         try:
             self.model = mujoco.MjModel.from_xml_path(spec.model.file)
         except Exception as exc:  # MuJoCo's parser errors have no common type
@@ -59,6 +61,25 @@ class GravityModel:
         d.qvel[:] = 0.0
         self._mj.mj_forward(self.model, d)
         return [float(d.qfrc_bias[dof]) for _, dof in self._adr]
+
+    def inverse(self, positions: Sequence[float], velocities: Sequence[float], accels: Sequence[float]) -> list[float]:
+        """Rigid-body inverse dynamics: the torque (Nm at the joint) of each joint that gives ``accels``
+        (rad/s^2) at ``positions`` (rad) and ``velocities`` (rad/s): ``M(q) qdd + C(q, qd) + G(q)``."""
+        m, d = self.model, self.data
+        d.qvel[:] = 0.0
+        d.qacc[:] = 0.0
+        for (qadr, dof), q, v, a in zip(self._adr, positions, velocities, accels, strict=True):
+            d.qpos[qadr] = q
+            d.qvel[dof] = v
+            d.qacc[dof] = a
+        mj = self._mj
+        mj.mj_kinematics(m, d)
+        mj.mj_comPos(m, d)
+        mj.mj_crb(m, d)
+        mj.mj_comVel(m, d)
+        res = self._np.zeros(m.nv)
+        mj.mj_rne(m, d, 1, res)
+        return [float(res[dof]) for _, dof in self._adr]
 
 
 def _cycle(
