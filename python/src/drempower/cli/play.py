@@ -41,6 +41,11 @@ def register(sub: Any) -> None:
     )
     p.add_argument("--kp", type=float, default=20.0, help="impedance: the motors' stiffness, Nm/rad (default 20)")
     p.add_argument("--kd", type=float, default=1.0, help="impedance: the motors' damping, Nm s/rad (default 1)")
+    p.add_argument(
+        "--feedforward",
+        choices=("gravity", "inverse"),
+        help="with --robot and a model, impedance or p mode: torques from the model (gravity, or inverse dynamics)",
+    )
     p.add_argument("--topic", default="/joint_states", help="MCAP: the JointState topic (default /joint_states)")
     p.add_argument(
         "--dry-run", action="store_true", help="check and print the duration and the limits met; send nothing"
@@ -155,12 +160,14 @@ def _run_robot(args: argparse.Namespace, spec: Any, tr: Trajectory, options: dic
     from ..robot import open_robot
 
     with open_robot(spec, timeout=args.timeout, stop_on_close=False) as robot:
-        report = robot.follow(tr, **options)
+        report = robot.follow(tr, feedforward=args.feedforward, **options)
     _report(args, report, "rad")
     return 0
 
 
 def _run_bus(args: argparse.Namespace, tr: Trajectory, options: dict[str, Any]) -> int:
+    if args.feedforward is not None:
+        raise UsageError("--feedforward needs --robot FILE with a [model]")
     ids = _bus_columns(args, tr)
     if args.dry_run:
         lane = Lane(
