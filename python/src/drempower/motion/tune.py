@@ -94,8 +94,16 @@ def gains_for(inertia: float, viscous: float, bandwidth: float, gear: float = 1.
     return out
 
 
-def step_response(robot: Robot, joint: str, amount: float, seconds: float = 1.5, rate: float = 500.0) -> Step:
-    """Step joint ``joint`` by ``amount`` rad (P mode, no feed-forward), watch it for ``seconds`` s, step it back."""
+def step_response(
+    robot: Robot,
+    joint: str,
+    amount: float,
+    seconds: float = 1.5,
+    rate: float = 500.0,
+    trace: list[tuple[float, float]] | None = None,
+) -> Step:
+    """Step joint ``joint`` by ``amount`` rad (P mode, no feed-forward), watch it for ``seconds`` s, step it
+    back; ``trace`` gets (s, fraction of the step) of every state read."""
     j = robot.joint(joint)
     bus = robot.bus(robot.spec.joints[joint].bus)
     q0 = j.get_joint_state().position
@@ -112,6 +120,8 @@ def step_response(robot: Robot, joint: str, amount: float, seconds: float = 1.5,
     finally:
         j.set_angle(j.gearing.motor_angle(q0), 0.0, 0.0, PositionMode.P)
         bus.run(sleep(seconds))
+    if trace is not None:
+        trace.extend(zip(ts, ys, strict=True))
     t10 = next((t for t, y in zip(ts, ys, strict=True) if y >= 0.1), math.inf)
     t90 = next((t for t, y in zip(ts, ys, strict=True) if y >= 0.9), math.inf)
     settling = 0.0
