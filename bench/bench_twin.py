@@ -3,12 +3,14 @@
 
 Run: ``python3 bench/bench_twin.py [--seconds S]``. Prints figures; asserts nothing.
 
+Real-time factors are simulated seconds per CPU second (1.0: the simulation just
+keeps real time on one core), so that other load on the machine does not count.
+
 * floor: MuJoCo stepping ``examples/robots/arm6.xml`` alone (no motors, no protocol);
 * in-process: the six simulated motors' controllers, each step, on the twin
   (a 1 Mbit/s bus, a host reading every joint's state every 10 ms, moves going on);
 * ``drempower sim --robot``: the same robot served on an adapter pty, a client
-  moving it and reading its six joints at 100 Hz; the figure is simulated seconds
-  per CPU second of the server process (1.0: it just keeps real time on one core);
+  moving it and reading its six joints at 100 Hz (the server process's CPU time);
 * client ``cycle`` of the six joints (T command, state reply) on the twin at
   1 Mbit/s, as a share of the bus limit (the bits one cycle puts on the wire).
 """
@@ -44,17 +46,17 @@ POSES = ((0.0, 0.6, 0.9, 0.0, 0.5, 0.0), (0.8, -0.4, 1.2, 1.0, -0.6, 1.5))
 
 
 def floor(seconds: float) -> float:
-    """Simulated seconds per wall second of MuJoCo alone on the arm's model."""
+    """Simulated seconds per CPU second of MuJoCo alone on the arm's model."""
     import mujoco
 
     model = mujoco.MjModel.from_xml_path(str(ARM.parent / "arm6.xml"))
     model.opt.timestep = 0.001
     data = mujoco.MjData(model)
     steps = round(seconds / 0.001)
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     for _ in range(steps):
         mujoco.mj_step(model, data)
-    return seconds / (time.perf_counter() - t0)
+    return seconds / (time.process_time() - t0)
 
 
 def _angles(k: int) -> list[float]:
@@ -63,12 +65,12 @@ def _angles(k: int) -> list[float]:
 
 
 def in_process(seconds: float) -> tuple[float, float]:
-    """Simulated seconds per wall second of the twin with its six motors, and the bus load."""
+    """Simulated seconds per CPU second of the twin with its six motors, and the bus load."""
     spec = load_robot(ARM)
     sim = SimBus(range(1, 7), bitrate=BITRATE)
     couple_robot(spec, {"arm": sim})
     reads = [FastRead(i).encode() for i in range(1, 7)]
-    t0 = time.perf_counter()
+    t0 = time.process_time()
     for k in range(round(seconds / 0.01)):
         if k % 100 == 0:
             for i, angle in enumerate(_angles(k // 100), start=1):
@@ -76,7 +78,7 @@ def in_process(seconds: float) -> tuple[float, float]:
         for f in reads:
             sim.send(f)
         sim.advance(0.01)
-    return seconds / (time.perf_counter() - t0), sim.stats.utilisation
+    return seconds / (time.process_time() - t0), sim.stats.utilisation
 
 
 def _cpu(pid: int) -> float:
@@ -157,11 +159,11 @@ def main() -> None:
     print(f"  {'floor: MuJoCo alone on arm6.xml':<46} {base:7.1f} x real time")
     rtf, load = in_process(args.seconds)
     what = "in-process: 6 motors' controllers + MuJoCo"
-    print(f"  {what:<46} {rtf:7.1f} x real time (goal >= 1.0; bus load {load:.0%})")
+    print(f"  {what:<46} {rtf:7.1f} x real time (goal >= 1.0; floor {base:.1f}; bus load {load:.0%})")
     cpu_rtf = served(args.seconds)
     if cpu_rtf is not None:
         what = "drempower sim --robot, client at 100 Hz"
-        print(f"  {what:<46} {cpu_rtf:7.1f} x real time per CPU second of the server (goal >= 1.0)")
+        print(f"  {what:<46} {cpu_rtf:7.1f} x real time (goal >= 1.0)")
     limit = BITRATE / cycle_bits(6, True)
     rates: dict[bool, list[float]] = {False: [], True: []}
     for _ in range(3):  # alternating, best of three: other load on the machine only slows a run down

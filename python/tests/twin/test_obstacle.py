@@ -43,11 +43,13 @@ def test_driven_into_an_obstacle_it_stops_and_the_motor_stalls(tmp_path: Path) -
         sim = bus.transport.bus.motors[1]
         motor.set_speed(10.0)  # 1 rad/s towards the obstacle
         highest = -math.inf
+        strongest = 0.0
         stalled_at = None
         for _ in range(1000):  # 5 s
             bus.run(sleep(0.005))
             st = motor.get_state()
             highest = max(highest, st.angle)
+            strongest = max(strongest, st.torque)
             if st.error and stalled_at is None:
                 stalled_at = (st.timestamp, st.angle, int(sim.param("axis0.motor.error")))
         blocked_torque = sim.torque
@@ -58,4 +60,5 @@ def test_driven_into_an_obstacle_it_stops_and_the_motor_stalls(tmp_path: Path) -
     assert motor_error & bh.STALL_FLAG
     assert abs(angle - contact_deg) < 1.0  # it stalled at the obstacle
     assert t > 2.0  # after the stall time (2 s) at the torque limit
+    assert strongest == 12.0  # pressing at the motor's torque limit (1.2 Nm rotor x 10:1), no further
     assert sim.state == 1 and blocked_torque == 0.0  # the stall dropped the axis to idle

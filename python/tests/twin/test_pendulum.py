@@ -74,3 +74,17 @@ def test_holding_torque_is_m_g_d_sin(tmp_path: Path, gear: float, angle_deg: flo
     assert math.degrees(st.position) == pytest.approx(angle_deg, abs=0.1)
     assert st.motor.torque * gear == pytest.approx(expected, rel=0.02)
     assert math.copysign(1.0, st.motor.torque) == math.copysign(1.0, gear)
+
+
+async def test_the_asyncio_robot_holds_the_pendulum_too(tmp_path: Path) -> None:
+    m, d = pendulum_arm()
+    path = robot_file(
+        tmp_path, ROBOTS / "pendulum.xml", {"swing": {"id": 1, "friction": "model", "sim_params": PENDULUM_GAINS}}
+    )
+    async with drempower.open_robot_async(path, sim={"clock": "virtual"}) as robot:
+        assert robot.twin is not None
+        joint = robot.joint("swing")
+        await joint.set_position(math.radians(90.0))
+        await robot.bus("can0").run(sleep(3.0))
+        st = await joint.get_joint_state()
+    assert st.torque == pytest.approx(m * G * d, rel=0.02)

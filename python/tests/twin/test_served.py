@@ -80,7 +80,7 @@ def test_the_twin_behind_adapter_uart_python_can_and_socketcand(tmp_path: Path) 
     thread = threading.Thread(target=sim.run, args=(args, out, stop))
     thread.start()
     try:
-        deadline = time.monotonic() + 10.0
+        deadline = time.monotonic() + 30.0
         while '"running"' not in out.getvalue() and time.monotonic() < deadline:
             time.sleep(0.01)
         records = [json.loads(line) for line in out.getvalue().splitlines()]
@@ -88,7 +88,12 @@ def test_the_twin_behind_adapter_uart_python_can_and_socketcand(tmp_path: Path) 
         port = next(r["port"] for r in records if r.get("interface") == "socketcand")
         with open_robot(_file(tmp_path, adapter, uart, channel, port), stop_on_close=False) as robot:
             robot.joint("shoulder").set_position(math.radians(40.0))
-            time.sleep(2.0)
+            deadline = time.monotonic() + 30.0  # about 1 s of simulated time, however loaded the machine
+            shoulder = robot.joint("shoulder").get_joint_state()
+            while abs(math.degrees(shoulder.position) - 40.0) > 0.5 and time.monotonic() < deadline:
+                time.sleep(0.1)
+                shoulder = robot.joint("shoulder").get_joint_state()
+            time.sleep(0.5)
             states = robot.get_states()
             shoulder = robot.joint("shoulder").get_joint_state()
             assert math.degrees(shoulder.position) == pytest.approx(40.0, abs=0.5)

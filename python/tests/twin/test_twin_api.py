@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 from pathlib import Path
 
 import pytest
@@ -133,3 +134,116 @@ def test_sim_params_are_the_motors_starting_configuration(tmp_path: Path) -> Non
         motor.reboot()
         bus.run(sleep(1.0))
         assert motor.read_property("axis0.controller.config.pos_gain") == pytest.approx(10.0)
+
+
+def test_the_twin_runner_keeps_the_buses_in_lockstep(tmp_path: Path) -> None:
+    from drempower.sim.twin import TwinRunner
+
+    joints = {name: {"id": i % 3 + 1, "bus": "a" if i < 3 else "b"} for i, name in enumerate(_ARM)}
+    path = robot_file(tmp_path, ROBOTS / "arm6.xml", joints, bus="a")
+    path.write_text(path.read_text().replace("[joints.", '[buses.b]\ninterface = "sim"\n\n[joints.', 1))
+    buses = {"a": SimBus([1, 2, 3]), "b": SimBus([1, 2, 3])}
+    twin = couple_robot(load_robot(path), buses)
+    assert twin is not None
+    gaps: list[float] = []
+    with TwinRunner(buses.values(), time_scale=2.0):
+        deadline = time.monotonic() + 5.0
+        while buses["b"].now < 0.3 and time.monotonic() < deadline:
+            with buses["a"].lock, buses["b"].lock:  # between two rounds' bus advances
+                gaps.append(abs(buses["a"].now - buses["b"].now))
+            time.sleep(0.001)
+    assert len(gaps) > 10 and max(gaps) <= 0.001 + 1e-9  # never a step apart
+    assert buses["a"].now >= 0.3 and buses["b"].now >= 0.3
+    assert abs(buses["a"].now - buses["b"].now) <= 0.001 + 1e-9
+    assert twin.time == pytest.approx(min(buses["a"].now, buses["b"].now) - 0.001, abs=0.0011)
+    assert buses["a"].on_activity is None and buses["b"].on_activity is None
+
+
+@pytest.mark.parametrize(("gear", "offset"), [(1.0, 0.0), (-2.0, 0.3)])
+def test_the_joint_reads_the_model_angle_through_gear_and_offset(tmp_path: Path, gear: float, offset: float) -> None:
+    path = robot_file(tmp_path, ROBOTS / "pendulum.xml", {"swing": {"id": 1, "gear": gear, "offset": offset}})
+    with drempower.open_robot(path, sim={"clock": "virtual"}) as robot:
+        twin = robot.twin
+        assert twin is not None
+        joint = robot.joint("swing")
+        joint.set_mode(1)
+        for q in (0.0, 0.7, -1.2):
+            twin.set_joint("swing", q, velocity=0.5)
+            st = joint.get_joint_state()
+            assert st.position == pytest.approx(q, abs=1e-6)
+            assert st.velocity == pytest.approx(0.5, abs=0.002)  # the state frame carries 0.01 r/min
+            assert st.motor.angle == pytest.approx(math.degrees((q - offset) * gear), abs=1e-4)
+
+
+def test_motors_hold_the_models_starting_pose(tmp_path: Path) -> None:
+    """A motor in closed loop from power-up holds where the model starts, whatever the joint's offset."""
+    joints = {"swing": {"id": 1, "gear": -2.0, "offset": 0.3, "sim_params": PENDULUM_GAINS}}
+    path = robot_file(tmp_path, ROBOTS / "pendulum.xml", joints)
+    with drempower.open_robot(path, sim={"clock": "virtual"}) as robot:
+        robot.bus("can0").run(sleep(1.0))
+        st = robot.joint("swing").get_joint_state()
+    assert st.position == pytest.approx(0.0, abs=1e-3)
+    assert abs(st.velocity) < 1e-3
+
+
+def test_without_mujoco_the_plain_simulator_runs_and_says_so(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import sys
+
+    from drempower.cli import main
+
+    monkeypatch.setitem(sys.modules, "mujoco", None)  # import mujoco now raises ImportError
+    path = robot_file(tmp_path, ROBOTS / "pendulum.xml", {"swing": {"id": 1}})
+    with pytest.warns(
+        UserWarning, match=r"not simulated \(MuJoCo is not installed\): pip install 'drempower\[physics\]'"
+    ):
+        robot = drempower.open_robot(path, sim={"clock": "virtual"})
+    with robot:
+        assert robot.twin is None
+        assert robot.joint("swing").get_state().angle == 0.0
+    assert main(["sim", "--robot", str(path), "--duration", "0.1"]) == 1
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "pip install 'drempower[physics]'" in err
+
+
+def test_open_robot_runs_a_twins_buses_on_one_clock_until_closed(tmp_path: Path) -> None:
+    import threading
+
+    joints = {name: {"id": i % 3 + 1, "bus": "a" if i < 3 else "b"} for i, name in enumerate(_ARM)}
+    path = robot_file(tmp_path, ROBOTS / "arm6.xml", joints, bus="a")
+    path.write_text(path.read_text().replace("[joints.", '[buses.b]\ninterface = "sim"\n\n[joints.', 1))
+    with drempower.open_robot(path, timeout=1.0) as robot:
+        sims = [robot.bus(name).transport.bus for name in ("a", "b")]
+        robot.joint("wrist_pitch").set_position(0.3)
+        gaps = []
+        deadline = time.monotonic() + 10.0
+        while sims[1].now < 0.5 and time.monotonic() < deadline:
+            with sims[0].lock, sims[1].lock:
+                gaps.append(abs(sims[0].now - sims[1].now))
+            time.sleep(0.005)
+        assert max(gaps) <= 0.001 + 1e-9
+        assert robot.joint("wrist_pitch").get_joint_state().position == pytest.approx(0.3, abs=0.05)
+    deadline = time.monotonic() + 5.0
+    while any(t.name == "drempower-twin" for t in threading.enumerate()) and time.monotonic() < deadline:
+        time.sleep(0.02)
+    assert not any(t.name == "drempower-twin" for t in threading.enumerate())
+    assert sims[0].on_activity is None and sims[1].on_activity is None
+
+
+def test_the_motor_replaces_the_models_own_actuator_of_its_joint(tmp_path: Path) -> None:
+    """A model from elsewhere often has position servos of its own: on a coupled joint only the motor acts."""
+    import xml.etree.ElementTree as ET
+
+    from .conftest import model_copy
+
+    def servo(root: ET.Element) -> None:
+        act = ET.SubElement(root, "actuator")
+        ET.SubElement(act, "position", name="servo", joint="swing", kp="500")
+
+    model = model_copy(tmp_path, "pendulum.xml", servo)
+    path = robot_file(tmp_path, model, {"swing": {"id": 1, "friction": "model"}})
+    with drempower.open_robot(path, sim={"clock": "virtual"}) as robot:
+        twin = robot.twin
+        assert twin is not None
+        assert [twin.model.actuator(i).name for i in range(twin.model.nu)] == ["drempower:swing"]

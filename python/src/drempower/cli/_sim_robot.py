@@ -31,7 +31,7 @@ from ..sim import (
     attach_socketcand,
     attach_uart_pty,
 )
-from ..sim.twin import couple_robot
+from ..sim.twin import TwinRunner, couple_robot
 from ._usage import UsageError
 
 __all__ = ["serve_robot"]
@@ -113,8 +113,11 @@ def serve_robot(args: argparse.Namespace, show: Callable[..., None], stop: threa
             f"physics: {os.path.basename(twin.source)} (MuJoCo), joints {', '.join(twin.joints)}",
         )
     with ExitStack() as stack:
+        if twin is not None:  # one clock for every bus: the twin integrates all their motors' torques each step
+            stack.enter_context(TwinRunner(buses.values(), args.time_scale))
         for name, bus in buses.items():
-            stack.enter_context(SimRunner(bus, args.time_scale))
+            if twin is None:
+                stack.enter_context(SimRunner(bus, args.time_scale))
             where = _serve(stack, spec, name, bus)
             joints = ", ".join(f"{j.name}={j.id}" for j in spec.joints_on(name))
             reach = (

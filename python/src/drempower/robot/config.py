@@ -112,10 +112,13 @@ class RobotSpec:
         return [j for j in self.joints.values() if j.bus == bus]
 
     def open_options(self, bus: str) -> dict[str, Any]:
-        """The :func:`~drempower.open_bus` keyword arguments of bus ``bus`` (a sim bus gets its joints' ids)."""
+        """The :func:`~drempower.open_bus` keyword arguments of bus ``bus`` (a sim bus gets its joints' ids;
+        with a model, the robot and the bus's name, to simulate its joints on the model)."""
         spec = self.buses[bus]
         kw: dict[str, Any] = {"interface": spec.interface, **spec.options}
-        if spec.interface == "sim":
+        if spec.interface == "sim" and self.model is not None:
+            kw.update(robot=self, robot_bus=bus)
+        elif spec.interface == "sim":
             kw["motors"] = sorted(j.id for j in self.joints_on(bus))
         return kw
 
@@ -173,7 +176,8 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         extra = sorted(set(j) - _JOINT_KEYS - _MODEL_JOINT_KEYS)
         if extra:
             raise ConfigError(
-                f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear, offset, model_joint and friction"
+                f"{where}: unknown key {extra[0]!r}: "
+                "a joint has bus, id, gear, offset, model_joint, friction and sim_params"
             )
         bus = j.get("bus")
         if bus not in buses:
@@ -187,7 +191,7 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         taken[(bus, ident)] = name
         gear = _number(j.get("gear", 1.0), f"{where}: gear", nonzero=True)
         offset = _number(j.get("offset", 0.0), f"{where}: offset")
-        joints[name] = JointSpec(name, bus, ident, gear, offset, *_model_joint(j, where))
+        joints[name] = JointSpec(name, bus, ident, gear, offset, **_model_joint(j, where))
     if not joints:
         raise ConfigError(f"{source}: no [joints.NAME] entry: a robot needs at least one joint")
     empty = [b for b in buses if not any(j.bus == b for j in joints.values())]
@@ -253,8 +257,8 @@ def _model(value: object, source: str, base: str | None) -> ModelSpec:
     return ModelSpec(path)
 
 
-def _model_joint(j: Mapping[str, Any], where: str) -> tuple[str | None, str, dict[str, float]]:
-    """A joint entry's ``model_joint``, ``friction`` and ``sim_params``."""
+def _model_joint(j: Mapping[str, Any], where: str) -> dict[str, Any]:
+    """A joint entry's ``model_joint``, ``friction`` and ``sim_params`` (JointSpec's keyword arguments)."""
     model_joint = j.get("model_joint")
     if model_joint is not None and (not isinstance(model_joint, str) or not model_joint):
         raise ConfigError(f"{where}: model_joint={model_joint!r}: give the name of a joint of the model")
@@ -270,4 +274,4 @@ def _model_joint(j: Mapping[str, Any], where: str) -> tuple[str | None, str, dic
         if not p.writable:
             raise ConfigError(f"{where}: sim_params: {key!r} is read-only")
         params[p.name] = _number(value, f"{where}: sim_params: {key}")
-    return model_joint, friction, params
+    return {"model_joint": model_joint, "friction": friction, "sim_params": params}

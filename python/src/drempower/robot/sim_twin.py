@@ -23,7 +23,9 @@ _TRANSPORT_KEYS = frozenset(("interface", "timeout", "retries", "stop_on_close",
 
 def open_options(spec: RobotSpec, overrides: Mapping[str, Any]) -> dict[str, dict[str, Any]]:
     """The ``open_bus`` arguments of every bus of ``spec`` by name (see :func:`bus_options`);
-    the sim buses of a robot with a model come with their ``bus``, coupled to one twin."""
+    the sim buses of a robot with a model come with their ``bus``, coupled to one twin. Several
+    such buses on wall time run on one clock (a :class:`~drempower.sim.twin.TwinRunner` that ends
+    once every bus is closed)."""
     opts = {name: bus_options(spec, name, overrides) for name in spec.buses}
     sims = {name: kw for name, kw in opts.items() if kw["interface"] == "sim"}
     if spec.model is None or not sims:
@@ -34,12 +36,24 @@ def open_options(spec: RobotSpec, overrides: Mapping[str, Any]) -> dict[str, dic
     for name, kw in sims.items():
         if name in buses:
             opts[name] = {**{k: v for k, v in kw.items() if k in _TRANSPORT_KEYS}, "bus": buses[name]}
+    wall = [name for name in buses if opts[name].get("clock", "wall") == "wall"]
+    scale = {opts[name].get("time_scale", 1.0) for name in wall}
+    if len(wall) > 1 and len(scale) == 1 and 0 not in scale:
+        from ..sim.twin import TwinRunner
+
+        for name in wall:  # one clock for the buses of one twin, instead of a runner each
+            opts[name]["time_scale"] = 0
+        TwinRunner([buses[name] for name in wall], scale.pop(), while_attached=True).start()
     return opts
 
 
+_SPEC_KEYS = frozenset(("robot", "robot_bus", "motors"))
+"""What :meth:`RobotSpec.open_options` adds to a sim bus's own options."""
+
+
 def simulated_buses(spec: RobotSpec, options: Mapping[str, Mapping[str, Any]]) -> dict[str, Any]:
-    """A :class:`~drempower.sim.SimBus` for each bus name in ``options`` (its SimBus arguments, with
-    ``motors``), all coupled to the twin of ``spec``'s model. Without MuJoCo: a warning, and
+    """A :class:`~drempower.sim.SimBus` for each bus name in ``options`` (its SimBus arguments), with the
+    motors of its joints, all coupled to the twin of ``spec``'s model. Without MuJoCo: a warning, and
     an empty dict (the buses then simulate each motor's own mechanics)."""
     from ..sim import SimBus
     from ..sim.twin import couple_robot
@@ -55,8 +69,8 @@ def simulated_buses(spec: RobotSpec, options: Mapping[str, Mapping[str, Any]]) -
         return {}
     buses: dict[str, SimBus] = {}
     for name, given in options.items():
-        kw = dict(given)
-        ids = kw.pop("motors")
+        kw = {k: v for k, v in given.items() if k not in _SPEC_KEYS}
+        ids = sorted(j.id for j in spec.joints_on(name))
         try:
             buses[name] = SimBus(ids, **kw)
         except TypeError as exc:

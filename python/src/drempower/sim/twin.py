@@ -11,7 +11,8 @@ come back to the motor through the joint's ``gear`` and ``offset``::
     motor output turns = (joint rad - offset) * gear / 2 pi   (+ the motor's zero at coupling)
     joint torque Nm    = motor torque Nm * gear
 
-The motor's own rotor inertia, viscous and Coulomb friction are added to the
+The model's own actuators of a coupled joint are removed (the motor is its
+actuator). The motor's own rotor inertia, viscous and Coulomb friction are added to the
 model joint's armature, damping and friction loss (reflected through the gear),
 unless the joint's ``friction`` is ``"model"``. The speed-proportional part of the
 controller's torque goes to the actuator's velocity bias, which MuJoCo's
@@ -22,7 +23,8 @@ The physics lags the motors' clock by one step: at a bus step at time t the twin
 first integrates up to t - 1 ms with the torques of the previous step, then the
 motors compute their torques from that state. Buses of one robot share one twin;
 the first bus to reach a step integrates it, so on several buses the twin follows
-the one furthest ahead (the runners of ``drempower sim --robot`` keep them together).
+the one furthest ahead; :class:`TwinRunner` advances them in lockstep, 1 ms at a time
+(``drempower sim --robot`` runs one).
 
 ``twin.push(body="link3", force=(0, 0, -5), duration=1.0)`` and
 ``twin.push_joint("elbow", torque=2.0, duration=0.5)`` are a hand from outside.
@@ -32,6 +34,7 @@ from __future__ import annotations
 
 import math
 import threading
+import time
 import weakref
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
@@ -46,7 +49,7 @@ if TYPE_CHECKING:
     from .bus import SimBus
     from .motor import SimMotor
 
-__all__ = ["Coupling", "Push", "Twin", "couple_robot", "twin_of", "require_mujoco"]
+__all__ = ["Coupling", "Push", "Twin", "TwinRunner", "couple_robot", "twin_of", "require_mujoco"]
 
 _EPS = 1e-9
 _ACTUATOR_PREFIX = "drempower:"
@@ -168,12 +171,20 @@ class Twin:
             act.gainprm = [1.0] + [0.0] * (len(act.gainprm) - 1)
             act.biasprm = [0.0] * len(act.biasprm)
             act.ctrllimited = mujoco.mjtLimited.mjLIMITED_FALSE
+        coupled = set(seen)
+        for own in list(spec.actuators):  # the motors replace the model's own actuators of their joints
+            if own.target in coupled and not own.name.startswith(_ACTUATOR_PREFIX):
+                spec.delete(own)
         spec.option.timestep = step
         try:
             self.model = spec.compile()
         except Exception as exc:
             raise ConfigError(f"model {model_file}: {exc}") from None
         self.data = mujoco.MjData(self.model)
+        self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
+        self._bias = self.model.actuator_biasprm
+        self._mj_step = mujoco.mj_step
+        self._v: list[float] = []
         self.step_s = step
         self.time = 0.0
         """Physics time (s): one step behind the motors' clock."""
@@ -192,11 +203,16 @@ class Twin:
             self._by_name[c.name] = link
             self._by_name.setdefault(c.model_joint, link)
         mujoco.mj_forward(m, self.data)
-        for link in self._links:
+        for link, c in zip(self._links, couplings, strict=True):
             d = link.drive
-            link.zero = d.pos - (float(self.data.qpos[link.qadr]) - link.offset) * link.per_rad
+            link.zero = d.pos - c.motor.position / 360.0  # the turns at which the motor reads 0 deg
             d.plant = self
         self._publish()
+        for link in self._links:  # a motor in closed loop since power-up holds where the joint is
+            d = link.drive
+            if d.active:
+                d.hold(d.pos)
+                d.integ = 0.0
 
     # ------------------------------------------------------------------ stepping
 
@@ -209,31 +225,28 @@ class Twin:
                 self._step()
 
     def _step(self) -> None:
-        m, d = self.model, self.data
-        ctrl = d.ctrl
-        qvel = d.qvel
-        bias = m.actuator_biasprm
+        ctrl, bias, v = self._ctrl, self._bias, self._v
         for link in self._links:
             drv = link.drive
             k = drv.gain * link.g2
             if k != link.k:
                 bias[link.act, 2] = -k
                 link.k = k
-            ctrl[link.act] = link.gear * (drv.torque + drv.ext) + k * qvel[link.dof]
+            ctrl[link.act] = link.gear * (drv.torque + drv.ext) + k * v[link.dof]
         if (self._pushes and self._pushes[0].end <= self.time + _EPS) or self._pushes_dirty:
             self._apply_pushes()
-        self._mj.mj_step(m, d)
+        self._mj_step(self.model, self.data)
         self.time += self.step_s
         self._publish()
 
     def _publish(self) -> None:
         """The model joints' angle and speed to the motors."""
-        qpos = self.data.qpos.tolist()
-        qvel = self.data.qvel.tolist()
+        q = self._qpos.tolist()
+        self._v = v = self._qvel.tolist()
         for link in self._links:
             drv = link.drive
-            drv.pos = (qpos[link.qadr] - link.offset) * link.per_rad + link.zero
-            drv.vel = qvel[link.dof] * link.per_rad
+            drv.pos = (q[link.qadr] - link.offset) * link.per_rad + link.zero
+            drv.vel = v[link.dof] * link.per_rad
 
     # ------------------------------------------------------------------ the hand
 
@@ -427,3 +440,93 @@ def configure(motor: SimMotor, params: Mapping[str, float]) -> None:
     for name, value in params.items():
         motor.set_param(name, value)
     store.saved = {a: store.ram[a] for a in CONFIG}
+
+
+class TwinRunner:
+    """A thread that advances several buses in lockstep in real time (scaled by ``time_scale``).
+
+    Every bus reaches each 1 ms step before any goes on to the next, so the twin
+    they share always integrates the torques every motor computed at the step
+    before. Host frames wake it (each bus's ``on_activity``). ``start()``/``stop()``,
+    or use it as a context manager; with ``while_attached`` it also ends once the
+    in-process clients of every bus have closed (``open_robot`` runs one so).
+    """
+
+    IDLE = 0.02
+    """Longest sleep (wall s) when nothing is due."""
+    MAX_CATCH_UP = 0.05
+    """Most wall time one round makes up for (s); beyond it the simulation falls behind."""
+
+    ATTACH_GRACE = 10.0
+    """With ``while_attached``: how long (wall s) the buses may wait for their first listener."""
+
+    def __init__(self, buses: Iterable[SimBus], time_scale: float = 1.0, *, while_attached: bool = False) -> None:
+        if not time_scale > 0:
+            raise ValidationError(f"time_scale={time_scale!r}: must be > 0 simulated seconds per second")
+        self.buses = list(buses)
+        self.time_scale = time_scale
+        self.while_attached = while_attached
+        """End by itself once every bus has lost its listeners (its clients closed)."""
+        self._stop = False
+        self._wake = threading.Event()
+        self._thread: threading.Thread | None = None
+
+    def start(self) -> TwinRunner:
+        """Start advancing the buses (no-op when already running)."""
+        if self._thread is None:
+            self._stop = False
+            for bus in self.buses:
+                with bus.lock:
+                    bus.on_activity = self._wake.set
+            self._thread = threading.Thread(target=self._run, name="drempower-twin", daemon=True)
+            self._thread.start()
+        return self
+
+    def stop(self) -> None:
+        """Stop advancing and wait for the thread to end."""
+        self._stop = True
+        self._wake.set()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        self._detach()
+
+    def _detach(self) -> None:
+        for bus in self.buses:
+            with bus.lock:
+                if bus.on_activity == self._wake.set:
+                    bus.on_activity = None
+
+    def _run(self) -> None:
+        buses, wake, scale = self.buses, self._wake, self.time_scale
+        step = Twin.STEP
+        goal = max(b.now for b in buses)
+        last = start = time.monotonic()
+        seen = False
+        while not self._stop:
+            if self.while_attached:
+                attached = any(b._listeners for b in buses)  # SimTransport.close removes its listener
+                seen = seen or attached
+                if not attached and (seen or time.monotonic() - start > self.ATTACH_GRACE):
+                    break
+            wake.clear()
+            now = time.monotonic()
+            goal += min(now - last, self.MAX_CATCH_UP) * scale
+            last = now
+            while True:
+                t = min(b.now for b in buses)
+                if t >= goal - _EPS:
+                    break
+                nxt = min(goal, (math.floor(t / step + _EPS) + 1) * step)
+                for bus in buses:
+                    if bus.now < nxt:
+                        bus.advance(nxt - bus.now)
+            due = min(b.next_due() for b in buses)
+            wake.wait(min(self.IDLE, max((due - goal) / scale, 0.0)))
+        self._detach()
+
+    def __enter__(self) -> TwinRunner:
+        return self.start()
+
+    def __exit__(self, *exc: object) -> None:
+        self.stop()

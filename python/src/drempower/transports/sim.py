@@ -254,9 +254,7 @@ def _robot_bus(robot: str | os.PathLike[str] | RobotSpec, name: str | None, kwar
         (name,) = spec.buses
     elif name not in spec.buses:
         raise ValidationError(f"robot_bus={name!r}: not a bus of {spec.source} ({', '.join(spec.buses)})")
-    kw = {**kwargs, "motors": sorted(j.id for j in spec.joints_on(name))}
-    bus = simulated_buses(spec, {name: kw}).get(name)
+    bus = simulated_buses(spec, {name: kwargs}).get(name)
     if bus is None:
-        ids = kw.pop("motors")
-        bus = SimBus(ids, **kw)
+        bus = SimBus(sorted(j.id for j in spec.joints_on(name)), **kwargs)
     return bus
