@@ -38,6 +38,8 @@ from .state import MotorState
 from .timeouts import checks_times
 
 if TYPE_CHECKING:
+    from ..motion.plan import FollowReport
+    from ..motion.trajectory import Rows, Trajectory
     from . import backup as _backup
 
 __all__ = ["AsyncBus", "AsyncMotor"]
@@ -364,6 +366,20 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
     ) -> dict[int, MotorState]:
         """Send one command per motor and return each motor's state (see :func:`drempower.client.batch.cycle`)."""
         return await self.run(batch.cycle(self._session, self._commands(commands), timeout, reply_state))
+
+    async def follow(
+        self,
+        ids: Sequence[int],
+        times: Sequence[float] | Trajectory,
+        positions: Rows | None = None,
+        **options: Any,
+    ) -> FollowReport:
+        """Follow a trajectory (deg, one column per motor of ``ids``) through the control cycle; returns a
+        :class:`~drempower.motion.plan.FollowReport`. Options as :meth:`AsyncRobot.follow
+        <drempower.robot.aio.AsyncRobot.follow>` (``max_error`` in deg); see docs/motion.md."""
+        from ..motion.follow_async import follow_bus
+
+        return await follow_bus(self, ids, times, positions, **options)
 
     # ------------------------------------------------------------------ multi-motor (vendor names)
 

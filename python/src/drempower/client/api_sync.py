@@ -35,6 +35,8 @@ from .state import MotorState
 from .timeouts import checks_times
 
 if TYPE_CHECKING:
+    from ..motion.plan import FollowReport
+    from ..motion.trajectory import Rows, Trajectory
     from . import backup as _backup
 
 __all__ = ["Bus", "Motor"]
@@ -353,6 +355,20 @@ class Bus(SyncBusBase[Motor]):
     ) -> dict[int, MotorState]:
         """Send one command per motor and return each motor's state (see :func:`drempower.client.batch.cycle`)."""
         return self.run(batch.cycle(self._session, self._commands(commands), timeout, reply_state))
+
+    def follow(
+        self,
+        ids: Sequence[int],
+        times: Sequence[float] | Trajectory,
+        positions: Rows | None = None,
+        **options: Any,
+    ) -> FollowReport:
+        """Follow a trajectory (deg, one column per motor of ``ids``) through the control cycle; returns a
+        :class:`~drempower.motion.plan.FollowReport`. Options as :meth:`Robot.follow
+        <drempower.robot.aio.Robot.follow>` (``max_error`` in deg); see docs/motion.md."""
+        from ..motion.follow_sync import follow_bus
+
+        return follow_bus(self, ids, times, positions, **options)
 
     # ------------------------------------------------------------------ multi-motor (vendor names)
 
