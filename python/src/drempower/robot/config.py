@@ -32,7 +32,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..errors import ConfigError
-from ..protocol.ids import MAX_NODE
+from ..protocol.limits import MAX_NODE, is_motor
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -140,7 +140,7 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot") -> RobotSpec:
         if bus not in buses:
             raise ConfigError(f"{where}: bus={bus!r}: not one of the buses ({', '.join(buses)})")
         ident = j.get("id")
-        if ident.__class__ is not int or not 1 <= ident <= MAX_NODE:
+        if not is_motor(ident):
             raise ConfigError(f"{where}: id={ident!r}: motor ids are 1..{MAX_NODE}")
         other = taken.get((bus, ident))
         if other is not None:
