@@ -65,6 +65,7 @@ class _States(Protocol):
 
     def get(self, node: int) -> MotorState | None: ...
 
+
 _CLOSED = int(AxisState.CLOSED_LOOP_CONTROL)
 _FORGETS = frozenset(
     int(c) for c in (SysCmd.ESTOP, SysCmd.CLEAR_ERRORS, SysCmd.REBOOT, SysCmd.INIT_CONFIG, SysCmd.ERASE_CONFIG)
