@@ -57,7 +57,7 @@ from .commands import PositionMode, make_angles, position_mode
 from .effects import Op, Send, read_states, request
 from .state import MotorState
 
-__all__ = ["Intent", "Limit", "MotionGate", "intents_of", "move_intents", "LIMIT_UNITS"]
+__all__ = ["Intent", "Limit", "MotionGate", "intents_of", "move_intents", "move_intent", "LIMIT_UNITS"]
 
 
 class _States(Protocol):
@@ -106,12 +106,17 @@ def move_intents(
 ) -> list[Intent]:
     """The intents of a synchronised move (set_angles/step_angles), its values validated first."""
     make_angles(ids, angles, speed, param, mode, move_time=1.0, relative=relative)  # raises what the move would
+    return [move_intent(n, a, speed, param, mode, relative) for n, a in zip(ids, angles, strict=True)]
+
+
+def move_intent(node: int, angle: float, speed: float, param: float, mode: int, relative: bool) -> Intent:
+    """The intent of one motor's position move (``speed``/``param`` as set_angles takes them in ``mode``)."""
     m = position_mode(mode)
     if m is PositionMode.Q:
-        return [Intent(n, float(a), relative, speed=speed, accel=param) for n, a in zip(ids, angles, strict=True)]
+        return Intent(node, float(angle), relative, speed=speed, accel=param)
     if m is PositionMode.P:
-        return [Intent(n, float(a), relative, speed=speed, torque=param) for n, a in zip(ids, angles, strict=True)]
-    return [Intent(n, float(a), relative) for n, a in zip(ids, angles, strict=True)]
+        return Intent(node, float(angle), relative, speed=speed, torque=param)
+    return Intent(node, float(angle), relative)
 
 
 def intents_of(msgs: Iterable[Message]) -> list[Intent]:

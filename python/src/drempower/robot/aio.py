@@ -14,6 +14,7 @@ from typing import Any
 from ..client import AsyncBus, AsyncMotor, open_bus_async
 from ..client.commands import PositionMode
 from ..client.effects import read_states
+from ..client.gate import move_intent
 from ..client.session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL
 from ..client.state import MotorState
 from ..client.timeouts import checks_times
@@ -97,6 +98,10 @@ class AsyncRobot(AsyncRobotBase):
         """The open buses by name."""
         self.joints: dict[str, AsyncJoint] = {name: AsyncJoint(self.buses[j.bus], j) for name, j in spec.joints.items()}
         """Every joint by name, in file order."""
+        for name, j in spec.joints.items():
+            if j.limits:
+                where = f"{spec.source}: [joints.{name}] limits"
+                self.buses[j.bus].set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=where)
         self._clock = StartClock()
         for bus in self.buses.values():
             bus.core.on_sent = self._clock
@@ -152,6 +157,7 @@ class AsyncRobot(AsyncRobotBase):
         *,
         relative: bool = False,
         timeout: float | None = None,
+        enable: bool = False,
     ) -> SyncMove:
         """Synchronised move of joints across buses in wire units: ``{name: motor deg}``, as
         :meth:`~drempower.client.bus.Bus.set_angles` (``relative``: as ``step_angles``).
@@ -161,7 +167,7 @@ class AsyncRobot(AsyncRobotBase):
         move time and the measured skew between the buses' start frames.
         """
         targets = angle_targets(self.spec, angles, speed, param)
-        return await self._move(targets, mode, relative, timeout)
+        return await self._move(targets, mode, relative, timeout, enable)
 
     async def move_joints(
         self,
@@ -171,16 +177,20 @@ class AsyncRobot(AsyncRobotBase):
         *,
         relative: bool = False,
         timeout: float | None = None,
+        enable: bool = False,
     ) -> SyncMove:
         """Synchronised Q-mode move in SI units at the joints: ``{name: rad}``; ``speed`` rad/s and ``accel``
         rad/s² at each joint (converted through its gear). Every joint arrives at the same time."""
         targets = joint_targets(self.spec, positions, speed, accel, relative)
-        return await self._move(targets, PositionMode.Q, relative, timeout)
+        return await self._move(targets, PositionMode.Q, relative, timeout, enable)
 
     async def _move(
-        self, targets: dict[str, list[Target]], mode: int, relative: bool, timeout: float | None
+        self, targets: dict[str, list[Target]], mode: int, relative: bool, timeout: float | None, enable: bool = False
     ) -> SyncMove:
         m = check_targets(targets, mode)
+        for b, group in targets.items():  # the safety gate of every bus before any bus sends
+            intents = [move_intent(t.id, t.angle, t.speed, t.param, m, relative) for t in group]
+            await self.buses[b]._pass(intents, enable)
         async with self._move_lock:
             move_time: float | None = None
             if m is PositionMode.Q:
@@ -264,7 +274,11 @@ class AsyncRobot(AsyncRobotBase):
         )
 
         def stop(bus: str) -> Callable[[], None]:
-            return lambda: self.buses[bus].core.estop(groups[bus])
+            def now() -> None:
+                self.buses[bus].core.estop(groups[bus])
+                self.buses[bus]._gate.forget(groups[bus])
+
+            return now
 
         await self._stop_each({b: stop(b) for b in groups})
 

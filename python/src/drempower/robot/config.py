@@ -15,6 +15,13 @@
     id = 1
     gear = -1.0                # motor output turns per joint turn (sign: direction)
     offset = 0.5               # joint position (rad) when the motor reads 0 deg
+    limits = { position = [-1.5, 1.5], speed = 2.0, torque = 5.0, accel = 10.0, max_step = 0.2 }
+    on_timeout = "hold"        # when its controller is gone: "hold" (default) or "idle"
+
+``limits`` are soft limits at the joint (rad, rad/s, Nm, rad/s^2, rad; each optional):
+a command beyond one is refused before any frame, naming the file and the joint
+(see :mod:`drempower.client.gate`). ``on_timeout`` is what the command watchdog
+(:mod:`drempower.client.watchdog`) does to the joint when its controller is gone.
 
 Every key of a bus entry but ``interface`` goes to :func:`drempower.open_bus`
 (``channel``, ``bitrate``, ``host``, ``port``, ``timeout``, ``time_scale``...).
@@ -44,6 +51,12 @@ __all__ = ["bus_options", "BusSpec", "JointSpec", "RobotSpec", "load_robot", "pa
 JOINT_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
 """What a joint or bus name looks like: it starts with a letter or ``_``, so it never reads as a motor id."""
 _JOINT_KEYS = frozenset(("bus", "id", "gear", "offset"))
+# the safety keys of a joint: soft limits and the watchdog's action
+_SAFETY_KEYS = frozenset(("limits", "on_timeout"))
+JOINT_LIMITS = {"position": "rad", "speed": "rad/s", "torque": "Nm", "accel": "rad/s^2", "max_step": "rad"}
+"""The soft limits a joint can have, in joint units."""
+ON_TIMEOUT = ("hold", "idle")
+"""What the watchdog may do to a joint whose controller is gone; the first is a joint's default."""
 
 
 @dataclass(frozen=True)
@@ -64,6 +77,10 @@ class JointSpec:
     id: int
     gear: float = 1.0
     offset: float = 0.0
+    limits: Mapping[str, Any] = field(default_factory=dict)
+    """Soft limits in joint units (:data:`JOINT_LIMITS`): ``position`` (low, high) rad, the others magnitudes."""
+    on_timeout: str = ON_TIMEOUT[0]
+    """What the command watchdog does when the joint's controller is gone: ``hold`` or ``idle``."""
 
 
 @dataclass(frozen=True)
@@ -109,6 +126,29 @@ def _number(value: object, where: str, *, nonzero: bool = False) -> float:
     return float(value)
 
 
+def _limits(value: object, where: str) -> dict[str, Any]:
+    """A joint's ``limits`` table, checked: known names, numbers, position low <= high, magnitudes > 0."""
+    table = _table(value, where)
+    out: dict[str, Any] = {}
+    for name, v in table.items():
+        unit = JOINT_LIMITS.get(name)
+        if unit is None:
+            raise ConfigError(f"{where}: unknown limit {name!r}: the limits are {', '.join(JOINT_LIMITS)}")
+        if name == "position":
+            if not isinstance(v, list) or len(v) != 2:
+                raise ConfigError(f"{where}.position={v!r}: expected [low, high] in rad")
+            low, high = _number(v[0], f"{where}.position"), _number(v[1], f"{where}.position")
+            if low > high:
+                raise ConfigError(f"{where}.position={v!r}: low is above high")
+            out[name] = (low, high)
+        else:
+            x = _number(v, f"{where}.{name}")
+            if x <= 0:
+                raise ConfigError(f"{where}.{name}={v!r}: a limit is > 0 ({unit}, by magnitude)")
+            out[name] = x
+    return out
+
+
 def parse_robot(data: Mapping[str, Any], source: str = "robot") -> RobotSpec:
     """Check a robot description (the TOML file as a dict); raises :class:`ConfigError` naming the entry and key."""
     unknown = sorted(set(data) - {"buses", "joints"})
@@ -133,9 +173,11 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot") -> RobotSpec:
         where = f"{source}: [joints.{name}]"
         _name("joint", name, where)
         j = _table(entry, where)
-        extra = sorted(set(j) - _JOINT_KEYS)
+        extra = sorted(set(j) - _JOINT_KEYS - _SAFETY_KEYS)
         if extra:
-            raise ConfigError(f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear and offset")
+            raise ConfigError(
+                f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear, offset, limits and on_timeout"
+            )
         bus = j.get("bus")
         if bus not in buses:
             raise ConfigError(f"{where}: bus={bus!r}: not one of the buses ({', '.join(buses)})")
@@ -148,7 +190,11 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot") -> RobotSpec:
         taken[(bus, ident)] = name
         gear = _number(j.get("gear", 1.0), f"{where}: gear", nonzero=True)
         offset = _number(j.get("offset", 0.0), f"{where}: offset")
-        joints[name] = JointSpec(name, bus, ident, gear, offset)
+        limits = _limits(j.get("limits", {}), f"{where}: limits")
+        on_timeout = j.get("on_timeout", ON_TIMEOUT[0])
+        if on_timeout not in ON_TIMEOUT:
+            raise ConfigError(f"{where}: on_timeout={on_timeout!r}: expected 'hold' or 'idle'")
+        joints[name] = JointSpec(name, bus, ident, gear, offset, limits, on_timeout)
     if not joints:
         raise ConfigError(f"{source}: no [joints.NAME] entry: a robot needs at least one joint")
     empty = [b for b in buses if not any(j.bus == b for j in joints.values())]
