@@ -267,3 +267,26 @@ def test_a_bad_duration_is_refused(idle: Idle) -> None:
         with pytest.raises(drempower.ValidationError, match=r"duration=-1: expected seconds > 0"):
             bus.motor(1).set_speed(10, duration=-1)
     assert idle.frames == []
+
+
+def test_compat_refuses_with_the_same_words(idle: Idle) -> None:
+    from drempower import compat
+
+    with idle.open() as bus:
+        compat.use_bus(bus)
+        try:
+            for call in (
+                lambda: compat.set_angle(1, 30, 10, 20, 1),
+                lambda: compat.set_speed(1, 10),
+                lambda: compat.set_torques([1], [0.1]),
+                lambda: compat.impedance_control(1, 30, 0, 0, 1, 0.1),
+            ):
+                with pytest.raises(MotorIdleError) as info:
+                    call()
+                assert str(info.value) == IDLE_1
+            compat.set_mode(1, 2)  # the vendor's way to enable: then the gate lets it through
+            compat.set_angle(1, 30, 20, 50, 1)
+            compat.position_done(1)
+        finally:
+            compat._bus = None
+    assert [f.arbitration_id for f in _motion(idle.frames)] == [0x3A]  # the one move, after set_mode

@@ -20,7 +20,7 @@ from ..protocol.addresses import (
     AXIS0_REQUESTED_STATE,
 )
 from ..protocol.ids import SysCmd
-from ..protocol.messages import Message, PresetD, StartImpedance
+from ..protocol.messages import Message, PresetD, StartImpedance, Velocity
 from ..protocol.parameters import parameter
 from . import batch, ops
 from .commands import (
@@ -155,6 +155,13 @@ class AsyncMotor(MotorBase):
         await self._bus._pass((preset,), enable)
         await self._bus.run(_impedance(preset, start))
         self._bus._sent((preset,))
+
+    async def stop(self) -> None:
+        """Speed 0 now: the motor holds where it is. Never refused by the safety gate (stopping is always
+        possible); a pending timed stop is dropped (this one came first)."""
+        msg = Velocity(self._id, 0.0)
+        self._core.send(msg)
+        self._bus._sent((msg,))
 
     async def enable(self) -> None:
         """Enter closed loop (``set_mode(2)``): motion commands are obeyed from now on."""

@@ -17,7 +17,7 @@ from ..protocol.addresses import (
     AXIS0_REQUESTED_STATE,
 )
 from ..protocol.ids import SysCmd
-from ..protocol.messages import Message, PresetD, StartImpedance
+from ..protocol.messages import Message, PresetD, StartImpedance, Velocity
 from ..protocol.parameters import parameter
 from . import batch, ops
 from .commands import (
@@ -152,6 +152,13 @@ class Motor(MotorBase):
         self._bus._pass((preset,), enable)
         self._bus.run(_impedance(preset, start))
         self._bus._sent((preset,))
+
+    def stop(self) -> None:
+        """Speed 0 now: the motor holds where it is. Never refused by the safety gate (stopping is always
+        possible); a pending timed stop is dropped (this one came first)."""
+        msg = Velocity(self._id, 0.0)
+        self._core.send(msg)
+        self._bus._sent((msg,))
 
     def enable(self) -> None:
         """Enter closed loop (``set_mode(2)``): motion commands are obeyed from now on."""

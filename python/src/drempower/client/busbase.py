@@ -158,6 +158,11 @@ class BusBase(ABC, Generic[M]):
         self._gate.note_sent(msgs)
         self._timed.commanded(msgs, duration)
 
+    def send_frames(self, frames: Sequence[Frame]) -> None:
+        """Send raw CAN frames as given, in order, never waiting (for frames the protocol does not define:
+        nothing is checked, the session learns nothing from them; use :meth:`send` for messages)."""
+        self._core._send_frames(list(frames))
+
     def _moved(self, ids: Sequence[int], angles: Sequence[float], relative: bool) -> None:
         """Note a synchronised move's targets (a step leaves its motors' targets unknown)."""
         if relative:
