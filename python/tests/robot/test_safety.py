@@ -93,3 +93,16 @@ def test_a_robot_move_to_idle_joints_is_refused(robot_file: Path) -> None:
         robot.joint("wrist").idle()
         with pytest.raises(MotorIdleError, match="motor 2 is idle"):
             robot.move_joints({"shoulder": 0.1, "wrist": 0.5}, 1.0, 5.0)
+
+
+def test_a_timed_joint_velocity_ends_by_itself(robot_file: Path) -> None:
+    from drempower.client.effects import sleep
+
+    with drempower.open_robot(robot_file) as robot:
+        wrist = robot.joint("wrist")
+        wrist.set_velocity(1.0, duration=0.5, enable=True)
+        bus = robot.bus("arm")
+        bus.run(sleep(0.3))
+        assert wrist.get_joint_state().velocity == pytest.approx(1.0, abs=0.05)
+        bus.run(sleep(0.5))
+        assert wrist.get_joint_state().velocity == pytest.approx(0.0, abs=0.05)

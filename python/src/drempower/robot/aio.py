@@ -64,17 +64,17 @@ class AsyncJoint(AsyncMotor):
         """A fresh state (fast read) at the joint: rad, rad/s, Nm."""
         return self.gearing.joint_state(await self.get_state(timeout=timeout))
 
-    async def set_position(self, position: float, bandwidth: float = 20.0) -> None:
+    async def set_position(self, position: float, bandwidth: float = 20.0, *, enable: bool = False) -> None:
         """Move the joint to ``position`` rad now (T mode: ``bandwidth`` 0..300 1/s filter)."""
-        await self.set_angle(self.gearing.motor_angle(position), 0.0, bandwidth, 0)
+        await self.set_angle(self.gearing.motor_angle(position), 0.0, bandwidth, 0, enable=enable)
 
-    async def set_velocity(self, velocity: float) -> None:
-        """Turn the joint at ``velocity`` rad/s."""
-        await self.set_speed(self.gearing.motor_speed(velocity))
+    async def set_velocity(self, velocity: float, *, duration: float | None = None, enable: bool = False) -> None:
+        """Turn the joint at ``velocity`` rad/s (for ``duration`` s, then speed 0, when given)."""
+        await self.set_speed(self.gearing.motor_speed(velocity), duration=duration, enable=enable)
 
-    async def set_joint_torque(self, torque: float) -> None:
-        """Apply ``torque`` Nm at the joint."""
-        await self.set_torque(self.gearing.motor_torque(torque))
+    async def set_joint_torque(self, torque: float, *, duration: float | None = None, enable: bool = False) -> None:
+        """Apply ``torque`` Nm at the joint (for ``duration`` s, then 0, when given)."""
+        await self.set_torque(self.gearing.motor_torque(torque), duration=duration, enable=enable)
 
     def __repr__(self) -> str:
         return f"<AsyncJoint {self.name} motor {self.id}>"

@@ -64,17 +64,17 @@ class Joint(Motor):
         """A fresh state (fast read) at the joint: rad, rad/s, Nm."""
         return self.gearing.joint_state(self.get_state(timeout=timeout))
 
-    def set_position(self, position: float, bandwidth: float = 20.0) -> None:
+    def set_position(self, position: float, bandwidth: float = 20.0, *, enable: bool = False) -> None:
         """Move the joint to ``position`` rad now (T mode: ``bandwidth`` 0..300 1/s filter)."""
-        self.set_angle(self.gearing.motor_angle(position), 0.0, bandwidth, 0)
+        self.set_angle(self.gearing.motor_angle(position), 0.0, bandwidth, 0, enable=enable)
 
-    def set_velocity(self, velocity: float) -> None:
-        """Turn the joint at ``velocity`` rad/s."""
-        self.set_speed(self.gearing.motor_speed(velocity))
+    def set_velocity(self, velocity: float, *, duration: float | None = None, enable: bool = False) -> None:
+        """Turn the joint at ``velocity`` rad/s (for ``duration`` s, then speed 0, when given)."""
+        self.set_speed(self.gearing.motor_speed(velocity), duration=duration, enable=enable)
 
-    def set_joint_torque(self, torque: float) -> None:
-        """Apply ``torque`` Nm at the joint."""
-        self.set_torque(self.gearing.motor_torque(torque))
+    def set_joint_torque(self, torque: float, *, duration: float | None = None, enable: bool = False) -> None:
+        """Apply ``torque`` Nm at the joint (for ``duration`` s, then 0, when given)."""
+        self.set_torque(self.gearing.motor_torque(torque), duration=duration, enable=enable)
 
     def __repr__(self) -> str:
         return f"<Joint {self.name} motor {self.id}>"
