@@ -312,9 +312,9 @@ def impedance_control(
     _m(id_num).impedance_control(pos, vel, tff, kp, kd)
 
 
-def _act(action: str, **args: Any) -> Any:
-    """Carry out ``action`` of :mod:`drempower.actions` on the bus in use (its checks, its words)."""
-    return actions.run(current_bus(), action, args)
+def _act(action: str, id: int, **args: Any) -> Any:
+    """Carry out ``action`` of :mod:`drempower.actions` for motor ``id`` on the bus in use (its checks, its words)."""
+    return actions.run(_m(id).bus, action, {"id": id, **args})
 
 
 def estop(id_num: int = 0) -> None:

@@ -45,6 +45,7 @@ def test_the_keys_are_read_with_their_defaults(robot_file: Path) -> None:
     }
     assert spec.joints["shoulder"].on_timeout == "hold"  # an arm's joint holds by default
     assert spec.joints["wrist"].on_timeout == "idle" and spec.joints["wrist"].limits == {}
+    assert spec.on_timeout("arm") == {1: "hold", 2: "idle"}  # what the bus's watchdog takes
 
 
 @pytest.mark.parametrize(

@@ -95,6 +95,11 @@ class RobotSpec:
         """The joints of bus ``bus``, in file order."""
         return [j for j in self.joints.values() if j.bus == bus]
 
+    def on_timeout(self, bus: str) -> dict[int, str]:
+        """``{motor id: "hold"|"idle"}`` of bus ``bus``'s joints, for its command watchdog
+        (:class:`~drempower.client.watchdog.Watchdog`)."""
+        return {j.id: j.on_timeout for j in self.joints_on(bus)}
+
     def open_options(self, bus: str) -> dict[str, Any]:
         """The :func:`~drempower.open_bus` keyword arguments of bus ``bus`` (a sim bus gets its joints' ids)."""
         spec = self.buses[bus]
