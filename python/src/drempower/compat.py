@@ -27,6 +27,11 @@ Differences from the vendor library (see docs/client.md):
 * ``dump_error`` returns, like the vendor's, the sum of the seven error words
   (``== 0`` when healthy) as an int that also carries the decoded report
   (``.report``, ``.flags``, ``.words``); it prints nothing.
+* A motion command to a motor that is not in closed loop raises
+  :class:`~drempower.errors.MotorIdleError` and sends nothing (the vendor's is
+  silently ignored by the motor): call ``set_mode(id, 2)`` first, as vendor scripts
+  do. ``estop``, ``set_mode``, ``clear_error``, ``save_config``, ``reboot``,
+  ``set_zero_position`` and ``write_property`` run through :mod:`drempower.actions`.
 * ``set_mode`` refuses modes other than 1 and 2 instead of ignoring them;
   ``set_id`` checks that the motor answers at its new id before saving.
 * Motors keep holding when the script ends, as with the vendor library: the bus
