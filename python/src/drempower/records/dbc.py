@@ -18,6 +18,7 @@ from dataclasses import dataclass
 
 from ..protocol.enums import TorqueMode, VelocityMode
 from ..protocol.ids import MAX_NODE, Cmd, SysCmd
+from ..protocol.limits import S16_MAX, S16_MIN
 from ..protocol.parameters import DataType, parameters
 
 __all__ = ["dbc_text", "write_dbc", "parse_nodes"]
@@ -25,7 +26,7 @@ __all__ = ["dbc_text", "write_dbc", "parse_nodes"]
 _F32 = (0.0, 0.0)
 """A float signal's range: none (``[0|0]``, as cantools writes a signal without one), so a strict encoder takes
 every float32 value, +-3.4028234663852886e38, infinities and NaN included."""
-_S16 = (-327.68, 327.67)
+_S16 = (S16_MIN, S16_MAX)
 
 
 @dataclass(frozen=True)
