@@ -431,6 +431,15 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         self._core.send_many(msgs)
         self._sent(msgs, duration)
 
+    async def pass_gate(self, msgs: Sequence[Message], *, enable: bool = False) -> None:
+        """The safety gate alone, for motion messages a loop is about to stream: raises
+        :class:`~drempower.errors.MotorIdleError` or :class:`~drempower.errors.SoftLimitError` as the motion
+        methods do, and sends nothing but, for motors not yet known in closed loop, one state read (their
+        enable with ``enable=True``). A loop calls it once before its clock starts, so no cycle pays a read."""
+        op = self._gate_op(msgs, enable)
+        if op is not None:
+            await self.run(op)
+
     async def enable(self, id_list: Iterable[int]) -> None:
         """Put the listed motors in closed loop (``set_mode(2)`` each, in one go)."""
         msgs = [ops.set_mode(n, 2) for n in check_ids(as_list(id_list, "id_list"))]

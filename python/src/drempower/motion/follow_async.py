@@ -206,6 +206,9 @@ async def stream(
                     "nothing was sent"
                 )
 
+    for lane in lanes:  # the gate once, before the clock starts: no cycle pays its read
+        await buses[lane.bus].pass_gate([m for cmds in plan.commands for m in cmds[lane.bus]])
+
     def part(lane: Lane, k: int) -> AsyncPart[dict[int, MotorState]]:
         bus = buses[lane.bus]
         if plan.mode == "impedance":

@@ -204,6 +204,9 @@ def stream(
                     "nothing was sent"
                 )
 
+    for lane in lanes:  # the gate once, before the clock starts: no cycle pays its read
+        buses[lane.bus].pass_gate([m for cmds in plan.commands for m in cmds[lane.bus]])
+
     def part(lane: Lane, k: int) -> SyncPart[dict[int, MotorState]]:
         bus = buses[lane.bus]
         if plan.mode == "impedance":
