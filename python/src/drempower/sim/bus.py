@@ -54,7 +54,7 @@ def parse_host_queue(text: str) -> int:
     if text == "fifo":
         return 1
     kind, _, count = text.partition(":")
-    if kind == "priority" and count.isdigit() and 1 <= int(count) <= 32:
+    if kind == "priority" and count.isascii() and count.isdigit() and 1 <= int(count) <= 32:
         return int(count)
     raise ValueError(f"host_queue={text!r}: 'fifo' or 'priority:N' with N mailboxes 1..32, e.g. 'priority:3'")
 

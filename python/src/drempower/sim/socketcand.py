@@ -26,7 +26,7 @@ import time
 from types import TracebackType
 
 from ..errors import ProtocolError, ValidationError
-from ..protocol.ids import Frame
+from ..protocol.ids import Frame, parse_int
 from .bus import SimBus
 
 __all__ = ["CommandParser", "SocketcandServer", "attach_socketcand", "parse_send", "format_frame"]
@@ -85,18 +85,28 @@ class CommandParser:
         return out
 
 
+def _byte(text: str) -> int:
+    if not 1 <= len(text) <= 2:
+        raise ValueError(text)
+    return parse_int(text, "byte", base=16)
+
+
 def parse_send(body: str) -> Frame:
     """``send ID LEN B0 ...`` (the text between ``<`` and ``>``) as a frame; raises :class:`ProtocolError`."""
     parts = body.split()
     if len(parts) < 3 or parts[0] != "send":
         raise ProtocolError(f"not a send command: {body!r}")
     try:
-        ident, length, data = parts[1], int(parts[2]), bytes(int(b, 16) for b in parts[3:])
-        arb = int(ident, 16)
+        ident, length = parts[1], parse_int(parts[2], "length")
+        data = bytes(_byte(b) for b in parts[3:])
+        arb = parse_int(ident, "id", base=16)
     except ValueError:
         raise ProtocolError(f"bad send command: {body!r}") from None
-    if length != len(data) or length > 8 or len(ident) not in (3, 8):
+    if length != len(data) or length > 8 or len(ident) not in (3, 8) or "x" in ident.lower():
         raise ProtocolError(f"bad send command: {body!r}")
+    top = 0x1FFFFFFF if len(ident) == 8 else 0x7FF
+    if arb > top:
+        raise ProtocolError(f"bad send command: id {ident} is above 0x{top:X}")
     return Frame(arb, data, len(ident) == 8)
 
 
