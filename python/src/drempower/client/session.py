@@ -39,6 +39,7 @@ from ..protocol.addresses import (
 )
 from ..protocol.ids import Frame, SysCmd
 from ..protocol.messages import (
+    HOST_CMDS,
     FastRead,
     Message,
     PositionP,
@@ -117,9 +118,10 @@ _POSITION_CMDS = (PositionT, PositionQ, PositionP)
 _POSITION_STARTS = frozenset((0x10, 0x11, 0x12))
 _STARTS = (Start, StartImpedance)
 _TYPED_PRESETS = (PresetT, PresetQ, PresetP, PresetV, PresetC, PresetD)
-_HOST_ONLY_CMDS = frozenset((0x08, 0x0C, 0x1A, 0x1C, 0x1F))
+_HOST_ONLY_CMDS = HOST_CMDS - {0x1E}
 """Commands only a host sends: seeing one that this bus did not send means another host is present."""
 _ZERO4 = bytes(4)
+_ZERO8 = bytes(8)
 _STATE = struct.Struct("<fhh").unpack
 _IDLE = 1  # axis0.requested_state value for IDLE
 _REQUESTED_STATE = AXIS0_REQUESTED_STATE
@@ -593,6 +595,8 @@ class BusSession:
         self.unmatched = 0
         self.anomalies = 0
         """Replies for a waiting request whose echoed fields (data type) differ from it: never taken as answers."""
+        self.foreign = 0
+        """Frames another host sent (its commands, fast reads and reads): they answer nothing, update no state."""
         self.moves_resent = 0
         """Moves sent again because a wait found them lost (see :func:`~drempower.client.ops.wait_done`)."""
         self.other_hosts = False
@@ -1224,8 +1228,8 @@ class BusSession:
             self.unmatched += 1
             return frame
         cmd = arb & 0x1F
-        if cmd & 1:
-            # state frame: decode bits 0-2 only (as decode_reply does)
+        if cmd & 1 and cmd < 0x18:
+            # a state frame (protocol.messages.STATE_CMDS): decode bits 0-2 only, as decode_reply does
             node = arb >> 5
             pos, vel, tq = _STATE(data)
             st: MotorState = _new_state(
@@ -1246,10 +1250,16 @@ class BusSession:
                         self._resume(opn, st, None)
             return st
         if cmd != 0x1E:
-            if cmd in _HOST_ONLY_CMDS:
+            if cmd in _HOST_ONLY_CMDS:  # 0x19/0x1B/0x1D/0x1F too: T, P, C and write, never a state
                 self.other_hosts = True
+                self.foreign += 1
             else:
                 self.malformed += 1
+            self.unmatched += 1
+            return frame
+        if data == _ZERO8:  # a fast read: another host's (its answer is a state frame)
+            self.other_hosts = True
+            self.foreign += 1
             self.unmatched += 1
             return frame
         try:
@@ -1274,7 +1284,9 @@ class BusSession:
             if outcome != MATCHED:
                 if outcome == MISMATCHED:
                     self.anomalies += 1
-                self.other_hosts = True  # most likely another host's read request
+                else:
+                    self.foreign += 1  # most likely another host's read request
+                self.other_hosts = True
                 self.unmatched += 1
                 return frame
             return None
