@@ -243,13 +243,18 @@ class SimBus:
             return False
 
     def uart_request(self, ident: int, frame: Frame) -> list[Frame]:
-        """Deliver ``frame`` through the UART of motor ``ident`` only; returns its answers.
+        """Deliver ``frame`` through the UART of motor ``ident`` only, at ``now``; returns its answers.
 
+        As :meth:`send` does, the clock is first brought up to the time of the
+        request (by a runner's ``clock_sync``), so answers carry the state of now.
         ``drop_rate`` and ``corrupt_rate`` apply to the request here; a UART
         attachment sends the answers through :meth:`uart_reply` for the rest.
         """
         out: list[Frame] = []
         with self.lock:
+            sync = self.clock_sync
+            if sync is not None:
+                sync()
             faulty = self._fault(frame)
             if faulty is None:
                 return out
