@@ -134,7 +134,7 @@ _ERROR_ADDRESSES = tuple(w.address for w in ERROR_WORDS)
 
 
 def _s16(x: float) -> float:
-    return S16_MIN if x < S16_MIN else S16_MAX if x > S16_MAX else x
+    return S16_MIN if x < S16_MIN else S16_MAX if x > S16_MAX else x if x == x else 0.0
 
 
 class SimMotor:
