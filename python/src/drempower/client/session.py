@@ -33,6 +33,7 @@ from typing import Any, Generic, Literal, TypeVar
 
 from ..errors import BusStoppedError, ProtocolError, ValidationError
 from ..protocol.addresses import (
+    AXIS0_CONFIG_CAN_NODE_ID,
     AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE,
     AXIS0_REQUESTED_STATE,
     AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE,
@@ -106,11 +107,13 @@ StartPolicy = Literal["auto", "broadcast", "node"]
 """Where start commands go: see :class:`BusSession`."""
 StopOnClose = bool | Literal["idle", "estop"]
 """What closing the bus does to the motors it commanded: see :class:`BusSession`."""
-TxOrder = Literal["in_order", "confirmed", "timed"]
+TxOrder = Literal["in_order", "confirmed", "timed", "answered"]
 """How the session knows a batch's presets are on the wire before it sends their start:
 ``in_order`` (frames reach the bus in the order written: no wait), ``confirmed`` (the driver
 reports :meth:`BusSession.transmitted`), ``timed`` (the bus time of what was written, plus
-``tx_latency``)."""
+``tx_latency``), ``answered`` (a read of each preset's motor, sent after the presets, is answered:
+a read has a higher CAN id than the preset of its motor, so no transmit queue that arbitrates by id
+or keeps the order sends it first; for links whose delay has no bound, such as socketcand over TCP)."""
 
 _WORST_FRAME_BITS = 135
 """Longest standard 8-byte CAN data frame with stuff bits and interframe space."""
@@ -131,6 +134,11 @@ _MIN_CONFIRM = 0.1
 _new_state = tuple.__new__
 _WAIT: Any = object()
 """What starting an effect returns when the operation must wait for it."""
+
+
+def _probe_read(node: int) -> ReadParam:
+    """The read that follows a held start's presets (tx="answered"): can_node_id, whose value is never 0."""
+    return ReadParam(node, AXIS0_CONFIG_CAN_NODE_ID, DataType.U32)
 
 
 def _motors(nodes: Sequence[int]) -> str:
@@ -509,12 +517,14 @@ class _SeqJob:
 class _Hold:
     """A start waiting for its presets to be on the wire."""
 
-    __slots__ = ("confirmed", "due", "fail", "release", "timed")
+    __slots__ = ("answered", "confirmed", "due", "fail", "release", "timed")
 
     def __init__(
         self, timed: bool, release: Callable[[], None], fail: Callable[[BaseException | None], None], due: float
     ) -> None:
         self.timed = timed
+        self.answered = False
+        """With ``answered`` transports: True while the start waits for the fast reads' answers."""
         self.confirmed = False
         self.release = release
         self.fail = fail
@@ -527,11 +537,12 @@ class BusSession:
 
     ``timeout`` (s) is the default wait for a reply and ``retries`` how often a
     read whose reply did not come is sent again. ``start`` chooses where start
-    commands go: ``"auto"`` (default) sends the start of a one-motor move to
-    that motor only, and the start of a multi-motor move to broadcast unless a
-    motor outside the move may still hold a preset from this bus (then to each
-    motor of the move); ``"broadcast"`` always broadcasts (the vendor library's
-    behaviour); ``"node"`` always addresses each motor. ``stop_on_close``:
+    commands go: ``"auto"`` (default) sends one start to each motor of the move,
+    so that no preset another command left behind is fired, and one broadcast
+    start only when the bus's motors are known (``motor_ids``) and all in the
+    move, with none holding a preset of this bus outside it; ``"broadcast"``
+    always broadcasts (the vendor library's behaviour); ``"node"`` always
+    addresses each motor. ``stop_on_close``:
     ``True`` or ``"idle"`` makes :meth:`stop_frames` put every motor this bus
     sent a motion command or a state request (set_mode) to into IDLE,
     ``"estop"`` sends them an emergency stop, ``False`` nothing. ``tx``,
@@ -559,8 +570,8 @@ class BusSession:
             raise ValidationError(f"start={start!r}: 'auto', 'broadcast' or 'node'")
         if stop_on_close not in (True, False, "idle", "estop"):
             raise ValidationError(f"stop_on_close={stop_on_close!r}: True, False, 'idle' or 'estop'")
-        if tx not in ("in_order", "confirmed", "timed"):
-            raise ValidationError(f"tx={tx!r}: 'in_order', 'confirmed' or 'timed'")
+        if tx not in ("in_order", "confirmed", "timed", "answered"):
+            raise ValidationError(f"tx={tx!r}: 'in_order', 'confirmed', 'timed' or 'answered'")
         timeout = seconds(timeout)
         if retries.__class__ is not int or retries < 0:
             raise ValidationError(f"retries={retries!r}: must be an integer >= 0")
@@ -760,7 +771,7 @@ class BusSession:
         """True when a start waits for the transport to confirm its presets are on the wire
         (``tx="confirmed"``): the driver asks the transport, then calls :meth:`transmitted`."""
         hold = self._hold
-        return hold is not None and not hold.timed and not hold.confirmed and not self._out
+        return hold is not None and not hold.timed and not hold.answered and not hold.confirmed and not self._out
 
     def transmitted(self, now: float, confirmed: bool | None = True) -> None:
         """The transport says whether every frame handed to it is on the wire: True (a held start
@@ -769,7 +780,7 @@ class BusSession:
         if now > self.now:
             self.now = now
         hold = self._hold
-        if hold is None or self._out:
+        if hold is None or self._out or hold.answered:
             return
         if confirmed is None:
             hold.timed = True
@@ -953,8 +964,15 @@ class BusSession:
         presets, start = b.presets, b.start
         nodes = [p.node for p in presets]
         policy = self.start_policy
+        # "auto" broadcasts only when no motor outside the move can hold a preset: the bus's motors are
+        # known (the simulator declares them) and all in the move. Presets another command left behind
+        # (an overtaken or lost start, a program killed between presets and start) are unknown to this bus.
         broadcast = policy == "broadcast" or (
-            policy == "auto" and len(nodes) > 1 and self.pending_presets.issubset(nodes)
+            policy == "auto"
+            and len(nodes) > 1
+            and bool(self.motor_ids)
+            and self.motor_ids.issubset(nodes)
+            and self.pending_presets.issubset(nodes)
         )
         where = [0] if broadcast else nodes
         starts = [dataclasses.replace(start, node=n).encode() for n in where]
@@ -1002,10 +1020,49 @@ class BusSession:
                 error = TimeoutError(nodes, "the transmission of the presets", wait)
             self._job_done(job, None, error)
 
-        self._hold = _Hold(self.tx == "timed", ready, give_up, self.now + wait)
+        hold = self._hold = _Hold(self.tx == "timed", ready, give_up, self.now + wait)
+        if self.tx == "answered":
+            self._probe(hold, nodes, wait)
         self._timer_seq += 1
         self._check_hold()
         return True
+
+    def _probe(self, hold: _Hold, nodes: list[int], wait: float) -> None:
+        """Queue a read of each of ``nodes``' can_node_id (0: any motor) after the presets; the hold is
+        confirmed once every one is answered. A read has a higher CAN id than its motor's preset and its
+        reply echoes the address (a heartbeat cannot pass for it). Unanswered reads are sent again up to
+        ``retries`` times, ``wait`` s apart; then the hold fails (TimeoutError naming the silent motors)."""
+        hold.answered = True
+        fail = hold.fail
+        tries = [0]
+        waiter = [Waiter([], None)]
+
+        def answered() -> None:
+            hold.confirmed = True
+            self._check_hold()
+
+        def ask(which: list[int]) -> None:
+            reads = [_probe_read(n) for n in which]
+            w = waiter[0] = Waiter([request_key(r) for r in reads], answered, [DataType.U32] * len(reads))
+            self.matcher.register(w)
+            self._out.extend(r.encode() for r in reads)
+
+        def failed(error: BaseException | None) -> None:
+            w = waiter[0]
+            self.matcher.cancel(w)
+            missing = [w.keys[i] >> 16 for i in w.missing()]
+            if error is None and tries[0] < self.retries and missing:
+                tries[0] += 1
+                hold.due = self.now + wait
+                ask(missing)
+                self._timer_seq += 1  # a new deadline
+                return
+            if error is None:
+                error = TimeoutError(missing or nodes, "reads sent after the presets (the start waits)", wait)
+            fail(error)
+
+        ask(nodes)
+        hold.fail = failed
 
     def _check_hold(self) -> None:
         hold = self._hold

@@ -135,6 +135,7 @@ class PythonCanTransport(Transport):
         self.wire_bitrate = rate if isinstance(rate, int) and rate > 0 else None
         if name == "socketcand":  # a TCP hop and the server's own queue before the bus
             self.tx_latency = SOCKETCAND_TX_LATENCY
+            self.unbounded_latency = True
         info = str(getattr(self._bus, "channel_info", "") or "")
         chan = cfg.get("channel")
         if info and info != "unknown" and (chan is None or str(chan) in info):
