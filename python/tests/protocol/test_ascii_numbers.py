@@ -101,3 +101,11 @@ def test_simulator_text_links_take_ascii_only() -> None:
         parse_host_queue(f"priority:{ARABIC_ONE}")
     with pytest.raises(ValueError, match="host_queue"):
         parse_host_queue(f"priority:{SUPERSCRIPT_TWO}")
+
+
+def test_socketcand_port_in_ascii_only() -> None:
+    from drempower.errors import TransportError
+    from drempower.transports.pythoncan import _probe_socketcand
+
+    with pytest.raises(TransportError, match="ASCII"):
+        _probe_socketcand("127.0.0.1", "\u0662\u0669\u0665\u0663\u0666", 1.0)  # 29536 in Arabic-Indic digits
