@@ -1,4 +1,4 @@
-"""Synchronised move: several motors start together and arrive together (Q mode, one broadcast start).
+"""Synchronised move: several motors start together and arrive together (Q mode: presets, then their starts).
 
 The move time follows the vendor's formula for the motor that moves furthest,
 from freshly read positions and each motor's real trajectory mode.

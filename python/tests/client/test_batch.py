@@ -116,9 +116,13 @@ def test_single_motor_starts_go_to_that_motor(bus: Bus, scripted: ScriptedTransp
     assert [n for n, _ in starts(scripted)] == [2, 3, 1]
 
 
-def test_multi_motor_start_is_broadcast_unless_a_stale_preset_exists(motors: FakeMotors) -> None:
+def test_multi_motor_start_is_broadcast_only_when_every_motor_of_the_bus_moves(motors: FakeMotors) -> None:
+    """Presets another command left behind are unknown: a broadcast would fire them. So "auto" broadcasts
+    only when the bus's motors are known (the simulator declares them) and all in the move."""
+
     class FailAfter(ScriptedTransport):
         fail_at: int | None = None
+        motor_ids = frozenset((1, 2, 3))
 
         def send(self, frame: object) -> None:
             if self.fail_at is not None and len(self.sent) == self.fail_at:
@@ -127,18 +131,22 @@ def test_multi_motor_start_is_broadcast_unless_a_stale_preset_exists(motors: Fak
 
     t = FailAfter(motors)
     with Bus(t, timeout=0.25, stop_on_close=False) as bus:
-        bus.set_speeds([1, 2], [10, 10])
+        bus.set_speeds([1, 2, 3], [10, 10, 10])
         assert [n for n, _ in starts(t)] == [0]
+        t.sent.clear()
+        bus.set_speeds([1, 2], [10, 10])  # motor 3 may hold another command's preset
+        assert [n for n, _ in starts(t)] == [1, 2]
         t.fail_at = len(t.sent) + 1  # the preset for motor 3 goes out, then the link fails
         with pytest.raises(drempower.TransportError):
             bus.set_speeds([3, 1], [5, 5])
         t.fail_at = None
         t.sent.clear()
-        bus.set_speeds([1, 2], [1, 1])  # motor 3 still holds a preset: a broadcast would start it
-        assert [n for n, _ in starts(t)] == [1, 2]
-        t.sent.clear()
-        bus.set_speeds([1, 2, 3], [0, 0, 0])  # every preset holder is in the move: broadcast again
+        bus.set_speeds([1, 2, 3], [0, 0, 0])  # every motor (and preset holder) is in the move
         assert [n for n, _ in starts(t)] == [0]
+    unknown = ScriptedTransport(motors)
+    with Bus(unknown, timeout=0.25, stop_on_close=False) as bus:
+        bus.set_speeds([1, 2, 3], [1, 1, 1])  # the bus's motors are unknown: one start each
+        assert [n for n, _ in starts(unknown)] == [1, 2, 3]
 
 
 def test_start_policies(motors: FakeMotors) -> None:

@@ -121,6 +121,23 @@ def _check(opn: Operation[Any], want: dict[str, Any], where: str) -> None:
         assert value.trajectory_done is want["trajectory_done"], where
 
 
+def _motors(item: object) -> set[int]:
+    """Every motor a vector names: its bus's motors (so a move of all of them may start by broadcast)."""
+    found: set[int] = set()
+    if isinstance(item, dict):
+        for key, value in item.items():
+            if key == "node" and isinstance(value, int) and value > 0:
+                found.add(value)
+            elif key == "nodes" and isinstance(value, list):
+                found.update(n for n in value if isinstance(n, int) and n > 0)
+            else:
+                found |= _motors(value)
+    elif isinstance(item, list):
+        for value in item:
+            found |= _motors(value)
+    return found
+
+
 def run_vector(vec: dict[str, Any]) -> None:
     """Run one vector against a fresh session; AssertionError names the step that differs."""
     cfg = vec["config"]
@@ -129,6 +146,7 @@ def run_vector(vec: dict[str, Any]) -> None:
         retries=cfg.get("retries", 0),
         tx=cfg.get("tx", "in_order"),
         zero_reply_grace=_s(10),
+        motor_ids=_motors(vec),
         now=0.0,
     )
     written: list[Frame] = []

@@ -62,7 +62,7 @@ def test_reply_for_other_parameter_is_not_an_answer() -> None:
 def test_state_frames_are_cached_not_answers_to_reads(bus: Bus, scripted: ScriptedTransport) -> None:
     seen: list[MotorState] = []
     sub = bus.subscribe(seen.append)
-    scripted.inject(State(5, 1.0, 2.0, 3.0, False, True, spare_bits=3).encode())  # bits 3-4 set: still a state
+    scripted.inject(State(5, 1.0, 2.0, 3.0, False, True, spare_bits=2).encode())  # bit 4 set: still a state
     st = bus.wait_state(5, timeout=1, newer_than=0)
     assert (st.angle, st.speed, st.torque, st.trajectory_done, st.error) == (1.0, 2.0, 3.0, False, True)
     assert seen == [st]

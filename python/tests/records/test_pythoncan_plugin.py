@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
@@ -95,3 +96,61 @@ def test_python_can_logger_and_player(adapter: tuple[SimBus, AdapterPty], tmp_pa
     )
     assert r.returncode == 0, r.stderr
     assert _eventually(lambda: abs(sim.motors[2].position + 45.0) <= 0.05)
+
+
+@pytest.mark.parametrize("suffix", [".log", ".asc"])
+def test_python_can_logger_file_reads_back_and_decodes(tmp_path: Path, suffix: str) -> None:
+    """can.logger through the adapter of an external `drempower sim`: can.LogReader and `drempower decode` read it."""
+    env = {**os.environ, "PYTHONUNBUFFERED": "1"}
+    sim = subprocess.Popen(
+        [sys.executable, "-m", "drempower", "sim", "--ids", "1,2", "--adapter-pty", "--json", "--duration", "60"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
+    try:
+        assert sim.stdout is not None
+        path = ""
+        while not path:
+            line = json.loads(sim.stdout.readline())
+            path = line.get("path", "") if line.get("attachment") == "adapter" else ""
+        with can.Bus(interface="drempower_adapter", channel=path) as bus:  # heartbeats every 20 ms
+            for node in (1, 2):
+                f = WriteParam(node, 21004, DataType.U32, 20).encode()
+                bus.send(can.Message(arbitration_id=f.arbitration_id, data=f.data, is_extended_id=False))
+        log = tmp_path / f"x{suffix}"
+        logger = subprocess.Popen(
+            [sys.executable, "-m", "can.logger", "-i", "drempower_adapter", "-c", path, "-f", str(log)],
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+            env=env,
+        )
+        try:
+            assert logger.stdout is not None
+            assert "Connected to" in logger.stdout.readline()  # the bus is open: heartbeats are logged from now
+            time.sleep(1.0)
+        finally:
+            logger.send_signal(signal.SIGINT)
+            _, err = logger.communicate(timeout=20)
+        assert logger.returncode in (0, 130, -signal.SIGINT), err
+    finally:
+        sim.send_signal(signal.SIGINT)
+        sim.communicate(timeout=20)
+    msgs = list(can.LogReader(log))
+    assert len(msgs) >= 10
+    assert {decode_reply(m.arbitration_id, bytes(m.data)).node for m in msgs} == {1, 2}
+    if suffix == ".log":
+        assert {m.channel for m in msgs} == {path}  # the channel's name, one word
+        assert path in log.read_text().splitlines()[0].split()
+    r = subprocess.run(
+        [sys.executable, "-m", "drempower", "decode", "--json", str(log)],
+        capture_output=True,
+        text=True,
+        timeout=60,
+        env=env,
+    )
+    assert r.returncode == 0, r.stderr
+    decoded = [json.loads(line) for line in r.stdout.splitlines()]
+    assert len(decoded) == len(msgs) and all(d["command"] == "state" for d in decoded), decoded[:3]

@@ -9,6 +9,7 @@ import pytest
 
 from drempower.protocol import PositionQ, PresetP, ReadParam, SysCmd, SystemCommand
 from drempower.sim import SimBus
+from drempower.sim.behaviour import BOOT_SECONDS
 
 from .helpers import exchange, read, write
 
@@ -16,7 +17,10 @@ GAIN = "axis0.controller.config.pos_gain"
 
 
 def _sys(bus: SimBus, node: int, *ops: SysCmd) -> None:
-    exchange(bus, *[SystemCommand(node, op) for op in ops])
+    for op in ops:
+        exchange(bus, SystemCommand(node, op))
+        if op is SysCmd.REBOOT:
+            bus.advance(BOOT_SECONDS + 0.001)  # silent while it boots
 
 
 def test_unsaved_writes_are_lost_on_reboot_and_saved_ones_kept() -> None:
@@ -110,5 +114,6 @@ def test_reboot_clears_errors_and_pending_presets() -> None:
     bus = SimBus([1])
     m = bus.motors[1]
     exchange(bus, PresetP(1, 30.0), SystemCommand(1, SysCmd.ESTOP), SystemCommand(1, SysCmd.REBOOT))
+    bus.advance(BOOT_SECONDS + 0.001)
     assert m.axis_error == 0 and m.preset is None
     assert read(bus, 1, "axis0.current_state") == 8

@@ -156,6 +156,7 @@ def test_requesting_closed_loop_again_does_not_interrupt_a_move() -> None:
 
 def test_enter_dfu_mode_silences_the_motor_until_a_power_cycle() -> None:
     from drempower.protocol import FastRead, SysCmd, SystemCommand
+    from drempower.sim.behaviour import BOOT_SECONDS
 
     from .helpers import exchange, fast_read
 
@@ -167,4 +168,6 @@ def test_enter_dfu_mode_silences_the_motor_until_a_power_cycle() -> None:
     assert exchange(bus, FastRead(1), SystemCommand(1, SysCmd.REBOOT)) == []  # nothing answers, nothing acts
     assert m.in_dfu
     m.power_cycle()
-    assert not m.in_dfu and fast_read(bus, 1).node == 1
+    assert not m.in_dfu and m.booting
+    bus.advance(BOOT_SECONDS + 0.001)
+    assert fast_read(bus, 1).node == 1

@@ -8,6 +8,7 @@ from hypothesis import strategies as st
 from drempower.protocol import FastRead, ReadParam, SysCmd, SystemCommand, WriteParam
 from drempower.protocol.ids import Frame
 from drempower.sim import SimBus, frame_bits
+from drempower.sim.behaviour import BOOT_SECONDS
 from drempower.sim.timing import crc15, stuff_count
 
 from .helpers import Tap
@@ -121,7 +122,7 @@ def test_a_motor_at_another_bitrate_is_deaf_and_mute_after_reboot() -> None:
     bus.send(WriteParam.of(1, "can.config.baud_rate", 500_000).encode())
     bus.send(SystemCommand(1, SysCmd.SAVE_CONFIG).encode())
     bus.send(SystemCommand(1, SysCmd.REBOOT).encode())
-    bus.advance(0.01)
+    bus.advance(BOOT_SECONDS + 0.01)
     bus.send(FastRead(1).encode())
     bus.advance(0.01)
     assert tap.frames == []

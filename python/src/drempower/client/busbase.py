@@ -226,12 +226,16 @@ class BusBase(ABC, Generic[M]):
 
     @property
     def stats(self) -> dict[str, int]:
-        """Frames received, malformed ones, those that were no reply and no state, anomalies, and
-        moves sent again because a wait found them lost (``moves_resent``, with ``retries``).
+        """Frames received, malformed ones, those that were no reply and no state, anomalies, other
+        hosts' frames, and moves sent again because a wait found them lost (``moves_resent``, with
+        ``retries``).
 
         An anomaly is a reply for a waiting request whose echoed fields (data
         type) differ from the request's: it answers nothing (the request keeps
-        waiting or times out) and also counts as unmatched.
+        waiting or times out) and also counts as unmatched. ``foreign`` counts
+        frames another host sent (its commands, including 0x19/0x1B/0x1D/0x1F,
+        which are never taken as a motor's state; its fast reads and reads): they
+        also count as unmatched.
         """
         c = self._session
         return {
@@ -239,6 +243,7 @@ class BusBase(ABC, Generic[M]):
             "malformed": c.malformed,
             "unmatched": c.unmatched,
             "anomalies": c.anomalies,
+            "foreign": c.foreign,
             "moves_resent": c.moves_resent,
         }
 

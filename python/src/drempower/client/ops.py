@@ -64,6 +64,10 @@ LOST_MOVE_GRACE = 0.02
 """How long (s) after a start a state showing no motion counts as a sign that the start (or its preset) was lost."""
 _SAVE_SETTLE = 0.1
 """Pause (s) between save_config and reboot, as the vendor library does."""
+BOOT_WAIT = 5.0
+"""Longest wait (s) for a rebooted motor to answer again (it is silent while it boots)."""
+_BOOT_POLL = (0.1, 0.05)
+"""Fast-read timeout and pause (s) while a rebooted motor boots."""
 
 
 def _same(p: Parameter, written: float, read: float) -> bool:
@@ -303,7 +307,8 @@ def get_gpio_mode(node: int, timeout: float | None = None) -> Op[GpioMode]:
 def set_gpio_mode(node: int, mode: str, param: float, timeout: float | None = None, retries: int = 0) -> Op[None]:
     """Switch the spare pins to UART (``"tx_rx"``, param = baud) or step/dir (param = pulses 1..1024).
 
-    The writes are verified, then saved, and the motor reboots (as the vendor's does).
+    The writes are verified, then saved, and the motor reboots (as the vendor's does); this returns once
+    it answers again (it is silent while it boots).
     """
     if mode == "tx_rx":
         if param not in UART_BAUD_RATES:
@@ -329,6 +334,19 @@ def set_gpio_mode(node: int, mode: str, param: float, timeout: float | None = No
     yield _system(node, SysCmd.SAVE_CONFIG)
     yield from sleep(_SAVE_SETTLE)
     yield _system(node, SysCmd.REBOOT)
+    if node:
+        yield from wait_booted(node)
+
+
+def wait_booted(node: int, limit: float = BOOT_WAIT) -> Op[None]:
+    """Fast-read ``node`` until it answers again after a reboot; :class:`TimeoutError` after about ``limit`` s."""
+    wait, pause = _BOOT_POLL
+    for _ in range(max(1, math.ceil(limit / (wait + pause)))):
+        (st,) = yield from read_states([node], wait, missing_ok=True)
+        if st is not None:
+            return
+        yield from sleep(pause)
+    raise TimeoutError([node], "a fast read after the reboot", limit)
 
 
 def _fault(node: int, doing: str, timeout: float | None) -> Op[MotorFaultError]:

@@ -33,6 +33,7 @@ from typing import Any, Generic, Literal, TypeVar
 
 from ..errors import BusStoppedError, ProtocolError, ValidationError
 from ..protocol.addresses import (
+    AXIS0_CONFIG_CAN_NODE_ID,
     AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE,
     AXIS0_REQUESTED_STATE,
     AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE,
@@ -40,6 +41,7 @@ from ..protocol.addresses import (
 from ..protocol.ids import Frame, SysCmd
 from ..protocol.limits import MOTION_CMDS
 from ..protocol.messages import (
+    HOST_CMDS,
     FastRead,
     Message,
     PositionP,
@@ -104,11 +106,13 @@ StartPolicy = Literal["auto", "broadcast", "node"]
 """Where start commands go: see :class:`BusSession`."""
 StopOnClose = bool | Literal["idle", "estop"]
 """What closing the bus does to the motors it commanded: see :class:`BusSession`."""
-TxOrder = Literal["in_order", "confirmed", "timed"]
+TxOrder = Literal["in_order", "confirmed", "timed", "answered"]
 """How the session knows a batch's presets are on the wire before it sends their start:
 ``in_order`` (frames reach the bus in the order written: no wait), ``confirmed`` (the driver
 reports :meth:`BusSession.transmitted`), ``timed`` (the bus time of what was written, plus
-``tx_latency``)."""
+``tx_latency``), ``answered`` (a read of each preset's motor, sent after the presets, is answered:
+a read has a higher CAN id than the preset of its motor, so no transmit queue that arbitrates by id
+or keeps the order sends it first; for links whose delay has no bound, such as socketcand over TCP)."""
 
 _WORST_FRAME_BITS = 135
 """Longest standard 8-byte CAN data frame with stuff bits and interframe space."""
@@ -116,9 +120,10 @@ _POSITION_CMDS = (PositionT, PositionQ, PositionP)
 _POSITION_STARTS = frozenset((0x10, 0x11, 0x12))
 _STARTS = (Start, StartImpedance)
 _TYPED_PRESETS = (PresetT, PresetQ, PresetP, PresetV, PresetC, PresetD)
-_HOST_ONLY_CMDS = frozenset((0x08, 0x0C, 0x1A, 0x1C, 0x1F))
+_HOST_ONLY_CMDS = HOST_CMDS - {0x1E}
 """Commands only a host sends: seeing one that this bus did not send means another host is present."""
 _ZERO4 = bytes(4)
+_ZERO8 = bytes(8)
 _STATE = struct.Struct("<fhh").unpack
 _IDLE = 1  # axis0.requested_state value for IDLE
 _REQUESTED_STATE = AXIS0_REQUESTED_STATE
@@ -128,6 +133,11 @@ _MIN_CONFIRM = 0.1
 _new_state = tuple.__new__
 _WAIT: Any = object()
 """What starting an effect returns when the operation must wait for it."""
+
+
+def _probe_read(node: int) -> ReadParam:
+    """The read that follows a held start's presets (tx="answered"): can_node_id, whose value is never 0."""
+    return ReadParam(node, AXIS0_CONFIG_CAN_NODE_ID, DataType.U32)
 
 
 def _motors(nodes: Sequence[int]) -> str:
@@ -506,12 +516,14 @@ class _SeqJob:
 class _Hold:
     """A start waiting for its presets to be on the wire."""
 
-    __slots__ = ("confirmed", "due", "fail", "release", "timed")
+    __slots__ = ("answered", "confirmed", "due", "fail", "release", "timed")
 
     def __init__(
         self, timed: bool, release: Callable[[], None], fail: Callable[[BaseException | None], None], due: float
     ) -> None:
         self.timed = timed
+        self.answered = False
+        """With ``answered`` transports: True while the start waits for the fast reads' answers."""
         self.confirmed = False
         self.release = release
         self.fail = fail
@@ -524,11 +536,12 @@ class BusSession:
 
     ``timeout`` (s) is the default wait for a reply and ``retries`` how often a
     read whose reply did not come is sent again. ``start`` chooses where start
-    commands go: ``"auto"`` (default) sends the start of a one-motor move to
-    that motor only, and the start of a multi-motor move to broadcast unless a
-    motor outside the move may still hold a preset from this bus (then to each
-    motor of the move); ``"broadcast"`` always broadcasts (the vendor library's
-    behaviour); ``"node"`` always addresses each motor. ``stop_on_close``:
+    commands go: ``"auto"`` (default) sends one start to each motor of the move,
+    so that no preset another command left behind is fired, and one broadcast
+    start only when the bus's motors are known (``motor_ids``) and all in the
+    move, with none holding a preset of this bus outside it; ``"broadcast"``
+    always broadcasts (the vendor library's behaviour); ``"node"`` always
+    addresses each motor. ``stop_on_close``:
     ``True`` or ``"idle"`` makes :meth:`stop_frames` put every motor this bus
     sent a motion command or a state request (set_mode) to into IDLE,
     ``"estop"`` sends them an emergency stop, ``False`` nothing. ``tx``,
@@ -556,8 +569,8 @@ class BusSession:
             raise ValidationError(f"start={start!r}: 'auto', 'broadcast' or 'node'")
         if stop_on_close not in (True, False, "idle", "estop"):
             raise ValidationError(f"stop_on_close={stop_on_close!r}: True, False, 'idle' or 'estop'")
-        if tx not in ("in_order", "confirmed", "timed"):
-            raise ValidationError(f"tx={tx!r}: 'in_order', 'confirmed' or 'timed'")
+        if tx not in ("in_order", "confirmed", "timed", "answered"):
+            raise ValidationError(f"tx={tx!r}: 'in_order', 'confirmed', 'timed' or 'answered'")
         timeout = seconds(timeout)
         if retries.__class__ is not int or retries < 0:
             raise ValidationError(f"retries={retries!r}: must be an integer >= 0")
@@ -592,6 +605,8 @@ class BusSession:
         self.unmatched = 0
         self.anomalies = 0
         """Replies for a waiting request whose echoed fields (data type) differ from it: never taken as answers."""
+        self.foreign = 0
+        """Frames another host sent (its commands, fast reads and reads): they answer nothing, update no state."""
         self.moves_resent = 0
         """Moves sent again because a wait found them lost (see :func:`~drempower.client.ops.wait_done`)."""
         self.other_hosts = False
@@ -755,7 +770,7 @@ class BusSession:
         """True when a start waits for the transport to confirm its presets are on the wire
         (``tx="confirmed"``): the driver asks the transport, then calls :meth:`transmitted`."""
         hold = self._hold
-        return hold is not None and not hold.timed and not hold.confirmed and not self._out
+        return hold is not None and not hold.timed and not hold.answered and not hold.confirmed and not self._out
 
     def transmitted(self, now: float, confirmed: bool | None = True) -> None:
         """The transport says whether every frame handed to it is on the wire: True (a held start
@@ -764,7 +779,7 @@ class BusSession:
         if now > self.now:
             self.now = now
         hold = self._hold
-        if hold is None or self._out:
+        if hold is None or self._out or hold.answered:
             return
         if confirmed is None:
             hold.timed = True
@@ -948,8 +963,15 @@ class BusSession:
         presets, start = b.presets, b.start
         nodes = [p.node for p in presets]
         policy = self.start_policy
+        # "auto" broadcasts only when no motor outside the move can hold a preset: the bus's motors are
+        # known (the simulator declares them) and all in the move. Presets another command left behind
+        # (an overtaken or lost start, a program killed between presets and start) are unknown to this bus.
         broadcast = policy == "broadcast" or (
-            policy == "auto" and len(nodes) > 1 and self.pending_presets.issubset(nodes)
+            policy == "auto"
+            and len(nodes) > 1
+            and bool(self.motor_ids)
+            and self.motor_ids.issubset(nodes)
+            and self.pending_presets.issubset(nodes)
         )
         where = [0] if broadcast else nodes
         starts = [dataclasses.replace(start, node=n).encode() for n in where]
@@ -997,10 +1019,49 @@ class BusSession:
                 error = TimeoutError(nodes, "the transmission of the presets", wait)
             self._job_done(job, None, error)
 
-        self._hold = _Hold(self.tx == "timed", ready, give_up, self.now + wait)
+        hold = self._hold = _Hold(self.tx == "timed", ready, give_up, self.now + wait)
+        if self.tx == "answered":
+            self._probe(hold, nodes, wait)
         self._timer_seq += 1
         self._check_hold()
         return True
+
+    def _probe(self, hold: _Hold, nodes: list[int], wait: float) -> None:
+        """Queue a read of each of ``nodes``' can_node_id (0: any motor) after the presets; the hold is
+        confirmed once every one is answered. A read has a higher CAN id than its motor's preset and its
+        reply echoes the address (a heartbeat cannot pass for it). Unanswered reads are sent again up to
+        ``retries`` times, ``wait`` s apart; then the hold fails (TimeoutError naming the silent motors)."""
+        hold.answered = True
+        fail = hold.fail
+        tries = [0]
+        waiter = [Waiter([], None)]
+
+        def answered() -> None:
+            hold.confirmed = True
+            self._check_hold()
+
+        def ask(which: list[int]) -> None:
+            reads = [_probe_read(n) for n in which]
+            w = waiter[0] = Waiter([request_key(r) for r in reads], answered, [DataType.U32] * len(reads))
+            self.matcher.register(w)
+            self._out.extend(r.encode() for r in reads)
+
+        def failed(error: BaseException | None) -> None:
+            w = waiter[0]
+            self.matcher.cancel(w)
+            missing = [w.keys[i] >> 16 for i in w.missing()]
+            if error is None and tries[0] < self.retries and missing:
+                tries[0] += 1
+                hold.due = self.now + wait
+                ask(missing)
+                self._timer_seq += 1  # a new deadline
+                return
+            if error is None:
+                error = TimeoutError(missing or nodes, "reads sent after the presets (the start waits)", wait)
+            fail(error)
+
+        ask(nodes)
+        hold.fail = failed
 
     def _check_hold(self) -> None:
         hold = self._hold
@@ -1223,8 +1284,8 @@ class BusSession:
             self.unmatched += 1
             return frame
         cmd = arb & 0x1F
-        if cmd & 1:
-            # state frame: decode bits 0-2 only (as decode_reply does)
+        if cmd & 1 and cmd < 0x18:
+            # a state frame (protocol.messages.STATE_CMDS): decode bits 0-2 only, as decode_reply does
             node = arb >> 5
             pos, vel, tq = _STATE(data)
             st: MotorState = _new_state(
@@ -1245,10 +1306,16 @@ class BusSession:
                         self._resume(opn, st, None)
             return st
         if cmd != 0x1E:
-            if cmd in _HOST_ONLY_CMDS:
+            if cmd in _HOST_ONLY_CMDS:  # 0x19/0x1B/0x1D/0x1F too: T, P, C and write, never a state
                 self.other_hosts = True
+                self.foreign += 1
             else:
                 self.malformed += 1
+            self.unmatched += 1
+            return frame
+        if data == _ZERO8:  # a fast read: another host's (its answer is a state frame)
+            self.other_hosts = True
+            self.foreign += 1
             self.unmatched += 1
             return frame
         try:
@@ -1273,7 +1340,9 @@ class BusSession:
             if outcome != MATCHED:
                 if outcome == MISMATCHED:
                     self.anomalies += 1
-                self.other_hosts = True  # most likely another host's read request
+                else:
+                    self.foreign += 1  # most likely another host's read request
+                self.other_hosts = True
                 self.unmatched += 1
                 return frame
             return None

@@ -37,15 +37,15 @@ class CandumpLine:
 
 
 _LOG = re.compile(
-    r"^\s*(?:\((?P<ts>\d+(?:\.\d+)?)\)\s+)?(?:(?P<ch>\S+)\s+)?(?P<id>[0-9A-Fa-f]{1,8})"
+    r"^\s*(?:\((?P<ts>[0-9]+(?:\.[0-9]+)?)\)\s+)?(?:(?P<ch>\S+)\s+)?(?P<id>[0-9A-Fa-f]{1,8})"
     r"(?P<sep>##?)(?P<rest>\S*)\s*(?:[TR])?\s*$"
 )
 _SCREEN = re.compile(
-    r"^\s*(?:\((?P<ts>\d+(?:\.\d+)?)\)\s+)?(?P<ch>\S+)\s+(?P<id>[0-9A-Fa-f]{1,8})\s+\[(?P<dlc>\d+)\]\s*(?P<rest>.*)$"
+    r"^\s*(?:\((?P<ts>[0-9]+(?:\.[0-9]+)?)\)\s+)?(?P<ch>\S+)\s+(?P<id>[0-9A-Fa-f]{1,8})\s+\[(?P<dlc>[0-9]+)\]\s*(?P<rest>.*)$"
 )
 
 _SNIFF = re.compile(
-    r"^\s*(?:\((?P<pts>\d+(?:\.\d+)?)\)|(?P<ts>\d+\.\d+))?\s*0x(?P<id>[0-9A-Fa-f]{1,8})\s+(?P<data>(?:[0-9A-Fa-f]{2})*)\s+(?:host|motor|!!)\b"
+    r"^\s*(?:\((?P<pts>[0-9]+(?:\.[0-9]+)?)\)|(?P<ts>[0-9]+\.[0-9]+))?\s*0x(?P<id>[0-9A-Fa-f]{1,8})\s+(?P<data>(?:[0-9A-Fa-f]{2})*)\s+(?:host|motor|!!)\b"
 )
 
 

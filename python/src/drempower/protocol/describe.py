@@ -89,7 +89,7 @@ def decode_frame(arb_id: int, data: bytes, direction: Direction = "auto") -> tup
         if len(data) == 8 and any(data[4:8]):
             return "motor", m.decode_reply(arb_id, data)
         return "host", m.decode_command(arb_id, data)
-    if cmd & 1 and cmd not in (0x19, 0x1B, 0x1D, 0x1F):
+    if cmd in m.STATE_CMDS:
         return "motor", m.decode_reply(arb_id, data)
     try:
         return "host", m.decode_command(arb_id, data)

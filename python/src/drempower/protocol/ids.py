@@ -6,10 +6,11 @@ An arbitration id is ``(node << 5) | command``: bits 10..5 hold the node id
 
 from __future__ import annotations
 
+import re
 from enum import IntEnum
 from typing import NamedTuple
 
-from ..errors import FieldRangeError, ProtocolError
+from ..errors import FieldRangeError, ProtocolError, ValidationError
 
 __all__ = [
     "BROADCAST",
@@ -21,6 +22,8 @@ __all__ = [
     "split_arbitration_id",
     "check_node",
     "Frame",
+    "parse_int",
+    "parse_float",
 ]
 
 BROADCAST = 0
@@ -103,3 +106,44 @@ def split_arbitration_id(arb_id: int) -> tuple[int, int]:
     if not 0 <= arb_id <= 0x7FF:
         raise ProtocolError(f"arbitration id 0x{arb_id:X} is not an 11-bit standard id")
     return arb_id >> 5, arb_id & 0x1F
+
+
+# Text to numbers: ASCII only. ``int()`` and ``float()`` also take other scripts' digits
+# ("\u0661" is 1) and underscores ("1_0" is 10); a motor id or a target typed or read from a file
+# must be what it looks like to a reader of the wire's hex and the docs.
+_INT = {
+    10: re.compile(r"[+-]?[0-9]+"),
+    16: re.compile(r"[+-]?(?:0[xX])?[0-9A-Fa-f]+"),
+    0: re.compile(r"[+-]?(?:0[xX][0-9A-Fa-f]+|0[oO][0-7]+|0[bB][01]+|[1-9][0-9]*|0+)"),
+}
+_FLOAT = re.compile(r"[+-]?(?:(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?|inf|infinity|nan)", re.IGNORECASE)
+_SPACE = " \t\r\n"
+
+
+def parse_int(text: str, field: str = "value", *, base: int = 10) -> int:
+    """A whole number written with ASCII digits (``base`` 10, 16, or 0 for a ``0x``/``0o``/``0b`` prefix).
+
+    Surrounding spaces are allowed; other scripts' digits, underscores and
+    anything else raise :class:`~drempower.errors.ValidationError` (a
+    ``ValueError``) naming ``field`` and the text.
+    """
+    pattern = _INT.get(base)
+    if pattern is None:
+        raise ValueError(f"base {base} is not one of 0, 10, 16")
+    t = text.strip(_SPACE) if isinstance(text, str) else None
+    if t is None or pattern.fullmatch(t) is None:
+        kind = {10: "a whole number", 16: "a hex number", 0: "a whole number (0x, 0o, 0b prefixes allowed)"}[base]
+        raise ValidationError(f"{field}: {text!r} is not {kind} in ASCII digits")
+    return int(t, base)
+
+
+def parse_float(text: str, field: str = "value") -> float:
+    """A number written with ASCII digits (``12``, ``-1.5e3``, ``.5``; ``inf`` and ``nan`` too: check finiteness).
+
+    Other scripts' digits, underscores and anything else raise
+    :class:`~drempower.errors.ValidationError` (a ``ValueError``) naming ``field`` and the text.
+    """
+    t = text.strip(_SPACE) if isinstance(text, str) else None
+    if t is None or _FLOAT.fullmatch(t) is None:
+        raise ValidationError(f"{field}: {text!r} is not a number in ASCII digits")
+    return float(t)

@@ -56,8 +56,18 @@ __all__ = [
     "S16_MAX",
     "check_s16",
     "check_f32",
+    "STATE_CMDS",
+    "HOST_CMDS",
 ]
 
+
+STATE_CMDS = frozenset(range(0x01, 0x18, 2))
+"""Command values taken as a motor's state frame: bit 0 set, bits 3-4 not both set (0x01..0x17, odd).
+
+The simulator sends 0x01/0x03/0x05/0x07. 0x19, 0x1B, 0x1D and 0x1F are the host commands T, P, C and
+write: a frame with one of them is another host's, never a state (spec/PROTOCOL.md section 1.6)."""
+HOST_CMDS = frozenset((0x08, 0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D, 0x1E, 0x1F))
+"""Command values a host sends (0x1E is also the motor's parameter reply)."""
 
 _FSS = struct.Struct("<fhh")
 _FSU = struct.Struct("<fhH")
@@ -778,10 +788,13 @@ def decode_command(arb_id: int, data: bytes) -> Command:
 
 
 def decode_reply(arb_id: int, data: bytes) -> Reply:
-    """Decode a motor frame (what a host receives). Raises :class:`ProtocolError` when malformed.
+    """Decode a frame as a motor's. Raises :class:`ProtocolError` when malformed.
 
     A command field with bit 0 set is a state frame (bit 1 = T, bit 2 = E; bits
-    3-4 are kept in ``spare_bits``); 0x1E is a parameter value.
+    3-4 are kept in ``spare_bits``); 0x1E is a parameter value. The caller says
+    the frame is a motor's: on a bus with other hosts, 0x19/0x1B/0x1D/0x1F are
+    their commands (see :data:`STATE_CMDS`, and :func:`~drempower.protocol.describe.decode_frame`
+    for frames of either direction).
     """
     if len(data) != 8 or not 0 <= arb_id <= 0x7FF:
         _check(arb_id, data)

@@ -250,8 +250,9 @@ def parameters() -> Iterator[Parameter]:
 def _normalise(name: str) -> str:
     name = name.strip()
     # The vendor library accepts axis1.x etc. and rewrites to axis0 (single-axis motors).
-    if name.startswith("axis") and "." in name and name[4 : name.index(".")].isdigit():
-        name = "axis0" + name[name.index(".") :]
+    axis, dot, rest = name.partition(".")
+    if axis.startswith("axis") and dot and axis[4:].isascii() and axis[4:].isdigit():
+        name = "axis0." + rest
     return name
 
 
@@ -262,7 +263,7 @@ def find_parameter(key: str | int) -> Parameter | None:
         return reg.by_address.get(key)
     if isinstance(key, str):
         k = key.strip()
-        if k.isdigit():
+        if k.isascii() and k.isdigit():
             return reg.by_address.get(int(k))
         return reg.by_name.get(_normalise(k))
     return None

@@ -17,7 +17,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 
 from ..protocol.enums import TorqueMode, VelocityMode
-from ..protocol.ids import MAX_NODE, Cmd, SysCmd
+from ..protocol.ids import MAX_NODE, Cmd, SysCmd, parse_int
 from ..protocol.limits import S16_MAX, S16_MIN
 from ..protocol.parameters import DataType, parameters
 
@@ -189,7 +189,7 @@ def parse_nodes(text: str) -> list[int]:
     for part in filter(None, (p.strip() for p in text.split(","))):
         lo, sep, hi = part.partition("-")
         try:
-            a, b = (int(lo), int(hi)) if sep else (int(part), int(part))
+            a, b = (parse_int(lo), parse_int(hi)) if sep else (parse_int(part), parse_int(part))
         except ValueError:
             raise ValueError(f"nodes {part!r}: expected a node id or a range such as 1-63") from None
         if not 0 <= a <= b <= MAX_NODE:

@@ -3,8 +3,11 @@
 A frame becomes its raw copy on ``/can/tx`` or ``/can/rx`` (a robot's bus:
 ``/can/<bus>/tx``, ``/can/<bus>/rx``); a received state
 frame also a ``/joint_states`` message, a parameter reply a
-``/drempower/parameters`` message, and a change of the E bit, an error word with
-flags set or a frame that is no DrEmpower reply a ``/drempower/errors`` message.
+``/drempower/parameters`` message, and a change of the E bit or an error word with
+flags set a ``/drempower/errors`` message: errors of motors only. Received frames are
+decoded as ``drempower decode`` does (:class:`~drempower.protocol.describe.CaptureDecoder`):
+another host's commands, fast reads and reads are recorded as raw frames and nothing else,
+and so are frames that are no DrEmpower frame at all.
 The messages are dicts in the layout of :mod:`drempower.records.ros2_types`.
 """
 
@@ -16,9 +19,10 @@ from typing import Any
 
 from ..errors import ProtocolError
 from ..naming import motor_name
+from ..protocol.describe import CaptureDecoder
 from ..protocol.flags import ERROR_WORDS, decode_error_word
 from ..protocol.ids import Frame
-from ..protocol.messages import ParamValue, State, decode_reply
+from ..protocol.messages import ParamValue, State
 from ..protocol.parameters import find_parameter
 
 __all__ = ["FrameEvents"]
@@ -52,6 +56,8 @@ class FrameEvents:
         self.gears = dict(gears or {})
         self._tx, self._rx = f"{topic_prefix}/tx", f"{topic_prefix}/rx"
         self._error_bit: dict[int, bool] = {}
+        self._capture = CaptureDecoder()
+        """Pairs parameter reads (ours and other hosts') with their replies: a reply of value 0 repeats its read."""
 
     def __call__(self, ns: int, frame: Frame, tx: bool) -> list[Event]:
         """The messages of ``frame`` seen at ``ns`` (Unix ns); ``tx`` when this host sent it."""
@@ -67,17 +73,15 @@ class FrameEvents:
             "data": list(bytes(data).ljust(8, b"\0")[:8]),
         }
         out: list[Event] = [(self._tx if tx else self._rx, raw)]
-        if tx:
-            return out
-        node = arb >> 5
-        if ext or rtr or len(data) != 8 or not (arb & 1 or arb & 0x1F == 0x1E):
-            out.append(self._error(header, node, "frame", 0, f"not a DrEmpower reply: id 0x{arb:X} data {data.hex()}"))
-            return out
+        if ext or rtr or len(data) != 8:
+            return out  # no DrEmpower frame: another device's
         try:
-            reply = decode_reply(arb, bytes(data))
-        except ProtocolError as exc:
-            out.append(self._error(header, node, "frame", 0, str(exc)))
-            return out
+            who, reply = self._capture.decode(arb, bytes(data), ns / 1e9)
+        except ProtocolError:
+            return out  # neither a host's nor a motor's frame: kept raw
+        if tx or who == "host":
+            return out  # ours (a read is remembered for its reply) or another host's
+        node = arb >> 5
         if isinstance(reply, State):
             gear, offset = self.gears.get(node, (1.0, 0.0))
             out.append(

@@ -36,8 +36,10 @@ Choices that are simply "do nothing" live in this docstring:
   one turn forward and back in :data:`ENCODER_OFFSET_CALIBRATION_SECONDS` and
   fails when the shaft is blocked; the full sequence (3) runs both, reporting
   each as the current state. Any error ends the sequence in IDLE.
-* ``reboot`` is instantaneous: RAM is loaded from the saved configuration (or
-  the factory defaults), errors are cleared and the axis enters closed loop.
+* ``reboot`` stops the firmware: the axis idles and the motor hears and sends
+  nothing (no heartbeats, no answers, on CAN and UART) for :data:`BOOT_SECONDS`;
+  then RAM is loaded from the saved configuration (or the factory defaults),
+  errors are cleared and the axis enters closed loop.
   The position survives when multi-turn counting (31207) is on, else it
   restarts at 0. ``erase_config`` deletes the saved configuration only;
   ``init_config`` loads the factory defaults into RAM only. The factory node id
@@ -94,6 +96,7 @@ __all__ = [
     "CALIBRATION_PHASES",
     "ENCODER_OFFSET_CALIBRATION_SECONDS",
     "MOTOR_CALIBRATION_SECONDS",
+    "BOOT_SECONDS",
     "CAN_BITRATES",
     "convert_value",
     "target_time_profile",
@@ -141,6 +144,12 @@ LIMIT_RECOVERY_ACCEL = 50.0
 
 CALIBRATION_SECONDS = 2.0
 """Duration of an encoder index search (state 6) before the axis returns to IDLE."""
+BOOT_SECONDS = 0.3
+"""Time (s) from a reboot (or power-up) to a running firmware: the motor hears and sends nothing meanwhile.
+
+An assumption, not a measurement: an STM32F4 firmware of the ODrive family starts its clocks, loads
+its configuration from flash, checks the DC bus and takes its first encoder readings in a few
+hundred milliseconds; no vendor document gives the time (docs/simulator.md)."""
 MOTOR_CALIBRATION_SECONDS = 4.0
 """Duration of motor calibration (state 4): phase resistance and inductance, the rotor held still."""
 ENCODER_OFFSET_CALIBRATION_SECONDS = 8.0

@@ -22,6 +22,7 @@ from __future__ import annotations
 import collections
 import heapq
 import itertools
+import logging
 import math
 import os
 import random
@@ -32,7 +33,17 @@ from pathlib import Path
 from ..errors import DrEmpowerError, ValidationError
 from ..protocol.ids import Frame
 from ..protocol.limits import MAX_NODE, MIN_MOTOR
-from ..protocol.messages import Command, decode_command
+from ..protocol.messages import (
+    Command,
+    PositionP,
+    PositionQ,
+    PositionT,
+    Preset,
+    Torque,
+    Velocity,
+    WriteParam,
+    decode_command,
+)
 from .defaults import MotorModel
 from .faults import Faults
 from .motor import SimMotor
@@ -55,9 +66,23 @@ def parse_host_queue(text: str) -> int:
     if text == "fifo":
         return 1
     kind, _, count = text.partition(":")
-    if kind == "priority" and count.isdigit() and 1 <= int(count) <= 32:
+    if kind == "priority" and count.isascii() and count.isdigit() and 1 <= int(count) <= 32:
         return int(count)
     raise ValueError(f"host_queue={text!r}: 'fifo' or 'priority:N' with N mailboxes 1..32, e.g. 'priority:3'")
+
+
+_log = logging.getLogger("drempower.sim")
+
+_F32_FIELD: dict[type, str] = {
+    PositionT: "position",
+    PositionQ: "position",
+    PositionP: "position",
+    Velocity: "speed",
+    Torque: "torque",
+    Preset: "p1",
+    WriteParam: "value",
+}
+"""The float32 field of each command that carries one: a NaN or infinity there is ignored."""
 
 
 class _HostQueue:
@@ -140,6 +165,9 @@ class SimBus:
         """Called (under the lock) before a host frame enters: a runner brings ``now`` up to wall time."""
         self.on_activity: Callable[[], None] | None = None
         """Called after a host frame entered: a runner wakes to deliver it at its completion time."""
+        self.ignored = 0
+        """Host frames the simulated firmware could not act on (see :meth:`_ignore`)."""
+        self._said: set[tuple[int, str]] = set()
 
     # ------------------------------------------------------------------ public
 
@@ -236,7 +264,10 @@ class SimBus:
                 else:
                     self._steps += 1
                     for m in order:
-                        m.step(step, t)
+                        try:
+                            m.step(step, t)
+                        except Exception as exc:
+                            self._ignore(None, f"motor {m.ident}: {type(exc).__name__}: {exc}")
                 if stop is not None and stop():
                     return True
             if target > self.now:
@@ -244,20 +275,28 @@ class SimBus:
             return False
 
     def uart_request(self, ident: int, frame: Frame) -> list[Frame]:
-        """Deliver ``frame`` through the UART of motor ``ident`` only; returns its answers.
+        """Deliver ``frame`` through the UART of motor ``ident`` only, at ``now``; returns its answers.
 
+        As :meth:`send` does, the clock is first brought up to the time of the
+        request (by a runner's ``clock_sync``), so answers carry the state of now.
         ``drop_rate`` and ``corrupt_rate`` apply to the request here; a UART
         attachment sends the answers through :meth:`uart_reply` for the rest.
         """
         out: list[Frame] = []
         with self.lock:
+            sync = self.clock_sync
+            if sync is not None:
+                sync()
             faulty = self._fault(frame)
             if faulty is None:
                 return out
-            msg = _decode(faulty)
+            msg = self._command(faulty)
             m = self.motors[ident]
             if msg is not None and (msg.node == 0 or msg.node == m.node_id):
-                m.receive(msg, out.append)
+                try:
+                    m.receive(msg, out.append)
+                except Exception as exc:
+                    self._ignore(faulty, f"{type(exc).__name__}: {exc}")
             return [] if ident in self.faults.silent else out
 
     def uart_reply(self, frame: Frame, sink: Listener) -> None:
@@ -392,20 +431,43 @@ class SimBus:
         for tap in self._taps:
             if tap != origin:
                 tap(frame)
-        msg = _decode(frame)
+        msg = self._command(frame)
         if msg is None:
             return
         node = msg.node
         rate = self.bitrate
         for m in self._order:
             if (node == 0 or m.node_id == node) and (rate is None or m.bitrate == rate):
-                m.receive(msg, self._replies[m.ident])
+                try:
+                    m.receive(msg, self._replies[m.ident])
+                except Exception as exc:
+                    self._ignore(frame, f"{type(exc).__name__}: {exc}")
 
+    def _command(self, frame: Frame) -> Command | None:
+        """The command a motor hears in ``frame``; None for what a motor ignores (no DrEmpower command, a
+        NaN or infinite float)."""
+        if frame.is_extended or frame.is_remote:
+            return None
+        try:
+            msg = decode_command(frame.arbitration_id, frame.data)
+        except DrEmpowerError:
+            return None
+        field = _F32_FIELD.get(msg.__class__)
+        if field is not None:
+            value = getattr(msg, field)
+            if not math.isfinite(value):
+                self._ignore(frame, f"{field} is {value}")
+                return None
+        return msg
 
-def _decode(frame: Frame) -> Command | None:
-    if frame.is_extended or frame.is_remote:
-        return None
-    try:
-        return decode_command(frame.arbitration_id, frame.data)
-    except DrEmpowerError:
-        return None
+    def _ignore(self, frame: Frame | None, why: str) -> None:
+        """The simulated firmware ignores ``frame`` (None: a motor's own step failed): counted, logged once
+        per command value and reason, so that a flood of bad frames never floods the log."""
+        self.ignored += 1
+        cmd = -1 if frame is None else frame.arbitration_id & 0x1F
+        key = (cmd, why if frame is None else why.split(":", 1)[0])
+        if key in self._said:
+            return
+        self._said.add(key)
+        what = "a step" if frame is None else f"{frame.arbitration_id:03X}#{frame.data.hex().upper()}"
+        _log.warning("simulated firmware ignores %s: %s (said once)", what, why)

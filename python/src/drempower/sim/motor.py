@@ -135,7 +135,7 @@ _ERROR_ADDRESSES = tuple(w.address for w in ERROR_WORDS)
 
 
 def _s16(x: float) -> float:
-    return S16_MIN if x < S16_MIN else S16_MAX if x > S16_MAX else x
+    return S16_MIN if x < S16_MIN else S16_MAX if x > S16_MAX else x if x == x else 0.0
 
 
 class SimMotor:
@@ -181,6 +181,8 @@ class SimMotor:
         self._last_rx = 0.0
         self.in_dfu = False
         """True after enter_dfu_mode: the bootloader waits on USB and the motor answers nothing until power_cycle()."""
+        self._boot_end = math.inf
+        """When a reboot's boot ends (s); inf when not booting."""
         self._calib_end = math.inf
         self._calib_next: list[int] = []
         """Calibration states still to run after the current one."""
@@ -335,6 +337,9 @@ class SimMotor:
 
     def _timers(self) -> None:
         now = self.time + _EPS
+        if now >= self._boot_end:
+            self._boot_end = math.inf
+            self._boot()
         if now >= self._hb_next and not self.in_dfu:
             self.emit(self.state_frame())
             self._hb_next = max(self._hb_next + self._hb_period, now)
@@ -346,7 +351,7 @@ class SimMotor:
         self._rearm()
 
     def _rearm(self) -> None:
-        wake = min(self._hb_next, self._calib_end)
+        wake = min(self._hb_next, self._calib_end, self._boot_end)
         if self._timeout and self.drive.active:
             wake = min(wake, self._last_rx + self._timeout)
         self._wake = wake - _EPS
@@ -355,8 +360,8 @@ class SimMotor:
 
     def receive(self, msg: Command, reply: Reply) -> None:
         """Handle one host command addressed to this motor (or broadcast); answers go to ``reply``."""
-        if self.in_dfu:
-            return  # the firmware is not running
+        if self.in_dfu or self._boot_end != math.inf:
+            return  # the firmware is not running, or still booting
         self._last_rx = self.time
         _HANDLERS[type(msg)](self, msg, reply)
 
@@ -407,18 +412,35 @@ class SimMotor:
 
     def _timed_move(self, deg: float, seconds: float, accel: float) -> None:
         """Q target-time move: reach ``deg`` in ``seconds`` with ``accel`` (r/min)/s."""
+        limit = float(self._read(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_ACCEL_LIMIT) or 0.0)
         self._set_output(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_ACCEL_LIMIT, accel)
         self._set_output(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_DECEL_LIMIT, accel)
         target = self._raw(deg)
         d = self.drive
         start = d.pos_sp if d.mode == POSITION else d.pos
         s_curve = self._s_curve()
+        if seconds <= 0.0:  # no move time: as fast as the speed and acceleration limits allow
+            self._fastest_move(target, accel if accel > 0.0 else limit, s_curve)
+            return
         a = accel / 60.0 * (0.5 if s_curve else 1.0)
-        if seconds <= 0.0 or target == start:
+        vmax, a = bh.target_time_profile(abs(target - start), seconds, a)
+        if not vmax > 0.0:  # nothing to move, or less than float resolution
             d.hold(target)
             return
-        vmax, a = bh.target_time_profile(abs(target - start), seconds, a)
         d.trajectory(target, min(vmax, d.vlim), a * (2.0 if s_curve else 1.0), s_curve)
+
+    def _fastest_move(self, target: float, accel: float, s_curve: bool) -> None:
+        """A Q target-time move with a time of 0: at the trajectory speed limit (38014, at most the speed
+        limit) and ``accel`` (r/min)/s; with no acceleration, the position loop holds the target within
+        its speed and current limits."""
+        d = self.drive
+        vel = self._read(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_VEL_LIMIT)
+        vmax = min(float(vel) / 60.0, d.vlim) if vel else d.vlim
+        a = accel / 60.0
+        if not (vmax > 0.0 and a > 0.0):
+            d.hold(target)
+            return
+        d.trajectory(target, vmax, a, s_curve)
 
     def _on_p(self, msg: PositionP, reply: Reply) -> None:
         if self.drive.active:
@@ -493,7 +515,7 @@ class SimMotor:
             self.params.init()
             self._refresh()
         elif op is SysCmd.REBOOT:
-            self._boot()
+            self._reboot()
         elif op is SysCmd.ENTER_DFU_MODE:
             self._enter_idle()
             self.in_dfu = True
@@ -501,7 +523,21 @@ class SimMotor:
     def power_cycle(self) -> None:
         """Switch the supply off and on: leaves firmware-update mode and boots as a reboot does."""
         self.in_dfu = False
-        self._boot()
+        self._reboot()
+
+    @property
+    def booting(self) -> bool:
+        """True while the firmware boots after a reboot or power cycle: the motor is idle, hears and sends
+        nothing, for :data:`~drempower.sim.behaviour.BOOT_SECONDS`."""
+        return self._boot_end != math.inf
+
+    def _reboot(self) -> None:
+        """The firmware stops (the axis idles, heartbeats stop) and boots :data:`BOOT_SECONDS` later."""
+        self._enter_idle()
+        self.preset = None
+        self._hb_next = math.inf
+        self._boot_end = self.time + bh.BOOT_SECONDS
+        self._rearm()
 
     def _on_read(self, msg: ReadParam, reply: Reply) -> None:
         value = self._read(msg.address)

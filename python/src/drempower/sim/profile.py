@@ -79,7 +79,7 @@ def plan(x0: float, v0: float, x1: float, vmax: float, accel: float, s_curve: bo
         td = max(0.0, vr / (s * a))
         tv = 0.0
     else:  # when slowing down to vmax, dmin is the stopping distance: dx < dmin only by rounding
-        tv = max(0.0, (dx - dmin) / vr)
+        tv = max(0.0, (dx - dmin) / vr) if vr else 0.0
     phases: list[tuple[float, float, float, float]] = []
     t = 0.0
     for dur, va, vb in ((ta, v0, vr), (tv, vr, vr), (td, vr, 0.0)):

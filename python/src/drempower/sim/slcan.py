@@ -11,7 +11,7 @@ flags, ``Z`` time stamps, ``M``/``m`` acceptance filter, and the frames ``tIIIL.
 from __future__ import annotations
 
 from ..errors import ProtocolError
-from ..protocol.ids import Frame
+from ..protocol.ids import Frame, parse_int
 
 __all__ = ["OK", "ERROR", "SlcanSession", "format_frame", "parse_frame"]
 
@@ -29,8 +29,8 @@ def parse_frame(line: str) -> Frame:
     if kind not in ("t", "T", "r", "R") or len(line) < 2 + id_len:
         raise ProtocolError(f"not an slcan frame: {line!r}")
     try:
-        arb = int(line[1 : 1 + id_len], 16)
-        dlc = int(line[1 + id_len], 10)
+        arb = parse_int(line[1 : 1 + id_len], "id", base=16)
+        dlc = parse_int(line[1 + id_len], "length")
     except ValueError:
         raise ProtocolError(f"bad id or length: {line!r}") from None
     if dlc > 8 or arb > (0x1FFFFFFF if id_len == 8 else 0x7FF):

@@ -12,8 +12,18 @@ and a command longer than :data:`MAX_COMMAND` is refused (and skipped) without
 being kept; its output waits in a queue of at most ``max_queue`` messages, and
 a client that does not read them is disconnected (counted in
 ``SocketcandServer.disconnected_slow``); at most ``max_clients`` connections
-are served at once (two threads each), further ones are refused with an
-error message (counted in ``SocketcandServer.refused``).
+are served at once (two threads each).
+
+Idle connections never lock other clients out: a connection that has not
+reached raw mode within :data:`HANDSHAKE_TIMEOUT` is closed, and while
+``max_clients`` are served a new connection takes the place of the one silent
+longest, if it has sent nothing for :data:`EVICT_IDLE` (a listening client, such
+as a logger, sends nothing after its handshake; it is evicted only when the
+server is full). A new connection is refused (counted in
+``SocketcandServer.refused``) only when every served client spoke within
+:data:`EVICT_IDLE`; evictions are counted in ``SocketcandServer.evicted``.
+Malformed commands, such as a ``send`` of an id above 0x7FF, are answered
+with the socketcand error form ``< error ... >`` and change nothing.
 """
 
 from __future__ import annotations
@@ -26,7 +36,7 @@ import time
 from types import TracebackType
 
 from ..errors import ProtocolError, ValidationError
-from ..protocol.ids import Frame
+from ..protocol.ids import Frame, parse_int
 from .bus import SimBus
 
 __all__ = ["CommandParser", "SocketcandServer", "attach_socketcand", "parse_send", "format_frame"]
@@ -41,6 +51,10 @@ MAX_QUEUE = 4096
 """Default bound of each client's output queue (messages)."""
 MAX_CLIENTS = 16
 """Default number of connections served at once."""
+HANDSHAKE_TIMEOUT = 5.0
+"""Time (s) a connection has to reach raw mode (``< open can0 >``, ``< rawmode >``) before it is closed."""
+EVICT_IDLE = 1.0
+"""Silence (s) after which a client gives way to a new connection while the server is full."""
 
 
 class CommandParser:
@@ -85,18 +99,28 @@ class CommandParser:
         return out
 
 
+def _byte(text: str) -> int:
+    if not 1 <= len(text) <= 2:
+        raise ValueError(text)
+    return parse_int(text, "byte", base=16)
+
+
 def parse_send(body: str) -> Frame:
     """``send ID LEN B0 ...`` (the text between ``<`` and ``>``) as a frame; raises :class:`ProtocolError`."""
     parts = body.split()
     if len(parts) < 3 or parts[0] != "send":
         raise ProtocolError(f"not a send command: {body!r}")
     try:
-        ident, length, data = parts[1], int(parts[2]), bytes(int(b, 16) for b in parts[3:])
-        arb = int(ident, 16)
+        ident, length = parts[1], parse_int(parts[2], "length")
+        data = bytes(_byte(b) for b in parts[3:])
+        arb = parse_int(ident, "id", base=16)
     except ValueError:
         raise ProtocolError(f"bad send command: {body!r}") from None
-    if length != len(data) or length > 8 or len(ident) not in (3, 8):
+    if length != len(data) or length > 8 or len(ident) not in (3, 8) or "x" in ident.lower():
         raise ProtocolError(f"bad send command: {body!r}")
+    top = 0x1FFFFFFF if len(ident) == 8 else 0x7FF
+    if arb > top:
+        raise ProtocolError(f"bad send command: id {ident} is above 0x{top:X}")
     return Frame(arb, data, len(ident) == 8)
 
 
@@ -117,6 +141,8 @@ class _Client:
         self.raw = False
         self.closed = False
         self.parser = CommandParser()
+        self.opened = self.heard = time.monotonic()
+        """When the connection was accepted, when its last bytes arrived (monotonic s)."""
         self.reader = threading.Thread(target=self._read, name="drempower-sim-socketcand-client", daemon=True)
         self.writer = threading.Thread(target=self._write, name="drempower-sim-socketcand-writer", daemon=True)
         self.put(b"< hi >")
@@ -158,9 +184,14 @@ class _Client:
                 try:
                     chunk = conn.recv(65536)
                 except TimeoutError:
+                    if not self.raw and time.monotonic() - self.opened > self.server.handshake_timeout:
+                        self.put(b"< error no rawmode within the handshake time >")
+                        time.sleep(_SETTLE)  # let the writer send it
+                        break
                     continue
                 if not chunk:
                     break
+                self.heard = time.monotonic()
                 for body in self.parser.feed(chunk):
                     if body is None:
                         self.put(f"< error command longer than {MAX_COMMAND} bytes >".encode())
@@ -229,6 +260,8 @@ class SocketcandServer:
         *,
         max_clients: int = MAX_CLIENTS,
         max_queue: int = MAX_QUEUE,
+        handshake_timeout: float = HANDSHAKE_TIMEOUT,
+        evict_idle: float = EVICT_IDLE,
     ) -> None:
         if not ipaddress.ip_address(host).is_loopback:
             raise ValidationError(f"host={host!r}: the simulator serves loopback addresses only")
@@ -239,8 +272,12 @@ class SocketcandServer:
         self.closed = False
         self.max_clients = max_clients
         self.max_queue = max_queue
+        self.handshake_timeout = handshake_timeout
+        self.evict_idle = evict_idle
         self.refused = 0
-        """Connections turned away because ``max_clients`` were being served."""
+        """Connections turned away because ``max_clients`` were being served, all of them active."""
+        self.evicted = 0
+        """Clients closed to make room for a new connection (silent for ``evict_idle`` s at least)."""
         self.disconnected_slow = 0
         """Clients disconnected because they did not read what was queued for them."""
         family = socket.AF_INET6 if ":" in host else socket.AF_INET
@@ -265,12 +302,22 @@ class SocketcandServer:
             except OSError:
                 return
             conn.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
+            victim: _Client | None = None
             with self._lock:
                 full = len(self._clients) >= self.max_clients
                 if full:
-                    self.refused += 1
-                else:
+                    quiet = min(self._clients, key=lambda c: c.heard)
+                    if time.monotonic() - quiet.heard >= self.evict_idle:
+                        victim, full = quiet, False
+                        self._clients.discard(quiet)
+                        self.evicted += 1
+                    else:
+                        self.refused += 1
+                if not full:
                     self._clients.add(_Client(self, conn))
+            if victim is not None:
+                _refuse(victim.conn, b"< error closed: idle while the server is full >")
+                victim.close()
             if full:
                 _refuse(conn, f"< error too many connections ({self.max_clients}) >".encode())
 

@@ -44,6 +44,9 @@ class Transport(ABC):
     """The bus's bit rate (bit/s) when this transport knows it; used to time what is queued."""
     tx_latency: float = 0.005
     """Longest time (s) a sent frame may wait in drivers, adapters or servers before it competes for the bus."""
+    unbounded_latency: bool = False
+    """True when a sent frame may wait longer than any ``tx_latency`` before it competes for the bus (a TCP
+    hop and a server's queue): a start then waits for the replies to reads sent after its presets."""
     virtual_clock: bool = False
     """True when the transport runs on its own simulated time (the in-process simulator with
     ``clock="virtual"``): it then offers ``now()`` (s) and ``advance(seconds)``, and the client lets that

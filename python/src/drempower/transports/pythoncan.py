@@ -12,7 +12,7 @@ import can.util
 import serial
 from can.interfaces import VALID_INTERFACES
 
-from ..protocol.ids import Frame
+from ..protocol.ids import Frame, parse_int
 from .base import Transport
 from .errors import TransportError
 
@@ -50,7 +50,7 @@ def _probe_socketcand(host: object, port: object, timeout: float) -> None:
     if host is None or port is None:
         raise TransportError(f"cannot open python-can socketcand bus: give host= and port= of the server (got {where})")
     try:
-        conn = socket.create_connection((str(host), int(str(port))), timeout=timeout)
+        conn = socket.create_connection((str(host), parse_int(str(port), "port")), timeout=timeout)
     except TimeoutError as exc:
         raise TransportError(f"cannot reach socketcand at {where}: no connection in {timeout:g} s") from exc
     except (OSError, ValueError) as exc:
@@ -135,6 +135,7 @@ class PythonCanTransport(Transport):
         self.wire_bitrate = rate if isinstance(rate, int) and rate > 0 else None
         if name == "socketcand":  # a TCP hop and the server's own queue before the bus
             self.tx_latency = SOCKETCAND_TX_LATENCY
+            self.unbounded_latency = True
         info = str(getattr(self._bus, "channel_info", "") or "")
         chan = cfg.get("channel")
         if info and info != "unknown" and (chan is None or str(chan) in info):

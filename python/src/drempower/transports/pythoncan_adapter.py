@@ -30,7 +30,10 @@ class AdapterBus(can.BusABC):
 
     ``baudrate`` is the serial rate (the adapter is a USB CDC device, so it does
     not limit the speed); other keyword arguments go to the serial port.
-    Timestamps are the host's clock when a frame was read (Unix s).
+    Timestamps are the host's clock when a frame was read (Unix s). A received
+    message's ``channel`` is the channel name (the port, as given), as python-can's
+    own interfaces name theirs (``can0``), so that log files name it in one word;
+    the description is in ``channel_info``.
     """
 
     def __init__(self, channel: Any = None, *, bitrate: int | None = None, baudrate: int = 115200, **kwargs: Any):
@@ -45,6 +48,7 @@ class AdapterBus(can.BusABC):
             self._transport = AdapterTransport(str(channel), baudrate, **serial_kwargs)
         except (DrEmpowerError, OSError) as exc:
             raise can.CanInitializationError(f"drempower_adapter {channel}: {exc}") from exc
+        self.channel = str(channel)
         self.channel_info = f"DrEmpower USB-CAN adapter on {channel}"
         super().__init__(channel=channel, **kwargs)
 
@@ -63,7 +67,7 @@ class AdapterBus(can.BusABC):
             is_remote_frame=rtr,
             data=data,
             dlc=len(data),
-            channel=self.channel_info,
+            channel=self.channel,
         )
         return msg, False
 

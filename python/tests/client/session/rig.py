@@ -51,6 +51,8 @@ class Rig:
     """
 
     def __init__(self, motors: Iterable[int] = (1, 2, 3), **options: Any) -> None:
+        motors = tuple(motors)
+        options.setdefault("motor_ids", motors)  # the bus's motors are known, as the simulator declares them
         self.session = BusSession(**options)
         self.motors = {n: ScriptedMotor(n) for n in motors}
         self.wire: list[tuple[float, Command]] = []

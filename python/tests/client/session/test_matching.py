@@ -44,7 +44,7 @@ def test_the_reply_with_every_field_answers() -> None:
     [
         ParamValue(2, VBUS, DataType.F32, 24.0),  # another motor
         ParamValue(1, 30001, DataType.U32, 5),  # another parameter
-        Frame(0x03F, bytes.fromhex("0000c04100000000")),  # a state of motor 1 (no answer to a parameter read)
+        Frame(0x027, bytes.fromhex("0000c04100000000")),  # a state of motor 1 (no answer to a parameter read)
     ],
 )
 def test_a_reply_of_another_motor_or_parameter_answers_nothing(reply: ParamValue | Frame) -> None:

@@ -18,8 +18,10 @@ from drempower.protocol import (
     Preset,
     PresetQ,
     PresetT,
+    ReadParam,
     Start,
     StartKind,
+    State,
     SysCmd,
     SystemCommand,
     WriteParam,
@@ -133,16 +135,18 @@ def test_confirmed_falls_back_to_the_bus_time_when_the_transport_cannot_tell() -
 
 
 @pytest.mark.parametrize(
-    ("policy", "nodes", "where"),
+    ("policy", "nodes", "motor_ids", "where"),
     [
-        ("auto", [2], [2]),
-        ("auto", [1, 2, 3], [0]),
-        ("broadcast", [2], [0]),
-        ("node", [1, 2, 3], [1, 2, 3]),
+        ("auto", [2], (), [2]),
+        ("auto", [1, 2, 3], (), [1, 2, 3]),  # another command's presets may wait elsewhere: never broadcast
+        ("auto", [1, 2, 3], (1, 2, 3), [0]),  # every motor of the bus is in the move
+        ("auto", [1, 2], (1, 2, 3), [1, 2]),
+        ("broadcast", [2], (), [0]),
+        ("node", [1, 2, 3], (1, 2, 3), [1, 2, 3]),
     ],
 )
-def test_start_policy(policy: StartPolicy, nodes: list[int], where: list[int]) -> None:
-    rig = Rig(tx="in_order", start=policy)
+def test_start_policy(policy: StartPolicy, nodes: list[int], motor_ids: tuple[int, ...], where: list[int]) -> None:
+    rig = Rig(tx="in_order", start=policy, motor_ids=motor_ids)
     opn = rig.submit(_batch(nodes))
     cmds = rig.take()
     assert _starts(cmds) == where and opn.result() == where
@@ -210,7 +214,7 @@ def test_presets_and_a_q_start_through_send_record_the_preset_targets_and_time()
 
 
 def test_a_second_batch_goes_out_after_the_held_start_in_order() -> None:
-    rig = Rig(tx="timed", bitrate=125_000, tx_latency=0.0)
+    rig = Rig(tx="timed", bitrate=125_000, tx_latency=0.0, motor_ids=(1, 2))  # the first batch moves every motor
     first: Operation[list[int]] = rig.submit(_batch([1, 2]))
     assert _kinds(rig.take()) == ["Preset1", "Preset2"]
     second = rig.submit(_batch([3]))
@@ -263,3 +267,48 @@ def test_an_estop_goes_before_everything_queued() -> None:
     assert _kinds(cmds[1:]) == ["WriteParam1", "FastRead2", "Preset1", "Preset2"]
     s.estop([1, 2])  # while a start is held, too
     assert rig.take() == [SystemCommand(1, SysCmd.ESTOP), SystemCommand(2, SysCmd.ESTOP)]
+
+
+def test_answered_the_start_waits_for_fast_reads_sent_after_the_presets() -> None:
+    """Over a link of unbounded delay (socketcand): a read has a higher id than its motor's preset, so its
+    reply proves the preset was on the wire (a heartbeat cannot pass for it: the reply echoes the address)."""
+    rig = Rig(tx="answered")
+    for m in rig.motors.values():
+        m.params[31001] = m.node  # can_node_id
+    opn = rig.submit(_batch([1, 2, 3]))
+    assert _kinds(rig.take()) == ["Preset1", "Preset2", "Preset3", "ReadParam1", "ReadParam2", "ReadParam3"]
+    assert rig.session.receive(State(1, 0.0, 0.0, 0.0, True, False).encode(), 0.0002) is not None  # a heartbeat
+    assert not opn.done
+    assert not rig.session.awaiting_confirmation  # nothing to ask the transport
+    rig.at(0.0005)
+    assert rig.take() == [] and not opn.done  # the answers are 1 ms away
+    rig.at(0.001)
+    assert _kinds(rig.take()) == ["Start0"] and opn.result() == [0]
+    assert len(rig.session.matcher) == 0
+
+
+@pytest.mark.parametrize("retries", [0, 2])
+def test_answered_a_silent_motor_fails_the_batch_and_sends_no_start(retries: int) -> None:
+    rig = Rig(tx="answered", timeout=0.2, retries=retries)
+    for m in rig.motors.values():
+        m.params[31001] = m.node
+    rig.motors[2].silent = True
+    opn = rig.submit(_batch([1, 2, 3]))
+    rig.settle(lambda: opn.done, until=5.0)
+    assert isinstance(opn.error, TimeoutError) and opn.error.nodes == (2,)
+    assert rig.now == pytest.approx(0.2 * (1 + retries))
+    assert [c.node for _, c in rig.sent(ReadParam)] == [1, 2, 3] + [2] * retries  # only the silent one again
+    assert rig.sent(Start) == [] and rig.session.pending_presets == {1, 2, 3}
+    assert len(rig.session.matcher) == 0
+
+
+def test_answered_an_estop_drops_the_held_start_and_its_fast_reads() -> None:
+    rig = Rig(tx="answered")
+    s = rig.session
+    opn = rig.submit(_batch([1, 2]))
+    rig.take()
+    s.estop([1])
+    assert opn.done and isinstance(opn.error, BusStoppedError)
+    assert len(s.matcher) == 0
+    rig.settle(until=1.0)
+    assert rig.sent(Start) == []
