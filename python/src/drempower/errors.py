@@ -21,6 +21,7 @@ device, ``TimeoutError`` for a silent motor)::
     ├── MoveError                              a position move did not end at its target
     │   ├── MoveFaultError                     (also a MotorFaultError) the motor reported an error
     │   └── MoveTimeoutError                   (also a TimeoutError) the move was not over in time
+    ├── FollowError                            a trajectory stopped early (a tracking error above max_error)
     ├── VerifyError                            a read-back differs from what was written
     │   ├── IdTakenError                       set_id: another motor already answers at the new id
     │   └── NoMotorError                       set_id: no motor answers where one was expected
@@ -40,6 +41,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    from .motion.plan import FollowReport
     from .protocol.parameters import Parameter
 
 __all__ = [
@@ -55,6 +57,7 @@ __all__ = [
     "BusStoppedError",
     "MotorFaultError",
     "MotorIdleError",
+    "FollowError",
     "SoftLimitError",
     "VerifyError",
     "IdTakenError",
@@ -329,3 +332,12 @@ class DomainError(FieldRangeError):
         self.hard = p.hard
         hint = "" if p.hard else "; force=True (--force) writes it anyway"
         self.args = (f"{p.name}={value!r} is outside its domain: {p.domain_text()}{hint}",)
+
+
+class FollowError(DrEmpowerError):
+    """A trajectory stopped early (a tracking error above ``max_error``): the joints were stopped;
+    ``report`` (a :class:`~drempower.motion.plan.FollowReport`) says how far it got."""
+
+    def __init__(self, message: str, report: FollowReport) -> None:
+        super().__init__(message)
+        self.report = report

@@ -87,7 +87,7 @@ def test_a_client_that_never_reads_is_disconnected_and_counted(bus: SimBus) -> N
 
 def test_connections_are_capped(bus: SimBus) -> None:
     before = threading.active_count()
-    with SocketcandServer(bus, max_clients=4) as server:
+    with SocketcandServer(bus, max_clients=4, evict_idle=60.0) as server:  # nobody silent long enough to give way
         conns = [_connect(server.port) for _ in range(10)]
         try:
             replies = [_read_until(c, b">") for c in conns]

@@ -15,7 +15,7 @@ from ..client.commands import AxisMode, PositionMode, make_angle, make_impedance
 from ..client.effects import Batch, Op, read_states
 from ..client.ops import set_mode
 from ..client.state import MotorState
-from ..errors import DrEmpowerError, ValidationError
+from ..errors import FollowError, ValidationError
 from ..protocol.messages import Message, StartImpedance
 from ..sim.timing import frame_bits
 from .trajectory import Rows, Trajectory
@@ -122,15 +122,6 @@ class FollowReport:
             "cycles": self.cycles,
             "stopped": self.stopped,
         }
-
-
-class FollowError(DrEmpowerError):
-    """A trajectory stopped early (a tracking error above ``max_error``): the joints were stopped;
-    ``report`` says how far it got."""
-
-    def __init__(self, message: str, report: FollowReport) -> None:
-        super().__init__(message)
-        self.report = report
 
 
 @dataclass
