@@ -352,7 +352,7 @@ def test_a_move_to_an_idle_motor_shows_an_error_not_success(page: Any, served: S
     page.get_by_role("button", name="Move", exact=True).click()
     page.wait_for_function("document.querySelector('#msg').textContent.includes('idle')")
     msg = page.locator("#msg")
-    assert msg.inner_text().startswith("motor 3 is idle: it would ignore this motion, so nothing was sent")
+    assert msg.inner_text().startswith("motor 3 is idle (not in closed loop): enable it first")
     assert "info" not in (msg.get_attribute("class") or "")  # shown as an error, never green
     assert served.hub.targets.get(3) is None and abs(served.sim.motors[3].position - at) < 0.5
     # the synchronised move too: an error in the message line, none in the page (the fixture checks)

@@ -84,8 +84,8 @@ async def test_motion_to_an_idle_motor_is_refused_saying_so_and_nothing_moves(pa
     for args in moves:
         r = await page.ask("control", id=1, **args)
         assert not r["ok"], args
-        assert r["error"].startswith("motor 1 is idle: it would ignore this motion, so nothing was sent")
-        assert "`drempower enable 1`" in r["error"]
+        assert r["error"].startswith("motor 1 is idle (not in closed loop): enable it first")
+        assert "drempower enable 1" in r["error"]
     r = await page.ask("step", id=1, mode="position", amplitude=30, duration=0.5)
     assert not r["ok"] and "motor 1 is idle" in r["error"]  # no "overshoot 0.0 %" of a flat trace
     page.sim.remove_listener(frames.append)

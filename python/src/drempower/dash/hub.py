@@ -18,7 +18,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from ..client import Bus, ConfigBackup, Motor, MotorState
-from ..errors import DrEmpowerError, ValidationError
+from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..protocol import ERROR_WORDS, FastRead, flag_info
 from ..protocol.enums import AxisState, TorqueMode, VelocityMode
 from ..protocol.parameters import Parameter, find_parameter, parameters
@@ -535,16 +535,13 @@ class Hub:
         motor's axis state; then, with ``--watchdog``, arm the motors not armed yet."""
         if self._halt.is_set():
             raise ValidationError("the dashboard is stopping: no motion is started any more")
+        idle: list[tuple[int, int]] = []
         for i in keys:
-            state = self.motor(i).read_property(_STATE, timeout=0.2)
-            if int(state) != AxisState.CLOSED_LOOP_CONTROL:
-                name = state_name(state)
-                what = "is idle" if name == "idle" else f"is in state {name}, not closed loop"
-                _, node = self.where(i)
-                raise ValidationError(
-                    f"{self.label(i)} {what}: it would ignore this motion, so nothing was sent; "
-                    f"enable it first (the Enable button, or `drempower enable {node}`)"
-                )
+            state = int(self.motor(i).read_property(_STATE, timeout=0.2))
+            if state != AxisState.CLOSED_LOOP_CONTROL:
+                idle.append((self.where(i)[1], state))
+        if idle:  # the library's refusal, in the library's words (the API, CLI and bridge say the same)
+            raise MotorIdleError([n for n, _ in idle], [s for _, s in idle])
         if self.watchdog_ms:
             self.arm_watchdog(keys)
 
