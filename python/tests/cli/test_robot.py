@@ -154,3 +154,22 @@ id = 5
 def test_sim_robot_refuses_its_own_bus_options(tmp_path: Path, cli: Cli, robot_file: str) -> None:
     r = cli("sim", "--robot", robot_file, "--ids", "1,2", "--duration", "0.1")
     assert r.code == 2 and "--ids does not go with it" in r.err
+
+
+@pytest.mark.parametrize("option", ["retries = 3", "stop_on_close = true", "timeout = 0.5"])
+def test_bus_options_of_the_robot_file_do_not_collide_with_the_commands_own(
+    cli: Cli, tmp_path: Path, option: str
+) -> None:
+    path = tmp_path / "robot.toml"
+    path.write_text(ROBOT.replace('[buses.left]\ninterface = "sim"', f'[buses.left]\ninterface = "sim"\n{option}'))
+    r = cli("state", "shoulder,hip", "--robot", str(path), "--json")
+    assert r.code == 0, r.err
+    assert [rec["id"] for rec in r.records()] == [1, 2]
+    r = cli("move", "shoulder", "10", "--wait", "--robot", str(path), "--json")
+    assert r.code == 0 and r.records()[0]["done"] is True, r.err
+    r = cli("move", "shoulder,elbow", "20", "--robot", str(path), "--json")  # across buses: open_robot
+    assert r.code == 0, r.err
+    r = cli("speed", "shoulder", "5", "--duration", "0.2", "--robot", str(path))
+    assert r.code == 0 and "after 0.2 s: motor 1 set to idle" in r.err, r.err
+    r = cli("sniff", "--duration", "0.1", "--robot", str(path), "--json")
+    assert "TypeError" not in r.err and "unexpected keyword" not in r.err, r.err

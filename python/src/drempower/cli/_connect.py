@@ -271,9 +271,9 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--retries",
         type=retries,
-        default=0,
         metavar="N",
-        help="send a read that got no reply again, up to N times (0-10, default 0): for lossy links",
+        help="send a read that got no reply again, up to N times (0-10, default 0, or the robot file's): "
+        "for lossy links",
     )
 
 
@@ -361,9 +361,12 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
     from .. import open_bus
 
     kw, _ = robot_bus_kwargs(args) if getattr(args, "robot_bus", None) else _connect(args, quiet)
+    kw["stop_on_close"] = False  # a robot file's too: the commands stop what they started themselves
     if args.timeout is not None:
         kw["timeout"] = args.timeout
-    bus: Bus = open_bus(stop_on_close=False, retries=getattr(args, "retries", 0), **kw)
+    if getattr(args, "retries", None) is not None:
+        kw["retries"] = args.retries
+    bus: Bus = open_bus(**kw)
     return bus
 
 
@@ -397,7 +400,11 @@ def open_transport_from_args(args: argparse.Namespace) -> tuple[Transport, str]:
     from ..transports import open_transport
 
     kw, how = robot_bus_kwargs(args) if getattr(args, "robot_bus", None) else _connect(args, False)
-    return open_transport(**kw), how
+    return open_transport(**{k: v for k, v in kw.items() if k not in BUS_ONLY}), how
+
+
+BUS_ONLY = ("timeout", "retries", "stop_on_close", "start")
+"""Options of a robot file's bus that belong to ``open_bus``, not to its transport."""
 
 
 def robot_bus_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
