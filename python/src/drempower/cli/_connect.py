@@ -34,6 +34,9 @@ if TYPE_CHECKING:
 
 __all__ = [
     "TIME_SCALE_ENV",
+    "ascii_digits",
+    "ascii_float",
+    "ascii_int",
     "add_connection_args",
     "add_ids_arg",
     "bitrate",
@@ -58,6 +61,29 @@ TIME_SCALE_ENV = "DREMPOWER_SIM_TIME_SCALE"
 """Environment variable: default time scale of the in-process simulator."""
 
 
+def ascii_int(text: str, base: int = 10) -> int:
+    """``int(text, base)`` for ASCII digits only: ``int`` also takes other scripts' digits (``"\u0661"`` is 1)
+    and underscores, which no motor id or value on this command line means. Raises :class:`ValueError`."""
+    t = text.strip()
+    if not t.isascii() or "_" in t:
+        raise ValueError(f"{text!r} is not written in ASCII digits")
+    return int(t, base)
+
+
+def ascii_float(text: str) -> float:
+    """``float(text)`` for ASCII digits only (see :func:`ascii_int`). Raises :class:`ValueError`."""
+    t = text.strip()
+    if not t.isascii() or "_" in t:
+        raise ValueError(f"{text!r} is not written in ASCII digits")
+    return float(t)
+
+
+def ascii_digits(text: str) -> bool:
+    """Whether ``text`` (spaces around allowed) is a whole number in ASCII digits (``isdigit`` takes any script's)."""
+    t = text.strip()
+    return t.isascii() and t.isdigit()
+
+
 def parse_ids(text: str) -> list[int]:
     """``"1,2,5-7"`` -> ``[1, 2, 5, 6, 7]`` in the order given; every id must be 1..63, named once."""
     ids: list[int] = []
@@ -66,10 +92,10 @@ def parse_ids(text: str) -> list[int]:
             continue
         try:
             if "-" in part:
-                lo, hi = (int(x) for x in part.split("-", 1))
+                lo, hi = (ascii_int(x) for x in part.split("-", 1))
                 ids.extend(range(lo, hi + 1))
             else:
-                ids.append(int(part))
+                ids.append(ascii_int(part))
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not a list of motor ids such as 1,2,5-7") from None
     bad = [i for i in ids if not 1 <= i <= 63]
@@ -136,7 +162,7 @@ def bitrate(text: str) -> int:
     t = text.strip().lower()
     scale = _SUFFIX.get(t[-1:], 1)
     try:
-        value = float(t[:-1] if scale > 1 else t) * scale
+        value = ascii_float(t[:-1] if scale > 1 else t) * scale
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a bitrate such as 1M, 500k or 115200") from None
     if not (math.isfinite(value) and value >= 1 and value == int(value)):
@@ -147,7 +173,7 @@ def bitrate(text: str) -> int:
 def positive(text: str) -> float:
     """An argument type: a finite number > 0."""
     try:
-        value = float(text)
+        value = ascii_float(text)
     except ValueError:
         value = 0.0
     if not 0 < value < math.inf:
@@ -172,7 +198,7 @@ def wire_rate(high: float = S16_MAX) -> Callable[[str], float]:
 
     def parse(text: str) -> float:
         try:
-            value = float(text)
+            value = ascii_float(text)
         except ValueError:
             value = math.nan
         if not (math.isfinite(value) and round(value * 100) >= 1 and value <= high):
@@ -188,7 +214,7 @@ def wire_rate(high: float = S16_MAX) -> Callable[[str], float]:
 def number(text: str) -> float:
     """An argument type: a finite number."""
     try:
-        value = float(text)
+        value = ascii_float(text)
     except ValueError:
         value = math.nan
     if not math.isfinite(value):
@@ -198,7 +224,7 @@ def number(text: str) -> float:
 
 def count(text: str) -> int:
     """An argument type: a whole number >= 1."""
-    if not (text.strip().isdigit() and int(text) >= 1):
+    if not (ascii_digits(text) and int(text) >= 1):
         raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
     return int(text)
 
@@ -227,7 +253,7 @@ def can_option(text: str) -> tuple[str, object]:
     if low in ("true", "false"):
         v = low == "true"
     else:
-        for conv in (int, float):
+        for conv in (ascii_int, ascii_float):
             try:
                 v = conv(value)
                 break
@@ -238,7 +264,7 @@ def can_option(text: str) -> tuple[str, object]:
 
 def retries(text: str) -> int:
     """An argument type: how often a request that got no reply is sent again, 0..10."""
-    if not (text.strip().isdigit() and 0 <= int(text) <= 10):
+    if not (ascii_digits(text) and 0 <= int(text) <= 10):
         raise argparse.ArgumentTypeError(f"expected a whole number 0..10, got {text!r}")
     return int(text)
 

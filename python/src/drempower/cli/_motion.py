@@ -13,7 +13,7 @@ from contextlib import contextmanager
 from ..client import Bus
 from ..client.signals import Terminated, hurried
 from ..errors import DrEmpowerError
-from ._connect import add_ids_arg, open_from_args, positive
+from ._connect import add_ids_arg, ascii_float, ascii_int, open_from_args, positive
 from ._output import clean, motors_text
 from ._usage import UsageError
 
@@ -38,7 +38,7 @@ _NEGATIVE_LIST = re.compile(rf"^-{_UNSIGNED}(?:,[-+]?{_UNSIGNED})*$")
 def number_list(text: str) -> list[float]:
     """An argument type: ``"90,-45,180"`` -> ``[90.0, -45.0, 180.0]`` (finite numbers)."""
     try:
-        values = [float(v) for v in text.split(",")]
+        values = [ascii_float(v) for v in text.split(",")]
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number or a comma-separated list of numbers") from None
     if not all(math.isfinite(v) for v in values):
@@ -135,7 +135,7 @@ WATCHDOG_MIN_MS = 100
 
 def _watchdog_ms(text: str) -> int:
     try:
-        value = int(text)
+        value = ascii_int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected whole milliseconds {WATCHDOG_MIN_MS}..{_U32_MAX}, got {text!r}"
