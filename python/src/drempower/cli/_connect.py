@@ -43,7 +43,9 @@ __all__ = [
     "connection_kwargs",
     "count",
     "connection_words",
+    "find_adapters",
     "follow_up",
+    "ids_or_found",
     "motor_id",
     "number",
     "open_from_args",
@@ -342,14 +344,21 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
     elif args.interface:
         kw = {"interface": args.interface, "channel": args.channel, **dict(args.can_option)}
         how = f"python-can {args.interface} {args.channel or ''}".rstrip()
+    elif not can_only and args.bitrate is None and len(adapters := find_adapters()) == 1:
+        kw = {"interface": "adapter", "channel": adapters[0]}
+        how = f"the USB-CAN adapter found on {adapters[0]} (--serial {adapters[0]})"
     else:
+        adapters = [] if can_only or args.bitrate is not None else find_adapters()
         cfg = _python_can_config()
         if cfg is None:
             if can_only:
                 raise UsageError(f"{can_only[0]} needs -i/--interface (no python-can configuration names an interface)")
+            found = (
+                f"; USB-CAN adapters found on {', '.join(adapters)}: choose one with --serial PORT" if adapters else ""
+            )
             raise DrEmpowerError(
-                "no connection given and no python-can configuration found: "
-                "use --sim IDS, --serial PORT, --uart PORT or -i INTERFACE -c CHANNEL"
+                "no connection given, no USB-CAN adapter found and no python-can configuration: "
+                "use --sim IDS, --serial PORT, --uart PORT or -i INTERFACE -c CHANNEL" + found
             )
         # python-can fills in what is not given here (bitrate, ...) from the same configuration
         channel = args.channel if args.channel is not None else cfg.get("channel")
@@ -358,6 +367,16 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
     if args.bitrate is not None:
         kw["bitrate"] = args.bitrate
     return kw, how
+
+
+def find_adapters() -> list[str]:
+    """Serial ports of the vendor's USB-CAN adapters plugged in, by their USB ids (those `drempower udev` knows)."""
+    from serial.tools import list_ports
+
+    from .udev import CDC, CH340
+
+    known = {(int(v, 16), int(p, 16)) for v, p in (CDC, CH340)}
+    return sorted(port.device for port in list_ports.comports() if (port.vid, port.pid) in known)
 
 
 def _python_can_config() -> dict[str, Any] | None:
@@ -394,6 +413,23 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
         kw["retries"] = args.retries
     bus: Bus = open_bus(**kw)
     return bus
+
+
+def ids_or_found(args: argparse.Namespace, bus: Bus) -> list[int]:
+    """The motor ids given, or those a quick scan finds (said on stderr: ``found motors 1, 2, 3``).
+
+    For commands whose IDS may be left out (``state``, ``errors``, ``monitor``),
+    as moteus_tool finds its targets. No motor answering is a failure (exit 1).
+    """
+    ids: list[int] = list(args.ids)
+    if ids:
+        return ids
+    found = [m.id for m in bus.scan()]
+    if not found:
+        raise DrEmpowerError("no motor answered a scan of ids 1-63: check the connection, the bitrate and the power")
+    print(f"drempower: found motor{'s' if len(found) > 1 else ''} {', '.join(map(str, found))}", file=sys.stderr)
+    args.ids = found
+    return found
 
 
 def connection_words(args: argparse.Namespace) -> list[str]:
