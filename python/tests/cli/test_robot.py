@@ -104,7 +104,7 @@ def test_joint_name_mistakes_are_usage_errors(cli: Cli, robot_file: str, tmp_pat
     r = cli("state", "elbow", "--robot", robot_file, "--sim", "1")
     assert r.code == 2 and "--robot and --sim conflict" in r.err
     r = cli("state", "elbow", "--robot", str(tmp_path / "none.toml"))
-    assert r.code == 1 and "cannot read robot file" in r.err and "Traceback" not in r.err
+    assert r.code == 2 and "cannot read robot file" in r.err and "Traceback" not in r.err
 
 
 def test_sim_serves_one_bus_per_entry(tmp_path: Path) -> None:
