@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -11,10 +12,10 @@ from ..client import Bus, MotorState
 from ..client.errors import TimeoutError
 from ..errors import DrEmpowerError
 from ..protocol import DataType, FastRead, ReadParam
-from ..protocol.addresses import AXIS0_CURRENT_STATE
+from ..protocol.addresses import AXIS0_CURRENT_STATE, CAN_CONFIG_TIMEOUT_MS
 from ..protocol.enums import AxisState
 
-__all__ = ["FIELDS", "HEADERS", "Reading", "axis_state_name", "read", "require_ready"]
+__all__ = ["FIELDS", "HEADERS", "Reading", "axis_state_name", "read", "require_ready", "warn_leftover_watchdog"]
 
 _VBUS = 1
 _CURRENT_STATE = AXIS0_CURRENT_STATE
@@ -144,6 +145,8 @@ def require_ready(bus: Bus, ids: Sequence[int], args: argparse.Namespace | None 
         return f"`drempower {text}`" if args is None else f"`{follow_up(args, text)}`"
 
     readings = read(bus, ids)
+    if args is None or not getattr(args, "watchdog", None):  # --watchdog arms (and restores) its own
+        warn_leftover_watchdog(bus, ids, args)
     for r in readings:
         if r.state is not None and r.state.error:
             raise DrEmpowerError(
@@ -156,3 +159,26 @@ def require_ready(bus: Bus, ids: Sequence[int], args: argparse.Namespace | None 
                 f"run {cmd(f'enable {r.id}')} first"
             )
     return readings
+
+
+def warn_leftover_watchdog(bus: Bus, ids: Sequence[int], args: argparse.Namespace | None = None) -> dict[int, int]:
+    """Say on stderr which motors have a CAN watchdog (``can.config.timeout_ms``) armed, and how to clear it.
+
+    A command killed with SIGKILL while its ``--watchdog`` was armed leaves
+    the timeout set: every later command then sees its motors go idle that
+    long after its last frame. The value is only reported, never changed (it
+    may be a deliberate setting). Returns the armed values by motor.
+    """
+    from ._connect import follow_up
+
+    replies = bus.request([ReadParam(i, CAN_CONFIG_TIMEOUT_MS, DataType.U32) for i in ids], missing_ok=True)
+    armed = {i: int(r.value) for i, r in zip(ids, replies, strict=True) if r is not None and int(r.value)}
+    for node, ms in armed.items():
+        clear = f"drempower set {node} can.config.timeout_ms 0"
+        print(
+            f"drempower: warning: motor {node} has can.config.timeout_ms = {ms}: it goes idle {ms} ms after "
+            f"the last frame it receives (a --watchdog left by a killed command?); to clear it: "
+            f"`{clear if args is None else follow_up(args, clear[len('drempower ') :])}`",
+            file=sys.stderr,
+        )
+    return armed
