@@ -415,7 +415,7 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
     return bus
 
 
-def ids_or_found(args: argparse.Namespace, bus: Bus) -> list[int]:
+def ids_or_found(args: argparse.Namespace, bus: Bus, *, none_ok: bool = False) -> list[int]:
     """The motor ids given, or those a quick scan finds (said on stderr: ``found motors 1, 2, 3``).
 
     For commands whose IDS may be left out (``state``, ``errors``, ``monitor``),
@@ -425,6 +425,9 @@ def ids_or_found(args: argparse.Namespace, bus: Bus) -> list[int]:
     if ids:
         return ids
     found = [m.id for m in bus.scan()]
+    if not found and none_ok:
+        print("drempower: no motor answered a scan of ids 1-63", file=sys.stderr)
+        return []
     if not found:
         raise DrEmpowerError("no motor answered a scan of ids 1-63: check the connection, the bitrate and the power")
     print(f"drempower: found motor{'s' if len(found) > 1 else ''} {', '.join(map(str, found))}", file=sys.stderr)
