@@ -56,6 +56,8 @@ def test_state_get_set_idle_take_joint_names(cli: Cli, robot_file: str) -> None:
     ]
     r = cli("state", "shoulder", "elbow", "--robot", robot_file)
     assert r.code == 0 and r.out.index("bus left (shoulder=1):") < r.out.index("bus right (elbow=1):")
+    rows = [line.split()[0] for line in r.out.splitlines() if not line.startswith(("bus ", "joint "))]
+    assert rows == ["shoulder", "elbow"]  # joints by name, never `1` twice for joints on two buses
 
 
 def test_monitor_takes_joints_of_one_bus(cli: Cli, robot_file: str) -> None:
@@ -173,3 +175,12 @@ def test_bus_options_of_the_robot_file_do_not_collide_with_the_commands_own(
     assert r.code == 0 and "after 0.2 s: motor 1 set to idle" in r.err, r.err
     r = cli("sniff", "--duration", "0.1", "--robot", str(path), "--json")
     assert "TypeError" not in r.err and "unexpected keyword" not in r.err, r.err
+
+
+def test_tables_name_joints_and_unnamed_motors_motor_id(cli: Cli, tmp_path: Path) -> None:
+    path = tmp_path / "one.toml"
+    path.write_text('[buses.arm]\ninterface = "sim"\n[joints.wrist]\nbus = "arm"\nid = 1\n')
+    r = cli("get", "wrist", "vbus_voltage", "--robot", str(path))
+    assert r.code == 0 and r.out.splitlines()[0].split()[0] == "joint" and r.out.splitlines()[1].split()[0] == "wrist"
+    r = cli("state", "1", "2", "--robot", str(path), "--timeout", "0.2")  # motor 2: no joint, and silent
+    assert r.code == 1 and [line.split()[0] for line in r.out.splitlines()[1:]] == ["wrist", "motor_2"]

@@ -14,26 +14,20 @@ from ..errors import DrEmpowerError
 from ..protocol import DataType, FastRead, ReadParam
 from ..protocol.addresses import AXIS0_CURRENT_STATE, CAN_CONFIG_TIMEOUT_MS
 from ..protocol.enums import AxisState
+from ._fields import COLUMNS
 
 __all__ = ["FIELDS", "HEADERS", "Reading", "axis_state_name", "read", "require_ready", "warn_leftover_watchdog"]
 
 _VBUS = 1
 _CURRENT_STATE = AXIS0_CURRENT_STATE
 
-HEADERS = (
-    "id",
-    "position/deg",
-    "speed/rpm",
-    "torque/Nm",
-    "done",
-    "state",
-    "vbus/V",
-    "errors",
-)
-"""Table columns of :meth:`Reading.record`, in order."""
+_COLUMNS = ("id", "position", "speed", "torque", "done", "state", "vbus_voltage", "errors")
 
-FIELDS = ("id", "position_deg", "speed_rpm", "torque_nm", "done", "state", "vbus_v", "errors")
-"""Keys of :meth:`Reading.record`, in order."""
+HEADERS = tuple(COLUMNS[c][1] for c in _COLUMNS)
+"""Table columns of :meth:`Reading.record`, in order (named in :data:`~drempower.cli._fields.COLUMNS`)."""
+
+FIELDS = tuple(COLUMNS[c][0] for c in _COLUMNS)
+"""Keys of :meth:`Reading.record`, in order: ``id``, ``position_deg``, ``speed_rpm``, ..."""
 
 
 def axis_state_name(value: int | None) -> str | None:
@@ -77,16 +71,17 @@ class Reading:
     def record(self) -> dict[str, Any]:
         """JSON-ready fields, in the order of :data:`HEADERS`."""
         st = self.state
-        return {
-            "id": self.id,
-            "position_deg": None if st is None else round(st.angle, 4),
-            "speed_rpm": None if st is None else st.speed,
-            "torque_nm": None if st is None else st.torque,
-            "done": None if st is None else st.trajectory_done,
-            "state": axis_state_name(self.axis_state),
-            "vbus_v": None if self.vbus is None else round(self.vbus, 3),
-            "errors": self.error_text(),
-        }
+        values = (
+            self.id,
+            None if st is None else round(st.angle, 4),
+            None if st is None else st.speed,
+            None if st is None else st.torque,
+            None if st is None else st.trajectory_done,
+            axis_state_name(self.axis_state),
+            None if self.vbus is None else round(self.vbus, 3),
+            self.error_text(),
+        )
+        return dict(zip(FIELDS, values, strict=True))
 
 
 def _flags(bus: Bus, node: int) -> list[str] | None:
