@@ -66,6 +66,7 @@ def test_get_reads_a_whole_subtree(cli: Cli, sim: SimBus) -> None:
 def test_backup_to_stdout_and_restore_from_stdin(
     cli: Cli, sim: SimBus, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    monkeypatch.chdir(tmp_path)
     r = cli("backup", "1", "-", "--sim", "1")
     assert r.code == 0 and "written to stdout" in r.err and not Path("-").exists()
     doc = json.loads(r.out)

@@ -48,7 +48,7 @@ def test_shell_through_a_pty_completes_names_and_idles_on_ctrl_d() -> None:
         assert "m1, m2: its motors" in out and "--sim 1,2" in out
         os.write(controller, b"x = bus.moto\t1)\n")  # Tab completes bus.motor(
         os.write(controller, b"print('kind', type(x).__name__, x is not m2)\n")
-        assert "kind Motor True" in _read_until(controller, "kind Motor")
+        assert "kind Motor True" in _read_until(controller, "kind Motor True")
         os.write(controller, b"m2.set_speed(20)\n")
         _read_until(controller, ">>> ")
         os.write(controller, b"\x04")  # Ctrl-D on an empty line

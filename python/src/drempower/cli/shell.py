@@ -19,6 +19,7 @@ from typing import Any
 
 from ._connect import add_connection_args, add_ids_arg, connection_words, ids_or_found, open_from_args
 from ._motion import stop_commanded
+from ._output import json_line
 
 GROUP = "bus"
 """Where ``drempower --help`` lists this module's subcommands."""
@@ -41,6 +42,11 @@ def register(sub: Any) -> None:
         ),
     )
     add_ids_arg(p, optional=True)
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help='the banner as one JSON object on stderr ({"shell": ..., "connection": ..., "motors": [...]})',
+    )
     add_connection_args(p)
     p.set_defaults(func=run)
 
@@ -78,10 +84,11 @@ def run(args: argparse.Namespace) -> int:
             if signum is not None and signal.getsignal(signum) is not signal.SIG_IGN:
                 signal.signal(signum, _end)
         code_ = 0
+        banner = BANNER.format(version=drempower.__version__, how=how, motors=motors)
+        if args.json:
+            banner = json_line({"shell": drempower.__version__, "connection": how, "motors": ids})
         try:
-            code.InteractiveConsole(namespace).interact(
-                banner=BANNER.format(version=drempower.__version__, how=how, motors=motors), exitmsg=""
-            )
+            code.InteractiveConsole(namespace).interact(banner=banner, exitmsg="")
         except SystemExit as exc:
             code_ = exc.code if isinstance(exc.code, int) else 0
         finally:
