@@ -66,7 +66,9 @@ def test_sigterm_ends_replay_and_reports(tmp_path: Path) -> None:
         text=True,
         env=env,
     )
-    time.sleep(1.5)
+    assert proc.stderr is not None
+    assert "replaying onto simulated motors" in proc.stderr.readline()  # started: its signal handlers are in
+    time.sleep(1.0)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=20)
     assert proc.returncode == 128 + signal.SIGTERM and "replay interrupted after" in err and "Traceback" not in err
