@@ -25,6 +25,7 @@ $(DEVSTAMP): $(STAMP)
 
 demo: $(STAMP)
 	$(BIN)/drempower demo
+	@echo "Next: watch and drive simulated motors in a browser: $(BIN)/pip install --quiet -e 'python[dash]' && $(BIN)/drempower dash --sim 1,2,3"
 
 test: test-python test-c
 
@@ -41,7 +42,10 @@ SYSDEPS ?= chromium zsh fish qemu-system-arm gcc-arm-none-eabi libnewlib-arm-non
 sysdeps:
 	@missing=""; for c in $(SYSDEPS); do command -v $$c >/dev/null 2>&1 || missing="$$missing $$c"; done; \
 	if [ -n "$$missing" ]; then \
-	  if [ "$$(id -u)" = 0 ]; then apt-get update -q && DEBIAN_FRONTEND=noninteractive apt-get install -y -q $$missing; \
+	  if [ "$$(id -u)" = 0 ]; then \
+	    echo "make: installing$$missing with apt-get for the tests (chromium: the dashboard's browser tests; zsh, fish: the completion scripts)"; \
+	    log=$$(mktemp); (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing) >$$log 2>&1 \
+	      || { cat $$log; rm -f $$log; echo "make: apt-get failed (its output above)"; exit 1; }; rm -f $$log; \
 	  else echo "make: some tests need:$$missing (sudo apt-get install$$missing); they are skipped without them"; fi; \
 	fi
 

@@ -89,7 +89,7 @@ def test_decode_direction_override(capsys: pytest.CaptureFixture[str], monkeypat
 
 
 def test_decode_missing_file(capsys: pytest.CaptureFixture[str]) -> None:
-    assert main(["decode", "/nonexistent/bus.log"]) == 1
+    assert main(["decode", "/nonexistent/bus.log"]) == 2  # bad input: exit 2
     assert "cannot read" in capsys.readouterr().err
 
 

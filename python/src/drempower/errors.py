@@ -330,7 +330,7 @@ class DomainError(FieldRangeError):
         super().__init__(p.name, value, low, high)
         self.parameter = p
         self.hard = p.hard
-        hint = "" if p.hard else "; force=True (--force) writes it anyway"
+        hint = "" if p.hard else "; force=True writes it anyway"
         self.args = (f"{p.name}={value!r} is outside its domain: {p.domain_text()}{hint}",)
 
 

@@ -45,6 +45,14 @@ def _fast_simulator(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(TIME_SCALE_ENV, str(TIME_SCALE))
 
 
+@pytest.fixture(autouse=True)
+def _no_usb_adapters(monkeypatch: pytest.MonkeyPatch) -> None:
+    """No USB-CAN adapter is plugged in, whatever this machine has: commands without a connection find none."""
+    from serial.tools import list_ports
+
+    monkeypatch.setattr(list_ports, "comports", lambda *a, **k: [])
+
+
 @pytest.fixture
 def cli(capsys: pytest.CaptureFixture[str]) -> Cli:
     """``cli("state", "1", "--sim", "1")``: run the command, return exit code and output.

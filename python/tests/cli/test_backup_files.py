@@ -80,7 +80,7 @@ def test_every_malformed_value_is_named_before_anything_is_written(
     cli("set", "1", STALL, "2.5", "--sim", "1")
     path.write_text(json.dumps(edit(doc)))
     host_frames.clear()
-    for command, trouble in (("restore", 1), ("diff", 2)):  # diff exits as diff(1) does: 2 for trouble
+    for command, trouble in (("restore", 2), ("diff", 2)):  # a bad file is a validation error (2), as diff(1) says
         r = cli(command, "1", str(path), "--sim", "1")
         assert r.code == trouble and message in r.err and "Traceback" not in r.err, r.err
         assert len(r.err.splitlines()) == 1
@@ -95,7 +95,7 @@ def test_all_problems_are_listed_at_once(cli: Cli, sim: SimBus, tmp_path: Path) 
     _set("axis0.controller.config.pos_gain", [1])(doc)
     path.write_text(json.dumps(doc))
     r = cli("restore", "1", str(path), "--sim", "1")
-    assert r.code == 1 and "2 malformed records" in r.err and STALL in r.err and "pos_gain" in r.err
+    assert r.code == 2 and "2 malformed records" in r.err and STALL in r.err and "pos_gain" in r.err
 
 
 def test_backup_of_another_motor_or_with_duplicates_needs_force(
@@ -105,12 +105,13 @@ def test_backup_of_another_motor_or_with_duplicates_needs_force(
     cli("set", "1", STALL, "2.5", "--sim", "1")
     host_frames.clear()
     r = cli("restore", "1", str(path), "--sim", "1")
-    assert r.code == 1 and "the backup is of motor 2, not motor 1" in r.err and "--force" in r.err
+    assert r.code == 2 and "the backup is of motor 2, not motor 1" in r.err and "(--force restores it)" in r.err
+    assert "force=True" not in r.err
     doc["node"] = 1
     doc["parameters"].append({**_record(doc, STALL), "value": 7.0})
     path.write_text(json.dumps(doc))
     r = cli("restore", "1", str(path), "--sim", "1")
-    assert r.code == 1 and f"duplicated records: {STALL} (2 times)" in r.err
+    assert r.code == 2 and f"duplicated records: {STALL} (2 times)" in r.err
     assert [f for f in host_frames if f.arbitration_id & 0x1F == WRITE] == []
     assert sim.motors[1].param(STALL) == 2.5
     r = cli("restore", "1", str(path), "--force", "--sim", "1")

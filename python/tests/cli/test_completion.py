@@ -94,6 +94,8 @@ def test_zsh_completes(tmp_path: Path) -> None:
         call("drempower state 1 --ret", "--ret"),
         call("drempower state -i sock", "sock"),
         call("drempower mon", "mon"),
+        call("drempower she", "she"),
+        call("drempower record --outp", "--outp"),
     ]
     driver = tmp_path / "driver.zsh"
     driver.write_text(ZSH_DRIVER.format(calls="\n".join(calls)))
@@ -103,6 +105,8 @@ def test_zsh_completes(tmp_path: Path) -> None:
     assert blocks[1] == ["--retries"]
     assert blocks[2] == ["socketcan", "socketcand"]
     assert blocks[3][0].startswith("monitor:")
+    assert blocks[4][0].startswith("shell:")
+    assert blocks[5] == ["--output"]
 
 
 @pytest.mark.skipif(shutil.which("fish") is None, reason="fish is not installed")
@@ -126,3 +130,5 @@ def test_fish_completes(tmp_path: Path) -> None:
     assert complete("drempower state 1 --ret") == ["--retries"]
     assert "socketcan" in complete("drempower state -i sock") and "udp_multicast" not in complete("drempower state -i ")
     assert complete("drempower mon") == ["monitor"]
+    assert complete("drempower she") == ["shell"]
+    assert complete("drempower record --outp") == ["--output"]  # -o stays python-can's option

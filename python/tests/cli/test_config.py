@@ -39,7 +39,7 @@ def test_set_then_get(cli: Cli, sim: SimBus) -> None:
 )
 def test_set_refuses(cli: Cli, args: tuple[str, ...], message: str) -> None:
     r = cli("set", "1", *args, "--sim", "1")
-    assert r.code == 1 and message in r.err
+    assert r.code == 2 and message in r.err  # a refusal is a validation error, as a value out of its domain
 
 
 def test_set_needs_name_value_pairs(cli: Cli) -> None:
@@ -141,9 +141,9 @@ def test_restore_of_a_bad_file(cli: Cli, tmp_path: Path) -> None:
     path = tmp_path / "bad.json"
     path.write_text("{}")
     r = cli("restore", "1", str(path), "--sim", "1")
-    assert r.code == 1 and "not a drempower-config-backup" in r.err
+    assert r.code == 2 and "not a drempower-config-backup" in r.err
     r = cli("backup", "1", str(tmp_path / "missing" / "x.json"), "--sim", "1")
-    assert r.code == 1 and "cannot write" in r.err
+    assert r.code == 2 and "cannot write" in r.err
 
 
 def test_set_bitrate_refuses_a_rate_the_motor_lacks_before_connecting(cli: Cli) -> None:

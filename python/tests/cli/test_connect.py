@@ -87,7 +87,7 @@ def test_channel_and_options_add_to_the_python_can_configuration(
 def test_without_connection_or_configuration(cli: Cli, monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(_connect, "_python_can_config", lambda: None)
     r = cli("state", "1")
-    assert r.code == 1 and "no connection given and no python-can configuration found" in r.err
+    assert r.code == 1 and "no connection given, no USB-CAN adapter found and no python-can configuration" in r.err
 
 
 def test_python_can_configuration_is_used_and_announced(

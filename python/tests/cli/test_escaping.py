@@ -57,7 +57,7 @@ def test_decode_exits_non_zero_when_no_line_is_a_frame(
 
 def test_errors_and_arguments_are_escaped(cli: Cli, tmp_path: Path) -> None:
     r = cli("decode", str(tmp_path / "no\x1b[31msuch\x07.log"))
-    assert r.code == 1 and _no_raw(r.err) and "no\\x1b[31msuch\\x07.log" in r.err
+    assert r.code == 2 and _no_raw(r.err) and "no\\x1b[31msuch\\x07.log" in r.err
     r = cli("state", "1", "--sim", "1", "--interface", "\x1b[2Jbogus\x07")
     assert r.code in (1, 2) and _no_raw(r.err), r.err
     r = cli("move", "1", "\x1b[2J")

@@ -16,7 +16,7 @@ GAIN = "axis0.controller.config.pos_gain"
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        ((STALL, "-5"), f"{STALL}=-5.0 is outside its domain: >= 0 (soft, inferred); force=True (--force)"),
+        ((STALL, "-5"), f"{STALL}=-5.0 is outside its domain: >= 0 (soft, inferred); --force writes it anyway"),
         ((GAIN, "1e30"), f"{GAIN}=1e+30 is outside its domain: 0..1000 (soft, inferred)"),
         (("heartbeat_ms", "100000"), "can.config.heartbeat_ms=100000 is outside its domain: 0..60000"),
         (("input_filter_bandwidth", "-1"), "input_filter_bandwidth=-1.0 is outside its domain: 0..300 (soft)"),

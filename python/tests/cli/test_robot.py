@@ -56,6 +56,8 @@ def test_state_get_set_idle_take_joint_names(cli: Cli, robot_file: str) -> None:
     ]
     r = cli("state", "shoulder", "elbow", "--robot", robot_file)
     assert r.code == 0 and r.out.index("bus left (shoulder=1):") < r.out.index("bus right (elbow=1):")
+    rows = [line.split()[0] for line in r.out.splitlines() if not line.startswith(("bus ", "joint "))]
+    assert rows == ["shoulder", "elbow"]  # joints by name, never `1` twice for joints on two buses
 
 
 def test_monitor_takes_joints_of_one_bus(cli: Cli, robot_file: str) -> None:
@@ -104,7 +106,7 @@ def test_joint_name_mistakes_are_usage_errors(cli: Cli, robot_file: str, tmp_pat
     r = cli("state", "elbow", "--robot", robot_file, "--sim", "1")
     assert r.code == 2 and "--robot and --sim conflict" in r.err
     r = cli("state", "elbow", "--robot", str(tmp_path / "none.toml"))
-    assert r.code == 1 and "cannot read robot file" in r.err and "Traceback" not in r.err
+    assert r.code == 2 and "cannot read robot file" in r.err and "Traceback" not in r.err
 
 
 def test_sim_serves_one_bus_per_entry(tmp_path: Path) -> None:
@@ -154,3 +156,31 @@ id = 5
 def test_sim_robot_refuses_its_own_bus_options(tmp_path: Path, cli: Cli, robot_file: str) -> None:
     r = cli("sim", "--robot", robot_file, "--ids", "1,2", "--duration", "0.1")
     assert r.code == 2 and "--ids does not go with it" in r.err
+
+
+@pytest.mark.parametrize("option", ["retries = 3", "stop_on_close = true", "timeout = 0.5"])
+def test_bus_options_of_the_robot_file_do_not_collide_with_the_commands_own(
+    cli: Cli, tmp_path: Path, option: str
+) -> None:
+    path = tmp_path / "robot.toml"
+    path.write_text(ROBOT.replace('[buses.left]\ninterface = "sim"', f'[buses.left]\ninterface = "sim"\n{option}'))
+    r = cli("state", "shoulder,hip", "--robot", str(path), "--json")
+    assert r.code == 0, r.err
+    assert [rec["id"] for rec in r.records()] == [1, 2]
+    r = cli("move", "shoulder", "10", "--wait", "--robot", str(path), "--json")
+    assert r.code == 0 and r.records()[0]["done"] is True, r.err
+    r = cli("move", "shoulder,elbow", "20", "--robot", str(path), "--json")  # across buses: open_robot
+    assert r.code == 0, r.err
+    r = cli("speed", "shoulder", "5", "--duration", "0.2", "--robot", str(path))
+    assert r.code == 0 and "after 0.2 s: motor 1 set to idle" in r.err, r.err
+    r = cli("sniff", "--duration", "0.1", "--robot", str(path), "--json")
+    assert "TypeError" not in r.err and "unexpected keyword" not in r.err, r.err
+
+
+def test_tables_name_joints_and_unnamed_motors_motor_id(cli: Cli, tmp_path: Path) -> None:
+    path = tmp_path / "one.toml"
+    path.write_text('[buses.arm]\ninterface = "sim"\n[joints.wrist]\nbus = "arm"\nid = 1\n')
+    r = cli("get", "wrist", "vbus_voltage", "--robot", str(path))
+    assert r.code == 0 and r.out.splitlines()[0].split()[0] == "joint" and r.out.splitlines()[1].split()[0] == "wrist"
+    r = cli("state", "1", "2", "--robot", str(path), "--timeout", "0.2")  # motor 2: no joint, and silent
+    assert r.code == 1 and [line.split()[0] for line in r.out.splitlines()[1:]] == ["wrist", "motor_2"]

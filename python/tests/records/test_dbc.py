@@ -39,7 +39,7 @@ def db(tmp_path_factory: pytest.TempPathFactory) -> Any:
     path = tmp_path_factory.mktemp("dbc") / "drempower.dbc"
     from drempower.cli import main
 
-    assert main(["dbc", "-o", str(path)]) == 0
+    assert main(["dbc", "-w", str(path)]) == 0
     return cantools.database.load_file(str(path))
 
 
@@ -120,7 +120,7 @@ def test_dbc_has_every_node_and_float_types(db: Any) -> None:
 
 def test_cantools_decode_command_on_a_candump_log(tmp_path: Path, cli: Cli) -> None:
     dbc = tmp_path / "d.dbc"
-    assert cli("dbc", "--nodes", "1-6", "-o", str(dbc)).code == 0
+    assert cli("dbc", "--nodes", "1-6", "-w", str(dbc)).code == 0
     log = "(1700000000.000000) can0 03A#0000B4420000E803\n(1700000000.001000) can0 023#0000B9C2D204C8FF\n"
     r = subprocess.run(
         [sys.executable, "-m", "cantools", "decode", "--single-line", str(dbc)],
@@ -143,7 +143,7 @@ def test_nodes_option(cli: Cli, tmp_path: Path) -> None:
 
 
 def test_json_summary(cli: Cli, tmp_path: Path) -> None:
-    (rec,) = cli("dbc", "--nodes", "1,2", "-o", str(tmp_path / "x.dbc"), "--json").records()
+    (rec,) = cli("dbc", "--nodes", "1,2", "-w", str(tmp_path / "x.dbc"), "--json").records()
     assert rec == {"output": str(tmp_path / "x.dbc"), "messages": 2 * 21, "nodes": [1, 2]}
     assert cli("dbc", "--json").code == 2
 

@@ -98,7 +98,7 @@ def test_sent_frames_are_host_frames_in_mcap(tmp_path: Path, cli: Cli) -> None:
 
 def test_unknown_extension_and_missing_file_fail_cleanly(tmp_path: Path, cli: Cli) -> None:
     r = cli("decode", str(tmp_path / "none.blf"))
-    assert r.code == 1 and "cannot read" in r.err and "Traceback" not in r.err
+    assert r.code == 2 and "cannot read" in r.err and "Traceback" not in r.err
     r = cli("sniff", "--log", str(tmp_path / "x.weird"), "--sim", "1", "--duration", "0.1")
     assert r.code == 1 and "x.weird" in r.err
     try:

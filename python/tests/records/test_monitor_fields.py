@@ -37,10 +37,10 @@ def test_poll_fields_with_a_parameter(sim: SimBus, cli: Cli, tmp_path: Path) -> 
     assert r.code == 0, r.err
     recs = r.records()
     assert {x["id"] for x in recs} == {1, 2} and len(recs) >= 10
-    assert all(x["vbus_voltage"] == pytest.approx(sim.motors[1].param(1), rel=1e-6) for x in recs)
-    assert all(set(x) == {"time_s", "id", "position", "vbus_voltage", "done"} for x in recs)
+    assert all(x["vbus_v"] == pytest.approx(sim.motors[1].param(1), rel=1e-6) for x in recs)
+    assert all(set(x) == {"time_s", "id", "position_deg", "vbus_v", "done"} for x in recs)  # as state --json
     rows = list(csv.DictReader(out.open()))
-    assert len(rows) == len(recs) and list(rows[0]) == ["time_s", "id", "position", "vbus_voltage", "done"]
+    assert len(rows) == len(recs) and list(rows[0]) == ["time_s", "id", "position_deg", "vbus_v", "done"]
     assert "achieved samples/s (poll): motor 1" in r.err
 
 

@@ -17,7 +17,7 @@ highlevel = pytest.importorskip("rosbags.highlevel")
 def test_record_heartbeats_with_joint_names(sim: SimBus, tmp_path: Path, cli: Cli) -> None:
     out = tmp_path / "run.mcap"
     r = cli(
-        "record", "1,2", "-o", str(out), "--heartbeat-ms", "10", "--duration", "0.5", "--names", "1=hip", "--sim", "1,2"
+        "record", "1,2", "-w", str(out), "--heartbeat-ms", "10", "--duration", "0.5", "--names", "1=hip", "--sim", "1,2"
     )
     assert r.code == 0, r.err
     assert "0 frames lost" in r.err
@@ -32,7 +32,7 @@ def test_record_heartbeats_with_joint_names(sim: SimBus, tmp_path: Path, cli: Cl
 
 def test_record_polls_states(sim: SimBus, tmp_path: Path, cli: Cli) -> None:
     out = tmp_path / "poll.mcap"
-    r = cli("record", "3", "-o", str(out), "--poll", "50", "--duration", "0.3", "--json", "--sim", "3")
+    r = cli("record", "3", "-w", str(out), "--poll", "50", "--duration", "0.3", "--json", "--sim", "3")
     (summary,) = r.records()
     assert r.code == 0 and summary["frames_lost"] == 0 and summary["output"] == str(out)
     recs = cli("decode", "--json", str(out)).records()
@@ -44,11 +44,11 @@ def test_record_polls_states(sim: SimBus, tmp_path: Path, cli: Cli) -> None:
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (["-o", "x.csv", "--sim", "1"], "must end in .mcap"),
-        (["-o", "x.mcap", "--poll", "10", "--sim", "1"], "need the motor IDS"),
-        (["1", "-o", "x.mcap", "--heartbeat-ms", "0", "--sim", "1"], "whole number >= 1"),
-        (["1", "-o", "x.mcap", "--heartbeat-ms", "5000", "--sim", "1"], "allowed 1..1000"),
-        (["-o", "x.mcap", "--names", "99=a", "--sim", "1"], "ID 1..63"),
+        (["-w", "x.csv", "--sim", "1"], "must end in .mcap"),
+        (["-w", "x.mcap", "--poll", "10", "--sim", "1"], "need the motor IDS"),
+        (["1", "-w", "x.mcap", "--heartbeat-ms", "0", "--sim", "1"], "whole number >= 1"),
+        (["1", "-w", "x.mcap", "--heartbeat-ms", "5000", "--sim", "1"], "allowed 1..1000"),
+        (["-w", "x.mcap", "--names", "99=a", "--sim", "1"], "ID 1..63"),
     ],
 )
 def test_record_usage_errors(
@@ -65,7 +65,7 @@ def test_record_serves_foxglove_on_a_free_port(sim: SimBus, tmp_path: Path, cli:
     r = cli(
         "record",
         "1",
-        "-o",
+        "-w",
         str(tmp_path / "f.mcap"),
         "--poll",
         "20",
@@ -79,4 +79,4 @@ def test_record_serves_foxglove_on_a_free_port(sim: SimBus, tmp_path: Path, cli:
     assert r.code == 0, r.err
     port = int(r.err.split("ws://127.0.0.1:")[1].split()[0])
     assert 0 < port < 65536
-    assert cli("record", "-o", str(tmp_path / "g.mcap"), "--foxglove", "70000", "--sim", "1").code == 2
+    assert cli("record", "-w", str(tmp_path / "g.mcap"), "--foxglove", "70000", "--sim", "1").code == 2

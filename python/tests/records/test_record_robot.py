@@ -73,7 +73,7 @@ def test_recorder_writes_each_bus_on_its_topics_and_states_at_the_joint(tmp_path
 
 def test_record_cli_records_every_bus_of_the_robot(tmp_path: Path, robot_file: str, cli: Cli) -> None:
     out = tmp_path / "run.mcap"
-    r = cli("record", "-o", str(out), "--robot", robot_file, "--poll", "50", "--duration", "0.4", "--json")
+    r = cli("record", "-w", str(out), "--robot", robot_file, "--poll", "50", "--duration", "0.4", "--json")
     assert r.code == 0, r.err
     (summary,) = r.records()
     assert summary["buses"] == ["left", "right"] and summary["frames_lost"] == 0
@@ -102,7 +102,7 @@ def test_record_cli_records_every_bus_of_the_robot(tmp_path: Path, robot_file: s
 
 def test_record_cli_watches_the_buses_of_the_joints_named(tmp_path: Path, robot_file: str, cli: Cli) -> None:
     out = tmp_path / "elbow.mcap"
-    r = cli("record", "elbow", "-o", str(out), "--robot", robot_file, "--heartbeat-ms", "10", "--duration", "0.3")
+    r = cli("record", "elbow", "-w", str(out), "--robot", robot_file, "--heartbeat-ms", "10", "--duration", "0.3")
     assert r.code == 0, r.err
     assert "0 frames lost" in r.err
     states = _joint_states(out)
@@ -122,6 +122,6 @@ def test_record_cli_watches_the_buses_of_the_joints_named(tmp_path: Path, robot_
 )
 def test_record_robot_usage_errors(argv: list[str], message: str, tmp_path: Path, robot_file: str, cli: Cli) -> None:
     out = tmp_path / "x.mcap"
-    r = cli("record", "-o", str(out), "--robot", robot_file, *argv)
+    r = cli("record", "-w", str(out), "--robot", robot_file, *argv)
     assert r.code == 2 and message in r.err and "Traceback" not in r.err
     assert not out.exists()

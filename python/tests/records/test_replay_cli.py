@@ -37,6 +37,9 @@ def test_replay_sends_host_frames_at_the_recorded_pace(
     assert "2 frames replayed" in r.err
     assert 0.25 <= took < 5.0
     sent = [decode_command(*f[:2]) for f in host_frames]
+    first = sent.index(decode_command(*q[:2]))  # after the check that motor 2 is in closed loop: reads only
+    assert not any(isinstance(m, WriteParam) for m in sent[:first])
+    sent = sent[first:]
     assert sent[:2] == [decode_command(*q[:2]), FastRead(2)]
     # the motor it commanded is put into IDLE when the replay ends
     assert isinstance(sent[2], WriteParam) and (sent[2].node, sent[2].address, sent[2].value) == (2, 30003, 1)
@@ -49,7 +52,7 @@ def test_all_frames_and_rate(sim: SimBus, host_frames: list[Frame], tmp_path: Pa
     r = cli("replay", str(log), "--sim", "1")
     assert r.code == 1 and "no timestamps; give --rate" in r.err
     assert cli("replay", str(log), "--rate", "100", "--all-frames", "--leave-running", "--sim", "1").code == 0
-    assert [f.arbitration_id for f in host_frames] == [0x039, 0x023]
+    assert [f.arbitration_id for f in host_frames][-2:] == [0x039, 0x023]  # after the check's reads
 
 
 def test_sigterm_ends_replay_and_reports(tmp_path: Path) -> None:
@@ -63,10 +66,12 @@ def test_sigterm_ends_replay_and_reports(tmp_path: Path) -> None:
         text=True,
         env=env,
     )
-    time.sleep(1.5)
+    assert proc.stderr is not None
+    assert "replaying onto simulated motors" in proc.stderr.readline()  # started: its signal handlers are in
+    time.sleep(1.0)
     proc.send_signal(signal.SIGTERM)
     _, err = proc.communicate(timeout=20)
-    assert proc.returncode == 130 and "replay interrupted after" in err and "Traceback" not in err
+    assert proc.returncode == 128 + signal.SIGTERM and "replay interrupted after" in err and "Traceback" not in err
 
 
 def test_json_summary(sim: SimBus, tmp_path: Path, cli: Cli) -> None:

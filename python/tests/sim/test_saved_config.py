@@ -50,7 +50,7 @@ def test_a_corrupt_saved_configuration_is_one_clear_error(
     with pytest.raises(SavedConfigError) as info:
         SimBus([1], config_dir=tmp_path)
     assert str(path) in str(info.value) and message in str(info.value)
-    assert main(["sim", "--ids", "1", "--config-dir", str(tmp_path), "--duration", "0.05"]) == 1
+    assert main(["sim", "--ids", "1", "--config-dir", str(tmp_path), "--duration", "0.05"]) == 2  # a bad file: 2
     err = capsys.readouterr().err
     assert len(err.splitlines()) == 1 and str(path) in err and message in err
     assert "delete the file, or use another --config-dir" in err

@@ -18,11 +18,11 @@ from typing import NoReturn
 
 from .. import __version__
 from ..client.signals import Terminated, exit_code, signals_interrupt
-from ..errors import DrEmpowerError
+from ..errors import DrEmpowerError, ValidationError
 from ._output import clean
 from ._parser import Parser
 from ._robot import apply_robot, run_command
-from ._usage import UsageError
+from ._usage import UsageError, cli_words
 
 __all__ = ["main", "build_parser"]
 
@@ -138,10 +138,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     except UsageError as exc:  # reported as argparse reports its own errors, exit code included
         command: argparse.ArgumentParser = args.command_parser
         command.print_usage(sys.stderr)
-        print(clean(f"{command.prog}: error: {exc}"), file=sys.stderr)
+        print(clean(f"{command.prog}: error: {cli_words(str(exc))}"), file=sys.stderr)
         return 2
-    except DrEmpowerError as exc:
-        print(clean(f"drempower: error: {exc}"), file=sys.stderr)
+    except ValidationError as exc:  # a value, file or option the command cannot use: nothing was sent for it
+        print(clean(f"drempower: error: {cli_words(str(exc))}"), file=sys.stderr)
+        return 2
+    except DrEmpowerError as exc:  # a failure on the bus (no answer, a motor that refused, a lost device)
+        print(clean(f"drempower: error: {cli_words(str(exc))}"), file=sys.stderr)
         return 1
     except KeyboardInterrupt as exc:
         how = f"terminated ({exc})" if isinstance(exc, Terminated) else "interrupted"

@@ -34,13 +34,18 @@ if TYPE_CHECKING:
 
 __all__ = [
     "TIME_SCALE_ENV",
+    "ascii_digits",
+    "ascii_float",
+    "ascii_int",
     "add_connection_args",
     "add_ids_arg",
     "bitrate",
     "connection_kwargs",
     "count",
     "connection_words",
+    "find_adapters",
     "follow_up",
+    "ids_or_found",
     "motor_id",
     "number",
     "open_from_args",
@@ -58,6 +63,29 @@ TIME_SCALE_ENV = "DREMPOWER_SIM_TIME_SCALE"
 """Environment variable: default time scale of the in-process simulator."""
 
 
+def ascii_int(text: str, base: int = 10) -> int:
+    """``int(text, base)`` for ASCII digits only: ``int`` also takes other scripts' digits (``"\u0661"`` is 1)
+    and underscores, which no motor id or value on this command line means. Raises :class:`ValueError`."""
+    t = text.strip()
+    if not t.isascii() or "_" in t:
+        raise ValueError(f"{text!r} is not written in ASCII digits")
+    return int(t, base)
+
+
+def ascii_float(text: str) -> float:
+    """``float(text)`` for ASCII digits only (see :func:`ascii_int`). Raises :class:`ValueError`."""
+    t = text.strip()
+    if not t.isascii() or "_" in t:
+        raise ValueError(f"{text!r} is not written in ASCII digits")
+    return float(t)
+
+
+def ascii_digits(text: str) -> bool:
+    """Whether ``text`` (spaces around allowed) is a whole number in ASCII digits (``isdigit`` takes any script's)."""
+    t = text.strip()
+    return t.isascii() and t.isdigit()
+
+
 def parse_ids(text: str) -> list[int]:
     """``"1,2,5-7"`` -> ``[1, 2, 5, 6, 7]`` in the order given; every id must be 1..63, named once."""
     ids: list[int] = []
@@ -66,10 +94,10 @@ def parse_ids(text: str) -> list[int]:
             continue
         try:
             if "-" in part:
-                lo, hi = (int(x) for x in part.split("-", 1))
+                lo, hi = (ascii_int(x) for x in part.split("-", 1))
                 ids.extend(range(lo, hi + 1))
             else:
-                ids.append(int(part))
+                ids.append(ascii_int(part))
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not a list of motor ids such as 1,2,5-7") from None
     bad = [i for i in ids if not 1 <= i <= 63]
@@ -136,7 +164,7 @@ def bitrate(text: str) -> int:
     t = text.strip().lower()
     scale = _SUFFIX.get(t[-1:], 1)
     try:
-        value = float(t[:-1] if scale > 1 else t) * scale
+        value = ascii_float(t[:-1] if scale > 1 else t) * scale
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a bitrate such as 1M, 500k or 115200") from None
     if not (math.isfinite(value) and value >= 1 and value == int(value)):
@@ -147,7 +175,7 @@ def bitrate(text: str) -> int:
 def positive(text: str) -> float:
     """An argument type: a finite number > 0."""
     try:
-        value = float(text)
+        value = ascii_float(text)
     except ValueError:
         value = 0.0
     if not 0 < value < math.inf:
@@ -172,7 +200,7 @@ def wire_rate(high: float = S16_MAX) -> Callable[[str], float]:
 
     def parse(text: str) -> float:
         try:
-            value = float(text)
+            value = ascii_float(text)
         except ValueError:
             value = math.nan
         if not (math.isfinite(value) and round(value * 100) >= 1 and value <= high):
@@ -188,7 +216,7 @@ def wire_rate(high: float = S16_MAX) -> Callable[[str], float]:
 def number(text: str) -> float:
     """An argument type: a finite number."""
     try:
-        value = float(text)
+        value = ascii_float(text)
     except ValueError:
         value = math.nan
     if not math.isfinite(value):
@@ -198,7 +226,7 @@ def number(text: str) -> float:
 
 def count(text: str) -> int:
     """An argument type: a whole number >= 1."""
-    if not (text.strip().isdigit() and int(text) >= 1):
+    if not (ascii_digits(text) and int(text) >= 1):
         raise argparse.ArgumentTypeError(f"expected a whole number >= 1, got {text!r}")
     return int(text)
 
@@ -227,7 +255,7 @@ def can_option(text: str) -> tuple[str, object]:
     if low in ("true", "false"):
         v = low == "true"
     else:
-        for conv in (int, float):
+        for conv in (ascii_int, ascii_float):
             try:
                 v = conv(value)
                 break
@@ -238,7 +266,7 @@ def can_option(text: str) -> tuple[str, object]:
 
 def retries(text: str) -> int:
     """An argument type: how often a request that got no reply is sent again, 0..10."""
-    if not (text.strip().isdigit() and 0 <= int(text) <= 10):
+    if not (ascii_digits(text) and 0 <= int(text) <= 10):
         raise argparse.ArgumentTypeError(f"expected a whole number 0..10, got {text!r}")
     return int(text)
 
@@ -271,9 +299,9 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
     g.add_argument(
         "--retries",
         type=retries,
-        default=0,
         metavar="N",
-        help="send a read that got no reply again, up to N times (0-10, default 0): for lossy links",
+        help="send a read that got no reply again, up to N times (0-10, default 0, or the robot file's): "
+        "for lossy links",
     )
 
 
@@ -316,14 +344,21 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
     elif args.interface:
         kw = {"interface": args.interface, "channel": args.channel, **dict(args.can_option)}
         how = f"python-can {args.interface} {args.channel or ''}".rstrip()
+    elif not can_only and args.bitrate is None and len(adapters := find_adapters()) == 1:
+        kw = {"interface": "adapter", "channel": adapters[0]}
+        how = f"the USB-CAN adapter found on {adapters[0]} (--serial {adapters[0]})"
     else:
+        adapters = [] if can_only or args.bitrate is not None else find_adapters()
         cfg = _python_can_config()
         if cfg is None:
             if can_only:
                 raise UsageError(f"{can_only[0]} needs -i/--interface (no python-can configuration names an interface)")
+            found = (
+                f"; USB-CAN adapters found on {', '.join(adapters)}: choose one with --serial PORT" if adapters else ""
+            )
             raise DrEmpowerError(
-                "no connection given and no python-can configuration found: "
-                "use --sim IDS, --serial PORT, --uart PORT or -i INTERFACE -c CHANNEL"
+                "no connection given, no USB-CAN adapter found and no python-can configuration: "
+                "use --sim IDS, --serial PORT, --uart PORT or -i INTERFACE -c CHANNEL" + found
             )
         # python-can fills in what is not given here (bitrate, ...) from the same configuration
         channel = args.channel if args.channel is not None else cfg.get("channel")
@@ -332,6 +367,16 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
     if args.bitrate is not None:
         kw["bitrate"] = args.bitrate
     return kw, how
+
+
+def find_adapters() -> list[str]:
+    """Serial ports of the vendor's USB-CAN adapters plugged in, by their USB ids (those `drempower udev` knows)."""
+    from serial.tools import list_ports
+
+    from .udev import CDC, CH340
+
+    known = {(int(v, 16), int(p, 16)) for v, p in (CDC, CH340)}
+    return sorted(port.device for port in list_ports.comports() if (port.vid, port.pid) in known)
 
 
 def _python_can_config() -> dict[str, Any] | None:
@@ -361,10 +406,33 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
     from .. import open_bus
 
     kw, _ = robot_bus_kwargs(args) if getattr(args, "robot_bus", None) else _connect(args, quiet)
+    kw["stop_on_close"] = False  # a robot file's too: the commands stop what they started themselves
     if args.timeout is not None:
         kw["timeout"] = args.timeout
-    bus: Bus = open_bus(stop_on_close=False, retries=getattr(args, "retries", 0), **kw)
+    if getattr(args, "retries", None) is not None:
+        kw["retries"] = args.retries
+    bus: Bus = open_bus(**kw)
     return bus
+
+
+def ids_or_found(args: argparse.Namespace, bus: Bus, *, none_ok: bool = False) -> list[int]:
+    """The motor ids given, or those a quick scan finds (said on stderr: ``found motors 1, 2, 3``).
+
+    For commands whose IDS may be left out (``state``, ``errors``, ``monitor``),
+    as moteus_tool finds its targets. No motor answering is a failure (exit 1).
+    """
+    ids: list[int] = list(args.ids)
+    if ids:
+        return ids
+    found = [m.id for m in bus.scan()]
+    if not found and none_ok:
+        print("drempower: no motor answered a scan of ids 1-63", file=sys.stderr)
+        return []
+    if not found:
+        raise DrEmpowerError("no motor answered a scan of ids 1-63: check the connection, the bitrate and the power")
+    print(f"drempower: found motor{'s' if len(found) > 1 else ''} {', '.join(map(str, found))}", file=sys.stderr)
+    args.ids = found
+    return found
 
 
 def connection_words(args: argparse.Namespace) -> list[str]:
@@ -397,7 +465,11 @@ def open_transport_from_args(args: argparse.Namespace) -> tuple[Transport, str]:
     from ..transports import open_transport
 
     kw, how = robot_bus_kwargs(args) if getattr(args, "robot_bus", None) else _connect(args, False)
-    return open_transport(**kw), how
+    return open_transport(**{k: v for k, v in kw.items() if k not in BUS_ONLY}), how
+
+
+BUS_ONLY = ("timeout", "retries", "stop_on_close", "start")
+"""Options of a robot file's bus that belong to ``open_bus``, not to its transport."""
 
 
 def robot_bus_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:

@@ -19,9 +19,23 @@ from ..protocol.addresses import CAN_CONFIG_HEARTBEAT_MS
 from ..protocol.parameters import Parameter, find_parameter
 from ._output import LiveView, is_terminal, json_line, render_table
 
-__all__ = ["STATE_FIELDS", "SOURCES", "Field", "parse_fields", "run_fields"]
+__all__ = ["COLUMNS", "STATE_FIELDS", "SOURCES", "Field", "parse_fields", "run_fields"]
 
 _HEARTBEAT = CAN_CONFIG_HEARTBEAT_MS
+
+COLUMNS: dict[str, tuple[str, str]] = {
+    "id": ("id", "id"),
+    "position": ("position_deg", "position/deg"),
+    "speed": ("speed_rpm", "speed/rpm"),
+    "torque": ("torque_nm", "torque/Nm"),
+    "done": ("done", "done"),
+    "error": ("error", "error"),
+    "state": ("state", "state"),
+    "vbus_voltage": ("vbus_v", "vbus/V"),
+    "errors": ("errors", "errors"),
+}
+"""The one naming of readings across ``state``, ``monitor`` (table, ``--fields``, ``--json``, ``--csv``):
+channel or parameter -> (JSON and CSV key with its unit, table header with its unit)."""
 
 STATE_FIELDS: dict[str, tuple[str, Callable[[MotorState], object]]] = {
     "position": ("deg", lambda s: s.angle),
@@ -31,6 +45,9 @@ STATE_FIELDS: dict[str, tuple[str, Callable[[MotorState], object]]] = {
     "error": ("", lambda s: s.error),
 }
 """The channels of a state frame: name -> (unit, value)."""
+
+_ALIASES = {key: name for name, (key, _) in COLUMNS.items()} | {"vbus": "vbus_voltage"}
+"""``position_deg`` -> ``position``, ``vbus_v`` and ``vbus`` -> ``vbus_voltage``: every name --fields accepts."""
 
 SOURCES = ("poll", "heartbeat", "replies")
 """poll: fast reads at --rate; heartbeat: the motors send their state every 1/--rate s;
@@ -46,22 +63,31 @@ class Field:
     parameter: Parameter | None = None
 
     @property
+    def key(self) -> str:
+        """The JSON and CSV key: that of :data:`COLUMNS`, else the parameter's name."""
+        return COLUMNS[self.name][0] if self.name in COLUMNS else self.name
+
+    @property
     def header(self) -> str:
+        if self.name in COLUMNS:
+            return COLUMNS[self.name][1]
         return f"{self.name}/{self.unit}" if self.unit else self.name
 
 
 def parse_fields(text: str) -> list[Field]:
-    """``"position,speed,vbus_voltage"`` -> fields; an unknown name is an error naming the choices."""
+    """``"position,speed,vbus_v"`` -> fields; an unknown name is an error naming the choices."""
     out: list[Field] = []
-    for name in filter(None, (n.strip() for n in text.split(","))):
+    for given in filter(None, (n.strip() for n in text.split(","))):
+        name = _ALIASES.get(given, given)
         if name in STATE_FIELDS:
             out.append(Field(name, STATE_FIELDS[name][0]))
             continue
         p = find_parameter(name)
         if p is None:
             raise argparse.ArgumentTypeError(
-                f"field {name!r} is neither a state channel ({', '.join(STATE_FIELDS)}) nor a parameter name or "
-                "address (see drempower params)"
+                f"field {given!r} is neither a state channel ({', '.join(STATE_FIELDS)}, or "
+                f"{', '.join(COLUMNS[c][0] for c in STATE_FIELDS)}) nor a parameter name or address "
+                "(see drempower params)"
             )
         out.append(Field(p.name, p.unit or "", p))
     if not out:
@@ -99,7 +125,7 @@ def run_fields(args: argparse.Namespace, bus: Bus, out: Any) -> int:
     cap = _Capture(ids, fields)
     live = LiveView(out) if is_terminal(out) and not args.json else None
     headers = ["time/s", "id", *(f.header for f in fields)]
-    keys = ["time_s", "id", *(f.name for f in fields)]
+    keys = ["time_s", "id", *(f.key for f in fields)]
     start = time.monotonic()
     deadline = None if args.duration is None else start + args.duration
     beating: list[int] = []
@@ -140,7 +166,10 @@ def run_fields(args: argparse.Namespace, bus: Bus, out: Any) -> int:
                         t, node = cap.events.get_nowait()
                     except queue.Empty:
                         break
-                    records.append({"time_s": round(t - start, 4), "id": node, **cap.values[node]})
+                    values = cap.values[node]
+                    records.append(
+                        {"time_s": round(t - start, 4), "id": node, **{f.key: values.get(f.name) for f in fields}}
+                    )
                 if writer is not None:
                     writer.writerows(records)
                 took = max(time.monotonic() - start, 1e-9)

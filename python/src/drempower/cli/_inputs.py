@@ -6,6 +6,8 @@ log says the recording host sent it) and the direction to decode it with.
 
 from __future__ import annotations
 
+import contextlib
+import io
 import sys
 from collections.abc import Iterable, Iterator
 
@@ -13,6 +15,7 @@ from ..errors import DrEmpowerError
 from ..protocol.candump import parse_candump_line
 from ..protocol.ids import Frame
 from ..records.logs import LogRecord, direction_of, is_binary_log, read_log
+from ._usage import BadInput
 
 
 def record_line(rec: LogRecord) -> str:
@@ -30,11 +33,34 @@ def record_line(rec: LogRecord) -> str:
     return " ".join(parts)
 
 
+def log_records(path: str) -> Iterator[LogRecord]:
+    """The frames of the log at ``path``; a file that cannot be read is :class:`BadInput` (one line, exit 2).
+
+    The readers of MCAP and python-can's formats raise their own errors on a
+    corrupt or truncated file (``mcap.exceptions``, ``zlib.error``,
+    ``struct.error``, ``BLFParseError``...); each becomes one line naming the
+    file and the problem.
+    """
+    records = read_log(path)
+    try:
+        while True:
+            with contextlib.redirect_stderr(io.StringIO()):  # some readers print parse errors themselves
+                rec = next(records, None)
+            if rec is None:
+                return
+            yield rec
+    except DrEmpowerError as exc:  # no such file, an extra not installed, a line that is no frame
+        raise BadInput(str(exc)) from None
+    except Exception as exc:  # RecursionError too: whatever a third-party reader raises on a damaged file
+        what = str(exc) or "the file is damaged or truncated"
+        raise BadInput(f"cannot read {path}: {type(exc).__name__}: {what}") from None
+
+
 def input_lines(files: list[str], direction: str) -> Iterator[tuple[str, str]]:
     """``(candump line, direction)`` for every frame of ``files`` (stdin when empty or ``-``)."""
     for name in files or ["-"]:
         if name != "-" and is_binary_log(name):
-            for rec in read_log(name):
+            for rec in log_records(name):
                 yield record_line(rec), direction_of(rec, direction)  # type: ignore[arg-type]
             continue
         for line in _text(name):
@@ -59,4 +85,4 @@ def _text(name: str) -> Iterable[str]:
         with open(name, encoding="utf-8", errors="replace") as fh:
             yield from fh
     except OSError as exc:
-        raise DrEmpowerError(f"cannot read {name}: {exc.strerror}") from None
+        raise BadInput(f"cannot read {name}: {exc.strerror}") from None

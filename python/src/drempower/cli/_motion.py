@@ -11,9 +11,9 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 
 from ..client import Bus
-from ..client.signals import Terminated
+from ..client.signals import Terminated, hurried
 from ..errors import DrEmpowerError
-from ._connect import add_ids_arg, open_from_args, positive
+from ._connect import add_ids_arg, ascii_float, ascii_int, open_from_args, positive
 from ._output import clean, motors_text
 from ._usage import UsageError
 
@@ -38,7 +38,7 @@ _NEGATIVE_LIST = re.compile(rf"^-{_UNSIGNED}(?:,[-+]?{_UNSIGNED})*$")
 def number_list(text: str) -> list[float]:
     """An argument type: ``"90,-45,180"`` -> ``[90.0, -45.0, 180.0]`` (finite numbers)."""
     try:
-        values = [float(v) for v in text.split(",")]
+        values = [ascii_float(v) for v in text.split(",")]
     except ValueError:
         raise argparse.ArgumentTypeError(f"{text!r} is not a number or a comma-separated list of numbers") from None
     if not all(math.isfinite(v) for v in values):
@@ -86,12 +86,22 @@ def stop_commanded(bus: Bus, why: str) -> None:
 
     Idle stops driving, not turning: a motor that still moves is reported as
     coasting at its speed (r/min), so nobody takes "idle" for "at rest".
+    A second signal while this runs never cuts it short (see
+    :func:`~drempower.client.signals.signals_interrupt`): every motor still
+    gets its idle frame, and only the reading of their motion is left out.
     """
     nodes = sorted(bus.core.commanded)
-    for node in nodes:
-        bus.motor(node).set_mode(1)
+    failed: list[str] = []
+    for node in nodes:  # each motor its frame, whatever another one's send did
+        try:
+            bus.motor(node).set_mode(1)
+        except DrEmpowerError as exc:
+            failed.append(f"motor {node}: {exc}")
+    if failed:
+        raise DrEmpowerError("could not set to idle: " + "; ".join(failed))
     if nodes:
-        print(f"drempower: {why}: {motors_text(nodes)} set to idle{_motion_text(bus, nodes)}", file=sys.stderr)
+        motion = "" if hurried() else _motion_text(bus, nodes)
+        print(f"drempower: {why}: {motors_text(nodes)} set to idle{motion}", file=sys.stderr)
 
 
 def _motion_text(bus: Bus, nodes: Sequence[int]) -> str:
@@ -100,6 +110,9 @@ def _motion_text(bus: Bus, nodes: Sequence[int]) -> str:
         return ""
     parts = []
     for node in nodes:
+        if hurried():  # a second signal: no more waiting for replies
+            parts.append(f"motor {node}: motion not read")
+            continue
         name = f"motor {node}"
         try:
             st = bus.motor(node).get_state()
@@ -122,7 +135,7 @@ WATCHDOG_MIN_MS = 100
 
 def _watchdog_ms(text: str) -> int:
     try:
-        value = int(text)
+        value = ascii_int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(
             f"expected whole milliseconds {WATCHDOG_MIN_MS}..{_U32_MAX}, got {text!r}"

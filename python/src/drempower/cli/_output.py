@@ -161,7 +161,13 @@ def emit(
         for rec in records:
             sys.stdout.write(json_line(rec) + "\n")
     elif records:
-        for line in render_table(headers, [list(r.values()) for r in records], digits=digits):
+        rows = [list(r.values()) for r in records]
+        spec, bus = getattr(args, "robot_spec", None), getattr(args, "robot_bus", None)
+        if spec is not None and bus is not None and list(headers[:1]) == ["id"]:  # --robot: joints by name
+            names = {j.id: j.name for j in spec.joints_on(bus)}
+            headers = ["joint", *headers[1:]]
+            rows = [[names.get(r[0], f"motor_{r[0]}"), *r[1:]] if isinstance(r[0], int) else r for r in rows]
+        for line in render_table(headers, rows, digits=digits):
             sys.stdout.write(line + "\n")
 
 

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -11,28 +12,22 @@ from ..client import Bus, MotorState
 from ..client.errors import TimeoutError
 from ..errors import DrEmpowerError
 from ..protocol import DataType, FastRead, ReadParam
-from ..protocol.addresses import AXIS0_CURRENT_STATE
+from ..protocol.addresses import AXIS0_CURRENT_STATE, CAN_CONFIG_TIMEOUT_MS
 from ..protocol.enums import AxisState
+from ._fields import COLUMNS
 
-__all__ = ["FIELDS", "HEADERS", "Reading", "axis_state_name", "read", "require_ready"]
+__all__ = ["FIELDS", "HEADERS", "Reading", "axis_state_name", "read", "require_ready", "warn_leftover_watchdog"]
 
 _VBUS = 1
 _CURRENT_STATE = AXIS0_CURRENT_STATE
 
-HEADERS = (
-    "id",
-    "position/deg",
-    "speed/rpm",
-    "torque/Nm",
-    "done",
-    "state",
-    "vbus/V",
-    "errors",
-)
-"""Table columns of :meth:`Reading.record`, in order."""
+_COLUMNS = ("id", "position", "speed", "torque", "done", "state", "vbus_voltage", "errors")
 
-FIELDS = ("id", "position_deg", "speed_rpm", "torque_nm", "done", "state", "vbus_v", "errors")
-"""Keys of :meth:`Reading.record`, in order."""
+HEADERS = tuple(COLUMNS[c][1] for c in _COLUMNS)
+"""Table columns of :meth:`Reading.record`, in order (named in :data:`~drempower.cli._fields.COLUMNS`)."""
+
+FIELDS = tuple(COLUMNS[c][0] for c in _COLUMNS)
+"""Keys of :meth:`Reading.record`, in order: ``id``, ``position_deg``, ``speed_rpm``, ..."""
 
 
 def axis_state_name(value: int | None) -> str | None:
@@ -76,16 +71,17 @@ class Reading:
     def record(self) -> dict[str, Any]:
         """JSON-ready fields, in the order of :data:`HEADERS`."""
         st = self.state
-        return {
-            "id": self.id,
-            "position_deg": None if st is None else round(st.angle, 4),
-            "speed_rpm": None if st is None else st.speed,
-            "torque_nm": None if st is None else st.torque,
-            "done": None if st is None else st.trajectory_done,
-            "state": axis_state_name(self.axis_state),
-            "vbus_v": None if self.vbus is None else round(self.vbus, 3),
-            "errors": self.error_text(),
-        }
+        values = (
+            self.id,
+            None if st is None else round(st.angle, 4),
+            None if st is None else st.speed,
+            None if st is None else st.torque,
+            None if st is None else st.trajectory_done,
+            axis_state_name(self.axis_state),
+            None if self.vbus is None else round(self.vbus, 3),
+            self.error_text(),
+        )
+        return dict(zip(FIELDS, values, strict=True))
 
 
 def _flags(bus: Bus, node: int) -> list[str] | None:
@@ -144,6 +140,8 @@ def require_ready(bus: Bus, ids: Sequence[int], args: argparse.Namespace | None 
         return f"`drempower {text}`" if args is None else f"`{follow_up(args, text)}`"
 
     readings = read(bus, ids)
+    if args is None or not getattr(args, "watchdog", None):  # --watchdog arms (and restores) its own
+        warn_leftover_watchdog(bus, ids, args)
     for r in readings:
         if r.state is not None and r.state.error:
             raise DrEmpowerError(
@@ -156,3 +154,26 @@ def require_ready(bus: Bus, ids: Sequence[int], args: argparse.Namespace | None 
                 f"run {cmd(f'enable {r.id}')} first"
             )
     return readings
+
+
+def warn_leftover_watchdog(bus: Bus, ids: Sequence[int], args: argparse.Namespace | None = None) -> dict[int, int]:
+    """Say on stderr which motors have a CAN watchdog (``can.config.timeout_ms``) armed, and how to clear it.
+
+    A command killed with SIGKILL while its ``--watchdog`` was armed leaves
+    the timeout set: every later command then sees its motors go idle that
+    long after its last frame. The value is only reported, never changed (it
+    may be a deliberate setting). Returns the armed values by motor.
+    """
+    from ._connect import follow_up
+
+    replies = bus.request([ReadParam(i, CAN_CONFIG_TIMEOUT_MS, DataType.U32) for i in ids], missing_ok=True)
+    armed = {i: int(r.value) for i, r in zip(ids, replies, strict=True) if r is not None and int(r.value)}
+    for node, ms in armed.items():
+        clear = f"drempower set {node} can.config.timeout_ms 0"
+        print(
+            f"drempower: warning: motor {node} has can.config.timeout_ms = {ms}: it goes idle {ms} ms after "
+            f"the last frame it receives (a --watchdog left by a killed command?); to clear it: "
+            f"`{clear if args is None else follow_up(args, clear[len('drempower ') :])}`",
+            file=sys.stderr,
+        )
+    return armed

@@ -146,7 +146,7 @@ def run_command(args: argparse.Namespace) -> int:
 def _open(args: argparse.Namespace) -> Any:
     from ..robot import open_robot
 
-    return open_robot(args.robot_spec, timeout=args.timeout, stop_on_close=False)
+    return open_robot(args.robot_spec, timeout=args.timeout, retries=args.retries, stop_on_close=False)
 
 
 def _names(args: argparse.Namespace, groups: dict[str, list[int]]) -> list[str]:

@@ -13,9 +13,27 @@ import re
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 
-from ..errors import FieldRangeError, UsageError
+from ..errors import FieldRangeError, UsageError, ValidationError
 
-__all__ = ["UsageError", "options_named"]
+__all__ = ["BadInput", "UsageError", "cli_words", "options_named"]
+
+
+class BadInput(ValidationError):
+    """What the command was given cannot be used: a corrupt or unreadable file, an extra not installed.
+
+    Reported as one line, exit 2, as every :class:`~drempower.errors.ValidationError`.
+    """
+
+
+_LIBRARY_WORDS = (("force=True", "--force"),)
+"""Words of the library's messages and what the command line calls the same thing."""
+
+
+def cli_words(text: str) -> str:
+    """A library message in the command line's words: ``force=True`` -> ``--force``."""
+    for library, cli in _LIBRARY_WORDS:
+        text = text.replace(library, cli)
+    return text
 
 
 _PER_MOTOR = re.compile(r"^(?P<field>.+) \(motor (?P<node>\d+)\)$")

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 from typing import Any
 
 from ..client import ConfigBackup, RestoreReport
-from ..errors import DrEmpowerError
+from ..errors import BackupFileError, DrEmpowerError
 from ..protocol import find_parameter
 from ._connect import add_connection_args, motor_id, open_from_args
 from ._output import add_json_arg, clean, emit, report, significant
-from ._usage import UsageError
+from ._usage import BadInput, UsageError, cli_words
 
 GROUP = "parameters"
 """Where ``drempower --help`` lists this module's subcommands."""
@@ -24,7 +25,7 @@ def register(sub: Any) -> None:
         description="Read every parameter of a motor and write them, with names, types and units, to FILE.",
     )
     b.add_argument("id", type=motor_id, metavar="ID", help="the motor's id")
-    b.add_argument("file", metavar="FILE", help="JSON file to write")
+    b.add_argument("file", metavar="FILE", help="JSON file to write; - writes it to stdout")
     add_json_arg(b)
     add_connection_args(b)
     b.set_defaults(func=run_backup)
@@ -48,7 +49,7 @@ def register(sub: Any) -> None:
     )
     for p in (r, d):
         p.add_argument("id", type=motor_id, metavar="ID", help="the motor's id")
-        p.add_argument("file", metavar="FILE", help="backup file (written by `drempower backup`)")
+        p.add_argument("file", metavar="FILE", help="backup file (written by `drempower backup`); - reads stdin")
         p.add_argument(
             "--include-link",
             action="store_true",
@@ -67,14 +68,24 @@ def register(sub: Any) -> None:
 def run_backup(args: argparse.Namespace) -> int:
     with open_from_args(args) as bus:
         cfg = bus.motor(args.id).backup()
+    to_stdout = args.file == "-"
     try:
-        cfg.save(args.file)
+        if to_stdout:
+            sys.stdout.write(json.dumps(cfg.to_json(), indent=1) + "\n")
+            sys.stdout.flush()
+        else:
+            cfg.save(args.file)
     except OSError as exc:
-        raise DrEmpowerError(f"cannot write {args.file}: {exc.strerror}") from None
+        raise BadInput(f"cannot write {args.file}: {exc.strerror}") from None
     read = len(cfg.parameters) - len(cfg.failed)
     unread = f" ({len(cfg.failed)} unreadable: {', '.join(cfg.failed)})" if cfg.failed else ""
-    record = {"id": args.id, "file": args.file, "parameters": read, "unreadable": list(cfg.failed)}
-    report(args, f"motor {args.id}: {read} parameters written to {args.file}{unread}", [record])
+    where = "stdout" if to_stdout else args.file
+    text = f"motor {args.id}: {read} parameters written to {where}{unread}"
+    if to_stdout:  # stdout holds the backup: the summary goes to stderr
+        print(text, file=sys.stderr)
+    else:
+        record = {"id": args.id, "file": args.file, "parameters": read, "unreadable": list(cfg.failed)}
+        report(args, text, [record])
     if cfg.failed:  # the file is incomplete: the exit status says so
         hint = "" if getattr(args, "retries", 0) else "; on a lossy link, --retries N asks again"
         print(f"drempower: motor {args.id}: {len(cfg.failed)} parameters unread{hint}", file=sys.stderr)
@@ -87,8 +98,19 @@ def _unit(name: str) -> str:
     return p.unit if p is not None else ""
 
 
+def _load(path: str) -> ConfigBackup:
+    """The backup in ``path``, or on stdin for ``-``."""
+    if path != "-":
+        return ConfigBackup.load(path)
+    try:
+        doc = json.loads(sys.stdin.read())
+    except (ValueError, RecursionError) as exc:
+        raise BackupFileError(f"cannot read the backup on stdin: {exc}") from None
+    return ConfigBackup.from_json(doc)
+
+
 def _restore(args: argparse.Namespace, dry_run: bool) -> RestoreReport:
-    cfg = ConfigBackup.load(args.file)
+    cfg = _load(args.file)
     force = args.force or dry_run  # diff writes nothing: comparing a motor with another's backup is fine
     with open_from_args(args) as bus:
         return bus.motor(args.id).restore(
@@ -102,7 +124,7 @@ def run_diff(args: argparse.Namespace) -> int:
     except UsageError:
         raise
     except DrEmpowerError as exc:  # as diff(1): 2 is trouble, 1 means "they differ"
-        print(f"drempower: error: {exc}", file=sys.stderr)
+        print(clean(f"drempower: error: {cli_words(str(exc))}"), file=sys.stderr)
         return 2
     records = [
         {"name": n, "motor": significant(old), "backup": significant(new), "unit": _unit(n)}

@@ -9,7 +9,7 @@ from typing import Any
 from ..protocol import FastRead, PositionT, State
 from ..protocol.ids import Frame
 from ..sim.timing import frame_bits
-from ._connect import bitrate, positive
+from ._connect import ascii_digits, bitrate, positive
 from ._output import add_json_arg, json_line
 
 GROUP = "bus"
@@ -19,7 +19,7 @@ _MAX_BANDWIDTH = 300.0
 
 
 def _count(text: str) -> int:
-    if not (text.isdigit() and 1 <= int(text) <= 63):
+    if not (ascii_digits(text) and 1 <= int(text) <= 63):
         raise argparse.ArgumentTypeError(f"expected a number of motors 1..63, got {text!r}")
     return int(text)
 

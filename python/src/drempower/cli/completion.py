@@ -20,7 +20,7 @@ GROUP = "logs and tools"
 """Where ``drempower --help`` lists this module's subcommands."""
 
 SHELLS = ("bash", "zsh", "fish")
-_FILE_OPTIONS = ("--serial", "--uart", "--csv")
+_FILE_OPTIONS = ("--serial", "--uart", "--csv", "-w", "--output")
 _NOT_OFFERED = frozenset({"udp_multicast"})
 """python-can interfaces not offered for ``-i``: udp_multicast reaches every host of the network."""
 

@@ -136,11 +136,16 @@ def run_idle(args: argparse.Namespace) -> int:
 
 
 def run_enable(args: argparse.Namespace) -> int:
+    def watchdog(bus: Bus) -> None:
+        if args.ids != [0]:
+            _readings.warn_leftover_watchdog(bus, args.ids, args)
+
     return _apply(
         args,
         lambda m: m.set_mode(2),
         lambda r: r.axis_state == AxisState.CLOSED_LOOP_CONTROL and not _error(r),
         "motor {ids} did not enter closed loop ({errors}): see `drempower errors {ids}`, then `drempower clear {ids}`",
+        watchdog,
     )
 
 

@@ -29,7 +29,9 @@ def register(sub: Any) -> None:
             "bits, fast read. cantools, SavvyCAN and python-can tools decode DrEmpower frames with it."
         ),
     )
-    p.add_argument("-o", "--output", metavar="FILE.dbc", help="write to FILE (default: standard output)")
+    p.add_argument(
+        "-w", "--output", metavar="FILE.dbc", help="write to FILE (default: standard output); -w as for record"
+    )
     p.add_argument(
         "--nodes",
         type=_nodes,

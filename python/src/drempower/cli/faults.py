@@ -9,7 +9,7 @@ from typing import Any
 from ..client import ErrorReport
 from ..client.errors import TimeoutError
 from ..protocol import ERROR_WORDS, flag_info
-from ._connect import add_connection_args, add_ids_arg, follow_up, open_from_args
+from ._connect import add_connection_args, add_ids_arg, follow_up, ids_or_found, open_from_args
 from ._output import add_json_arg, json_line, no_answer
 
 GROUP = "bus"
@@ -22,9 +22,12 @@ def register(sub: Any) -> None:
     p = sub.add_parser(
         "errors",
         help="decoded error flags of motors, with their meaning and what to do",
-        description="Read the seven error words of each motor and explain every flag that is set.",
+        description=(
+            "Read the seven error words of each motor and explain every flag that is set. "
+            "Without IDS: every motor a quick scan finds."
+        ),
     )
-    add_ids_arg(p)
+    add_ids_arg(p, optional=True)
     add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run)
@@ -44,7 +47,7 @@ def explain(report: ErrorReport) -> list[dict[str, Any]]:
 def run(args: argparse.Namespace) -> int:
     reports: list[ErrorReport | int] = []
     with open_from_args(args) as bus:
-        for node in args.ids:
+        for node in ids_or_found(args, bus):
             try:
                 reports.append(bus.motor(node).dump_error())
             except TimeoutError:

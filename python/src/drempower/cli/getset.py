@@ -10,7 +10,7 @@ from ..client.errors import TimeoutError
 from ..errors import ValidationError
 from ..protocol import DataType, Parameter, find_parameter, parameter, parameters
 from ..protocol.addresses import AXIS0_CONFIG_CAN_NODE_ID, CAN_CONFIG_BAUD_RATE, CONFIG_UART_BAUDRATE
-from ._connect import add_connection_args, add_ids_arg, open_from_args
+from ._connect import add_connection_args, add_ids_arg, ascii_float, ascii_int, open_from_args
 from ._output import add_json_arg, emit, motors_text, no_answer, report, sent, significant
 from ._usage import UsageError
 
@@ -31,11 +31,18 @@ def register(sub: Any) -> None:
     g = sub.add_parser(
         "get",
         help="read parameters by name or address (units shown)",
-        description="Read parameters; `drempower params` lists them. Names complete with `drempower completion`.",
+        description=(
+            "Read parameters; `drempower params` lists them. Names complete with `drempower completion`. "
+            "A prefix of names (axis0.controller.config) reads the whole subtree."
+        ),
     )
     add_ids_arg(g, many=False)
     g.add_argument(
-        "names", nargs="+", metavar="NAME", help="parameter name (or its unique end) or address, e.g. vbus_voltage or 1"
+        "names",
+        nargs="+",
+        metavar="NAME",
+        help="parameter name (or its unique end) or address, e.g. vbus_voltage or 1; a prefix such as "
+        "axis0.controller.config reads every parameter under it",
     )
     add_json_arg(g)
     add_connection_args(g)
@@ -60,6 +67,16 @@ def register(sub: Any) -> None:
     add_json_arg(s)
     add_connection_args(s)
     s.set_defaults(func=run_set)
+
+
+def lookup_many(name: str) -> list[Parameter]:
+    """:func:`lookup`, or every parameter under a prefix of names (``axis0.controller.config``), in table order."""
+    prefix = name.strip().rstrip(".")
+    if find_parameter(name) is None and prefix:
+        under = [q for q in parameters() if q.name.startswith(prefix + ".")]
+        if under:
+            return under
+    return [lookup(name)]
 
 
 def lookup(name: str) -> Parameter:
@@ -105,7 +122,7 @@ def parse_value(p: Parameter, text: str) -> int | float:
             return int(t in _TRUE)
         raise ValidationError(f"{p.name} is a flag: give 1/0, on/off, true/false or yes/no, not {text!r}")
     try:
-        return float(t) if p.dtype is DataType.F32 else int(t, 0)
+        return ascii_float(t) if p.dtype is DataType.F32 else ascii_int(t, 0)
     except ValueError:
         kind = "a number" if p.dtype is DataType.F32 else f"a whole number ({p.dtype.name.lower()})"
         raise ValidationError(f"{p.name} takes {kind}, not {text!r}") from None
@@ -121,7 +138,7 @@ def _writable(p: Parameter, force: bool) -> None:
 
 
 def run_get(args: argparse.Namespace) -> int:
-    params = [lookup(n) for n in args.names]
+    params = [p for n in args.names for p in lookup_many(n)]
     records = []
     silent: list[int] = []
     with open_from_args(args) as bus:

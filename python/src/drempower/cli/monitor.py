@@ -13,7 +13,7 @@ from typing import Any
 from ..client.signals import exit_code
 from ..errors import DrEmpowerError
 from . import _readings
-from ._connect import add_connection_args, add_ids_arg, open_from_args, positive
+from ._connect import add_connection_args, add_ids_arg, ids_or_found, open_from_args, positive
 from ._fields import SOURCES, parse_fields, run_fields
 from ._output import LiveView, add_json_arg, is_terminal, json_line, render_table
 
@@ -32,10 +32,10 @@ def register(sub: Any) -> None:
         description=(
             "Read the motors RATE times a second and show position, speed, torque, trajectory done, "
             "axis state, bus voltage and errors. On a terminal the table is redrawn in place; "
-            "otherwise one line per motor and reading."
+            "otherwise one line per motor and reading. Without IDS: every motor a quick scan finds."
         ),
     )
-    add_ids_arg(p)
+    add_ids_arg(p, optional=True)
     p.add_argument("--rate", type=positive, default=10.0, metavar="HZ", help="readings per second (default 10)")
     p.add_argument("--duration", type=positive, metavar="S", help="stop after S seconds (default: at Ctrl-C)")
     p.add_argument("--csv", metavar="FILE", help="also record every reading to FILE")
@@ -65,6 +65,7 @@ def run(args: argparse.Namespace) -> int:
         if args.fields is None:
             args.fields = parse_fields("position,speed,torque")
         with open_from_args(args) as bus:
+            ids_or_found(args, bus)
             return run_fields(args, bus, out)
     live = LiveView(out) if is_terminal(out) and not args.json else None
     with ExitStack() as stack:
@@ -77,6 +78,7 @@ def run(args: argparse.Namespace) -> int:
             writer = csv.DictWriter(fh, ["time_s", *_readings.FIELDS])
             writer.writeheader()
         bus = stack.enter_context(open_from_args(args))
+        ids_or_found(args, bus)
         start = time.monotonic()
         deadline = None if args.duration is None else start + args.duration
         k = 0

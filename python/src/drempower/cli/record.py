@@ -12,9 +12,9 @@ from typing import Any
 
 from ..errors import DrEmpowerError
 from ..protocol import FastRead
-from ._connect import add_connection_args, add_ids_arg, count, open_from_args, positive
+from ._connect import add_connection_args, add_ids_arg, ascii_digits, count, open_from_args, positive
 from ._output import add_json_arg, json_line
-from ._usage import UsageError
+from ._usage import BadInput, UsageError
 
 _HEARTBEAT = "can.config.heartbeat_ms"
 
@@ -23,14 +23,14 @@ def _names(text: str) -> dict[int, str]:
     out: dict[int, str] = {}
     for part in filter(None, text.split(",")):
         key, sep, name = part.partition("=")
-        if not sep or not key.strip().isdigit() or not 1 <= int(key) <= 63 or not name.strip():
+        if not sep or not ascii_digits(key) or not 1 <= int(key) <= 63 or not name.strip():
             raise argparse.ArgumentTypeError(f"{part!r}: expected ID=NAME with ID 1..63, e.g. 1=shoulder")
         out[int(key)] = name.strip()
     return out
 
 
 def _port(text: str) -> int:
-    if not text.isdigit() or not 0 <= int(text) <= 65535:
+    if not ascii_digits(text) or not 0 <= int(text) <= 65535:
         raise argparse.ArgumentTypeError(f"{text!r} is out of range: allowed 0..65535 (0: a free port)")
     return int(text)
 
@@ -45,14 +45,18 @@ def register(sub: Any) -> None:
             "/drempower/parameters and /drempower/errors. With --robot FILE: every bus of the robot (or those of the "
             "joints named), raw frames on /can/<bus>/tx and /can/<bus>/rx, states under the joint names at the joint "
             "(after gear and offset). Foxglove, PlotJuggler, ros2 bag and rosbags open it; "
-            "drempower decode reads it back. Without --heartbeat-ms or --poll it only listens. Ctrl-C ends it. "
-            "Here -o is the output file: python-can options are given as --can-option."
+            "drempower decode reads it back. Without --heartbeat-ms or --poll it only listens. Ctrl-C ends it."
         ),
-        conflict_handler="resolve",
     )
     add_connection_args(p)
     add_ids_arg(p, optional=True)
-    p.add_argument("-o", "--output", required=True, metavar="FILE.mcap", help="the MCAP file to write")
+    p.add_argument(
+        "-w",
+        "--output",
+        required=True,
+        metavar="FILE.mcap",
+        help="the MCAP file to write (-o is python-can's bus option, as in every command)",
+    )
     p.add_argument("--duration", type=positive, metavar="S", help="stop after S seconds (default: at Ctrl-C)")
     how = p.add_mutually_exclusive_group()
     how.add_argument(
@@ -105,7 +109,10 @@ def run(args: argparse.Namespace) -> int:
     spec = getattr(args, "robot_spec", None)
     started = time.monotonic()
     with ExitStack() as stack:
-        rec = stack.enter_context(Recorder(args.output, names=args.names))
+        try:
+            rec = stack.enter_context(Recorder(args.output, names=args.names))
+        except ImportError as exc:  # a basic install: MCAP needs the records extra
+            raise BadInput(f"record needs the records extra ({exc})") from None
         live = None
         if args.foxglove is not None:
             from ..records.foxglove_live import FoxgloveLive
@@ -113,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
             try:
                 live = stack.enter_context(FoxgloveLive(port=args.foxglove, names=args.names))
             except ImportError as exc:
-                raise DrEmpowerError(str(exc)) from None
+                raise BadInput(str(exc)) from None
             print(f"drempower: Foxglove: open {live.url}", file=sys.stderr, flush=True)
         opened: list[tuple[str | None, Any, list[int]]] = []
         for name, watched in buses.items():

@@ -3,18 +3,20 @@
 from __future__ import annotations
 
 import argparse
-import signal
 import sys
 import time
-from collections.abc import Iterator
-from contextlib import contextmanager
 from typing import Any
 
+from ..client.session import MOTION_CMDS
+from ..client.signals import exit_code
 from ..errors import DrEmpowerError, ProtocolError
+from ..protocol.addresses import AXIS0_REQUESTED_STATE
 from ..protocol.describe import CaptureDecoder
-from ..protocol.messages import Message, decode_command
-from ..records.logs import LogRecord, direction_of, read_log
+from ..protocol.enums import AxisState
+from ..protocol.messages import Message, WriteParam, decode_command
+from ..records.logs import LogRecord, direction_of
 from ._connect import add_connection_args, open_from_args, positive
+from ._inputs import log_records
 from ._output import add_json_arg, json_line
 
 
@@ -35,6 +37,12 @@ def register(sub: Any) -> None:
     p.add_argument("--speed", type=positive, default=1.0, metavar="X", help="play the recorded pace X times faster")
     p.add_argument("--all-frames", action="store_true", help="also send the motors' frames (replies, states)")
     p.add_argument("--leave-running", action="store_true", help="do not put replayed motors into IDLE at the end")
+    p.add_argument(
+        "--enable",
+        action="store_true",
+        help="clear the errors of the motors the log drives and put them in closed loop first "
+        "(default: refuse when one is idle or in error, as nothing would move)",
+    )
     add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run)
@@ -58,23 +66,37 @@ def _host_frames(records: list[LogRecord], every: bool) -> list[tuple[LogRecord,
     return out
 
 
-@contextmanager
-def _sigterm_interrupts() -> Iterator[None]:
-    """SIGTERM (and SIGHUP) end the replay like Ctrl-C, so that the motors are stopped."""
+_CLOSED_LOOP = AxisState.CLOSED_LOOP_CONTROL
 
-    def stop(signum: int, frame: object) -> None:
-        raise KeyboardInterrupt
 
-    old = {s: signal.signal(s, stop) for s in (signal.SIGTERM, getattr(signal, "SIGHUP", signal.SIGTERM))}
+def _driven(frames: list[tuple[LogRecord, Message | None]]) -> list[int]:
+    """The motors the log's motion commands drive that the log does not put in closed loop itself, by id."""
+    driven: set[int] = set()
+    enabled: set[int] = set()
+    for _, msg in frames:
+        if isinstance(msg, WriteParam) and msg.address == AXIS0_REQUESTED_STATE and msg.value == _CLOSED_LOOP:
+            enabled.add(msg.node)
+        elif msg is not None and msg.cmd in MOTION_CMDS and msg.node not in enabled:
+            driven.add(msg.node)
+    return sorted(driven - {0})
+
+
+def _ready(bus: Any, nodes: list[int], args: argparse.Namespace) -> None:
+    """Refuse to replay onto motors that would ignore it (idle, in error); with --enable, enable them first."""
+    from . import _readings
+
+    if args.enable:
+        for node in nodes:
+            bus.motor(node).clear_error()
+            bus.motor(node).set_mode(2)
     try:
-        yield
-    finally:
-        for s, h in old.items():
-            signal.signal(s, h)
+        _readings.require_ready(bus, nodes, args)
+    except DrEmpowerError as exc:
+        raise DrEmpowerError(f"{exc}; or replay with --enable, which clears and enables them first") from None
 
 
 def run(args: argparse.Namespace) -> int:
-    records = list(read_log(args.file))
+    records = list(log_records(args.file))
     frames = _host_frames(records, args.all_frames)
     if not frames:
         raise DrEmpowerError(f"{args.file}: no frames to replay")
@@ -85,7 +107,8 @@ def run(args: argparse.Namespace) -> int:
         args.sim = nodes
         print(f"drempower: replaying onto simulated motors {','.join(map(str, nodes))}", file=sys.stderr)
     sent = 0
-    with open_from_args(args, quiet=True) as bus, _sigterm_interrupts():
+    with open_from_args(args, quiet=True) as bus:
+        _ready(bus, _driven(frames), args)
         bus.core.session.stop_on_close = not args.leave_running
         start = time.monotonic()
         t0 = frames[0][0].timestamp
@@ -104,9 +127,9 @@ def run(args: argparse.Namespace) -> int:
                 else:
                     bus.transport.send(rec.frame)
                 sent += 1
-        except KeyboardInterrupt:
+        except KeyboardInterrupt as exc:  # Ctrl-C, SIGTERM, SIGHUP: the motors stop as the bus closes
             print(f"drempower: replay interrupted after {sent} frames", file=sys.stderr)
-            return 130
+            return exit_code(exc)
     if args.json:
         sys.stdout.write(json_line({"file": args.file, "frames_sent": sent, "frames_in_log": len(records)}) + "\n")
     print(f"{sent} frame{'' if sent == 1 else 's'} replayed from {args.file}", file=sys.stderr)

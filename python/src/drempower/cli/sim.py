@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from ..client.signals import exit_code
-from ..errors import DrEmpowerError
+from ..errors import DrEmpowerError, SavedConfigError
 from ..sim import (
     Faults,
     SimBus,
@@ -24,10 +24,10 @@ from ..sim import (
     attach_uart_pty,
 )
 from ..sim.bus import DEFAULT_HOST_QUEUE, parse_host_queue
-from ._connect import bitrate, can_option, parse_ids, positive
+from ._connect import ascii_float, bitrate, can_option, parse_ids, positive
 from ._output import clean, json_line
 from ._sim_robot import serve_robot
-from ._usage import UsageError
+from ._usage import BadInput, UsageError
 
 GROUP = "simulator"
 """Where ``drempower --help`` lists this module's subcommands."""
@@ -104,7 +104,7 @@ def _host_queue(text: str) -> str:
 
 def _rate(text: str) -> float:
     try:
-        value = float(text)
+        value = ascii_float(text)
     except ValueError:
         value = -1.0
     if not 0.0 <= value <= 1.0:
@@ -179,14 +179,17 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
     )
     if args.config_dir is not None:
         _check_config_dir(args.config_dir)
-    bus = SimBus(
-        args.ids,
-        bitrate=args.bitrate,
-        host_queue=args.host_queue,
-        faults=faults,
-        seed=args.seed,
-        config_dir=args.config_dir,
-    )
+    try:
+        bus = SimBus(
+            args.ids,
+            bitrate=args.bitrate,
+            host_queue=args.host_queue,
+            faults=faults,
+            seed=args.seed,
+            config_dir=args.config_dir,
+        )
+    except SavedConfigError as exc:  # a file in --config-dir that cannot be used: the user's to fix (exit 2)
+        raise BadInput(str(exc)) from None
     default = not (args.adapter_pty or args.uart_pty is not None or args.socketcand_port is not None or args.python_can)
     ids = ",".join(map(str, args.ids))
     timing = f"{args.bitrate} bit/s, host queue {args.host_queue}" if args.bitrate else "instant delivery"

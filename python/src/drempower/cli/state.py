@@ -6,7 +6,7 @@ import argparse
 from typing import Any
 
 from . import _readings
-from ._connect import add_connection_args, add_ids_arg, open_from_args
+from ._connect import add_connection_args, add_ids_arg, ids_or_found, open_from_args
 from ._output import add_json_arg, emit, no_answer
 
 GROUP = "bus"
@@ -19,10 +19,10 @@ def register(sub: Any) -> None:
         help="position, speed, torque, trajectory done, axis state, bus voltage and errors of motors",
         description=(
             "Read each motor once; `drempower monitor` keeps reading. A motor that does not answer gets a "
-            "row saying so, and the exit status is then 1."
+            "row saying so, and the exit status is then 1. Without IDS: every motor a quick scan finds."
         ),
     )
-    add_ids_arg(p)
+    add_ids_arg(p, optional=True)
     add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run)
@@ -30,6 +30,6 @@ def register(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     with open_from_args(args) as bus:
-        readings = _readings.read(bus, args.ids, missing_ok=True)
+        readings = _readings.read(bus, ids_or_found(args, bus), missing_ok=True)
     emit(args, _readings.HEADERS, [r.record() for r in readings])
     return no_answer([r.id for r in readings if not r.answered])

@@ -153,7 +153,7 @@ class ConfigBackup:
         """Read a backup written by :meth:`save`; raises :class:`BackupFileError` naming every problem."""
         try:
             doc = json.loads(Path(path).read_text(encoding="utf-8"))
-        except (OSError, ValueError) as exc:
+        except (OSError, ValueError, RecursionError) as exc:  # RecursionError: JSON nested too deeply
             raise BackupFileError(f"cannot read backup {os.fspath(path)!r}: {exc}") from exc
         try:
             return cls.from_json(doc)
@@ -282,16 +282,14 @@ def _plan(
 ) -> list[tuple[Parameter, int | float]]:
     """What to restore, every value checked before any frame; raises naming every problem."""
     if source.node != node and not force:
-        raise BackupFileError(
-            f"the backup is of motor {source.node}, not motor {node} (force=True / --force restores it)"
-        )
+        raise BackupFileError(f"the backup is of motor {source.node}, not motor {node} (force=True restores it)")
     seen: dict[int, int] = {}
     for rec in source.parameters:
         seen[rec.address] = seen.get(rec.address, 0) + 1
     dups = sorted(a for a, n in seen.items() if n > 1)
     if dups and not force:
         names = ", ".join(f"{_name(a)} ({seen[a]} times)" for a in dups)
-        raise BackupFileError(f"duplicated records: {names} (force=True / --force restores the last of each)")
+        raise BackupFileError(f"duplicated records: {names} (force=True restores the last of each)")
     last = {rec.address: rec for rec in source.parameters}  # with force, the last record of an address wins
     todo: list[tuple[Parameter, int | float]] = []
     problems: list[tuple[str, str]] = []

@@ -15,7 +15,8 @@ Two policies, one per kind of program:
 * Commands (:func:`signals_interrupt`): SIGTERM and SIGHUP raise
   :class:`Terminated`, a :class:`KeyboardInterrupt`, so every path that
   handles Ctrl-C handles them too; :func:`exit_code` turns it into 128 + the
-  signal number.
+  signal number. Only the first signal raises: one arriving while the command
+  stops its motors sets :func:`hurried` and lets the stop finish.
 """
 
 from __future__ import annotations
@@ -31,6 +32,7 @@ __all__ = [
     "TERMINATING_SIGNALS",
     "Terminated",
     "exit_code",
+    "hurried",
     "install_stop_handlers",
     "signals_interrupt",
     "stop_open_buses",
@@ -76,17 +78,24 @@ def stop_open_buses() -> None:
         stop()
 
 
-_stopping = threading.Event()
+class _Flags:
+    """What the handlers have seen. Plain attributes, not :class:`threading.Event`: a handler runs between
+    two bytecodes of the main thread, possibly inside another handler's ``Event.set()`` holding its lock,
+    which a second ``set()`` would then wait for forever."""
+
+    stopping = False
+    terminating = False
+    hurry = False
 
 
 def _stop_and_chain(signum: int, frame: FrameType | None) -> None:
-    if _stopping.is_set():
+    if _Flags.stopping:
         return  # a repeated signal must not interrupt the closing the first one started
-    _stopping.set()
+    _Flags.stopping = True
     try:
         stop_open_buses()
     finally:
-        _stopping.clear()
+        _Flags.stopping = False
     previous = _previous.get(signum)
     if callable(previous):
         previous(signum, frame)
@@ -109,13 +118,20 @@ def install_stop_handlers() -> None:
         signal.signal(signum, _stop_and_chain)
 
 
-_terminating = threading.Event()
+def hurried() -> bool:
+    """Whether a second signal arrived while a command was stopping: skip what only waits, never a stop frame."""
+    return _Flags.hurry
 
 
 def _raise_terminated(signum: int, frame: FrameType | None) -> None:
-    if _terminating.is_set():
-        return  # a repeated signal must not interrupt the stopping the first one started
-    _terminating.set()
+    if _Flags.terminating:
+        # a repeated signal (SIGINT or SIGTERM twice, or one of each) must not interrupt the stopping the
+        # first one started: it only asks the stop to leave out its waiting niceties
+        _Flags.hurry = True
+        return
+    _Flags.terminating = True
+    if signum == signal.SIGINT:
+        raise KeyboardInterrupt
     raise Terminated(signum)
 
 
@@ -124,25 +140,28 @@ _raise_terminated._drempower_stops = True  # type: ignore[attr-defined]
 
 @contextmanager
 def signals_interrupt() -> Iterator[None]:
-    """While inside: SIGTERM and SIGHUP raise :class:`Terminated` in the main thread (restored afterwards).
+    """While inside: SIGINT, SIGTERM and SIGHUP raise in the main thread (the handlers restored afterwards).
 
-    A signal that is ignored (SIGHUP under ``nohup``) stays ignored. Outside
+    The first of them raises :class:`KeyboardInterrupt` (SIGINT) or
+    :class:`Terminated`; any later one only sets :func:`hurried`, so that a
+    second Ctrl-C or a SIGTERM right after it never cuts the stopping short. A
+    signal that is ignored (SIGHUP under ``nohup``) stays ignored. Outside
     the main thread this does nothing.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
     saved: dict[int, _Handler] = {}
-    for signum in TERMINATING_SIGNALS:
+    for signum in (signal.SIGINT, *TERMINATING_SIGNALS):
         current = signal.getsignal(signum)
         if current is signal.SIG_IGN:
             continue
         saved[signum] = current
         signal.signal(signum, _raise_terminated)
-    _terminating.clear()
+    _Flags.terminating = _Flags.hurry = False
     try:
         yield
     finally:
         for number, handler in saved.items():
             signal.signal(number, handler if handler is not None else signal.SIG_DFL)
-        _terminating.clear()
+        _Flags.terminating = _Flags.hurry = False

@@ -195,7 +195,7 @@ class ParamStore:
         problems: list[str] = []
         try:
             doc = json.loads(self.path.read_text(encoding="utf-8"))
-        except (OSError, UnicodeDecodeError, ValueError) as exc:
+        except (OSError, UnicodeDecodeError, ValueError, RecursionError) as exc:  # JSON nested too deeply too
             raise SavedConfigError(self.path, [f"cannot be read: {exc}"]) from None
         values = doc.get("parameters") if isinstance(doc, dict) and doc.get("format") == _FORMAT else None
         if not isinstance(values, dict):
