@@ -36,14 +36,18 @@ test-python: $(DEVSTAMP) sysdeps
 	cd python && ../$(BIN)/mypy
 
 # System packages some tests drive: Debian's chromium for the dashboard's browser tests (Playwright's own
-# browser download is not used), zsh and fish for the completion scripts. Installed with apt-get when run as
-# root; otherwise those tests are skipped.
+# browser download is not used), zsh and fish for the completion scripts, qemu-system-arm and the arm-none-eabi
+# toolchain for the C library on a Cortex-M. Debian packages are checked with dpkg (elsewhere by command
+# name); installed with apt-get when run as root; otherwise those tests are skipped.
 SYSDEPS ?= chromium zsh fish qemu-system-arm gcc-arm-none-eabi libnewlib-arm-none-eabi
 sysdeps:
-	@missing=""; for c in $(SYSDEPS); do command -v $$c >/dev/null 2>&1 || missing="$$missing $$c"; done; \
+	@missing=""; for p in $(SYSDEPS); do \
+	  if command -v dpkg-query >/dev/null 2>&1; then dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q 'ok installed' || missing="$$missing $$p"; \
+	  else command -v $$p >/dev/null 2>&1 || missing="$$missing $$p"; fi; \
+	done; \
 	if [ -n "$$missing" ]; then \
 	  if [ "$$(id -u)" = 0 ]; then \
-	    echo "make: installing$$missing with apt-get for the tests (chromium: the dashboard's browser tests; zsh, fish: the completion scripts)"; \
+	    echo "make: installing$$missing with apt-get for the tests (chromium: the dashboard's browser tests; zsh, fish: the completion scripts; qemu, arm-none-eabi: the C library on a Cortex-M)"; \
 	    log=$$(mktemp); (apt-get update -qq && DEBIAN_FRONTEND=noninteractive apt-get install -y -qq $$missing) >$$log 2>&1 \
 	      || { cat $$log; rm -f $$log; echo "make: apt-get failed (its output above)"; exit 1; }; rm -f $$log; \
 	  else echo "make: some tests need:$$missing (sudo apt-get install$$missing); they are skipped without them"; fi; \
