@@ -163,7 +163,9 @@ class MotorIdleError(DrEmpowerError):
     1 = idle; None when they were only known not to be enabled). The message names the fix.
     """
 
-    def __init__(self, nodes: Sequence[int], states: Sequence[int | None] = ()) -> None:
+    def __init__(self, nodes: Sequence[int], states: Sequence[int | None] = (), fix: str | None = None) -> None:
+        """``fix``: how to enable them in the caller's terms (a front end's button or command line);
+        by default the API's and the CLI's."""
         from .protocol.enums import AxisState
 
         self.nodes = tuple(nodes)
@@ -179,10 +181,9 @@ class MotorIdleError(DrEmpowerError):
         verb = "is" if len(self.nodes) == 1 else "are"
         it = "it" if len(self.nodes) == 1 else "them"
         handle = "motor.enable()" if len(self.nodes) == 1 else "bus.enable([...])"
-        super().__init__(
-            f"{motors(self.nodes)} {verb} {what} (not in closed loop): enable {it} first "
-            f"({handle}, drempower enable {ids}) or pass enable=True"
-        )
+        if fix is None:
+            fix = f"({handle}, drempower enable {ids}) or pass enable=True"
+        super().__init__(f"{motors(self.nodes)} {verb} {what} (not in closed loop): enable {it} first {fix}")
 
 
 class SoftLimitError(FieldRangeError):

@@ -90,7 +90,7 @@ def test_replay_onto_idle_motors_says_so_and_sends_nothing(cli: Cli, sim: SimBus
     log = _blf(tmp_path / "moves.blf")
     assert cli("idle", "1", "--sim", "1").code == 0
     r = cli("replay", str(log), "--rate", "1000", "--sim", "1")
-    assert r.code == 1 and "motor 1 is idle, not in closed loop" in r.err and "--enable" in r.err, r.err
+    assert r.code == 1 and "motor 1 is idle (not in closed loop)" in r.err and "--enable" in r.err, r.err
     assert "replayed" not in r.err and sim.motors[1].param("axis0.controller.input_pos") == 0
     r = cli("replay", str(log), "--rate", "1000", "--enable", "--leave-running", "--sim", "1")
     assert r.code == 0 and "20 frames replayed" in r.err, r.err

@@ -142,7 +142,10 @@ def test_motion_refused_while_estopped(cli: Cli, sim: SimBus) -> None:
     assert "ESTOP_REQUESTED" in r.err and "drempower clear 1" in r.err
     cli("clear", "1", "--sim", "1")
     r = cli("speed", "1", "10", "--sim", "1")
-    assert r.code == 1 and "is idle, not in closed loop: run `drempower enable 1 --sim 1` first" in r.err
+    assert (
+        r.code == 1
+        and "motor 1 is idle (not in closed loop): enable it first (run `drempower enable 1 --sim 1`)" in r.err
+    )
 
 
 def test_speed_of_two_motors(cli: Cli, sim: SimBus) -> None:

@@ -11,11 +11,10 @@ import io
 import sys
 from collections.abc import Iterable, Iterator
 
-from ..errors import DrEmpowerError
+from ..errors import DrEmpowerError, ValidationError
 from ..protocol.candump import parse_candump_line
 from ..protocol.ids import Frame
 from ..records.logs import LogRecord, direction_of, is_binary_log, read_log
-from ._usage import BadInput
 
 
 def record_line(rec: LogRecord) -> str:
@@ -34,7 +33,7 @@ def record_line(rec: LogRecord) -> str:
 
 
 def log_records(path: str) -> Iterator[LogRecord]:
-    """The frames of the log at ``path``; a file that cannot be read is :class:`BadInput` (one line, exit 2).
+    """The frames of the log at ``path``; a file that cannot be read is a ValidationError (one line, exit 2).
 
     The readers of MCAP and python-can's formats raise their own errors on a
     corrupt or truncated file (``mcap.exceptions``, ``zlib.error``,
@@ -50,10 +49,10 @@ def log_records(path: str) -> Iterator[LogRecord]:
                 return
             yield rec
     except DrEmpowerError as exc:  # no such file, an extra not installed, a line that is no frame
-        raise BadInput(str(exc)) from None
+        raise ValidationError(str(exc)) from None
     except Exception as exc:  # RecursionError too: whatever a third-party reader raises on a damaged file
         what = str(exc) or "the file is damaged or truncated"
-        raise BadInput(f"cannot read {path}: {type(exc).__name__}: {what}") from None
+        raise ValidationError(f"cannot read {path}: {type(exc).__name__}: {what}") from None
 
 
 def input_lines(files: list[str], direction: str) -> Iterator[tuple[str, str]]:
@@ -85,4 +84,4 @@ def _text(name: str) -> Iterable[str]:
         with open(name, encoding="utf-8", errors="replace") as fh:
             yield from fh
     except OSError as exc:
-        raise BadInput(f"cannot read {name}: {exc.strerror}") from None
+        raise ValidationError(f"cannot read {name}: {exc.strerror}") from None

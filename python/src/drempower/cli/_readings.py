@@ -10,7 +10,7 @@ from typing import Any
 
 from ..client import Bus, MotorState
 from ..client.errors import TimeoutError
-from ..errors import DrEmpowerError
+from ..errors import DrEmpowerError, MotorIdleError
 from ..protocol import DataType, FastRead, ReadParam
 from ..protocol.addresses import AXIS0_CURRENT_STATE, CAN_CONFIG_TIMEOUT_MS
 from ..protocol.enums import AxisState
@@ -149,10 +149,7 @@ def require_ready(bus: Bus, ids: Sequence[int], args: argparse.Namespace | None 
                 f"then {cmd(f'clear {r.id}')} and {cmd(f'enable {r.id}')}"
             )
         if r.axis_state is not None and r.axis_state != AxisState.CLOSED_LOOP_CONTROL:
-            raise DrEmpowerError(
-                f"motor {r.id} is {axis_state_name(r.axis_state)}, not in closed loop: "
-                f"run {cmd(f'enable {r.id}')} first"
-            )
+            raise MotorIdleError([r.id], [r.axis_state], fix=f"(run {cmd(f'enable {r.id}')})")
     return readings
 
 

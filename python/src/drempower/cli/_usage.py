@@ -13,16 +13,9 @@ import re
 from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 
-from ..errors import FieldRangeError, UsageError, ValidationError
+from ..errors import FieldRangeError, UsageError
 
-__all__ = ["BadInput", "UsageError", "cli_words", "options_named"]
-
-
-class BadInput(ValidationError):
-    """What the command was given cannot be used: a corrupt or unreadable file, an extra not installed.
-
-    Reported as one line, exit 2, as every :class:`~drempower.errors.ValidationError`.
-    """
+__all__ = ["UsageError", "cli_words", "options_named"]
 
 
 _LIBRARY_WORDS = (("force=True", "--force"),)

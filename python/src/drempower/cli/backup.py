@@ -8,11 +8,11 @@ import sys
 from typing import Any
 
 from ..client import ConfigBackup, RestoreReport
-from ..errors import BackupFileError, DrEmpowerError
+from ..errors import BackupFileError, DrEmpowerError, ValidationError
 from ..protocol import find_parameter
 from ._connect import add_connection_args, motor_id, open_from_args
 from ._output import add_json_arg, clean, emit, report, significant
-from ._usage import BadInput, UsageError, cli_words
+from ._usage import UsageError, cli_words
 
 GROUP = "parameters"
 """Where ``drempower --help`` lists this module's subcommands."""
@@ -76,7 +76,7 @@ def run_backup(args: argparse.Namespace) -> int:
         else:
             cfg.save(args.file)
     except OSError as exc:
-        raise BadInput(f"cannot write {args.file}: {exc.strerror}") from None
+        raise ValidationError(f"cannot write {args.file}: {exc.strerror}") from None
     read = len(cfg.parameters) - len(cfg.failed)
     unread = f" ({len(cfg.failed)} unreadable: {', '.join(cfg.failed)})" if cfg.failed else ""
     where = "stdout" if to_stdout else args.file

@@ -10,11 +10,11 @@ import time
 from contextlib import ExitStack
 from typing import Any
 
-from ..errors import DrEmpowerError
+from ..errors import DrEmpowerError, ValidationError
 from ..protocol import FastRead
 from ._connect import add_connection_args, add_ids_arg, ascii_digits, count, open_from_args, positive
 from ._output import add_json_arg, json_line
-from ._usage import BadInput, UsageError
+from ._usage import UsageError
 
 _HEARTBEAT = "can.config.heartbeat_ms"
 
@@ -112,7 +112,7 @@ def run(args: argparse.Namespace) -> int:
         try:
             rec = stack.enter_context(Recorder(args.output, names=args.names))
         except ImportError as exc:  # a basic install: MCAP needs the records extra
-            raise BadInput(f"record needs the records extra ({exc})") from None
+            raise ValidationError(f"record needs the records extra ({exc})") from None
         live = None
         if args.foxglove is not None:
             from ..records.foxglove_live import FoxgloveLive
@@ -120,7 +120,7 @@ def run(args: argparse.Namespace) -> int:
             try:
                 live = stack.enter_context(FoxgloveLive(port=args.foxglove, names=args.names))
             except ImportError as exc:
-                raise BadInput(str(exc)) from None
+                raise ValidationError(str(exc)) from None
             print(f"drempower: Foxglove: open {live.url}", file=sys.stderr, flush=True)
         opened: list[tuple[str | None, Any, list[int]]] = []
         for name, watched in buses.items():

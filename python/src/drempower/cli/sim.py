@@ -13,7 +13,7 @@ from pathlib import Path
 from typing import Any, TextIO
 
 from ..client.signals import exit_code
-from ..errors import DrEmpowerError, SavedConfigError
+from ..errors import DrEmpowerError, SavedConfigError, ValidationError
 from ..sim import (
     Faults,
     SimBus,
@@ -27,7 +27,7 @@ from ..sim.bus import DEFAULT_HOST_QUEUE, parse_host_queue
 from ._connect import ascii_float, bitrate, can_option, parse_ids, positive
 from ._output import clean, json_line
 from ._sim_robot import serve_robot
-from ._usage import BadInput, UsageError
+from ._usage import UsageError
 
 GROUP = "simulator"
 """Where ``drempower --help`` lists this module's subcommands."""
@@ -189,7 +189,7 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
             config_dir=args.config_dir,
         )
     except SavedConfigError as exc:  # a file in --config-dir that cannot be used: the user's to fix (exit 2)
-        raise BadInput(str(exc)) from None
+        raise ValidationError(str(exc)) from None
     default = not (args.adapter_pty or args.uart_pty is not None or args.socketcand_port is not None or args.python_can)
     ids = ",".join(map(str, args.ids))
     timing = f"{args.bitrate} bit/s, host queue {args.host_queue}" if args.bitrate else "instant delivery"

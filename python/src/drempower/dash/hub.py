@@ -541,7 +541,9 @@ class Hub:
             if state != AxisState.CLOSED_LOOP_CONTROL:
                 idle.append((self.where(i)[1], state))
         if idle:  # the library's refusal, in the library's words (the API, CLI and bridge say the same)
-            raise MotorIdleError([n for n, _ in idle], [s for _, s in idle])
+            nodes = ",".join(str(n) for n, _ in idle)
+            fix = f"(the Enable button, or drempower enable {nodes})"
+            raise MotorIdleError([n for n, _ in idle], [s for _, s in idle], fix=fix)
         if self.watchdog_ms:
             self.arm_watchdog(keys)
 
