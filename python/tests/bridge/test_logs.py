@@ -11,7 +11,7 @@ import time
 
 import pytest
 
-from drempower.bridge.logs import RateLimit, StderrLines
+from drempower.logline import RateLimit, StderrLines
 
 from .conftest import free_port, session
 from .test_bridge import _call

@@ -24,6 +24,7 @@ from ..client.bus import Bus
 from ..client.commands import make_angles, make_speeds, make_torques
 from ..client.session import idle_frames
 from ..errors import DrEmpowerError
+from ..logline import RateLimit
 from ..protocol.ids import Frame, SysCmd
 from ..protocol.messages import FastRead, SystemCommand
 from ..robot.config import JOINT_NAME, JointSpec
@@ -32,7 +33,6 @@ from ..transports.base import Transport
 from ..transports.zenoh_wire import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
 from . import rmw, rosmsg
 from .hub import BusHub, driven_nodes
-from .logs import RateLimit
 from .order import ServiceOrder
 
 __all__ = [

@@ -167,7 +167,7 @@ def run(args: argparse.Namespace) -> int:
     except ImportError as exc:
         print(f"drempower bridge: needs the bridge extra: pip install 'drempower[bridge]' ({exc})", file=sys.stderr)
         return 2
-    from ..bridge.logs import StderrLines
+    from ..logline import StderrLines
     from ..transports import open_transport
     from ..transports.zenoh_config import open_config, session_config, settings
 

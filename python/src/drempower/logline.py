@@ -1,9 +1,10 @@
-"""The bridge's log: repeated lines rate-limited, standard error written without blocking.
+"""Log lines that never hold up a safety path: repeated lines rate-limited, standard error written without blocking.
 
-The bridge logs from Zenoh's receive threads (a malformed sample, a refused
-command) and from its safety paths. A stderr that nobody reads (a full pipe, a
-frozen terminal) blocks a write, and with it every thread that logs after it:
-the services, estop included, stopped answering. So:
+The dashboard and the bridge log from their stop paths, signal handlers and
+receive threads. A stderr that nobody reads (a full pipe, a frozen terminal)
+blocks a write, and with it every thread that logs after it (a bridge's
+services, estop included, stopped answering; a dashboard ignored its signals).
+So:
 
 * :class:`RateLimit` lets one line of each kind (its format string) through per
   interval and tells how many were held back in the next line of that kind;
@@ -21,7 +22,7 @@ import time
 from collections import deque
 from collections.abc import Callable
 
-__all__ = ["RATE_INTERVAL", "QUEUE_LINES", "RateLimit", "StderrLines"]
+__all__ = ["RATE_INTERVAL", "QUEUE_LINES", "RateLimit", "StderrLines", "STDERR"]
 
 RATE_INTERVAL = 1.0
 """s between two lines of one kind."""
@@ -88,6 +89,7 @@ class StderrLines(logging.Handler):
         return self._dropped
 
     def start(self) -> StderrLines:
+        """Start the writer thread now (the first line starts it otherwise); returns self."""
         with self._cv:
             if self._thread is None:
                 self._thread = threading.Thread(target=self._write_loop, name="drempower stderr", daemon=True)
@@ -101,6 +103,9 @@ class StderrLines(logging.Handler):
                 self._dropped += 1
                 return
             self._lines.append(text)
+            if self._thread is None:
+                self._thread = threading.Thread(target=self._write_loop, name="drempower stderr", daemon=True)
+                self._thread.start()
             self._cv.notify_all()
 
     def emit(self, record: logging.LogRecord) -> None:
@@ -144,3 +149,8 @@ class StderrLines(logging.Handler):
             with self._cv:
                 self._busy = False
                 self._cv.notify_all()
+
+
+STDERR = StderrLines(level=logging.NOTSET)
+"""The process's one queue to standard error (the dashboard's log lines; a handler for the bridge's logger);
+its writer thread starts with the first line."""
