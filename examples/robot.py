@@ -20,7 +20,7 @@ def main() -> None:
     with drempower.open_robot(args.robot, sim={"time_scale": args.time_scale}) as robot:
         print(robot)
         targets = {"shoulder": 0.8, "hip": -0.4, "elbow": 1.2}  # rad at each joint
-        move = robot.move_joints(targets, speed=2.0, accel=10.0)
+        move = robot.move_joints(targets, speed=2.0, accel=10.0, enable=True)  # enables idle joints first
         print(f"moving {targets}: {move.move_time:.2f} s; start frames {move.skew * 1e6:.0f} us apart")
         robot.positions_done(timeout=(move.move_time or 0) + 5)
         for name, js in robot.joint_states().items():

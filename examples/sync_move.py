@@ -13,6 +13,7 @@ def main() -> None:
     args = parser(__doc__ or "", ids="1,2,3").parse_args()
     ids = motor_ids(args)
     with open_bus(args) as bus:
+        bus.enable(ids)  # closed loop: a motor left idle by an earlier program would not move
         targets = [30.0 * (i + 1) * (-1) ** i for i in range(len(ids))]
         t = bus.set_angles(ids, targets, speed=30, param=60, mode=1)
         print(f"moving {ids} to {targets}: {t:.2f} s")

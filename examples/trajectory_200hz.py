@@ -25,6 +25,7 @@ def main() -> None:
     ids = motor_ids(args)
     with open_bus(args) as bus:
         motors = [bus.motor(i) for i in ids]
+        bus.enable(ids)  # closed loop: a motor left idle by an earlier program would not follow
         for m in motors:
             m.enable_reply_state()  # one frame each way per motor and cycle
         start = {m.id: m.get_state().angle for m in motors}

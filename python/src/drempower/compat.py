@@ -27,6 +27,11 @@ Differences from the vendor library (see docs/client.md):
 * ``dump_error`` returns, like the vendor's, the sum of the seven error words
   (``== 0`` when healthy) as an int that also carries the decoded report
   (``.report``, ``.flags``, ``.words``); it prints nothing.
+* A motion command to a motor that is not in closed loop raises
+  :class:`~drempower.errors.MotorIdleError` and sends nothing (the vendor's is
+  silently ignored by the motor): call ``set_mode(id, 2)`` first, as vendor scripts
+  do. ``estop``, ``set_mode``, ``clear_error``, ``save_config``, ``reboot``,
+  ``set_zero_position`` and ``write_property`` run through :mod:`drempower.actions`.
 * ``set_mode`` refuses modes other than 1 and 2 instead of ignoring them;
   ``set_id`` checks that the motor answers at its new id before saving.
 * Motors keep holding when the script ends, as with the vendor library: the bus
@@ -56,6 +61,7 @@ import struct
 from collections.abc import Sequence
 from typing import Any
 
+from . import actions
 from .client.bus import Bus, open_bus
 from .client.errors import TimeoutError
 from .client.motor import Motor
@@ -144,6 +150,9 @@ enable_replay_state = 0
 """1: the preset functions call :func:`reply_state` after sending, as the vendor's (spelling as the vendor's)."""
 reply_state_error = 0
 """How often :func:`reply_state` got no answer."""
+
+_MODES = {1: "idle", 2: "enable"}
+"""set_mode's modes and the actions that carry them out."""
 
 _bus: Bus | None = None
 _frames: queue.Queue[Frame] = queue.Queue(maxsize=256)
@@ -308,8 +317,13 @@ def impedance_control(
     _m(id_num).impedance_control(pos, vel, tff, kp, kd)
 
 
+def _act(action: str, id: int, **args: Any) -> Any:
+    """Carry out ``action`` of :mod:`drempower.actions` for motor ``id`` on the bus in use (its checks, its words)."""
+    return actions.run(_m(id).bus, action, {"id": id, **args})
+
+
 def estop(id_num: int = 0) -> None:
-    _m(id_num).estop()
+    _act("estop", id=id_num)
 
 
 # ---------------------------------------------------------------------- settings
@@ -328,11 +342,17 @@ def set_can_baud_rate(id_num: int = 0, baud_rate: int = 500000) -> None:
 
 
 def set_mode(id_num: int = 0, mode: int = 2) -> None:
-    _m(id_num).set_mode(mode)
+    if mode.__class__ is int and mode in _MODES:
+        _act(_MODES[mode], id=id_num)
+    else:
+        _m(id_num).set_mode(mode)  # refuses it, naming the modes
 
 
 def set_zero_position(id_num: int = 0) -> None:
-    _m(id_num).set_zero_position()
+    if id_num == 0:
+        _m(id_num).set_zero_position()  # every motor at once: the vendor allows it, the table does not
+    else:
+        _act("zero", id=id_num)
 
 
 def set_GPIO_mode(id_num: int = 0, mode: str = "tx_rx", param: float = 115200) -> None:
@@ -351,7 +371,7 @@ def set_traj_mode(id_num: int = 0, mode: int = 1) -> None:
 
 
 def write_property(id_num: int = 0, property: str | int = "", value: float = 0) -> None:
-    _m(id_num).write_property(property, value)
+    _act("set", id=id_num, name=str(property), value=value, verify=False)
 
 
 # ---------------------------------------------------------------------- read-back
@@ -406,7 +426,7 @@ def read_property(id_num: int = 0, property: str | int = "") -> int | float:
 
 
 def clear_error(id_num: int = 0) -> None:
-    _m(id_num).clear_error()
+    _act("clear", id=id_num)
 
 
 def dump_error(id_num: int = 0) -> ErrorSum:
@@ -415,11 +435,11 @@ def dump_error(id_num: int = 0) -> ErrorSum:
 
 
 def save_config(id_num: int = 0) -> None:
-    _m(id_num).save_config()
+    _act("save", id=id_num)
 
 
 def reboot(id_num: int = 0) -> None:
-    _m(id_num).reboot()
+    _act("reboot", id=id_num)
 
 
 def position_done(id_num: int = 0, timeout: float = DEFAULT_MOVE_TIMEOUT) -> bool:
@@ -516,7 +536,7 @@ def send_command(id_num: int = 0, cmd: int = 0, data: Sequence[int] | bytes = ()
     if msg is not None:
         bus.send(msg)  # through the client: checked, and the motor counts as commanded
     else:
-        bus.core._send_frames([frame])  # a frame the protocol does not define goes out as given
+        bus.send_frames([frame])  # a frame the protocol does not define goes out as given
 
 
 def receive_data(return_id: bool = False, timeout: float | None = None) -> bytes | None:

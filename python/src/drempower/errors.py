@@ -8,7 +8,8 @@ device, ``TimeoutError`` for a silent motor)::
     ├── ProtocolError (ValueError)             a frame or byte stream that breaks the protocol
     ├── ValidationError (ValueError)           a value or option that cannot be used; nothing was sent
     │   ├── FieldRangeError                    a number outside the range its field holds
-    │   │   └── DomainError                    a value outside a parameter's domain (spec/parameters.csv)
+    │   │   ├── DomainError                    a value outside a parameter's domain (spec/parameters.csv)
+    │   │   └── SoftLimitError                 a value beyond a soft limit (set_limits, a robot file)
     │   ├── ConfigError                        a robot file that cannot be used
     │   └── BackupFileError                    a backup document that cannot be restored
     ├── TransportError (OSError)               a bus that cannot be opened, a device that failed
@@ -16,6 +17,7 @@ device, ``TimeoutError`` for a silent motor)::
     ├── BusClosedError                         the bus is closed or its receive loop stopped
     ├── BusStoppedError                        an estop dropped a start still waiting for its presets
     ├── MotorFaultError                        a motor reported an error while a call waited on it
+    ├── MotorIdleError                         a motion command to a motor not in closed loop; nothing was sent
     ├── MoveError                              a position move did not end at its target
     │   ├── MoveFaultError                     (also a MotorFaultError) the motor reported an error
     │   └── MoveTimeoutError                   (also a TimeoutError) the move was not over in time
@@ -52,6 +54,8 @@ __all__ = [
     "BusClosedError",
     "BusStoppedError",
     "MotorFaultError",
+    "MotorIdleError",
+    "SoftLimitError",
     "VerifyError",
     "IdTakenError",
     "NoMotorError",
@@ -147,6 +151,54 @@ class MotorFaultError(DrEmpowerError):
         self.flags = flags
         named = "; ".join(f"{word}: {', '.join(names)}" for word, names in flags.items()) or "error words unread"
         super().__init__(f"motor {node} reported an error {doing} ({named})")
+
+
+class MotorIdleError(DrEmpowerError):
+    """A motion command to motors that are not in closed loop was refused; nothing was sent.
+
+    ``nodes`` are the motors, ``states`` their axis states (``axis0.current_state``,
+    1 = idle; None when they were only known not to be enabled). The message names the fix.
+    """
+
+    def __init__(self, nodes: Sequence[int], states: Sequence[int | None] = ()) -> None:
+        from .protocol.enums import AxisState
+
+        self.nodes = tuple(nodes)
+        self.states = tuple(states) or (None,) * len(self.nodes)
+        names = set()
+        for st in self.states:
+            try:
+                names.add("idle" if st is None else AxisState(st).name.lower())
+            except ValueError:
+                names.add(f"in axis state {st}")
+        what = " / ".join(sorted(names))
+        ids = ",".join(map(str, self.nodes))
+        verb = "is" if len(self.nodes) == 1 else "are"
+        it = "it" if len(self.nodes) == 1 else "them"
+        handle = "motor.enable()" if len(self.nodes) == 1 else "bus.enable([...])"
+        super().__init__(
+            f"{motors(self.nodes)} {verb} {what} (not in closed loop): enable {it} first "
+            f"({handle}, drempower enable {ids}) or pass enable=True"
+        )
+
+
+class SoftLimitError(FieldRangeError):
+    """A command beyond a soft limit (position range, speed, torque, acceleration, largest step).
+
+    ``node`` is the motor, ``limit`` the limit's name, ``field``/``value``/``low``/``high`` as in
+    :class:`FieldRangeError` (motor units: deg, r/min, Nm, (r/min)/s) and ``where`` says where the
+    limit was set (``bus.set_limits(...)``, or the robot file and joint).
+    """
+
+    def __init__(self, node: int, limit: str, value: float, low: float, high: float, unit: str, where: str) -> None:
+        super().__init__(limit, value, low, high)
+        self.node = node
+        self.limit = limit
+        self.where = where
+        self.args = (
+            f"motor {node}: {limit} {value:g} {unit} is beyond its soft limit {low:g}..{high:g} {unit} "
+            f"(set by {where})",
+        )
 
 
 class VerifyError(DrEmpowerError):

@@ -98,7 +98,7 @@ class FakeMotors:
     def __init__(self, ids: Iterable[int], silent: Iterable[int] = ()) -> None:
         self.ids = set(ids)
         self.silent = set(silent)
-        self.params: dict[int, dict[int, int | float]] = {i: {35104: 1, 31214: 0, 31001: i} for i in self.ids}
+        self.params: dict[int, dict[int, int | float]] = {i: {35104: 1, 31214: 0, 31001: i, 30002: 8} for i in self.ids}
         self.positions: dict[int, float] = dict.fromkeys(self.ids, 0.0)
         self.done: dict[int, bool] = dict.fromkeys(self.ids, True)
         self.error: dict[int, bool] = dict.fromkeys(self.ids, False)

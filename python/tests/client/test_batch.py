@@ -146,12 +146,15 @@ def test_start_policies(motors: FakeMotors) -> None:
     with Bus(t, timeout=0.25, stop_on_close=False, start="broadcast") as bus:
         bus.motor(1).step_angle(10, 0, 50)
     with Bus(t, timeout=0.25, stop_on_close=False, start="node") as bus:
+        bus.enable([1, 2])  # the transport is closed: no reply reaches this bus, so the gate cannot read
         bus.set_torques([1, 2], [0.1, 0.2])
     assert [n for n, _ in starts(t)] == [0, 1, 2]
 
 
 def test_cycle_uses_fewest_frames(bus: Bus, scripted: ScriptedTransport, motors: FakeMotors) -> None:
     m1, m2 = bus.motor(1), bus.motor(2)
+    bus.enable([1, 2])  # known in closed loop: the safety gate reads nothing
+    scripted.sent.clear()
     states = bus.cycle([m1.make_angle(1, 0, 50), m2.make_angle(2, 0, 50)])
     assert set(states) == {1, 2}
     kinds = [type(c).__name__ for c in scripted.commands()]
@@ -173,6 +176,7 @@ def test_cycle_uses_fewest_frames(bus: Bus, scripted: ScriptedTransport, motors:
 
 def test_cycle_timeout_names_the_silent_motors(bus: Bus, motors: FakeMotors) -> None:
     motors.silent.update({2, 3})
+    bus.enable([1, 2, 3])  # known in closed loop: the safety gate reads nothing
     cmds = [bus.motor(n).make_speed(0) for n in (1, 2, 3)]
     with pytest.raises(drempower.TimeoutError, match="motors 2, 3: no answer to a control cycle") as info:
         bus.cycle(cmds, reply_state=False)
@@ -252,6 +256,8 @@ def test_impedance_of_several_motors_has_one_start() -> None:
     sim = SimBus(ids=[1, 2])
     rec = Recorder(sim)
     with link("inprocess", sim, timeout=1.0) as bus:
+        bus.enable([1, 2, 3])  # known in closed loop: the safety gate reads nothing
+        rec.frames.clear()
         with pytest.raises(drempower.ValidationError, match=r"pos_list \(motor 2\)"):
             bus.impedance_controls([1, 2], [10, 1e40], kp=5, kd=0.5)
         assert rec.frames == []

@@ -117,7 +117,7 @@ def test_estop_and_close_return_when_an_slcan_device_stalls() -> None:
 
         def stream() -> None:
             for i in range(100_000):
-                motor.set_angle(float(i % 90), 10, 10, mode=0)
+                motor.set_angle(float(i % 90), 10, 10, mode=0, enable=True)
 
         _, exc, _ = bounded(stream)
         assert isinstance(exc, drempower.TransportError)

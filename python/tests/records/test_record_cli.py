@@ -26,7 +26,7 @@ def test_record_heartbeats_with_joint_names(sim: SimBus, tmp_path: Path, cli: Cl
             reader.deserialize(raw, c.msgtype).name[0] for c, _, raw in reader.messages() if c.topic == "/joint_states"
         )
     # time runs 20x faster in these tests: 0.5 s wall is ~10 s simulated, ~1000 heartbeats each
-    assert names["hip"] > 100 and names["motor2"] > 100 and set(names) == {"hip", "motor2"}
+    assert names["hip"] > 100 and names["motor_2"] > 100 and set(names) == {"hip", "motor_2"}
     assert [m.param(21004) for m in sim.motors.values()] == [0, 0, 0]  # heartbeats set back to 0
 
 

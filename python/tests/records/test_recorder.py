@@ -55,7 +55,7 @@ def test_capture_rate_six_motors_at_1mbit_loses_no_frame(tmp_path: Path) -> None
     # the motors sent only heartbeats (parameter writes have no reply): one joint state each
     assert len(states) == counts["/joint_states"] == counts["/can/rx"]
     per_motor = Counter(m.name[0] for _, m in states)  # type: ignore[attr-defined]
-    assert set(per_motor) == {f"motor{i}" for i in MOTORS}
+    assert set(per_motor) == {f"motor_{i}" for i in MOTORS}  # the naming rule (was motor{i})
     times = sorted(t for t, _ in states)
     window = (times[-1] - times[0]) / 1e9
     rates = {name: n / window for name, n in per_motor.items()}
@@ -81,8 +81,8 @@ def test_states_parameters_and_errors_decode_with_rosbags(tmp_path: Path) -> Non
 
     joint = [m for topic, _, m in msgs if topic == "/joint_states"]
     names = {m.name[0] for m in joint}  # type: ignore[attr-defined]
-    assert "motor2" in names
-    m2 = next(m for m in joint if m.name[0] == "motor2")  # type: ignore[attr-defined]
+    assert "motor_2" in names
+    m2 = next(m for m in joint if m.name[0] == "motor_2")  # type: ignore[attr-defined]
     assert m2.position[0] == pytest.approx(math.radians(st.angle))  # type: ignore[attr-defined]
     assert m2.velocity[0] == pytest.approx(st.speed * 2 * math.pi / 60)  # type: ignore[attr-defined]
 

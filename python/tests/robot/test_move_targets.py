@@ -60,7 +60,7 @@ async def test_async_robot_start_waits_outside_the_event_loop(tmp_path: Path) ->
         ticker = asyncio.ensure_future(tick())
         await asyncio.sleep(0.02)
         t0 = time.monotonic()
-        await robot.set_angles({"a": 1.0, "b": 2.0, "c": 3.0}, speed=0.0, param=20.0, mode=0)
+        await robot.set_angles({"a": 1.0, "b": 2.0, "c": 3.0}, speed=0.0, param=20.0, mode=0, enable=True)
         took = time.monotonic() - t0
         stop.set()
         await ticker

@@ -13,15 +13,15 @@ import logging
 import threading
 from collections.abc import Callable, Sequence
 
-from ..protocol.ids import Cmd, Frame, SysCmd
+from ..protocol.ids import Cmd, Frame
+from ..protocol.limits import MOTION_CMDS as _MOTION
+from ..protocol.limits import START_SYS_CMDS as _STARTS
 from ..transports.base import QueuedTransport, Transport
 from .tunnel import BRIDGE_ORIGIN
 
 __all__ = ["BusHub", "HubPort", "driven_nodes"]
 
 _log = logging.getLogger("drempower.bridge")
-_MOTION = frozenset((Cmd.PRESET, Cmd.POSITION_T, Cmd.POSITION_Q, Cmd.POSITION_P, Cmd.VELOCITY, Cmd.TORQUE))
-_STARTS = frozenset(range(SysCmd.START_T, SysCmd.START_D + 1))
 Publish = Callable[[Sequence[Frame], bytes], None]
 """Called with frames and their origin (empty: from the bus) for the remote hosts."""
 

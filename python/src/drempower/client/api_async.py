@@ -14,9 +14,14 @@ from collections.abc import Iterable, Sequence
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
-from ..protocol.addresses import AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE
+from ..protocol.addresses import (
+    AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE,
+    AXIS0_CURRENT_STATE,
+    AXIS0_REQUESTED_STATE,
+)
 from ..protocol.ids import SysCmd
-from ..protocol.messages import Message
+from ..protocol.messages import Message, PresetD, StartImpedance, Velocity
+from ..protocol.parameters import parameter
 from . import batch, ops
 from .commands import (
     PositionMode,
@@ -24,17 +29,23 @@ from .commands import (
     TrajMode,
     VelocityMode,
     as_list,
+    check_ids,
     make_angle,
     make_impedance,
+    make_impedances,
     make_speed,
+    make_speeds,
     make_torque,
+    make_torques,
 )
 from .effects import Batch, Op, request
 from .flavours import AsyncBusBase
+from .gate import Intent, intents_of, move_intents
 from .motorbase import MotorBase
 from .results import ErrorReport, GpioMode, MotorInfo
 from .session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE
 from .state import MotorState
+from .timed import check_duration
 from .timeouts import checks_times
 
 if TYPE_CHECKING:
@@ -43,9 +54,8 @@ if TYPE_CHECKING:
 __all__ = ["AsyncBus", "AsyncMotor"]
 
 
-def _impedance(node: int, pos: float, vel: float, tff: float, kp: float, kd: float) -> Op[None]:
+def _impedance(preset: PresetD, start: StartImpedance) -> Op[None]:
     """Impedance control of one motor: its preset, then the start addressed to it alone."""
-    preset, start = make_impedance(node, pos, vel, tff, kp, kd)
     yield Batch([preset], start)
 
 
@@ -65,7 +75,7 @@ class AsyncMotor(MotorBase):
     __slots__ = ("_bus",)
 
     def __init__(self, bus: AsyncBus, id: int) -> None:
-        super().__init__(bus.core, id)
+        super().__init__(bus.core, id, bus._gate)
         self._bus = bus
 
     @property
@@ -75,11 +85,18 @@ class AsyncMotor(MotorBase):
 
     # ------------------------------------------------------------------ motion
 
-    async def set_angle(self, angle: float, speed: float = 0.0, param: float = 0.0, mode: int = PositionMode.T) -> None:
+    async def set_angle(
+        self, angle: float, speed: float = 0.0, param: float = 0.0, mode: int = PositionMode.T, *, enable: bool = False
+    ) -> None:
         """Move to ``angle`` deg. mode 0 (T): ``param`` = filter bandwidth 0.01..300 1/s;
         mode 1 (Q): cruise ``speed`` r/min, accel ``param`` (r/min)/s; mode 2 (P):
-        ``speed`` = speed FF r/min, ``param`` = torque FF Nm."""
-        self._core.send(make_angle(self._id, angle, speed, param, mode))
+        ``speed`` = speed FF r/min, ``param`` = torque FF Nm.
+
+        Every motion command passes the safety gate (:mod:`drempower.client.gate`): a motor not in
+        closed loop raises MotorIdleError unless ``enable=True`` (then it is enabled first), a value
+        beyond a soft limit (:meth:`AsyncBus.set_limits`) raises SoftLimitError; nothing is sent then.
+        """
+        await self._bus._gated((make_angle(self._id, angle, speed, param, mode),), enable)
 
     async def step_angle(
         self,
@@ -89,33 +106,75 @@ class AsyncMotor(MotorBase):
         mode: int = PositionMode.T,
         *,
         timeout: float | None = None,
+        enable: bool = False,
     ) -> float | None:
         """Move by ``angle`` deg from where the motor is (preset + relative start).
 
         The start goes to this motor only (bus option ``start``); returns the Q move time (s).
         """
-        return await self._bus.run(
-            batch.move_angles(self._session, [self._id], [angle], speed, param, mode, True, timeout)
-        )
+        return await self._bus.step_angles([self._id], [angle], speed, param, mode, timeout=timeout, enable=enable)
 
-    async def set_speed(self, speed: float, param: float = 0.0, mode: int = VelocityMode.PASSTHROUGH) -> None:
-        """Run at ``speed`` r/min. mode 1: ``param`` = torque FF Nm; mode 2: ramp ``param`` (r/min)/s."""
-        self._core.send(make_speed(self._id, speed, param, mode))
+    async def set_speed(
+        self,
+        speed: float,
+        param: float = 0.0,
+        mode: int = VelocityMode.PASSTHROUGH,
+        *,
+        duration: float | None = None,
+        enable: bool = False,
+    ) -> None:
+        """Run at ``speed`` r/min. mode 1: ``param`` = torque FF Nm; mode 2: ramp ``param`` (r/min)/s.
 
-    async def set_torque(self, torque: float, param: float = 0.0, mode: int = TorqueMode.DIRECT) -> None:
-        """Apply ``torque`` Nm. mode 1: at once; mode 6: ramp at ``param`` Nm/s."""
-        self._core.send(make_torque(self._id, torque, param, mode))
+        With ``duration`` (s) the bus sends speed 0 that long after, by itself (see :mod:`drempower.client.timed`).
+        """
+        msg = make_speed(self._id, speed, param, mode)
+        await self._bus._gated((msg,), enable, duration=check_duration(duration))
+
+    async def set_torque(
+        self,
+        torque: float,
+        param: float = 0.0,
+        mode: int = TorqueMode.DIRECT,
+        *,
+        duration: float | None = None,
+        enable: bool = False,
+    ) -> None:
+        """Apply ``torque`` Nm. mode 1: at once; mode 6: ramp at ``param`` Nm/s.
+
+        With ``duration`` (s) the bus sends torque 0 that long after, by itself.
+        """
+        msg = make_torque(self._id, torque, param, mode)
+        await self._bus._gated((msg,), enable, duration=check_duration(duration))
 
     async def impedance_control(
-        self, pos: float, vel: float = 0.0, tff: float = 0.0, kp: float = 0.0, kd: float = 0.0
+        self, pos: float, vel: float = 0.0, tff: float = 0.0, kp: float = 0.0, kd: float = 0.0, *, enable: bool = False
     ) -> None:
         """Impedance control: ``tff + kp*(pos - P) + kd*(vel - V)``; pos deg, vel r/min, tff Nm,
         kp Nm/rad, kd Nm/(rad/s). The start goes to this motor only (bus option ``start``)."""
-        await self._bus.run(_impedance(self._id, pos, vel, tff, kp, kd))
+        preset, start = make_impedance(self._id, pos, vel, tff, kp, kd)
+        await self._bus._pass((preset,), enable)
+        await self._bus.run(_impedance(preset, start))
+        self._bus._sent((preset,))
+
+    async def stop(self) -> None:
+        """Speed 0 now: the motor holds where it is. Never refused by the safety gate (stopping is always
+        possible); a pending timed stop is dropped (this one came first)."""
+        msg = Velocity(self._id, 0.0)
+        self._core.send(msg)
+        self._bus._sent((msg,))
+
+    async def enable(self) -> None:
+        """Enter closed loop (``set_mode(2)``): motion commands are obeyed from now on."""
+        await self.set_mode(2)
+
+    async def idle(self) -> None:
+        """Release the motor (``set_mode(1)``): it stops driving and can be turned by hand."""
+        await self.set_mode(1)
 
     async def estop(self) -> None:
         """Emergency stop: the motor goes idle and ignores motion until clear_error + set_mode(2)."""
         self._core.estop([self._id])
+        self._gate.forget((self._id,))
 
     async def position_done(
         self,
@@ -173,7 +232,9 @@ class AsyncMotor(MotorBase):
 
     async def set_mode(self, mode: int = 2) -> None:
         """1 (AxisMode.IDLE): release the motor; 2 (AxisMode.CLOSED_LOOP): enable control."""
-        self._core.send(ops.set_mode(self._id, mode))
+        msg = ops.set_mode(self._id, mode)
+        self._core.send(msg)
+        self._gate.note_sent((msg,))
 
     async def set_zero_position(self) -> None:
         """Make the current output position 0 deg."""
@@ -181,7 +242,10 @@ class AsyncMotor(MotorBase):
 
     async def set_GPIO_mode(self, mode: str = "tx_rx", param: float = 115200, *, timeout: float | None = None) -> None:
         """Spare pins as UART (``"tx_rx"``, param = baud) or step/dir (param = pulses); saves and reboots."""
-        await self._bus.run(ops.set_gpio_mode(self._id, mode, param, timeout, self._session.retries))
+        try:
+            await self._bus.run(ops.set_gpio_mode(self._id, mode, param, timeout, self._session.retries))
+        finally:
+            self._gate.forget((self._id,))  # it reboots
 
     async def get_GPIO_mode(self, *, timeout: float | None = None) -> GpioMode:
         """What the spare pins do (M series)."""
@@ -222,10 +286,15 @@ class AsyncMotor(MotorBase):
         await self._bus.run(
             ops.write_property(self._id, property, value, verify, timeout, force, self._session.retries)
         )
+        if parameter(property).address == AXIS0_REQUESTED_STATE:
+            self._gate.learn(self._id, int(value))
 
     async def read_property(self, property: str | int, *, timeout: float | None = None) -> int | float:
         """Read parameter ``property`` (name or address)."""
-        return await self._bus.run(ops.read_property(self._session, self._id, property, timeout))
+        value = await self._bus.run(ops.read_property(self._session, self._id, property, timeout))
+        if parameter(property).address == AXIS0_CURRENT_STATE:
+            self._gate.learn(self._id, int(value))
+        return value
 
     async def enable_reply_state(self, on: bool = True, *, timeout: float | None = None) -> None:
         """Make the motor answer every control frame with its state (31214), verified."""
@@ -329,14 +398,48 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         return AsyncMotor(self, id)
 
     async def send(self, msg: Message) -> None:
-        """Send one message (validated first); never waits for a reply."""
+        """Send one message (validated first); never waits for a reply.
+
+        The raw path: no safety gate (see :mod:`drempower.client.gate`); the motion methods and
+        :meth:`cycle` pass it."""
         self._check_writes([msg])
         await self._send_all([msg])
+        self._sent((msg,))
 
     async def send_many(self, msgs: Sequence[Message]) -> None:
-        """Send several messages; if any is invalid, none is sent."""
+        """Send several messages; if any is invalid, none is sent (raw, as :meth:`send`)."""
         self._check_writes(msgs)
         await self._send_all(msgs)
+        self._sent(msgs)
+
+    async def _pass(self, msgs_or_intents: Sequence[Message] | Sequence[Intent], enable: bool) -> None:
+        """Let motion through the safety gate (one read when a motor's state is unknown), or raise."""
+        intents = [i for i in msgs_or_intents if isinstance(i, Intent)] or intents_of(
+            [m for m in msgs_or_intents if isinstance(m, Message)]
+        )
+        op = self._passage(intents, enable)
+        if op is not None:
+            await self.run(op)
+
+    async def _gated(self, msgs: Sequence[Message], enable: bool, *, duration: float | None = None) -> None:
+        """Send direct motion commands (no start among them) through the safety gate."""
+        op = self._gate_op(msgs, enable)
+        if op is not None:
+            await self.run(op)
+        self._core.send_many(msgs)
+        self._sent(msgs, duration)
+
+    async def enable(self, id_list: Iterable[int]) -> None:
+        """Put the listed motors in closed loop (``set_mode(2)`` each, in one go)."""
+        msgs = [ops.set_mode(n, 2) for n in check_ids(as_list(id_list, "id_list"))]
+        self._core.send_many(msgs)
+        self._gate.note_sent(msgs)
+
+    async def idle(self, id_list: Iterable[int]) -> None:
+        """Release the listed motors (``set_mode(1)`` each, in one go)."""
+        msgs = [ops.set_mode(n, 1) for n in check_ids(as_list(id_list, "id_list"))]
+        self._core.send_many(msgs)
+        self._gate.note_sent(msgs)
 
     async def request(
         self, msgs: Sequence[Message], timeout: float | None = None, *, missing_ok: bool = False
@@ -345,13 +448,17 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
 
         Missing answers raise :class:`~drempower.client.errors.TimeoutError`, or are None with ``missing_ok``.
         """
-        return await self.run(request(list(msgs), timeout, missing_ok))
+        answers = await self.run(request(list(msgs), timeout, missing_ok))
+        self._gate.learn_replies(answers)
+        return answers
 
     # ------------------------------------------------------------------ motors
 
     async def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor (one broadcast frame) when None."""
-        self._core.estop(self._estop_nodes(id_list))
+        nodes = self._estop_nodes(id_list)
+        self._core.estop(nodes)
+        self._gate.forget(nodes)
 
     async def scan(
         self, ids: Iterable[int] = batch.ALL_IDS, *, timeout: float | None = None, versions: bool = False
@@ -360,10 +467,26 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         return await self.run(batch.scan(as_list(ids, "ids"), timeout, versions))
 
     async def cycle(
-        self, commands: Iterable[Message], *, timeout: float | None = None, reply_state: bool | None = None
+        self,
+        commands: Iterable[Message],
+        *,
+        timeout: float | None = None,
+        reply_state: bool | None = None,
+        enable: bool = False,
     ) -> dict[int, MotorState]:
-        """Send one command per motor and return each motor's state (see :func:`drempower.client.batch.cycle`)."""
-        return await self.run(batch.cycle(self._session, self._commands(commands), timeout, reply_state))
+        """Send one command per motor and return each motor's state (see :func:`drempower.client.batch.cycle`).
+
+        The commands pass the safety gate; once their motors are known to be in closed loop that
+        costs no exchange (see :mod:`drempower.client.gate`).
+        """
+        cmds = self._commands(commands)
+        run = batch.cycle(self._session, cmds, timeout, reply_state)  # every command valid before the gate reads
+        op = self._gate_op(cmds, enable)
+        if op is not None:
+            await self.run(op)
+        states = await self.run(run)
+        self._sent(cmds)
+        return states
 
     # ------------------------------------------------------------------ multi-motor (vendor names)
 
@@ -376,6 +499,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         mode: int = PositionMode.Q,
         *,
         timeout: float | None = None,
+        enable: bool = False,
     ) -> float | None:
         """Synchronised absolute move: ``angle_list`` deg for ``id_list``.
 
@@ -385,7 +509,12 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         ``speed`` = speed FF r/min, ``param`` = torque FF Nm. Nothing is sent if
         any value is invalid.
         """
-        return await self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout))
+        await self._pass(move_intents(id_list, angle_list, speed, param, mode, relative=False), enable)
+        result = await self.run(
+            batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout)
+        )
+        self._moved(id_list, angle_list, False)
+        return result
 
     async def step_angles(
         self,
@@ -396,9 +525,15 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         mode: int = PositionMode.Q,
         *,
         timeout: float | None = None,
+        enable: bool = False,
     ) -> float | None:
         """Synchronised relative move by ``angle_list`` deg (see :meth:`set_angles`)."""
-        return await self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout))
+        await self._pass(move_intents(id_list, angle_list, speed, param, mode, relative=True), enable)
+        result = await self.run(
+            batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout)
+        )
+        self._moved(id_list, angle_list, True)
+        return result
 
     async def set_speeds(
         self,
@@ -406,9 +541,18 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         speed_list: Sequence[float],
         param: float = 0.0,
         mode: int = VelocityMode.PASSTHROUGH,
+        *,
+        duration: float | None = None,
+        enable: bool = False,
     ) -> None:
-        """Synchronised speeds (r/min); mode 1: ``param`` = torque FF Nm, mode 2: ramp (r/min)/s."""
+        """Synchronised speeds (r/min); mode 1: ``param`` = torque FF Nm, mode 2: ramp (r/min)/s.
+
+        With ``duration`` (s) the bus sends speed 0 to them that long after, by itself."""
+        presets, _ = make_speeds(id_list, speed_list, param, mode)
+        duration = check_duration(duration)
+        await self._pass(presets, enable)
         await self.run(batch.set_speeds(id_list, speed_list, param, mode))
+        self._sent(presets, duration)
 
     async def set_torques(
         self,
@@ -416,9 +560,18 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         torque_list: Sequence[float],
         param: float = 0.0,
         mode: int = TorqueMode.DIRECT,
+        *,
+        duration: float | None = None,
+        enable: bool = False,
     ) -> None:
-        """Synchronised torques (Nm); mode 1: direct, mode 6: ramp ``param`` Nm/s."""
+        """Synchronised torques (Nm); mode 1: direct, mode 6: ramp ``param`` Nm/s.
+
+        With ``duration`` (s) the bus sends torque 0 to them that long after, by itself."""
+        presets, _ = make_torques(id_list, torque_list, param, mode)
+        duration = check_duration(duration)
+        await self._pass(presets, enable)
         await self.run(batch.set_torques(id_list, torque_list, param, mode))
+        self._sent(presets, duration)
 
     async def impedance_controls(
         self,
@@ -428,10 +581,15 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         tff: float = 0.0,
         kp: float = 0.0,
         kd: float = 0.0,
+        *,
+        enable: bool = False,
     ) -> None:
         """Impedance control of several motors started together: each holds its ``pos_list`` deg;
         ``vel`` r/min, ``tff`` Nm, ``kp`` Nm/rad and ``kd`` Nm/(rad/s) are shared (one start)."""
+        presets, _ = make_impedances(id_list, pos_list, vel, tff, kp, kd)
+        await self._pass(presets, enable)
         await self.run(batch.impedance_controls(id_list, pos_list, vel, tff, kp, kd))
+        self._sent(presets)
 
     async def positions_done(
         self,

@@ -11,9 +11,14 @@ from collections.abc import Iterable, Sequence
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
-from ..protocol.addresses import AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE
+from ..protocol.addresses import (
+    AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE,
+    AXIS0_CURRENT_STATE,
+    AXIS0_REQUESTED_STATE,
+)
 from ..protocol.ids import SysCmd
-from ..protocol.messages import Message
+from ..protocol.messages import Message, PresetD, StartImpedance, Velocity
+from ..protocol.parameters import parameter
 from . import batch, ops
 from .commands import (
     PositionMode,
@@ -21,17 +26,23 @@ from .commands import (
     TrajMode,
     VelocityMode,
     as_list,
+    check_ids,
     make_angle,
     make_impedance,
+    make_impedances,
     make_speed,
+    make_speeds,
     make_torque,
+    make_torques,
 )
 from .effects import Batch, Op, request
 from .flavours import SyncBusBase
+from .gate import Intent, intents_of, move_intents
 from .motorbase import MotorBase
 from .results import ErrorReport, GpioMode, MotorInfo
 from .session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE
 from .state import MotorState
+from .timed import check_duration
 from .timeouts import checks_times
 
 if TYPE_CHECKING:
@@ -40,9 +51,8 @@ if TYPE_CHECKING:
 __all__ = ["Bus", "Motor"]
 
 
-def _impedance(node: int, pos: float, vel: float, tff: float, kp: float, kd: float) -> Op[None]:
+def _impedance(preset: PresetD, start: StartImpedance) -> Op[None]:
     """Impedance control of one motor: its preset, then the start addressed to it alone."""
-    preset, start = make_impedance(node, pos, vel, tff, kp, kd)
     yield Batch([preset], start)
 
 
@@ -62,7 +72,7 @@ class Motor(MotorBase):
     __slots__ = ("_bus",)
 
     def __init__(self, bus: Bus, id: int) -> None:
-        super().__init__(bus.core, id)
+        super().__init__(bus.core, id, bus._gate)
         self._bus = bus
 
     @property
@@ -72,11 +82,18 @@ class Motor(MotorBase):
 
     # ------------------------------------------------------------------ motion
 
-    def set_angle(self, angle: float, speed: float = 0.0, param: float = 0.0, mode: int = PositionMode.T) -> None:
+    def set_angle(
+        self, angle: float, speed: float = 0.0, param: float = 0.0, mode: int = PositionMode.T, *, enable: bool = False
+    ) -> None:
         """Move to ``angle`` deg. mode 0 (T): ``param`` = filter bandwidth 0.01..300 1/s;
         mode 1 (Q): cruise ``speed`` r/min, accel ``param`` (r/min)/s; mode 2 (P):
-        ``speed`` = speed FF r/min, ``param`` = torque FF Nm."""
-        self._core.send(make_angle(self._id, angle, speed, param, mode))
+        ``speed`` = speed FF r/min, ``param`` = torque FF Nm.
+
+        Every motion command passes the safety gate (:mod:`drempower.client.gate`): a motor not in
+        closed loop raises MotorIdleError unless ``enable=True`` (then it is enabled first), a value
+        beyond a soft limit (:meth:`Bus.set_limits`) raises SoftLimitError; nothing is sent then.
+        """
+        self._bus._gated((make_angle(self._id, angle, speed, param, mode),), enable)
 
     def step_angle(
         self,
@@ -86,31 +103,75 @@ class Motor(MotorBase):
         mode: int = PositionMode.T,
         *,
         timeout: float | None = None,
+        enable: bool = False,
     ) -> float | None:
         """Move by ``angle`` deg from where the motor is (preset + relative start).
 
         The start goes to this motor only (bus option ``start``); returns the Q move time (s).
         """
-        return self._bus.run(batch.move_angles(self._session, [self._id], [angle], speed, param, mode, True, timeout))
+        return self._bus.step_angles([self._id], [angle], speed, param, mode, timeout=timeout, enable=enable)
 
-    def set_speed(self, speed: float, param: float = 0.0, mode: int = VelocityMode.PASSTHROUGH) -> None:
-        """Run at ``speed`` r/min. mode 1: ``param`` = torque FF Nm; mode 2: ramp ``param`` (r/min)/s."""
-        self._core.send(make_speed(self._id, speed, param, mode))
+    def set_speed(
+        self,
+        speed: float,
+        param: float = 0.0,
+        mode: int = VelocityMode.PASSTHROUGH,
+        *,
+        duration: float | None = None,
+        enable: bool = False,
+    ) -> None:
+        """Run at ``speed`` r/min. mode 1: ``param`` = torque FF Nm; mode 2: ramp ``param`` (r/min)/s.
 
-    def set_torque(self, torque: float, param: float = 0.0, mode: int = TorqueMode.DIRECT) -> None:
-        """Apply ``torque`` Nm. mode 1: at once; mode 6: ramp at ``param`` Nm/s."""
-        self._core.send(make_torque(self._id, torque, param, mode))
+        With ``duration`` (s) the bus sends speed 0 that long after, by itself (see :mod:`drempower.client.timed`).
+        """
+        msg = make_speed(self._id, speed, param, mode)
+        self._bus._gated((msg,), enable, duration=check_duration(duration))
+
+    def set_torque(
+        self,
+        torque: float,
+        param: float = 0.0,
+        mode: int = TorqueMode.DIRECT,
+        *,
+        duration: float | None = None,
+        enable: bool = False,
+    ) -> None:
+        """Apply ``torque`` Nm. mode 1: at once; mode 6: ramp at ``param`` Nm/s.
+
+        With ``duration`` (s) the bus sends torque 0 that long after, by itself.
+        """
+        msg = make_torque(self._id, torque, param, mode)
+        self._bus._gated((msg,), enable, duration=check_duration(duration))
 
     def impedance_control(
-        self, pos: float, vel: float = 0.0, tff: float = 0.0, kp: float = 0.0, kd: float = 0.0
+        self, pos: float, vel: float = 0.0, tff: float = 0.0, kp: float = 0.0, kd: float = 0.0, *, enable: bool = False
     ) -> None:
         """Impedance control: ``tff + kp*(pos - P) + kd*(vel - V)``; pos deg, vel r/min, tff Nm,
         kp Nm/rad, kd Nm/(rad/s). The start goes to this motor only (bus option ``start``)."""
-        self._bus.run(_impedance(self._id, pos, vel, tff, kp, kd))
+        preset, start = make_impedance(self._id, pos, vel, tff, kp, kd)
+        self._bus._pass((preset,), enable)
+        self._bus.run(_impedance(preset, start))
+        self._bus._sent((preset,))
+
+    def stop(self) -> None:
+        """Speed 0 now: the motor holds where it is. Never refused by the safety gate (stopping is always
+        possible); a pending timed stop is dropped (this one came first)."""
+        msg = Velocity(self._id, 0.0)
+        self._core.send(msg)
+        self._bus._sent((msg,))
+
+    def enable(self) -> None:
+        """Enter closed loop (``set_mode(2)``): motion commands are obeyed from now on."""
+        self.set_mode(2)
+
+    def idle(self) -> None:
+        """Release the motor (``set_mode(1)``): it stops driving and can be turned by hand."""
+        self.set_mode(1)
 
     def estop(self) -> None:
         """Emergency stop: the motor goes idle and ignores motion until clear_error + set_mode(2)."""
         self._core.estop([self._id])
+        self._gate.forget((self._id,))
 
     def position_done(
         self,
@@ -166,7 +227,9 @@ class Motor(MotorBase):
 
     def set_mode(self, mode: int = 2) -> None:
         """1 (AxisMode.IDLE): release the motor; 2 (AxisMode.CLOSED_LOOP): enable control."""
-        self._core.send(ops.set_mode(self._id, mode))
+        msg = ops.set_mode(self._id, mode)
+        self._core.send(msg)
+        self._gate.note_sent((msg,))
 
     def set_zero_position(self) -> None:
         """Make the current output position 0 deg."""
@@ -174,7 +237,10 @@ class Motor(MotorBase):
 
     def set_GPIO_mode(self, mode: str = "tx_rx", param: float = 115200, *, timeout: float | None = None) -> None:
         """Spare pins as UART (``"tx_rx"``, param = baud) or step/dir (param = pulses); saves and reboots."""
-        self._bus.run(ops.set_gpio_mode(self._id, mode, param, timeout, self._session.retries))
+        try:
+            self._bus.run(ops.set_gpio_mode(self._id, mode, param, timeout, self._session.retries))
+        finally:
+            self._gate.forget((self._id,))  # it reboots
 
     def get_GPIO_mode(self, *, timeout: float | None = None) -> GpioMode:
         """What the spare pins do (M series)."""
@@ -213,10 +279,15 @@ class Motor(MotorBase):
         times, then raises VerifyError.
         """
         self._bus.run(ops.write_property(self._id, property, value, verify, timeout, force, self._session.retries))
+        if parameter(property).address == AXIS0_REQUESTED_STATE:
+            self._gate.learn(self._id, int(value))
 
     def read_property(self, property: str | int, *, timeout: float | None = None) -> int | float:
         """Read parameter ``property`` (name or address)."""
-        return self._bus.run(ops.read_property(self._session, self._id, property, timeout))
+        value = self._bus.run(ops.read_property(self._session, self._id, property, timeout))
+        if parameter(property).address == AXIS0_CURRENT_STATE:
+            self._gate.learn(self._id, int(value))
+        return value
 
     def enable_reply_state(self, on: bool = True, *, timeout: float | None = None) -> None:
         """Make the motor answer every control frame with its state (31214), verified."""
@@ -320,27 +391,65 @@ class Bus(SyncBusBase[Motor]):
         return Motor(self, id)
 
     def send(self, msg: Message) -> None:
-        """Send one message (validated first); never waits for a reply."""
+        """Send one message (validated first); never waits for a reply.
+
+        The raw path: no safety gate (see :mod:`drempower.client.gate`); the motion methods and
+        :meth:`cycle` pass it."""
         self._check_writes([msg])
         self._send_all([msg])
+        self._sent((msg,))
 
     def send_many(self, msgs: Sequence[Message]) -> None:
-        """Send several messages; if any is invalid, none is sent."""
+        """Send several messages; if any is invalid, none is sent (raw, as :meth:`send`)."""
         self._check_writes(msgs)
         self._send_all(msgs)
+        self._sent(msgs)
+
+    def _pass(self, msgs_or_intents: Sequence[Message] | Sequence[Intent], enable: bool) -> None:
+        """Let motion through the safety gate (one read when a motor's state is unknown), or raise."""
+        intents = [i for i in msgs_or_intents if isinstance(i, Intent)] or intents_of(
+            [m for m in msgs_or_intents if isinstance(m, Message)]
+        )
+        op = self._passage(intents, enable)
+        if op is not None:
+            self.run(op)
+
+    def _gated(self, msgs: Sequence[Message], enable: bool, *, duration: float | None = None) -> None:
+        """Send direct motion commands (no start among them) through the safety gate."""
+        op = self._gate_op(msgs, enable)
+        if op is not None:
+            self.run(op)
+        self._core.send_many(msgs)
+        self._sent(msgs, duration)
+
+    def enable(self, id_list: Iterable[int]) -> None:
+        """Put the listed motors in closed loop (``set_mode(2)`` each, in one go)."""
+        msgs = [ops.set_mode(n, 2) for n in check_ids(as_list(id_list, "id_list"))]
+        self._core.send_many(msgs)
+        self._gate.note_sent(msgs)
+
+    def idle(self, id_list: Iterable[int]) -> None:
+        """Release the listed motors (``set_mode(1)`` each, in one go)."""
+        msgs = [ops.set_mode(n, 1) for n in check_ids(as_list(id_list, "id_list"))]
+        self._core.send_many(msgs)
+        self._gate.note_sent(msgs)
 
     def request(self, msgs: Sequence[Message], timeout: float | None = None, *, missing_ok: bool = False) -> list[Any]:
         """Send reads/fast reads and return their answers (ParamValue / MotorState) in order.
 
         Missing answers raise :class:`~drempower.client.errors.TimeoutError`, or are None with ``missing_ok``.
         """
-        return self.run(request(list(msgs), timeout, missing_ok))
+        answers = self.run(request(list(msgs), timeout, missing_ok))
+        self._gate.learn_replies(answers)
+        return answers
 
     # ------------------------------------------------------------------ motors
 
     def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor (one broadcast frame) when None."""
-        self._core.estop(self._estop_nodes(id_list))
+        nodes = self._estop_nodes(id_list)
+        self._core.estop(nodes)
+        self._gate.forget(nodes)
 
     def scan(
         self, ids: Iterable[int] = batch.ALL_IDS, *, timeout: float | None = None, versions: bool = False
@@ -349,10 +458,26 @@ class Bus(SyncBusBase[Motor]):
         return self.run(batch.scan(as_list(ids, "ids"), timeout, versions))
 
     def cycle(
-        self, commands: Iterable[Message], *, timeout: float | None = None, reply_state: bool | None = None
+        self,
+        commands: Iterable[Message],
+        *,
+        timeout: float | None = None,
+        reply_state: bool | None = None,
+        enable: bool = False,
     ) -> dict[int, MotorState]:
-        """Send one command per motor and return each motor's state (see :func:`drempower.client.batch.cycle`)."""
-        return self.run(batch.cycle(self._session, self._commands(commands), timeout, reply_state))
+        """Send one command per motor and return each motor's state (see :func:`drempower.client.batch.cycle`).
+
+        The commands pass the safety gate; once their motors are known to be in closed loop that
+        costs no exchange (see :mod:`drempower.client.gate`).
+        """
+        cmds = self._commands(commands)
+        run = batch.cycle(self._session, cmds, timeout, reply_state)  # every command valid before the gate reads
+        op = self._gate_op(cmds, enable)
+        if op is not None:
+            self.run(op)
+        states = self.run(run)
+        self._sent(cmds)
+        return states
 
     # ------------------------------------------------------------------ multi-motor (vendor names)
 
@@ -365,6 +490,7 @@ class Bus(SyncBusBase[Motor]):
         mode: int = PositionMode.Q,
         *,
         timeout: float | None = None,
+        enable: bool = False,
     ) -> float | None:
         """Synchronised absolute move: ``angle_list`` deg for ``id_list``.
 
@@ -374,7 +500,10 @@ class Bus(SyncBusBase[Motor]):
         ``speed`` = speed FF r/min, ``param`` = torque FF Nm. Nothing is sent if
         any value is invalid.
         """
-        return self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout))
+        self._pass(move_intents(id_list, angle_list, speed, param, mode, relative=False), enable)
+        result = self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout))
+        self._moved(id_list, angle_list, False)
+        return result
 
     def step_angles(
         self,
@@ -385,9 +514,13 @@ class Bus(SyncBusBase[Motor]):
         mode: int = PositionMode.Q,
         *,
         timeout: float | None = None,
+        enable: bool = False,
     ) -> float | None:
         """Synchronised relative move by ``angle_list`` deg (see :meth:`set_angles`)."""
-        return self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout))
+        self._pass(move_intents(id_list, angle_list, speed, param, mode, relative=True), enable)
+        result = self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout))
+        self._moved(id_list, angle_list, True)
+        return result
 
     def set_speeds(
         self,
@@ -395,9 +528,18 @@ class Bus(SyncBusBase[Motor]):
         speed_list: Sequence[float],
         param: float = 0.0,
         mode: int = VelocityMode.PASSTHROUGH,
+        *,
+        duration: float | None = None,
+        enable: bool = False,
     ) -> None:
-        """Synchronised speeds (r/min); mode 1: ``param`` = torque FF Nm, mode 2: ramp (r/min)/s."""
+        """Synchronised speeds (r/min); mode 1: ``param`` = torque FF Nm, mode 2: ramp (r/min)/s.
+
+        With ``duration`` (s) the bus sends speed 0 to them that long after, by itself."""
+        presets, _ = make_speeds(id_list, speed_list, param, mode)
+        duration = check_duration(duration)
+        self._pass(presets, enable)
         self.run(batch.set_speeds(id_list, speed_list, param, mode))
+        self._sent(presets, duration)
 
     def set_torques(
         self,
@@ -405,9 +547,18 @@ class Bus(SyncBusBase[Motor]):
         torque_list: Sequence[float],
         param: float = 0.0,
         mode: int = TorqueMode.DIRECT,
+        *,
+        duration: float | None = None,
+        enable: bool = False,
     ) -> None:
-        """Synchronised torques (Nm); mode 1: direct, mode 6: ramp ``param`` Nm/s."""
+        """Synchronised torques (Nm); mode 1: direct, mode 6: ramp ``param`` Nm/s.
+
+        With ``duration`` (s) the bus sends torque 0 to them that long after, by itself."""
+        presets, _ = make_torques(id_list, torque_list, param, mode)
+        duration = check_duration(duration)
+        self._pass(presets, enable)
         self.run(batch.set_torques(id_list, torque_list, param, mode))
+        self._sent(presets, duration)
 
     def impedance_controls(
         self,
@@ -417,10 +568,15 @@ class Bus(SyncBusBase[Motor]):
         tff: float = 0.0,
         kp: float = 0.0,
         kd: float = 0.0,
+        *,
+        enable: bool = False,
     ) -> None:
         """Impedance control of several motors started together: each holds its ``pos_list`` deg;
         ``vel`` r/min, ``tff`` Nm, ``kp`` Nm/rad and ``kd`` Nm/(rad/s) are shared (one start)."""
+        presets, _ = make_impedances(id_list, pos_list, vel, tff, kp, kd)
+        self._pass(presets, enable)
         self.run(batch.impedance_controls(id_list, pos_list, vel, tff, kp, kd))
+        self._sent(presets)
 
     def positions_done(
         self,

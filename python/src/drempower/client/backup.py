@@ -29,6 +29,7 @@ from ..protocol.addresses import (
     CONFIG_UART_BAUDRATE,
 )
 from ..protocol.ids import SysCmd
+from ..protocol.limits import is_motor
 from ..protocol.messages import ParamValue, ReadParam, SystemCommand, WriteParam
 from ..protocol.parameters import Access, DataType, Parameter, encode_value, find_parameter, parameters
 from .effects import Op, Send, read_states, request
@@ -127,7 +128,7 @@ class ConfigBackup:
         if doc.get("format") != FORMAT or doc.get("version") != VERSION:
             raise BackupFileError(f"not a {FORMAT} version {VERSION} document")
         node = doc.get("node")
-        if node.__class__ is not int or not 1 <= node <= 63:
+        if not is_motor(node):
             raise BackupFileError(f"node={node!r}: expected a motor id 1..63")
         created = doc.get("created")
         if not isinstance(created, str):

@@ -8,6 +8,7 @@ from collections.abc import Collection, Iterable, Sequence
 from ..errors import FieldRangeError, ValidationError
 from ..protocol.addresses import AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE
 from ..protocol.ids import Frame
+from ..protocol.limits import MOTION_CMDS, MOTOR_IDS
 from ..protocol.messages import S16_MAX, FastRead, Message, ReadParam
 from ..protocol.parameters import DataType
 from .commands import (
@@ -23,12 +24,12 @@ from .commands import (
 from .effects import Batch, Cycle, Op, Runnable, read_states, request
 from .ops import traj_modes
 from .results import MotorInfo
-from .session import MOTION_CMDS, BusSession
+from .session import BusSession
 from .state import MotorState
 
 __all__ = ["move_angles", "set_speeds", "set_torques", "cycle", "scan", "ALL_IDS"]
 
-ALL_IDS = range(1, 64)
+ALL_IDS = MOTOR_IDS
 _REPLY_STATE = AXIS0_CONFIG_EXTRA_SETTING_ENABLE_REPLY_STATE
 
 

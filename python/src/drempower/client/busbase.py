@@ -9,12 +9,16 @@ from typing import Generic, TypeVar
 
 from ..errors import ValidationError
 from ..protocol.ids import Frame, check_node
+from ..protocol.limits import check_motor
 from ..protocol.messages import FastRead, Message, ReadParam, WriteParam
 from ..protocol.parameters import find_parameter
 from ..transports.base import Transport
 from .driver import BusDriver
+from .effects import Op
+from .gate import Intent, Limit, MotionGate, intents_of
 from .session import DEFAULT_TIMEOUT, BusSession, StartPolicy, StopOnClose
 from .state import MotorState, StateCallback, Subscription
+from .timed import TimedStops
 from .timeouts import seconds
 
 __all__ = ["BusBase"]
@@ -54,6 +58,8 @@ class BusBase(ABC, Generic[M]):
         self._session.check_request = self._check_broadcast_reads
         self._motors: dict[int, M] = {}
         self._motors_lock = threading.Lock()
+        self._gate = MotionGate()
+        self._timed = TimedStops(self._core)
 
     @abstractmethod
     def _new_motor(self, id: int) -> M:
@@ -100,6 +106,70 @@ class BusBase(ABC, Generic[M]):
                     f"a read addressed to every motor (id 0) is ambiguous on a bus with motors {ids}: "
                     "read each motor by its id"
                 )
+
+    # ------------------------------------------------------------------ the safety gate (see drempower.client.gate)
+
+    def set_limits(
+        self,
+        id: int,
+        *,
+        position: tuple[float, float] | None = None,
+        speed: float | None = None,
+        torque: float | None = None,
+        accel: float | None = None,
+        max_step: float | None = None,
+        where: str | None = None,
+    ) -> None:
+        """Set the soft limits of motor ``id`` (replacing its earlier ones; None: no such limit).
+
+        ``position`` (low, high) deg, ``speed`` r/min, ``torque`` Nm, ``accel`` (r/min)/s (by
+        magnitude) and ``max_step``, the largest step (deg) a single position command may make
+        from the last known position. A motion command beyond one raises
+        :class:`~drempower.errors.SoftLimitError` naming it and ``where`` it was set (default:
+        this call), before any frame is sent.
+        """
+        check_motor(id, "id")
+        given = {"position": position, "speed": speed, "torque": torque, "accel": accel, "max_step": max_step}
+        if where is None:
+            args = ", ".join(f"{k}={v!r}" for k, v in given.items() if v is not None)
+            where = f"bus.set_limits({id}{', ' if args else ''}{args})"
+        self._gate.set_limits(id, where, **given)
+
+    def limits(self, id: int) -> dict[str, Limit]:
+        """The soft limits of motor ``id`` (see :meth:`set_limits`): name -> :class:`~drempower.client.gate.Limit`."""
+        return dict(self._gate.limits(id))
+
+    def _passage(self, intents: Sequence[Intent], enable: bool, timeout: float | None = None) -> Op[None] | None:
+        """None when ``intents`` pass the gate as they are; else the operation that reads what it needs,
+        enables (``enable``) or raises MotorIdleError / SoftLimitError (nothing sent)."""
+        if enable.__class__ is not bool:
+            raise ValidationError(f"enable={enable!r}: expected True or False")
+        return self._gate.passage(intents, self._core.states, enable, timeout)
+
+    def _gate_op(self, msgs: Sequence[Message], enable: bool) -> Op[None] | None:
+        """:meth:`_passage` of motion messages, with the fast path of motors known in closed loop."""
+        if enable.__class__ is bool and self._gate.clear(msgs, self._core.states):
+            return None
+        return self._passage(intents_of(msgs), enable)
+
+    def _sent(self, msgs: Sequence[Message], duration: float | None = None) -> None:
+        """Note what a motion call sent (the gate learns targets; a pending timed stop of its motors ends);
+        with ``duration`` (s), schedule the stop of the speeds/torques sent."""
+        self._gate.note_sent(msgs)
+        self._timed.commanded(msgs, duration)
+
+    def send_frames(self, frames: Sequence[Frame]) -> None:
+        """Send raw CAN frames as given, in order, never waiting (for frames the protocol does not define:
+        nothing is checked, the session learns nothing from them; use :meth:`send` for messages)."""
+        self._core._send_frames(list(frames))
+
+    def _moved(self, ids: Sequence[int], angles: Sequence[float], relative: bool) -> None:
+        """Note a synchronised move's targets (a step leaves its motors' targets unknown)."""
+        if relative:
+            self._gate.forget_targets(ids)
+        else:
+            self._gate.note_targets(ids, angles)
+        self._timed.cancel(ids)
 
     def motor(self, id: int) -> M:
         """The handle of motor ``id`` (1..63; 0 addresses every motor, reads need a single motor)."""

@@ -15,6 +15,7 @@ from typing import Any
 from ..errors import FieldRangeError, ValidationError
 from ..protocol.enums import TorqueMode, TrajMode, VelocityMode
 from ..protocol.ids import MAX_NODE, StartKind
+from ..protocol.limits import MIN_MOTOR, check_speed, check_torque, is_motor
 from ..protocol.messages import (
     S16_MAX,
     Message,
@@ -174,8 +175,8 @@ def check_ids(ids: Sequence[int], values: Sequence[float] | None = None, what: s
     if not out:
         raise ValidationError("id_list is empty")
     for i in out:
-        if i.__class__ is not int or not 1 <= i <= MAX_NODE:
-            raise FieldRangeError("id", i, 1, MAX_NODE, "multi-motor commands address motors 1..63")
+        if not is_motor(i):
+            raise FieldRangeError("id", i, MIN_MOTOR, MAX_NODE, "multi-motor commands address motors 1..63")
     if len(set(out)) != len(out):
         raise ValidationError(f"id_list {out} names a motor twice")
     if values is not None:
@@ -211,7 +212,7 @@ def make_speed(node: int, speed: float, param: float = 0.0, mode: int = Velocity
     vendor does); mode 2: ``param`` = ramp rate (r/min)/s.
     """
     m = velocity_mode(mode)
-    speed = check_f32(speed, "speed")
+    speed = check_speed(check_f32(speed, "speed"), "speed", speed)
     if m is VelocityMode.RAMP:
         param = _positive(param, "param (ramp rate)")
     else:
@@ -223,7 +224,7 @@ def make_speed(node: int, speed: float, param: float = 0.0, mode: int = Velocity
 def make_torque(node: int, torque: float, param: float = 0.0, mode: int = TorqueMode.DIRECT) -> Torque:
     """Apply ``torque`` Nm (vendor ``set_torque``). mode 1: direct; mode 6: ramp at ``param`` Nm/s."""
     m = torque_mode(mode)
-    torque = check_f32(torque, "torque")
+    torque = check_torque(check_f32(torque, "torque"), "torque", torque)
     return Torque(node, torque, _torque_param(param, m), m)
 
 
@@ -330,7 +331,7 @@ def make_speeds(
     prm = _positive(param, "param (ramp rate)") if m is VelocityMode.RAMP else check_s16(param, "param")
     presets: list[Message] = []
     for n, s in zip(nodes, speeds, strict=True):
-        v = check_f32(s, f"speed_list (motor {n})")
+        v = check_speed(check_f32(s, f"speed_list (motor {n})"), f"speed_list (motor {n})", s)
         presets.append(PresetV(n, v, 0.0 if (m is VelocityMode.PASSTHROUGH and v == 0) else prm, m))
     return presets, Start(0, StartKind.V)
 
@@ -343,6 +344,7 @@ def make_torques(
     m = torque_mode(mode)
     prm = _torque_param(param, m)
     presets: list[Message] = [
-        PresetC(n, check_f32(t, f"torque_list (motor {n})"), prm, m) for n, t in zip(nodes, torques, strict=True)
+        PresetC(n, check_torque(check_f32(t, f"torque_list (motor {n})"), f"torque_list (motor {n})", t), prm, m)
+        for n, t in zip(nodes, torques, strict=True)
     ]
     return presets, Start(0, StartKind.C)

@@ -23,6 +23,7 @@ from .commands import (
     make_torque,
 )
 from .driver import BusDriver
+from .gate import MotionGate
 from .session import BusSession
 from .state import MotorState, StateCallback, Subscription
 
@@ -32,12 +33,13 @@ __all__ = ["MotorBase"]
 class MotorBase:
     """What both motor handles share: the id, command builders and the cached state (no I/O)."""
 
-    __slots__ = ("_core", "_id", "_session")
+    __slots__ = ("_core", "_gate", "_id", "_session")
 
-    def __init__(self, core: BusDriver, id: int) -> None:
+    def __init__(self, core: BusDriver, id: int, gate: MotionGate | None = None) -> None:
         self._core = core
         self._session: BusSession = core.session
         self._id = id
+        self._gate = MotionGate() if gate is None else gate
 
     @property
     def id(self) -> int:
@@ -74,7 +76,9 @@ class MotorBase:
         return self._core.states.subscribe(callback, self._id)
 
     def _system(self, op: SysCmd) -> None:
-        self._core.send(SystemCommand(self._id, op))
+        msg = SystemCommand(self._id, op)
+        self._core.send(msg)
+        self._gate.note_sent((msg,))
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self._id}>"

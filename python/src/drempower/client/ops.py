@@ -13,7 +13,8 @@ from ..protocol.addresses import (
     AXIS0_OUTPUT_SHAFT_CIRCULAR_SETPOINT_MIN,
     AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE,
 )
-from ..protocol.ids import MAX_NODE, SysCmd
+from ..protocol.ids import SysCmd
+from ..protocol.limits import check_motor
 from ..protocol.messages import FastRead, ReadParam, SystemCommand, WriteParam
 from ..protocol.parameters import DataType, Parameter, parameter
 from .commands import AxisMode, TrajMode
@@ -157,8 +158,7 @@ def set_id(core: BusSession, node: int, new_id: int, timeout: float | None = Non
     Before writing: the motor must answer at ``node`` (any motor, for broadcast 0)
     and no motor may answer at ``new_id``, so two motors never end up sharing an id.
     """
-    if new_id.__class__ is not int or not 1 <= new_id <= MAX_NODE:
-        raise FieldRangeError("new_id", new_id, 1, MAX_NODE, "motor ids are 1..63")
+    check_motor(new_id, "new_id")
     write = WriteParam.of(node, "axis0.config.can_node_id", new_id)
     if new_id == node:
         (present,) = yield from read_states([node], timeout, missing_ok=True)

@@ -38,6 +38,7 @@ from ..protocol.addresses import (
     AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE,
 )
 from ..protocol.ids import Frame, SysCmd
+from ..protocol.limits import MOTION_CMDS
 from ..protocol.messages import (
     FastRead,
     Message,
@@ -98,8 +99,6 @@ ASSUMED_BITRATE = 125_000
 """Bit rate (bit/s) assumed when the transport does not know the bus's: the slowest the motors use."""
 ZERO_REPLY_GRACE = 0.01
 """How long (s) a parameter reply of value 0 is held back once another host is seen on the bus."""
-MOTION_CMDS = frozenset((0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D))
-"""Preset and control commands: they move motors, and with enable_reply_state on each is answered by a state."""
 
 StartPolicy = Literal["auto", "broadcast", "node"]
 """Where start commands go: see :class:`BusSession`."""

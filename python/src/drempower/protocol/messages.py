@@ -23,6 +23,7 @@ from typing import ClassVar, NoReturn, TypeAlias
 from ..errors import FieldRangeError, ProtocolError, ValidationError
 from .enums import TorqueMode, VelocityMode
 from .ids import BROADCAST, MAX_NODE, Cmd, Frame, StartKind, SysCmd
+from .limits import MOTOR_RANGE_TEXT, S16_MAX, S16_MIN
 from .parameters import F32_MAX, DataType, Parameter, encode_value, parameter
 
 __all__ = [
@@ -57,10 +58,6 @@ __all__ = [
     "check_f32",
 ]
 
-S16_MIN = -327.68
-"""Smallest value of an s16 field scaled by 0.01."""
-S16_MAX = 327.67
-"""Largest value of an s16 field scaled by 0.01."""
 
 _FSS = struct.Struct("<fhh")
 _FSU = struct.Struct("<fhH")
@@ -93,7 +90,7 @@ _FAST_READS = tuple(_frame((node << 5) | 0x1E, _ZERO8) for node in range(MAX_NOD
 def _node(node: int) -> int:
     if node.__class__ is int and 0 <= node <= MAX_NODE:
         return node
-    raise FieldRangeError("node", node, 0, MAX_NODE, "motor ids are 0..63, 0 is broadcast")
+    raise FieldRangeError("node", node, 0, MAX_NODE, MOTOR_RANGE_TEXT)
 
 
 def _s16(value: float, field: str) -> int:

@@ -18,12 +18,13 @@ from dataclasses import dataclass
 
 from ..protocol.enums import TorqueMode, VelocityMode
 from ..protocol.ids import MAX_NODE, Cmd, SysCmd
+from ..protocol.limits import S16_MAX, S16_MIN
 from ..protocol.parameters import DataType, parameters
 
 __all__ = ["dbc_text", "write_dbc", "parse_nodes"]
 
 _F32 = (-3.4e38, 3.4e38)
-_S16 = (-327.68, 327.67)
+_S16 = (S16_MIN, S16_MAX)
 
 
 @dataclass(frozen=True)

@@ -15,6 +15,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from ..errors import ProtocolError
+from ..naming import motor_name
 from ..protocol.flags import ERROR_WORDS, decode_error_word
 from ..protocol.ids import Frame
 from ..protocol.messages import ParamValue, State, decode_reply
@@ -84,7 +85,7 @@ class FrameEvents:
                     "/joint_states",
                     {
                         "header": header,
-                        "name": [self.names.get(node) or f"motor{node}"],
+                        "name": [motor_name(node, named=self.names.get(node))],
                         "position": [reply.position * _DEG / gear + offset],
                         "velocity": [reply.speed * _RPM / gear],
                         "effort": [reply.torque * gear],

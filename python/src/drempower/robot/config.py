@@ -15,6 +15,13 @@
     id = 1
     gear = -1.0                # motor output turns per joint turn (sign: direction)
     offset = 0.5               # joint position (rad) when the motor reads 0 deg
+    limits = { position = [-1.5, 1.5], speed = 2.0, torque = 5.0, accel = 10.0, max_step = 0.2 }
+    on_timeout = "hold"        # when its controller is gone: "hold" (default) or "idle"
+
+``limits`` are soft limits at the joint (rad, rad/s, Nm, rad/s^2, rad; each optional):
+a command beyond one is refused before any frame, naming the file and the joint
+(see :mod:`drempower.client.gate`). ``on_timeout`` is what the command watchdog
+(:mod:`drempower.client.watchdog`) does to the joint when its controller is gone.
 
 Every key of a bus entry but ``interface`` goes to :func:`drempower.open_bus`
 (``channel``, ``bitrate``, ``host``, ``port``, ``timeout``, ``time_scale``...).
@@ -46,7 +53,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ..errors import ConfigError
-from ..protocol.ids import MAX_NODE
+from ..protocol.limits import MAX_NODE, is_motor
 from ..protocol.parameters import parameter
 
 if sys.version_info >= (3, 11):
@@ -69,6 +76,12 @@ __all__ = [
 JOINT_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
 """What a joint or bus name looks like: it starts with a letter or ``_``, so it never reads as a motor id."""
 _JOINT_KEYS = frozenset(("bus", "id", "gear", "offset"))
+# the safety keys of a joint: soft limits and the watchdog's action
+_SAFETY_KEYS = frozenset(("limits", "on_timeout"))
+JOINT_LIMITS = {"position": "rad", "speed": "rad/s", "torque": "Nm", "accel": "rad/s^2", "max_step": "rad"}
+"""The soft limits a joint can have, in joint units."""
+ON_TIMEOUT = ("hold", "idle")
+"""What the watchdog may do to a joint whose controller is gone; the first is a joint's default."""
 
 
 @dataclass(frozen=True)
@@ -95,6 +108,10 @@ class JointSpec:
     """``"motor"``: the motor's friction and rotor inertia act besides the model's; ``"model"``: only the model's."""
     sim_params: Mapping[str, float] = field(default_factory=dict)
     """Parameters (by name) a simulated motor of this joint starts with when it has no saved configuration."""
+    limits: Mapping[str, Any] = field(default_factory=dict)
+    """Soft limits in joint units (:data:`JOINT_LIMITS`): ``position`` (low, high) rad, the others magnitudes."""
+    on_timeout: str = ON_TIMEOUT[0]
+    """What the command watchdog does when the joint's controller is gone: ``hold`` or ``idle``."""
 
 
 @dataclass(frozen=True)
@@ -110,6 +127,11 @@ class RobotSpec:
     def joints_on(self, bus: str) -> list[JointSpec]:
         """The joints of bus ``bus``, in file order."""
         return [j for j in self.joints.values() if j.bus == bus]
+
+    def on_timeout(self, bus: str) -> dict[int, str]:
+        """``{motor id: "hold"|"idle"}`` of bus ``bus``'s joints, for its command watchdog
+        (:class:`~drempower.client.watchdog.Watchdog`)."""
+        return {j.id: j.on_timeout for j in self.joints_on(bus)}
 
     def open_options(self, bus: str) -> dict[str, Any]:
         """The :func:`~drempower.open_bus` keyword arguments of bus ``bus`` (a sim bus gets its joints' ids;
@@ -145,6 +167,29 @@ def _number(value: object, where: str, *, nonzero: bool = False) -> float:
     return float(value)
 
 
+def _limits(value: object, where: str) -> dict[str, Any]:
+    """A joint's ``limits`` table, checked: known names, numbers, position low <= high, magnitudes > 0."""
+    table = _table(value, where)
+    out: dict[str, Any] = {}
+    for name, v in table.items():
+        unit = JOINT_LIMITS.get(name)
+        if unit is None:
+            raise ConfigError(f"{where}: unknown limit {name!r}: the limits are {', '.join(JOINT_LIMITS)}")
+        if name == "position":
+            if not isinstance(v, list) or len(v) != 2:
+                raise ConfigError(f"{where}.position={v!r}: expected [low, high] in rad")
+            low, high = _number(v[0], f"{where}.position"), _number(v[1], f"{where}.position")
+            if low > high:
+                raise ConfigError(f"{where}.position={v!r}: low is above high")
+            out[name] = (low, high)
+        else:
+            x = _number(v, f"{where}.{name}")
+            if x <= 0:
+                raise ConfigError(f"{where}.{name}={v!r}: a limit is > 0 ({unit}, by magnitude)")
+            out[name] = x
+    return out
+
+
 def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None = None) -> RobotSpec:
     """Check a robot description (the TOML file as a dict); raises :class:`ConfigError` naming the entry and key.
 
@@ -173,17 +218,17 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         where = f"{source}: [joints.{name}]"
         _name("joint", name, where)
         j = _table(entry, where)
-        extra = sorted(set(j) - _JOINT_KEYS - _MODEL_JOINT_KEYS)
+        extra = sorted(set(j) - _JOINT_KEYS - _SAFETY_KEYS - _MODEL_JOINT_KEYS)
         if extra:
             raise ConfigError(
                 f"{where}: unknown key {extra[0]!r}: "
-                "a joint has bus, id, gear, offset, model_joint, friction and sim_params"
+                "a joint has bus, id, gear, offset, limits, on_timeout, model_joint, friction and sim_params"
             )
         bus = j.get("bus")
         if bus not in buses:
             raise ConfigError(f"{where}: bus={bus!r}: not one of the buses ({', '.join(buses)})")
         ident = j.get("id")
-        if ident.__class__ is not int or not 1 <= ident <= MAX_NODE:
+        if not is_motor(ident):
             raise ConfigError(f"{where}: id={ident!r}: motor ids are 1..{MAX_NODE}")
         other = taken.get((bus, ident))
         if other is not None:
@@ -191,7 +236,13 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         taken[(bus, ident)] = name
         gear = _number(j.get("gear", 1.0), f"{where}: gear", nonzero=True)
         offset = _number(j.get("offset", 0.0), f"{where}: offset")
-        joints[name] = JointSpec(name, bus, ident, gear, offset, **_model_joint(j, where))
+        limits = _limits(j.get("limits", {}), f"{where}: limits")
+        on_timeout = j.get("on_timeout", ON_TIMEOUT[0])
+        if on_timeout not in ON_TIMEOUT:
+            raise ConfigError(f"{where}: on_timeout={on_timeout!r}: expected 'hold' or 'idle'")
+        joints[name] = JointSpec(
+            name, bus, ident, gear, offset, limits=limits, on_timeout=on_timeout, **_model_joint(j, where)
+        )
     if not joints:
         raise ConfigError(f"{source}: no [joints.NAME] entry: a robot needs at least one joint")
     empty = [b for b in buses if not any(j.bus == b for j in joints.values())]

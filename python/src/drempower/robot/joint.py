@@ -15,7 +15,8 @@ joint position in rad when the motor reads 0 deg)::
 from __future__ import annotations
 
 import math
-from typing import NamedTuple
+from collections.abc import Mapping
+from typing import Any, NamedTuple
 
 from ..client.state import MotorState
 from .config import JointSpec
@@ -78,3 +79,21 @@ class Gearing:
     def motor_torque(self, torque: float) -> float:
         """The motor torque (Nm) that gives ``torque`` Nm at the joint."""
         return torque / self.gear
+
+    def motor_limits(self, limits: Mapping[str, Any]) -> dict[str, Any]:
+        """Soft limits at the joint (rad, rad/s, Nm, rad/s^2, rad) in motor units (deg, r/min, Nm,
+        (r/min)/s, deg), as :meth:`~drempower.client.bus.Bus.set_limits` takes them."""
+        out: dict[str, Any] = {}
+        for name, v in limits.items():
+            if name == "position":
+                a, b = self.motor_angle(v[0]), self.motor_angle(v[1])
+                out[name] = (min(a, b), max(a, b))
+            elif name == "speed":
+                out[name] = abs(self.motor_speed(v))
+            elif name == "torque":
+                out[name] = abs(self.motor_torque(v))
+            elif name == "accel":
+                out[name] = abs(self.motor_speed(v))  # rad/s^2 -> (r/min)/s: the same factor as a speed
+            elif name == "max_step":
+                out[name] = abs(self.motor_step(v))
+        return out

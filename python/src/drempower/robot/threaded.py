@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 from ..client import Bus, Motor, open_bus
 from ..client.commands import PositionMode
 from ..client.effects import read_states
+from ..client.gate import move_intent
 from ..client.session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL
 from ..client.state import MotorState
 from ..client.timeouts import checks_times
@@ -67,17 +68,17 @@ class Joint(Motor):
         """A fresh state (fast read) at the joint: rad, rad/s, Nm."""
         return self.gearing.joint_state(self.get_state(timeout=timeout))
 
-    def set_position(self, position: float, bandwidth: float = 20.0) -> None:
+    def set_position(self, position: float, bandwidth: float = 20.0, *, enable: bool = False) -> None:
         """Move the joint to ``position`` rad now (T mode: ``bandwidth`` 0..300 1/s filter)."""
-        self.set_angle(self.gearing.motor_angle(position), 0.0, bandwidth, 0)
+        self.set_angle(self.gearing.motor_angle(position), 0.0, bandwidth, 0, enable=enable)
 
-    def set_velocity(self, velocity: float) -> None:
-        """Turn the joint at ``velocity`` rad/s."""
-        self.set_speed(self.gearing.motor_speed(velocity))
+    def set_velocity(self, velocity: float, *, duration: float | None = None, enable: bool = False) -> None:
+        """Turn the joint at ``velocity`` rad/s (for ``duration`` s, then speed 0, when given)."""
+        self.set_speed(self.gearing.motor_speed(velocity), duration=duration, enable=enable)
 
-    def set_joint_torque(self, torque: float) -> None:
-        """Apply ``torque`` Nm at the joint."""
-        self.set_torque(self.gearing.motor_torque(torque))
+    def set_joint_torque(self, torque: float, *, duration: float | None = None, enable: bool = False) -> None:
+        """Apply ``torque`` Nm at the joint (for ``duration`` s, then 0, when given)."""
+        self.set_torque(self.gearing.motor_torque(torque), duration=duration, enable=enable)
 
     def __repr__(self) -> str:
         return f"<Joint {self.name} motor {self.id}>"
@@ -101,6 +102,10 @@ class Robot(SyncRobotBase):
         """The open buses by name."""
         self.joints: dict[str, Joint] = {name: Joint(self.buses[j.bus], j) for name, j in spec.joints.items()}
         """Every joint by name, in file order."""
+        for name, j in spec.joints.items():
+            if j.limits:
+                where = f"{spec.source}: [joints.{name}] limits"
+                self.buses[j.bus].set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=where)
         self._clock = StartClock()
         for bus in self.buses.values():
             bus.core.on_sent = self._clock
@@ -156,6 +161,7 @@ class Robot(SyncRobotBase):
         *,
         relative: bool = False,
         timeout: float | None = None,
+        enable: bool = False,
     ) -> SyncMove:
         """Synchronised move of joints across buses in wire units: ``{name: motor deg}``, as
         :meth:`~drempower.client.bus.Bus.set_angles` (``relative``: as ``step_angles``).
@@ -165,7 +171,7 @@ class Robot(SyncRobotBase):
         move time and the measured skew between the buses' start frames.
         """
         targets = angle_targets(self.spec, angles, speed, param)
-        return self._move(targets, mode, relative, timeout)
+        return self._move(targets, mode, relative, timeout, enable)
 
     def move_joints(
         self,
@@ -175,14 +181,20 @@ class Robot(SyncRobotBase):
         *,
         relative: bool = False,
         timeout: float | None = None,
+        enable: bool = False,
     ) -> SyncMove:
         """Synchronised Q-mode move in SI units at the joints: ``{name: rad}``; ``speed`` rad/s and ``accel``
         rad/s² at each joint (converted through its gear). Every joint arrives at the same time."""
         targets = joint_targets(self.spec, positions, speed, accel, relative)
-        return self._move(targets, PositionMode.Q, relative, timeout)
+        return self._move(targets, PositionMode.Q, relative, timeout, enable)
 
-    def _move(self, targets: dict[str, list[Target]], mode: int, relative: bool, timeout: float | None) -> SyncMove:
+    def _move(
+        self, targets: dict[str, list[Target]], mode: int, relative: bool, timeout: float | None, enable: bool = False
+    ) -> SyncMove:
         m = check_targets(targets, mode)
+        for b, group in targets.items():  # the safety gate of every bus before any bus sends
+            intents = [move_intent(t.id, t.angle, t.speed, t.param, m, relative) for t in group]
+            self.buses[b]._pass(intents, enable)
         with self._move_lock:
             move_time: float | None = None
             if m is PositionMode.Q:
@@ -264,7 +276,11 @@ class Robot(SyncRobotBase):
         )
 
         def stop(bus: str) -> Callable[[], None]:
-            return lambda: self.buses[bus].core.estop(groups[bus])
+            def now() -> None:
+                self.buses[bus].core.estop(groups[bus])
+                self.buses[bus]._gate.forget(groups[bus])
+
+            return now
 
         self._stop_each({b: stop(b) for b in groups})
 

@@ -30,7 +30,8 @@ from collections.abc import Callable, Iterable
 from pathlib import Path
 
 from ..errors import DrEmpowerError, ValidationError
-from ..protocol.ids import MAX_NODE, Frame
+from ..protocol.ids import Frame
+from ..protocol.limits import MAX_NODE, MIN_MOTOR
 from ..protocol.messages import Command, decode_command
 from .defaults import MotorModel
 from .faults import Faults
@@ -98,8 +99,8 @@ class SimBus:
         host_queue: str = DEFAULT_HOST_QUEUE,
     ) -> None:
         ids = list(ids)
-        if not ids or any(not 1 <= i <= MAX_NODE for i in ids) or len(set(ids)) != len(ids):
-            raise ValidationError(f"ids={ids!r}: motor ids must be distinct and in 1..{MAX_NODE}")
+        if not ids or any(not MIN_MOTOR <= i <= MAX_NODE for i in ids) or len(set(ids)) != len(ids):
+            raise ValidationError(f"ids={ids!r}: motor ids must be distinct and in {MIN_MOTOR}..{MAX_NODE}")
         if bitrate is not None and bitrate <= 0:
             raise ValidationError(f"bitrate={bitrate!r}: must be > 0 bit/s (or None for instant delivery)")
         self.bitrate = bitrate

@@ -86,6 +86,7 @@ from ..protocol.addresses import (
 from ..protocol.enums import AxisState, TorqueMode, TrajMode, VelocityMode
 from ..protocol.flags import ERROR_WORDS, AxisError, CanError, ControllerError, EncoderError, MotorError
 from ..protocol.ids import Frame, StartKind, SysCmd
+from ..protocol.limits import MAX_NODE, MIN_MOTOR
 from ..protocol.messages import (
     S16_MAX,
     S16_MIN,
@@ -560,7 +561,7 @@ class SimMotor:
     def _accept(self, addr: int, value: float) -> bool:
         """Validation of a configuration write (see :mod:`drempower.sim.behaviour`)."""
         if addr == AXIS0_CONFIG_CAN_NODE_ID:
-            return 1 <= value <= 63
+            return MIN_MOTOR <= value <= MAX_NODE
         if addr == CAN_CONFIG_BAUD_RATE:
             return value in bh.CAN_BITRATES
         if addr in (AXIS0_CONFIG_EXTRA_SETTING_GEAR_RATIO, AXIS0_ENCODER_CONFIG_CPR):

@@ -62,6 +62,7 @@ from ..protocol.addresses import (
     AXIS0_TRAP_TRAJ_CONFIG_DECEL_LIMIT,
     AXIS0_TRAP_TRAJ_CONFIG_VEL_LIMIT,
 )
+from ..protocol.limits import MAX_NODE, MIN_MOTOR
 from ..protocol.parameters import DataType, Parameter, encode_value, parameter, parameters
 from .defaults import FACTORY, READ_ONLY_CONSTANTS
 
@@ -223,8 +224,10 @@ class ParamStore:
                 continue
             saved[p.address] = _typed(p, value)
         node = saved[AXIS0_CONFIG_CAN_NODE_ID]
-        if not 1 <= node <= 63:
-            problems.append(f"axis0.config.can_node_id={node}: a motor id is 1..63 (0 is the broadcast address)")
+        if not MIN_MOTOR <= node <= MAX_NODE:
+            problems.append(
+                f"axis0.config.can_node_id={node}: a motor id is {MIN_MOTOR}..{MAX_NODE} (0 is the broadcast address)"
+            )
         if problems:
             raise SavedConfigError(self.path, problems)
         return saved

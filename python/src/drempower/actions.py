@@ -1,0 +1,332 @@
+"""What a person or a program can do to motors: one table, one validation, one way to run.
+
+Each :class:`Action` names its operation (a call of the :class:`~drempower.AsyncMotor` /
+:class:`~drempower.AsyncBus` API, which the threaded :class:`~drempower.Bus` shares), its
+arguments with units and domains (motor ids from :mod:`drempower.protocol.limits`,
+speeds and torques from the same place, parameters from ``spec/parameters.csv``), its
+safety class and its help text. :func:`validate` turns loose arguments (numbers, or
+the strings of a command line or a form) into typed ones with the same error words
+everywhere (``field=value is out of range: allowed low..high (unit)``), and
+:func:`run` / :func:`run_async` carry an action out on a bus::
+
+    from drempower import actions
+    actions.run(bus, "move", {"id": 1, "angle": 90})        # threaded bus
+    await actions.run_async(abus, "speed", {"id": 1, "speed": 30, "duration": 2})
+
+Motion actions pass the bus's safety gate (idle motors, soft limits; see
+:mod:`drempower.client.gate`). A new query is one operation plus one row::
+
+    actions.register(actions.Action("volcur", "read", "supply voltage and current",
+                                    (actions.MOTOR,), lambda bus, a: bus.motor(a["id"]).get_volcur()))
+
+and front ends that list :func:`table` (the CLI's subcommands, the dashboard's controls)
+offer it with no further change.
+"""
+
+from __future__ import annotations
+
+import inspect
+import math
+from collections.abc import Callable, Iterator, Mapping
+from dataclasses import dataclass
+from typing import Any, Literal
+
+from .client.commands import MAX_ANGLE
+from .errors import FieldRangeError, ValidationError
+from .protocol.limits import MAX_NODE, MIN_MOTOR, S16_MAX, SPEED_RANGE, TORQUE_RANGE
+from .protocol.parameters import find_parameter
+
+__all__ = [
+    "Arg",
+    "Action",
+    "Safety",
+    "MOTOR",
+    "table",
+    "get",
+    "register",
+    "validate",
+    "run",
+    "run_async",
+]
+
+Safety = Literal["read", "configure", "motion", "stop"]
+"""How an action touches a motor: reads it, changes its configuration, moves it, or stops it."""
+_REQUIRED = object()
+
+
+@dataclass(frozen=True)
+class Arg:
+    """One argument: ``kind`` ``"int"``, ``"float"``, ``"bool"`` or ``"str"``, its ``unit``, its
+    inclusive domain ``low``..``high`` (None: unbounded), ``default`` (absent: required), help text."""
+
+    name: str
+    kind: Literal["int", "float", "bool", "str"]
+    unit: str = ""
+    help: str = ""
+    low: float | None = None
+    high: float | None = None
+    default: Any = _REQUIRED
+    positive: bool = False
+    """A magnitude > 0 (after rounding to the wire's 0.01 step); ``low`` is then that step."""
+
+    @property
+    def required(self) -> bool:
+        return self.default is _REQUIRED
+
+    def domain_text(self) -> str:
+        """The domain in words, e.g. ``-327.68..327.67 r/min``."""
+        if self.kind == "bool":
+            return "true or false"
+        if self.kind == "str":
+            return "text"
+        low = "-inf" if self.low is None else f"{self.low:g}"
+        high = "inf" if self.high is None else f"{self.high:g}"
+        return f"{low}..{high}{' ' + self.unit if self.unit else ''}"
+
+    def check(self, value: object) -> Any:
+        """``value`` (a number, or its text) as this argument's type, in its domain; else a ValidationError."""
+        if self.kind == "str":
+            if not isinstance(value, str) or not value:
+                raise ValidationError(f"{self.name}={value!r}: expected a name")
+            return value
+        if self.kind == "bool":
+            if isinstance(value, bool):
+                return value
+            text = str(value).strip().lower()
+            if text in ("1", "true", "yes", "on"):
+                return True
+            if text in ("0", "false", "no", "off"):
+                return False
+            raise ValidationError(f"{self.name}={value!r}: expected true or false")
+        number = _number(self, value)
+        low = -math.inf if self.low is None else self.low
+        high = math.inf if self.high is None else self.high
+        if not low <= number <= high or (self.positive and round(number * 100) < 1):
+            raise FieldRangeError(self.name, value, low, high, self.unit)
+        return number
+
+
+def _number(arg: Arg, value: object) -> int | float:
+    if isinstance(value, str):
+        try:
+            value = int(value) if arg.kind == "int" else float(value)
+        except ValueError:
+            raise ValidationError(
+                f"{arg.name}={value!r}: expected {'a whole' if arg.kind == 'int' else 'a'} number"
+            ) from None
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        raise ValidationError(f"{arg.name}={value!r}: expected a number")
+    if arg.kind == "int":
+        if isinstance(value, float) and not value.is_integer():
+            raise ValidationError(f"{arg.name}={value!r}: expected a whole number")
+        return int(value)
+    if not math.isfinite(value):
+        raise ValidationError(f"{arg.name}={value!r}: expected a finite number")
+    return float(value)
+
+
+Operation = Callable[[Any, Mapping[str, Any]], Any]
+"""``operation(bus, args)``: calls the bus API (threaded: the result; asyncio: an awaitable)."""
+
+
+@dataclass(frozen=True)
+class Action:
+    """One thing to do to motors: its ``name``, ``safety`` class, ``help``, ``args`` and ``operation``."""
+
+    name: str
+    safety: Safety
+    help: str
+    args: tuple[Arg, ...]
+    operation: Operation
+
+    def arg(self, name: str) -> Arg:
+        for a in self.args:
+            if a.name == name:
+                return a
+        raise ValidationError(f"{self.name}: no argument {name!r}")
+
+
+# ---------------------------------------------------------------------- the arguments
+
+
+MOTOR = Arg("id", "int", "", "the motor's id", MIN_MOTOR, MAX_NODE)
+"""A motor id, 1..63."""
+MOTOR_OR_ALL = Arg("id", "int", "", "the motor's id (0: every motor)", 0, MAX_NODE)
+"""A motor id, or 0 for every motor (commands that need no answer)."""
+VERIFY = Arg("verify", "bool", "", "read the value back (a single motor only)", default=True)
+ENABLE = Arg("enable", "bool", "", "enable the motor first if it is idle", default=False)
+ANGLE = Arg("angle", "float", "deg", "target angle", -MAX_ANGLE, MAX_ANGLE)
+STEP = Arg("angle", "float", "deg", "step from where the motor is", -MAX_ANGLE, MAX_ANGLE)
+CRUISE = Arg("speed", "float", "r/min", "cruise speed", 0.01, S16_MAX, 10.0, positive=True)
+ACCEL = Arg("accel", "float", "(r/min)/s", "acceleration", 0.01, S16_MAX, 10.0, positive=True)
+SPEED = Arg("speed", "float", "r/min", "speed", *SPEED_RANGE)
+TORQUE = Arg("torque", "float", "Nm", "torque", *TORQUE_RANGE)
+DURATION = Arg(
+    "duration", "float", "s", "stop by itself after this long (none: until the next command)", 0.001, None, None
+)
+PARAM = Arg("name", "str", "", "parameter name or address (spec/parameters.csv)")
+VALUE = Arg("value", "float", "", "the value, in the parameter's unit")
+KP = Arg("kp", "float", "Nm/rad", "stiffness", 0, S16_MAX)
+KD = Arg("kd", "float", "Nm/(rad/s)", "damping", 0, S16_MAX)
+VEL = Arg("vel", "float", "r/min", "target speed", *SPEED_RANGE, 0.0)
+TFF = Arg("tff", "float", "Nm", "torque feed-forward", *TORQUE_RANGE, 0.0)
+
+
+def _motor(bus: Any, a: Mapping[str, Any]) -> Any:
+    return bus.motor(a["id"])
+
+
+def _estop(bus: Any, a: Mapping[str, Any]) -> Any:
+    return bus.estop(None if a["id"] == 0 else [a["id"]])
+
+
+_TABLE: dict[str, Action] = {}
+
+
+def register(action: Action) -> Action:
+    """Add ``action`` to the table (a name once); returns it."""
+    if action.name in _TABLE:
+        raise ValidationError(f"action {action.name!r} exists already")
+    if action.safety not in ("read", "configure", "motion", "stop"):
+        raise ValidationError(f"action {action.name!r}: safety={action.safety!r}: read, configure, motion or stop")
+    _TABLE[action.name] = action
+    return action
+
+
+def unregister(name: str) -> None:
+    """Remove action ``name`` (for tests that add one)."""
+    _TABLE.pop(name, None)
+
+
+for _a in (
+    Action(
+        "state", "read", "angle, speed, torque and flags, read now", (MOTOR,), lambda b, a: _motor(b, a).get_state()
+    ),
+    Action("errors", "read", "the error words, decoded", (MOTOR,), lambda b, a: _motor(b, a).dump_error()),
+    Action("get", "read", "read a parameter", (MOTOR, PARAM), lambda b, a: _motor(b, a).read_property(a["name"])),
+    Action(
+        "set",
+        "configure",
+        "write a parameter (in RAM; save keeps it)",
+        (MOTOR_OR_ALL, PARAM, VALUE, VERIFY),
+        lambda b, a: _motor(b, a).write_property(a["name"], a["value"], verify=a["verify"] and a["id"] != 0),
+    ),
+    Action(
+        "move",
+        "motion",
+        "move to an angle (trapezoid profile)",
+        (MOTOR, ANGLE, CRUISE, ACCEL, ENABLE),
+        lambda b, a: _motor(b, a).set_angle(a["angle"], a["speed"], a["accel"], 1, enable=a["enable"]),
+    ),
+    Action(
+        "step",
+        "motion",
+        "move by an angle from where the motor is",
+        (MOTOR, STEP, CRUISE, ACCEL, ENABLE),
+        lambda b, a: _motor(b, a).step_angle(a["angle"], a["speed"], a["accel"], 1, enable=a["enable"]),
+    ),
+    Action(
+        "speed",
+        "motion",
+        "turn at a speed",
+        (MOTOR, SPEED, DURATION, ENABLE),
+        lambda b, a: _motor(b, a).set_speed(a["speed"], duration=a["duration"], enable=a["enable"]),
+    ),
+    Action(
+        "torque",
+        "motion",
+        "apply a torque",
+        (MOTOR, TORQUE, DURATION, ENABLE),
+        lambda b, a: _motor(b, a).set_torque(a["torque"], duration=a["duration"], enable=a["enable"]),
+    ),
+    Action(
+        "impedance",
+        "motion",
+        "hold a position like a spring: tff + kp*(pos - P) + kd*(vel - V)",
+        (MOTOR, Arg("pos", "float", "deg", "spring's rest angle", -MAX_ANGLE, MAX_ANGLE), KP, KD, VEL, TFF, ENABLE),
+        lambda b, a: _motor(b, a).impedance_control(a["pos"], a["vel"], a["tff"], a["kp"], a["kd"], enable=a["enable"]),
+    ),
+    Action("stop", "stop", "speed 0 (the motor holds where it is)", (MOTOR_OR_ALL,), lambda b, a: _motor(b, a).stop()),
+    Action(
+        "idle",
+        "stop",
+        "release the motor (it can be turned by hand)",
+        (MOTOR_OR_ALL,),
+        lambda b, a: _motor(b, a).idle(),
+    ),
+    Action("estop", "stop", "emergency stop (0: every motor)", (MOTOR_OR_ALL,), _estop),
+    Action("enable", "configure", "enter closed loop", (MOTOR_OR_ALL,), lambda b, a: _motor(b, a).enable()),
+    Action("clear", "configure", "clear the error flags", (MOTOR_OR_ALL,), lambda b, a: _motor(b, a).clear_error()),
+    Action(
+        "zero", "configure", "make the current angle 0 deg", (MOTOR,), lambda b, a: _motor(b, a).set_zero_position()
+    ),
+    Action(
+        "save",
+        "configure",
+        "store the configuration in flash",
+        (MOTOR_OR_ALL,),
+        lambda b, a: _motor(b, a).save_config(),
+    ),
+    Action("reboot", "configure", "restart the motor's firmware", (MOTOR_OR_ALL,), lambda b, a: _motor(b, a).reboot()),
+):
+    register(_a)
+
+
+def table() -> Iterator[Action]:
+    """Every action, in table order (the hook for front ends that offer them all)."""
+    return iter(list(_TABLE.values()))
+
+
+def get(name: str) -> Action:
+    """Action ``name``; a ValidationError listing the actions when there is none."""
+    action = _TABLE.get(name)
+    if action is None:
+        raise ValidationError(f"no action {name!r}: the actions are {', '.join(_TABLE)}")
+    return action
+
+
+def validate(action: Action | str, args: Mapping[str, Any]) -> dict[str, Any]:
+    """``args`` checked and typed for ``action`` (defaults filled in); the first bad one raises,
+    naming the field, the value and its domain. Nothing is sent."""
+    act = get(action) if isinstance(action, str) else action
+    if not isinstance(args, Mapping):
+        raise ValidationError(f"{act.name}: arguments are a mapping of names to values, got {args!r}")
+    names = {a.name for a in act.args}
+    unknown = [k for k in args if k not in names]
+    if unknown:
+        listed = ", ".join(a.name for a in act.args)
+        raise ValidationError(f"{act.name}: no argument {unknown[0]!r}; its arguments are {listed}")
+    out: dict[str, Any] = {}
+    for a in act.args:
+        if a.name in args and args[a.name] is not None:
+            out[a.name] = a.check(args[a.name])
+        elif a.required:
+            raise ValidationError(f"{act.name}: {a.name} is missing ({a.help}, {a.domain_text()})")
+        else:
+            out[a.name] = a.default
+    if "name" in out:
+        key: str | int = int(out["name"]) if out["name"].isdigit() else out["name"]
+        p = find_parameter(key)
+        if p is None:
+            raise ValidationError(f"name={out['name']!r}: no such parameter (see spec/parameters.csv)")
+        out["name"] = p.name
+        if "value" in out:
+            given = args["value"]
+            whole = isinstance(given, int) or (isinstance(given, str) and given.strip().lstrip("-").isdigit())
+            out["value"] = p.check(int(out["value"]) if whole else out["value"])  # its own domain, named
+    return out
+
+
+def run(bus: Any, action: Action | str, args: Mapping[str, Any]) -> Any:
+    """Validate ``args`` and carry ``action`` out on a threaded bus; returns what its operation returns."""
+    act = get(action) if isinstance(action, str) else action
+    return act.operation(bus, validate(act, args))
+
+
+async def run_async(bus: Any, action: Action | str, args: Mapping[str, Any]) -> Any:
+    """:func:`run` on an asyncio bus (or a threaded one: a result that is no awaitable is returned as is)."""
+    act = get(action) if isinstance(action, str) else action
+    result = act.operation(bus, validate(act, args))
+    if inspect.isawaitable(result):
+        return await result
+    return result

@@ -1,0 +1,39 @@
+"""The one naming rule for motors, in every table, CSV, JSON, MCAP topic, JointState and log.
+
+A motor is ``motor_<id>`` (``motor_1``) unless a robot file names it (its joint's
+name), and ``<bus>/motor_<id>`` where motors of several buses would otherwise share
+a name (two buses each with a motor 1).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Mapping
+
+from .protocol.limits import check_motor
+
+__all__ = ["motor_name", "motor_names"]
+
+
+def motor_name(id: int, bus: str | None = None, *, named: str | None = None) -> str:
+    """``named`` when a robot file gives one, else ``motor_<id>``, prefixed ``<bus>/`` when ``bus`` is given
+    (give it where buses would collide; :func:`motor_names` decides that for a whole set)."""
+    if named:
+        return named
+    base = f"motor_{check_motor(id)}"
+    return f"{bus}/{base}" if bus else base
+
+
+def motor_names(
+    motors: Iterable[tuple[str, int]], joints: Mapping[tuple[str, int], str] | None = None
+) -> dict[tuple[str, int], str]:
+    """The name of each ``(bus, id)``: its joint's name from ``joints`` if any, else ``motor_<id>``,
+    with ``<bus>/`` only when the same id is on more than one bus."""
+    pairs = list(dict.fromkeys(motors))
+    joints = joints or {}
+    buses_of: dict[int, set[str]] = {}
+    for bus, node in pairs:
+        buses_of.setdefault(node, set()).add(bus)
+    return {
+        (bus, node): motor_name(node, bus if len(buses_of[node]) > 1 else None, named=joints.get((bus, node)))
+        for bus, node in pairs
+    }
