@@ -50,7 +50,7 @@ test-c:
 
 bench: $(DEVSTAMP)
 	$(BIN)/python bench/bench_codec.py
-	@for b in bench/bench_table.py bench/bench_idle.py bench/bench_sim.py bench/bench_client.py bench/bench_record.py bench/bench_robot.py bench/bench_dash.py bench/bench_bridge.py bench/bench_twin.py; do [ -f $$b ] && $(BIN)/python $$b || true; done
+	@for b in bench/bench_table.py bench/bench_idle.py bench/bench_sim.py bench/bench_client.py bench/bench_record.py bench/bench_robot.py bench/bench_dash.py bench/bench_bridge.py bench/bench_twin.py bench/bench_follow.py; do [ -f $$b ] && $(BIN)/python $$b || true; done
 
 generate: $(DEVSTAMP)
 	$(BIN)/python tools/generate.py

@@ -49,6 +49,8 @@ from .timed import check_duration
 from .timeouts import checks_times
 
 if TYPE_CHECKING:
+    from ..motion.plan import FollowReport
+    from ..motion.trajectory import Rows, Trajectory
     from . import backup as _backup
 
 __all__ = ["AsyncBus", "AsyncMotor"]
@@ -487,6 +489,20 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         states = await self.run(run)
         self._sent(cmds)
         return states
+
+    async def follow(
+        self,
+        ids: Sequence[int],
+        times: Sequence[float] | Trajectory,
+        positions: Rows | None = None,
+        **options: Any,
+    ) -> FollowReport:
+        """Follow a trajectory (deg, one column per motor of ``ids``) through the control cycle; returns a
+        :class:`~drempower.motion.plan.FollowReport`. Options as :meth:`AsyncRobot.follow
+        <drempower.robot.aio.AsyncRobot.follow>` (``max_error`` in deg); see docs/motion.md."""
+        from ..motion.follow_async import follow_bus
+
+        return await follow_bus(self, ids, times, positions, **options)
 
     # ------------------------------------------------------------------ multi-motor (vendor names)
 

@@ -38,6 +38,10 @@ from .plan import (
 from .sim_twin import open_options
 
 if TYPE_CHECKING:
+    from collections.abc import Sequence
+
+    from ..motion.plan import FollowReport
+    from ..motion.trajectory import Rows, Trajectory
     from ..sim.twin import Twin
 
 __all__ = ["AsyncJoint", "AsyncRobot", "open_robot_async"]
@@ -285,6 +289,21 @@ class AsyncRobot(AsyncRobotBase):
             return now
 
         await self._stop_each({b: stop(b) for b in groups})
+
+    async def follow(
+        self, times: Sequence[float] | Trajectory, positions: Rows | None = None, **options: Any
+    ) -> FollowReport:
+        """Follow a trajectory (rad at the joints) through the control cycle; returns a :class:`FollowReport`.
+
+        ``times`` s from 0 and ``positions`` (one row per time in the order of ``joints=`` or the robot
+        file, or joint -> positions), or a :class:`~drempower.motion.Trajectory`. Options: ``velocities``,
+        ``joints``, ``rate`` (Hz, default 200), ``mode`` (``"position"``, ``"impedance"``, ``"p"``),
+        ``max_error`` (rad, or joint -> rad), ``kp``/``kd`` (impedance), ``limits``, ``trace``; see
+        :func:`drempower.motion.follow_async.follow_robot` and docs/motion.md.
+        """
+        from ..motion.follow_async import follow_robot
+
+        return await follow_robot(self, times, positions, **options)
 
     @property
     def twin(self) -> Twin | None:

@@ -1,0 +1,11 @@
+"""Motion: trajectories (:class:`Trajectory`) and following them through the control cycle.
+
+>>> from drempower.motion import Trajectory
+>>> tr = Trajectory.from_waypoints([[0.0, 0.0], [1.0, -0.5]], max_speed=1.0, max_accel=4.0, joints=["a", "b"])
+>>> round(tr.duration, 3)
+1.25
+"""
+
+from .trajectory import Peaks, Sample, Trajectory
+
+__all__ = ["Peaks", "Sample", "Trajectory"]
