@@ -15,11 +15,16 @@ extra). Prints figures beside their floor; asserts nothing.
    (frames tunnelled, its 100 Hz state stream on), median and 99th percentile.
    The simulators answer at once (no wire time), so the difference is what
    Zenoh and the bridge add.
+4. Memory of a bridge serving a 100 Hz ``joint_states`` subscriber for
+   ``--memory-seconds``: growth of Python's heap (tracemalloc) and of the
+   process's resident set, per minute, beside the floor (none).
 """
 
 from __future__ import annotations
 
 import argparse
+import gc
+import os
 import platform
 import signal
 import socket
@@ -28,6 +33,7 @@ import subprocess
 import sys
 import threading
 import time
+import tracemalloc
 from collections.abc import Callable
 from pathlib import Path
 
@@ -38,10 +44,10 @@ import numpy as np
 import drempower
 from drempower.bridge import rmw, rosmsg
 from drempower.bridge.server import Bridge, BridgeOptions
-from drempower.bridge.zconfig import open_session
 from drempower.protocol.ids import Cmd, Frame, SysCmd
 from drempower.sim import SimBus
 from drempower.transports.sim import SimTransport
+from drempower.transports.zenoh_config import open_session
 
 
 def free_endpoint() -> str:
@@ -169,15 +175,49 @@ def get_state_latency(n: int) -> None:
         bridge.wait(20)
 
 
+def _rss() -> int:
+    """Resident set size of this process (bytes; Linux)."""
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def memory_growth(seconds: float) -> None:
+    print(f"4. memory of a bridge serving a 100 Hz joint_states subscriber, over {seconds:g} s")
+    served = Served(100.0)
+    peer = open_session([served.endpoint], [], gossip=False)
+    got = [0]
+    sub = peer.declare_subscriber(served.bridge.joint_states_key, lambda _s: got.__setitem__(0, got[0] + 1))
+    try:
+        time.sleep(3.0)  # the sessions, the stream and the allocator settle first
+        tracemalloc.start()
+        gc.collect()
+        own0 = tracemalloc.get_tracemalloc_memory()  # tracemalloc's own traces are no growth of the bridge
+        heap0, rss0, n0, t0 = tracemalloc.get_traced_memory()[0], _rss() - own0, got[0], time.monotonic()
+        time.sleep(seconds)
+        gc.collect()
+        own = tracemalloc.get_tracemalloc_memory()
+        heap, rss, minutes = tracemalloc.get_traced_memory()[0], _rss() - own, (time.monotonic() - t0) / 60
+        tracemalloc.stop()
+        print(f"   messages received {got[0] - n0} ({(got[0] - n0) / (minutes * 60):.1f}/s)")
+        print(f"   Python heap  {(heap - heap0) / minutes / 1e6:+7.3f} MB/min   floor 0")
+        print(f"   resident set {(rss - rss0) / minutes / 1e6:+7.3f} MB/min   floor 0")
+    finally:
+        sub.undeclare()
+        peer.close()
+        served.close()
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=3.0, help="seconds per state-rate measurement")
     ap.add_argument("--requests", type=int, default=500, help="samples per latency figure")
+    ap.add_argument("--memory-seconds", type=float, default=60.0, help="seconds of the memory measurement")
     args = ap.parse_args()
     print(f"Python {platform.python_version()} on {platform.machine()}, Zenoh over TCP on 127.0.0.1")
     state_rate(args.seconds)
     command_latency(args.requests)
     get_state_latency(args.requests)
+    memory_growth(args.memory_seconds)
 
 
 if __name__ == "__main__":

@@ -14,8 +14,8 @@ zenoh = pytest.importorskip("zenoh")
 pytest.importorskip("rosbags")
 
 from drempower.bridge.server import Bridge, BridgeOptions  # noqa: E402
-from drempower.bridge.zconfig import open_session  # noqa: E402
 from drempower.transports.sim import SimTransport  # noqa: E402
+from drempower.transports.zenoh_config import open_session  # noqa: E402
 
 
 def free_port() -> int:

@@ -220,7 +220,7 @@ def test_velocity_commands_in_rad_per_s(served: Served) -> None:
 
 
 def test_remote_estop_travels_on_its_own_key(served: Served) -> None:
-    from drempower.bridge.tunnel import decode_frames, is_estop
+    from drempower.transports.zenoh_wire import decode_frames, is_estop
 
     seen: dict[str, list[bool]] = {"tx": [], "estop": []}
 
@@ -338,7 +338,7 @@ class _Sample:
     """What the bridge reads of a Zenoh sample."""
 
     def __init__(self, key: str, frames: list[Any], attachment: bytes) -> None:
-        from drempower.bridge.tunnel import encode_frames
+        from drempower.transports.zenoh_wire import encode_frames
 
         self.key_expr = key
         self.payload = _Bytes(encode_frames(frames))

@@ -233,7 +233,7 @@ def test_cli_serves_the_robot_and_stops_on_sigterm(robot_file: Path) -> None:
             assert bus.transport.info["joints"] == ["elbow"]
         proc.send_signal(signal.SIGTERM)
         _, err = proc.communicate(timeout=20)
-        assert proc.returncode == 0, err
+        assert proc.returncode == 128 + signal.SIGTERM, err
         assert f"prefixes {prefix}/left (bus left), {prefix}/right (bus right)" in err
         assert "stopped" in err and "Traceback" not in err
     finally:

@@ -146,3 +146,35 @@ def test_json_summary(cli: Cli, tmp_path: Path) -> None:
     (rec,) = cli("dbc", "--nodes", "1,2", "-o", str(tmp_path / "x.dbc"), "--json").records()
     assert rec == {"output": str(tmp_path / "x.dbc"), "messages": 2 * 21, "nodes": [1, 2]}
     assert cli("dbc", "--json").code == 2
+
+
+_FLOAT32_EXTREMES = [
+    3.4028234663852886e38,  # the largest finite float32
+    -3.4028234663852886e38,
+    1.401298464324817e-45,  # the smallest subnormal
+    -0.0,
+    math.inf,
+    -math.inf,
+    math.nan,
+]
+
+
+@pytest.mark.parametrize("value", _FLOAT32_EXTREMES, ids=repr)
+def test_strict_encoding_takes_every_float32_value(db: Any, value: float) -> None:
+    floats = 0
+    for message in db.messages:
+        if message.is_multiplexed():
+            continue  # parameter frames: one value signal per data type
+        for signal in message.signals:
+            if not signal.is_float:
+                continue
+            floats += 1
+            fields = {s.name: value if s is signal else (s.minimum or 0) for s in message.signals}
+            data = message.encode(fields, strict=True)
+            got = db.decode_message(message.frame_id, data, decode_choices=False)[signal.name]
+            assert got == value or (math.isnan(value) and math.isnan(got)), (message.name, signal.name)
+    assert floats > 64 * 6
+    write = db.get_message_by_name("WRITE_1")
+    data = write.encode({"address": 1, "dtype": 0, "value_f32": value}, strict=True)
+    got = db.decode_message(write.frame_id, data, decode_choices=False)["value_f32"]
+    assert got == value or (math.isnan(value) and math.isnan(got))

@@ -4,6 +4,6 @@ Needs the ``bridge`` extra (``eclipse-zenoh``, ``rosbags``); nothing here is
 imported by the rest of the package unless the bridge or a ``zenoh`` bus is used.
 """
 
-from .tunnel import DEFAULT_PREFIX
+from ..transports.zenoh_wire import DEFAULT_PREFIX
 
 __all__ = ["DEFAULT_PREFIX"]

@@ -17,7 +17,7 @@ from ..protocol.ids import Cmd, Frame
 from ..protocol.limits import MOTION_CMDS as _MOTION
 from ..protocol.limits import START_SYS_CMDS as _STARTS
 from ..transports.base import QueuedTransport, Transport
-from .tunnel import BRIDGE_ORIGIN
+from ..transports.zenoh_wire import BRIDGE_ORIGIN
 
 __all__ = ["BusHub", "HubPort", "driven_nodes"]
 

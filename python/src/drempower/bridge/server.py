@@ -15,10 +15,11 @@ import math
 import threading
 import time
 from collections import deque
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from ..client import ops
 from ..client.bus import Bus
 from ..client.commands import make_angles, make_speeds, make_torques
 from ..client.session import idle_frames
@@ -28,9 +29,11 @@ from ..protocol.messages import FastRead, SystemCommand
 from ..robot.config import JOINT_NAME, JointSpec
 from ..robot.joint import Gearing
 from ..transports.base import Transport
+from ..transports.zenoh_wire import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
 from . import rmw, rosmsg
 from .hub import BusHub, driven_nodes
-from .tunnel import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
+from .logs import RateLimit
+from .order import ServiceOrder
 
 __all__ = [
     "Bridge",
@@ -43,6 +46,7 @@ __all__ = [
 ]
 
 _log = logging.getLogger("drempower.bridge")
+_log.addFilter(RateLimit())  # a flood of malformed samples or commands logs one line per kind per second
 
 DEFAULT_RATE = 100.0
 """JointState messages per second."""
@@ -51,6 +55,8 @@ DEFAULT_COMMAND_TIMEOUT = 0.2
 DEFAULT_BANDWIDTH = 20.0
 """T-mode filter bandwidth (1/s) of position commands."""
 NODE_NAME = "drempower_bridge"
+FORGET_AFTER = 10.0
+"""s of silence after which a client that drives nothing is forgotten (its last estop's number too)."""
 COMMAND_TOPICS = ("position_commands", "velocity_commands", "effort_commands")
 
 
@@ -68,6 +74,8 @@ class BridgeOptions:
     command_timeout: float = DEFAULT_COMMAND_TIMEOUT
     bandwidth: float = DEFAULT_BANDWIDTH
     node_name: str = NODE_NAME
+    timeout: float | None = None
+    """Reply timeout (s) of the bridge's own requests (state stream, arming a CAN timeout); None: the transport's."""
 
     def __post_init__(self) -> None:
         if not self.joints:
@@ -124,6 +132,7 @@ class BusFace:
         prefix: str,
         joints: Sequence[JointSpec],
         command_timeout: float = DEFAULT_COMMAND_TIMEOUT,
+        timeout: float | None = None,
     ) -> None:
         import zenoh
 
@@ -157,7 +166,7 @@ class BusFace:
             self._keys["rx"], priority=zenoh.Priority.DATA_HIGH, congestion_control=zenoh.CongestionControl.DROP
         )
         self.hub = BusHub(transport, self._publish_rx, self._client_sent)
-        self.bus = Bus(self.hub.local, stop_on_close=True)
+        self.bus = Bus(self.hub.local, stop_on_close=True, timeout=timeout)
         self._decls: list[Any] = []
         self._writer = threading.Thread(target=self._writer_loop, name=f"drempower bridge writer {name}", daemon=True)
         try:
@@ -255,6 +264,19 @@ class BusFace:
         """Emergency stop of every motor of this bus that the bridge serves, ahead of queued client frames."""
         self.estop_now([SystemCommand(i, SysCmd.ESTOP).encode() for i in self.ids])
 
+    def send_unless(self, frames: Sequence[Frame], stale: Callable[[], bool]) -> bool:
+        """The bridge's ``frames`` on the bus ahead of queued client samples, unless ``stale()`` once the bus is free.
+
+        ``stale`` is asked while the bus is held, so an estop that makes it
+        true either finds these frames written already (and comes after them) or
+        keeps them off the bus. False when nothing was sent.
+        """
+        with self._write_lock:
+            if stale():
+                return False
+            self.hub.send(frames, BRIDGE_ORIGIN)
+            return True
+
     def _writer_loop(self) -> None:
         cv = self._queue_cv
         while True:
@@ -286,13 +308,23 @@ class BusFace:
                 self._heard[origin] = max(self._heard.get(origin, 0.0), time.monotonic())
 
     def check_clients(self) -> None:
-        """Idle the motors of every client that drove some and was not heard from for ``command_timeout`` s."""
+        """Idle the motors of every client that drove some and was not heard from for ``command_timeout`` s.
+
+        Also forgets clients that drive nothing and were silent for :data:`FORGET_AFTER` s (or ten
+        command timeouts), so that clients coming and going, or samples naming made-up clients,
+        leave nothing behind.
+        """
         now = time.monotonic()
         gone: list[tuple[bytes, set[int]]] = []
+        forget = now - max(FORGET_AFTER, 10 * self.command_timeout)
         with self._clients_lock:
             for client in list(self._clients):
                 if now - self._heard.get(client, 0.0) > self.command_timeout:
                     gone.append((client, self._clients.pop(client)))
+            for client, heard in list(self._heard.items()):
+                if heard < forget and client not in self._clients:
+                    del self._heard[client]
+                    self._stopped_at.pop(client, None)
         for client, nodes in gone:
             _log.info(
                 "client %s silent for %.3f s on %s; idling motors %s",
@@ -315,6 +347,7 @@ class BusFace:
         with self._clients_lock:
             nodes = self._clients.pop(client, set())
             self._heard.pop(client, None)
+            self._stopped_at.pop(client, None)
         _log.info("client %s left %s; idling motors %s", client.decode(), self.prefix, sorted(nodes) or "none")
         if nodes:
             self.clients_idled += 1  # counted first: whoever sees the motors idle sees the count
@@ -329,8 +362,8 @@ class BusFace:
         targets = [0] if 0 in nodes else sorted(nodes)
         self.hub.send(idle_frames(targets), BRIDGE_ORIGIN)
 
-    def close(self) -> None:
-        """Stop serving; idle every motor a client set moving. Idempotent."""
+    def stop(self) -> None:
+        """Stop serving; idle every motor a client set moving. The bus stays open (:meth:`close`). Idempotent."""
         if self._closed.is_set():
             return
         self._closed.set()
@@ -346,6 +379,10 @@ class BusFace:
             self._clients.clear()
         if nodes:
             self.idle(nodes)
+
+    def close(self) -> None:
+        """:meth:`stop`, then close the bridge's bus (idling what it commanded) and the hub. Idempotent."""
+        self.stop()
         self.bus.close()
         self.hub.close()
         try:
@@ -384,6 +421,7 @@ class Bridge:
             if not any(j.bus == name for j in specs):
                 raise ValueError(f"bus {name!r}: no joint is on it")
         self._closed = threading.Event()
+        self._order = ServiceOrder()
         self.faces: dict[str, BusFace] = {}
         """The drempower face of each bus by name (``""`` for a bus served alone)."""
         self._joints: list[tuple[JointSpec, Gearing, BusFace]] = []
@@ -393,7 +431,7 @@ class Bridge:
             for name, t in transports.items():
                 prefix = o.prefix if not name else f"{o.prefix.strip('/')}/{name}"
                 self.faces[name] = BusFace(
-                    name, t, session, prefix, [j for j in specs if j.bus == name], o.command_timeout
+                    name, t, session, prefix, [j for j in specs if j.bus == name], o.command_timeout, o.timeout
                 )
             self._joints = [(j, Gearing(j), self.faces[j.bus]) for j in specs]
             self._names = [j.name for j in specs]
@@ -474,11 +512,10 @@ class Bridge:
             self._streams[topic] = _Stream()
             self._decls.append(s.declare_subscriber(key, lambda sample, t=topic: self._on_command(t, sample)))
         self.service_keys: dict[str, str] = {}
-        services = (("estop", self._srv_estop), ("clear_errors", self._srv_clear_errors), ("enable", self._srv_enable))
-        for name, handler in services:
+        for name in ("estop", "clear_errors", "enable"):
             key, _ = declare("SS", name, rosmsg.TRIGGER)
             self.service_keys[name] = key
-            self._decls.append(s.declare_queryable(key, lambda q, h=handler: self._serve(q, h), complete=True))
+            self._decls.append(s.declare_queryable(key, lambda q, n=name: self._serve(q, n), complete=True))
         self._publisher_topics = {
             (rmw.mangle(rmw.qualify(ns, topic)), rosmsg.dds_type_name(rosmsg.FLOAT64_MULTI_ARRAY)): topic
             for topic in COMMAND_TOPICS
@@ -647,13 +684,20 @@ class Bridge:
                             _log.info("%s silent for %.3f s: idling %s", topic, timeout, ", ".join(self._names))
                             self._idle_all()
 
-    def _serve(self, query: Any, handler: Any) -> None:
+    def _serve(self, query: Any, name: str) -> None:
+        """Answer a call of service ``name``: an estop at once, the others one at a time in arrival order."""
+        if name == "estop":
+            success, message = self._srv_estop()
+        else:
+            ticket = self._order.arrive()
+            with self._order.turn(ticket):
+                handler = self._srv_enable if name == "enable" else self._srv_clear_errors
+                success, message = handler(ticket)
         att = query.attachment.to_bytes() if query.attachment is not None else b""
         try:
             req = rmw.Attachment.decode(att)
         except ValueError:
             req = rmw.Attachment(0, 0, bytes(rmw.GID_SIZE))
-        success, message = handler()
         t = rosmsg.typestore().types
         payload = rosmsg.encode(
             t[rosmsg.TRIGGER + "_Response"](success=success, message=message), rosmsg.TRIGGER + "_Response"
@@ -666,8 +710,10 @@ class Bridge:
 
         The first bus is stopped from the calling thread, every other one from
         a thread of its own, so a bus whose device stopped taking data does not
-        delay the others' stop.
+        delay the others' stop. Every ``enable`` or ``clear_errors`` call that
+        arrived before it sends nothing more (see :mod:`.order`).
         """
+        self._order.arrive(estop=True)
         failures: list[str] = []
 
         def stop(face: BusFace) -> None:
@@ -698,30 +744,31 @@ class Bridge:
             return "motors " + ", ".join(map(str, self._face.ids))
         return "joints " + ", ".join(self._names)
 
-    def _srv_clear_errors(self) -> tuple[bool, str]:
+    def _send_each(self, ticket: int, what: str, frame_of: Callable[[int], Frame]) -> tuple[bool, str]:
+        """``frame_of(id)`` to every motor served, one frame at a time, until an estop that arrived later fences it."""
         failures = []
         for face in self.faces.values():
             try:
                 for i in face.ids:
-                    face.bus.motor(i).clear_error()
-            except DrEmpowerError as exc:
-                failures.append(f"{face.name or face.prefix}: {exc}")
-        if failures:
-            return False, "clear_errors failed: " + "; ".join(failures)
-        return True, "errors cleared on " + self._served()
-
-    def _srv_enable(self) -> tuple[bool, str]:
-        """Closed loop for every joint served, on every bus (a bus that fails does not keep the others from it)."""
-        failures = []
-        for face in self.faces.values():
-            try:
-                for i in face.ids:
-                    face.bus.motor(i).set_mode(2)
+                    if not face.send_unless([frame_of(i)], lambda: self._order.stale(ticket)):
+                        return False, (
+                            f"{what} not done: an estop called after it came first (call clear_errors, then enable)"
+                        )
             except Exception as exc:  # a reply in every case: the caller waits for one
                 failures.append(f"{face.name or face.prefix}: {exc}")
         if failures:
-            return False, "enable failed: " + "; ".join(failures)
-        return True, "closed loop on " + self._served()
+            return False, f"{what} failed: " + "; ".join(failures)
+        return True, ""
+
+    def _srv_clear_errors(self, ticket: int) -> tuple[bool, str]:
+        """Clear the errors of every joint served, unless an estop that arrived later came first."""
+        ok, message = self._send_each(ticket, "clear_errors", lambda i: SystemCommand(i, SysCmd.CLEAR_ERRORS).encode())
+        return ok, message or "errors cleared on " + self._served()
+
+    def _srv_enable(self, ticket: int) -> tuple[bool, str]:
+        """Closed loop for every joint served, on every bus (a bus that fails does not keep the others from it)."""
+        ok, message = self._send_each(ticket, "enable", lambda i: ops.set_mode(i, 2).encode())
+        return ok, message or "closed loop on " + self._served()
 
     # ------------------------------------------------------------------ lifetime
 
@@ -733,8 +780,12 @@ class Bridge:
                 return face.hub.failure
         return None
 
-    def close(self) -> None:
-        """Stop serving; idle every motor set moving by the bridge or a client. Idempotent."""
+    def stop(self) -> None:
+        """Stop serving; idle every motor set moving by the bridge or a client; the buses stay open. Idempotent.
+
+        Between :meth:`stop` and :meth:`close` the buses (:attr:`faces`' ``bus``)
+        still answer: the CLI restores the motors' CAN timeout there.
+        """
         if self._closed.is_set():
             return
         self._closed.set()
@@ -745,5 +796,13 @@ class Bridge:
                 d.undeclare()
             except Exception as exc:
                 _log.debug("undeclare: %s", exc)
+        for face in self.faces.values():
+            face.stop()
+        if any(stream.driven for stream in getattr(self, "_streams", {}).values()):
+            self._idle_all()
+
+    def close(self) -> None:
+        """:meth:`stop`, then close every bus the bridge opened a client on. Idempotent."""
+        self.stop()
         for face in self.faces.values():
             face.close()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import logging
 import os
 import signal
 import sys
@@ -10,8 +11,9 @@ import threading
 from contextlib import ExitStack
 from typing import Any
 
-from ..bridge.zconfig import check_endpoint
+from ..transports.zenoh_config import check_endpoint
 from ._connect import add_connection_args, connection_kwargs, parse_ids, positive, sim_time_scale
+from ._motion import add_watchdog_arg, arm_watchdog, restore_watchdog
 from ._output import add_json_arg, json_line
 from ._usage import UsageError
 
@@ -58,7 +60,22 @@ def register(sub: Any) -> None:
         metavar="ENDPOINT",
         help="Zenoh endpoint to listen on, repeatable",
     )
-    p.add_argument("--scout", action="store_true", help="turn on Zenoh multicast scouting (off by default)")
+    p.add_argument(
+        "--scout", action="store_const", const=True, help="turn on Zenoh multicast scouting (off by default)"
+    )
+    p.add_argument(
+        "--no-gossip",
+        dest="gossip",
+        action="store_const",
+        const=False,
+        help="turn off Zenoh gossip scouting (peers learnt through the router; on by default, as in rmw_zenoh)",
+    )
+    p.add_argument(
+        "--zenoh-config",
+        metavar="FILE",
+        help="Zenoh session configuration (JSON5, as rmw_zenoh's ZENOH_SESSION_CONFIG_URI); "
+        "--connect, --listen, --scout and --no-gossip override it",
+    )
     p.add_argument("--namespace", default="", help="ROS 2 namespace of the topics and services (default none)")
     p.add_argument("--domain-id", type=int, help="ROS 2 domain id (default $ROS_DOMAIN_ID or 0)")
     p.add_argument("--prefix", default="drempower", help="Zenoh key prefix of the drempower face (default drempower)")
@@ -76,6 +93,7 @@ def register(sub: Any) -> None:
         default=20.0,
         help="T-mode filter bandwidth of position commands, 1/s (default 20)",
     )
+    add_watchdog_arg(p)
     add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run, robot_whole=True)
@@ -118,14 +136,48 @@ def _prefixes(bridge: Any) -> str:
     return "prefixes " + ", ".join(f"{f.prefix} (bus {f.name})" for f in faces)
 
 
+def _watchdog_fits(args: argparse.Namespace) -> None:
+    """A --watchdog the state stream keeps fed: at least three of its periods (it reads every motor each)."""
+    if args.watchdog and args.watchdog < 3000.0 / args.rate:
+        raise UsageError(
+            f"--watchdog {args.watchdog}: the state stream (--rate {args.rate:g}) talks to each motor every "
+            f"{1000.0 / args.rate:g} ms; the watchdog needs at least 3 of those ({3000.0 / args.rate:g} ms): "
+            "raise --rate or the watchdog"
+        )
+
+
+def _stop_on_signals(stop: threading.Event, got: list[int]) -> dict[int, Any]:
+    """Make SIGINT, SIGTERM and SIGHUP set ``stop`` (the first one is kept in ``got``); returns the old handlers."""
+
+    def handler(signum: int, _frame: Any) -> None:
+        if not got:
+            got.append(signum)
+        stop.set()
+
+    handled = [signal.SIGINT, signal.SIGTERM, signal.SIGHUP]
+    return {s: signal.signal(s, handler) for s in handled if signal.getsignal(s) is not signal.SIG_IGN}
+
+
 def run(args: argparse.Namespace) -> int:
     try:
+        import rosbags  # noqa: F401
+        import zenoh  # noqa: F401
+
         from ..bridge.server import Bridge, BridgeOptions
-        from ..bridge.zconfig import open_session
     except ImportError as exc:
-        print(f"drempower bridge: {exc}; install the extra: pip install 'drempower[bridge]'", file=sys.stderr)
-        return 1
+        print(f"drempower bridge: needs the bridge extra: pip install 'drempower[bridge]' ({exc})", file=sys.stderr)
+        return 2
+    from ..bridge.logs import StderrLines
     from ..transports import open_transport
+    from ..transports.zenoh_config import open_config, session_config, settings
+
+    _watchdog_fits(args)
+    try:
+        conf = session_config(
+            args.connect, args.listen, scout=args.scout, gossip=args.gossip, config_file=args.zenoh_config
+        )
+    except ValueError as exc:
+        raise UsageError(f"--zenoh-config: {exc}") from None
 
     spec = getattr(args, "robot_spec", None)
     joints: dict[str, Any]
@@ -150,25 +202,38 @@ def run(args: argparse.Namespace) -> int:
             rate=args.rate,
             command_timeout=args.command_timeout,
             bandwidth=args.bandwidth,
+            timeout=args.timeout,
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
     buses = _bus_kwargs(args)
     stop = threading.Event()
+    got: list[int] = []
     status = 0
-    handled = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
-    previous = {s: signal.signal(s, lambda *_: stop.set()) for s in handled}
+    # Lines go to stderr from a thread of their own: a stderr nobody reads never holds up a Zenoh callback,
+    # a service (estop included) or the way out.
+    err = StderrLines().start()
+    log = logging.getLogger("drempower")
+    log.addHandler(err)
+    propagate, log.propagate = log.propagate, False
+    previous: dict[int, Any] = {}
     try:
         with ExitStack() as stack:
             transports: dict[str, Any] = {}
             for name, (kw, _) in buses.items():
                 transports[name] = open_transport(**kw)
                 stack.callback(transports[name].close)
-            session = open_session(args.connect, args.listen, scout=args.scout)
+            session = open_config(conf)
             stack.callback(session.close)
             how = "; ".join(h for _, h in buses.values())
             bridge = Bridge(transports if spec is not None else transports[""], session, options)
+            armed: list[tuple[Any, dict[int, int]]] = []
             try:
+                # After the bridge's bus (whose SIGTERM handler would close it at once): the way out below idles
+                # the motors, then puts their CAN timeout back on the still open bus.
+                previous = _stop_on_signals(stop, got)
+                for face in bridge.faces.values():
+                    armed.append((face.bus, arm_watchdog(face.bus, face.ids, args.watchdog) if args.watchdog else {}))
                 if args.json:
                     record = {
                         "bus": how,
@@ -184,23 +249,29 @@ def run(args: argparse.Namespace) -> int:
                         "joint_states": bridge.joint_states_key,
                         **bridge.command_keys,
                         **bridge.service_keys,
+                        "zenoh": settings(conf),
+                        **({"watchdog_ms": args.watchdog} if args.watchdog else {}),
                     }
                     print(json_line(record), flush=True)
-                print(
+                err.line(
                     f"drempower bridge: {how}; joints {', '.join(options.joints)}; "
-                    f"joint_states on {bridge.joint_states_key}; drempower {_prefixes(bridge)}",
-                    file=sys.stderr,
-                    flush=True,
+                    f"joint_states on {bridge.joint_states_key}; drempower {_prefixes(bridge)}"
                 )
                 while not stop.wait(0.2):
                     if bridge.failure is not None:
-                        print(f"drempower bridge: the bus stopped: {bridge.failure}", file=sys.stderr)
+                        err.line(f"drempower bridge: the bus stopped: {bridge.failure}")
                         status = 1
                         break
             finally:
+                bridge.stop()  # the motors it or its clients drove go idle; then their CAN timeout is put back
+                for bus, before in armed:
+                    restore_watchdog(bus, before)
                 bridge.close()
+        err.line("drempower bridge: stopped; motors it drove are idle")
     finally:
         for s, h in previous.items():
             signal.signal(s, h)
-    print("drempower bridge: stopped; motors it drove are idle", file=sys.stderr)
-    return status
+        log.removeHandler(err)
+        log.propagate = propagate
+        err.flush_for(1.0)
+    return 128 + got[0] if got else status

@@ -23,7 +23,9 @@ from ..protocol.parameters import DataType, parameters
 
 __all__ = ["dbc_text", "write_dbc", "parse_nodes"]
 
-_F32 = (-3.4e38, 3.4e38)
+_F32 = (0.0, 0.0)
+"""A float signal's range: none (``[0|0]``, as cantools writes a signal without one), so a strict encoder takes
+every float32 value, +-3.4028234663852886e38, infinities and NaN included."""
 _S16 = (S16_MIN, S16_MAX)
 
 

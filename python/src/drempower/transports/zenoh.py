@@ -57,8 +57,8 @@ class ZenohTransport(QueuedTransport):
         except ImportError as exc:
             raise TransportError("interface 'zenoh' needs eclipse-zenoh: pip install 'drempower[bridge]'") from exc
         from ..bridge.hub import driven_nodes
-        from ..bridge.tunnel import DEFAULT_PREFIX, decode_frames, encode_frames, is_estop, join_origin, keys
-        from ..bridge.zconfig import open_session
+        from .zenoh_config import open_session
+        from .zenoh_wire import DEFAULT_PREFIX, decode_frames, encode_frames, is_estop, join_origin, keys
 
         prefix = DEFAULT_PREFIX if channel is None else str(channel)
         try:

@@ -1,4 +1,4 @@
-"""The drempower face of the bridge: key names and the frame encoding tunnelled over Zenoh.
+"""A remote bus on Zenoh: its keys and frame encoding (served by ``drempower bridge``, read by the ``zenoh`` transport).
 
 Under a key prefix (``drempower`` by default) a bridge serves:
 

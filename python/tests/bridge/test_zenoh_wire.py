@@ -5,10 +5,10 @@ from __future__ import annotations
 import pytest
 
 from drempower.bridge.hub import driven_nodes
-from drempower.bridge.tunnel import decode_frames, encode_frames, is_estop, keys
 from drempower.errors import ProtocolError
 from drempower.protocol.ids import Frame, SysCmd
 from drempower.protocol.messages import FastRead, SystemCommand
+from drempower.transports.zenoh_wire import decode_frames, encode_frames, is_estop, keys
 
 
 def test_frames_golden_bytes() -> None:
