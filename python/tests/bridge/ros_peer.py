@@ -120,3 +120,114 @@ def publisher_token(ros: Any, topic: str, typename: str, entity: int = 10, node:
             rosmsg.ros_type_hash(typename),
         )
     )
+
+
+class ActionClient:
+    """A FollowJointTrajectory client speaking rmw_zenoh's action mapping from session ``ros``."""
+
+    def __init__(self, ros: Any, keys: dict[str, str]) -> None:
+        from drempower.bridge import rosaction
+
+        self.ros, self.keys = ros, keys
+        self.types = rosaction.typestore().types
+        self.t = rosaction.FOLLOW_JOINT_TRAJECTORY
+        self.gid = bytes(range(200, 216))
+        self.seq = 0
+        self.feedback: list[tuple[float, Any]] = []
+        self.status: list[Any] = []
+        self._subs = [
+            ros.declare_subscriber(keys["feedback"], self._on_feedback),
+            ros.declare_subscriber(
+                keys["status"],
+                lambda s: self.status.append(rosmsg.decode(s.payload.to_bytes(), rosaction.GOAL_STATUS_ARRAY)),
+            ),
+        ]
+
+    def _on_feedback(self, sample: Any) -> None:
+        att = rmw.Attachment.decode(sample.attachment.to_bytes())
+        assert att.sequence_number >= 1
+        self.feedback.append((time.monotonic(), rosmsg.decode(sample.payload.to_bytes(), self.t + "_FeedbackMessage")))
+
+    def call(self, role: str, typename: str, msg: Any, timeout: float = 10.0) -> Any:
+        import zenoh
+
+        self.seq += 1
+        seq = self.seq  # calls may overlap (a get_result waits while a cancel goes)
+        att = rmw.Attachment(seq, time.time_ns(), self.gid).encode()
+        replies = list(
+            self.ros.get(
+                self.keys[role],
+                payload=rosmsg.encode(msg, typename + "_Request"),
+                attachment=att,
+                target=zenoh.QueryTarget.ALL_COMPLETE,
+                timeout=timeout,
+            )
+        )
+        assert len(replies) == 1 and replies[0].ok is not None, replies
+        back = rmw.Attachment.decode(replies[0].ok.attachment.to_bytes())
+        assert back.sequence_number == seq and back.gid == self.gid
+        return rosmsg.decode(replies[0].ok.payload.to_bytes(), typename + "_Response")
+
+    def uuid(self, gid: bytes) -> Any:
+        return self.types["unique_identifier_msgs/msg/UUID"](uuid=np.frombuffer(gid, dtype=np.uint8).copy())
+
+    def goal(
+        self,
+        names: list[str],
+        times: list[float],
+        rows: list[list[float]],
+        *,
+        path_tolerance: float = 0.0,
+        goal_tolerance: float = 0.0,
+        goal_time: float = 0.0,
+    ) -> Any:
+        T = self.types
+
+        def duration(s: float) -> Any:
+            return T["builtin_interfaces/msg/Duration"](sec=int(s), nanosec=round((s - int(s)) * 1e9))
+
+        header = T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](sec=0, nanosec=0), frame_id="")
+        empty = np.array([], dtype=np.float64)
+        points = [
+            T["trajectory_msgs/msg/JointTrajectoryPoint"](
+                positions=np.array(r, dtype=np.float64),
+                velocities=empty,
+                accelerations=empty,
+                effort=empty,
+                time_from_start=duration(t),
+            )
+            for t, r in zip(times, rows, strict=True)
+        ]
+
+        def tol(x: float) -> list[Any]:
+            jt = T["control_msgs/msg/JointTolerance"]
+            return [jt(name=n, position=x, velocity=0.0, acceleration=0.0) for n in names] if x else []
+
+        return T[self.t + "_Goal"](
+            trajectory=T["trajectory_msgs/msg/JointTrajectory"](header=header, joint_names=names, points=points),
+            multi_dof_trajectory=T["trajectory_msgs/msg/MultiDOFJointTrajectory"](
+                header=header, joint_names=[], points=[]
+            ),
+            path_tolerance=tol(path_tolerance),
+            component_path_tolerance=[],
+            goal_tolerance=tol(goal_tolerance),
+            component_goal_tolerance=[],
+            goal_time_tolerance=duration(goal_time),
+        )
+
+    def send(self, goal: Any, gid: bytes) -> bool:
+        req = self.types[self.t + "_SendGoal_Request"](goal_id=self.uuid(gid), goal=goal)
+        return bool(self.call("send_goal", self.t + "_SendGoal", req).accepted)
+
+    def result(self, gid: bytes, timeout: float = 30.0) -> Any:
+        req = self.types[self.t + "_GetResult_Request"](goal_id=self.uuid(gid))
+        return self.call("get_result", self.t + "_GetResult", req, timeout)
+
+    def cancel(self, gid: bytes) -> Any:
+        from drempower.bridge import rosaction
+
+        T = self.types
+        info = T["action_msgs/msg/GoalInfo"](
+            goal_id=self.uuid(gid), stamp=T["builtin_interfaces/msg/Time"](sec=0, nanosec=0)
+        )
+        return self.call("cancel_goal", rosaction.CANCEL_GOAL, T[rosaction.CANCEL_GOAL + "_Request"](goal_info=info))
