@@ -13,6 +13,7 @@ import pytest
 from drempower.bridge import rosaction
 from drempower.bridge.trajectory_action import TrajectoryAction
 from drempower.bridge.typehash import type_hash
+from drempower.protocol.enums import AxisState
 from drempower.protocol.limits import MOTION_CMDS
 
 from .conftest import session, wait_for
@@ -106,6 +107,7 @@ def test_a_cancel_stops_the_arm(tmp_path: Path) -> None:
             assert s + 0.05 < h < e - 0.3  # stopped on the way
         assert client.cancel(gid).return_code == 3  # ERROR_GOAL_TERMINATED
         action.close()
+    assert all(arm.motor(n).state == AxisState.IDLE for n in JOINTS)  # the bridge's end idles what it drove
 
 
 def test_bad_goals_end_with_their_error_codes(tmp_path: Path) -> None:
