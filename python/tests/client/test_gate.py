@@ -290,3 +290,13 @@ def test_compat_refuses_with_the_same_words(idle: Idle) -> None:
         finally:
             compat._bus = None
     assert [f.arbitration_id for f in _motion(idle.frames)] == [0x3A]  # the one move, after set_mode
+
+
+def test_closing_the_bus_sends_the_pending_stop(idle: Idle) -> None:
+    with idle.open() as bus:  # stop_on_close=False: only the timed stop can end the speed
+        bus.motor(1).set_speed(30, duration=60, enable=True)
+        bus.run(sleep(0.5))
+    assert idle.sim.motors[1].param("axis0.current_state") == 8  # still enabled: nothing idled it
+    with drempower.open_bus("sim", bus=idle.sim, clock="virtual", stop_on_close=False) as later:
+        later.run(sleep(1.0))
+        assert idle.sim.motors[1].speed == pytest.approx(0, abs=1)

@@ -49,7 +49,9 @@ class SyncBusBase(BusBase[M]):
         return self._core.run(await_state(id, since, timeout))
 
     def close(self) -> None:
-        """Apply ``stop_on_close`` to the motors this bus commanded, then release the transport."""
+        """Send the pending stops of timed commands, apply ``stop_on_close`` to the motors this bus
+        commanded, then release the transport."""
+        self._timed.flush()
         self._core.close()
 
 
@@ -89,4 +91,5 @@ class AsyncBusBase(BusBase[M]):
         (in a worker thread: it may block briefly)."""
         import asyncio
 
+        self._timed.flush()
         await asyncio.get_running_loop().run_in_executor(None, self._core.close)

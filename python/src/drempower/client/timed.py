@@ -4,8 +4,8 @@
 ``set_speeds``/``set_torques``) send their command, then, ``s`` seconds later, speed 0
 or torque 0 to the same motors, whatever the caller does meanwhile: no page, loop or
 client has to stay alive for the motor to stop. A later motion command of this bus to
-a motor cancels that motor's pending stop (it has been told something newer); an
-estop, an idle request or closing the bus stops it anyway.
+a motor cancels that motor's pending stop (it has been told something newer); closing
+the bus sends the pending stops at once (whatever ``stop_on_close`` says).
 
 On a virtual clock the stop is an operation of the session, due on its timers (it
 fires while simulated time passes); on the wall clock a timer thread sends it.
@@ -54,6 +54,8 @@ class TimedStops:
         self._lock = threading.Lock()
         self._serial: dict[int, int] = {}
         """Per motor, the number of its latest pending stop (a stop fires only if still the latest)."""
+        self._stops: dict[int, Message] = {}
+        """Per motor, its pending stop (sent at once when the bus closes first)."""
         self._next = 0
 
     def commanded(self, msgs: Sequence[Message], duration: float | None) -> None:
@@ -65,6 +67,7 @@ class TimedStops:
             for m in msgs:
                 if m.cmd in MOTION_CMDS:
                     self._serial.pop(m.node, None)
+                    self._stops.pop(m.node, None)
             if duration is None:
                 return
             stops = _stops(msgs)
@@ -74,6 +77,7 @@ class TimedStops:
             mine = self._next
             for s in stops:
                 self._serial[s.node] = mine
+                self._stops[s.node] = s
         if self._core.virtual:
             self._core.submit(self._later(duration, stops, mine))
         else:
@@ -88,6 +92,19 @@ class TimedStops:
             with self._lock:
                 for n in nodes:
                     self._serial.pop(n, None)
+                    self._stops.pop(n, None)
+
+    def flush(self) -> None:
+        """Send every pending stop now (the bus is closing: a timed command never outlives it)."""
+        with self._lock:
+            due = list(self._stops.values())
+            self._stops.clear()
+            self._serial.clear()
+        if due and not self._core.closed:
+            try:
+                self._core.send_many(due)
+            except DrEmpowerError:
+                pass
 
     def pending(self) -> set[int]:
         """The motors with a stop still to come."""
@@ -100,6 +117,7 @@ class TimedStops:
             due = [s for s in stops if self._serial.get(s.node) == mine]
             for s in due:
                 del self._serial[s.node]
+                self._stops.pop(s.node, None)
         return due
 
     def _later(self, duration: float, stops: Sequence[Message], mine: int) -> Op[None]:
