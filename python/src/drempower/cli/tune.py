@@ -1,0 +1,74 @@
+"""``drempower tune JOINT --bandwidth HZ``: gains from the joint's identified dynamics, a step before and after."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from ..errors import ValidationError
+from ._confirm import add_yes_arg, confirm
+from ._connect import add_connection_args, positive
+from ._output import add_json_arg, clean, json_line
+from ._usage import UsageError
+
+GROUP = "motion"
+"""Where ``drempower --help`` lists this module's subcommands."""
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "tune",
+        help="tune a joint's position controller for a bandwidth, from its identified dynamics",
+        description=(
+            "Identify the joint (a gentle excitation, as drempower identify), compute pos_gain, vel_gain, "
+            "vel_integrator_gain and the T-mode filter bandwidth for --bandwidth HZ, step the joint with its "
+            "present gains, write the new ones (in RAM, after confirmation) and step it again, printing rise "
+            "time, overshoot and settling before and after. --save stores them in the motor's flash. "
+            "Example: drempower tune elbow --bandwidth 2 --robot arm.toml --yes"
+        ),
+    )
+    p.add_argument("joint", metavar="JOINT", help="the joint's name in the robot file")
+    p.add_argument("--bandwidth", type=positive, required=True, metavar="HZ", help="closed-loop bandwidth, Hz")
+    p.add_argument("--step", type=positive, default=0.15, metavar="RAD", help="the verification step (default 0.15)")
+    p.add_argument("--save", action="store_true", help="save the new gains in the motor's flash")
+    add_yes_arg(p)
+    add_json_arg(p)
+    add_connection_args(p)
+    p.set_defaults(func=run, robot_whole=True)
+
+
+def _step_text(what: str, s: Any) -> str:
+    return f"  {what:<7} rise {s.rise:.3f} s, overshoot {100 * s.overshoot:.1f} %, settling {s.settling:.3f} s"
+
+
+def run(args: argparse.Namespace) -> int:
+    spec = getattr(args, "robot_spec", None)
+    if spec is None:
+        raise UsageError("tune needs --robot FILE (the joint's gear and limits come from it)")
+    if args.joint not in spec.joints:
+        raise UsageError(f"joint {args.joint!r}: no such joint (joints: {', '.join(spec.joints)})")
+    where = "in RAM, then saved" if args.save else "in RAM"
+    confirm(args, f"tune joint {args.joint}", f"it is excited, stepped by {args.step:g} rad twice, new gains {where}")
+    from ..motion.tune import tune
+    from ..robot import open_robot
+
+    with open_robot(spec, timeout=args.timeout, stop_on_close=False) as robot:
+        try:
+            report = tune(robot, args.joint, args.bandwidth, step=args.step)
+        except ValidationError as exc:
+            raise UsageError(str(exc)) from None
+        if args.save:
+            robot.joint(args.joint).save_config()
+    if args.json:
+        sys.stdout.write(json_line({**report.as_dict(), "saved": args.save}) + "\n")
+        return 0
+    g = report.gains
+    print(clean(f"joint {report.joint} at {report.bandwidth:g} Hz (inertia {report.identified.inertia:.4g} kg m^2):"))
+    print(
+        f"  pos_gain {g.pos_gain:.4g}, vel_gain {g.vel_gain:.4g}, vel_integrator_gain {g.vel_integrator_gain:.4g}, "
+        f"T-mode bandwidth {g.bandwidth:.4g} 1/s{' (saved)' if args.save else ' (in RAM; --save stores them)'}"
+    )
+    print(_step_text("before", report.before))
+    print(_step_text("after", report.after))
+    return 0
