@@ -11,13 +11,14 @@ from pathlib import Path
 import pytest
 
 from drempower.bridge import rosaction
+from drempower.bridge.joint_topics import JointTopics
 from drempower.bridge.trajectory_action import TrajectoryAction
 from drempower.bridge.typehash import type_hash
 from drempower.protocol.enums import AxisState
 from drempower.protocol.limits import MOTION_CMDS
 
 from .conftest import session, wait_for
-from .ros_peer import JOINTS, ActionClient, arm_file, served_arm
+from .ros_peer import JOINTS, ActionClient, arm_file, joint_state, served_arm
 
 pytestmark = pytest.mark.timeout(120)
 
@@ -81,9 +82,11 @@ def test_a_goal_follows_a_six_joint_path_with_feedback(tmp_path: Path) -> None:
         action.close()
 
 
-def test_a_cancel_stops_the_arm(tmp_path: Path) -> None:
+def test_a_cancel_stops_the_arm(tmp_path: Path, caplog: pytest.LogCaptureFixture) -> None:
     with served_arm() as arm, session(connect=[arm.endpoint]) as ros:
         action = TrajectoryAction(arm.bridge)
+        topics = JointTopics(arm.bridge)
+        pub = ros.declare_publisher(topics.commands_key)
         client = ActionClient(ros, action.keys)
         arm.enable(ros)
         start = [arm.position(n) for n in JOINTS]
@@ -93,7 +96,13 @@ def test_a_cancel_stops_the_arm(tmp_path: Path) -> None:
         got: list[object] = []
         waiter = threading.Thread(target=lambda: got.append(client.result(gid)))
         waiter.start()
-        time.sleep(1.0)
+        time.sleep(0.5)
+        assert not client.send(client.goal(JOINTS, [1.0], [start]), _gid())  # one goal at a time
+        topics.busy = action.running
+        pub.put(joint_state(JOINTS, start))  # the topics wait while a goal runs
+        wait_for(lambda: topics.refused == 1)
+        assert "is executing" in caplog.text
+        time.sleep(0.5)
         resp = client.cancel(gid)
         assert resp.return_code == 0 and len(resp.goals_canceling) == 1
         waiter.join(10)

@@ -37,7 +37,7 @@ import logging
 import math
 import threading
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ..client.commands import PositionMode, make_angle, make_impedance, make_speed, make_torque
@@ -123,6 +123,8 @@ class JointTopics:
         """Command messages refused (unknown names, bad values, the safety gate)."""
         self.fired = 0
         """Times the publisher was found gone and the joints did their ``on_timeout``."""
+        self.busy: Callable[[], str | None] = lambda: None
+        """Says why commands are refused now, if they are (a trajectory goal executing), else None."""
         self._dogs: dict[str, Watchdog] = {}
         for name, face in bridge.faces.items():
             on = {j.id: getattr(j, "on_timeout", "hold") for j in face.joints}
@@ -249,6 +251,9 @@ class JointTopics:
             if self._closed.is_set():
                 return
             try:
+                why = self.busy()
+                if why:
+                    raise ValueError(why)
                 batches = self._messages(msg)
                 self._send(batches)
             except (DrEmpowerError, ValueError) as exc:

@@ -134,6 +134,7 @@ class TrajectoryAction:
         self._closed = threading.Event()
         self._thread: threading.Thread | None = None
         self._seq = {"feedback": 0, "status": 0}
+        self._put_lock = threading.Lock()
         self._gids: dict[str, bytes] = {}
         spec_joints = {j.name: j for j, _, _ in bridge._joints}
         self._spec = RobotSpec({b: BusSpec(b, "bridge") for b in bridge.faces}, spec_joints, "the bridge's joints")
@@ -268,9 +269,16 @@ class TrajectoryAction:
         )
 
     def _put(self, role: str, payload: bytes) -> None:
-        self._seq[role] += 1
-        att = rmw.Attachment(self._seq[role], time.time_ns(), self._gids[role]).encode()
-        getattr(self, f"_{role}_pub").put(payload, attachment=att)
+        with self._put_lock:  # the executor's thread and Zenoh's callbacks both publish status
+            self._seq[role] += 1
+            att = rmw.Attachment(self._seq[role], time.time_ns(), self._gids[role]).encode()
+            getattr(self, f"_{role}_pub").put(payload, attachment=att)
+
+    def running(self) -> str | None:
+        """Why other commands to the joints are refused now: a goal executing (else None)."""
+        with self._lock:
+            g = self._running
+        return None if g is None else f"goal {uuidlib.UUID(bytes=g.id)} of {self.name} is executing"
 
     def _publish_status(self) -> None:
         T = self._types

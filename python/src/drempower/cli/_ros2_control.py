@@ -96,7 +96,9 @@ def start_ros2_control(bridge: Any, args: argparse.Namespace, spec: Any) -> Ros2
                 kd=conf.get("kd", 1.0),
             )
         )
-        out.parts.append(TrajectoryAction(bridge, args.action or conf.get("action", DEFAULT_ACTION)))
+        action = TrajectoryAction(bridge, args.action or conf.get("action", DEFAULT_ACTION))
+        out.parts.append(action)
+        out.parts[0].busy = action.running  # JointState commands wait while a goal runs
     except ValueError as exc:
         out.close()
         raise UsageError(f"ros2_control: {exc}") from exc
