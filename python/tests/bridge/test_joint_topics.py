@@ -159,3 +159,18 @@ def test_velocity_interface_runs_the_joint(tmp_path: Path) -> None:
         pub.put(joint_state(["base_yaw"], [0.0], velocity=[0.0]))
         wait_for(lambda: abs(arm.motor("base_yaw").speed) < 0.5)
         assert math.isfinite(moved)
+
+
+def test_a_token_after_the_first_command_still_counts(tmp_path: Path) -> None:
+    with served_arm(arm_file(tmp_path, "idle")) as arm, session(connect=[arm.endpoint]) as ros:
+        topics = JointTopics(arm.bridge)
+        pub = ros.declare_publisher(topics.commands_key)
+        arm.enable(ros)
+        pub.put(joint_state(JOINTS, [arm.position(n) for n in JOINTS]))
+        wait_for(lambda: topics.received == 1)
+        token = publisher_token(ros, topics.commands_topic, rosmsg.JOINT_STATE)
+        time.sleep(1.0)  # twice the timeout of a publisher without a token: held, since its token is there
+        assert topics.fired == 0 and all(arm.motor(n).state == AxisState.CLOSED_LOOP_CONTROL for n in JOINTS)
+        token.undeclare()
+        wait_for(lambda: all(arm.motor(n).state == AxisState.IDLE for n in JOINTS), limit=3)
+        pub.undeclare()

@@ -281,7 +281,13 @@ class JointTopics:
         with self._lock:
             if sample.kind != self._zenoh.SampleKind.DELETE:
                 self._publishers.add(key)
-                if self._registered is not None:
+                if self._registered is False:  # its token came after its first command: its liveness counts now
+                    now = time.monotonic()
+                    for dog, face in zip(self._dogs.values(), self.bridge.faces.values(), strict=True):
+                        dog.unregister(_CONTROLLER, now)
+                        dog.register(_CONTROLLER, face.ids, now=now, liveness=True)
+                    self._registered = True
+                elif self._registered:
                     for dog in self._dogs.values():
                         dog.alive(_CONTROLLER, True)
                 return
