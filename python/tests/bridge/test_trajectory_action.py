@@ -155,3 +155,29 @@ def test_bad_goals_end_with_their_error_codes(tmp_path: Path) -> None:
         res = client.result(gid)
         assert res.result.error_code == rosaction.ERROR["GOAL_TOLERANCE_VIOLATED"], res.result.error_string
         action.close()
+
+
+def test_a_goal_to_idle_motors_is_refused_and_a_cancel_holds_idle_on_timeout_joints(tmp_path: Path) -> None:
+    with served_arm(arm_file(tmp_path, "idle")) as arm, session(connect=[arm.endpoint]) as ros:
+        action = TrajectoryAction(arm.bridge)
+        client = ActionClient(ros, action.keys)
+        arm.bridge.bus.idle(range(1, 7))  # as after an estop
+        wait_for(lambda: all(arm.motor(n).state == AxisState.IDLE for n in JOINTS))
+        start = [arm.position(n) for n in JOINTS]
+        gid = _gid()
+        mark = len(arm.frames)
+        assert client.send(client.goal(JOINTS, [1.0], [[s + 0.2 for s in start]]), gid)
+        res = client.result(gid)
+        assert res.result.error_code == rosaction.ERROR["INVALID_GOAL"]
+        assert "enable service" in res.result.error_string
+        assert not [f for _, f in arm.frames[mark:] if f.arbitration_id & 0x1F in set(MOTION_CMDS)]
+        arm.enable(ros)
+        time.sleep(0.5)
+        start = [arm.position(n) for n in JOINTS]
+        gid = _gid()
+        assert client.send(client.goal(JOINTS, [3.0], [[s + 0.6 for s in start]]), gid)
+        time.sleep(1.0)
+        client.cancel(gid)
+        assert client.result(gid).status == rosaction.STATUS["CANCELED"]
+        assert all(arm.motor(n).state == AxisState.CLOSED_LOOP_CONTROL for n in JOINTS)  # held, not idled
+        action.close()

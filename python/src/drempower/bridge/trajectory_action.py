@@ -36,7 +36,7 @@ from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 from ..client.state import MotorState
-from ..errors import DrEmpowerError, ValidationError
+from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..motion.follow_sync import stream
 from ..motion.plan import FollowError, make_plan, robot_lanes, robot_limits
 from ..motion.trajectory import Trajectory
@@ -402,6 +402,9 @@ class TrajectoryAction:
             outcome = GoalOutcome(rosaction.STATUS["CANCELED"], 0, "canceled: the joints hold where they are")
         except FollowError as exc:
             outcome = GoalOutcome(rosaction.STATUS["ABORTED"], rosaction.ERROR["PATH_TOLERANCE_VIOLATED"], str(exc))
+        except MotorIdleError as exc:  # nothing was sent
+            text = f"{exc}; call the enable service first"
+            outcome = GoalOutcome(rosaction.STATUS["ABORTED"], rosaction.ERROR["INVALID_GOAL"], text)
         except Exception as exc:  # a bus failure: the follower held what it could
             outcome = GoalOutcome(rosaction.STATUS["ABORTED"], rosaction.ERROR["PATH_TOLERANCE_VIOLATED"], str(exc))
         level = logging.INFO if outcome.status == rosaction.STATUS["SUCCEEDED"] else logging.WARNING
@@ -451,6 +454,8 @@ class TrajectoryAction:
             )
         except ValidationError as exc:
             raise _Invalid("INVALID_GOAL", str(exc)) from exc
+        for lane in lanes:  # a cancel or a path error holds every joint where it is, as the controller does
+            lane.on_timeout = ["hold"] * len(lane.ids)
         buses = {lane.bus: faces[lane.bus].bus for lane in lanes}
         joint_of = {
             (lane.bus, i): (n, u) for lane in lanes for i, n, u in zip(lane.ids, lane.names, lane.units, strict=True)
@@ -478,6 +483,8 @@ class TrajectoryAction:
                 self._feedback(g, names, sample, [actual.get(n, math.nan) for n in names])
             return got
 
+        for lane in lanes:  # the safety gate before anything is sent (the follower's way out would send holds)
+            buses[lane.bus]._pass(plan.commands[0][lane.bus], False)
         try:
             stream(plan, buses, each, self.start_tolerance, False)
         except ValidationError as exc:  # where the joints are is too far from the start
