@@ -221,7 +221,7 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         where = f"{source}: [joints.{name}]"
         _name("joint", name, where)
         j = _table(entry, where)
-        extra = sorted(set(j) - _JOINT_KEYS - _SAFETY_KEYS - _MODEL_JOINT_KEYS)
+        extra = sorted(set(j) - _JOINT_KEYS - _MODEL_JOINT_KEYS - _SAFETY_KEYS)
         if extra:
             raise ConfigError(
                 f"{where}: unknown key {extra[0]!r}: "
