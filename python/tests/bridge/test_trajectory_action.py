@@ -181,3 +181,28 @@ def test_a_goal_to_idle_motors_is_refused_and_a_cancel_holds_idle_on_timeout_joi
         assert client.result(gid).status == rosaction.STATUS["CANCELED"]
         assert all(arm.motor(n).state == AxisState.CLOSED_LOOP_CONTROL for n in JOINTS)  # held, not idled
         action.close()
+
+
+def test_liveliness_tokens_of_the_action_and_the_topics(tmp_path: Path) -> None:
+    with served_arm() as arm, session(connect=[arm.endpoint]) as ros:
+        action = TrajectoryAction(arm.bridge, "arm_controller/follow_joint_trajectory")
+        JointTopics(arm.bridge)
+
+        def tokens() -> list[list[str]]:
+            return [str(r.ok.key_expr).split("/") for r in ros.liveliness().get("@ros2_lv/0/**", timeout=2)]
+
+        wait_for(lambda: len(tokens()) >= 15)
+        mine = {(t[5], t[9]): t for t in tokens() if len(t) == 13}
+        fq = "%arm_controller%follow_joint_trajectory%_action%"
+        for role, kind in (("send_goal", "SS"), ("cancel_goal", "SS"), ("get_result", "SS")):
+            t = mine[(kind, fq + role)]
+            assert action.keys[role] == f"0/{'/'.join(t[9].split('%')[1:])}/{t[10]}/{t[11]}"
+            assert t[12] == "::,10:,:,:,,"
+        assert mine[("SS", fq + "cancel_goal")][10] == "action_msgs::srv::dds_::CancelGoal_"
+        assert mine[("MP", fq + "feedback")][10] == "control_msgs::action::dds_::FollowJointTrajectory_FeedbackMessage_"
+        status = mine[("MP", fq + "status")]
+        assert status[10:12] == ["action_msgs::msg::dds_::GoalStatusArray_", GOLDEN["action_msgs/msg/GoalStatusArray"]]
+        assert status[12] == ":1:,1:,:,:,,"  # transient local, keep last 1
+        assert mine[("MS", "%robot_joint_commands")][10] == "sensor_msgs::msg::dds_::JointState_"
+        assert mine[("MP", "%robot_joint_states")][8] == "drempower_bridge"
+        action.close()
