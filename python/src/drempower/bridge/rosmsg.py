@@ -55,14 +55,7 @@ def register_service(store: Typestore, name: str, definition: str) -> None:
     cut = [line.strip() for line in lines].index("---")
     request, response = "\n".join(lines[:cut]) + "\n", "\n".join(lines[cut + 1 :]) + "\n"
     pkg, _, short = name.split("/")
-    texts = {
-        f"{short}_Request": request if request.strip() else _PLACEHOLDER,
-        f"{short}_Response": response if response.strip() else _PLACEHOLDER,
-        f"{short}_Event": (
-            f"service_msgs/ServiceEventInfo info\n{short}_Request[<=1] request\n{short}_Response[<=1] response\n"
-        ),
-        short: f"{short}_Request request_message\n{short}_Response response_message\n{short}_Event event_message\n",
-    }
+    texts = service_texts(short, request, response)
     # rosbags files every parsed type under msg/: parse there, then move the four types to srv/.
     moved = {f"{pkg}/msg/{n}": f"{pkg}/srv/{n}" for n in texts}
     types: dict[str, Any] = {}
@@ -70,6 +63,18 @@ def register_service(store: Typestore, name: str, definition: str) -> None:
         for key, (consts, fields) in get_types_from_msg(text, f"{pkg}/msg/{typename}").items():
             types[moved.get(key, key)] = (consts, [(n, _rename(d, moved)) for n, d in fields])
     store.register(types)
+
+
+def service_texts(short: str, request: str, response: str) -> dict[str, str]:
+    """The ``.msg`` texts of service ``short``'s request, response, event and service types, as rosidl makes them."""
+    return {
+        f"{short}_Request": request if request.strip() else _PLACEHOLDER,
+        f"{short}_Response": response if response.strip() else _PLACEHOLDER,
+        f"{short}_Event": (
+            f"service_msgs/ServiceEventInfo info\n{short}_Request[<=1] request\n{short}_Response[<=1] response\n"
+        ),
+        short: f"{short}_Request request_message\n{short}_Response response_message\n{short}_Event event_message\n",
+    }
 
 
 def _rename(desc: Any, names: dict[str, str]) -> Any:

@@ -427,6 +427,8 @@ class Bridge:
         self._joints: list[tuple[JointSpec, Gearing, BusFace]] = []
         self._decls: list[Any] = []
         self._tokens: list[Any] = []
+        self.state_outputs: list[Callable[[bytes], None]] = []
+        """Called with each JointState payload after ``joint_states`` (other topics of the same states)."""
         try:
             for name, t in transports.items():
                 prefix = o.prefix if not name else f"{o.prefix.strip('/')}/{name}"
@@ -603,6 +605,8 @@ class Bridge:
                 self._js_seq += 1
                 att = rmw.Attachment(self._js_seq, time.time_ns(), self._gid).encode()
                 self._js_pub.put(payload, attachment=att)
+                for out in list(self.state_outputs):
+                    out(payload)
             except Exception as exc:
                 if self._closed.is_set():
                     return

@@ -15,6 +15,7 @@ from ..transports.zenoh_config import check_endpoint
 from ._connect import add_connection_args, connection_kwargs, parse_ids, positive, sim_time_scale
 from ._motion import add_watchdog_arg, arm_watchdog, restore_watchdog
 from ._output import add_json_arg, json_line
+from ._ros2_control import add_ros2_control_args, start_ros2_control
 from ._usage import UsageError
 
 
@@ -94,6 +95,7 @@ def register(sub: Any) -> None:
         help="T-mode filter bandwidth of position commands, 1/s (default 20)",
     )
     add_watchdog_arg(p)
+    add_ros2_control_args(p)
     add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run, robot_whole=True)
@@ -228,7 +230,9 @@ def run(args: argparse.Namespace) -> int:
             how = "; ".join(h for _, h in buses.values())
             bridge = Bridge(transports if spec is not None else transports[""], session, options)
             armed: list[tuple[Any, dict[int, int]]] = []
+            ros2: Any = None
             try:
+                ros2 = start_ros2_control(bridge, args, spec)
                 # After the bridge's bus (whose SIGTERM handler would close it at once): the way out below idles
                 # the motors, then puts their CAN timeout back on the still open bus.
                 previous = _stop_on_signals(stop, got)
@@ -249,6 +253,7 @@ def run(args: argparse.Namespace) -> int:
                         "joint_states": bridge.joint_states_key,
                         **bridge.command_keys,
                         **bridge.service_keys,
+                        **ros2.keys(),
                         "zenoh": settings(conf),
                         **({"watchdog_ms": args.watchdog} if args.watchdog else {}),
                     }
@@ -263,6 +268,8 @@ def run(args: argparse.Namespace) -> int:
                         status = 1
                         break
             finally:
+                if ros2 is not None:
+                    ros2.close()  # a running goal is cancelled: the joints hold
                 bridge.stop()  # the motors it or its clients drove go idle; then their CAN timeout is put back
                 for bus, before in armed:
                     restore_watchdog(bus, before)

@@ -123,6 +123,8 @@ class RobotSpec:
     joints: Mapping[str, JointSpec]
     source: str = "robot"
     model: ModelSpec | None = None
+    ros2_control: Mapping[str, Any] = field(default_factory=dict)
+    """The bridge's ros2_control settings (``[ros2_control]``: :data:`ROS2_CONTROL_KEYS`)."""
 
     def joints_on(self, bus: str) -> list[JointSpec]:
         """The joints of bus ``bus``, in file order."""
@@ -194,10 +196,11 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
     """Check a robot description (the TOML file as a dict); raises :class:`ConfigError` naming the entry and key.
 
     ``base``: the folder a model's relative path starts from (default: the current one)."""
-    unknown = sorted(set(data) - {"buses", "joints", "model"})
+    unknown = sorted(set(data) - {"buses", "joints", "model", "ros2_control"})
     if unknown:
         raise ConfigError(
-            f"{source}: unknown section {unknown[0]!r}: a robot file has [buses.NAME], [joints.NAME] and [model]"
+            f"{source}: unknown section {unknown[0]!r}: "
+            "a robot file has [buses.NAME], [joints.NAME], [model] and [ros2_control]"
         )
     buses: dict[str, BusSpec] = {}
     for name, entry in _table(data.get("buses", {}), f"{source}: buses").items():
@@ -249,7 +252,37 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
     if empty:
         raise ConfigError(f"{source}: [buses.{empty[0]}] carries no joint: give it one or remove it")
     model = _model(data["model"], source, base) if "model" in data else None
-    return RobotSpec(buses, joints, source, model)
+    ros2 = _ros2_control(data.get("ros2_control", {}), f"{source}: [ros2_control]")
+    return RobotSpec(buses, joints, source, model, ros2)
+
+
+ROS2_CONTROL_KEYS = {
+    "joint_commands_topic": str,
+    "joint_states_topic": str,
+    "command_interfaces": list,
+    "action": str,
+    "kp": float,
+    "kd": float,
+}
+"""The ``[ros2_control]`` keys: TopicBasedSystem's topics, the joints' command interfaces, the
+FollowJointTrajectory action's name, impedance gains (see ``drempower bridge``)."""
+
+
+def _ros2_control(value: object, where: str) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, v in _table(value, where).items():
+        kind = ROS2_CONTROL_KEYS.get(key)
+        if kind is None:
+            raise ConfigError(f"{where}: unknown key {key!r}: the keys are {', '.join(ROS2_CONTROL_KEYS)}")
+        if kind is float:
+            out[key] = _number(v, f"{where}: {key}")
+        elif kind is list and not (isinstance(v, list) and all(isinstance(x, str) for x in v)):
+            raise ConfigError(f'{where}: {key}={v!r}: expected a list of names, e.g. ["position", "velocity"]')
+        elif kind is str and not (isinstance(v, str) and v.strip()):
+            raise ConfigError(f"{where}: {key}={v!r}: expected a ROS 2 name")
+        else:
+            out[key] = v
+    return out
 
 
 def load_robot(path: str | os.PathLike[str]) -> RobotSpec:
