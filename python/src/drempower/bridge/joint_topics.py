@@ -230,7 +230,7 @@ class JointTopics:
         """Every bus's messages through its safety gate first, then sent (nothing sent if one bus refuses)."""
         faces = self.bridge.faces
         for name, msgs in batches.items():
-            faces[name].bus._pass(msgs, False)
+            faces[name].bus.pass_gate(msgs, False)
         for name, msgs in batches.items():
             bus = faces[name].bus
             if self.interfaces == COMMAND_INTERFACES:

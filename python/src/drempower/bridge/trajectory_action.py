@@ -484,7 +484,7 @@ class TrajectoryAction:
             return got
 
         for lane in lanes:  # the safety gate before anything is sent (the follower's way out would send holds)
-            buses[lane.bus]._pass(plan.commands[0][lane.bus], False)
+            buses[lane.bus].pass_gate(plan.commands[0][lane.bus], False)
         try:
             stream(plan, buses, each, self.start_tolerance, False)
         except ValidationError as exc:  # where the joints are is too far from the start

@@ -40,7 +40,7 @@ from .commands import (
 )
 from .effects import Batch, Op, request
 from .flavours import AsyncBusBase
-from .gate import Intent, intents_of, move_intents
+from .gate import Intent, move_intents
 from .motorbase import MotorBase
 from .results import ErrorReport, GpioMode, MotorInfo
 from .session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE
@@ -154,7 +154,7 @@ class AsyncMotor(MotorBase):
         """Impedance control: ``tff + kp*(pos - P) + kd*(vel - V)``; pos deg, vel r/min, tff Nm,
         kp Nm/rad, kd Nm/(rad/s). The start goes to this motor only (bus option ``start``)."""
         preset, start = make_impedance(self._id, pos, vel, tff, kp, kd)
-        await self._bus._pass((preset,), enable)
+        await self._bus.pass_gate((preset,), enable)
         await self._bus.run(_impedance(preset, start))
         self._bus._sent((preset,))
 
@@ -414,15 +414,6 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         await self._send_all(msgs)
         self._sent(msgs)
 
-    async def _pass(self, msgs_or_intents: Sequence[Message] | Sequence[Intent], enable: bool) -> None:
-        """Let motion through the safety gate (one read when a motor's state is unknown), or raise."""
-        intents = [i for i in msgs_or_intents if isinstance(i, Intent)] or intents_of(
-            [m for m in msgs_or_intents if isinstance(m, Message)]
-        )
-        op = self._passage(intents, enable)
-        if op is not None:
-            await self.run(op)
-
     async def _gated(self, msgs: Sequence[Message], enable: bool, *, duration: float | None = None) -> None:
         """Send direct motion commands (no start among them) through the safety gate."""
         op = self._gate_op(msgs, enable)
@@ -431,12 +422,16 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         self._core.send_many(msgs)
         self._sent(msgs, duration)
 
-    async def pass_gate(self, msgs: Sequence[Message], *, enable: bool = False) -> None:
-        """The safety gate alone, for motion messages a loop is about to stream: raises
+    async def pass_gate(self, motion: Sequence[Message] | Sequence[Intent], enable: bool = False) -> None:
+        """The safety gate alone, for motion about to be sent (messages, or the gate's intents): raises
         :class:`~drempower.errors.MotorIdleError` or :class:`~drempower.errors.SoftLimitError` as the motion
         methods do, and sends nothing but, for motors not yet known in closed loop, one state read (their
         enable with ``enable=True``). A loop calls it once before its clock starts, so no cycle pays a read."""
-        op = self._gate_op(msgs, enable)
+        intents = [i for i in motion if isinstance(i, Intent)]
+        if intents:
+            op = self._passage(intents, enable)
+        else:
+            op = self._gate_op([m for m in motion if isinstance(m, Message)], enable)
         if op is not None:
             await self.run(op)
 
@@ -534,7 +529,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         ``speed`` = speed FF r/min, ``param`` = torque FF Nm. Nothing is sent if
         any value is invalid.
         """
-        await self._pass(move_intents(id_list, angle_list, speed, param, mode, relative=False), enable)
+        await self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=False), enable)
         result = await self.run(
             batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout)
         )
@@ -553,7 +548,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         enable: bool = False,
     ) -> float | None:
         """Synchronised relative move by ``angle_list`` deg (see :meth:`set_angles`)."""
-        await self._pass(move_intents(id_list, angle_list, speed, param, mode, relative=True), enable)
+        await self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=True), enable)
         result = await self.run(
             batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout)
         )
@@ -575,7 +570,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         With ``duration`` (s) the bus sends speed 0 to them that long after, by itself."""
         presets, _ = make_speeds(id_list, speed_list, param, mode)
         duration = check_duration(duration)
-        await self._pass(presets, enable)
+        await self.pass_gate(presets, enable)
         await self.run(batch.set_speeds(id_list, speed_list, param, mode))
         self._sent(presets, duration)
 
@@ -594,7 +589,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         With ``duration`` (s) the bus sends torque 0 to them that long after, by itself."""
         presets, _ = make_torques(id_list, torque_list, param, mode)
         duration = check_duration(duration)
-        await self._pass(presets, enable)
+        await self.pass_gate(presets, enable)
         await self.run(batch.set_torques(id_list, torque_list, param, mode))
         self._sent(presets, duration)
 
@@ -612,7 +607,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         """Impedance control of several motors started together: each holds its ``pos_list`` deg;
         ``vel`` r/min, ``tff`` Nm, ``kp`` Nm/rad and ``kd`` Nm/(rad/s) are shared (one start)."""
         presets, _ = make_impedances(id_list, pos_list, vel, tff, kp, kd)
-        await self._pass(presets, enable)
+        await self.pass_gate(presets, enable)
         await self.run(batch.impedance_controls(id_list, pos_list, vel, tff, kp, kd))
         self._sent(presets)
 

@@ -37,7 +37,7 @@ from .commands import (
 )
 from .effects import Batch, Op, request
 from .flavours import SyncBusBase
-from .gate import Intent, intents_of, move_intents
+from .gate import Intent, move_intents
 from .motorbase import MotorBase
 from .results import ErrorReport, GpioMode, MotorInfo
 from .session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE
@@ -151,7 +151,7 @@ class Motor(MotorBase):
         """Impedance control: ``tff + kp*(pos - P) + kd*(vel - V)``; pos deg, vel r/min, tff Nm,
         kp Nm/rad, kd Nm/(rad/s). The start goes to this motor only (bus option ``start``)."""
         preset, start = make_impedance(self._id, pos, vel, tff, kp, kd)
-        self._bus._pass((preset,), enable)
+        self._bus.pass_gate((preset,), enable)
         self._bus.run(_impedance(preset, start))
         self._bus._sent((preset,))
 
@@ -407,15 +407,6 @@ class Bus(SyncBusBase[Motor]):
         self._send_all(msgs)
         self._sent(msgs)
 
-    def _pass(self, msgs_or_intents: Sequence[Message] | Sequence[Intent], enable: bool) -> None:
-        """Let motion through the safety gate (one read when a motor's state is unknown), or raise."""
-        intents = [i for i in msgs_or_intents if isinstance(i, Intent)] or intents_of(
-            [m for m in msgs_or_intents if isinstance(m, Message)]
-        )
-        op = self._passage(intents, enable)
-        if op is not None:
-            self.run(op)
-
     def _gated(self, msgs: Sequence[Message], enable: bool, *, duration: float | None = None) -> None:
         """Send direct motion commands (no start among them) through the safety gate."""
         op = self._gate_op(msgs, enable)
@@ -424,12 +415,16 @@ class Bus(SyncBusBase[Motor]):
         self._core.send_many(msgs)
         self._sent(msgs, duration)
 
-    def pass_gate(self, msgs: Sequence[Message], *, enable: bool = False) -> None:
-        """The safety gate alone, for motion messages a loop is about to stream: raises
+    def pass_gate(self, motion: Sequence[Message] | Sequence[Intent], enable: bool = False) -> None:
+        """The safety gate alone, for motion about to be sent (messages, or the gate's intents): raises
         :class:`~drempower.errors.MotorIdleError` or :class:`~drempower.errors.SoftLimitError` as the motion
         methods do, and sends nothing but, for motors not yet known in closed loop, one state read (their
         enable with ``enable=True``). A loop calls it once before its clock starts, so no cycle pays a read."""
-        op = self._gate_op(msgs, enable)
+        intents = [i for i in motion if isinstance(i, Intent)]
+        if intents:
+            op = self._passage(intents, enable)
+        else:
+            op = self._gate_op([m for m in motion if isinstance(m, Message)], enable)
         if op is not None:
             self.run(op)
 
@@ -525,7 +520,7 @@ class Bus(SyncBusBase[Motor]):
         ``speed`` = speed FF r/min, ``param`` = torque FF Nm. Nothing is sent if
         any value is invalid.
         """
-        self._pass(move_intents(id_list, angle_list, speed, param, mode, relative=False), enable)
+        self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=False), enable)
         result = self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout))
         self._moved(id_list, angle_list, False)
         return result
@@ -542,7 +537,7 @@ class Bus(SyncBusBase[Motor]):
         enable: bool = False,
     ) -> float | None:
         """Synchronised relative move by ``angle_list`` deg (see :meth:`set_angles`)."""
-        self._pass(move_intents(id_list, angle_list, speed, param, mode, relative=True), enable)
+        self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=True), enable)
         result = self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout))
         self._moved(id_list, angle_list, True)
         return result
@@ -562,7 +557,7 @@ class Bus(SyncBusBase[Motor]):
         With ``duration`` (s) the bus sends speed 0 to them that long after, by itself."""
         presets, _ = make_speeds(id_list, speed_list, param, mode)
         duration = check_duration(duration)
-        self._pass(presets, enable)
+        self.pass_gate(presets, enable)
         self.run(batch.set_speeds(id_list, speed_list, param, mode))
         self._sent(presets, duration)
 
@@ -581,7 +576,7 @@ class Bus(SyncBusBase[Motor]):
         With ``duration`` (s) the bus sends torque 0 to them that long after, by itself."""
         presets, _ = make_torques(id_list, torque_list, param, mode)
         duration = check_duration(duration)
-        self._pass(presets, enable)
+        self.pass_gate(presets, enable)
         self.run(batch.set_torques(id_list, torque_list, param, mode))
         self._sent(presets, duration)
 
@@ -599,7 +594,7 @@ class Bus(SyncBusBase[Motor]):
         """Impedance control of several motors started together: each holds its ``pos_list`` deg;
         ``vel`` r/min, ``tff`` Nm, ``kp`` Nm/rad and ``kd`` Nm/(rad/s) are shared (one start)."""
         presets, _ = make_impedances(id_list, pos_list, vel, tff, kp, kd)
-        self._pass(presets, enable)
+        self.pass_gate(presets, enable)
         self.run(batch.impedance_controls(id_list, pos_list, vel, tff, kp, kd))
         self._sent(presets)
 

@@ -198,7 +198,7 @@ class AsyncRobot(AsyncRobotBase):
         m = check_targets(targets, mode)
         for b, group in targets.items():  # the safety gate of every bus before any bus sends
             intents = [move_intent(t.id, t.angle, t.speed, t.param, m, relative) for t in group]
-            await self.buses[b]._pass(intents, enable)
+            await self.buses[b].pass_gate(intents, enable)
         async with self._move_lock:
             move_time: float | None = None
             if m is PositionMode.Q:
