@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
         f"excite joint {args.joint}",
         f"it moves up to {args.amplitude:g} rad either way from where it is for {args.seconds:g} s",
     )
-    from ..motion.identify import identify
+    from ..motion.routines_sync import identify
     from ..robot import open_robot
 
     with open_robot(spec, timeout=args.timeout, stop_on_close=False) as robot:

@@ -44,7 +44,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"{spec.source}: no [model]: gravity compensation needs one (or --no-compensation)")
     if args.record is not None and not args.record.lower().endswith((".csv", ".json", ".mcap")):
         raise UsageError(f"--record {args.record}: a .csv, .json or .mcap file")
-    from ..motion.teach import teach
+    from ..motion.routines_sync import teach
     from ..robot import open_robot
 
     def show(t: float, pos: Mapping[str, float]) -> None:

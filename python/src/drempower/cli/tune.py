@@ -50,7 +50,7 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"joint {args.joint!r}: no such joint (joints: {', '.join(spec.joints)})")
     where = "in RAM, then saved" if args.save else "in RAM"
     confirm(args, f"tune joint {args.joint}", f"it is excited, stepped by {args.step:g} rad twice, new gains {where}")
-    from ..motion.tune import tune
+    from ..motion.routines_sync import tune
     from ..robot import open_robot
 
     with open_robot(spec, timeout=args.timeout, stop_on_close=False) as robot:
