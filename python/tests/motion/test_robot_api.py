@@ -167,3 +167,58 @@ def test_a_joint_alone_has_no_robot_to_identify_on() -> None:
         with pytest.raises(DrEmpowerError, match="not part of a robot"):
             j.identify()
     assert AsyncJoint.__slots__ == Joint.__slots__
+
+
+def test_drempower_identify_a_motor_id_on_the_plain_simulator(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    import json
+
+    from drempower.cli import main
+    from drempower.cli._connect import TIME_SCALE_ENV
+    from drempower.sim.defaults import MotorModel
+
+    monkeypatch.delenv(TIME_SCALE_ENV, raising=False)
+    assert main(["identify", "1", "--sim", "1", "--yes", "--json", "--seconds", "4"]) == 0  # real time
+    out = json.loads(capsys.readouterr().out)
+    assert set(out) == {"joint", "inertia", "viscous", "coulomb", "gravity", "fit"} and out["joint"] == "motor_1"
+    m = MotorModel()
+    assert out["inertia"] == pytest.approx(m.rotor_inertia * 10.0**2, rel=0.25)  # the default gear ratio 10
+    assert out["coulomb"] == pytest.approx(m.coulomb, rel=0.25)
+    assert out["gravity"] < 0.05 and out["fit"] > 0.9
+    assert main(["identify", "1", "--sim", "1", "--yes", "--write"]) == 2
+    assert "--write needs --robot FILE" in capsys.readouterr().err
+    assert main(["identify", "64", "--sim", "1", "--yes"]) == 2
+    assert "a motor id 1..63" in capsys.readouterr().err
+
+
+def test_the_motor_alone_is_identified_as_the_cli_builds_it() -> None:
+    """The robot ``drempower identify ID --sim ID`` builds (one motor, gear 1), on the virtual clock."""
+    from drempower.robot.config import BusSpec, JointSpec, RobotSpec
+    from drempower.sim.defaults import MotorModel
+
+    spec = RobotSpec({"bus": BusSpec("bus", "sim", {"clock": "virtual"})}, {"motor_1": JointSpec("motor_1", "bus", 1)})
+    with drempower.open_robot(spec) as robot:
+        got = robot.joint("motor_1").identify()
+    m = MotorModel()
+    print(f"plain motor: J={got.inertia:.5f} (set {m.rotor_inertia * 100:.5f}) c={got.coulomb:.4f} fit={got.fit:.4f}")
+    assert got.inertia == pytest.approx(m.rotor_inertia * 10.0**2, rel=0.1)
+    assert got.coulomb == pytest.approx(m.coulomb, rel=0.1)
+    assert got.fit > 0.95
+
+
+def test_drempower_identify_write_by_motor_id_of_a_robot_file(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from drempower.cli import main
+
+    path = _robot(tmp_path, _pendulum_model(tmp_path, _TRUTH))
+    assert main(["identify", "1", "--robot", str(path), "--yes", "--write"]) == 0
+    assert "written to [joints.swing.identified]" in capsys.readouterr().out
+    got = load_robot(path).joints["swing"].identified
+    assert got is not None and got["viscous"] == pytest.approx(0.2, rel=0.1)
+    copy = tmp_path / "copy.xml"
+    assert main(["identify", "swing", "--robot", str(path), "--yes", "--write", str(copy)]) == 0
+    assert float(next(ET.parse(copy).getroot().iter("joint")).get("frictionloss", "nan")) == pytest.approx(0.3, rel=0.1)
+    assert main(["identify", "swing", "--robot", str(path), "--yes", "--write", "x.txt"]) == 2
+    assert "ending in .xml" in capsys.readouterr().err
