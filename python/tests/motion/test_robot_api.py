@@ -222,3 +222,16 @@ def test_drempower_identify_write_by_motor_id_of_a_robot_file(
     assert float(next(ET.parse(copy).getroot().iter("joint")).get("frictionloss", "nan")) == pytest.approx(0.3, rel=0.1)
     assert main(["identify", "swing", "--robot", str(path), "--yes", "--write", "x.txt"]) == 2
     assert "ending in .xml" in capsys.readouterr().err
+
+
+def test_drempower_tune_a_joint_by_motor_id(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    from drempower.cli import main
+
+    path = _robot(tmp_path, _pendulum_model(tmp_path, _TRUTH))
+    assert main(["tune", "1", "--bandwidth", "1", "--robot", str(path), "--yes", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["joint"] == "swing" and out["gains"]["pos_gain"] == pytest.approx(2 * math.pi)
+    assert main(["tune", "7", "--bandwidth", "1", "--robot", str(path), "--yes"]) == 2
+    assert "joint '7': no such joint or motor id" in capsys.readouterr().err

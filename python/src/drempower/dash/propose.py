@@ -98,6 +98,7 @@ def propose(hub: Hub, who: str, args: dict[str, Any], proposals: dict[int, Propo
     bandwidth = _bandwidth(args)
     hub._control(who, f"{hub.label(key)} propose gains for {bandwidth:g} Hz (identify, then a step)")
     hub.require_enabled([key])
+    hub.commanded.add(key)  # moved from the page: idled with the others when the dashboard ends
     with _robot_of(hub, key) as (robot, joint):
         got = identify(robot, joint)
         gains = gains_for(got.inertia, got.viscous, bandwidth, robot.spec.joints[joint].gear)
@@ -118,6 +119,7 @@ def apply(hub: Hub, who: str, args: dict[str, Any], proposals: dict[int, Proposa
     for name, value in zip(GAIN_NAMES, (g.pos_gain, g.vel_gain, g.vel_integrator_gain), strict=True):
         hub.do_write_param(who, key, name, value)
     hub.require_enabled([key])
+    hub.commanded.add(key)
     with _robot_of(hub, key) as (robot, joint):
         after = step_response(robot, joint, proposal.step)
     del proposals[key]
