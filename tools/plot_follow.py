@@ -95,8 +95,8 @@ def steps() -> tuple[list[tuple[float, float]], list[tuple[float, float]], str]:
     """The pendulum's step with the factory gains and tuned for 1 Hz (virtual clock)."""
     import tempfile
 
-    from drempower.motion.identify import identify
-    from drempower.motion.tune import GAIN_NAMES, step_response, tune
+    from drempower.motion.routines_sync import identify, step_response, tune
+    from drempower.motion.tune import GAIN_NAMES
 
     with tempfile.TemporaryDirectory() as tmp:
         robot_file = Path(tmp) / "pendulum.toml"

@@ -50,8 +50,8 @@ def test_an_edit_of_either_side_alone_is_stale(tmp_path: Path) -> None:
         _CLIENT / "api_sync.py",
         _ROBOT / "aio.py",
         _ROBOT / "threaded.py",
-        _ROBOT.parent / "motion" / "follow_async.py",
-        _ROBOT.parent / "motion" / "follow_sync.py",
+        *(_ROBOT.parent / "motion" / f for f in ("follow_async.py", "follow_sync.py")),
+        *(_ROBOT.parent / "motion" / f for f in ("routines_async.py", "routines_sync.py")),
     ]
     for rel in parts:
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)

@@ -11,7 +11,7 @@ import pytest
 import drempower
 from drempower.client.effects import sleep
 from drempower.errors import ValidationError
-from drempower.motion.identify import identify
+from drempower.motion.routines_sync import identify
 
 pytest.importorskip("mujoco", reason="the twin needs MuJoCo")
 

@@ -11,7 +11,7 @@ import pytest
 import drempower
 from drempower.client.effects import sleep
 from drempower.motion import Trajectory
-from drempower.motion.teach import teach
+from drempower.motion.routines_sync import teach
 
 from ..conftest import REPO_ROOT
 

@@ -10,8 +10,8 @@ import pytest
 
 import drempower
 from drempower.errors import ValidationError
-from drempower.motion.identify import identify
-from drempower.motion.tune import GAIN_NAMES, gains_for, step_response, tune
+from drempower.motion.routines_sync import identify, step_response, tune
+from drempower.motion.tune import GAIN_NAMES, gains_for
 
 pytest.importorskip("mujoco", reason="the twin needs MuJoCo")
 

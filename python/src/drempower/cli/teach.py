@@ -44,7 +44,6 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(f"{spec.source}: no [model]: gravity compensation needs one (or --no-compensation)")
     if args.record is not None and not args.record.lower().endswith((".csv", ".json", ".mcap")):
         raise UsageError(f"--record {args.record}: a .csv, .json or .mcap file")
-    from ..motion.teach import teach
     from ..robot import open_robot
 
     def show(t: float, pos: Mapping[str, float]) -> None:
@@ -52,9 +51,7 @@ def run(args: argparse.Namespace) -> int:
             sys.stdout.write(json_line({"t": round(t, 4), **{k: round(v, 5) for k, v in pos.items()}}) + "\n")
 
     with open_robot(spec, timeout=args.timeout, stop_on_close=False) as robot:
-        path = teach(
-            robot, args.seconds, rate=args.rate, kd=args.kd, compensate=not args.no_compensation, on_state=show
-        )
+        path = robot.teach(args.seconds, rate=args.rate, kd=args.kd, compensate=not args.no_compensation, on_state=show)
         if args.record is not None:
             path.save(args.record)
     if args.record is not None:

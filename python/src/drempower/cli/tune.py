@@ -11,6 +11,7 @@ from ._confirm import add_yes_arg, confirm
 from ._connect import add_connection_args, positive
 from ._output import add_json_arg, clean, json_line
 from ._usage import UsageError
+from .identify import joint_spec
 
 GROUP = "motion"
 """Where ``drempower --help`` lists this module's subcommands."""
@@ -25,10 +26,11 @@ def register(sub: Any) -> None:
             "vel_integrator_gain and the T-mode filter bandwidth for --bandwidth HZ, step the joint with its "
             "present gains, write the new ones (in RAM, after confirmation) and step it again, printing rise "
             "time, overshoot and settling before and after. --save stores them in the motor's flash. "
-            "Example: drempower tune elbow --bandwidth 2 --robot arm.toml --yes"
+            "JOINT may be a motor id (the motor alone, gear 1). Example: drempower tune elbow --bandwidth 2 "
+            "--robot arm.toml --yes"
         ),
     )
-    p.add_argument("joint", metavar="JOINT", help="the joint's name in the robot file")
+    p.add_argument("joint", metavar="JOINT", help="the joint's name in the robot file, or a motor id")
     p.add_argument("--bandwidth", type=positive, required=True, metavar="HZ", help="closed-loop bandwidth, Hz")
     p.add_argument("--step", type=positive, default=0.15, metavar="RAD", help="the verification step (default 0.15)")
     p.add_argument("--save", action="store_true", help="save the new gains in the motor's flash")
@@ -43,23 +45,18 @@ def _step_text(what: str, s: Any) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    spec = getattr(args, "robot_spec", None)
-    if spec is None:
-        raise UsageError("tune needs --robot FILE (the joint's gear and limits come from it)")
-    if args.joint not in spec.joints:
-        raise UsageError(f"joint {args.joint!r}: no such joint (joints: {', '.join(spec.joints)})")
+    spec, joint = joint_spec(args, "tune")
     where = "in RAM, then saved" if args.save else "in RAM"
-    confirm(args, f"tune joint {args.joint}", f"it is excited, stepped by {args.step:g} rad twice, new gains {where}")
-    from ..motion.tune import tune
+    confirm(args, f"tune joint {joint}", f"it is excited, stepped by {args.step:g} rad twice, new gains {where}")
     from ..robot import open_robot
 
     with open_robot(spec, timeout=args.timeout, stop_on_close=False) as robot:
         try:
-            report = tune(robot, args.joint, args.bandwidth, step=args.step)
+            report = robot.joint(joint).tune(args.bandwidth, step=args.step)
         except ValidationError as exc:
             raise UsageError(str(exc)) from None
         if args.save:
-            robot.joint(args.joint).save_config()
+            robot.joint(joint).save_config()
     if args.json:
         sys.stdout.write(json_line({**report.as_dict(), "saved": args.save}) + "\n")
         return 0

@@ -198,6 +198,8 @@ class Hub:
         self.limits: dict[int, dict[str, Any]] = {}
         self._watch: dict[tuple[int, str], tuple[float, float]] = {}
         self.param_samples: deque[tuple[int, str, float, float]] = deque()
+        self._proposals: dict[int, Any] = {}
+        """The Tuning view's gains proposed and not yet written, by key (:mod:`drempower.dash.propose`)."""
         self._stop = threading.Event()
         self._halt = threading.Event()
         self._subs = [b.subscribe(self._sink(k * KEYS_PER_BUS)) for k, (_, b) in enumerate(self.buses)]
@@ -846,6 +848,21 @@ class Hub:
         ys = [s[key] for s in got if s.timestamp >= start]
         fig = tuning.step_figures(ts, ys, base, target)
         return {"id": i, "mode": mode, "base": base, "target": target, "t": ts, "y": ys, "figures": fig}
+
+    def do_propose(self, who: str, args: dict[str, Any]) -> dict[str, Any]:
+        """Propose gains for ``args["bandwidth"]`` Hz (the joint is identified and stepped; nothing is
+        written): see :mod:`drempower.dash.propose`."""
+        from . import propose
+
+        if self.read_only:
+            raise ValidationError("this dashboard is read-only (--read-only)")
+        return propose.propose(self, who, args, self._proposals)
+
+    def do_apply_gains(self, who: str, args: dict[str, Any]) -> dict[str, Any]:
+        """Write the proposed gains (the user confirmed) and step again: the figures before and after."""
+        from . import propose
+
+        return propose.apply(self, who, args, self._proposals)
 
     # ------------------------------------------------------------------ lifetime
 

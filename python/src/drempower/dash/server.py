@@ -356,6 +356,8 @@ class Dashboard:
                 self._broadcast(json.dumps({"t": "watched", "watched": result}))
             elif op == "step":
                 result = await self._run(hub.do_step, who, req)
+            elif op in ("propose", "apply_gains"):
+                result = await self._run(hub.do_propose if op == "propose" else hub.do_apply_gains, who, req)
             elif op == "push":
                 result = await self._run(self.view.do_push, who, req)
             else:

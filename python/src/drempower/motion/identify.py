@@ -9,6 +9,9 @@ bounded speed, inside the joint's limits (checked before anything moves); the jo
 is at the end and on any error or interruption. Acceleration is the central difference of the
 measured velocity; samples slower than ``min_speed`` are left out of the fit (friction near rest
 is not Coulomb's law).
+
+This module is the part without I/O; the run is ``identify`` in ``routines_async.py`` (asyncio) and
+``routines_sync.py`` (threads), offered as ``joint.identify()``.
 """
 
 from __future__ import annotations
@@ -18,15 +21,14 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
-from ..client.commands import PositionMode
-from ..client.effects import sleep
 from ..errors import DrEmpowerError, ValidationError
 from .plan import model_ranges, robot_limits
 
 if TYPE_CHECKING:
-    from ..robot import Robot
+    from ..robot.config import RobotSpec
+    from ..sim.twin import Twin
 
-__all__ = ["Identification", "identify", "fit_dynamics"]
+__all__ = ["Identification", "check_excitation", "excitation", "fit_dynamics", "from_samples"]
 
 _FREQS = ((0.7, 1.0, 0.0), (1.9, 0.6, 1.0), (3.3, 0.3, 2.0))
 """(Hz, relative amplitude, phase rad) of the excitation's sines."""
@@ -103,31 +105,23 @@ def fit_dynamics(
     return coef, 1.0 - res / tot, len(rows)
 
 
-def identify(
-    robot: Robot,
+def check_excitation(
+    spec: RobotSpec,
+    twin: Twin | None,
     joint: str,
-    *,
-    amplitude: float = 0.3,
-    seconds: float = 6.0,
-    rate: float = 200.0,
-    kp: float = 5.0,
-    kd: float = 0.2,
-    max_torque: float | None = None,
+    q0: float,
+    amplitude: float,
+    seconds: float,
+    rate: float,
     limits: Mapping[str, Any] | None = None,
-) -> Identification:
-    """Excite joint ``joint`` of ``robot`` around where it is (``amplitude`` rad peak, for ``seconds`` s,
-    ``rate`` Hz) and fit its dynamics; see the module's docstring. The excitation is checked against the
-    joint's limits (robot file, model range, ``limits``) before anything moves; a torque above
-    ``max_torque`` Nm at the joint, or a tracking error above twice the amplitude, stops it."""
+) -> None:
+    """Refuse (:class:`ValidationError`) an excitation of ``amplitude`` rad around ``q0`` rad that leaves the
+    joint's limits (robot file, model range, ``limits``) or its speed limit, or bad ``seconds``/``rate``."""
     for name, value, top in (("amplitude", amplitude, math.pi), ("seconds", seconds, 120.0), ("rate", rate, 2000.0)):
         if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value <= top:
             raise ValidationError(f"{name}={value!r}: expected 0 < {name} <= {top:g}")
-    j = robot.joint(joint)
-    bus = robot.bus(robot.spec.joints[joint].bus)
-    twin = robot.twin
-    known = robot_limits(robot.spec, [joint], None if twin is None else model_ranges(twin.model)).get(joint, {})
+    known = robot_limits(spec, [joint], None if twin is None else model_ranges(twin.model)).get(joint, {})
     known = {**known, **(limits or {})}
-    q0 = j.get_joint_state().position
     peak_speed = amplitude / _NORM * sum(2 * math.pi * f * a for f, a, _ in _FREQS)
     rng = known.get("position")
     if rng is not None and not (rng[0] <= q0 - amplitude and q0 + amplitude <= rng[1]):
@@ -141,47 +135,25 @@ def identify(
             f"identify: the excitation reaches {peak_speed:.3g} rad/s, beyond joint {joint!r}'s speed limit "
             f"{speed_limit:g} rad/s; lower the amplitude; nothing was sent"
         )
-    g = j.gearing
-    ts: list[float] = []
-    qs: list[float] = []
-    vs: list[float] = []
-    taus: list[float] = []
-    period = 1.0 / rate
-    ok = False
-    try:
-        t0 = bus.core.now()
-        for k in range(round(seconds * rate)):
-            t = k * period
-            ramp = min(1.0, t / 0.5, (seconds - t) / 0.5)  # half a second in and out
-            ref = vel = 0.0
-            for f, a, ph in _FREQS:
-                w = 2 * math.pi * f
-                ref += a * math.sin(w * t + ph) - a * math.sin(ph)
-                vel += a * w * math.cos(w * t + ph)
-            ref = q0 + amplitude / _NORM * ref * ramp
-            vel = amplitude / _NORM * vel * ramp
-            j.impedance_control(g.motor_angle(ref), g.motor_speed(vel), 0.0, kp, kd)
-            st = j.get_joint_state()
-            if abs(st.position - ref) > 2 * amplitude or (max_torque is not None and abs(st.torque) > max_torque):
-                raise DrEmpowerError(
-                    f"identify: joint {joint!r} stopped at {st.position:.3f} rad, torque {st.torque:.3g} Nm: "
-                    "it does not follow the excitation (blocked, or max_torque reached)"
-                )
-            ts.append(st.timestamp)
-            qs.append(st.position)
-            vs.append(st.velocity)
-            taus.append(st.torque)
-            wait = t0 + (k + 1) * period - bus.core.now()
-            if wait > 0:
-                bus.run(sleep(wait))
-        ok = True
-    finally:
-        st_last = j.state
-        at = st_last.angle if st_last is not None else g.motor_angle(q0)
-        if ok:
-            j.set_angle(g.motor_angle(q0), 0.0, 20.0, PositionMode.T)  # back where it was
-        else:
-            bus.core.send_many([j.make_angle(at, 0.0, 20.0, PositionMode.T)])  # hold where it is
+
+
+def excitation(t: float, q0: float, amplitude: float, seconds: float) -> tuple[float, float]:
+    """The excitation's position (rad) and velocity (rad/s) at ``t`` s: sines around ``q0``, ramped in and
+    out over half a second."""
+    ramp = min(1.0, t / 0.5, (seconds - t) / 0.5)
+    ref = vel = 0.0
+    for f, a, ph in _FREQS:
+        w = 2 * math.pi * f
+        ref += a * math.sin(w * t + ph) - a * math.sin(ph)
+        vel += a * w * math.cos(w * t + ph)
+    return q0 + amplitude / _NORM * ref * ramp, amplitude / _NORM * vel * ramp
+
+
+def from_samples(
+    joint: str, rate: float, ts: list[float], qs: list[float], vs: list[float], taus: list[float]
+) -> Identification:
+    """The identification from an excitation's samples (s, rad, rad/s, Nm), its ramps (half a second at
+    ``rate`` Hz each end) left out."""
     skip = round(0.5 * rate)
     coef, fit, used = fit_dynamics(ts[skip:-skip], qs[skip:-skip], vs[skip:-skip], taus[skip:-skip])
     inertia, viscous, coulomb, gs, gc = coef

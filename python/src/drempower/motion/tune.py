@@ -6,24 +6,22 @@ The motor's controller is a cascade (turns at the output shaft): ``speed = pos_g
 ``J`` and viscous friction ``b`` at the motor in turn units; the two loops then form a critically
 damped pair), ``vel_integrator_gain = vel_gain * w_v / 8`` (it removes a steady load, gravity's,
 without overshoot), and a T-mode input filter bandwidth of ``2 w_p``.
+
+This module is the part without I/O; the runs (``step_response``, ``tune``) are in ``routines_async.py``
+(asyncio) and ``routines_sync.py`` (threads), offered as ``joint.tune()``.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
-from ..client.commands import PositionMode
-from ..client.effects import sleep
 from ..errors import ValidationError
 from ..protocol.parameters import parameter
-from .identify import Identification, identify
+from .identify import Identification
 
-if TYPE_CHECKING:
-    from ..robot import Robot
-
-__all__ = ["Gains", "Step", "TuneReport", "gains_for", "step_response", "tune", "GAIN_NAMES"]
+__all__ = ["GAIN_NAMES", "Gains", "Step", "TuneReport", "gains_for", "step_metrics"]
 
 GAIN_NAMES = (
     "axis0.controller.config.pos_gain",
@@ -94,34 +92,8 @@ def gains_for(inertia: float, viscous: float, bandwidth: float, gear: float = 1.
     return out
 
 
-def step_response(
-    robot: Robot,
-    joint: str,
-    amount: float,
-    seconds: float = 1.5,
-    rate: float = 500.0,
-    trace: list[tuple[float, float]] | None = None,
-) -> Step:
-    """Step joint ``joint`` by ``amount`` rad (P mode, no feed-forward), watch it for ``seconds`` s, step it
-    back; ``trace`` gets (s, fraction of the step) of every state read."""
-    j = robot.joint(joint)
-    bus = robot.bus(robot.spec.joints[joint].bus)
-    q0 = j.get_joint_state().position
-    ts: list[float] = []
-    ys: list[float] = []
-    t0 = bus.core.now()
-    j.set_angle(j.gearing.motor_angle(q0 + amount), 0.0, 0.0, PositionMode.P)
-    try:
-        for _ in range(round(seconds * rate)):
-            st = j.get_joint_state()
-            ts.append(st.timestamp - t0)
-            ys.append((st.position - q0) / amount)
-            bus.run(sleep(1.0 / rate))
-    finally:
-        j.set_angle(j.gearing.motor_angle(q0), 0.0, 0.0, PositionMode.P)
-        bus.run(sleep(seconds))
-    if trace is not None:
-        trace.extend(zip(ts, ys, strict=True))
+def step_metrics(ts: list[float], ys: list[float]) -> Step:
+    """The rise, overshoot and settling of a step response: ``ys`` the fraction of the step at ``ts`` s."""
     t10 = next((t for t, y in zip(ts, ys, strict=True) if y >= 0.1), math.inf)
     t90 = next((t for t, y in zip(ts, ys, strict=True) if y >= 0.9), math.inf)
     settling = 0.0
@@ -131,26 +103,3 @@ def step_response(
     if abs(ys[-1] - 1.0) > _SETTLE_BAND:
         settling = math.inf
     return Step(t90 - t10, max(0.0, max(ys) - 1.0), settling, ys[-1])
-
-
-def tune(
-    robot: Robot,
-    joint: str,
-    bandwidth: float,
-    *,
-    identified: Identification | None = None,
-    step: float = 0.15,
-    write: bool = True,
-) -> TuneReport:
-    """Identify ``joint`` (unless ``identified`` is given), compute the gains for ``bandwidth`` Hz, step it
-    with its present gains, write the new ones (``write``) and step it again."""
-    got = identified or identify(robot, joint)
-    gains = gains_for(got.inertia, got.viscous, bandwidth, robot.spec.joints[joint].gear)
-    before = step_response(robot, joint, step)
-    after = before
-    if write:
-        j = robot.joint(joint)
-        for name, value in zip(GAIN_NAMES, (gains.pos_gain, gains.vel_gain, gains.vel_integrator_gain), strict=True):
-            j.write_property(name, value, verify=True)
-        after = step_response(robot, joint, step)
-    return TuneReport(joint, bandwidth, got, gains, before, after)

@@ -40,8 +40,10 @@ from .sim_twin import open_options
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
+    from ..motion.identify import Identification
     from ..motion.plan import FollowReport
     from ..motion.trajectory import Rows, Trajectory
+    from ..motion.tune import TuneReport
     from ..sim.twin import Twin
 
 __all__ = ["AsyncJoint", "AsyncRobot", "open_robot_async"]
@@ -52,15 +54,16 @@ class AsyncJoint(AsyncMotor):
     """A motor handle (:class:`AsyncMotor`: every method, in wire units) that also knows its joint.
 
     ``joint_state`` is the latest state at the joint (no I/O), ``get_joint_state()`` a fresh one;
-    ``gearing`` converts values either way.
+    ``gearing`` converts values either way; ``robot`` is the robot it belongs to (None: a joint alone).
     """
 
-    __slots__ = ("gearing", "name")
+    __slots__ = ("gearing", "name", "robot")
 
-    def __init__(self, bus: AsyncBus, spec: JointSpec) -> None:
+    def __init__(self, bus: AsyncBus, spec: JointSpec, robot: AsyncRobot | None = None) -> None:
         super().__init__(bus, spec.id)
         self.name = spec.name
         self.gearing = Gearing(spec)
+        self.robot = robot
 
     @property
     def joint_state(self) -> JointState | None:
@@ -84,6 +87,34 @@ class AsyncJoint(AsyncMotor):
         """Apply ``torque`` Nm at the joint (for ``duration`` s, then 0, when given)."""
         await self.set_torque(self.gearing.motor_torque(torque), duration=duration, enable=enable)
 
+    def _of_robot(self) -> AsyncRobot:
+        if self.robot is None:
+            raise DrEmpowerError(f"joint {self.name!r}: not part of a robot (open it with open_robot)")
+        return self.robot
+
+    async def identify(self, *, write: str | os.PathLike[str] | bool = False, **options: Any) -> Identification:
+        """Excite the joint gently and fit its inertia (kg m^2), viscous (Nm s/rad) and Coulomb (Nm) friction
+        and gravity term; ``write`` puts the result where the twin uses it (True: the robot file's
+        ``[joints.NAME.identified]``; a path ending in ``.xml``: a copy of the model with the joint's armature,
+        damping and friction loss). Options: ``amplitude``, ``seconds``, ``rate``, ``kp``, ``kd``,
+        ``max_torque``, ``limits``; see :func:`drempower.motion.routines_async.identify` and docs/motion.md."""
+        from ..motion.identified import write_identified
+        from ..motion.routines_async import identify
+
+        robot = self._of_robot()
+        got = await identify(robot, self.name, **options)
+        if write is not False:
+            write_identified(robot.spec, got, write, twin=robot.twin)
+        return got
+
+    async def tune(self, bandwidth: float, **options: Any) -> TuneReport:
+        """Gains for a closed-loop ``bandwidth`` Hz from the joint's identified dynamics, a step before and
+        after; options ``identified``, ``step`` (rad), ``write`` (False: propose only, nothing written); see
+        :func:`drempower.motion.routines_async.tune`."""
+        from ..motion.routines_async import tune
+
+        return await tune(self._of_robot(), self.name, bandwidth, **options)
+
     def __repr__(self) -> str:
         return f"<AsyncJoint {self.name} motor {self.id}>"
 
@@ -104,7 +135,9 @@ class AsyncRobot(AsyncRobotBase):
         self.spec = spec
         self.buses: dict[str, AsyncBus] = dict(buses)
         """The open buses by name."""
-        self.joints: dict[str, AsyncJoint] = {name: AsyncJoint(self.buses[j.bus], j) for name, j in spec.joints.items()}
+        self.joints: dict[str, AsyncJoint] = {
+            name: AsyncJoint(self.buses[j.bus], j, self) for name, j in spec.joints.items()
+        }
         """Every joint by name, in file order."""
         for name, j in spec.joints.items():
             if j.limits:
@@ -304,6 +337,14 @@ class AsyncRobot(AsyncRobotBase):
         from ..motion.follow_async import follow_robot
 
         return await follow_robot(self, times, positions, **options)
+
+    async def teach(self, seconds: float | None = None, **options: Any) -> Trajectory:
+        """Teach mode for ``seconds`` s (None: until ``stop()`` or Ctrl-C): gravity-compensated, low-stiffness
+        joints a person moves by hand; returns the path taught. Options: ``joints``, ``rate``, ``kp``,
+        ``kd``, ``compensate``, ``on_state``, ``stop``; see :func:`drempower.motion.routines_async.teach`."""
+        from ..motion.routines_async import teach
+
+        return await teach(self, seconds, **options)
 
     @property
     def twin(self) -> Twin | None:

@@ -112,6 +112,9 @@ class JointSpec:
     """Soft limits in joint units (:data:`JOINT_LIMITS`): ``position`` (low, high) rad, the others magnitudes."""
     on_timeout: str = ON_TIMEOUT[0]
     """What the command watchdog does when the joint's controller is gone: ``hold`` or ``idle``."""
+    identified: Mapping[str, float] | None = None
+    """The joint's identified ``inertia`` kg m^2, ``viscous`` Nm s/rad, ``coulomb`` Nm (``drempower identify
+    --write``): the twin's joint has them in place of the model's and the motor's."""
 
 
 @dataclass(frozen=True)
@@ -224,8 +227,8 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         extra = sorted(set(j) - _JOINT_KEYS - _MODEL_JOINT_KEYS - _SAFETY_KEYS)
         if extra:
             raise ConfigError(
-                f"{where}: unknown key {extra[0]!r}: "
-                "a joint has bus, id, gear, offset, limits, on_timeout, model_joint, friction and sim_params"
+                f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear, offset, limits, on_timeout, "
+                "model_joint, friction, sim_params and identified"
             )
         bus = j.get("bus")
         if bus not in buses:
@@ -315,7 +318,9 @@ def bus_options(spec: RobotSpec, bus: str, overrides: Mapping[str, Any]) -> dict
 
 FRICTIONS = ("motor", "model")
 """A joint's ``friction``: the motor's own friction and rotor inertia act too, or only the model's."""
-_MODEL_JOINT_KEYS = frozenset(("model_joint", "friction", "sim_params"))
+_MODEL_JOINT_KEYS = frozenset(("model_joint", "friction", "sim_params", "identified"))
+IDENTIFIED_KEYS = ("inertia", "viscous", "coulomb")
+"""The keys of a joint's ``identified`` table."""
 _MODEL_KEYS = frozenset(("file",))
 
 
@@ -358,4 +363,23 @@ def _model_joint(j: Mapping[str, Any], where: str) -> dict[str, Any]:
         if not p.writable:
             raise ConfigError(f"{where}: sim_params: {key!r} is read-only")
         params[p.name] = _number(value, f"{where}: sim_params: {key}")
-    return {"model_joint": model_joint, "friction": friction, "sim_params": params}
+    return {"model_joint": model_joint, "friction": friction, "sim_params": params, "identified": _identified(j, where)}
+
+
+def _identified(j: Mapping[str, Any], where: str) -> dict[str, float] | None:
+    """A joint entry's ``identified`` table (inertia, viscous, coulomb: each a number >= 0), or None."""
+    if "identified" not in j:
+        return None
+    entry = _table(j["identified"], f"{where}: identified")
+    extra = sorted(set(entry) - set(IDENTIFIED_KEYS))
+    if extra:
+        raise ConfigError(f"{where}: identified: unknown key {extra[0]!r}: it has {', '.join(IDENTIFIED_KEYS)}")
+    out: dict[str, float] = {}
+    for key in IDENTIFIED_KEYS:
+        if key not in entry:
+            raise ConfigError(f"{where}: identified: {key} missing (it has {', '.join(IDENTIFIED_KEYS)})")
+        value = _number(entry[key], f"{where}: identified: {key}")
+        if not 0 <= value < math.inf:
+            raise ConfigError(f"{where}: identified: {key}={value!r}: expected a finite number >= 0")
+        out[key] = value
+    return out

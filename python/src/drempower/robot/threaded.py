@@ -40,8 +40,10 @@ from .sim_twin import open_options
 if TYPE_CHECKING:
     from collections.abc import Sequence
 
+    from ..motion.identify import Identification
     from ..motion.plan import FollowReport
     from ..motion.trajectory import Rows, Trajectory
+    from ..motion.tune import TuneReport
     from ..sim.twin import Twin
 
 __all__ = ["Joint", "Robot", "open_robot"]
@@ -52,15 +54,16 @@ class Joint(Motor):
     """A motor handle (:class:`Motor`: every method, in wire units) that also knows its joint.
 
     ``joint_state`` is the latest state at the joint (no I/O), ``get_joint_state()`` a fresh one;
-    ``gearing`` converts values either way.
+    ``gearing`` converts values either way; ``robot`` is the robot it belongs to (None: a joint alone).
     """
 
-    __slots__ = ("gearing", "name")
+    __slots__ = ("gearing", "name", "robot")
 
-    def __init__(self, bus: Bus, spec: JointSpec) -> None:
+    def __init__(self, bus: Bus, spec: JointSpec, robot: Robot | None = None) -> None:
         super().__init__(bus, spec.id)
         self.name = spec.name
         self.gearing = Gearing(spec)
+        self.robot = robot
 
     @property
     def joint_state(self) -> JointState | None:
@@ -84,6 +87,34 @@ class Joint(Motor):
         """Apply ``torque`` Nm at the joint (for ``duration`` s, then 0, when given)."""
         self.set_torque(self.gearing.motor_torque(torque), duration=duration, enable=enable)
 
+    def _of_robot(self) -> Robot:
+        if self.robot is None:
+            raise DrEmpowerError(f"joint {self.name!r}: not part of a robot (open it with open_robot)")
+        return self.robot
+
+    def identify(self, *, write: str | os.PathLike[str] | bool = False, **options: Any) -> Identification:
+        """Excite the joint gently and fit its inertia (kg m^2), viscous (Nm s/rad) and Coulomb (Nm) friction
+        and gravity term; ``write`` puts the result where the twin uses it (True: the robot file's
+        ``[joints.NAME.identified]``; a path ending in ``.xml``: a copy of the model with the joint's armature,
+        damping and friction loss). Options: ``amplitude``, ``seconds``, ``rate``, ``kp``, ``kd``,
+        ``max_torque``, ``limits``; see :func:`drempower.motion.routines_sync.identify` and docs/motion.md."""
+        from ..motion.identified import write_identified
+        from ..motion.routines_sync import identify
+
+        robot = self._of_robot()
+        got = identify(robot, self.name, **options)
+        if write is not False:
+            write_identified(robot.spec, got, write, twin=robot.twin)
+        return got
+
+    def tune(self, bandwidth: float, **options: Any) -> TuneReport:
+        """Gains for a closed-loop ``bandwidth`` Hz from the joint's identified dynamics, a step before and
+        after; options ``identified``, ``step`` (rad), ``write`` (False: propose only, nothing written); see
+        :func:`drempower.motion.routines_sync.tune`."""
+        from ..motion.routines_sync import tune
+
+        return tune(self._of_robot(), self.name, bandwidth, **options)
+
     def __repr__(self) -> str:
         return f"<Joint {self.name} motor {self.id}>"
 
@@ -104,7 +135,7 @@ class Robot(SyncRobotBase):
         self.spec = spec
         self.buses: dict[str, Bus] = dict(buses)
         """The open buses by name."""
-        self.joints: dict[str, Joint] = {name: Joint(self.buses[j.bus], j) for name, j in spec.joints.items()}
+        self.joints: dict[str, Joint] = {name: Joint(self.buses[j.bus], j, self) for name, j in spec.joints.items()}
         """Every joint by name, in file order."""
         for name, j in spec.joints.items():
             if j.limits:
@@ -302,6 +333,14 @@ class Robot(SyncRobotBase):
         from ..motion.follow_sync import follow_robot
 
         return follow_robot(self, times, positions, **options)
+
+    def teach(self, seconds: float | None = None, **options: Any) -> Trajectory:
+        """Teach mode for ``seconds`` s (None: until ``stop()`` or Ctrl-C): gravity-compensated, low-stiffness
+        joints a person moves by hand; returns the path taught. Options: ``joints``, ``rate``, ``kp``,
+        ``kd``, ``compensate``, ``on_state``, ``stop``; see :func:`drempower.motion.routines_sync.teach`."""
+        from ..motion.routines_sync import teach
+
+        return teach(self, seconds, **options)
 
     @property
     def twin(self) -> Twin | None:

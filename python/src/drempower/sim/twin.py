@@ -82,6 +82,9 @@ class Coupling:
     offset: float = 0.0
     motor_friction: bool = True
     """Add the motor's rotor inertia and friction to the model joint's (False: ``friction = "model"``)."""
+    identified: Mapping[str, float] | None = None
+    """The joint's identified ``inertia``, ``viscous``, ``coulomb`` (at the joint): they replace the model's
+    armature (less the links' own inertia), damping and friction loss, and the motor's."""
 
 
 @dataclass(frozen=True)
@@ -150,7 +153,9 @@ class Twin:
                     f"model {model_file}: joints {seen[c.model_joint]!r} and {c.name!r} both drive {c.model_joint!r}"
                 )
             seen[c.model_joint] = c.name
-            if c.motor_friction:
+            if c.identified is not None:
+                _identified_terms(mj, c.identified)
+            elif c.motor_friction:
                 d = c.motor.drive
                 g2 = c.gear * c.gear
                 mj.armature += d.j / TAU * g2
@@ -202,6 +207,9 @@ class Twin:
             self._links.append(link)
             self._by_name[c.name] = link
             self._by_name.setdefault(c.model_joint, link)
+            if c.identified is not None:  # the armature is what the links' own inertia at qpos0 leaves
+                m.dof_armature[link.dof] = max(0.0, c.identified["inertia"] - float(m.dof_M0[link.dof]))
+                m.dof_M0[link.dof] += m.dof_armature[link.dof]
         mujoco.mj_forward(m, self.data)
         for link, c in zip(self._links, couplings, strict=True):
             d = link.drive
@@ -402,6 +410,20 @@ def _duration(seconds: float) -> float:
     return float(seconds)
 
 
+def _identified_terms(mj: Any, identified: Mapping[str, float]) -> None:
+    """Set a model joint's (an ``MjSpec`` joint's) damping and friction loss to the identified ones, its
+    armature to 0 (the compiled model's is set from its inertia)."""
+    mj.armature = 0.0
+    if isinstance(mj.damping, float):  # MuJoCo 3: one coefficient
+        mj.damping = identified["viscous"]
+    else:  # MuJoCo 4: the polynomial's coefficients, linear first
+        damping = mj.damping.copy()
+        damping[:] = 0.0
+        damping[0] = identified["viscous"]
+        mj.damping = damping
+    mj.frictionloss = identified["coulomb"]
+
+
 def couple_robot(spec: RobotSpec, buses: Mapping[str, SimBus]) -> Twin | None:
     """Couple the motors of the simulated ``buses`` (by the robot's bus names) to the model of ``spec``.
 
@@ -422,6 +444,7 @@ def couple_robot(spec: RobotSpec, buses: Mapping[str, SimBus]) -> Twin | None:
             j.gear,
             j.offset,
             j.friction != "model",
+            j.identified,
         )
         for j in spec.joints.values()
         if j.bus in buses

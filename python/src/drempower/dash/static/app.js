@@ -199,7 +199,7 @@
   // ------------------------------------------------------------ motors and views
   // watching only: every control disabled (the server refuses them anyway), ESTOP stays
   function lockReadOnly() {
-    for (const e of $$("#view-control button, #view-control input, #view-control select, #par-save, #par-restore, #tun-run, #tun-gains input, #tun-gains button, #plot-rate")) {
+    for (const e of $$("#view-control button, #view-control input, #view-control select, #par-save, #par-restore, #tun-run, #tun-gains input, #tun-gains button, #prop-run, #plot-rate")) {
       e.disabled = S.readOnly;
     }
   }
@@ -719,6 +719,45 @@
     drawRuns();
   });
   on("#tun-clear", () => { S.runs = []; $("#tun-runs tbody").innerHTML = ""; drawRuns(); });
+  setupPropose();
+  // "Propose gains": identify the joint and step it (asked first: it moves), show the proposal beside the
+  // step with the present gains; the gains are written only when the user confirms, then a step after
+  function setupPropose() {
+    let proposal = null;
+    function row(what, g, st) {
+      const cells = [what].concat(g ? [fmt(g.pos_gain, 4), fmt(g.vel_gain, 4), fmt(g.vel_integrator_gain, 4), fmt(g.bandwidth, 1)] : ["", "", "", ""])
+        .concat(st ? [fmt(st.rise, 3), fmt(st.overshoot === null ? null : st.overshoot * 100, 1), st.settling === null ? "never" : fmt(st.settling, 3)] : ["", "", ""]);
+      const tr = document.createElement("tr");
+      for (const c of cells) { const td = document.createElement("td"); td.textContent = c; tr.appendChild(td); }
+      $("#prop-table tbody").appendChild(tr);
+    }
+    on("#prop-run", async () => {
+      const id = Number($("#tun-motor").value), bandwidth = num("#prop-bw");
+      if (!window.confirm(`Propose gains for ${motorName(id)}: it is excited around where it is (about 0.3 rad either way for 6 s) and stepped by 0.15 rad. Continue?`)) return;
+      $("#prop-write").disabled = true;
+      say("identifying and stepping...", true);
+      proposal = await act("propose", { id, bandwidth });
+      const p = proposal, k = p.identified;
+      $("#prop-what").textContent = `${p.joint} at ${p.bandwidth} Hz: inertia ${fmt(k.inertia, 5)} kg m^2, viscous ${fmt(k.viscous, 4)} Nm s/rad, Coulomb ${fmt(k.coulomb, 4)} Nm, fit R^2 ${fmt(k.fit, 4)}`;
+      $("#prop-table tbody").replaceChildren();
+      row("present gains (step)", null, p.before);
+      row("proposed", p.gains, null);
+      $("#prop-table").hidden = false;
+      $("#prop-write").disabled = S.readOnly;
+      say("gains proposed; nothing written", true);
+    });
+    on("#prop-write", async () => {
+      if (!proposal) return;
+      if (!window.confirm(`Write the proposed gains to ${motorName(proposal.id)} (in RAM) and step it again?`)) return;
+      const r = await act("apply_gains", { id: proposal.id, bandwidth: proposal.bandwidth });
+      proposal = null;
+      $("#prop-write").disabled = true;
+      $("#prop-table tbody").lastChild.remove();
+      row("written (step after)", r.gains, r.after);
+      say("proposed gains written; Save stores them in flash", true);
+      await loadGains();
+    });
+  }
   function drawRuns() {
     const el = $("#tun-plot");
     if (tunPlot) { tunPlot.destroy(); tunPlot = null; }

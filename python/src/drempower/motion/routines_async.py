@@ -1,0 +1,207 @@
+"""The motion routines that move a robot's joints, for asyncio: :func:`identify`, :func:`step_response`,
+:func:`tune` and :func:`teach`.
+
+The one source of both flavours: ``routines_sync.py`` is generated from this file by
+``tools/gen_sync.py``. The parts without I/O are in ``identify.py``, ``tune.py`` and ``teach.py``;
+:class:`~drempower.robot.aio.AsyncJoint` offers ``identify`` and ``tune``,
+:class:`~drempower.robot.aio.AsyncRobot` ``teach``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping, Sequence
+from typing import TYPE_CHECKING, Any
+
+from ..client.commands import PositionMode, make_angle, make_impedance
+from ..client.effects import sleep
+from ..errors import DrEmpowerError
+from ..protocol.messages import Message, StartImpedance
+from .identify import Identification, check_excitation, excitation, from_samples
+from .teach import GravityModel, teach_cycle
+from .trajectory import Trajectory
+from .tune import GAIN_NAMES, Step, TuneReport, gains_for, step_metrics
+
+if TYPE_CHECKING:
+    from ..robot import AsyncRobot
+
+__all__ = ["identify", "step_response", "teach", "tune"]
+
+
+async def identify(
+    robot: AsyncRobot,
+    joint: str,
+    *,
+    amplitude: float = 0.3,
+    seconds: float = 6.0,
+    rate: float = 200.0,
+    kp: float = 5.0,
+    kd: float = 0.2,
+    max_torque: float | None = None,
+    limits: Mapping[str, Any] | None = None,
+) -> Identification:
+    """Excite joint ``joint`` of ``robot`` around where it is (``amplitude`` rad peak, for ``seconds`` s,
+    ``rate`` Hz) and fit its dynamics (see :mod:`drempower.motion.identify`). The excitation is checked
+    against the joint's limits (robot file, model range, ``limits``) before anything moves; a torque above
+    ``max_torque`` Nm at the joint, or a tracking error above twice the amplitude, stops it."""
+    j = robot.joint(joint)
+    bus = robot.bus(robot.spec.joints[joint].bus)
+    q0 = (await j.get_joint_state()).position
+    check_excitation(robot.spec, robot.twin, joint, q0, amplitude, seconds, rate, limits)
+    g = j.gearing
+    ts: list[float] = []
+    qs: list[float] = []
+    vs: list[float] = []
+    taus: list[float] = []
+    period = 1.0 / rate
+    ok = False
+    try:
+        t0 = bus.core.now()
+        for k in range(round(seconds * rate)):
+            ref, vel = excitation(k * period, q0, amplitude, seconds)
+            await j.impedance_control(g.motor_angle(ref), g.motor_speed(vel), 0.0, kp, kd)
+            st = await j.get_joint_state()
+            if abs(st.position - ref) > 2 * amplitude or (max_torque is not None and abs(st.torque) > max_torque):
+                raise DrEmpowerError(
+                    f"identify: joint {joint!r} stopped at {st.position:.3f} rad, torque {st.torque:.3g} Nm: "
+                    "it does not follow the excitation (blocked, or max_torque reached)"
+                )
+            ts.append(st.timestamp)
+            qs.append(st.position)
+            vs.append(st.velocity)
+            taus.append(st.torque)
+            wait = t0 + (k + 1) * period - bus.core.now()
+            if wait > 0:
+                await bus.run(sleep(wait))
+        ok = True
+    finally:
+        st_last = j.state
+        at = st_last.angle if st_last is not None else g.motor_angle(q0)
+        if ok:
+            await j.set_angle(g.motor_angle(q0), 0.0, 20.0, PositionMode.T)  # back where it was
+        else:
+            bus.core.send_many([j.make_angle(at, 0.0, 20.0, PositionMode.T)])  # hold where it is
+    return from_samples(joint, rate, ts, qs, vs, taus)
+
+
+async def step_response(
+    robot: AsyncRobot,
+    joint: str,
+    amount: float,
+    seconds: float = 1.5,
+    rate: float = 500.0,
+    trace: list[tuple[float, float]] | None = None,
+) -> Step:
+    """Step joint ``joint`` by ``amount`` rad (P mode, no feed-forward), watch it for ``seconds`` s, step it
+    back; ``trace`` gets (s, fraction of the step) of every state read."""
+    j = robot.joint(joint)
+    bus = robot.bus(robot.spec.joints[joint].bus)
+    q0 = (await j.get_joint_state()).position
+    ts: list[float] = []
+    ys: list[float] = []
+    t0 = bus.core.now()
+    await j.set_angle(j.gearing.motor_angle(q0 + amount), 0.0, 0.0, PositionMode.P)
+    try:
+        for _ in range(round(seconds * rate)):
+            st = await j.get_joint_state()
+            ts.append(st.timestamp - t0)
+            ys.append((st.position - q0) / amount)
+            await bus.run(sleep(1.0 / rate))
+    finally:
+        await j.set_angle(j.gearing.motor_angle(q0), 0.0, 0.0, PositionMode.P)
+        await bus.run(sleep(seconds))
+    if trace is not None:
+        trace.extend(zip(ts, ys, strict=True))
+    return step_metrics(ts, ys)
+
+
+async def tune(
+    robot: AsyncRobot,
+    joint: str,
+    bandwidth: float,
+    *,
+    identified: Identification | None = None,
+    step: float = 0.15,
+    write: bool = True,
+) -> TuneReport:
+    """Identify ``joint`` (unless ``identified`` is given), compute the gains for ``bandwidth`` Hz, step it
+    with its present gains, write the new ones (``write``) and step it again (without ``write`` the
+    report's ``after`` is the ``before``)."""
+    got = identified or await identify(robot, joint)
+    gains = gains_for(got.inertia, got.viscous, bandwidth, robot.spec.joints[joint].gear)
+    before = await step_response(robot, joint, step)
+    after = before
+    if write:
+        j = robot.joint(joint)
+        for name, value in zip(GAIN_NAMES, (gains.pos_gain, gains.vel_gain, gains.vel_integrator_gain), strict=True):
+            await j.write_property(name, value, verify=True)
+        after = await step_response(robot, joint, step)
+    return TuneReport(joint, bandwidth, got, gains, before, after)
+
+
+async def teach(
+    robot: AsyncRobot,
+    seconds: float | None = None,
+    *,
+    joints: Sequence[str] | None = None,
+    rate: float = 100.0,
+    kp: float = 0.0,
+    kd: float = 0.05,
+    compensate: bool = True,
+    on_state: Callable[[float, Mapping[str, float]], None] | None = None,
+    stop: Callable[[], bool] | None = None,
+) -> Trajectory:
+    """Run teach mode (see :mod:`drempower.motion.teach`) on ``joints`` (default all) for ``seconds`` s
+    (None: until ``stop()`` is true or Ctrl-C, which then ends it and returns the path); ``on_state(t,
+    {joint: rad})`` sees every cycle. Returns the path taught."""
+    names = list(joints or robot.joints)
+    gravity = GravityModel(robot.spec, names) if compensate else None
+    lanes: dict[str, list[str]] = {}
+    for n in names:
+        lanes.setdefault(robot.spec.joints[n].bus, []).append(n)
+    period = 1.0 / rate
+    times: list[float] = []
+    rows: list[list[float]] = []
+    first_bus = robot.bus(next(iter(lanes)))
+    now = first_bus.core.now
+    states = await robot.joint_states(names)
+    pos = {n: states[n].position for n in names}
+    latest = {n: states[n].motor for n in names}
+    t0 = now()
+    k = 0
+    try:
+        while seconds is None or now() - t0 < seconds:
+            if stop is not None and stop():
+                break
+            tau = gravity.torques([pos[n] for n in names]) if gravity is not None else [0.0] * len(names)
+            by_name = dict(zip(names, tau, strict=True))
+            for bus_name, group in lanes.items():
+                presets: list[Message] = []
+                for n in group:
+                    j = robot.joints[n]
+                    preset, _ = make_impedance(j.id, latest[n].angle, 0.0, j.gearing.motor_torque(by_name[n]), kp, kd)
+                    presets.append(preset)
+                ids = [robot.joints[n].id for n in group]
+                got = await robot.bus(bus_name).run(teach_cycle(presets, StartImpedance(0, kp, kd), ids, None))
+                for n, st in zip(group, got, strict=True):
+                    latest[n] = st
+                    pos[n] = robot.joints[n].gearing.joint_state(st).position
+            t = now() - t0
+            times.append(t)
+            rows.append([pos[n] for n in names])
+            if on_state is not None:
+                on_state(t, dict(pos))
+            k += 1
+            wait = t0 + k * period - now()
+            if wait > 0:
+                await first_bus.run(sleep(wait))
+    except KeyboardInterrupt:
+        if seconds is not None:
+            raise
+    finally:
+        for bus_name, group in lanes.items():
+            robot.bus(bus_name).core.send_many(
+                [make_angle(robot.joints[n].id, latest[n].angle, 0.0, 20.0, PositionMode.T) for n in group]
+            )
+    if len(times) < 2:
+        raise DrEmpowerError("teach: fewer than 2 cycles ran: nothing to return")
+    return Trajectory([t - times[0] for t in times], rows, joints=names)
