@@ -27,6 +27,7 @@ from ..conftest import REPO_ROOT
 
 pytest.importorskip("aiohttp")
 from drempower.dash import Dashboard, Hub
+from drempower.logline import STDERR
 
 CHROMIUM = os.environ.get("DREMPOWER_CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = [
@@ -47,6 +48,14 @@ class Served:
     hub: Hub
     dash: Dashboard
     loop: asyncio.AbstractEventLoop
+
+
+@pytest.fixture(autouse=True)
+def _log_lines_stay_in_their_test() -> Iterator[None]:
+    """The dashboard's log lines are written to stderr by a thread of their own: let them out before the
+    test ends, so pytest captures them with the test instead of printing them between tests."""
+    yield
+    STDERR.flush_for(2.0)
 
 
 def serve_in_thread(
