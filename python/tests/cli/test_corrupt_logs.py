@@ -17,8 +17,8 @@ from drempower.sim import SimBus
 from .conftest import Cli
 
 
-def _frames() -> list[can.Message]:
-    preset = Preset(1, 30.0, 1.0, 10.0).encode()
+def _frames(target: float = 30.0, seconds: float = 1.0) -> list[can.Message]:
+    preset = Preset(1, target, seconds, 10.0).encode()
     start = Start(0, StartKind.Q).encode()
     out = []
     for k in range(20):
@@ -27,9 +27,9 @@ def _frames() -> list[can.Message]:
     return out
 
 
-def _blf(path: Path) -> Path:
+def _blf(path: Path, frames: list[can.Message] | None = None) -> Path:
     with can.BLFWriter(str(path)) as w:
-        for m in _frames():
+        for m in _frames() if frames is None else frames:
             w.on_message_received(m)
     return path
 
@@ -95,3 +95,14 @@ def test_replay_onto_idle_motors_says_so_and_sends_nothing(cli: Cli, sim: SimBus
     r = cli("replay", str(log), "--rate", "1000", "--enable", "--leave-running", "--sim", "1")
     assert r.code == 0 and "20 frames replayed" in r.err, r.err
     assert sim.motors[1].param("axis0.controller.input_pos") > 0.1  # on its way to 30 deg
+
+
+@pytest.mark.parametrize("seconds", [0.0, 1.0])
+def test_replay_of_a_tiny_preset_target_is_no_traceback(cli: Cli, sim: SimBus, tmp_path: Path, seconds: float) -> None:
+    """A preset to 1e-20 deg (in 0 s or 1 s) replayed onto a simulated motor: it stays put, the replay ends
+    normally and the simulator answers after it."""
+    log = _blf(tmp_path / "tiny.blf", _frames(1e-20, seconds))
+    r = cli("replay", str(log), "--rate", "1000", "--sim", "1")
+    assert r.code == 0 and "Traceback" not in r.err and "20 frames replayed" in r.err, r.err
+    assert abs(sim.motors[1].position) < 1e-6
+    assert cli("state", "1", "--sim", "1").code == 0
