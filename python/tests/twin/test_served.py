@@ -122,5 +122,5 @@ def test_sim_robot_names_a_joint_the_model_lacks(tmp_path: Path, capsys: pytest.
     )
     code = main(["sim", "--robot", str(path), "--duration", "0.1"])
     err = capsys.readouterr().err
-    assert code == 1
+    assert code == 2  # a robot file that cannot be used is a validation error
     assert err.count("\n") == 1 and "joint 'knee': model_joint='knee' is not a joint of the model (swing)" in err
