@@ -1,0 +1,217 @@
+"""``drempower actions``: the table of actions (:mod:`drempower.actions`), and a command for each row.
+
+``drempower actions`` lists the table (name, safety class, arguments with units
+and domains, help; ``--json``). ``drempower actions NAME ARGS`` runs any row by
+its table name, and a row whose name no hand-written command takes is also
+``drempower NAME ARGS`` (:func:`register_rows`, called once every module has
+registered its commands): a row added with :func:`drempower.actions.register`
+before the parser is built is a command with no further change. Arguments are
+validated by the table, so a refusal words the field, the value and its domain
+as the API, the dashboard and the bridge do.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from typing import Any
+
+from .. import actions as table
+from ._connect import add_connection_args, open_from_args
+from ._motion import driving
+from ._output import add_json_arg, clean, emit, fmt, json_line, motors_text
+
+GROUP = "motion"
+"""Where ``drempower --help`` lists ``actions`` (generated commands: see :data:`GROUP_OF_SAFETY`)."""
+GROUP_OF_SAFETY = {"read": "bus", "configure": "parameters", "motion": "motion", "stop": "motion"}
+"""The ``--help`` heading of a generated command, by its row's safety class."""
+HANDWRITTEN = {
+    "state": "state",
+    "errors": "errors",
+    "get": "get",
+    "set": "set",
+    "move": "move",
+    "speed": "speed",
+    "torque": "torque",
+    "impedance": "impedance",
+    "estop": "stop",
+    "idle": "idle",
+    "enable": "enable",
+    "clear": "clear",
+    "zero": "zero",
+    "save": "save",
+    "reboot": "reboot",
+}
+"""Rows that a hand-written command carries out (with more options), by the command's name.
+``drempower stop`` is the emergency stop (row ``estop``); row ``stop`` (speed 0, holding) is
+``drempower actions stop``."""
+GENERATED: set[str] = set()
+"""The rows :func:`register_rows` made a command of (by the last parser built)."""
+
+
+def register(sub: Any) -> None:
+    p = sub.add_parser(
+        "actions",
+        help="list the table of actions (arguments, units, safety class), or run one: actions NAME ARGS",
+        description=(
+            "Without NAME: the table of what can be done to motors, the same in Python, the CLI and the "
+            "dashboard. With NAME: run that action, e.g. drempower actions stop 1 --sim 1."
+        ),
+    )
+    add_json_arg(p)
+    rows = p.add_subparsers(dest="action_name", metavar="NAME", title="actions")
+    for action in table.table():
+        add_row(rows, action, action.name)
+    p.set_defaults(func=run_list)
+
+
+def register_rows(sub: Any) -> dict[str, str]:
+    """A command for every row of the table whose name is still free; returns their ``--help`` groups."""
+    taken = set(sub.choices)
+    groups: dict[str, str] = {}
+    GENERATED.clear()
+    for action in table.table():
+        if action.name in taken or action.name in HANDWRITTEN:
+            continue
+        add_row(sub, action, action.name)
+        groups[action.name] = GROUP_OF_SAFETY[action.safety]
+        GENERATED.add(action.name)
+    return groups
+
+
+def _arg_help(arg: table.Arg) -> str:
+    text = f"{arg.help} ({arg.domain_text()})" if arg.kind in ("int", "float") else arg.help
+    if not arg.required and arg.default is not None:
+        text += f"; default {arg.default}"
+    return text.replace("%", "%%")
+
+
+def add_row(sub: Any, action: table.Action, name: str) -> argparse.ArgumentParser:
+    """The parser of ``action``: its arguments (required ones positional, in table order), the connection."""
+    p: argparse.ArgumentParser = sub.add_parser(
+        name,
+        help=f"{action.help} ({action.safety})",
+        description=f"{action.help[0].upper()}{action.help[1:]} (safety class: {action.safety}).",
+    )
+    for arg in action.args:
+        dest = f"row_{arg.name}"
+        if arg.required:
+            metavar = "ID" if arg.name == "id" else arg.name.upper()
+            p.add_argument(dest, metavar=metavar, help=_arg_help(arg) + ("; all: 0" if arg.low == 0 else ""))
+        elif arg.kind == "bool":
+            p.add_argument(
+                f"--{arg.name}", dest=dest, action=argparse.BooleanOptionalAction, default=None, help=_arg_help(arg)
+            )
+        else:
+            metavar = (arg.unit or arg.name).upper().replace("%", "%%")
+            p.add_argument(f"--{arg.name}", dest=dest, metavar=metavar, help=_arg_help(arg))
+    add_json_arg(p)
+    add_connection_args(p)
+    p.set_defaults(func=run_row, action_name=action.name)
+    return p
+
+
+def _given(args: argparse.Namespace, action: table.Action) -> dict[str, Any]:
+    """The row's arguments the user gave, as text (the table types and checks them)."""
+    given: dict[str, Any] = {}
+    for arg in action.args:
+        value = getattr(args, f"row_{arg.name}", None)
+        if value is not None:
+            given[arg.name] = 0 if arg.name == "id" and str(value).lower() == "all" else value
+    return given
+
+
+def run_row(args: argparse.Namespace) -> int:
+    action = table.get(args.action_name)
+    values = table.validate(action, _given(args, action))  # refused here: nothing is sent
+    node = int(values["id"])
+    if action.safety == "motion":  # on Ctrl-C or a failure the motor goes idle, as with move or speed
+        args.ids, args.stop_on_exit = [node], True
+        with driving(args) as bus:
+            result = table.run(bus, action, values)
+    else:
+        with open_from_args(args) as bus:
+            result = table.run(bus, action, values)
+    show(args, action.name, node, table.plain(result))
+    return 0
+
+
+def show(args: argparse.Namespace, name: str, node: int, result: Any) -> None:
+    """One action's result: a JSON line with ``--json``, else a line (and a field a line for a record)."""
+    if getattr(args, "json", False):
+        sys.stdout.write(json_line({"id": node, "action": name, "result": result}) + "\n")
+        return
+    who = motors_text([node])
+    if result is None:
+        lines = [f"{who}: {name} sent"]
+    elif isinstance(result, dict):
+        width = max((len(k) for k in result), default=0)
+        lines = [f"{who}: {name}", *(f"  {k:<{width}}  {_value(v)}" for k, v in result.items())]
+    else:
+        lines = [f"{who}: {name}: {_value(result)}"]
+    for line in lines:
+        sys.stdout.write(clean(line) + "\n")
+
+
+def _value(value: Any) -> str:
+    if isinstance(value, list):
+        return ", ".join(_value(v) for v in value)
+    if isinstance(value, float):
+        return fmt(value, None)
+    return str(value)
+
+
+def describe(action: table.Action) -> dict[str, Any]:
+    """A row as data: name, safety, help and each argument's name, kind, unit, domain, default."""
+    return {
+        "name": action.name,
+        "safety": action.safety,
+        "help": action.help,
+        "args": [
+            {
+                "name": a.name,
+                "kind": a.kind,
+                "unit": a.unit,
+                "low": a.low,
+                "high": a.high,
+                "required": a.required,
+                "default": None if a.required else a.default,
+                "help": a.help,
+                "domain": a.domain_text(),
+            }
+            for a in action.args
+        ],
+    }
+
+
+def _arg_text(arg: dict[str, Any]) -> str:
+    shown = arg["name"] if arg["required"] else f"[{arg['name']}]"
+    return f"{shown} {arg['domain']}" if arg["kind"] in ("int", "float") else shown
+
+
+def _command(name: str) -> str:
+    """How the command line runs row ``name``."""
+    if name in HANDWRITTEN:
+        return HANDWRITTEN[name]
+    return name if name in GENERATED else f"actions {name}"
+
+
+def run_list(args: argparse.Namespace) -> int:
+    if args.action_name is not None:  # pragma: no cover - a row's parser sets its own func
+        return run_row(args)
+    rows = [describe(a) for a in table.table()]
+    if args.json:
+        emit(args, (), rows)
+        return 0
+    records = [
+        {
+            "name": r["name"],
+            "safety": r["safety"],
+            "command": f"drempower {_command(r['name'])}",
+            "arguments": "; ".join(_arg_text(a) for a in r["args"]),
+            "help": r["help"],
+        }
+        for r in rows
+    ]
+    emit(args, ("name", "safety", "command", "arguments", "help"), records)
+    return 0
