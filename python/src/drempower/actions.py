@@ -50,6 +50,7 @@ __all__ = [
     "run",
     "run_async",
     "plain",
+    "describe",
 ]
 
 Safety = Literal["read", "configure", "motion", "stop"]
@@ -333,6 +334,31 @@ async def run_async(bus: Any, action: Action | str, args: Mapping[str, Any]) -> 
     if inspect.isawaitable(result):
         return await result
     return result
+
+
+def describe(action: Action | str) -> dict[str, Any]:
+    """A row as JSON-ready data (what ``drempower actions --json`` prints and the dashboard builds its
+    Actions panel from): name, safety, help, and each argument's name, kind, unit, domain, default."""
+    act = get(action) if isinstance(action, str) else action
+    return {
+        "name": act.name,
+        "safety": act.safety,
+        "help": act.help,
+        "args": [
+            {
+                "name": a.name,
+                "kind": a.kind,
+                "unit": a.unit,
+                "low": a.low,
+                "high": a.high,
+                "required": a.required,
+                "default": None if a.required else a.default,
+                "help": a.help,
+                "domain": a.domain_text(),
+            }
+            for a in act.args
+        ],
+    }
 
 
 def plain(result: Any) -> Any:

@@ -112,13 +112,31 @@ def add_row(sub: Any, action: table.Action, name: str) -> argparse.ArgumentParse
 
 
 def _given(args: argparse.Namespace, action: table.Action) -> dict[str, Any]:
-    """The row's arguments the user gave, as text (the table types and checks them)."""
+    """The row's arguments the user gave: numbers where the text reads as one (as the dashboard sends
+    them), else the text; the table types and checks them."""
     given: dict[str, Any] = {}
     for arg in action.args:
         value = getattr(args, f"row_{arg.name}", None)
-        if value is not None:
-            given[arg.name] = 0 if arg.name == "id" and str(value).lower() == "all" else value
+        if value is None:
+            continue
+        if arg.name == "id" and str(value).lower() == "all":
+            value = "0"
+        if isinstance(value, str) and arg.kind in ("int", "float"):
+            value = _as_number(value)
+        given[arg.name] = value
     return given
+
+
+def _as_number(text: str) -> Any:
+    """``"64"`` -> 64, ``"2.5"`` -> 2.5; text that is no number stays text (refused by the table)."""
+    try:
+        return int(text)
+    except ValueError:
+        pass
+    try:
+        return float(text)
+    except ValueError:
+        return text
 
 
 def run_row(args: argparse.Namespace) -> int:
@@ -161,29 +179,6 @@ def _value(value: Any) -> str:
     return str(value)
 
 
-def describe(action: table.Action) -> dict[str, Any]:
-    """A row as data: name, safety, help and each argument's name, kind, unit, domain, default."""
-    return {
-        "name": action.name,
-        "safety": action.safety,
-        "help": action.help,
-        "args": [
-            {
-                "name": a.name,
-                "kind": a.kind,
-                "unit": a.unit,
-                "low": a.low,
-                "high": a.high,
-                "required": a.required,
-                "default": None if a.required else a.default,
-                "help": a.help,
-                "domain": a.domain_text(),
-            }
-            for a in action.args
-        ],
-    }
-
-
 def _arg_text(arg: dict[str, Any]) -> str:
     shown = arg["name"] if arg["required"] else f"[{arg['name']}]"
     return f"{shown} {arg['domain']}" if arg["kind"] in ("int", "float") else shown
@@ -199,7 +194,7 @@ def _command(name: str) -> str:
 def run_list(args: argparse.Namespace) -> int:
     if args.action_name is not None:  # pragma: no cover - a row's parser sets its own func
         return run_row(args)
-    rows = [describe(a) for a in table.table()]
+    rows = [table.describe(a) for a in table.table()]
     if args.json:
         emit(args, (), rows)
         return 0
