@@ -1,0 +1,46 @@
+"""Commands made from rows of the table of actions (:mod:`drempower.cli.actions`) behave as the table says."""
+
+from __future__ import annotations
+
+import pytest
+
+from drempower import actions, open_bus
+from drempower.errors import MotorIdleError
+from drempower.protocol import Frame
+from drempower.protocol.enums import AxisState
+from drempower.protocol.ids import split_arbitration_id
+from drempower.protocol.limits import MOTION_CMDS
+from drempower.sim import SimBus
+
+from .conftest import Cli
+
+
+def test_the_generated_motion_command_refuses_an_idle_motor_and_sends_nothing(
+    cli: Cli, sim: SimBus, host_frames: list[Frame]
+) -> None:
+    """``drempower step`` (a row no hand-written command took) passes the safety gate: an idle motor is
+    refused in the library's words, exit 1, and no motion frame is sent; ``--enable`` enables it first."""
+    assert cli("idle", "1", "--sim", "1").code == 0
+    before = len(host_frames)
+    r = cli("step", "1", "30", "--sim", "1")
+    assert r.code == 1 and r.out == ""
+    with pytest.raises(MotorIdleError) as api, open_bus("sim", motors=[1], clock="virtual") as b:
+        b.motor(1).idle()  # the same refusal from the API
+        actions.run(b, "step", {"id": 1, "angle": 30})
+    assert r.err == f"drempower: error: {api.value}\n"
+    cmds = [split_arbitration_id(f.arbitration_id)[1] for f in host_frames[before:]]
+    assert cmds and not MOTION_CMDS & set(cmds), cmds  # the state was read; nothing moved
+    assert sim.motors[1].state == AxisState.IDLE
+    r = cli("step", "1", "30", "--enable", "--sim", "1")
+    assert r.code == 0 and r.out.startswith("motor 1: step: "), r
+    assert sim.motors[1].state == AxisState.CLOSED_LOOP_CONTROL
+
+
+def test_row_stop_is_run_by_its_table_name_and_holds(cli: Cli, sim: SimBus) -> None:
+    """``drempower stop`` is the emergency stop; row ``stop`` (speed 0, closed loop kept) is ``actions stop``."""
+    assert cli("speed", "1", "30", "--sim", "1").code == 0
+    assert sim.motors[1].drive.in_vel != 0.0
+    r = cli("actions", "stop", "1", "--sim", "1")
+    assert r.code == 0 and r.out == "motor 1: stop sent\n", r
+    assert sim.motors[1].state == AxisState.CLOSED_LOOP_CONTROL
+    assert sim.motors[1].drive.in_vel == 0.0
