@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from drempower import actions, open_bus
-from drempower.errors import MotorIdleError
+from drempower.errors import MotorIdleError, ValidationError
 from drempower.protocol import Frame
 from drempower.protocol.enums import AxisState
 from drempower.protocol.ids import split_arbitration_id
@@ -44,3 +44,31 @@ def test_row_stop_is_run_by_its_table_name_and_holds(cli: Cli, sim: SimBus) -> N
     assert r.code == 0 and r.out == "motor 1: stop sent\n", r
     assert sim.motors[1].state == AxisState.CLOSED_LOOP_CONTROL
     assert sim.motors[1].drive.in_vel == 0.0
+
+
+@pytest.mark.parametrize(
+    ("argv", "row", "args", "option"),
+    [
+        (("speed", "1", "500"), "speed", {"id": 1, "speed": 500}, "RPM: 500 (motor 1)"),
+        (("torque", "1,2", "1,-400"), "torque", {"id": 2, "torque": -400}, "NM: -400 (motor 2)"),
+        (("move", "1", "1e9"), "move", {"id": 1, "angle": 1e9}, "ANGLES: 1e+09 (motor 1)"),
+        (("move", "1", "-1e9", "--relative"), "step", {"id": 1, "angle": -1e9}, "ANGLES: -1e+09 (motor 1)"),
+        (
+            ("impedance", "1", "0", "--kp", "5", "--kd", "400"),
+            "impedance",
+            {"id": 1, "pos": 0, "kp": 5, "kd": 400},
+            "--kd: 400",
+        ),
+    ],
+)
+def test_the_hand_written_commands_refuse_with_the_tables_range_and_unit(
+    cli: Cli, host_frames: list[Frame], argv: tuple[str, ...], row: str, args: dict[str, object], option: str
+) -> None:
+    """``move``, ``speed``, ``torque`` and ``impedance`` check their values by the table's rows: the range
+    and unit of the refusal are the API's, the field named as the user typed it; nothing is sent."""
+    r = cli(*argv, "--sim", "1,2")
+    with pytest.raises(ValidationError) as api:
+        actions.validate(row, args)
+    words = str(api.value).split(" is out of range", 1)[1]
+    assert r.code == 2 and r.err.endswith(f"error: argument {option} is out of range{words}\n"), r.err
+    assert host_frames == []

@@ -14,12 +14,15 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Mapping, Sequence
 from typing import Any
 
 from .. import actions as table
+from ..errors import FieldRangeError
 from ._connect import add_connection_args, open_from_args
 from ._motion import driving
 from ._output import add_json_arg, clean, emit, fmt, json_line, motors_text
+from ._usage import options_named
 
 GROUP = "motion"
 """Where ``drempower --help`` lists ``actions`` (generated commands: see :data:`GROUP_OF_SAFETY`)."""
@@ -137,6 +140,29 @@ def _as_number(text: str) -> Any:
         return float(text)
     except ValueError:
         return text
+
+
+def check_row(
+    name: str,
+    ids: Sequence[int],
+    each: Mapping[str, Sequence[Any]],
+    shared: Mapping[str, Any],
+    options: Mapping[str, str],
+) -> None:
+    """Check a hand-written command's values by row ``name`` of the table, for every motor of ``ids``:
+    ``each`` maps a field to one value per motor, ``shared`` the fields all take (None: the row's
+    default). A refusal is the table's (field range and unit), naming the option the user typed
+    (``options``: field -> option, e.g. ``speed`` -> ``RPM``) and, for ``each``, the motor."""
+    with options_named(options):
+        for k, node in enumerate(ids):
+            values = {"id": node, **shared, **{field: v[k] for field, v in each.items()}}
+            try:
+                table.validate(name, values)
+            except FieldRangeError as exc:
+                if exc.field not in each:
+                    raise
+                unit = table.get(name).arg(exc.field).unit
+                raise FieldRangeError(f"{exc.field} (motor {node})", exc.value, exc.low, exc.high, unit) from None
 
 
 def run_row(args: argparse.Namespace) -> int:
