@@ -13,7 +13,7 @@ import pytest
 
 from drempower import actions, open_bus
 from drempower.cli import main
-from drempower.errors import ValidationError
+from drempower.errors import MotorIdleError, ValidationError
 from drempower.protocol.enums import AxisState
 from drempower.sim.defaults import MotorModel
 
@@ -149,3 +149,34 @@ def test_the_page_offers_and_runs_the_new_row(volcur: actions.Action, browser: A
         hub.close()
         bus.close()
     assert not errors, errors
+
+
+def test_the_hubs_checks_apply_to_the_tables_rows() -> None:
+    """Read-only lets reading and stopping through and refuses the rest; a motion row to an idle motor is
+    the gate's refusal with the page's fix (nothing sent); ``enable`` enables it first; targets follow."""
+    bus = open_bus("sim", motors=[1], stop_on_close=False)
+    motor = bus.transport.bus.motors[1]  # type: ignore[attr-defined]
+    _url, hub, dash, loop, thread = serve_in_thread(bus)
+    try:
+        bus.motor(1).idle()
+        with pytest.raises(MotorIdleError, match="the Enable button"):
+            hub.do_control("test", {"action": "speed", "args": {"id": 1, "speed": 20}})
+        assert motor.state == AxisState.IDLE and 1 not in hub.commanded
+        hub.do_control("test", {"action": "move", "args": {"id": 1, "angle": 10, "enable": True}})
+        assert motor.state == AxisState.CLOSED_LOOP_CONTROL and hub.targets[1][0] == 10.0
+        with pytest.raises(ValidationError, match=r"^speed=400 is out of range: allowed -327\.68\.\.327\.67"):
+            hub.do_control("test", {"action": "speed", "args": {"id": 1, "speed": 400}})
+        hub.read_only = True
+        assert hub.do_control("test", {"action": "state", "args": {"id": 1}})["node"] == 1
+        for row, args in (("speed", {"id": 1, "speed": 5}), ("zero", {"id": 1}), ("save", {"id": 1})):
+            with pytest.raises(ValidationError, match=r"read-only"):
+                hub.do_control("test", {"action": row, "args": args})
+        assert hub.do_control("test", {"action": "stop", "args": {"id": 1}}) is None  # stopping always
+        assert hub.targets[1][1] == 0.0
+        assert hub.do_control("test", {"action": "idle", "args": {"id": 1}}) is None
+        assert motor.state == AxisState.IDLE and 1 not in hub.commanded and 1 not in hub.targets
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()
