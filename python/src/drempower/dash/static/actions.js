@@ -12,7 +12,7 @@
     const view = document.querySelector("#view-actions");
     view.innerHTML = `<div class="bar"><label>action <select id="act-name" aria-label="action"></select></label>
       <span id="act-help" class="dim"></span></div>
-      <fieldset id="act-args"><legend>arguments</legend></fieldset>
+      <fieldset id="act-args" style="max-width: 640px"><legend>arguments</legend></fieldset>
       <div class="bar"><button id="act-run">Run</button><span id="act-class" class="dim"></span></div>
       <pre id="act-result" role="status"></pre>`;
     const sel = view.querySelector("#act-name");
@@ -42,7 +42,7 @@
       const hint = `${esc(a.help)}${a.kind === "int" || a.kind === "float" ? " (" + esc(a.domain) + ")" : ""}`;
       if (a.kind === "bool") {
         return `<label title="${hint}">${esc(a.name)} <input type="checkbox" id="${id}" data-arg="${esc(a.name)}"` +
-          `${a.default ? " checked" : ""}></label>`;
+          `${a.default ? " checked" : ""}></label><div class="dim" style="margin: -3px 0 6px; font-size: 12px">${hint}</div>`;
       }
       let value = "";
       if (a.name === "id") value = A.motors.length ? A.motors[0] : "";
@@ -50,7 +50,8 @@
       const placeholder = a.required ? "required" : a.default === null ? "none" : String(a.default);
       return `<label title="${hint}">${esc(a.name)}${a.unit ? " " + esc(a.unit) : ""} ` +
         `<input type="text" id="${id}" data-arg="${esc(a.name)}" value="${esc(value)}" placeholder="${esc(placeholder)}"` +
-        `${list} aria-label="${esc(a.name)}" size="10"></label><div class="dim">${hint}</div>`;
+        `${list} aria-label="${esc(a.name)}" size="10"></label>` +
+        `<div class="dim" style="margin: -3px 0 6px; font-size: 12px">${hint}</div>`;
     }).join("");
   }
 
