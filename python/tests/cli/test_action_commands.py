@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
 
 from drempower import actions, open_bus
@@ -72,3 +74,22 @@ def test_the_hand_written_commands_refuse_with_the_tables_range_and_unit(
     words = str(api.value).split(" is out of range", 1)[1]
     assert r.code == 2 and r.err.endswith(f"error: argument {option} is out of range{words}\n"), r.err
     assert host_frames == []
+
+
+def test_a_command_from_the_table_takes_a_joints_name_with_robot(cli: Cli, tmp_path: Path) -> None:
+    """With ``--robot`` the ID may be a joint's name (on any bus of the file); text that is neither a
+    number nor a name is refused in the table's words; a name without ``--robot`` says what is missing."""
+    robot = tmp_path / "robot.toml"
+    robot.write_text(
+        '[buses.left]\ninterface = "sim"\n[buses.right]\ninterface = "sim"\n'
+        '[joints.shoulder]\nbus = "left"\nid = 1\n[joints.elbow]\nbus = "right"\nid = 1\n',
+        encoding="utf-8",
+    )
+    r = cli("step", "elbow", "5", "--enable", "--robot", str(robot))
+    assert r.code == 0 and r.out.startswith("joint elbow: step: "), r
+    r = cli("actions", "state", "shoulder", "--json", "--robot", str(robot))
+    assert r.code == 0 and r.records()[0]["joint"] == "shoulder" and r.records()[0]["result"]["node"] == 1, r
+    r = cli("step", "1,2", "5", "--sim", "1")
+    assert r.code == 2 and r.err.endswith("error: argument ID: id='1,2': expected a whole number\n"), r
+    r = cli("step", "elbow", "5", "--sim", "1")
+    assert r.code == 2 and r.err.endswith("error: joint names (elbow) need --robot FILE\n"), r

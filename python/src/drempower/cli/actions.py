@@ -18,7 +18,8 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from .. import actions as table
-from ..errors import FieldRangeError
+from ..errors import FieldRangeError, ValidationError
+from ..robot.config import JOINT_NAME
 from ._connect import add_connection_args, open_from_args
 from ._motion import driving
 from ._output import add_json_arg, clean, emit, fmt, json_line, motors_text
@@ -98,9 +99,12 @@ def add_row(sub: Any, action: table.Action, name: str) -> argparse.ArgumentParse
     )
     for arg in action.args:
         dest = f"row_{arg.name}"
-        if arg.required:
-            metavar = "ID" if arg.name == "id" else arg.name.upper()
-            p.add_argument(dest, metavar=metavar, help=_arg_help(arg) + ("; all: 0" if arg.low == 0 else ""))
+        if arg.name == "id":  # a motor id, or a joint's name with --robot (resolved before the command runs)
+            help = _arg_help(arg) + ("; all: 0" if arg.low == 0 else "") + "; a joint's name with --robot"
+            p.add_argument("ids", metavar="ID", type=_motor_word, help=help)
+            p.set_defaults(robot_ids=True)
+        elif arg.required:
+            p.add_argument(dest, metavar=arg.name.upper(), help=_arg_help(arg))
         elif arg.kind == "bool":
             p.add_argument(
                 f"--{arg.name}", dest=dest, action=argparse.BooleanOptionalAction, default=None, help=_arg_help(arg)
@@ -119,15 +123,30 @@ def _given(args: argparse.Namespace, action: table.Action) -> dict[str, Any]:
     them), else the text; the table types and checks them."""
     given: dict[str, Any] = {}
     for arg in action.args:
-        value = getattr(args, f"row_{arg.name}", None)
+        value = args.ids[0] if arg.name == "id" else getattr(args, f"row_{arg.name}", None)
         if value is None:
             continue
-        if arg.name == "id" and str(value).lower() == "all":
-            value = "0"
         if isinstance(value, str) and arg.kind in ("int", "float"):
             value = _as_number(value)
         given[arg.name] = value
     return given
+
+
+def _motor_word(text: str) -> list[Any]:
+    """The ID word as ``--robot`` expects it: ``[0]`` for ``all``, ``[number]``, or ``[name]`` for a joint's
+    name; other text is refused in the table's words (``id='1,2': expected a whole number``)."""
+    if text.strip().lower() == "all":
+        return [0]
+    value = _as_number(text)
+    if not isinstance(value, str):
+        return [value]
+    if JOINT_NAME.match(text):
+        return [text]
+    try:
+        table.MOTOR.check(text)
+    except ValidationError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
+    return [text]  # pragma: no cover - text that is no number is always refused above
 
 
 def _as_number(text: str) -> Any:
@@ -182,10 +201,13 @@ def run_row(args: argparse.Namespace) -> int:
 
 def show(args: argparse.Namespace, name: str, node: int, result: Any) -> None:
     """One action's result: a JSON line with ``--json``, else a line (and a field a line for a record)."""
+    spec, bus = getattr(args, "robot_spec", None), getattr(args, "robot_bus", None)
+    joints = {j.id: j.name for j in spec.joints_on(bus)} if spec is not None and bus is not None else {}
     if getattr(args, "json", False):
-        sys.stdout.write(json_line({"id": node, "action": name, "result": result}) + "\n")
+        joint = {"joint": joints[node]} if node in joints else {}
+        sys.stdout.write(json_line({"id": node, **joint, "action": name, "result": result}) + "\n")
         return
-    who = motors_text([node])
+    who = f"joint {joints[node]}" if node in joints else motors_text([node])
     if result is None:
         lines = [f"{who}: {name} sent"]
     elif isinstance(result, dict):
