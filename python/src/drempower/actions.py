@@ -25,6 +25,8 @@ offer it with no further change.
 
 from __future__ import annotations
 
+import dataclasses
+import enum
 import inspect
 import math
 from collections.abc import Callable, Iterator, Mapping
@@ -47,6 +49,8 @@ __all__ = [
     "validate",
     "run",
     "run_async",
+    "plain",
+    "describe",
 ]
 
 Safety = Literal["read", "configure", "motion", "stop"]
@@ -330,3 +334,50 @@ async def run_async(bus: Any, action: Action | str, args: Mapping[str, Any]) -> 
     if inspect.isawaitable(result):
         return await result
     return result
+
+
+def describe(action: Action | str) -> dict[str, Any]:
+    """A row as JSON-ready data (what ``drempower actions --json`` prints and the dashboard builds its
+    Actions panel from): name, safety, help, and each argument's name, kind, unit, domain, default."""
+    act = get(action) if isinstance(action, str) else action
+    return {
+        "name": act.name,
+        "safety": act.safety,
+        "help": act.help,
+        "args": [
+            {
+                "name": a.name,
+                "kind": a.kind,
+                "unit": a.unit,
+                "low": a.low,
+                "high": a.high,
+                "required": a.required,
+                "default": None if a.required else a.default,
+                "help": a.help,
+                "domain": a.domain_text(),
+            }
+            for a in act.args
+        ],
+    }
+
+
+def plain(result: Any) -> Any:
+    """What an operation returned, as JSON-ready values: a record (named tuple, dataclass) a dict of
+    its fields (and its ``flags`` if it has them), a tuple a list, an enum its name, numbers as they are."""
+    if result is None or isinstance(result, (bool, int, float, str)):
+        return result
+    if isinstance(result, enum.Enum):
+        return result.name.lower()
+    if hasattr(result, "_asdict"):
+        return {k: plain(v) for k, v in result._asdict().items()}
+    if dataclasses.is_dataclass(result) and not isinstance(result, type):
+        out = {f.name: plain(getattr(result, f.name)) for f in dataclasses.fields(result)}
+        flags = getattr(result, "flags", None)
+        if isinstance(flags, dict):
+            out["flags"] = plain(flags)
+        return out
+    if isinstance(result, Mapping):
+        return {str(k): plain(v) for k, v in result.items()}
+    if isinstance(result, (list, tuple, set, frozenset)):
+        return [plain(v) for v in result]
+    return str(result)

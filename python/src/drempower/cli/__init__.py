@@ -2,7 +2,8 @@
 
 Each subcommand lives in its own module of this package and exposes
 ``register(subparsers)``; modules are discovered automatically, so adding a
-subcommand means adding a module. A module's ``GROUP`` (one of :data:`GROUPS`)
+subcommand means adding a module. Each row of :mod:`drempower.actions` that no
+module's command carries out becomes a command too (:mod:`.actions`). A module's ``GROUP`` (one of :data:`GROUPS`)
 says under which heading ``drempower --help`` lists its subcommands; those of a
 module without one are listed last.
 """
@@ -106,6 +107,9 @@ def build_parser() -> argparse.ArgumentParser:
                 if name not in before:
                     chosen = group or _GROUP_OF_COMMAND.get(name, OTHER)
                     group_of[name] = chosen if chosen in GROUPS else OTHER
+    from .actions import register_rows
+
+    group_of.update(register_rows(sub))  # the table's rows no module took, last: every name is known
     for command in sub.choices.values():
         command.set_defaults(command_parser=command)
     parser.epilog = _grouped_help(sub, group_of)

@@ -12,6 +12,7 @@ from ._connect import add_connection_args, number, wire_rate
 from ._motion import add_duration_arg, add_motion_args, add_watchdog_arg, driving, hold, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
 from ._usage import options_named
+from .actions import check_row
 
 GROUP = "motion"
 """Where ``drempower --help`` lists this module's subcommands."""
@@ -86,6 +87,7 @@ def run_speed(args: argparse.Namespace) -> int:
             extra = f" (torque feed-forward {param:g} Nm)"
     else:
         mode, param, extra, option = VelocityMode.RAMP, args.ramp, f" (ramp {args.ramp:g} rpm/s)", "--ramp"
+    check_row("speed", args.ids, {"speed": speeds}, {"duration": args.duration}, {"speed": "RPM"})
     with options_named({"speed_list": "RPM", "param": option, "param (ramp rate)": "--ramp"}):
         make_speeds(args.ids, speeds, param, mode)  # every value checked before connecting
     with driving(args) as bus:
@@ -102,6 +104,7 @@ def run_torque(args: argparse.Namespace) -> int:
         mode, param, extra = TorqueMode.DIRECT, 0.0, ""
     else:
         mode, param, extra = TorqueMode.RAMP, args.ramp, f" (ramp {args.ramp:g} Nm/s)"
+    check_row("torque", args.ids, {"torque": torques}, {"duration": args.duration}, {"torque": "NM"})
     with options_named({"torque_list": "NM", "param": "--ramp", "param (ramp rate)": "--ramp"}):
         make_torques(args.ids, torques, param, mode)
     with driving(args) as bus:
@@ -118,6 +121,8 @@ _IMPEDANCE_OPTIONS = {"pos_list": "POS", "vel": "--vel", "tff": "--tff", "kp": "
 
 def run_impedance(args: argparse.Namespace) -> int:
     positions = per_motor(args.ids, args.values, "position")
+    gains = {"kp": args.kp, "kd": args.kd, "vel": args.vel, "tff": args.tff}
+    check_row("impedance", args.ids, {"pos": positions}, gains, {"pos": "POS", **{k: f"--{k}" for k in gains}})
     with options_named(_IMPEDANCE_OPTIONS):
         # every motor's command is built and encoded before the bus is even opened
         make_impedances(args.ids, positions, args.vel, args.tff, args.kp, args.kd)

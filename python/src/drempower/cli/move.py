@@ -12,6 +12,7 @@ from ._connect import add_connection_args, number, seconds, wire_rate
 from ._motion import add_motion_args, add_watchdog_arg, driving, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
 from ._usage import UsageError, options_named
+from .actions import check_row
 
 GROUP = "motion"
 """Where ``drempower --help`` lists this module's subcommands."""
@@ -90,6 +91,9 @@ def run(args: argparse.Namespace) -> int:
     mode = _MODES[args.mode]
     angles = per_motor(ids, args.values, "angle")
     speed, param = _params(args, mode)
+    cruise = {"speed": args.speed, "accel": args.accel} if mode is PositionMode.Q else {}
+    names = {"angle": "ANGLES", "speed": "--speed", "accel": "--accel"}
+    check_row("step" if args.relative else "move", ids, {"angle": angles}, cruise, names)
     with options_named({"angle_list": "ANGLES", **_FIELDS[mode]}):
         # every value checked before connecting (the Q move time needs the positions: it is checked when sent)
         make_angles(ids, angles, speed, param, mode, move_time=1.0, relative=args.relative)

@@ -17,6 +17,7 @@ from collections import deque
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from .. import actions
 from ..client import Bus, ConfigBackup, Motor, MotorState
 from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..protocol import ERROR_WORDS, FastRead, flag_info
@@ -55,6 +56,8 @@ _BANDWIDTH = "axis0.controller.config.input_filter_bandwidth"
 """Its domain bounds the T-mode ``param`` (the input filter bandwidth, 1/s)."""
 MOTION_ACTIONS = frozenset({"T", "Q", "P", "jog", "step", "V", "C", "impedance", "sync_move"})
 """Control actions that move a motor: refused while it is not in closed loop."""
+PAGE_ROWS = {"stop": "stop", "idle": "idle", "enable": "enable", "clear_errors": "clear"}
+"""The page's buttons that are rows of :mod:`drempower.actions` (the page's name: the row's)."""
 _LABEL = {w.name: w.label for w in ERROR_WORDS}
 BITS_PER_FRAME = 130
 """Bits on the wire of one 8-byte standard CAN frame with stuffing (about), for the bus load."""
@@ -571,8 +574,20 @@ class Hub:
         self.commanded.add(i)
 
     def do_control(self, who: str, args: dict[str, Any]) -> Any:
-        """One control action from a page: ``args["action"]`` names it; returns what the page shows."""
+        """One control action from a page: ``args["action"]`` names it; returns what the page shows.
+
+        With ``args["args"]`` (an object) it is a row of :mod:`drempower.actions` run by
+        :meth:`do_action` (the Actions panel); the buttons Enable, Stop, Idle and Clear errors are
+        rows too (:data:`PAGE_ROWS`). The other controls (position modes, jog, velocity and torque
+        modes, impedance, synchronised move) take the page's own arguments."""
         action = args.get("action")
+        if "args" in args:
+            row_args = args["args"]
+            if not isinstance(row_args, dict):
+                raise ValidationError(f"args={row_args!r}: expected an object of argument names and values")
+            return self.do_action(who, str(action), row_args)
+        if isinstance(action, str) and action in PAGE_ROWS:
+            return self.do_action(who, PAGE_ROWS[action], {"id": args.get("id")})
         if action in MOTION_ACTIONS:
             self.require_enabled(self.keys(args) if action == "sync_move" else [self.key(args)])
         if action == "sync_move":
@@ -648,25 +663,75 @@ class Hub:
             self._control(who, f"{self.label(i)} impedance_control({pos}, vel={vel}, tff={tff}, kp={kp}, kd={kd})")
             m.impedance_control(pos, vel, tff, kp, kd)
             self._target(i, angle=pos)
-        elif action == "stop":
-            self._control(who, f"{self.label(i)} set_speed(0)")
-            m.set_speed(0.0)
-            self._target(i, speed=0.0)
-        elif action == "idle":
-            self._control(who, f"{self.label(i)} set_mode(1) (idle)")
-            m.set_mode(1)
-            self.commanded.discard(i)
-            self.targets.pop(i, None)
-        elif action == "enable":
-            self._control(who, f"{self.label(i)} set_mode(2) (closed loop)")
-            m.set_mode(2)
-            self._confirm_enabled(i)
-        elif action == "clear_errors":
-            self._control(who, f"{self.label(i)} clear_error()")
-            m.clear_error()
         else:
             raise ValidationError(f"action={action!r}: unknown control action")
         return None
+
+    def do_action(self, who: str, name: str, args: dict[str, Any]) -> Any:
+        """Run row ``name`` of :mod:`drempower.actions` with ``args`` (``id``: a motor key of this
+        dashboard; 0: every motor on every bus, for the rows that take it); returns its result as
+        JSON-ready values. Validated by the table (its words), then the dashboard's checks: read-only
+        refuses all but reading and stopping, a motion needs a motor in closed loop (or
+        ``enable``) and stays within the limits the motor holds; logged, and the targets kept."""
+        act = actions.get(name)
+        raw = args.get("id")
+        if raw == 0 or len(self.buses) == 1:  # the motor id is the key (0: each bus's broadcast)
+            places = [(b, 0) for _, b in self.buses] if raw == 0 else [(self.bus, -1)]
+            typed = actions.validate(act, args)
+            key = typed["id"]
+        else:
+            key = self.key(args)
+            bus, node = self.where(key)
+            places = [(bus, node)]
+            typed = actions.validate(act, {**args, "id": node})
+        if self.read_only and act.safety not in ("read", "stop"):
+            raise ValidationError("this dashboard is read-only (--read-only)")
+        if act.safety == "motion":
+            if typed.get("enable"):
+                if self._halt.is_set():
+                    raise ValidationError("the dashboard is stopping: no motion is started any more")
+                if self.watchdog_ms:
+                    self.arm_watchdog([key])
+            else:
+                self.require_enabled([key])
+            for field in ("speed", "vel"):
+                if field in typed and act.arg(field).unit == "r/min":
+                    self._speed(key, field, typed[field])
+            for field in ("torque", "tff"):
+                if field in typed:
+                    self._torque(key, field, typed[field])
+        shown = ", ".join(f"{k}={v}" for k, v in typed.items() if k != "id")
+        log(f"{who}: {'every motor' if key == 0 else self.label(key)} {act.name}({shown})")
+        base = self._base(key) if act.name == "step" else 0.0
+        results = [actions.run(bus, act, typed if node < 0 else {**typed, "id": node}) for bus, node in places]
+        self._track(act, key, typed, base)
+        if act.name == "enable" and key != 0:
+            self._confirm_enabled(key)  # never a silent success: closed loop, or why not
+        return actions.plain(results[0] if len(results) == 1 else results)
+
+    def _base(self, key: int) -> float:
+        """Where a relative move starts from: the last target, else the last angle read."""
+        base = self.targets.get(key, [None])[0]
+        if base is None:
+            st = self.motor(key).state
+            base = st.angle if st is not None else 0.0
+        return base
+
+    def _track(self, act: actions.Action, key: int, typed: dict[str, Any], base: float) -> None:
+        """Keep the targets (plotted beside the samples) and the motors commanded after row ``act`` ran."""
+        keys = sorted(self.commanded | set(self.targets)) if key == 0 else [key]
+        if act.name in ("idle", "estop"):
+            for k in keys:
+                self.commanded.discard(k)
+                self.targets.pop(k, None)
+        elif act.name == "stop":
+            for k in keys:
+                self._target(k, speed=0.0)
+        elif act.safety == "motion":
+            angle = {"move": typed.get("angle"), "step": base + typed.get("angle", 0.0), "impedance": typed.get("pos")}
+            self._target(key, angle.get(act.name), typed.get("speed") if act.name == "speed" else None)
+            if act.name == "torque":
+                self._target(key, torque=typed["torque"])
 
     def _sync_move(self, who: str, keys: list[int], angles: list[float], speed: float, accel: float) -> float | None:
         """One synchronised Q-mode move: on one bus its ``set_angles``; across buses the robot's, by joint."""

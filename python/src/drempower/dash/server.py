@@ -31,6 +31,7 @@ from urllib.parse import urlsplit
 
 from aiohttp import WSMsgType, web
 
+from .. import actions
 from ..errors import DrEmpowerError
 from .hub import Hub, bandwidth_range, param_table
 from .logline import log
@@ -290,6 +291,7 @@ class Dashboard:
                     "budget": hub.budget_text(),
                     "scanning": hub.scanning or not self.scanned.is_set(),
                     "names": hub.names(),
+                    "actions": [actions.describe(a) for a in actions.table()],
                 }
             )
         )
