@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import csv
 import threading
-import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
 from drempower import open_bus
+from drempower.client.busbase import BusBase
 from drempower.protocol import FastRead
 from drempower.sim import SimBus
 from drempower.transports.sim import SimTransport
@@ -68,7 +69,16 @@ def test_heartbeat_source_reaches_the_rate_and_is_switched_off(sim: SimBus, cli:
     assert achieved > 400
 
 
-def test_replies_source_only_listens(sim: SimBus, cli: Cli) -> None:
+def test_replies_source_only_listens(sim: SimBus, cli: Cli, monkeypatch: pytest.MonkeyPatch) -> None:
+    subscribed = threading.Event()
+    original = BusBase.subscribe
+
+    def subscribe(self: BusBase, *args: Any, **kwargs: Any) -> Any:
+        handle = original(self, *args, **kwargs)
+        subscribed.set()  # the monitor listens from now on
+        return handle
+
+    monkeypatch.setattr(BusBase, "subscribe", subscribe)
     result: list[object] = []
     t = threading.Thread(
         target=lambda: result.append(
@@ -78,7 +88,7 @@ def test_replies_source_only_listens(sim: SimBus, cli: Cli) -> None:
         )
     )
     t.start()
-    time.sleep(0.3)
+    assert subscribed.wait(10)
     with open_bus(transport=SimTransport(bus=sim, time_scale=0)) as other:  # another program's traffic
         for _ in range(5):
             other.request([FastRead(2)])
