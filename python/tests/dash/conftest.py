@@ -11,6 +11,7 @@ import asyncio
 import os
 import shutil
 import threading
+import time
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -127,6 +128,10 @@ def page(browser: Any, served: Served) -> Iterator[Any]:
         yield p
     finally:
         ctx.close()
+        deadline = time.monotonic() + 5  # the server's "disconnected" line belongs to this test
+        while served.dash.clients and time.monotonic() < deadline:
+            time.sleep(0.01)
+        STDERR.flush_for(2.0)
     assert not errors, f"errors in the page: {errors}"
 
 

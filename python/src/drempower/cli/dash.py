@@ -69,6 +69,8 @@ def run(args: argparse.Namespace) -> int:
         raise DrEmpowerError(f"the dashboard needs the dash extra: pip install 'drempower[dash]' ({exc})") from None
     import asyncio
 
+    logline.to_stderr()
+
     if not 0 <= args.port <= 65535:
         raise UsageError(f"--port {args.port}: expected 0..65535")
     try:
