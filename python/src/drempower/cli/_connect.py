@@ -24,6 +24,7 @@ from typing import TYPE_CHECKING, Any
 from ..client.timeouts import MAX_TIMEOUT
 from ..errors import DrEmpowerError
 from ..protocol import S16_MAX
+from ..protocol.limits import MAX_NODE, MIN_MOTOR, is_motor
 from ._output import clean
 from ._robot import joint_or_ids
 from ._usage import UsageError
@@ -100,9 +101,9 @@ def parse_ids(text: str) -> list[int]:
                 ids.append(ascii_int(part))
         except ValueError:
             raise argparse.ArgumentTypeError(f"{text!r} is not a list of motor ids such as 1,2,5-7") from None
-    bad = [i for i in ids if not 1 <= i <= 63]
+    bad = [i for i in ids if not is_motor(i)]
     if bad or not ids:
-        raise argparse.ArgumentTypeError(f"motor ids are 1..63 (0 is broadcast); got {text!r}")
+        raise argparse.ArgumentTypeError(f"motor ids are {MIN_MOTOR}..{MAX_NODE} (0 is broadcast); got {text!r}")
     twice = sorted({i for i in ids if ids.count(i) > 1})
     if twice:
         raise argparse.ArgumentTypeError(f"{text!r} names motor {', '.join(map(str, twice))} twice")

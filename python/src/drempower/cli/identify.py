@@ -8,6 +8,7 @@ import sys
 from typing import TYPE_CHECKING, Any
 
 from ..errors import ConfigError, ValidationError
+from ..protocol.limits import MAX_NODE, MIN_MOTOR, is_motor
 from ._confirm import add_yes_arg, confirm
 from ._connect import add_connection_args, connection_kwargs, positive
 from ._output import add_json_arg, clean, json_line
@@ -70,8 +71,10 @@ def joint_spec(args: argparse.Namespace, command: str) -> tuple[RobotSpec, str]:
         if len(named) > 1:
             raise UsageError(f"motor id {ident} is joints {', '.join(named)} (one per bus): give the joint's name")
         raise UsageError(f"joint {name!r}: no such joint or motor id (joints: {', '.join(spec.joints)})")
-    if ident is None or not 1 <= ident <= 63:
-        raise UsageError(f"{command} {name}: give --robot FILE for a joint's name, or a motor id 1..63")
+    if ident is None or not is_motor(ident):
+        raise UsageError(
+            f"{command} {name}: give --robot FILE for a joint's name, or a motor id {MIN_MOTOR}..{MAX_NODE}"
+        )
     kw, _ = connection_kwargs(args)
     interface = kw.pop("interface")
     kw.pop("motors", None)

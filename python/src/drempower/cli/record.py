@@ -12,6 +12,7 @@ from typing import Any
 
 from ..errors import DrEmpowerError, ValidationError
 from ..protocol import FastRead
+from ..protocol.limits import MAX_NODE, MIN_MOTOR, is_motor
 from ._connect import add_connection_args, add_ids_arg, ascii_digits, count, open_from_args, positive
 from ._output import add_json_arg, json_line
 from ._usage import UsageError
@@ -23,8 +24,10 @@ def _names(text: str) -> dict[int, str]:
     out: dict[int, str] = {}
     for part in filter(None, text.split(",")):
         key, sep, name = part.partition("=")
-        if not sep or not ascii_digits(key) or not 1 <= int(key) <= 63 or not name.strip():
-            raise argparse.ArgumentTypeError(f"{part!r}: expected ID=NAME with ID 1..63, e.g. 1=shoulder")
+        if not sep or not ascii_digits(key) or not is_motor(int(key)) or not name.strip():
+            raise argparse.ArgumentTypeError(
+                f"{part!r}: expected ID=NAME with ID {MIN_MOTOR}..{MAX_NODE}, e.g. 1=shoulder"
+            )
         out[int(key)] = name.strip()
     return out
 
