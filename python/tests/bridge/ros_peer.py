@@ -180,13 +180,18 @@ class ActionClient:
         path_tolerance: float = 0.0,
         goal_tolerance: float = 0.0,
         goal_time: float = 0.0,
+        path_velocity: float = 0.0,
+        start_at: int = 0,
     ) -> Any:
+        """A goal: ``times`` (s from start), ``rows`` (rad), tolerances (rad, rad/s, s); ``start_at``:
+        the trajectory's ``header.stamp`` (ns since the epoch, 0: now)."""
         T = self.types
 
         def duration(s: float) -> Any:
             return T["builtin_interfaces/msg/Duration"](sec=int(s), nanosec=round((s - int(s)) * 1e9))
 
-        header = T["std_msgs/msg/Header"](stamp=T["builtin_interfaces/msg/Time"](sec=0, nanosec=0), frame_id="")
+        stamp = T["builtin_interfaces/msg/Time"](sec=start_at // 1_000_000_000, nanosec=start_at % 1_000_000_000)
+        header = T["std_msgs/msg/Header"](stamp=stamp, frame_id="")
         empty = np.array([], dtype=np.float64)
         points = [
             T["trajectory_msgs/msg/JointTrajectoryPoint"](
@@ -199,16 +204,16 @@ class ActionClient:
             for t, r in zip(times, rows, strict=True)
         ]
 
-        def tol(x: float) -> list[Any]:
+        def tol(x: float, v: float = 0.0) -> list[Any]:
             jt = T["control_msgs/msg/JointTolerance"]
-            return [jt(name=n, position=x, velocity=0.0, acceleration=0.0) for n in names] if x else []
+            return [jt(name=n, position=x, velocity=v, acceleration=0.0) for n in names] if x or v else []
 
         return T[self.t + "_Goal"](
             trajectory=T["trajectory_msgs/msg/JointTrajectory"](header=header, joint_names=names, points=points),
             multi_dof_trajectory=T["trajectory_msgs/msg/MultiDOFJointTrajectory"](
                 header=header, joint_names=[], points=[]
             ),
-            path_tolerance=tol(path_tolerance),
+            path_tolerance=tol(path_tolerance, path_velocity),
             component_path_tolerance=[],
             goal_tolerance=tol(goal_tolerance),
             component_goal_tolerance=[],

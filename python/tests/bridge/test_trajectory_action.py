@@ -97,7 +97,6 @@ def test_a_cancel_stops_the_arm(tmp_path: Path, caplog: pytest.LogCaptureFixture
         waiter = threading.Thread(target=lambda: got.append(client.result(gid)))
         waiter.start()
         time.sleep(0.5)
-        assert not client.send(client.goal(JOINTS, [1.0], [start]), _gid())  # one goal at a time
         topics.busy = action.running
         pub.put(joint_state(JOINTS, start))  # the topics wait while a goal runs
         wait_for(lambda: topics.refused == 1)
@@ -205,4 +204,90 @@ def test_liveliness_tokens_of_the_action_and_the_topics(tmp_path: Path) -> None:
         assert status[12] == ":1:,1:,:,:,,"  # transient local, keep last 1
         assert mine[("MS", "%robot_joint_commands")][10] == "sensor_msgs::msg::dds_::JointState_"
         assert mine[("MP", "%robot_joint_states")][8] == "drempower_bridge"
+        action.close()
+
+
+def test_a_new_goal_preempts_the_one_executing(tmp_path: Path) -> None:
+    """As joint_trajectory_controller: the old goal holds and ends CANCELED, the new one starts from there."""
+    with served_arm() as arm, session(connect=[arm.endpoint]) as ros:
+        action = TrajectoryAction(arm.bridge)
+        client = ActionClient(ros, action.keys)
+        arm.enable(ros)
+        time.sleep(0.2)
+        start = [arm.position(n) for n in JOINTS]
+        first, second = _gid(), _gid()
+        assert client.send(client.goal(JOINTS, [4.0], [[s + 1.0 for s in start]]), first)
+        got: list[object] = []
+        waiter = threading.Thread(target=lambda: got.append(client.result(first)))
+        waiter.start()
+        time.sleep(1.0)
+        back = [s - 0.2 for s in start]
+        assert client.send(client.goal(JOINTS, [1.5], [back], goal_tolerance=0.01), second)
+        waiter.join(10)
+        old = got[0]
+        assert old.status == rosaction.STATUS["CANCELED"]  # type: ignore[attr-defined]
+        assert "preempted by goal" in old.result.error_string  # type: ignore[attr-defined]
+        res = client.result(second)
+        assert res.status == rosaction.STATUS["SUCCEEDED"], res.result.error_string
+        for n, x in zip(JOINTS, back, strict=True):
+            assert arm.position(n) == pytest.approx(x, abs=0.01)
+        action.close()
+
+
+def test_a_stamp_ahead_delays_the_start_and_a_velocity_tolerance_stops_a_fast_path(tmp_path: Path) -> None:
+    with served_arm() as arm, session(connect=[arm.endpoint]) as ros:
+        action = TrajectoryAction(arm.bridge)
+        client = ActionClient(ros, action.keys)
+        arm.enable(ros)
+        time.sleep(0.2)
+        start = [arm.position(n) for n in JOINTS]
+        gid = _gid()
+        mark = len(arm.frames)
+        t0 = time.monotonic()
+        at = time.time_ns() + 800_000_000  # 0.8 s ahead
+        assert client.send(client.goal(JOINTS, [0.5], [[s + 0.1 for s in start]], start_at=at), gid)
+        time.sleep(0.5)
+        assert not [f for _, f in arm.frames[mark:] if f.arbitration_id & 0x1F in set(MOTION_CMDS)]
+        res = client.result(gid)
+        assert res.status == rosaction.STATUS["SUCCEEDED"], res.result.error_string
+        assert time.monotonic() - t0 >= 0.8 + 0.5
+        # 0.5 rad in 0.5 s moves a joint at ~1.5 rad/s at its fastest: beyond a velocity tolerance of 0.3 rad/s
+        here = [arm.position(n) for n in JOINTS]
+        gid = _gid()
+        far = [h + 0.5 if k == 0 else h for k, h in enumerate(here)]
+        assert client.send(client.goal(JOINTS, [0.5], [far], path_velocity=0.3), gid)
+        res = client.result(gid)
+        assert res.result.error_code == rosaction.ERROR["PATH_TOLERANCE_VIOLATED"], res.result.error_string
+        assert "speed" in res.result.error_string and "base_yaw" in res.result.error_string
+        assert arm.position("base_yaw") < here[0] + 0.45  # stopped on the way
+        action.close()
+
+
+def test_a_late_status_subscriber_gets_the_last_status(tmp_path: Path) -> None:
+    """The status topic is transient local: a subscriber joining after a goal ended still learns how it ended."""
+    from zenoh import ext
+
+    from drempower.bridge import rosmsg
+
+    with served_arm() as arm, session(connect=[arm.endpoint]) as ros:
+        action = TrajectoryAction(arm.bridge)
+        client = ActionClient(ros, action.keys)
+        arm.enable(ros)
+        time.sleep(0.2)
+        here = [arm.position(n) for n in JOINTS]
+        gid = _gid()
+        assert client.send(client.goal(JOINTS, [0.3], [here]), gid)
+        assert client.result(gid).status == rosaction.STATUS["SUCCEEDED"]
+        seen: list[object] = []
+        late = ext.declare_advanced_subscriber(
+            ros,
+            action.keys["status"],
+            lambda s: seen.append(rosmsg.decode(s.payload.to_bytes(), rosaction.GOAL_STATUS_ARRAY)),
+            history=ext.HistoryConfig(detect_late_publishers=True),
+        )
+        wait_for(lambda: bool(seen))
+        last = seen[-1].status_list  # type: ignore[attr-defined]
+        assert bytes(bytearray(last[-1].goal_info.goal_id.uuid)) == gid
+        assert last[-1].status == rosaction.STATUS["SUCCEEDED"]
+        late.undeclare()
         action.close()

@@ -5,22 +5,33 @@ The action server MoveIt's ``moveit_simple_controller_manager`` (and
 (:mod:`drempower.bridge.rosaction`): goals under ``<name>/_action/send_goal``,
 cancels, results, feedback and status.
 
-A goal runs one at a time (another arriving meanwhile is rejected). Accepted,
-it is checked and followed through the control cycle
+A goal runs one at a time: a new goal preempts the one executing, as
+``joint_trajectory_controller`` does (the old one ends ``CANCELED`` once its
+joints hold where they are, then the new one starts from there). Accepted, it
+is checked and followed through the control cycle
 (:func:`drempower.motion.follow_sync.stream`, rad at the joints):
 
 * its joints must be the bridge's (``INVALID_JOINTS``); its points need one
   position per joint and increasing ``time_from_start``; a first point after
   0 s starts from where the joints are; the robot file's limits and the bus's
   capacity are checked before anything moves (``INVALID_GOAL``);
+* ``trajectory.header.stamp`` is when it starts: zero or a time already past
+  starts it now; a time ahead waits for it (a cancel or a newer goal ends the
+  wait);
 * ``path_tolerance`` (position, rad; 0 takes the server's default, -1 none) is
-  each joint's largest tracking error: beyond it the joints hold where they are
-  (``PATH_TOLERANCE_VIOLATED``);
+  each joint's largest tracking error, and its ``velocity`` (rad/s, > 0) the
+  largest speed: beyond either the joints hold where they are
+  (``PATH_TOLERANCE_VIOLATED``); ``component_path_tolerance`` and
+  ``component_goal_tolerance`` (multi-DOF joints) do not apply: such goals are
+  refused;
 * at the end, every joint must be within ``goal_tolerance`` (position, and
   velocity when given) of the last point within ``goal_time_tolerance`` s
   (``GOAL_TOLERANCE_VIOLATED``);
 * feedback (desired, actual, error) at ``feedback_rate`` Hz; a cancel holds the
-  joints where they are (speed 0 in closed loop via T mode at the measured angle).
+  joints where they are (speed 0 in closed loop via T mode at the measured angle);
+* the status topic is transient local as in ROS 2: its last message is kept
+  for subscribers that join later (a Zenoh advanced publisher with a cache of
+  one, as rmw_zenoh declares one for that durability).
 """
 
 from __future__ import annotations
@@ -81,6 +92,8 @@ class _Goal:
     status: int = rosaction.STATUS["ACCEPTED"]
     outcome: GoalOutcome | None = None
     cancel: threading.Event = field(default_factory=threading.Event)
+    preempted_by: bytes | None = None
+    """The newer goal that ended this one."""
     waiting: list[tuple[Any, rmw.Attachment]] = field(default_factory=list)
     """get_result queries answered when the goal ends."""
 
@@ -153,6 +166,18 @@ class TrajectoryAction:
                 if role in handlers:
                     h_ = handlers[role]
                     self._decls.append(s.declare_queryable(key, lambda q, h_=h_: self._serve(q, h_), complete=True))
+                elif role == "status":  # transient local: late subscribers get the last status
+                    from zenoh import ext
+
+                    pub = ext.declare_advanced_publisher(
+                        s,
+                        key,
+                        cache=ext.CacheConfig(1),
+                        sample_miss_detection=ext.MissDetectionConfig(heartbeat=None, sporadic_heartbeat=None),
+                        publisher_detection=True,
+                    )
+                    self._decls.append(pub)
+                    setattr(self, f"_{role}_pub", pub)
                 else:
                     pub = s.declare_publisher(key)
                     self._decls.append(pub)
@@ -195,20 +220,26 @@ class TrajectoryAction:
         gid = bytes(bytearray(req.goal_id.uuid))
         now = time.time_ns()
         with self._lock:
-            accepted = self._running is None and gid not in self._goals and not self._closed.is_set()
+            accepted = gid not in self._goals and not self._closed.is_set()
+            previous = self._running
             if accepted:
+                if previous is not None:  # preempted: it holds and ends, then this one starts
+                    previous.preempted_by = gid
+                    previous.status = rosaction.STATUS["CANCELING"]
+                    previous.cancel.set()
                 goal = _Goal(gid, now, req.goal)
                 self._goals[gid] = goal
                 while len(self._goals) > _KEEP:
                     self._goals.popitem(last=False)
                 self._running = goal
-                self._thread = threading.Thread(target=self._execute, args=(goal,), name="drempower bridge goal")
+                thread = threading.Thread(target=self._execute, args=(goal, self._thread), name="drempower bridge goal")
+                self._thread = thread
         if accepted:
             self._publish_status()
-            assert self._thread is not None
-            self._thread.start()
+            thread.start()
         else:
-            _log.warning("%s: goal %s rejected: another goal is executing", self.name, uuidlib.UUID(bytes=gid))
+            why = "the server is closing" if self._closed.is_set() else "its id is taken"
+            _log.warning("%s: goal %s rejected: %s", self.name, uuidlib.UUID(bytes=gid), why)
         resp = self._types[t + "_SendGoal_Response"](accepted=accepted, stamp=self._stamp(now))
         return rosmsg.encode(resp, t + "_SendGoal_Response")
 
@@ -393,13 +424,18 @@ class TrajectoryAction:
                 vel[tol.name] = float(tol.velocity)
         return pos, vel
 
-    def _execute(self, g: _Goal) -> None:
+    def _execute(self, g: _Goal, before: threading.Thread | None = None) -> None:
+        if before is not None:  # the goal this one preempted: it holds its joints and ends first
+            before.join()
         try:
             outcome = self._run(g)
         except _Invalid as exc:
             outcome = GoalOutcome(rosaction.STATUS["ABORTED"], rosaction.ERROR[exc.code], exc.text)
         except _Canceled:
-            outcome = GoalOutcome(rosaction.STATUS["CANCELED"], 0, "canceled: the joints hold where they are")
+            text = "canceled: the joints hold where they are"
+            if g.preempted_by is not None:
+                text = f"preempted by goal {uuidlib.UUID(bytes=g.preempted_by)}: the joints hold where they are"
+            outcome = GoalOutcome(rosaction.STATUS["CANCELED"], 0, text)
         except FollowError as exc:
             outcome = GoalOutcome(rosaction.STATUS["ABORTED"], rosaction.ERROR["PATH_TOLERANCE_VIOLATED"], str(exc))
         except MotorIdleError as exc:  # nothing was sent
@@ -412,7 +448,8 @@ class TrajectoryAction:
         with self._lock:
             g.outcome, g.status = outcome, outcome.status
             waiting, g.waiting = g.waiting, []
-            self._running = None
+            if self._running is g:
+                self._running = None
         self._publish_status()
         payload = self._result(g)
         for query, att in waiting:
@@ -422,12 +459,25 @@ class TrajectoryAction:
                 _log.warning("%s: a result could not be sent: %s", self.name, exc)
             del query
 
+    def _wait_start(self, g: _Goal) -> None:
+        """Wait for the trajectory's ``header.stamp`` when it is ahead (zero or past: start now)."""
+        st = g.goal.trajectory.header.stamp
+        start = st.sec * 1_000_000_000 + st.nanosec
+        while start and time.time_ns() < start:
+            if g.cancel.wait(min(0.05, (start - time.time_ns()) / 1e9)):
+                raise _Canceled
+
     def _run(self, g: _Goal) -> GoalOutcome:
+        if g.cancel.is_set():  # canceled or preempted before it began: nothing was sent
+            raise _Canceled
         g.status = rosaction.STATUS["EXECUTING"]
         self._publish_status()
+        if len(g.goal.component_path_tolerance) or len(g.goal.component_goal_tolerance):
+            raise _Invalid("INVALID_JOINTS", "component tolerances are for multi-DOF joints, which are not served")
+        self._wait_start(g)
         tr = self._trajectory(g.goal)
         names = list(tr.joints)
-        path, _ = self._tolerances(g.goal, names, "path")
+        path, path_vel = self._tolerances(g.goal, names, "path")
         goal_pos, goal_vel = self._tolerances(g.goal, names, "goal")
         gt = g.goal.goal_time_tolerance
         goal_time = gt.sec + gt.nanosec * 1e-9 or self.goal_time
@@ -467,6 +517,17 @@ class TrajectoryAction:
             if g.cancel.is_set():
                 raise _Canceled
             got = {bus: fn() for bus, fn in work.items()}
+            for b, sts in got.items():
+                for i, st in sts.items():
+                    n, u = joint_of[(b, i)]
+                    if n in path_vel:
+                        speed = abs(u.position(_moved(st)) - u.position(st))
+                        if speed > path_vel[n]:
+                            raise _Invalid(
+                                "PATH_TOLERANCE_VIOLATED",
+                                f"joint {n!r}: speed {speed:.4g} rad/s above the path tolerance's "
+                                f"velocity {path_vel[n]:g} rad/s",
+                            )
             now = time.monotonic()
             clock["calls"] += 1
             if clock["calls"] == 2:
