@@ -7,7 +7,7 @@ comes from one source (``api_async.py``, from which ``api_sync.py`` is generated
 
 from __future__ import annotations
 
-from collections.abc import Callable, Sequence
+from collections.abc import Awaitable, Callable, Sequence
 from typing import TypeVar
 
 from ..protocol.ids import check_node
@@ -19,10 +19,14 @@ from .state import MotorState
 from .timeouts import checks_times
 from .timeouts import seconds as _seconds
 
-__all__ = ["AsyncBusBase", "SyncBusBase"]
+__all__ = ["AsyncBusBase", "AsyncPart", "SyncBusBase", "SyncPart"]
 
 M = TypeVar("M")
 T = TypeVar("T")
+SyncPart = Callable[[], T]
+"""One bus's part of a threaded call over several buses (a robot's, a follower's)."""
+AsyncPart = Callable[[], Awaitable[T]]
+"""One bus's part of an asyncio call over several buses."""
 
 _WALL_POLL = 0.01
 """How often (s) an asyncio ``pass_time`` on a wall clock looks at its ``until``."""

@@ -13,9 +13,9 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ..client.effects import read_states, sleep
+from ..client.flavours import AsyncPart
 from ..client.state import MotorState
 from ..errors import ValidationError
-from ..robot.flavours import AsyncPart
 from .plan import (
     AsyncEach,
     FollowError,

@@ -11,9 +11,9 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ..client.effects import read_states, sleep
+from ..client.flavours import SyncPart
 from ..client.state import MotorState
 from ..errors import ValidationError
-from ..robot.flavours import SyncPart
 from .plan import (
     FollowError,
     FollowPlan,

@@ -17,7 +17,7 @@ from .events import FrameEvents
 from .ros2_types import counter_of
 
 if TYPE_CHECKING:
-    from ..robot.config import JointSpec
+    from ..robotfile import JointSpec
 
 __all__ = ["FrameSink", "SinkStats"]
 
