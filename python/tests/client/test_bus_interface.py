@@ -54,6 +54,12 @@ def test_async_pass_time_on_both_clocks() -> None:
             assert 0.05 < bus.now() - t0 < 5.0
             with pytest.raises(ValidationError, match=r"seconds=-2"):
                 await bus.pass_time(-2)
+            waiting = asyncio.ensure_future(bus.pass_time(30.0))
+            await asyncio.sleep(0.05)
+            t0 = time.monotonic()
+            await bus.close()
+            await asyncio.wait_for(waiting, 2.0)  # the close ends the wait
+            assert time.monotonic() - t0 < 2.0
 
     asyncio.run(main())
 

@@ -29,7 +29,7 @@ AsyncPart = Callable[[], Awaitable[T]]
 """One bus's part of an asyncio call over several buses."""
 
 _WALL_POLL = 0.01
-"""How often (s) an asyncio ``pass_time`` on a wall clock looks at its ``until``."""
+"""How often (s) an asyncio ``pass_time`` on a wall clock looks at its ``until`` and at the bus."""
 
 
 def _duration(value: float) -> float:
@@ -63,7 +63,8 @@ class SyncBusBase(BusBase[M]):
 
     def pass_time(self, seconds: float, until: Callable[[], bool] | None = None) -> None:
         """Let ``seconds`` (s) of the bus's time pass, taking the frames that arrive meanwhile; end early
-        once ``until()`` is true. On a virtual clock no wall time passes; on a wall clock it sleeps."""
+        once ``until()`` is true or the bus closes. On a virtual clock no wall time passes; on a wall clock
+        it sleeps."""
         self._core.pass_time(_duration(seconds), until)
 
     def close(self) -> None:
@@ -105,8 +106,8 @@ class AsyncBusBase(BusBase[M]):
 
     async def pass_time(self, seconds: float, until: Callable[[], bool] | None = None) -> None:
         """Let ``seconds`` (s) of the bus's time pass, taking the frames that arrive meanwhile; end early
-        once ``until()`` is true. On a virtual clock no wall time passes (it runs inside the call); on a
-        wall clock the event loop sleeps, looking at ``until()`` every 10 ms."""
+        once ``until()`` is true or the bus closes. On a virtual clock no wall time passes (it runs inside
+        the call); on a wall clock the event loop sleeps, looking at ``until()`` every 10 ms."""
         import asyncio
 
         seconds = _duration(seconds)
@@ -116,7 +117,7 @@ class AsyncBusBase(BusBase[M]):
         self._core.check_open()
         end = self._core.now() + seconds
         while not (until is not None and until()) and (left := end - self._core.now()) > 0 and not self.closed:
-            await asyncio.sleep(min(left, _WALL_POLL) if until is not None else left)
+            await asyncio.sleep(min(left, _WALL_POLL))
 
     async def close(self) -> None:
         """Apply ``stop_on_close`` to the motors this bus commanded, then release the transport
