@@ -67,7 +67,7 @@ def skew(kind: str, buses: int, moves: int, folder: Path) -> None:
             sent = []
             for n in names:
                 presets, start = make_angles([1], [float(k % 20)], 0.0, 50.0, 0)
-                robot.joint(n).bus.core.send_batch(presets, start)
+                robot.joint(n).bus.send_batch(presets, start)
                 sent.append(time.monotonic())
             floors.append(sent[-1] - sent[0])
         print(f"  {kind:7s} {buses} buses  skew   {_us(spreads)}")

@@ -546,8 +546,8 @@ def receive_data(return_id: bool = False, timeout: float | None = None) -> bytes
     READ_FLAG = -1
     bus = current_bus()
     wait = bus.timeout if timeout is None else timeout
-    if bus.core.virtual and _frames.empty():  # simulated time passes only while the client waits
-        bus.core.pass_time(wait, until=lambda: not _frames.empty())
+    if bus.virtual and _frames.empty():  # simulated time passes only while the client waits
+        bus.pass_time(wait, until=lambda: not _frames.empty())
         wait = 0.0
     try:
         frame = _frames.get(timeout=wait) if wait > 0 else _frames.get_nowait()

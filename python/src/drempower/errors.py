@@ -38,10 +38,9 @@ from __future__ import annotations
 import builtins
 import os
 from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from .motion.plan import FollowReport
     from .protocol.parameters import Parameter
 
 __all__ = [
@@ -337,8 +336,9 @@ class DomainError(FieldRangeError):
 
 class FollowError(DrEmpowerError):
     """A trajectory stopped early (a tracking error above ``max_error``): the joints were stopped;
-    ``report`` (a :class:`~drempower.motion.plan.FollowReport`) says how far it got."""
+    ``report`` (a :class:`~drempower.motion.plan.FollowReport`: the motion layer's, so typed Any in this
+    bottom layer) says how far it got."""
 
-    def __init__(self, message: str, report: FollowReport) -> None:
+    def __init__(self, message: str, report: Any) -> None:
         super().__init__(message)
         self.report = report

@@ -35,7 +35,7 @@ async def test_async_queries_and_moves(motors: FakeMotors) -> None:
         motors.positions[2] = 15.0
         assert (await m.wait_position_done(1)).node == 2
         await m.set_traj_mode(2)
-        assert bus.core.session.traj_mode[2] == 2
+        assert bus._core.session.traj_mode[2] == 2
         report = await m.restore(await m.backup(), dry_run=True, force=True)  # the fake motor reads 0 for most
         assert report.ok
 
@@ -73,7 +73,7 @@ async def test_async_cancel_leaves_no_pending_request(motors: FakeMotors) -> Non
         task.cancel()
         with pytest.raises(asyncio.CancelledError):
             await task
-        assert len(bus.core.session.matcher) == 0
+        assert len(bus._core.session.matcher) == 0
 
 
 async def test_async_against_the_simulator() -> None:

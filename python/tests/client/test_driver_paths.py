@@ -42,8 +42,8 @@ def test_four_threads_get_their_own_motors_answers(kind: str, caller_reads: bool
     scale = 1.0 if timed else 0 if kind == "inprocess" else 20.0
     where = "inprocess" if virtual else kind.split("-")[0]
     with link(where, sim, time_scale=scale, clock="virtual" if virtual else "wall", timeout=1.0) as bus:
-        assert bus.core.virtual == virtual
-        assert (bus.core._fd is not None) == (caller_reads and not virtual)
+        assert bus.virtual == virtual
+        assert (bus._core._fd is not None) == (caller_reads and not virtual)
         errors: list[BaseException] = []
         seen: dict[int, list[int]] = {i: [] for i in range(4)}
         start = threading.Barrier(4)
@@ -262,7 +262,7 @@ def test_the_event_loop_keeps_the_reader_role_while_in_use_and_lets_it_go_when_i
 
         async def main() -> None:
             async with drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False) as abus:
-                core = abus.core
+                core = abus._core
                 for _ in range(5):
                     assert (await abus.motor(1).get_state()).node == 1
                     held = core._loop_reader
@@ -297,10 +297,10 @@ def test_a_loop_closed_while_holding_the_reader_role_leaves_the_bus_usable() -> 
             abus = drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False)
             holder.append(abus)
             assert (await abus.motor(1).get_state()).node == 1
-            assert abus.core._loop_reader is not None  # still held when asyncio.run closes the loop
+            assert abus._core._loop_reader is not None  # still held when asyncio.run closes the loop
 
         asyncio.run(first())
-        core = holder[0].core
+        core = holder[0]._core
         try:
             t0 = time.monotonic()
             st = core.run(fast_read(1))  # a threaded caller: the receive thread reclaims the role
@@ -330,7 +330,7 @@ def test_closing_from_a_worker_thread_unregisters_the_descriptor_in_the_loop_fir
                     abus = drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False)
                     nodes.append((await abus.motor(k + 1).get_state()).node)
                     await abus.close()  # in a worker thread, while this loop holds the role
-                    assert abus.core._loop_reader is None
+                    assert abus._core._loop_reader is None
             return nodes
 
         assert asyncio.run(main()) == [1, 1, 2, 2]
@@ -375,7 +375,7 @@ def test_a_stopped_or_busy_loop_gives_the_reader_role_to_threads_that_need_it() 
     loop = asyncio.new_event_loop()
     try:
         abus = drempower.open_bus_async("adapter", pty.path, timeout=0.3, stop_on_close=False)
-        core = abus.core
+        core = abus._core
         assert loop.run_until_complete(abus.motor(1).get_state()).node == 1
         assert core._loop_reader is not None  # the loop stopped with the role
 
@@ -413,14 +413,14 @@ def test_a_close_never_waits_for_a_busy_loop_and_its_descriptor_is_not_left_regi
             loop = asyncio.get_running_loop()
             first = drempower.open_bus_async("adapter", ptys[0].path, timeout=1.0, stop_on_close=False)
             assert (await first.motor(1).get_state()).node == 1
-            rd = first.core._loop_reader
+            rd = first._core._loop_reader
             assert rd is not None
             registered = rd.fd
             took: list[float] = []
 
             def close_elsewhere() -> None:
                 t0 = time.monotonic()
-                first.core.close()
+                first._core.close()
                 took.append(time.monotonic() - t0)
 
             worker = threading.Thread(target=close_elsewhere)

@@ -23,7 +23,7 @@ def test_get_state_and_cache(bus: Bus, motors: FakeMotors) -> None:
     assert (st.node, st.angle, st.trajectory_done, st.error) == (2, 12.5, True, False)
     assert bus.motor(2).state == st
     assert bus.state(2) == st and bus.states() == {2: st}
-    assert st.timestamp == bus.core.now()  # stamped on the bus's clock (scripted here)
+    assert st.timestamp == bus.now()  # stamped on the bus's clock (scripted here)
 
 
 def test_state_age_is_wall_seconds_since_arrival(motors: FakeMotors) -> None:

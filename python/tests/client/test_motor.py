@@ -107,7 +107,7 @@ def test_queries(bus: Bus, motors: FakeMotors) -> None:
 
 def test_enable_reply_state_is_remembered(bus: Bus, motors: FakeMotors) -> None:
     bus.motor(1).enable_reply_state()
-    assert motors.params[1][31214] == 1 and bus.core.session.reply_state[1] is True
+    assert motors.params[1][31214] == 1 and bus.reply_state[1] is True
 
 
 def test_system_commands(bus: Bus, scripted: ScriptedTransport) -> None:
@@ -133,7 +133,7 @@ def test_system_commands(bus: Bus, scripted: ScriptedTransport) -> None:
 
 
 def test_remembered_parameters_follow_every_write_and_reset(bus: Bus) -> None:
-    core = bus.core.session
+    core = bus._core.session
     bus.send(WriteParam.of(1, "axis0.trap_traj.config.traj_mode", 2))  # however it is sent
     assert core.traj_mode == {1: 2}
     bus.motor(2).get_traj_mode()

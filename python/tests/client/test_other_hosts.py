@@ -41,15 +41,15 @@ def test_reads_beside_a_host_polling_the_same_parameter(
 ) -> None:
     sim, bus, channel = two_hosts
     expected = sim.motors[1].param(address)
-    bus.core.session.zero_reply_grace = 0.25  # the simulator shares this CPU: its replies can lag
+    bus._core.session.zero_reply_grace = 0.25  # the simulator shares this CPU: its replies can lag
     stop = threading.Event()
     other = threading.Thread(target=_other_host, args=(channel, address, stop))
     other.start()
     try:
         deadline = time.monotonic() + 5
-        while not bus.core.session.other_hosts and time.monotonic() < deadline:
+        while not bus._core.session.other_hosts and time.monotonic() < deadline:
             time.sleep(0.01)
-        assert bus.core.session.other_hosts
+        assert bus._core.session.other_hosts
         values = [bus.motor(1).read_property(address) for _ in range(n)]
     finally:
         stop.set()
@@ -67,16 +67,16 @@ def test_no_transport_echoes_our_own_frames(kind: str) -> None:
         m.write_property("axis0.output_shaft.vel_limit", 100.0)
         assert not m.dump_error()
         assert m.read_property("axis0.error") == 0
-        assert not bus.core.session.other_hosts
+        assert not bus._core.session.other_hosts
 
 
 def test_a_lone_reply_of_zero_is_taken_after_the_grace() -> None:
     sim = SimBus(ids=[1])
     with link("inprocess", sim, timeout=1.0) as bus:
-        bus.core.session.other_hosts = True
-        t0 = bus.core.now()  # the simulated clock
+        bus._core.session.other_hosts = True
+        t0 = bus.now()  # the simulated clock
         assert bus.motor(1).read_property("axis0.error") == 0
-        assert bus.core.now() - t0 == pytest.approx(ZERO_REPLY_GRACE)  # settled by the grace, not by the timeout
+        assert bus.now() - t0 == pytest.approx(ZERO_REPLY_GRACE)  # settled by the grace, not by the timeout
         assert bus.motor(1).read_property("vbus_voltage") == sim.motors[1].param("vbus_voltage")
         with pytest.raises(drempower.TimeoutError):
             sim.faults.silent.add(1)

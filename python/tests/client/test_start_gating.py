@@ -72,8 +72,8 @@ def test_presets_and_start_through_send_move_every_motor(how: str) -> None:
         done = bus.positions_done(IDS, timeout=10)
         assert [done[n].angle for n in IDS] == pytest.approx(TARGETS, abs=0.5)
         assert _positions(bus) == pytest.approx(TARGETS, abs=0.5)
-        assert [bus.core.session.moves[n].target for n in IDS] == pytest.approx(TARGETS)
-        assert [bus.core.session.moves[n].move_time for n in IDS] == [0.5] * 3
+        assert [bus._core.session.moves[n].target for n in IDS] == pytest.approx(TARGETS)
+        assert [bus._core.session.moves[n].move_time for n in IDS] == [0.5] * 3
 
 
 @pytest.mark.parametrize("clock", ["virtual", "wall"])  # wall: the start's wait runs in a worker thread
@@ -152,7 +152,7 @@ def test_a_preset_and_a_start_through_send_move_the_motor_over_the_in_order_uart
     """The UART keeps frames in order (one motor on the line): the start goes out at once after its preset."""
     sim = SimBus(ids=[1])
     with link("uart", sim, timeout=1.0) as bus:
-        assert bus.core.session.tx == "in_order"
+        assert bus._core.session.tx == "in_order"
         bus.send_many([PresetT(1, 15.0, 20.0), Start(0, StartKind.T)])
         assert bus.motor(1).position_done(timeout=10).angle == pytest.approx(15, abs=0.5)
     assert sim.motors[1].preset is None  # the start consumed it

@@ -35,43 +35,43 @@ def _rx_threads() -> list[str]:
 def test_a_three_second_move_ends_in_milliseconds_with_the_motor_at_its_target() -> None:
     before = _rx_threads()
     with drempower.open_bus("sim", motors=[1], clock="virtual", stop_on_close=False) as bus:
-        assert bus.core.virtual and "virtual clock" in bus.transport.description
+        assert bus.virtual and "virtual clock" in bus.transport.description
         assert _rx_threads() == before  # no receive thread, no runner
         sim = bus.transport.bus  # type: ignore[attr-defined]
         m = bus.motor(1)
-        wall, t0 = time.perf_counter(), bus.core.now()
+        wall, t0 = time.perf_counter(), bus.now()
         t = bus.set_angles([1], [180], 10, 100, PositionMode.Q)  # 180 deg at 10 r/min: 3.1 s
         assert t == pytest.approx(3.1)
         state = m.wait_position_done(10)
-        elapsed = bus.core.now() - t0
+        elapsed = bus.now() - t0
         assert time.perf_counter() - wall < 0.3
         assert t <= elapsed < t + 0.1  # the move's own length of simulated time
         assert state.angle == pytest.approx(180, abs=0.05) and state.trajectory_done
         assert sim.motors[1].position == pytest.approx(180, abs=0.05)
-        assert state.timestamp == pytest.approx(bus.core.now())  # states are stamped on the simulated clock
+        assert state.timestamp == pytest.approx(bus.now())  # states are stamped on the simulated clock
 
 
 def test_a_silent_motor_times_out_after_its_timeout_of_simulated_time() -> None:
     with drempower.open_bus("sim", motors=[1, 2], clock="virtual", timeout=1.0, stop_on_close=False) as bus:
         bus.transport.bus.faults.silent.add(2)  # type: ignore[attr-defined]
-        wall, t0 = time.perf_counter(), bus.core.now()
+        wall, t0 = time.perf_counter(), bus.now()
         with pytest.raises(drempower.TimeoutError, match="motor 2: no answer to a fast read") as info:
             bus.motor(2).get_state()
         assert time.perf_counter() - wall < 0.5  # of a 1 s wait
-        assert bus.core.now() - t0 == pytest.approx(1.0)
+        assert bus.now() - t0 == pytest.approx(1.0)
         assert info.value.nodes == (2,)
         assert bus.motor(1).get_state().node == 1  # the other motor answers at once, no time passing
-        assert bus.core.now() - t0 == pytest.approx(1.0)
+        assert bus.now() - t0 == pytest.approx(1.0)
 
 
 def test_retries_take_their_timeouts_in_simulated_time() -> None:
     sim = SimBus(ids=[1])
     with drempower.open_bus("sim", bus=sim, clock="virtual", timeout=0.2, retries=2, stop_on_close=False) as bus:
         sim.faults.silent.add(1)
-        t0 = bus.core.now()
+        t0 = bus.now()
         with pytest.raises(drempower.TimeoutError):
             bus.motor(1).read_property("axis0.error")
-        assert bus.core.now() - t0 == pytest.approx(3 * 0.2)  # the request and its two retries
+        assert bus.now() - t0 == pytest.approx(3 * 0.2)  # the request and its two retries
 
 
 def test_a_sleep_lets_exactly_its_time_pass_and_the_motors_move_meanwhile() -> None:
@@ -79,9 +79,9 @@ def test_a_sleep_lets_exactly_its_time_pass_and_the_motors_move_meanwhile() -> N
         sim = bus.transport.bus  # type: ignore[attr-defined]
         m = bus.motor(1)
         m.set_speed(60, 0, 1)  # 60 r/min: 360 deg/s
-        t0, wall = bus.core.now(), time.perf_counter()
+        t0, wall = bus.now(), time.perf_counter()
         bus.run(sleep(2.0))
-        assert bus.core.now() - t0 == pytest.approx(2.0)
+        assert bus.now() - t0 == pytest.approx(2.0)
         assert time.perf_counter() - wall < 0.3
         assert sim.motors[1].position == pytest.approx(720, abs=20)
         assert m.get_state().angle == pytest.approx(sim.motors[1].position, abs=0.01)
@@ -91,21 +91,21 @@ def test_a_sleep_lets_exactly_its_time_pass_and_the_motors_move_meanwhile() -> N
 def test_the_asyncio_bus_runs_on_the_virtual_clock() -> None:
     async def main() -> tuple[float, float, float]:
         async with open_bus_async("sim", motors=[1, 2], clock="virtual", timeout=0.5, stop_on_close=False) as bus:
-            t0 = bus.core.now()
+            t0 = bus.now()
             await bus.set_angles([1, 2], [90, -90], 20, 100, PositionMode.Q)
             done = await bus.positions_done([1, 2], timeout=10)
             assert [done[i].angle for i in (1, 2)] == pytest.approx([90, -90], abs=0.05)
-            moved = bus.core.now() - t0
+            moved = bus.now() - t0
             bus.transport.bus.faults.silent.add(2)  # type: ignore[attr-defined]
-            t1 = bus.core.now()
+            t1 = bus.now()
             with pytest.raises(drempower.TimeoutError, match="motor 2"):
                 await bus.motor(2).get_state()
             with pytest.raises(drempower.TimeoutError):
                 await bus.motor(1).wait_state(timeout=0.25)  # no heartbeats: nothing comes
-            waited = bus.core.now() - t1
-            t2 = bus.core.now()
-            await bus.core.run_async(sleep(2.0))  # the driver's own entry point, not only the front end's
-            assert bus.core.now() - t2 == pytest.approx(2.0)
+            waited = bus.now() - t1
+            t2 = bus.now()
+            await bus._core.run_async(sleep(2.0))  # the driver's own entry point, not only the front end's
+            assert bus.now() - t2 == pytest.approx(2.0)
             return moved, waited, t0
 
     wall = time.perf_counter()
@@ -171,17 +171,17 @@ def test_threads_share_one_virtual_clock_without_overshooting_each_others_deadli
 
         def sleeper() -> None:
             go.wait(5)
-            t0 = bus.core.now()
+            t0 = bus.now()
             bus.run(sleep(2.0))
-            results["sleep"] = bus.core.now() - t0
+            results["sleep"] = bus.now() - t0
 
         def asker() -> None:
             go.wait(5)
-            t0 = bus.core.now()
+            t0 = bus.now()
             try:
                 bus.motor(2).get_state(timeout=0.3)
             except drempower.TimeoutError:
-                results["timeout"] = bus.core.now() - t0
+                results["timeout"] = bus.now() - t0
             except BaseException as exc:
                 errors.append(exc)
 
@@ -199,7 +199,7 @@ def test_a_timed_bus_delivers_frames_at_their_simulated_times() -> None:
     """With a bit rate, frames take their time on the wire; replies arrive when their frames end."""
     sim = SimBus(ids=[1, 2, 3], bitrate=1_000_000)
     with drempower.open_bus("sim", bus=sim, clock="virtual", timeout=0.2, stop_on_close=False) as bus:
-        t0 = bus.core.now()
+        t0 = bus.now()
         st = bus.motor(1).get_state()
         assert 100e-6 < st.timestamp - t0 < 1e-3  # a request and its reply: two frames at 1 Mbit/s
         bus.set_angles([1, 2, 3], [10, 20, 30], 30, 100, PositionMode.Q)
@@ -243,7 +243,7 @@ def test_faults_act_on_simulated_time() -> None:
     """A reply late by 0.3 s answers a request with a timeout of 0.5 s, after exactly that delay."""
     sim = SimBus(ids=[1], faults=Faults(reply_delay=0.3))
     with drempower.open_bus("sim", bus=sim, clock="virtual", timeout=0.5, stop_on_close=False) as bus:
-        t0 = bus.core.now()
+        t0 = bus.now()
         st = bus.motor(1).get_state()
         assert st.timestamp - t0 == pytest.approx(0.3)
         with pytest.raises(drempower.TimeoutError):
@@ -251,7 +251,7 @@ def test_faults_act_on_simulated_time() -> None:
         assert bus.stats["unmatched"] == 0
         bus.run(sleep(0.2))  # the late reply arrives now, 0.6 s after t0: it answers nothing
         assert bus.stats["unmatched"] == 1
-        assert bus.core.now() - t0 == pytest.approx(0.7)
+        assert bus.now() - t0 == pytest.approx(0.7)
 
 
 def test_pass_time_takes_frames_until_its_condition() -> None:
@@ -261,11 +261,11 @@ def test_pass_time_takes_frames_until_its_condition() -> None:
         bus.on_unsolicited = got.append
         with pytest.raises(drempower.TimeoutError):
             bus.motor(1).read_property("axis0.error")
-        t0 = bus.core.now()
-        bus.core.pass_time(1.0, until=lambda: bool(got))
-        assert len(got) == 1 and bus.core.now() - t0 == pytest.approx(0.2)  # the reply came 0.3 s after the read
-        bus.core.pass_time(0.5)
-        assert bus.core.now() - t0 == pytest.approx(0.7)
+        t0 = bus.now()
+        bus.pass_time(1.0, until=lambda: bool(got))
+        assert len(got) == 1 and bus.now() - t0 == pytest.approx(0.2)  # the reply came 0.3 s after the read
+        bus.pass_time(0.5)
+        assert bus.now() - t0 == pytest.approx(0.7)
 
 
 def test_compat_receive_data_waits_on_simulated_time() -> None:
@@ -273,13 +273,13 @@ def test_compat_receive_data_waits_on_simulated_time() -> None:
 
     bus = compat.open("sim", motors=[1], clock="virtual", timeout=1.0, faults=Faults(reply_delay=0.3))
     try:
-        t0 = bus.core.now()
+        t0 = bus.now()
         compat.send_command(1, 0x1E, [0] * 8)  # a fast read by hand: its reply is 0.3 s late
         data = compat.receive_data()
         assert data is not None and compat.READ_FLAG == 1
-        assert bus.core.now() - t0 == pytest.approx(0.3)
+        assert bus.now() - t0 == pytest.approx(0.3)
         assert compat.receive_data(timeout=0.25) is None and compat.READ_FLAG == -1
-        assert bus.core.now() - t0 == pytest.approx(0.55)
+        assert bus.now() - t0 == pytest.approx(0.55)
     finally:
         compat.close()
 

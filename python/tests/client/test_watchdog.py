@@ -57,15 +57,15 @@ def test_a_vanished_controller_idles_or_holds_a_simulated_motor(action: str, sta
     with drempower.open_bus("sim", motors=[1], clock="virtual", stop_on_close=False) as bus:
         sim = bus.transport.bus.motors[1]  # type: ignore[attr-defined]
         dog = Watchdog(timeout=0.2, on_timeout={1: action})
-        dog.register("client", [1], now=bus.core.now())
+        dog.register("client", [1], now=bus.now())
         for _ in range(5):  # a controller streaming a speed every 50 ms
             bus.motor(1).set_speed(20)
-            dog.feed("client", bus.core.now())
+            dog.feed("client", bus.now())
             bus.run(sleep(0.05))
-            assert bus.send_many(stop_messages(dog.tick(bus.core.now()))) is None
+            assert bus.send_many(stop_messages(dog.tick(bus.now()))) is None
         assert sim.speed == pytest.approx(20, abs=1)
         bus.run(sleep(0.3))  # the controller went silent
-        fired = dog.tick(bus.core.now())
+        fired = dog.tick(bus.now())
         assert [f.controller for f in fired] == ["client"]
         bus.send_many(stop_messages(fired))
         bus.run(sleep(0.5))

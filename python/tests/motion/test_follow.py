@@ -34,7 +34,7 @@ def _arm_path(start: list[float]) -> Trajectory:
 
 def _tx_frames(bus: drempower.Bus) -> list[Frame]:
     sent: list[Frame] = []
-    bus.core.add_tap(lambda frame, tx: sent.append(frame) if tx else None)
+    bus.add_tap(lambda frame, tx: sent.append(frame) if tx else None)
     return sent
 
 

@@ -71,7 +71,7 @@ def test_identify_refuses_an_excitation_beyond_the_limits(tmp_path: Path) -> Non
     path = _pendulum(tmp_path, 0.0, 0.05, 0.1, False)
     with drempower.open_robot(path, sim={"clock": "virtual"}) as robot:
         sent = []
-        robot.bus("can0").core.add_tap(lambda f, tx: sent.append(f) if tx else None)
+        robot.bus("can0").add_tap(lambda f, tx: sent.append(f) if tx else None)
         with pytest.raises(ValidationError, match=r"leaves its limits -0.2..0.2 rad"):
             identify(robot, "swing", limits={"position": (-0.2, 0.2)})
         assert len(sent) == 1  # the one state read that says where the joint is; no motion command

@@ -59,7 +59,7 @@ def test_gearing_converts_both_ways() -> None:
 
 def test_synchronised_move_shares_one_move_time_and_reports_the_start_skew(robot: Robot) -> None:
     recs = {name: Recorder(sim) for name, sim in _sims(robot).items()}
-    before = robot.bus("left").core.on_sent
+    before = robot.bus("left").on_sent
     move = robot.set_angles({"shoulder": 90.0, "hip": 45.0, "elbow": -30.0}, speed=30.0, param=100.0)
     assert move.move_time == math.ceil(q_move_time(90.0, 30.0, 100.0) * 100) / 100
     assert set(move.starts) == {"left", "right"}
@@ -74,7 +74,7 @@ def test_synchronised_move_shares_one_move_time_and_reports_the_start_skew(robot
     assert done["shoulder"].angle == pytest.approx(90.0, abs=0.1)
     assert done["hip"].angle == pytest.approx(45.0, abs=0.1)
     assert done["elbow"].angle == pytest.approx(-30.0, abs=0.1)
-    assert robot.bus("left").core.on_sent is before
+    assert robot.bus("left").on_sent is before
 
 
 def test_move_joints_in_si_units_through_gear_and_offset(robot: Robot) -> None:

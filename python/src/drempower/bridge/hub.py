@@ -13,29 +13,15 @@ import logging
 import threading
 from collections.abc import Callable, Sequence
 
-from ..protocol.ids import Cmd, Frame
-from ..protocol.limits import MOTION_CMDS as _MOTION
-from ..protocol.limits import START_SYS_CMDS as _STARTS
+from ..protocol.ids import Frame
 from ..transports.base import QueuedTransport, Transport
-from ..transports.zenoh_wire import BRIDGE_ORIGIN
+from ..transports.zenoh_wire import BRIDGE_ORIGIN, driven_nodes
 
 __all__ = ["BusHub", "HubPort", "driven_nodes"]
 
 _log = logging.getLogger("drempower.bridge")
 Publish = Callable[[Sequence[Frame], bytes], None]
 """Called with frames and their origin (empty: from the bus) for the remote hosts."""
-
-
-def driven_nodes(frames: Sequence[Frame]) -> set[int]:
-    """Motors (0 = every motor) that these frames set moving: motion commands, presets and starts."""
-    nodes = set()
-    for f in frames:
-        if f.is_extended or f.arbitration_id > 0x7FF:
-            continue
-        node, cmd = f.arbitration_id >> 5, f.arbitration_id & 0x1F
-        if cmd in _MOTION or (cmd == Cmd.SYSTEM and f.data[:1] and f.data[0] in _STARTS):
-            nodes.add(node)
-    return nodes
 
 
 class HubPort(QueuedTransport):

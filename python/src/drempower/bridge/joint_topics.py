@@ -234,11 +234,9 @@ class JointTopics:
         for name, msgs in batches.items():
             bus = faces[name].bus
             if self.interfaces == COMMAND_INTERFACES:
-                bus.core.send_batch(msgs, StartImpedance(0, self.kp, self.kd))
-                bus._gate.note_sent(msgs)
+                bus.send_batch(msgs, StartImpedance(0, self.kp, self.kd))
             else:
-                bus.core.send_many(msgs)
-                bus._gate.note_sent(msgs)
+                bus.send_many(msgs)
 
     def _on_command(self, sample: Any) -> None:
         try:
@@ -313,8 +311,7 @@ class JointTopics:
             _log.info("%s: its publisher is gone; motors %s", self.commands_topic, ", ".join(actions))
             try:
                 msgs = stop_messages(fired)
-                face.bus.core.send_many(msgs)
-                face.bus._gate.note_sent(msgs)
+                face.bus.send_many(msgs)
             except Exception as exc:  # a Zenoh callback must not raise
                 _log.error("stopping the motors of %s failed: %s", face.prefix, exc)
 

@@ -666,7 +666,7 @@ class Bridge:
             try:
                 batches = self._commands(topic, data)  # nothing is sent on any bus if a value is invalid
                 for face, (presets, start) in batches:
-                    face.bus.core.send_batch(presets, start)
+                    face.bus.send_batch(presets, start)
             except (DrEmpowerError, ValueError) as exc:
                 _log.warning("%s refused: %s", topic, exc)
                 return

@@ -486,7 +486,7 @@ class TrajectoryAction:
             self._spec,
             names,
             lambda b: faces[b].bus.transport.wire_bitrate,
-            lambda b: faces[b].bus.core.session.reply_state,
+            lambda b: faces[b].bus.reply_state,
         )
         try:
             plan = make_plan(
@@ -592,7 +592,7 @@ class TrajectoryAction:
         for lane in lanes:
             bus = buses[lane.bus]
             states = dict(zip(lane.ids, bus.request([_fast_read(i) for i in lane.ids], missing_ok=True), strict=True))
-            bus.core.send_many(plan.hold_messages(lane, {i: s for i, s in states.items() if s is not None}))
+            bus.send_many(plan.hold_messages(lane, {i: s for i, s in states.items() if s is not None}))
 
     def close(self) -> None:
         """Cancel a running goal (the joints hold) and stop serving. Idempotent."""

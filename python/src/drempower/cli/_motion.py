@@ -90,7 +90,7 @@ def stop_commanded(bus: Bus, why: str) -> None:
     :func:`~drempower.client.signals.signals_interrupt`): every motor still
     gets its idle frame, and only the reading of their motion is left out.
     """
-    nodes = sorted(bus.core.commanded)
+    nodes = sorted(bus.commanded)
     failed: list[str] = []
     for node in nodes:  # each motor its frame, whatever another one's send did
         try:

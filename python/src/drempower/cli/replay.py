@@ -109,7 +109,7 @@ def run(args: argparse.Namespace) -> int:
     sent = 0
     with open_from_args(args, quiet=True) as bus:
         _ready(bus, _driven(frames), args)
-        bus.core.session.stop_on_close = not args.leave_running
+        bus.stop_on_close = not args.leave_running
         start = time.monotonic()
         t0 = frames[0][0].timestamp
         try:

@@ -77,7 +77,7 @@ class AsyncMotor(MotorBase):
     __slots__ = ("_bus",)
 
     def __init__(self, bus: AsyncBus, id: int) -> None:
-        super().__init__(bus.core, id, bus._gate)
+        super().__init__(bus._core, id, bus._gate)
         self._bus = bus
 
     @property
@@ -462,9 +462,12 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
 
     async def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor (one broadcast frame) when None."""
-        nodes = self._estop_nodes(id_list)
-        self._core.estop(nodes)
-        self._gate.forget(nodes)
+        self.estop_now(id_list)
+
+    async def traj_modes(self, ids: Iterable[int], *, timeout: float | None = None) -> dict[int, int]:
+        """The Q-mode profile of each motor (:class:`~drempower.client.commands.TrajMode` values): those the
+        bus knows, the rest read in one exchange."""
+        return await self.run(ops.traj_modes(self._session, check_ids(as_list(ids, "ids")), timeout))
 
     async def scan(
         self, ids: Iterable[int] = batch.ALL_IDS, *, timeout: float | None = None, versions: bool = False

@@ -1,19 +1,21 @@
-"""What the threaded and the asyncio bus share: the core, options and the state cache (no I/O)."""
+"""What the threaded and the asyncio bus share: the driver, options, the state cache, the safety gate and the
+interface of the layers above (robot, motion, apps: see docs/client.md, "Layers")."""
 
 from __future__ import annotations
 
 import threading
 from abc import ABC, abstractmethod
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from types import MappingProxyType
 from typing import Generic, TypeVar
 
 from ..errors import ValidationError
 from ..protocol.ids import Frame, check_node
 from ..protocol.limits import check_motor
-from ..protocol.messages import FastRead, Message, ReadParam, WriteParam
+from ..protocol.messages import FastRead, Message, ReadParam, Start, StartImpedance, WriteParam
 from ..protocol.parameters import find_parameter
 from ..transports.base import Transport
-from .driver import BusDriver
+from .driver import BusDriver, FrameTap
 from .effects import Op
 from .gate import Intent, Limit, MotionGate, intents_of
 from .session import DEFAULT_TIMEOUT, BusSession, StartPolicy, StopOnClose
@@ -163,6 +165,98 @@ class BusBase(ABC, Generic[M]):
         nothing is checked, the session learns nothing from them; use :meth:`send` for messages)."""
         self._core._send_frames(list(frames))
 
+    # ------------------------------------------------------------------ for the layers above (robot, motion, apps)
+    # Blocking in both flavours: on the asyncio bus they return at once, except send_batch (call it from a
+    # worker thread there, as the robot does). See docs/client.md, "Layers".
+
+    def now(self) -> float:
+        """The bus's clock (s): :func:`time.monotonic`, or the simulated time of a transport with a virtual
+        clock (``open_bus("sim", clock="virtual")``). Session times and state timestamps are on it."""
+        return self._core.now()
+
+    @property
+    def virtual(self) -> bool:
+        """True when the bus runs on its transport's simulated time (see :meth:`now`, ``pass_time``)."""
+        return self._core.virtual
+
+    @property
+    def commanded(self) -> frozenset[int]:
+        """Motors this bus sent motion commands or a requested state to (0: a broadcast), those
+        ``stop_on_close`` stops."""
+        return self._core.commanded
+
+    @property
+    def stop_on_close(self) -> StopOnClose:
+        """What closing the bus does to the motors it commanded: True or ``"idle"`` idles them,
+        ``"estop"`` stops them, False leaves them running."""
+        return self._session.stop_on_close
+
+    @stop_on_close.setter
+    def stop_on_close(self, value: StopOnClose) -> None:
+        if not (value.__class__ is bool or value in ("idle", "estop")):
+            raise ValidationError(f"stop_on_close={value!r}: True, False, 'idle' or 'estop'")
+        self._session.stop_on_close = value
+
+    @property
+    def reply_state(self) -> Mapping[int, bool]:
+        """What the bus knows of each motor's ``enable_reply_state`` (31214): motor -> on (a live,
+        read-only view; a motor missing is unknown)."""
+        return MappingProxyType(self._session.reply_state)
+
+    @property
+    def on_sent(self) -> Callable[[Frame, float], None] | None:
+        """Hook called after each frame is handed to the transport, in the sending thread, with the frame
+        and :func:`time.monotonic` of the hand-over (s); keep it short. None: no hook."""
+        return self._core.on_sent
+
+    @on_sent.setter
+    def on_sent(self, hook: Callable[[Frame, float], None] | None) -> None:
+        self._core.on_sent = hook
+
+    def add_tap(self, tap: FrameTap) -> None:
+        """Call ``tap(frame, tx)`` with every frame this bus sends (``tx`` True, in the sending thread) or
+        receives (``tx`` False, in the thread that took it) from now on; keep it short (recorders use it)."""
+        self._core.add_tap(tap)
+
+    def remove_tap(self, tap: FrameTap) -> None:
+        """Stop calling ``tap`` (see :meth:`add_tap`); a tap not added is ignored."""
+        self._core.remove_tap(tap)
+
+    def send_batch(
+        self,
+        presets: Sequence[Message],
+        start: Start | StartImpedance,
+        targets: Sequence[float | None] | None = None,
+        move_time: float | None = None,
+    ) -> list[int]:
+        """Send presets and their start as one atomic batch, raw (no safety gate: pass :meth:`pass_gate`
+        first); returns the nodes the start(s) went to (bus option ``start``).
+
+        ``targets`` (deg, one per preset, None where unknown) are the absolute goals of a position move,
+        which the move waits check; ``move_time`` (s) the planned time of a Q move. Blocks until the
+        presets are on the wire, in both flavours (from asyncio: call it in a worker thread).
+        """
+        where = self._core.send_batch(presets, start, targets, move_time)
+        self._sent(presets)
+        if targets is not None:
+            known = [(p.node, t) for p, t in zip(presets, targets, strict=True) if t is not None]
+            self._gate.note_targets([n for n, _ in known], [t for _, t in known])
+        return where
+
+    def estop_now(self, id_list: Iterable[int] | None = None) -> None:
+        """Emergency-stop the listed motors, or every motor (one broadcast frame) when None, in the
+        calling thread: sent before anything queued, no reply awaited, in both flavours (what ``estop``
+        does; a robot stops its buses at once with it)."""
+        nodes = self._estop_nodes(id_list)
+        self._core.estop(nodes)
+        self._gate.forget(nodes)
+
+    def close_now(self) -> None:
+        """Close the bus in the calling thread, in both flavours (it may block briefly): the pending stops
+        of timed commands, ``stop_on_close`` for the motors it commanded, then the transport. Idempotent."""
+        self._timed.flush()
+        self._core.close()
+
     def _moved(self, ids: Sequence[int], angles: Sequence[float], relative: bool) -> None:
         """Note a synchronised move's targets (a step leaves its motors' targets unknown)."""
         if relative:
@@ -199,11 +293,6 @@ class BusBase(ABC, Generic[M]):
         if not nodes:
             raise ValidationError("id_list is empty: nothing would be stopped; give motor ids, or None for every motor")
         return nodes
-
-    @property
-    def core(self) -> BusDriver:
-        """The driver (transport, receive thread) and through it the session (matching, learned facts)."""
-        return self._core
 
     @property
     def transport(self) -> Transport:

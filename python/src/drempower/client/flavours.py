@@ -7,7 +7,7 @@ comes from one source (``api_async.py``, from which ``api_sync.py`` is generated
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Awaitable, Callable, Sequence
 from typing import TypeVar
 
 from ..protocol.ids import check_node
@@ -17,11 +17,24 @@ from .effects import Runnable, await_state
 from .session import sequenced
 from .state import MotorState
 from .timeouts import checks_times
+from .timeouts import seconds as _seconds
 
-__all__ = ["AsyncBusBase", "SyncBusBase"]
+__all__ = ["AsyncBusBase", "AsyncPart", "SyncBusBase", "SyncPart"]
 
 M = TypeVar("M")
 T = TypeVar("T")
+SyncPart = Callable[[], T]
+"""One bus's part of a threaded call over several buses (a robot's, a follower's)."""
+AsyncPart = Callable[[], Awaitable[T]]
+"""One bus's part of an asyncio call over several buses."""
+
+_WALL_POLL = 0.01
+"""How often (s) an asyncio ``pass_time`` on a wall clock looks at its ``until`` and at the bus."""
+
+
+def _duration(value: float) -> float:
+    """A ``pass_time`` duration: 0, or seconds as :func:`~drempower.client.timeouts.seconds` takes them."""
+    return 0.0 if value == 0 and value.__class__ is not bool else _seconds(value, "seconds")
 
 
 @checks_times
@@ -48,11 +61,16 @@ class SyncBusBase(BusBase[M]):
         since = self._core.now() if newer_than is None else newer_than
         return self._core.run(await_state(id, since, timeout))
 
+    def pass_time(self, seconds: float, until: Callable[[], bool] | None = None) -> None:
+        """Let ``seconds`` (s) of the bus's time pass, taking the frames that arrive meanwhile; end early
+        once ``until()`` is true or the bus closes. On a virtual clock no wall time passes; on a wall clock
+        it sleeps."""
+        self._core.pass_time(_duration(seconds), until)
+
     def close(self) -> None:
         """Send the pending stops of timed commands, apply ``stop_on_close`` to the motors this bus
         commanded, then release the transport."""
-        self._timed.flush()
-        self._core.close()
+        self.close_now()
 
 
 @checks_times
@@ -86,10 +104,24 @@ class AsyncBusBase(BusBase[M]):
         since = self._core.now() if newer_than is None else newer_than
         return await self.run(await_state(id, since, timeout))
 
+    async def pass_time(self, seconds: float, until: Callable[[], bool] | None = None) -> None:
+        """Let ``seconds`` (s) of the bus's time pass, taking the frames that arrive meanwhile; end early
+        once ``until()`` is true or the bus closes. On a virtual clock no wall time passes (it runs inside
+        the call); on a wall clock the event loop sleeps, looking at ``until()`` every 10 ms."""
+        import asyncio
+
+        seconds = _duration(seconds)
+        if self._core.virtual:
+            self._core.pass_time(seconds, until)
+            return
+        self._core.check_open()
+        end = self._core.now() + seconds
+        while not (until is not None and until()) and (left := end - self._core.now()) > 0 and not self.closed:
+            await asyncio.sleep(min(left, _WALL_POLL))
+
     async def close(self) -> None:
         """Apply ``stop_on_close`` to the motors this bus commanded, then release the transport
         (in a worker thread: it may block briefly)."""
         import asyncio
 
-        self._timed.flush()
-        await asyncio.get_running_loop().run_in_executor(None, self._core.close)
+        await asyncio.get_running_loop().run_in_executor(None, self.close_now)

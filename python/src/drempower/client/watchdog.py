@@ -16,7 +16,7 @@ Zenoh liveliness token), says whether it is alive:
 ::
 
     dog = Watchdog(timeout=0.5)
-    dog.register("page-1", [1, 2], now=bus.core.now(), liveness=True)
+    dog.register("page-1", [1, 2], now=bus.now(), liveness=True)
     dog.feed("page-1", now)                 # on each command the page sends
     dog.alive("page-1", False)              # its WebSocket closed
     fired = dog.tick(now)                   # each cycle of the owner's loop

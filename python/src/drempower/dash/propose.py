@@ -75,13 +75,13 @@ def _robot_of(hub: Hub, key: int) -> Iterator[tuple[Robot, str]]:
     bus = hub.bus
     name = f"motor_{key}"
     spec = RobotSpec({"bus": BusSpec("bus", "sim")}, {name: JointSpec(name, "bus", key)}, "dashboard")
-    before = bus.core.on_sent
+    before = bus.on_sent
     robot = Robot(spec, {"bus": bus})
     try:
         yield robot, name
     finally:
         robot._shutdown()
-        bus.core.on_sent = before
+        bus.on_sent = before
 
 
 def _bandwidth(args: dict[str, Any]) -> float:

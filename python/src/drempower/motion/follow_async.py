@@ -13,9 +13,9 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ..client.effects import read_states, sleep
+from ..client.flavours import AsyncPart
 from ..client.state import MotorState
 from ..errors import ValidationError
-from ..robot.flavours import AsyncPart
 from .plan import (
     AsyncEach,
     FollowError,
@@ -69,7 +69,7 @@ async def follow_robot(
         robot.spec,
         tr.joints,
         lambda b: robot.buses[b].transport.wire_bitrate,
-        lambda b: robot.buses[b].core.session.reply_state,
+        lambda b: robot.buses[b].reply_state,
     )
     twin = robot.twin
     known = robot_limits(robot.spec, tr.joints, None if twin is None else model_ranges(twin.model))
@@ -127,7 +127,7 @@ async def follow_bus(
         list(range(len(ids))),
         ["hold"] * len(ids),
         bus.transport.wire_bitrate,
-        bus.core.session.reply_state,
+        bus.reply_state,
     )
     by_id = {str(i): lim for i, lim in (limits or {}).items()}
     plan = make_plan(
@@ -185,7 +185,6 @@ async def stream(
     tr = plan.trajectory
     lanes = plan.lanes
     clock_bus = buses[lanes[0].bus]
-    core = clock_bus.core
 
     def reader(lane: Lane) -> AsyncPart[dict[int, MotorState]]:
         async def read() -> dict[int, MotorState]:
@@ -219,15 +218,15 @@ async def stream(
     period = 1.0 / plan.rate
     count = len(plan.times)
     done = False
-    t0 = first = last = core.now()
+    t0 = first = last = clock_bus.now()
     try:
         k = 0
         while k < count:
             due = t0 + k * period
-            now = core.now()
+            now = clock_bus.now()
             if now < due:
                 await clock_bus.run(sleep(due - now))
-                now = core.now()
+                now = clock_bus.now()
             if k == 0:
                 t0 = first = now
                 due = now
@@ -243,7 +242,7 @@ async def stream(
                     f"joint {name!r}: tracking error {err:.4g} {plan.unit} above max_error={top:g} {plan.unit}"
                 )
                 break
-            end = core.now()
+            end = clock_bus.now()
             step = 1
             if end > due + period:
                 report.late += 1
@@ -251,11 +250,11 @@ async def stream(
             k = min(k + step, count - 1) if k < count - 1 else count
         done = report.stopped is None
     finally:
-        report.duration = core.now() - first
+        report.duration = clock_bus.now() - first
         report.rate = (report.cycles - 1) / (last - first) if report.cycles > 1 and last > first else 0.0
         if not done:
             for lane in lanes:
-                buses[lane.bus].core.send_many(plan.hold_messages(lane, latest[lane.bus]))
+                await buses[lane.bus].send_many(plan.hold_messages(lane, latest[lane.bus]))
     if report.stopped is not None:
         raise FollowError(f"follow stopped at t={report.duration:.3f} s: {report.stopped}", report)
     return report

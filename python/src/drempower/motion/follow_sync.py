@@ -11,9 +11,9 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ..client.effects import read_states, sleep
+from ..client.flavours import SyncPart
 from ..client.state import MotorState
 from ..errors import ValidationError
-from ..robot.flavours import SyncPart
 from .plan import (
     FollowError,
     FollowPlan,
@@ -67,7 +67,7 @@ def follow_robot(
         robot.spec,
         tr.joints,
         lambda b: robot.buses[b].transport.wire_bitrate,
-        lambda b: robot.buses[b].core.session.reply_state,
+        lambda b: robot.buses[b].reply_state,
     )
     twin = robot.twin
     known = robot_limits(robot.spec, tr.joints, None if twin is None else model_ranges(twin.model))
@@ -125,7 +125,7 @@ def follow_bus(
         list(range(len(ids))),
         ["hold"] * len(ids),
         bus.transport.wire_bitrate,
-        bus.core.session.reply_state,
+        bus.reply_state,
     )
     by_id = {str(i): lim for i, lim in (limits or {}).items()}
     plan = make_plan(
@@ -183,7 +183,6 @@ def stream(
     tr = plan.trajectory
     lanes = plan.lanes
     clock_bus = buses[lanes[0].bus]
-    core = clock_bus.core
 
     def reader(lane: Lane) -> SyncPart[dict[int, MotorState]]:
         def read() -> dict[int, MotorState]:
@@ -217,15 +216,15 @@ def stream(
     period = 1.0 / plan.rate
     count = len(plan.times)
     done = False
-    t0 = first = last = core.now()
+    t0 = first = last = clock_bus.now()
     try:
         k = 0
         while k < count:
             due = t0 + k * period
-            now = core.now()
+            now = clock_bus.now()
             if now < due:
                 clock_bus.run(sleep(due - now))
-                now = core.now()
+                now = clock_bus.now()
             if k == 0:
                 t0 = first = now
                 due = now
@@ -241,7 +240,7 @@ def stream(
                     f"joint {name!r}: tracking error {err:.4g} {plan.unit} above max_error={top:g} {plan.unit}"
                 )
                 break
-            end = core.now()
+            end = clock_bus.now()
             step = 1
             if end > due + period:
                 report.late += 1
@@ -249,11 +248,11 @@ def stream(
             k = min(k + step, count - 1) if k < count - 1 else count
         done = report.stopped is None
     finally:
-        report.duration = core.now() - first
+        report.duration = clock_bus.now() - first
         report.rate = (report.cycles - 1) / (last - first) if report.cycles > 1 and last > first else 0.0
         if not done:
             for lane in lanes:
-                buses[lane.bus].core.send_many(plan.hold_messages(lane, latest[lane.bus]))
+                buses[lane.bus].send_many(plan.hold_messages(lane, latest[lane.bus]))
     if report.stopped is not None:
         raise FollowError(f"follow stopped at t={report.duration:.3f} s: {report.stopped}", report)
     return report

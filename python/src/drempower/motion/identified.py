@@ -18,7 +18,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from ..errors import ConfigError
-from ..robot.config import IDENTIFIED_KEYS
+from ..robotfile import IDENTIFIED_KEYS
 from .identify import Identification
 
 if sys.version_info >= (3, 11):
@@ -27,7 +27,7 @@ else:  # pragma: no cover
     import tomli as tomllib  # type: ignore[import-not-found, no-redef, unused-ignore]
 
 if TYPE_CHECKING:
-    from ..robot.config import RobotSpec
+    from ..robotfile import RobotSpec
     from ..sim.twin import Twin
 
 __all__ = ["identified_table", "model_copy_path", "write_identified", "write_model", "write_robot_file"]

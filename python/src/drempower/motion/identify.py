@@ -25,7 +25,7 @@ from ..errors import DrEmpowerError, ValidationError
 from .plan import model_ranges, robot_limits
 
 if TYPE_CHECKING:
-    from ..robot.config import RobotSpec
+    from ..robotfile import RobotSpec
     from ..sim.twin import Twin
 
 __all__ = ["Identification", "check_excitation", "excitation", "fit_dynamics", "from_samples"]

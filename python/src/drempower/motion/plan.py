@@ -21,7 +21,7 @@ from ..sim.timing import frame_bits
 from .trajectory import Rows, Trajectory
 
 if TYPE_CHECKING:
-    from ..robot.config import RobotSpec
+    from ..robotfile import RobotSpec
 
 _States = dict[int, MotorState]
 AsyncEach = Callable[[Mapping[str, Callable[[], Awaitable[_States]]]], Awaitable[dict[str, _States]]]

@@ -55,7 +55,7 @@ async def identify(
     period = 1.0 / rate
     ok = False
     try:
-        t0 = bus.core.now()
+        t0 = bus.now()
         for k in range(round(seconds * rate)):
             ref, vel = excitation(k * period, q0, amplitude, seconds)
             await j.impedance_control(g.motor_angle(ref), g.motor_speed(vel), 0.0, kp, kd)
@@ -69,7 +69,7 @@ async def identify(
             qs.append(st.position)
             vs.append(st.velocity)
             taus.append(st.torque)
-            wait = t0 + (k + 1) * period - bus.core.now()
+            wait = t0 + (k + 1) * period - bus.now()
             if wait > 0:
                 await bus.run(sleep(wait))
         ok = True
@@ -79,7 +79,7 @@ async def identify(
         if ok:
             await j.set_angle(g.motor_angle(q0), 0.0, 20.0, PositionMode.T)  # back where it was
         else:
-            bus.core.send_many([j.make_angle(at, 0.0, 20.0, PositionMode.T)])  # hold where it is
+            await bus.send_many([j.make_angle(at, 0.0, 20.0, PositionMode.T)])  # hold where it is
     return from_samples(joint, rate, ts, qs, vs, taus)
 
 
@@ -98,7 +98,7 @@ async def step_response(
     q0 = (await j.get_joint_state()).position
     ts: list[float] = []
     ys: list[float] = []
-    t0 = bus.core.now()
+    t0 = bus.now()
     await j.set_angle(j.gearing.motor_angle(q0 + amount), 0.0, 0.0, PositionMode.P)
     try:
         for _ in range(round(seconds * rate)):
@@ -162,7 +162,7 @@ async def teach(
     times: list[float] = []
     rows: list[list[float]] = []
     first_bus = robot.bus(next(iter(lanes)))
-    now = first_bus.core.now
+    now = first_bus.now
     states = await robot.joint_states(names)
     pos = {n: states[n].position for n in names}
     latest = {n: states[n].motor for n in names}
@@ -199,7 +199,7 @@ async def teach(
             raise
     finally:
         for bus_name, group in lanes.items():
-            robot.bus(bus_name).core.send_many(
+            await robot.bus(bus_name).send_many(
                 [make_angle(robot.joints[n].id, latest[n].angle, 0.0, 20.0, PositionMode.T) for n in group]
             )
     if len(times) < 2:

@@ -21,7 +21,7 @@ from ..errors import ConfigError, DrEmpowerError
 from ..protocol.messages import Message, StartImpedance
 
 if TYPE_CHECKING:
-    from ..robot.config import RobotSpec
+    from ..robotfile import RobotSpec
 
 __all__ = ["GravityModel", "teach_cycle"]
 

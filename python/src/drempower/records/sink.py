@@ -17,7 +17,7 @@ from .events import FrameEvents
 from .ros2_types import counter_of
 
 if TYPE_CHECKING:
-    from ..robot.config import JointSpec
+    from ..robotfile import JointSpec
 
 __all__ = ["FrameSink", "SinkStats"]
 
@@ -60,7 +60,7 @@ class FrameSink(ABC):
         """The frame decoders: None for buses attached without a name, else one per named bus."""
         self.stats = SinkStats()
         self._queue: queue.SimpleQueue[tuple[int, Frame, bool, str | None] | None] = queue.SimpleQueue()
-        self._cores: list[tuple[Any, Any]] = []
+        self._buses: list[tuple[Any, Any]] = []
         self._closed = False
         self._failure: BaseException | None = None
         self._thread = threading.Thread(target=self._run, name=f"drempower {self.what}", daemon=True)
@@ -77,14 +77,13 @@ class FrameSink(ABC):
     # ------------------------------------------------------------------ input
 
     def attach(self: _S, bus: Any, *, name: str | None = None, joints: Sequence[JointSpec] = ()) -> _S:
-        """Take every frame ``bus`` (a Bus, AsyncBus or BusDriver) sends and receives from now on.
+        """Take every frame ``bus`` (a Bus, AsyncBus, or anything with ``add_tap``) sends and receives from now on.
 
         ``name`` (a robot's bus name) puts its raw frames on ``/can/<name>/tx`` and
         ``/can/<name>/rx`` (``frame_id`` ``name``) instead of ``/can/tx`` and ``/can/rx``;
         ``joints`` (that bus's joints of the robot file) then name its states and
         give them at the joint, after gear and offset (as :class:`drempower.robot.Gearing`).
         """
-        core = getattr(bus, "core", bus)
         if name is None:
             if joints:
                 raise DrEmpowerError("joints: give the bus's name too (attach(bus, name=..., joints=...))")
@@ -99,15 +98,15 @@ class FrameSink(ABC):
                 gears={j.id: (j.gear, j.offset) for j in joints},
             )
             tap = partial(self._tap_named, name)
-        core.add_tap(tap)
-        self._cores.append((core, tap))
+        bus.add_tap(tap)
+        self._buses.append((bus, tap))
         return self
 
     def detach(self) -> None:
         """Stop taking the frames of the attached buses (the output stays open)."""
-        for core, tap in self._cores:
-            core.remove_tap(tap)
-        self._cores.clear()
+        for bus, tap in self._buses:
+            bus.remove_tap(tap)
+        self._buses.clear()
 
     def tap(self, frame: Frame, tx: bool) -> None:
         """A bus's frame tap: queue ``frame`` stamped with the wall clock now."""

@@ -6,7 +6,7 @@
 ...     robot.positions_done()
 ...     print(f"{move.move_time} s, start skew {move.skew * 1e6:.0f} us")
 
-The file format is described in :mod:`drempower.robot.config` and docs/robot.md.
+The file format is described in :mod:`drempower.robotfile` and docs/robot.md.
 """
 
 from .aio import AsyncJoint, AsyncRobot, open_robot_async

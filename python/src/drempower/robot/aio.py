@@ -145,7 +145,7 @@ class AsyncRobot(AsyncRobotBase):
                 self.buses[j.bus].set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=where)
         self._clock = StartClock()
         for bus in self.buses.values():
-            bus.core.on_sent = self._clock
+            bus.on_sent = self._clock
         self._closed = False
         self._setup(len(self.buses))
 
@@ -237,7 +237,12 @@ class AsyncRobot(AsyncRobotBase):
             if m is PositionMode.Q:
 
                 def plan(b: str) -> AsyncPart[float]:
-                    return lambda: self.buses[b].run(q_time(self.buses[b].core.session, targets[b], relative, timeout))
+                    async def run() -> float:
+                        bus = self.buses[b]
+                        modes = await bus.traj_modes([t.id for t in targets[b]], timeout=timeout)
+                        return await bus.run(q_time(modes, targets[b], relative, timeout))
+
+                    return run
 
                 times = await self._each({b: plan(b) for b in targets})
                 move_time = round_move_time(max(times.values()))
@@ -247,7 +252,7 @@ class AsyncRobot(AsyncRobotBase):
                 presets, start = batches[bus]
                 goals = None if relative else [t.angle for t in targets[bus]]  # relative: from unread positions
                 self._clock.take()
-                self.buses[bus].core.send_batch(presets, start, goals, move_time)
+                self.buses[bus].send_batch(presets, start, goals, move_time)
                 when = self._clock.take()
                 assert when is not None
                 return when
@@ -316,8 +321,7 @@ class AsyncRobot(AsyncRobotBase):
 
         def stop(bus: str) -> Callable[[], None]:
             def now() -> None:
-                self.buses[bus].core.estop(groups[bus])
-                self.buses[bus]._gate.forget(groups[bus])
+                self.buses[bus].estop_now(groups[bus])
 
             return now
 
@@ -422,5 +426,5 @@ def open_robot_async(
         return AsyncRobot(spec, buses)
     except BaseException:
         for b in buses.values():
-            b.core.close()
+            b.close_now()
         raise

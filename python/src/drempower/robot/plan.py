@@ -17,8 +17,6 @@ from dataclasses import dataclass
 
 from ..client.commands import PositionMode, make_angles, position_mode, q_move_time
 from ..client.effects import Op, read_states
-from ..client.ops import traj_modes
-from ..client.session import BusSession
 from ..errors import FieldRangeError, ValidationError
 from ..protocol.ids import Frame
 from ..protocol.messages import S16_MAX, Message, Start
@@ -129,14 +127,13 @@ def check_targets(per_bus: Mapping[str, Sequence[Target]], mode: int) -> Positio
     return m
 
 
-def q_time(core: BusSession, targets: Sequence[Target], relative: bool, timeout: float | None) -> Op[float]:
-    """The longest Q-mode time (s, unrounded) the motors of one bus need for their part."""
-    nodes = [t.id for t in targets]
-    modes = yield from traj_modes(core, nodes, timeout)
+def q_time(modes: Mapping[int, int], targets: Sequence[Target], relative: bool, timeout: float | None) -> Op[float]:
+    """The longest Q-mode time (s, unrounded) the motors of one bus need for their part, given each
+    motor's Q-mode profile (``modes``, from the bus's ``traj_modes``); absolute moves read positions."""
     if relative:
         dists = [abs(t.angle) for t in targets]
     else:
-        states = yield from read_states(nodes, timeout)
+        states = yield from read_states([t.id for t in targets], timeout)
         dists = [abs(t.angle - st.angle) for t, st in zip(targets, states, strict=True) if st is not None]
     return max(q_move_time(d, t.speed, t.param, modes[t.id]) for t, d in zip(targets, dists, strict=True))
 
@@ -164,7 +161,7 @@ def is_start(frame: Frame) -> bool:
 
 
 class StartClock:
-    """A :attr:`BusSession.on_sent` hook that notes when the sending thread last handed a start frame over."""
+    """A bus's ``on_sent`` hook that notes when the sending thread last handed a start frame over."""
 
     def __init__(self) -> None:
         self._local = threading.local()

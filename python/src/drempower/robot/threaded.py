@@ -143,7 +143,7 @@ class Robot(SyncRobotBase):
                 self.buses[j.bus].set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=where)
         self._clock = StartClock()
         for bus in self.buses.values():
-            bus.core.on_sent = self._clock
+            bus.on_sent = self._clock
         self._closed = False
         self._setup(len(self.buses))
 
@@ -235,7 +235,12 @@ class Robot(SyncRobotBase):
             if m is PositionMode.Q:
 
                 def plan(b: str) -> SyncPart[float]:
-                    return lambda: self.buses[b].run(q_time(self.buses[b].core.session, targets[b], relative, timeout))
+                    def run() -> float:
+                        bus = self.buses[b]
+                        modes = bus.traj_modes([t.id for t in targets[b]], timeout=timeout)
+                        return bus.run(q_time(modes, targets[b], relative, timeout))
+
+                    return run
 
                 times = self._each({b: plan(b) for b in targets})
                 move_time = round_move_time(max(times.values()))
@@ -245,7 +250,7 @@ class Robot(SyncRobotBase):
                 presets, start = batches[bus]
                 goals = None if relative else [t.angle for t in targets[bus]]  # relative: from unread positions
                 self._clock.take()
-                self.buses[bus].core.send_batch(presets, start, goals, move_time)
+                self.buses[bus].send_batch(presets, start, goals, move_time)
                 when = self._clock.take()
                 assert when is not None
                 return when
@@ -312,8 +317,7 @@ class Robot(SyncRobotBase):
 
         def stop(bus: str) -> Callable[[], None]:
             def now() -> None:
-                self.buses[bus].core.estop(groups[bus])
-                self.buses[bus]._gate.forget(groups[bus])
+                self.buses[bus].estop_now(groups[bus])
 
             return now
 
@@ -418,5 +422,5 @@ def open_robot(
         return Robot(spec, buses)
     except BaseException:
         for b in buses.values():
-            b.core.close()
+            b.close_now()
         raise

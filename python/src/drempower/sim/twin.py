@@ -45,7 +45,7 @@ from .drive import TAU
 from .params import CONFIG
 
 if TYPE_CHECKING:
-    from ..robot.config import RobotSpec
+    from ..robotfile import RobotSpec
     from .bus import SimBus
     from .motor import SimMotor
 

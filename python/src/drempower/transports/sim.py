@@ -10,7 +10,7 @@ from typing import Any
 
 from ..errors import ValidationError
 from ..protocol.ids import Frame
-from ..robot.config import RobotSpec, load_robot
+from ..robotfile import RobotSpec, load_robot
 from ..sim import SimBus, SimRunner
 from .base import QueuedTransport
 from .fds import close_fds, drain, nonblocking_pipe
@@ -245,7 +245,7 @@ class SimTransport(QueuedTransport):
 
 def _robot_bus(robot: str | os.PathLike[str] | RobotSpec, name: str | None, kwargs: dict[str, Any]) -> SimBus:
     """The simulated bus ``name`` of robot ``robot``, coupled to its model when it has one."""
-    from ..robot.sim_twin import simulated_buses
+    from ..sim.robot_buses import simulated_buses
 
     spec = robot if isinstance(robot, RobotSpec) else load_robot(robot)
     if name is None:

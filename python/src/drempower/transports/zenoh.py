@@ -56,9 +56,8 @@ class ZenohTransport(QueuedTransport):
             import zenoh
         except ImportError as exc:
             raise TransportError("interface 'zenoh' needs eclipse-zenoh: pip install 'drempower[bridge]'") from exc
-        from ..bridge.hub import driven_nodes
         from .zenoh_config import open_session
-        from .zenoh_wire import DEFAULT_PREFIX, decode_frames, encode_frames, is_estop, join_origin, keys
+        from .zenoh_wire import DEFAULT_PREFIX, decode_frames, driven_nodes, encode_frames, is_estop, join_origin, keys
 
         prefix = DEFAULT_PREFIX if channel is None else str(channel)
         try:

@@ -22,10 +22,11 @@ A sample holds one or more frames, each ``<u32 LE id | flags> <u8 length> <data>
 from __future__ import annotations
 
 import struct
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 
 from ..errors import ProtocolError
 from ..protocol.ids import Cmd, Frame, SysCmd
+from ..protocol.limits import MOTION_CMDS, START_SYS_CMDS
 
 __all__ = [
     "DEFAULT_PREFIX",
@@ -34,6 +35,7 @@ __all__ = [
     "encode_frames",
     "decode_frames",
     "is_estop",
+    "driven_nodes",
     "join_origin",
     "split_origin",
 ]
@@ -108,3 +110,15 @@ def is_estop(frame: Frame) -> bool:
         and len(frame.data) >= 1
         and frame.data[0] == SysCmd.ESTOP
     )
+
+
+def driven_nodes(frames: Sequence[Frame]) -> set[int]:
+    """Motors (0 = every motor) that these frames set moving: motion commands, presets and starts."""
+    nodes = set()
+    for f in frames:
+        if f.is_extended or f.arbitration_id > 0x7FF:
+            continue
+        node, cmd = f.arbitration_id >> 5, f.arbitration_id & 0x1F
+        if cmd in MOTION_CMDS or (cmd == Cmd.SYSTEM and f.data[:1] and f.data[0] in START_SYS_CMDS):
+            nodes.add(node)
+    return nodes

@@ -1,0 +1,386 @@
+"""The robot file: buses and the joints on them, read from a TOML file (the robot layer, the simulator
+and the transports read it; :mod:`drempower.robot.config` names the same objects).
+
+::
+
+    [buses.left]
+    interface = "sim"          # any interface open_bus takes, with its options
+    [buses.right]
+    interface = "socketcan"
+    channel = "can1"
+    [joints.shoulder]
+    bus = "left"
+    id = 1
+    [joints.elbow]
+    bus = "right"
+    id = 1
+    gear = -1.0                # motor output turns per joint turn (sign: direction)
+    offset = 0.5               # joint position (rad) when the motor reads 0 deg
+    limits = { position = [-1.5, 1.5], speed = 2.0, torque = 5.0, accel = 10.0, max_step = 0.2 }
+    on_timeout = "hold"        # when its controller is gone: "hold" (default) or "idle"
+
+``limits`` are soft limits at the joint (rad, rad/s, Nm, rad/s^2, rad; each optional):
+a command beyond one is refused before any frame, naming the file and the joint
+(see :mod:`drempower.client.gate`). ``on_timeout`` is what the command watchdog
+(:mod:`drempower.client.watchdog`) does to the joint when its controller is gone.
+
+Every key of a bus entry but ``interface`` goes to :func:`drempower.open_bus`
+(``channel``, ``bitrate``, ``host``, ``port``, ``timeout``, ``time_scale``...).
+A ``"sim"`` bus simulates the motors of its joints.
+
+A robot file may name a physics model (MJCF, or URDF through MuJoCo's import;
+the path is relative to the robot file): its simulated motors then drive the
+model's joints (see :mod:`drempower.sim.twin`)::
+
+    [model]
+    file = "arm.xml"
+    [joints.shoulder]
+    bus = "left"
+    id = 1
+    model_joint = "shoulder"   # the model's joint (default: the joint's name)
+    friction = "model"         # only the model's damping and friction act (default "motor": both)
+    [joints.shoulder.sim_params]   # a simulated motor's configuration (its gains tuned for the arm)
+    "axis0.controller.config.pos_gain" = 20.0
+"""
+
+from __future__ import annotations
+
+import math
+import os
+import re
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from .errors import ConfigError
+from .protocol.limits import MAX_NODE, is_motor
+from .protocol.parameters import parameter
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib  # type: ignore[import-not-found, no-redef, unused-ignore]
+
+__all__ = [
+    "bus_options",
+    "BusSpec",
+    "JointSpec",
+    "ModelSpec",
+    "RobotSpec",
+    "load_robot",
+    "parse_robot",
+    "JOINT_NAME",
+    "FRICTIONS",
+]
+
+JOINT_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
+"""What a joint or bus name looks like: it starts with a letter or ``_``, so it never reads as a motor id."""
+_JOINT_KEYS = frozenset(("bus", "id", "gear", "offset"))
+# the safety keys of a joint: soft limits and the watchdog's action
+_SAFETY_KEYS = frozenset(("limits", "on_timeout"))
+JOINT_LIMITS = {"position": "rad", "speed": "rad/s", "torque": "Nm", "accel": "rad/s^2", "max_step": "rad"}
+"""The soft limits a joint can have, in joint units."""
+ON_TIMEOUT = ("hold", "idle")
+"""What the watchdog may do to a joint whose controller is gone; the first is a joint's default."""
+
+
+@dataclass(frozen=True)
+class BusSpec:
+    """One bus: its name, ``interface`` and the other :func:`~drempower.open_bus` options."""
+
+    name: str
+    interface: str
+    options: Mapping[str, Any] = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
+class JointSpec:
+    """One joint: motor ``id`` on bus ``bus``; ``gear`` motor turns per joint turn, ``offset`` rad."""
+
+    name: str
+    bus: str
+    id: int
+    gear: float = 1.0
+    offset: float = 0.0
+    model_joint: str | None = None
+    """The physics model's joint this joint is (None: the joint's own name)."""
+    friction: str = "motor"
+    """``"motor"``: the motor's friction and rotor inertia act besides the model's; ``"model"``: only the model's."""
+    sim_params: Mapping[str, float] = field(default_factory=dict)
+    """Parameters (by name) a simulated motor of this joint starts with when it has no saved configuration."""
+    limits: Mapping[str, Any] = field(default_factory=dict)
+    """Soft limits in joint units (:data:`JOINT_LIMITS`): ``position`` (low, high) rad, the others magnitudes."""
+    on_timeout: str = ON_TIMEOUT[0]
+    """What the command watchdog does when the joint's controller is gone: ``hold`` or ``idle``."""
+    identified: Mapping[str, float] | None = None
+    """The joint's identified ``inertia`` kg m^2, ``viscous`` Nm s/rad, ``coulomb`` Nm (``drempower identify
+    --write``): the twin's joint has them in place of the model's and the motor's."""
+
+
+@dataclass(frozen=True)
+class RobotSpec:
+    """Buses and joints, in the order of the file; ``source`` names where they came from;
+    ``model`` the physics model of the robot, if the file names one."""
+
+    buses: Mapping[str, BusSpec]
+    joints: Mapping[str, JointSpec]
+    source: str = "robot"
+    model: ModelSpec | None = None
+    ros2_control: Mapping[str, Any] = field(default_factory=dict)
+    """The bridge's ros2_control settings (``[ros2_control]``: :data:`ROS2_CONTROL_KEYS`)."""
+
+    def joints_on(self, bus: str) -> list[JointSpec]:
+        """The joints of bus ``bus``, in file order."""
+        return [j for j in self.joints.values() if j.bus == bus]
+
+    def on_timeout(self, bus: str) -> dict[int, str]:
+        """``{motor id: "hold"|"idle"}`` of bus ``bus``'s joints, for its command watchdog
+        (:class:`~drempower.client.watchdog.Watchdog`)."""
+        return {j.id: j.on_timeout for j in self.joints_on(bus)}
+
+    def open_options(self, bus: str) -> dict[str, Any]:
+        """The :func:`~drempower.open_bus` keyword arguments of bus ``bus`` (a sim bus gets its joints' ids;
+        with a model, the robot and the bus's name, to simulate its joints on the model)."""
+        spec = self.buses[bus]
+        kw: dict[str, Any] = {"interface": spec.interface, **spec.options}
+        if spec.interface == "sim" and self.model is not None:
+            kw.update(robot=self, robot_bus=bus)
+        elif spec.interface == "sim":
+            kw["motors"] = sorted(j.id for j in self.joints_on(bus))
+        return kw
+
+
+def _name(kind: str, name: str, where: str) -> str:
+    if not JOINT_NAME.match(name):
+        raise ConfigError(
+            f"{where}: {kind} name {name!r}: use letters, digits, '_', '.' or '-', starting with a letter or '_'"
+        )
+    return name
+
+
+def _table(value: object, where: str) -> Mapping[str, Any]:
+    if not isinstance(value, Mapping):
+        raise ConfigError(f"{where}: expected a table, got {value!r}")
+    return value
+
+
+def _number(value: object, where: str, *, nonzero: bool = False) -> float:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
+        raise ConfigError(f"{where}={value!r}: expected a finite number")
+    if nonzero and value == 0:
+        raise ConfigError(f"{where}=0: a gear of 0 would make every joint position the same; use e.g. 1.0 or -1.0")
+    return float(value)
+
+
+def _limits(value: object, where: str) -> dict[str, Any]:
+    """A joint's ``limits`` table, checked: known names, numbers, position low <= high, magnitudes > 0."""
+    table = _table(value, where)
+    out: dict[str, Any] = {}
+    for name, v in table.items():
+        unit = JOINT_LIMITS.get(name)
+        if unit is None:
+            raise ConfigError(f"{where}: unknown limit {name!r}: the limits are {', '.join(JOINT_LIMITS)}")
+        if name == "position":
+            if not isinstance(v, list) or len(v) != 2:
+                raise ConfigError(f"{where}.position={v!r}: expected [low, high] in rad")
+            low, high = _number(v[0], f"{where}.position"), _number(v[1], f"{where}.position")
+            if low > high:
+                raise ConfigError(f"{where}.position={v!r}: low is above high")
+            out[name] = (low, high)
+        else:
+            x = _number(v, f"{where}.{name}")
+            if x <= 0:
+                raise ConfigError(f"{where}.{name}={v!r}: a limit is > 0 ({unit}, by magnitude)")
+            out[name] = x
+    return out
+
+
+def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None = None) -> RobotSpec:
+    """Check a robot description (the TOML file as a dict); raises :class:`ConfigError` naming the entry and key.
+
+    ``base``: the folder a model's relative path starts from (default: the current one)."""
+    unknown = sorted(set(data) - {"buses", "joints", "model", "ros2_control"})
+    if unknown:
+        raise ConfigError(
+            f"{source}: unknown section {unknown[0]!r}: "
+            "a robot file has [buses.NAME], [joints.NAME], [model] and [ros2_control]"
+        )
+    buses: dict[str, BusSpec] = {}
+    for name, entry in _table(data.get("buses", {}), f"{source}: buses").items():
+        where = f"{source}: [buses.{name}]"
+        _name("bus", name, where)
+        opts = dict(_table(entry, where))
+        interface = opts.pop("interface", None)
+        if not isinstance(interface, str) or not interface:
+            raise ConfigError(f"{where}: interface={interface!r}: give the interface, e.g. 'sim', 'socketcan'")
+        if interface == "sim" and "motors" in opts:
+            raise ConfigError(f"{where}: motors: a sim bus simulates the motors of its joints; leave motors out")
+        buses[name] = BusSpec(name, interface, opts)
+    if not buses:
+        raise ConfigError(f"{source}: no [buses.NAME] entry: a robot needs at least one bus")
+    joints: dict[str, JointSpec] = {}
+    taken: dict[tuple[str, int], str] = {}
+    for name, entry in _table(data.get("joints", {}), f"{source}: joints").items():
+        where = f"{source}: [joints.{name}]"
+        _name("joint", name, where)
+        j = _table(entry, where)
+        extra = sorted(set(j) - _JOINT_KEYS - _MODEL_JOINT_KEYS - _SAFETY_KEYS)
+        if extra:
+            raise ConfigError(
+                f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear, offset, limits, on_timeout, "
+                "model_joint, friction, sim_params and identified"
+            )
+        bus = j.get("bus")
+        if bus not in buses:
+            raise ConfigError(f"{where}: bus={bus!r}: not one of the buses ({', '.join(buses)})")
+        ident = j.get("id")
+        if not is_motor(ident):
+            raise ConfigError(f"{where}: id={ident!r}: motor ids are 1..{MAX_NODE}")
+        other = taken.get((bus, ident))
+        if other is not None:
+            raise ConfigError(f"{where}: id={ident}: joint {other!r} already is motor {ident} on bus {bus!r}")
+        taken[(bus, ident)] = name
+        gear = _number(j.get("gear", 1.0), f"{where}: gear", nonzero=True)
+        offset = _number(j.get("offset", 0.0), f"{where}: offset")
+        limits = _limits(j.get("limits", {}), f"{where}: limits")
+        on_timeout = j.get("on_timeout", ON_TIMEOUT[0])
+        if on_timeout not in ON_TIMEOUT:
+            raise ConfigError(f"{where}: on_timeout={on_timeout!r}: expected 'hold' or 'idle'")
+        joints[name] = JointSpec(
+            name, bus, ident, gear, offset, limits=limits, on_timeout=on_timeout, **_model_joint(j, where)
+        )
+    if not joints:
+        raise ConfigError(f"{source}: no [joints.NAME] entry: a robot needs at least one joint")
+    empty = [b for b in buses if not any(j.bus == b for j in joints.values())]
+    if empty:
+        raise ConfigError(f"{source}: [buses.{empty[0]}] carries no joint: give it one or remove it")
+    model = _model(data["model"], source, base) if "model" in data else None
+    ros2 = _ros2_control(data.get("ros2_control", {}), f"{source}: [ros2_control]")
+    return RobotSpec(buses, joints, source, model, ros2)
+
+
+ROS2_CONTROL_KEYS = {
+    "joint_commands_topic": str,
+    "joint_states_topic": str,
+    "command_interfaces": list,
+    "action": str,
+    "kp": float,
+    "kd": float,
+}
+"""The ``[ros2_control]`` keys: TopicBasedSystem's topics, the joints' command interfaces, the
+FollowJointTrajectory action's name, impedance gains (see ``drempower bridge``)."""
+
+
+def _ros2_control(value: object, where: str) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, v in _table(value, where).items():
+        kind = ROS2_CONTROL_KEYS.get(key)
+        if kind is None:
+            raise ConfigError(f"{where}: unknown key {key!r}: the keys are {', '.join(ROS2_CONTROL_KEYS)}")
+        if kind is float:
+            out[key] = _number(v, f"{where}: {key}")
+        elif kind is list and not (isinstance(v, list) and all(isinstance(x, str) for x in v)):
+            raise ConfigError(f'{where}: {key}={v!r}: expected a list of names, e.g. ["position", "velocity"]')
+        elif kind is str and not (isinstance(v, str) and v.strip()):
+            raise ConfigError(f"{where}: {key}={v!r}: expected a ROS 2 name")
+        else:
+            out[key] = v
+    return out
+
+
+def load_robot(path: str | os.PathLike[str]) -> RobotSpec:
+    """Read and check the robot file ``path``; raises :class:`ConfigError` naming the file and what is wrong."""
+    where = os.fspath(path)
+    try:
+        with open(where, "rb") as f:
+            data = tomllib.load(f)
+    except OSError as exc:
+        raise ConfigError(f"cannot read robot file {where}: {exc.strerror or exc}") from exc
+    except tomllib.TOMLDecodeError as exc:
+        raise ConfigError(f"{where}: not valid TOML: {exc}") from exc
+    return parse_robot(data, where, os.path.dirname(os.path.abspath(where)))
+
+
+def bus_options(spec: RobotSpec, bus: str, overrides: Mapping[str, Any]) -> dict[str, Any]:
+    """``open_bus`` arguments of ``bus``: the file's, then ``overrides`` (None values skipped);
+    ``sim`` options go to sim buses only."""
+    kw = spec.open_options(bus)
+    for key, value in overrides.items():
+        if key == "sim":
+            if kw["interface"] == "sim" and value:
+                kw.update(value)
+        elif value is not None:
+            kw[key] = value
+    return kw
+
+
+# ---------------------------------------------------------------------- the physics model
+
+FRICTIONS = ("motor", "model")
+"""A joint's ``friction``: the motor's own friction and rotor inertia act too, or only the model's."""
+_MODEL_JOINT_KEYS = frozenset(("model_joint", "friction", "sim_params", "identified"))
+IDENTIFIED_KEYS = ("inertia", "viscous", "coulomb")
+"""The keys of a joint's ``identified`` table."""
+_MODEL_KEYS = frozenset(("file",))
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """The robot's physics model: ``file`` (absolute path) of an MJCF or URDF model."""
+
+    file: str
+
+
+def _model(value: object, source: str, base: str | None) -> ModelSpec:
+    where = f"{source}: [model]"
+    entry = _table(value, where)
+    extra = sorted(set(entry) - _MODEL_KEYS)
+    if extra:
+        raise ConfigError(f"{where}: unknown key {extra[0]!r}: [model] has file")
+    file = entry.get("file")
+    if not isinstance(file, str) or not file:
+        raise ConfigError(f"{where}: file={file!r}: give the model's MJCF or URDF file, e.g. 'arm.xml'")
+    path = os.path.normpath(os.path.join(base or os.getcwd(), os.path.expanduser(file)))
+    if not os.path.isfile(path):
+        raise ConfigError(f"{where}: file={file!r}: no such file ({path})")
+    return ModelSpec(path)
+
+
+def _model_joint(j: Mapping[str, Any], where: str) -> dict[str, Any]:
+    """A joint entry's ``model_joint``, ``friction`` and ``sim_params`` (JointSpec's keyword arguments)."""
+    model_joint = j.get("model_joint")
+    if model_joint is not None and (not isinstance(model_joint, str) or not model_joint):
+        raise ConfigError(f"{where}: model_joint={model_joint!r}: give the name of a joint of the model")
+    friction = j.get("friction", "motor")
+    if friction not in FRICTIONS:
+        raise ConfigError(f"{where}: friction={friction!r}: one of {', '.join(map(repr, FRICTIONS))}")
+    params: dict[str, float] = {}
+    for key, value in _table(j.get("sim_params", {}), f"{where}: sim_params").items():
+        try:
+            p = parameter(key)
+        except ValueError:
+            raise ConfigError(f"{where}: sim_params: {key!r} is not a parameter name (see drempower params)") from None
+        if not p.writable:
+            raise ConfigError(f"{where}: sim_params: {key!r} is read-only")
+        params[p.name] = _number(value, f"{where}: sim_params: {key}")
+    return {"model_joint": model_joint, "friction": friction, "sim_params": params, "identified": _identified(j, where)}
+
+
+def _identified(j: Mapping[str, Any], where: str) -> dict[str, float] | None:
+    """A joint entry's ``identified`` table (inertia, viscous, coulomb: each a number >= 0), or None."""
+    if "identified" not in j:
+        return None
+    entry = _table(j["identified"], f"{where}: identified")
+    extra = sorted(set(entry) - set(IDENTIFIED_KEYS))
+    if extra:
+        raise ConfigError(f"{where}: identified: unknown key {extra[0]!r}: it has {', '.join(IDENTIFIED_KEYS)}")
+    out: dict[str, float] = {}
+    for key in IDENTIFIED_KEYS:
+        if key not in entry:
+            raise ConfigError(f"{where}: identified: {key} missing (it has {', '.join(IDENTIFIED_KEYS)})")
+        value = _number(entry[key], f"{where}: identified: {key}")
+        if not 0 <= value < math.inf:
+            raise ConfigError(f"{where}: identified: {key}={value!r}: expected a finite number >= 0")
+        out[key] = value
+    return out

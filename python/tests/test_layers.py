@@ -1,0 +1,260 @@
+"""The package is layered: no module imports a module of a higher layer (docs/client.md, "Layers").
+
+Every import counts: at module level, under ``if TYPE_CHECKING:`` (a type in a signature is part of a
+layer's interface) and inside a function (a lazy import is still a dependency at run time). The few
+upward imports the design wants are listed in :data:`ALLOWED`, each with the kinds it may take and why;
+an entry that no longer matches an import fails too, so the list cannot rot.
+"""
+
+from __future__ import annotations
+
+import ast
+from collections.abc import Iterator, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+import drempower
+
+LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("protocol", ("protocol", "errors")),  # the wire format, and the error tree every layer raises
+    ("files", ("robotfile", "naming", "logline", "records")),  # robot files, names, log lines, frame logs
+    ("sim", ("sim",)),  # the simulated motors the sim transport opens
+    ("transports", ("transports",)),
+    ("client", ("client", "actions")),  # the buses and motors; the table of actions the front ends share
+    ("motion", ("motion",)),  # trajectories, following, identification, tuning
+    ("robot", ("robot",)),
+    ("apps", ("cli", "dash", "bridge", "compat", "__main__", "")),  # "": the package's own __init__
+)
+"""Layers from the lowest, each with the top-level modules and packages of ``drempower`` in it. A module
+may import its own layer and the layers below."""
+
+MODULE, TYPE, LAZY = "at module level", "under TYPE_CHECKING", "inside a function"
+
+ALLOWED: dict[tuple[str, str], tuple[frozenset[str], str]] = {
+    **{
+        (f"drempower.client.api_{flavour}", f"drempower.motion.follow_{flavour}"): (
+            frozenset({LAZY}),
+            "bus.follow is a door to the motion layer, opened on its first call",
+        )
+        for flavour in ("async", "sync")
+    },
+    **{
+        (f"drempower.client.api_{flavour}", f"drempower.motion.{module}"): (
+            frozenset({TYPE}),
+            "bus.follow's signature names the trajectory it takes and the report it returns",
+        )
+        for flavour in ("async", "sync")
+        for module in ("plan", "trajectory")
+    },
+    **{
+        (f"drempower.motion.{module}", "drempower.robot"): (
+            frozenset({TYPE}),
+            "the robot hands itself to the routines behind robot.follow, identify, tune...: they name its type",
+        )
+        for module in ("follow_async", "follow_sync", "routines_async", "routines_sync")
+    },
+}
+"""(importer, imported) -> the kinds of import allowed upward, and why."""
+
+
+@dataclass(frozen=True)
+class Import:
+    importer: str
+    imported: str
+    line: int
+    kind: str
+
+
+def layer_of(module: str) -> int:
+    """The index in :data:`LAYERS` of a ``drempower`` module; KeyError for one the table does not place."""
+    parts = module.split(".")
+    top = parts[1] if len(parts) > 1 else ""
+    for k, (_, members) in enumerate(LAYERS):
+        if top in members:
+            return k
+    raise KeyError(module)
+
+
+def _is_type_checking(test: ast.expr) -> bool:
+    return (isinstance(test, ast.Name) and test.id == "TYPE_CHECKING") or (
+        isinstance(test, ast.Attribute) and test.attr == "TYPE_CHECKING"
+    )
+
+
+def imports_of(module: str, source: str, is_package: bool, known: set[str]) -> Iterator[Import]:
+    """Every import of a ``drempower`` module in ``source`` (the module ``module``), with its kind.
+
+    ``from X import name`` names the module ``X.name`` when that is a module of ``known``, else ``X``.
+    """
+    package = module if is_package else module.rpartition(".")[0]
+
+    def target(base: str, names: list[ast.alias]) -> Iterator[str]:
+        for alias in names:
+            sub = f"{base}.{alias.name}"
+            yield sub if sub in known else base
+
+    def walk(node: ast.AST, kind: str) -> Iterator[Import]:
+        for child in ast.iter_child_nodes(node):
+            if isinstance(child, ast.If) and _is_type_checking(child.test) and kind == MODULE:
+                yield from (i for stmt in child.body for i in walk_one(stmt, TYPE))
+                yield from (i for stmt in child.orelse for i in walk_one(stmt, MODULE))
+            else:
+                yield from walk_one(child, kind)
+
+    def walk_one(node: ast.AST, kind: str) -> Iterator[Import]:
+        if isinstance(node, ast.Import):
+            for alias in node.names:
+                if alias.name == "drempower" or alias.name.startswith("drempower."):
+                    yield Import(module, alias.name, node.lineno, kind)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                up = package.split(".")
+                base = ".".join(up[: len(up) - (node.level - 1)])
+                if node.module:
+                    base = f"{base}.{node.module}"
+            else:
+                base = node.module or ""
+            if base == "drempower" or base.startswith("drempower."):
+                for name in target(base, node.names):
+                    yield Import(module, name, node.lineno, kind)
+        elif isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef, ast.Lambda)):
+            yield from walk(node, LAZY)
+        else:
+            yield from walk(node, kind)
+
+    yield from walk(ast.parse(source), MODULE)
+
+
+def violations(sources: Mapping[str, tuple[str, bool]]) -> tuple[list[str], set[tuple[str, str]]]:
+    """The upward imports among ``sources`` (module -> (source, is_package)) that :data:`ALLOWED` does not
+    allow, as messages; and the allowed pairs that were used."""
+    known = set(sources)
+    found: list[str] = []
+    used: set[tuple[str, str]] = set()
+    for module, (source, is_package) in sorted(sources.items()):
+        for imp in dict.fromkeys(imports_of(module, source, is_package, known)):  # one per line and kind
+            low, high = layer_of(imp.importer), layer_of(imp.imported)
+            if high <= low:
+                continue
+            allowed = ALLOWED.get((imp.importer, imp.imported))
+            if allowed is not None and imp.kind in allowed[0]:
+                used.add((imp.importer, imp.imported))
+                continue
+            found.append(
+                f"{imp.importer} (layer {LAYERS[low][0]}) imports {imp.imported} (layer {LAYERS[high][0]}) "
+                f"{imp.kind}, line {imp.line}"
+            )
+    return found, used
+
+
+def package_sources() -> dict[str, tuple[str, bool]]:
+    root = Path(drempower.__file__).parent
+    out = {}
+    for path in sorted(root.rglob("*.py")):
+        parts = ["drempower", *path.relative_to(root).with_suffix("").parts]
+        is_package = parts[-1] == "__init__"
+        if is_package:
+            parts.pop()
+        out[".".join(parts)] = (path.read_text(encoding="utf-8"), is_package)
+    return out
+
+
+def test_every_module_has_a_layer() -> None:
+    sources = package_sources()
+    assert len(sources) > 100
+    unplaced = []
+    for module in sources:
+        try:
+            layer_of(module)
+        except KeyError:
+            unplaced.append(module)
+    assert not unplaced, f"modules no layer of LAYERS holds (add their package to the table): {unplaced}"
+
+
+def test_no_module_imports_a_higher_layer() -> None:
+    found, used = violations(package_sources())
+    assert not found, "lower layers import higher ones:\n" + "\n".join(found)
+    assert used == set(ALLOWED), f"ALLOWED entries no import needs any more: {sorted(set(ALLOWED) - used)}"
+
+
+def _fake(modules: Mapping[str, str], packages: tuple[str, ...] = ()) -> dict[str, tuple[str, bool]]:
+    """Synthetic sources: module -> source, the ``packages`` among them being ``__init__`` modules."""
+    return {name: (source, name in packages) for name, source in modules.items()}
+
+
+def test_an_upward_import_is_reported_naming_both_modules_and_layers() -> None:
+    found, _ = violations(
+        _fake({"drempower.transports.fake": "from ..robot.config import RobotSpec\n", "drempower.robot.config": ""})
+    )
+    assert found == [
+        "drempower.transports.fake (layer transports) imports drempower.robot.config (layer robot) "
+        "at module level, line 1"
+    ]
+
+
+def test_every_form_of_import_counts() -> None:
+    sources = _fake(
+        {
+            "drempower.sim.a": "from .. import bridge\n",  # a package, through `from .. import`
+            "drempower.sim.b": "import drempower.client.bus as bus\n",
+            "drempower.sim.c": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from ..motion import plan\n",
+            "drempower.sim.d": "def f():\n    from drempower.robot import Robot\n    return Robot\n",
+            "drempower.sim.e": "class C:\n    async def m(self):\n        from ..dash import hub\n",
+            "drempower.sim.deep": "from ...transports import base\n",  # a package: `..` is drempower.sim
+            "drempower.sim.deep.f": "from . import g\nfrom ... import compat\n",
+            "drempower.sim.deep.g": "",
+            "drempower.bridge": "",
+            "drempower.client.bus": "",
+            "drempower.motion.plan": "",
+            "drempower.dash.hub": "",
+            "drempower.transports.base": "",
+            "drempower.compat": "",
+        },
+        packages=("drempower.sim.deep", "drempower.bridge"),
+    )
+    found, _ = violations(sources)
+    assert [m.split(" ")[0] for m in found] == [
+        f"drempower.sim.{m}" for m in ("a", "b", "c", "d", "deep", "deep.f", "e")
+    ]
+    assert "imports drempower.bridge (layer apps) at module level, line 1" in found[0]
+    assert "drempower.client.bus (layer client)" in found[1]
+    assert "drempower.motion.plan (layer motion) under TYPE_CHECKING, line 3" in found[2]
+    assert "drempower.robot (layer robot) inside a function, line 2" in found[3]
+    assert "drempower.transports.base (layer transports)" in found[4]
+    assert "drempower.compat (layer apps)" in found[5]
+    assert "drempower.dash.hub (layer apps) inside a function, line 3" in found[6]
+
+
+def test_an_allowed_pair_counts_only_in_its_kind() -> None:
+    importer, imported = "drempower.client.api_async", "drempower.motion.follow_async"
+    lazy = "def follow():\n    from ..motion.follow_async import follow_bus\n"
+    assert violations(_fake({importer: lazy, imported: ""})) == ([], {(importer, imported)})
+    eager = "from ..motion.follow_async import follow_bus\n"
+    found, used = violations(_fake({importer: eager, imported: ""}))
+    assert len(found) == 1 and "at module level" in found[0] and used == set()
+
+
+def test_same_and_lower_layers_are_fine() -> None:
+    sources = _fake(
+        {
+            "drempower.client.x": "from . import y\nfrom ..transports import base\nfrom ..errors import Error\n",
+            "drempower.client.y": "from ..protocol.ids import Frame\n",
+            "drempower.transports.base": "",
+            "drempower.errors": "",
+            "drempower.protocol.ids": "",
+            "drempower.actions": "from .client import x\n",
+            "drempower.robot": "from ..motion import plan\n",
+            "drempower.motion.plan": "",
+        },
+        packages=("drempower.robot",),
+    )
+    assert violations(sources) == ([], set())
+
+
+def test_a_module_outside_the_table_has_no_layer() -> None:
+    with pytest.raises(KeyError):
+        layer_of("drempower.newthing")
+    assert layer_of("drempower") == layer_of("drempower.cli.monitor") == len(LAYERS) - 1
+    assert layer_of("drempower.errors") == layer_of("drempower.protocol.ids") == 0
