@@ -236,14 +236,19 @@ class _OneRequest:
         self.op = op
         msg = self.msg = effect.messages[0]
         self.frame = msg.encode()
-        self.key = request_key(msg)
         timeout = effect.timeout
         self.timeout = runner.timeout if timeout is None else timeout
         if not self.timeout > 0:
             raise ValidationError(f"timeout={timeout!r}: must be > 0 s")
         self.tries = 0
-        dtype = request_dtype(msg)
-        self.waiter = Waiter((self.key,), self._answered, None if dtype is None else (dtype,))
+        if msg.__class__ is FastRead:  # the commonest: its answer is a state frame, with no data type to echo
+            key = self.key = msg.node << 16
+            dtypes = None
+        else:
+            key = self.key = request_key(msg)
+            dtype = request_dtype(msg)
+            dtypes = None if dtype is None else (dtype,)
+        self.waiter = Waiter((key,), self._answered, dtypes)
         self.timer = 0
 
     def start(self) -> None:
