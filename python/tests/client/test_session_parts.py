@@ -3,6 +3,8 @@ outbox's bus time, the zero-reply grace and the held start's state machine."""
 
 from __future__ import annotations
 
+import functools
+
 import pytest
 
 from drempower.client.errors import TimeoutError
@@ -44,7 +46,7 @@ def test_timers_fire_in_due_order_and_not_before_their_time() -> None:
     timers = Timers()
     fired: list[str] = []
     for due, name in ((0.3, "c"), (0.1, "a"), (0.2, "b"), (0.2, "b2")):
-        timers.add(due, lambda name=name: fired.append(name))
+        timers.add(due, functools.partial(fired.append, name))
     assert timers.next_due() == 0.1
     timers.fire_due(0.05)
     assert fired == []
@@ -196,6 +198,11 @@ def test_a_held_zero_reply_answers_its_request_when_its_grace_ends() -> None:
 # ---------------------------------------------------------------------- the held start's state machine
 
 
+def _state(s: BusSession) -> HoldState | None:
+    """The held start's state (None: nothing held)."""
+    return None if s.hold.current is None else s.hold.current.state
+
+
 def _held(tx: str) -> tuple[BusSession, list[float], list[BaseException]]:
     """A session whose preset was handed over at 1.0 s on a 1 Mbit/s bus, and a start held behind it."""
     s = BusSession(tx=tx, timeout=0.2, bitrate=1_000_000, tx_latency=0.0, now=1.0)  # type: ignore[arg-type]
@@ -209,18 +216,17 @@ def _held(tx: str) -> tuple[BusSession, list[float], list[BaseException]]:
 
 def test_a_confirming_hold_follows_the_transport_then_the_bus_time() -> None:
     s, released, failed = _held("confirmed")
-    assert s.hold.current is not None and s.hold.current.state is HoldState.CONFIRMING
-    assert s.awaiting_confirmation
+    assert (_state(s), s.awaiting_confirmation) == (HoldState.CONFIRMING, True)
     s.hold.event(HoldEvent.NOT_SENT)
     s.hold.event(HoldEvent.ANSWERED)  # not a transport's word: ignored
-    assert s.hold.current.state is HoldState.CONFIRMING and released == []
+    assert _state(s) is HoldState.CONFIRMING and released == []
     s.hold.event(HoldEvent.UNKNOWN)  # the transport cannot tell: the bus time decides
-    assert s.hold.current.state is HoldState.TIMED and not s.awaiting_confirmation
+    assert (_state(s), s.awaiting_confirmation) == (HoldState.TIMED, False)
     assert s.next_deadline() == pytest.approx(1.0 + 135e-6)
     s.advance(1.0 + 100e-6)
     assert released == []
     s.advance(1.0 + 135e-6)
-    assert released == [pytest.approx(1.0 + 135e-6)] and s.hold.current is None and failed == []
+    assert released == [pytest.approx(1.0 + 135e-6)] and _state(s) is None and failed == []
 
 
 def test_a_confirming_hold_fails_when_no_word_comes_in_time() -> None:
@@ -238,7 +244,7 @@ def test_a_probing_hold_ignores_the_transport_and_goes_when_its_read_is_answered
     assert probe == ReadParam(1, AXIS0_CONFIG_CAN_NODE_ID, DataType.U32).encode()
     for event in (HoldEvent.SENT, HoldEvent.UNKNOWN, HoldEvent.NOT_SENT):
         s.hold.event(event)
-        assert s.hold.current is not None and s.hold.current.state is HoldState.PROBING
+        assert _state(s) is HoldState.PROBING
     assert released == []
     s.receive(ParamValue(1, AXIS0_CONFIG_CAN_NODE_ID, DataType.U32, 1).encode(), 1.001)
     assert released == [1.001] and s.hold.current is None and failed == []
