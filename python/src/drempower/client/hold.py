@@ -96,7 +96,7 @@ class _Hold:
         self.state = state
         self.release = release
         self.fail = fail
-        """Fails the start (None: its wait is over); a probe's retries its reads first."""
+        """Fails the start (None: its wait is over; with a probe, its reads are sent again first)."""
         self.due = due
 
 
@@ -107,10 +107,10 @@ class StartHold:
     added to the bus time of a ``timed`` hold.
     """
 
-    __slots__ = ("current", "s", "tx", "tx_latency")
+    __slots__ = ("current", "session", "tx", "tx_latency")
 
     def __init__(self, session: BusSession, tx: TxOrder, tx_latency: float) -> None:
-        self.s = session
+        self.session = session
         self.tx: TxOrder = tx
         self.tx_latency = tx_latency
         self.current: _Hold | None = None
@@ -121,7 +121,7 @@ class StartHold:
         tx = self.tx
         if tx == "in_order":
             return False
-        s = self.s
+        s = self.session
         wait = max(s.runner.timeout, _MIN_CONFIRM)
 
         def ready() -> None:
@@ -151,7 +151,7 @@ class StartHold:
     def check(self) -> None:
         """Release the held start if its presets are on the wire; fail it if its wait is over."""
         hold = self.current
-        s = self.s
+        s = self.session
         if hold is None or s.outbox.frames:
             return
         now = s.now
@@ -167,15 +167,15 @@ class StartHold:
     def next_due(self) -> float | None:
         """When (s) :meth:`check` has something to do, or None (nothing held, or frames still to hand over)."""
         hold = self.current
-        if hold is None or self.s.outbox.frames:
+        if hold is None or self.session.outbox.frames:
             return None
-        return self.s.outbox.wire_free + self.tx_latency if hold.state is _S.TIMED else hold.due
+        return self.session.outbox.wire_free + self.tx_latency if hold.state is _S.TIMED else hold.due
 
     @property
     def awaiting_confirmation(self) -> bool:
         """True when the held start waits for the transport's word and every frame is handed over."""
         hold = self.current
-        return hold is not None and hold.state is _S.CONFIRMING and not self.s.outbox.frames
+        return hold is not None and hold.state is _S.CONFIRMING and not self.session.outbox.frames
 
 
 class _Probe:
@@ -199,7 +199,7 @@ class _Probe:
 
     def ask(self, which: list[int]) -> None:
         reads = [ReadParam(n, AXIS0_CONFIG_CAN_NODE_ID, DataType.U32) for n in which]  # never 0
-        s = self.part.s
+        s = self.part.session
         w = self.waiter = Waiter([request_key(r) for r in reads], self.answered, [DataType.U32] * len(reads))
         s.runner.matcher.register(w)
         s.outbox.frames.extend(r.encode() for r in reads)
@@ -209,7 +209,7 @@ class _Probe:
             self.part.event(HoldEvent.ANSWERED)
 
     def failed(self, error: BaseException | None) -> None:
-        s = self.part.s
+        s = self.part.session
         w = self.waiter
         s.runner.matcher.cancel(w)
         missing = [w.keys[i] >> 16 for i in w.missing()]

@@ -37,17 +37,17 @@ _new_state = tuple.__new__
 class Inbox:
     """Takes received frames (:meth:`receive`) and keeps the operations waiting for a motor's next state."""
 
-    __slots__ = ("s", "waits")
+    __slots__ = ("session", "waits")
 
     def __init__(self, session: BusSession) -> None:
-        self.s = session
+        self.session = session
         self.waits: dict[int, list[tuple[Operation[Any], float]]] = {}
         """Per motor, the operations waiting for a state newer than a time (s)."""
 
     def await_state(self, opn: Operation[Any], node: int, since: float, timeout: float) -> Any:
         """``opn`` waits for a state of ``node`` newer than ``since`` (s): the cached one if it is, else
         :data:`~drempower.client.operation.WAIT` (it resumes with the state, or TimeoutError after ``timeout`` s)."""
-        s = self.s
+        s = self.session
         st = s.known.states.get(node)
         if st is not None and st.timestamp > since:
             return st
@@ -77,7 +77,7 @@ class Inbox:
 
     def receive(self, frame: Frame, now: float) -> MotorState | Frame | None:
         """Take ``frame``, received at ``now`` (s); see :meth:`~drempower.client.session.BusSession.receive`."""
-        s = self.s
+        s = self.session
         if now > s.now:
             s.now = now
         else:

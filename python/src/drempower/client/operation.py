@@ -61,10 +61,10 @@ class Operation(Generic[T]):
 class Operations:
     """The running operations by id, and the generators run until they wait."""
 
-    __slots__ = ("running", "s")
+    __slots__ = ("running", "session")
 
     def __init__(self, session: BusSession) -> None:
-        self.s = session
+        self.session = session
         self.running: dict[int, Operation[Any]] = {}
 
     def add(self, opn: Operation[T]) -> Operation[T]:
@@ -119,7 +119,7 @@ class Operations:
 
     def _begin(self, opn: Operation[Any], effect: Effect) -> Any:
         """Start ``effect`` for ``opn`` in the part that runs it: its immediate result, or :data:`WAIT`."""
-        s = self.s
+        s = self.session
         if s.closed_error is not None:
             raise s.closed_error
         if isinstance(effect, Request):

@@ -52,10 +52,10 @@ class RequestRunner:
     ``retries`` how often a read whose reply did not come is sent again; ``check_request``, when set,
     is called with the messages of every request before it is sent and may raise to refuse it."""
 
-    __slots__ = ("check_request", "matcher", "retries", "s", "timeout")
+    __slots__ = ("check_request", "matcher", "retries", "session", "timeout")
 
     def __init__(self, session: BusSession, timeout: float, retries: int) -> None:
-        self.s = session
+        self.session = session
         self.matcher = Matcher()
         self.timeout = timeout
         self.retries = retries
@@ -114,9 +114,9 @@ class _Exchange:
         "missing_ok",
         "msgs",
         "op",
-        "r",
         "results",
         "retries",
+        "runner",
         "timeout",
         "timer",
         "waiter",
@@ -124,7 +124,7 @@ class _Exchange:
     )
 
     def __init__(self, runner: RequestRunner, op: Operation[Any], effect: Request) -> None:
-        self.r = runner
+        self.runner = runner
         self.op = op
         msgs = self.msgs = effect.messages
         self.frames = [m.encode() for m in msgs]
@@ -168,30 +168,30 @@ class _Exchange:
             frames = [self.frames[i] for i in batch]
         self._batch = batch
         keys = self.keys
-        s = self.r.s
+        s = self.runner.session
         w = self.waiter = Waiter([keys[i] for i in batch], self._answered, dtypes)
-        self.r.matcher.register(w)
+        self.runner.matcher.register(w)
         s.outbox.frames.extend(frames)
         self.timer = s.timers.add(s.now + self.timeout, self._expire)
 
     def cancel(self) -> None:
-        self.r.s.timers.drop(self.timer)
+        self.runner.session.timers.drop(self.timer)
         if self.waiter is not None:
-            self.r.matcher.cancel(self.waiter)
+            self.runner.matcher.cancel(self.waiter)
 
     def _answered(self) -> None:
-        self.r.s.timers.drop(self.timer)
+        self.runner.session.timers.drop(self.timer)
         self._collect()
 
     def _expire(self) -> None:
         w = self.waiter
         assert w is not None
-        grace = self.r.s.grace
+        grace = self.runner.session.grace
         if grace.held:
             grace.settle(0.0, [(w.keys[i] >> 16, w.keys[i] & 0xFFFF) for i in w.missing()])
             if not w.remaining:
                 return  # the held-back replies answered it (and _answered ran)
-        self.r.matcher.cancel(w)
+        self.runner.matcher.cancel(w)
         self._collect()
 
     def _collect(self) -> None:
@@ -207,7 +207,7 @@ class _Exchange:
                 if tries[i] > self.retries:
                     failed.append(i)
         self._pending = [i for i in self._pending if results[i] is None and tries[i] <= self.retries]
-        s = self.r.s
+        s = self.runner.session
         if (failed and not self.missing_ok) or not self._pending:
             if failed and not self.missing_ok:
                 nodes = sorted({self.keys[i] >> 16 for i in failed})
@@ -229,10 +229,10 @@ class _OneRequest:
     (matching on every echoed field, retries, the held-back zero replies at expiry) for the
     commonest call, without its bookkeeping for many requests."""
 
-    __slots__ = ("frame", "key", "msg", "op", "r", "timeout", "timer", "tries", "waiter")
+    __slots__ = ("frame", "key", "msg", "op", "runner", "timeout", "timer", "tries", "waiter")
 
     def __init__(self, runner: RequestRunner, op: Operation[Any], effect: Request) -> None:
-        self.r = runner
+        self.runner = runner
         self.op = op
         msg = self.msg = effect.messages[0]
         self.frame = msg.encode()
@@ -252,8 +252,8 @@ class _OneRequest:
         self.timer = 0
 
     def start(self) -> None:
-        r = self.r
-        s = r.s
+        r = self.runner
+        s = r.session
         w = self.waiter
         w.results[0] = None
         w.remaining = 1
@@ -262,12 +262,12 @@ class _OneRequest:
         self.timer = s.timers.add(s.now + self.timeout, self._expire)
 
     def cancel(self) -> None:
-        r = self.r
-        r.s.timers.drop(self.timer)
+        r = self.runner
+        r.session.timers.drop(self.timer)
         r.matcher.cancel(self.waiter)
 
     def _answered(self) -> None:
-        s = self.r.s
+        s = self.runner.session
         s.timers.drop(self.timer)
         r = self.waiter.results[0]
         node = getattr(r, "node", 0)
@@ -276,8 +276,8 @@ class _OneRequest:
         s.operations.finish(self.op, r, None)
 
     def _expire(self) -> None:
-        r = self.r
-        s = r.s
+        r = self.runner
+        s = r.session
         key = self.key
         grace = s.grace
         if grace.held:
@@ -300,7 +300,7 @@ class _CycleRun:
     waiting for the presets it starts. Answered, a cycle's frames are known to be on the wire, so a
     start sent after it does not wait for its presets."""
 
-    __slots__ = ("last", "nodes", "op", "r", "timeout", "timer", "waiter")
+    __slots__ = ("last", "nodes", "op", "runner", "timeout", "timer", "waiter")
 
     def __init__(self, runner: RequestRunner, op: Operation[Any], cycle: Cycle[Any]) -> None:
         """Queue the cycle's frames, expect its states and start its timer."""
@@ -308,12 +308,12 @@ class _CycleRun:
         msgs, frames = cycle.messages, cycle.frames
         if len(msgs) != len(frames):
             raise ValidationError(f"a cycle of {len(msgs)} messages came with {len(frames)} frames")
-        self.r = runner
+        self.runner = runner
         self.op = op
         self.timeout = timeout
         nodes = self.nodes = cycle.nodes
         w = self.waiter = Waiter([n << 16 for n in nodes], self._answered)
-        s = runner.s
+        s = runner.session
         seq, note, now = s.sequencer, s.known.note, s.now
         out = s.outbox.frames
         for m, f in zip(msgs, frames, strict=True):
@@ -334,12 +334,12 @@ class _CycleRun:
         self.timer = s.timers.add(now + timeout, self._expire)
 
     def cancel(self) -> None:
-        r = self.r
-        r.s.timers.drop(self.timer)
+        r = self.runner
+        r.session.timers.drop(self.timer)
         r.matcher.cancel(self.waiter)
 
     def _answered(self) -> None:
-        s = self.r.s
+        s = self.runner.session
         s.timers.drop(self.timer)
         nodes = self.nodes
         s.known.heard.update(nodes)
@@ -349,8 +349,8 @@ class _CycleRun:
         s.operations.effect_done(self.op, dict(zip(nodes, self.waiter.results, strict=True)), None)
 
     def _expire(self) -> None:
-        r = self.r
-        s = r.s
+        r = self.runner
+        s = r.session
         w = self.waiter
         grace = s.grace
         if grace.held:

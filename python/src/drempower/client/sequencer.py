@@ -87,10 +87,10 @@ class Sequencer:
     batch's start goes (see :class:`~drempower.client.session.BusSession`); ``motor_ids`` are the bus's
     motors when the transport declares them."""
 
-    __slots__ = ("_busy", "_jobs", "_preset_msgs", "motor_ids", "pending_presets", "policy", "s")
+    __slots__ = ("_busy", "_jobs", "_preset_msgs", "motor_ids", "pending_presets", "policy", "session")
 
     def __init__(self, session: BusSession, policy: StartPolicy, motor_ids: frozenset[int]) -> None:
-        self.s = session
+        self.session = session
         self.policy: StartPolicy = policy
         self.motor_ids = motor_ids
         self.pending_presets: set[int] = set()
@@ -103,7 +103,7 @@ class Sequencer:
     def send(self, op: Operation[Any], msgs: Sequence[Message], frames: Sequence[Frame]) -> bool:
         """Queue sent messages for ``op``; True when presets or starts among them made it a job in order
         (``op`` then ends when its last frame is queued), False when every frame is queued now."""
-        s = self.s
+        s = self.session
         if sequenced(msgs):
             self._run(_Job(op, msgs, frames, None))
             return True
@@ -124,7 +124,7 @@ class Sequencer:
     def stopped(self, nodes: Sequence[int]) -> None:
         """An emergency stop to ``nodes`` went out: drop the start held for its presets and the jobs queued
         behind it; their operations raise :class:`~drempower.errors.BusStoppedError`."""
-        hold = self.s.hold.current
+        hold = self.session.hold.current
         if hold is None:
             return
         queued = list(self._jobs)
@@ -155,7 +155,7 @@ class Sequencer:
     def start_pending(self, start: Message, frame: Frame, started: list[int]) -> None:
         """Queue ``start`` (its presets are on the wire); record the moves it starts, drop what it consumed."""
         node = start.node
-        s = self.s
+        s = self.session
         sent = s.now
         moves = s.known.moves
         kind = getattr(start, "kind", None)
@@ -194,7 +194,7 @@ class Sequencer:
         """Hand a job's outcome to its operation: a send's own (it ends here) or a generator's effect."""
         op = job.op
         if op is not None:
-            self.s.operations.effect_done(op, value, error)
+            self.session.operations.effect_done(op, value, error)
 
     def _done(self, job: _Job, value: Any, error: BaseException | None) -> None:
         self._busy = False
@@ -208,7 +208,7 @@ class Sequencer:
         if job.batch is not None:
             self._step_batch(job)
             return
-        s = self.s
+        s = self.session
         msgs, frames = job.msgs, job.frames
         while job.index < len(msgs):
             i = job.index
@@ -234,7 +234,7 @@ class Sequencer:
     def _step_batch(self, job: _Job) -> None:
         b = job.batch
         assert b is not None
-        s = self.s
+        s = self.session
         presets, start = b.presets, b.start
         nodes = [p.node for p in presets]
         policy = self.policy
