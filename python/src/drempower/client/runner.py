@@ -62,7 +62,8 @@ class RequestRunner:
         self.check_request: Callable[[Sequence[Message]], None] | None = None
 
     def single(self, opn: Operation[Any], effect: Request) -> None:
-        """Run ``effect`` as ``opn``'s only effect: one message, answer required, takes the fast path."""
+        """Run ``effect`` as ``opn``'s only effect (its first answer is the result); one message whose answer
+        is required takes the fast path."""
         if self.check_request is not None:
             self.check_request(effect.messages)
         ex: _Exchange | _OneRequest
