@@ -289,14 +289,11 @@ class BusSession:
     def send(self, msgs: Sequence[Message], on_done: Callable[[], None] | None = None) -> Operation[None] | None:
         """Encode every message first (nothing is sent if one is invalid), then queue them in order.
 
-        Presets (0x0C) are remembered until a start consumes them. A start
-        (0x08, sys 0x10..0x15) that would start a pending preset goes out only
-        once every preset is on the wire (see :data:`TxOrder`), so a start
-        never overtakes its presets in a controller's mailboxes; the moves it
-        starts are then recorded in :attr:`moves` as a batch does (target from
-        each motor's position preset, move time from a Q preset; a relative
-        move's target is unknown). Returns None when every frame is queued,
-        else the operation that ends once they are.
+        Presets and starts go through the :mod:`~drempower.client.sequencer`: a start (0x08, sys
+        0x10..0x15) that would start a pending preset goes out only once every preset is on the wire
+        (see :data:`TxOrder`), and the moves it starts are recorded in :attr:`moves` (target from each
+        motor's position preset, move time from a Q preset; a relative move's target is unknown).
+        Returns None when every frame is queued, else the operation that ends once they are.
         """
         frames = [m.encode() for m in msgs]
         if self.closed_error is not None:
