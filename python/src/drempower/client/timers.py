@@ -1,0 +1,77 @@
+"""The session's scheduler: timers, each firing once the time given reaches its due time.
+
+Sans-I/O: the time only comes in (:meth:`Timers.fire_due`); nothing here reads a
+clock. Times are seconds on the driver's clock.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from heapq import heappop, heappush
+
+__all__ = ["Timers"]
+
+
+class Timers:
+    """Timers by id, fired in due order by :meth:`fire_due`.
+
+    ``changes`` grows with every timer added and every :meth:`touch`: a driver
+    whose caller sleeps wakes it when the count changed (a sooner deadline may
+    have come).
+    """
+
+    __slots__ = ("_heap", "_timers", "changes")
+
+    def __init__(self) -> None:
+        self.changes = 0
+        self._timers: dict[int, tuple[float, Callable[[], None]]] = {}
+        self._heap: list[tuple[float, int]] = []
+        """(due, timer id) of every timer, earliest first; a dropped timer's entry stays until it surfaces."""
+
+    def __len__(self) -> int:
+        return len(self._timers)
+
+    def add(self, due: float, fire: Callable[[], None]) -> int:
+        """Call ``fire()`` once the time reaches ``due`` (s); returns the timer's id (for :meth:`drop`)."""
+        self.changes = tid = self.changes + 1
+        self._timers[tid] = (due, fire)
+        heappush(self._heap, (due, tid))
+        return tid
+
+    def drop(self, tid: int) -> None:
+        """Forget timer ``tid`` (fired or dropped already: nothing happens)."""
+        self._timers.pop(tid, None)
+
+    def touch(self) -> None:
+        """Count a change: a deadline kept elsewhere (held-back reply, held start) was set."""
+        self.changes += 1
+
+    def next_due(self) -> float | None:
+        """When the earliest timer is due (s), or None."""
+        heap, timers = self._heap, self._timers
+        while heap and heap[0][1] not in timers:  # dropped timers leave their entry behind
+            heappop(heap)
+        return heap[0][0] if heap else None
+
+    def fire_due(self, now: float) -> None:
+        """Fire every timer due by ``now`` (s), earliest first; timers they add wait for the next call."""
+        heap, timers = self._heap, self._timers
+        if not heap or heap[0][0] > now:
+            return
+        newest = self.changes
+        later: list[tuple[float, int]] = []
+        while heap and heap[0][0] <= now:
+            item = heappop(heap)
+            if item[1] > newest:
+                later.append(item)
+                continue
+            entry = timers.pop(item[1], None)
+            if entry is not None:
+                entry[1]()
+        for item in later:
+            heappush(heap, item)
+
+    def clear(self) -> None:
+        """Drop every timer."""
+        self._timers.clear()
+        self._heap.clear()
