@@ -212,3 +212,22 @@ def test_a_robot_files_joint_names_and_soft_limits(tmp_path: Path) -> None:
         bridge.close()
         sess.close()
         sim.close()
+
+
+def test_a_motor_a_remote_client_idled_is_refused_too(served: Served) -> None:
+    m1 = served.sim.bus.motors[1]
+    with session(connect=[served.endpoint]) as ros:
+        assert _call(ros, served.bridge.service_keys["enable"], 1)[0].success
+        pub = ros.declare_publisher(served.bridge.command_keys["velocity_commands"])
+        time.sleep(0.2)
+        wait_for(lambda: (pub.put(_command([1.0, 0.0])), abs(m1.speed) > 1.0)[1])  # the bridge knows it enabled
+        with remote(served, stop_on_close=False) as bus:  # another host on the bus idles motor 1
+            bus.motor(1).idle()
+        wait_for(lambda: m1.state == AxisState.IDLE)
+        said = _publish_until_refused(served.bridge, pub, [1.0, 0.0], served.bridge.refused + 1)
+        assert said == (
+            "velocity_commands refused: motor 1 is idle (not in closed loop): enable it first "
+            "(call the enable service, or drempower enable 1)"
+        )
+        assert m1.state == AxisState.IDLE
+        pub.undeclare()

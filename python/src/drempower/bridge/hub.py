@@ -13,13 +13,17 @@ import logging
 import threading
 from collections.abc import Callable, Sequence
 
-from ..protocol.ids import Cmd, Frame
+from ..errors import DrEmpowerError
+from ..protocol.addresses import AXIS0_REQUESTED_STATE
+from ..protocol.ids import Cmd, Frame, SysCmd
 from ..protocol.limits import MOTION_CMDS as _MOTION
 from ..protocol.limits import START_SYS_CMDS as _STARTS
+from ..protocol.limits import STOP_SYS_CMDS
+from ..protocol.messages import WriteParam, decode_command
 from ..transports.base import QueuedTransport, Transport
 from ..transports.zenoh_wire import BRIDGE_ORIGIN
 
-__all__ = ["BusHub", "HubPort", "driven_nodes"]
+__all__ = ["BusHub", "HubPort", "axis_changed", "driven_nodes"]
 
 _log = logging.getLogger("drempower.bridge")
 Publish = Callable[[Sequence[Frame], bytes], None]
@@ -35,6 +39,32 @@ def driven_nodes(frames: Sequence[Frame]) -> set[int]:
         node, cmd = f.arbitration_id >> 5, f.arbitration_id & 0x1F
         if cmd in _MOTION or (cmd == Cmd.SYSTEM and f.data[:1] and f.data[0] in _STARTS):
             nodes.add(node)
+    return nodes
+
+
+_AXIS_SYS = STOP_SYS_CMDS | {
+    int(c) for c in (SysCmd.CLEAR_ERRORS, SysCmd.REBOOT, SysCmd.INIT_CONFIG, SysCmd.ERASE_CONFIG)
+}
+"""System sub-commands after which a motor is no longer in closed loop."""
+
+
+def axis_changed(frames: Sequence[Frame]) -> set[int]:
+    """Motors (0 = every motor) whose axis state these frames may change: idle and enable requests
+    (``axis0.requested_state``), estops, clears, reboots and configuration resets."""
+    nodes = set()
+    for f in frames:
+        if f.is_extended or f.arbitration_id > 0x7FF:
+            continue
+        node, cmd = f.arbitration_id >> 5, f.arbitration_id & 0x1F
+        if cmd == Cmd.SYSTEM and f.data[:1] and f.data[0] in _AXIS_SYS:
+            nodes.add(node)
+        elif cmd == Cmd.WRITE:
+            try:
+                msg = decode_command(f.arbitration_id, bytes(f.data))
+            except (DrEmpowerError, ValueError):
+                continue
+            if isinstance(msg, WriteParam) and msg.address == AXIS0_REQUESTED_STATE:
+                nodes.add(node)
     return nodes
 
 

@@ -25,15 +25,17 @@ from ..client.commands import make_angles, make_speeds, make_torques
 from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..logline import RateLimit
 from ..naming import motor_name
+from ..protocol.addresses import AXIS0_CURRENT_STATE
 from ..protocol.ids import Frame
 from ..protocol.limits import check_motor
-from ..protocol.messages import FastRead, Message
+from ..protocol.messages import FastRead, Message, ReadParam
+from ..protocol.parameters import DataType
 from ..robot.config import JOINT_NAME, JointSpec
 from ..robot.joint import Gearing
 from ..transports.base import Transport
 from ..transports.zenoh_wire import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
 from . import rmw, rosmsg
-from .hub import BusHub, driven_nodes
+from .hub import BusHub, axis_changed, driven_nodes
 from .order import ServiceOrder
 
 __all__ = [
@@ -168,6 +170,8 @@ class BusFace:
         self._heard: dict[bytes, float] = {}
         """Per client, when (monotonic s) its last sample arrived."""
         self._clients_lock = threading.Lock()
+        self._unsure: set[int] = set()
+        """Motors whose axis state a client may have changed (idled, enabled, stopped) since :attr:`bus` learned it."""
         self.clients_idled = 0
         self._queue: deque[tuple[bytes, int, int, list[Frame]]] = deque()
         """Client samples waiting for the bus: (client, sequence number, estop generation, frames)."""
@@ -306,6 +310,14 @@ class BusFace:
             actions.run(self.bus, row, {"id": node})
             return True
 
+    def relearn(self) -> None:
+        """Read the axis state of the motors a client may have idled or enabled (through the tunnel) since
+        :attr:`bus` learned it, so that its safety gate judges the bridge's next command by what they are."""
+        with self._clients_lock:
+            nodes, self._unsure = sorted(self._unsure), set()
+        if nodes:
+            self.bus.request([ReadParam(n, AXIS0_CURRENT_STATE, DataType.U32) for n in nodes], missing_ok=True)
+
     def _writer_loop(self) -> None:
         cv = self._queue_cv
         while True:
@@ -330,6 +342,10 @@ class BusFace:
             self._heard[sample.attachment.to_bytes()] = time.monotonic()
 
     def _client_sent(self, origin: bytes, frames: Sequence[Frame]) -> None:
+        changed = axis_changed(frames)
+        if changed:
+            with self._clients_lock:
+                self._unsure.update(self.ids if 0 in changed else changed & set(self.ids))
         nodes = driven_nodes(frames)
         if nodes:
             with self._clients_lock:
@@ -684,6 +700,7 @@ class Bridge:
         and motors in closed loop (refused with :class:`MotorIdleError`'s words, the fix a ROS 2 caller's)."""
         for face, ids, values in batches:
             try:
+                face.relearn()
                 face.bus.pass_gate(self._presets(topic, ids, values))
             except MotorIdleError as exc:
                 fix = ENABLE_FIX.format(ids=",".join(map(str, exc.nodes)))
