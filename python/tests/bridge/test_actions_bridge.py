@@ -66,13 +66,20 @@ def test_a_command_to_idle_motors_is_refused_with_the_gates_words_and_nothing_se
         bus.idle([1, 2])
     wait_for(lambda: m1.state == AxisState.IDLE and m2.state == AxisState.IDLE)
     frames = _Frames(served.sim)
+    heard: list[Any] = []
     try:
         with session(connect=[served.endpoint]) as ros:
+            log_key = f"0/rosout/rcl_interfaces::msg::dds_::Log_/{rosmsg.ros_type_hash(rosmsg.LOG)}"
+            sub = ros.declare_subscriber(
+                log_key, lambda s: heard.append(rosmsg.decode(s.payload.to_bytes(), rosmsg.LOG))
+            )
             pub = ros.declare_publisher(served.bridge.command_keys["position_commands"])
             time.sleep(0.2)
             said = _publish_until_refused(served.bridge, pub, [0.5, -0.25], 1)
-            time.sleep(0.1)
+            wait_for(lambda: bool(heard))  # the caller is told, on /rosout
             pub.undeclare()
+            sub.undeclare()
+        assert (heard[0].msg, heard[0].level, heard[0].name) == (said, 30, "drempower_bridge")
         fix = ENABLE_FIX.format(ids="1,2")
         assert said == f"position_commands refused: {MotorIdleError([1, 2], [1, 1], fix=fix)}"
         assert said == (
@@ -214,6 +221,7 @@ def test_a_robot_files_joint_names_and_soft_limits(tmp_path: Path) -> None:
         sim.close()
 
 
+@pytest.mark.parametrize("served", [{"command_timeout": 30.0}], indirect=True)  # no idling by silence here
 def test_a_motor_a_remote_client_idled_is_refused_too(served: Served) -> None:
     m1 = served.sim.bus.motors[1]
     with session(connect=[served.endpoint]) as ros:
@@ -231,3 +239,24 @@ def test_a_motor_a_remote_client_idled_is_refused_too(served: Served) -> None:
         )
         assert m1.state == AxisState.IDLE
         pub.undeclare()
+
+
+def test_rosout_tells_one_refusal_per_topic_and_second(served: Served) -> None:
+    heard: list[Any] = []
+    with session(connect=[served.endpoint]) as ros:
+        log_key = f"0/rosout/rcl_interfaces::msg::dds_::Log_/{rosmsg.ros_type_hash(rosmsg.LOG)}"
+        sub = ros.declare_subscriber(log_key, lambda s: heard.append(rosmsg.decode(s.payload.to_bytes(), rosmsg.LOG)))
+        pub = ros.declare_publisher(served.bridge.command_keys["effort_commands"])
+        time.sleep(0.2)
+        _publish_until_refused(served.bridge, pub, [500.0, 0.0], 1)  # beyond 327.67 Nm
+        for _ in range(20):
+            pub.put(_command([500.0, 0.0]))
+        wait_for(lambda: served.bridge.refused >= 21)
+        time.sleep(0.2)
+        assert len(heard) == 1 and heard[0].msg.startswith("effort_commands refused: joint 'motor_1' (effort 500 Nm)")
+        time.sleep(1.0)
+        pub.put(_command([500.0, 0.0]))
+        wait_for(lambda: len(heard) == 2)
+        assert re.search(r"\(and 2\d more like it in 1\.\d s\)$", heard[1].msg), heard[1].msg
+        pub.undeclare()
+        sub.undeclare()

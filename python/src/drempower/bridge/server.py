@@ -71,6 +71,8 @@ COMMAND_ROWS = {
 and what a value is at the joint, with its unit."""
 SERVICE_ROWS = {"estop": "estop", "clear_errors": "clear", "enable": "enable"}
 """Each service's row of :mod:`drempower.actions`, run for every motor served."""
+ROSOUT_WARN = 30
+"""``rcl_interfaces/msg/Log``'s WARN level."""
 ENABLE_FIX = "(call the enable service, or drempower enable {ids})"
 """How a refusal for a motor not in closed loop names the fix, in the terms of a ROS 2 caller."""
 
@@ -473,6 +475,8 @@ class Bridge:
         """Commands of the ROS 2 topics refused (a value out of range, the safety gate); nothing was sent."""
         self.last_refusal: str | None = None
         """The words of the last refusal (those of :mod:`drempower.actions` and the safety gate)."""
+        self._rosout_limit = RateLimit()
+        self._rosout_lock = threading.Lock()
         self.faces: dict[str, BusFace] = {}
         """The drempower face of each bus by name (``""`` for a bus served alone)."""
         self._joints: list[tuple[JointSpec, Gearing, BusFace]] = []
@@ -569,6 +573,10 @@ class Bridge:
             key, _ = declare("SS", name, rosmsg.TRIGGER)
             self.service_keys[name] = key
             self._decls.append(s.declare_queryable(key, lambda q, n=name: self._serve(q, n), complete=True))
+        self._rosout_key, self._rosout_gid = declare("MP", "/rosout", rosmsg.LOG)
+        self._rosout_pub = s.declare_publisher(self._rosout_key)
+        self._decls.append(self._rosout_pub)
+        self._rosout_seq = 0
         self._publisher_topics = {
             (rmw.mangle(rmw.qualify(ns, topic)), rosmsg.dds_type_name(rosmsg.FLOAT64_MULTI_ARRAY)): topic
             for topic in COMMAND_TOPICS
@@ -742,10 +750,39 @@ class Bridge:
             stream.count += 1
 
     def _refuse(self, topic: str, why: str) -> None:
-        """A command of ``topic`` refused (nothing sent): counted, kept (:attr:`last_refusal`) and logged."""
+        """A command of ``topic`` refused (nothing sent): counted, kept (:attr:`last_refusal`), logged, and
+        told the ROS 2 side on ``/rosout`` (one message per topic and second, the next one saying how many
+        were held back)."""
         self.refused += 1
-        self.last_refusal = f"{topic} refused: {why}"
+        self.last_refusal = text = f"{topic} refused: {why}"
         _log.warning("%s refused: %s", topic, why)
+        kind = logging.LogRecord(_log.name, logging.WARNING, __file__, 0, f"{topic} refused", None, None)
+        if self._rosout_limit.filter(kind):
+            self.rosout(ROSOUT_WARN, text + str(kind.msg)[len(f"{topic} refused") :])
+
+    def rosout(self, level: int, text: str) -> None:
+        """Say ``text`` on ``/rosout`` (``rcl_interfaces/msg/Log``, ``level`` as its constants), as the
+        bridge's node: what ``ros2 topic echo /rosout`` and rqt_console show."""
+        t = rosmsg.typestore().types
+        now = time.time_ns()
+        o = self.options
+        name = ".".join(p for p in (*self.namespace.strip("/").split("/"), o.node_name) if p)
+        msg = t[rosmsg.LOG](
+            stamp=t["builtin_interfaces/msg/Time"](sec=now // 1_000_000_000, nanosec=now % 1_000_000_000),
+            level=level,
+            name=name,
+            msg=text,
+            file="",
+            function="",
+            line=0,
+        )
+        try:
+            with self._rosout_lock:
+                self._rosout_seq += 1
+                att = rmw.Attachment(self._rosout_seq, now, self._rosout_gid).encode()
+                self._rosout_pub.put(rosmsg.encode(msg, rosmsg.LOG), attachment=att)
+        except Exception as exc:  # a closing session: the log line is there
+            _log.debug("/rosout: %s", exc)
 
     def _watchdog_loop(self) -> None:
         timeout = self.options.command_timeout
