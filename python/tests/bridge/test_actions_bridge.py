@@ -260,3 +260,22 @@ def test_rosout_tells_one_refusal_per_topic_and_second(served: Served) -> None:
         assert re.search(r"\(and 2\d more like it in 1\.\d s\)$", heard[1].msg), heard[1].msg
         pub.undeclare()
         sub.undeclare()
+
+
+def test_the_frames_that_take_a_motor_out_of_closed_loop_or_into_it() -> None:
+    from drempower.bridge.hub import axis_changed
+    from drempower.protocol.ids import SysCmd
+    from drempower.protocol.messages import ReadParam, SystemCommand, Velocity, WriteParam
+    from drempower.protocol.parameters import DataType
+
+    enable = Frame(0x03F, bytes.fromhex("3375030008000000"))  # set_mode(1, 2), PROTOCOL.md's golden frame
+    idle = Frame(0x05F, bytes.fromhex("3375030001000000"))  # set_mode(2, 1)
+    assert idle == WriteParam.of(2, "axis0.requested_state", 1).encode()
+    assert axis_changed([enable]) == {1} and axis_changed([idle]) == {2}
+    assert axis_changed([SystemCommand(3, SysCmd.ESTOP).encode(), SystemCommand(0, SysCmd.CLEAR_ERRORS).encode()]) == {
+        3,
+        0,
+    }
+    assert axis_changed([SystemCommand(1, SysCmd.SAVE_CONFIG).encode(), Velocity(1, 10.0).encode()]) == set()
+    assert axis_changed([ReadParam(1, 30002, DataType.U32).encode()]) == set()  # a read of the state changes nothing
+    assert axis_changed([WriteParam.of(1, "can.config.heartbeat_ms", 10).encode()]) == set()

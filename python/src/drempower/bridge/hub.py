@@ -15,10 +15,10 @@ from collections.abc import Callable, Sequence
 
 from ..errors import DrEmpowerError
 from ..protocol.addresses import AXIS0_REQUESTED_STATE
-from ..protocol.ids import Cmd, Frame, SysCmd
+from ..protocol.ids import Cmd, Frame
 from ..protocol.limits import MOTION_CMDS as _MOTION
+from ..protocol.limits import OPEN_LOOP_SYS_CMDS
 from ..protocol.limits import START_SYS_CMDS as _STARTS
-from ..protocol.limits import STOP_SYS_CMDS
 from ..protocol.messages import WriteParam, decode_command
 from ..transports.base import QueuedTransport, Transport
 from ..transports.zenoh_wire import BRIDGE_ORIGIN
@@ -42,12 +42,6 @@ def driven_nodes(frames: Sequence[Frame]) -> set[int]:
     return nodes
 
 
-_AXIS_SYS = STOP_SYS_CMDS | {
-    int(c) for c in (SysCmd.CLEAR_ERRORS, SysCmd.REBOOT, SysCmd.INIT_CONFIG, SysCmd.ERASE_CONFIG)
-}
-"""System sub-commands after which a motor is no longer in closed loop."""
-
-
 def axis_changed(frames: Sequence[Frame]) -> set[int]:
     """Motors (0 = every motor) whose axis state these frames may change: idle and enable requests
     (``axis0.requested_state``), estops, clears, reboots and configuration resets."""
@@ -56,7 +50,7 @@ def axis_changed(frames: Sequence[Frame]) -> set[int]:
         if f.is_extended or f.arbitration_id > 0x7FF:
             continue
         node, cmd = f.arbitration_id >> 5, f.arbitration_id & 0x1F
-        if cmd == Cmd.SYSTEM and f.data[:1] and f.data[0] in _AXIS_SYS:
+        if cmd == Cmd.SYSTEM and f.data[:1] and f.data[0] in OPEN_LOOP_SYS_CMDS:
             nodes.add(node)
         elif cmd == Cmd.WRITE:
             try:
