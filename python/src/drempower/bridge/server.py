@@ -742,7 +742,7 @@ class Bridge:
                         face.bus.set_speeds(ids, values)
                     else:
                         face.bus.set_torques(ids, values)
-            except DrEmpowerError as exc:
+            except (DrEmpowerError, ValueError) as exc:
                 self._refuse(topic, str(exc))
                 return
             stream.last = time.monotonic()
