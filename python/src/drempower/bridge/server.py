@@ -77,6 +77,11 @@ ENABLE_FIX = "(call the enable service, or drempower enable {ids})"
 """How a refusal for a motor not in closed loop names the fix, in the terms of a ROS 2 caller."""
 
 
+def in_ros_terms(exc: MotorIdleError) -> MotorIdleError:
+    """``exc`` (the safety gate's refusal) with the fix a ROS 2 caller has: the ``enable`` service."""
+    return MotorIdleError(exc.nodes, exc.states, fix=ENABLE_FIX.format(ids=",".join(map(str, exc.nodes))))
+
+
 def motor_joints(ids: Sequence[int]) -> dict[str, int]:
     """The joints of motors ``ids`` served alone, named as everywhere: ``motor_<id>`` (:mod:`drempower.naming`)."""
     return {motor_name(i): i for i in ids}
@@ -711,8 +716,7 @@ class Bridge:
                 face.relearn()
                 face.bus.pass_gate(self._presets(topic, ids, values))
             except MotorIdleError as exc:
-                fix = ENABLE_FIX.format(ids=",".join(map(str, exc.nodes)))
-                raise _on_bus(face, MotorIdleError(exc.nodes, exc.states, fix=fix), exc.nodes) from None
+                raise _on_bus(face, in_ros_terms(exc), exc.nodes) from None
             except DrEmpowerError as exc:
                 raise _on_bus(face, exc, [getattr(exc, "node", 0)]) from None
 
