@@ -85,7 +85,7 @@ async def test_a_bind_beyond_the_default_needs_the_token(proc: subprocess.Popen[
     assert proc.stderr is not None
     err = proc.stderr.read()
     assert "set_speed(20.0, param=0.0, mode=1)" in err
-    assert "SIGTERM: stopping" in err and "idled motors 1" in err
+    assert "SIGTERM: stopping" in err and "idled motor_1" in err
 
 
 @pytest.mark.parametrize("proc", [[]], indirect=True)
@@ -546,7 +546,7 @@ async def test_sigterm_idles_a_running_step_at_once() -> None:
             if p.poll() is None:
                 p.kill()
             _, err = p.communicate(timeout=10)
-    assert "SIGTERM: stopping" in err and "idled motors 1" in err
+    assert "SIGTERM: stopping" in err and "idled motor_1" in err
 
 
 async def test_a_closed_browser_idles_its_motors_at_once_while_step_runs_fill_the_workers() -> None:

@@ -781,9 +781,7 @@ class Hub:
                 self.motor(i).set_mode(1)
             except DrEmpowerError as exc:
                 log(f"idling {self.label(i)} failed: {exc}")
-        if ids and self.robot is None:
-            log(f"{why}: idled motors {','.join(map(str, ids))}")
-        elif ids:
+        if ids:
             log(f"{why}: idled {', '.join(map(self.label, ids))}")
         self.commanded.clear()
         self.targets.clear()
