@@ -41,8 +41,9 @@ def test_the_header_is_that_of_monitor_and_state() -> None:
     ]
 
 
-def _labels_and_csv(p: Any, cards: int) -> tuple[dict[str, list[str]], list[str], list[dict[str, str]]]:
-    """Scan, then what the page labels its motors with (cards, selects, legend) and its CSV export."""
+def _labels_and_csv(p: Any, names: list[str]) -> tuple[dict[str, list[str]], list[str], list[dict[str, str]]]:
+    """Scan, then what the page labels its motors ``names`` with (cards, selects, legend) and its CSV export."""
+    cards = len(names)
     p.get_by_role("tab", name="Bus").click()
     p.get_by_role("button", name="Rescan ids 1-63").click()
     p.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
@@ -55,6 +56,8 @@ def _labels_and_csv(p: Any, cards: int) -> tuple[dict[str, list[str]], list[str]
     labels["control"] = p.locator("#ctl-motor option").all_inner_texts()
     p.get_by_role("tab", name="Plots").click()
     p.wait_for_function("window.dashStats.received > 50")
+    shown = " && ".join(f"t.includes('{n}:')" for n in names)  # the rates of every motor, once samples came
+    p.wait_for_function(f"(t => {shown})(document.querySelector('#plot-per-motor').textContent)")
     labels["legend"] = p.locator(".u-legend .u-series .u-label").all_inner_texts()
     labels["per_motor"] = [p.locator("#plot-per-motor").inner_text()]
     with p.expect_download() as dl:
@@ -65,8 +68,8 @@ def _labels_and_csv(p: Any, cards: int) -> tuple[dict[str, list[str]], list[str]
 
 
 def test_a_plain_bus_names_its_motors_motor_id(page: Any, served: Served) -> None:
-    labels, header, rows = _labels_and_csv(page, 3)
     names = ["motor_1", "motor_2", "motor_3"]
+    labels, header, rows = _labels_and_csv(page, names)
     assert labels["cards"] == names
     assert labels["scan"] == ["done: 3 motor(s): motor_1, motor_2, motor_3"]
     assert labels["control"] == names
@@ -115,7 +118,7 @@ def test_a_robot_files_joint_names_label_its_motors(browser: Any, robot_url: str
         p.set_default_timeout(10_000)
         p.goto(robot_url)
         p.wait_for_function("window.dashStats && window.dashStats.connected")
-        labels, header, rows = _labels_and_csv(p, 2)
+        labels, header, rows = _labels_and_csv(p, ["shoulder", "elbow"])
     finally:
         ctx.close()
     assert labels["cards"] == ["shoulder bus left, id 1", "elbow bus right, id 1"]
