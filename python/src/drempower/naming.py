@@ -3,6 +3,10 @@
 A motor is ``motor_<id>`` (``motor_1``) unless a robot file names it (its joint's
 name), and ``<bus>/motor_<id>`` where motors of several buses would otherwise share
 a name (two buses each with a motor 1).
+
+A reading is named once too, with its unit (:data:`COLUMNS`): ``position_deg``,
+``speed_rpm``... in ``state --json``, ``monitor`` (table, ``--fields``, ``--json``,
+``--csv``) and the dashboard's CSV.
 """
 
 from __future__ import annotations
@@ -11,7 +15,23 @@ from collections.abc import Iterable, Mapping
 
 from .protocol.limits import check_motor
 
-__all__ = ["motor_name", "motor_names"]
+__all__ = ["COLUMNS", "TIME_COLUMN", "motor_name", "motor_names"]
+
+COLUMNS: dict[str, tuple[str, str]] = {
+    "id": ("id", "id"),
+    "position": ("position_deg", "position/deg"),
+    "speed": ("speed_rpm", "speed/rpm"),
+    "torque": ("torque_nm", "torque/Nm"),
+    "done": ("done", "done"),
+    "error": ("error", "error"),
+    "state": ("state", "state"),
+    "vbus_voltage": ("vbus_v", "vbus/V"),
+    "errors": ("errors", "errors"),
+}
+"""The one naming of readings across ``state``, ``monitor`` (table, ``--fields``, ``--json``, ``--csv``)
+and the dashboard's CSV: channel or parameter -> (JSON and CSV key with its unit, table header with its unit)."""
+TIME_COLUMN = ("time_s", "time/s")
+"""The time of a sample (s from the start of a capture): its JSON and CSV key, its table header."""
 
 
 def motor_name(id: int, bus: str | None = None, *, named: str | None = None) -> str:

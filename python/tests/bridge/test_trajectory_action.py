@@ -168,7 +168,10 @@ def test_a_goal_to_idle_motors_is_refused_and_a_cancel_holds_idle_on_timeout_joi
         assert client.send(client.goal(JOINTS, [1.0], [[s + 0.2 for s in start]]), gid)
         res = client.result(gid)
         assert res.result.error_code == rosaction.ERROR["INVALID_GOAL"]
-        assert "enable service" in res.result.error_string
+        assert res.result.error_string == (  # the words of the bridge's command topics
+            "motors 1, 2, 3, 4, 5, 6 are idle (not in closed loop): enable them first "
+            "(call the enable service, or drempower enable 1,2,3,4,5,6)"
+        )
         assert not [f for _, f in arm.frames[mark:] if f.arbitration_id & 0x1F in set(MOTION_CMDS)]
         arm.enable(ros)
         time.sleep(0.5)

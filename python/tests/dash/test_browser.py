@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import csv
+import io
 import time
 from collections.abc import Callable
 from pathlib import Path
@@ -46,9 +48,9 @@ def test_page_loads_and_scans(page: Any, served: Served, shots: Path) -> None:
     assert page.title() == "drempower dashboard"
     scan(page)
     assert page.locator("#scan-progress").evaluate("e => e.value") == 63
-    assert page.locator("#scan-text").inner_text() == "done: 3 motor(s): 1, 2, 3"
+    assert page.locator("#scan-text").inner_text() == "done: 3 motor(s): motor_1, motor_2, motor_3"
     cards = page.locator(".card h3").all_inner_texts()
-    assert cards == ["Motor 1", "Motor 2", "Motor 3"]
+    assert cards == ["motor_1", "motor_2", "motor_3"]  # the naming rule, as every command names them
     page.wait_for_function("document.querySelector('.card').innerText.includes('closed_loop')")
     assert page.get_by_role("button", name="ESTOP").is_visible()
     page.screenshot(path=str(shots / "dash-bus.png"))
@@ -68,23 +70,23 @@ def test_plots_receive_every_sample(page: Any, served: Served, shots: Path) -> N
     # every sample the server sent since this page's first batch arrived (none lost)
     assert stats["received"] == stats["serverTotal"] - stats["firstTotal"]
     per = page.locator("#plot-per-motor").inner_text()
-    assert "motor 1:" in per and "motor 3:" in per
+    assert "motor_1:" in per and "motor_3:" in per
     # the plot shows samples of all three motors: one series per motor and channel, and targets
     labels = page.locator(".u-legend .u-series .u-label").all_inner_texts()
-    assert "m2 speed" in labels and "m1 angle target" in labels
+    assert "motor_2 speed" in labels and "motor_1 angle target" in labels
     with page.expect_download() as dl:
         page.get_by_role("button", name="Export CSV").click()
-    lines = Path(dl.value.path()).read_text().splitlines()
-    assert lines[0].startswith("motor,t_s,angle_deg,speed_rpm,torque_nm")
-    assert len(lines) > 100
-    assert any(line.startswith("2,") and abs(float(line.split(",")[3]) - 40) < 2 for line in lines[1:])
+    rows = list(csv.DictReader(io.StringIO(Path(dl.value.path()).read_text())))
+    assert len(rows) > 100
+    assert any(r["name"] == "motor_2" and r["id"] == "2" and abs(float(r["speed_rpm"]) - 40) < 2 for r in rows)
+    assert {r["name"] for r in rows} == {"motor_1", "motor_2", "motor_3"}
     # a parameter polled at a chosen rate, on the same chart
     page.locator("#pw-motor").select_option("1")
     page.get_by_label("parameter to plot").fill("vbus_voltage")
     page.get_by_label("readings per second").select_option("10")
     page.get_by_role("button", name="Plot parameter").click()
     page.wait_for_function(
-        "[...document.querySelectorAll('.u-legend .u-label')].some(e => e.textContent === 'm1 vbus_voltage')"
+        "[...document.querySelectorAll('.u-legend .u-label')].some(e => e.textContent === 'motor_1 vbus_voltage')"
     )
     t0 = time.monotonic()
     page.wait_for_function("(() => { const d = window.dashParams('1:vbus_voltage'); return d && d.v.length >= 8; })()")
@@ -109,7 +111,7 @@ def test_move_from_the_page_reaches_the_motor(page: Any, served: Served, shots: 
     m2 = served.sim.motors[2]
     assert eventually(lambda: abs(m2.position - 45.0) < 0.1, 8), m2.position
     limits = page.locator("#ctl-limits").inner_text()
-    assert limits == "limits of motor 2: speed ±300 r/min, torque ±12 Nm, current 15 A; T bandwidth 0..300 1/s"
+    assert limits == "limits of motor_2: speed ±300 r/min, torque ±12 Nm, current 15 A; T bandwidth 0..300 1/s"
     assert served.hub.commanded == {2}
     # an input outside its domain is refused in the page and nothing is sent
     page.locator("#pos-speed").fill("500")
@@ -338,7 +340,7 @@ def test_the_control_view_plots_the_selected_motor(page: Any, served: Served) ->
     page.locator("#ctl-motor").select_option("2")
     page.wait_for_function("window.dashStats.controlMotor === 2 && window.dashStats.controlPoints > 20")
     labels = page.locator("#ctl-plot .u-legend .u-label").all_inner_texts()
-    assert labels[1:] == ["m2 angle", "m2 angle target", "m2 speed", "m2 speed target"]
+    assert labels[1:] == ["motor_2 angle", "motor_2 angle target", "motor_2 speed", "motor_2 speed target"]
 
 
 def test_a_move_to_an_idle_motor_shows_an_error_not_success(page: Any, served: Served) -> None:
@@ -369,7 +371,7 @@ def test_a_set_counts_as_changed_this_session(page: Any, served: Served) -> None
     page.locator("#par-motor").select_option("3")
     page.get_by_role("button", name="Read all").click()
     page.wait_for_function(
-        "(t => t.startsWith('motor 3:') && t.includes('changed this session'))"
+        "(t => t.startsWith('motor_3:') && t.includes('changed this session'))"
         "(document.querySelector('#par-status').textContent)"
     )
     before = int(page.locator("#par-status").inner_text().split("; ")[-1].split()[0])

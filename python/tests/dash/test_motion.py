@@ -150,7 +150,7 @@ async def test_an_enable_that_does_not_take_is_an_error_not_a_success(page: Page
     assert motor.state == AxisState.IDLE
     r = await page.ask("control", action="enable", id=1)
     assert not r["ok"]
-    assert r["error"].startswith("motor 1 did not enter closed loop (state idle): its error flags are set")
+    assert r["error"].startswith("motor_1 did not enter closed loop (state idle): its error flags are set")
     assert (await page.ask("control", action="clear_errors", id=1))["ok"]
     assert (await page.ask("control", action="enable", id=1))["ok"]
     assert motor.state == AxisState.CLOSED_LOOP_CONTROL

@@ -85,7 +85,7 @@ async def test_a_bind_beyond_the_default_needs_the_token(proc: subprocess.Popen[
     assert proc.stderr is not None
     err = proc.stderr.read()
     assert "set_speed(20.0, param=0.0, mode=1)" in err
-    assert "SIGTERM: stopping" in err and "idled motors 1" in err
+    assert "SIGTERM: stopping" in err and "idled motor_1" in err
 
 
 @pytest.mark.parametrize("proc", [[]], indirect=True)
@@ -397,8 +397,8 @@ async def test_writes_and_inputs_outside_their_domains_are_refused_before_sendin
             assert sim.param(baud) == 1000000
             # Control inputs: the speed and torque limits the motor holds, the T-mode bandwidth's domain
             bad = [
-                ({"action": "V", "speed": 301}, "speed=301: outside -300..300 r/min, the speed limit motor 1 holds"),
-                ({"action": "C", "torque": -12.5}, "torque=-12.5: outside -12..12 Nm, the torque limit motor 1"),
+                ({"action": "V", "speed": 301}, "speed=301: outside -300..300 r/min, the speed limit motor_1 holds"),
+                ({"action": "C", "torque": -12.5}, "torque=-12.5: outside -12..12 Nm, the torque limit motor_1"),
                 ({"action": "T", "angle": 10, "param": 301}, "param=301: the T-mode filter bandwidth is 0..300 1/s"),
                 ({"action": "Q", "angle": 10, "speed": 310, "param": 10}, "speed=310: outside -300..300"),
             ]
@@ -546,7 +546,7 @@ async def test_sigterm_idles_a_running_step_at_once() -> None:
             if p.poll() is None:
                 p.kill()
             _, err = p.communicate(timeout=10)
-    assert "SIGTERM: stopping" in err and "idled motors 1" in err
+    assert "SIGTERM: stopping" in err and "idled motor_1" in err
 
 
 async def test_a_closed_browser_idles_its_motors_at_once_while_step_runs_fill_the_workers() -> None:

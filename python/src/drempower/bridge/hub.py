@@ -13,15 +13,39 @@ import logging
 import threading
 from collections.abc import Callable, Sequence
 
-from ..protocol.ids import Frame
+from ..errors import DrEmpowerError
+from ..protocol.addresses import AXIS0_REQUESTED_STATE
+from ..protocol.ids import Cmd, Frame
+from ..protocol.limits import OPEN_LOOP_SYS_CMDS
+from ..protocol.messages import WriteParam, decode_command
 from ..transports.base import QueuedTransport, Transport
 from ..transports.zenoh_wire import BRIDGE_ORIGIN, driven_nodes
 
-__all__ = ["BusHub", "HubPort", "driven_nodes"]
+__all__ = ["BusHub", "HubPort", "axis_changed", "driven_nodes"]
 
 _log = logging.getLogger("drempower.bridge")
 Publish = Callable[[Sequence[Frame], bytes], None]
 """Called with frames and their origin (empty: from the bus) for the remote hosts."""
+
+
+def axis_changed(frames: Sequence[Frame]) -> set[int]:
+    """Motors (0 = every motor) whose axis state these frames may change: idle and enable requests
+    (``axis0.requested_state``), estops, clears, reboots and configuration resets."""
+    nodes = set()
+    for f in frames:
+        if f.is_extended or f.arbitration_id > 0x7FF:
+            continue
+        node, cmd = f.arbitration_id >> 5, f.arbitration_id & 0x1F
+        if cmd == Cmd.SYSTEM and f.data[:1] and f.data[0] in OPEN_LOOP_SYS_CMDS:
+            nodes.add(node)
+        elif cmd == Cmd.WRITE:
+            try:
+                msg = decode_command(f.arbitration_id, bytes(f.data))
+            except (DrEmpowerError, ValueError):
+                continue
+            if isinstance(msg, WriteParam) and msg.address == AXIS0_REQUESTED_STATE:
+                nodes.add(node)
+    return nodes
 
 
 class HubPort(QueuedTransport):

@@ -3,7 +3,8 @@
 No ROS installation is needed: the Jazzy type store of ``rosbags`` holds
 ``sensor_msgs/msg/JointState`` and ``std_msgs/msg/Float64MultiArray``; services
 (``std_srvs/srv/Trigger``) are registered here from their definition text, with
-the request, response and event types rosidl generates for every service.
+the request, response and event types rosidl generates for every service;
+``rcl_interfaces/msg/Log`` is there for ``/rosout``.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ __all__ = [
     "JOINT_STATE",
     "FLOAT64_MULTI_ARRAY",
     "TRIGGER",
+    "LOG",
     "SERVICES",
     "typestore",
     "register_service",
@@ -32,6 +34,8 @@ __all__ = [
 JOINT_STATE = "sensor_msgs/msg/JointState"
 FLOAT64_MULTI_ARRAY = "std_msgs/msg/Float64MultiArray"
 TRIGGER = "std_srvs/srv/Trigger"
+LOG = "rcl_interfaces/msg/Log"
+"""What a node says on ``/rosout`` (the bridge: its refusals)."""
 SERVICES: dict[str, str] = {
     TRIGGER: "---\nbool success   # indicate successful run of triggered service\nstring message # informational\n",
 }

@@ -19,20 +19,23 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
-from ..client import ops
+from .. import actions
 from ..client.bus import Bus
 from ..client.commands import make_angles, make_speeds, make_torques
-from ..client.session import idle_frames
-from ..errors import DrEmpowerError
+from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..logline import RateLimit
-from ..protocol.ids import Frame, SysCmd
-from ..protocol.messages import FastRead, SystemCommand
+from ..naming import motor_name
+from ..protocol.addresses import AXIS0_CURRENT_STATE
+from ..protocol.ids import Frame
+from ..protocol.limits import check_motor
+from ..protocol.messages import FastRead, Message, ReadParam
+from ..protocol.parameters import DataType
 from ..robot.config import JOINT_NAME, JointSpec
 from ..robot.joint import Gearing
 from ..transports.base import Transport
 from ..transports.zenoh_wire import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
 from . import rmw, rosmsg
-from .hub import BusHub, driven_nodes
+from .hub import BusHub, axis_changed, driven_nodes
 from .order import ServiceOrder
 
 __all__ = [
@@ -43,6 +46,7 @@ __all__ = [
     "DEFAULT_COMMAND_TIMEOUT",
     "DEFAULT_BANDWIDTH",
     "NODE_NAME",
+    "motor_joints",
 ]
 
 _log = logging.getLogger("drempower.bridge")
@@ -58,6 +62,29 @@ NODE_NAME = "drempower_bridge"
 FORGET_AFTER = 10.0
 """s of silence after which a client that drives nothing is forgotten (its last estop's number too)."""
 COMMAND_TOPICS = ("position_commands", "velocity_commands", "effort_commands")
+COMMAND_ROWS = {
+    "position_commands": ("move", "angle", "position", "rad"),
+    "velocity_commands": ("speed", "speed", "velocity", "rad/s"),
+    "effort_commands": ("torque", "torque", "effort", "Nm"),
+}
+"""Each command topic's row of :mod:`drempower.actions`, the row's field that a value becomes (motor units),
+and what a value is at the joint, with its unit."""
+SERVICE_ROWS = {"estop": "estop", "clear_errors": "clear", "enable": "enable"}
+"""Each service's row of :mod:`drempower.actions`, run for every motor served."""
+ROSOUT_WARN = 30
+"""``rcl_interfaces/msg/Log``'s WARN level."""
+ENABLE_FIX = "(call the enable service, or drempower enable {ids})"
+"""How a refusal for a motor not in closed loop names the fix, in the terms of a ROS 2 caller."""
+
+
+def in_ros_terms(exc: MotorIdleError) -> MotorIdleError:
+    """``exc`` (the safety gate's refusal) with the fix a ROS 2 caller has: the ``enable`` service."""
+    return MotorIdleError(exc.nodes, exc.states, fix=ENABLE_FIX.format(ids=",".join(map(str, exc.nodes))))
+
+
+def motor_joints(ids: Sequence[int]) -> dict[str, int]:
+    """The joints of motors ``ids`` served alone, named as everywhere: ``motor_<id>`` (:mod:`drempower.naming`)."""
+    return {motor_name(i): i for i in ids}
 
 
 @dataclass
@@ -65,8 +92,8 @@ class BridgeOptions:
     """What a bridge serves and how."""
 
     joints: Mapping[str, int] | Mapping[str, JointSpec]
-    """Joint name -> motor id (one bus), or -> the robot file's joint (bus, id, gear, offset), in the
-    order of ``joint_states``."""
+    """Joint name -> motor id (one bus; :func:`motor_joints` names them ``motor_<id>``), or -> the robot
+    file's joint (bus, id, gear, offset), in the order of ``joint_states``."""
     prefix: str = DEFAULT_PREFIX
     namespace: str = ""
     domain_id: int = 0
@@ -90,8 +117,7 @@ class BridgeOptions:
             raise ValueError(f"bandwidth={self.bandwidth!r}: the T-mode filter bandwidth is 0 < b <= 300 1/s")
         taken: dict[tuple[str, int], str] = {}
         for j in self.specs():
-            if not 1 <= j.id <= 63:
-                raise ValueError(f"joint {j.name!r}: id={j.id}: motor ids are 1..63")
+            check_motor(j.id, f"joint {j.name!r}: id")
             other = taken.setdefault((j.bus, j.id), j.name)
             if other != j.name:
                 raise ValueError(f"joint {j.name!r}: motor {j.id} is joint {other!r} already")
@@ -151,6 +177,8 @@ class BusFace:
         self._heard: dict[bytes, float] = {}
         """Per client, when (monotonic s) its last sample arrived."""
         self._clients_lock = threading.Lock()
+        self._unsure: set[int] = set()
+        """Motors whose axis state a client may have changed (idled, enabled, stopped) since :attr:`bus` learned it."""
         self.clients_idled = 0
         self._queue: deque[tuple[bytes, int, int, list[Frame]]] = deque()
         """Client samples waiting for the bus: (client, sequence number, estop generation, frames)."""
@@ -167,6 +195,9 @@ class BusFace:
         )
         self.hub = BusHub(transport, self._publish_rx, self._client_sent)
         self.bus = Bus(self.hub.local, stop_on_close=True, timeout=timeout)
+        for j in self.joints:
+            if j.limits:  # the robot file's soft limits, in motor units: the safety gate holds every command to them
+                self.bus.set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=f"joint {j.name!r} limits")
         self._decls: list[Any] = []
         self._writer = threading.Thread(target=self._writer_loop, name=f"drempower bridge writer {name}", daemon=True)
         try:
@@ -245,37 +276,54 @@ class BusFace:
         self.estop_now(frames, origin)
 
     def estop_now(self, frames: Sequence[Frame], origin: bytes = BRIDGE_ORIGIN) -> None:
-        """Put estop frames on the bus ahead of everything queued, and drop what was queued before them.
+        """Put a client's estop frames on the bus ahead of everything queued, and drop what was queued before them.
 
         Frames queued before an estop are commands given before the stop: sent
         after it they could enable and move a motor again.
         """
+        self._fence()
+        with self._write_lock:  # waits at most for the sample being written
+            self.hub.send(frames, origin)
+
+    def _fence(self) -> None:
+        """Drop the client samples queued so far: an estop is coming, and they were given before it."""
         with self._queue_cv:
             self._generation += 1
             dropped = sum(len(f) for *_, f in self._queue)
             self._queue.clear()
             self.dropped_by_estop += dropped
-        with self._write_lock:  # waits at most for the sample being written
-            self.hub.send(frames, origin)
         if dropped:
             _log.warning("estop: %d queued client frames dropped", dropped)
 
     def estop(self) -> None:
-        """Emergency stop of every motor of this bus that the bridge serves, ahead of queued client frames."""
-        self.estop_now([SystemCommand(i, SysCmd.ESTOP).encode() for i in self.ids])
+        """Emergency stop of every motor of this bus that the bridge serves (the ``estop`` row of
+        :mod:`drempower.actions` for each), ahead of queued client frames."""
+        self._fence()
+        with self._write_lock:
+            for i in self.ids:
+                actions.run(self.bus, "estop", {"id": i})
 
-    def send_unless(self, frames: Sequence[Frame], stale: Callable[[], bool]) -> bool:
-        """The bridge's ``frames`` on the bus ahead of queued client samples, unless ``stale()`` once the bus is free.
+    def run_unless(self, row: str, node: int, stale: Callable[[], bool]) -> bool:
+        """Row ``row`` of :mod:`drempower.actions` for motor ``node`` on the bridge's bus, ahead of queued
+        client samples, unless ``stale()`` once the bus is free.
 
         ``stale`` is asked while the bus is held, so an estop that makes it
-        true either finds these frames written already (and comes after them) or
+        true either finds this action's frames written already (and comes after them) or
         keeps them off the bus. False when nothing was sent.
         """
         with self._write_lock:
             if stale():
                 return False
-            self.hub.send(frames, BRIDGE_ORIGIN)
+            actions.run(self.bus, row, {"id": node})
             return True
+
+    def relearn(self) -> None:
+        """Read the axis state of the motors a client may have idled or enabled (through the tunnel) since
+        :attr:`bus` learned it, so that its safety gate judges the bridge's next command by what they are."""
+        with self._clients_lock:
+            nodes, self._unsure = sorted(self._unsure), set()
+        if nodes:
+            self.bus.request([ReadParam(n, AXIS0_CURRENT_STATE, DataType.U32) for n in nodes], missing_ok=True)
 
     def _writer_loop(self) -> None:
         cv = self._queue_cv
@@ -301,6 +349,10 @@ class BusFace:
             self._heard[sample.attachment.to_bytes()] = time.monotonic()
 
     def _client_sent(self, origin: bytes, frames: Sequence[Frame]) -> None:
+        changed = axis_changed(frames)
+        if changed:
+            with self._clients_lock:
+                self._unsure.update(self.ids if 0 in changed else changed & set(self.ids))
         nodes = driven_nodes(frames)
         if nodes:
             with self._clients_lock:
@@ -357,10 +409,12 @@ class BusFace:
                 _log.error("idling the motors of %s failed: %s", self.prefix, exc)
 
     def idle(self, nodes: set[int] | None = None) -> None:
-        """Set motors ``nodes`` (default: those served; 0: every motor) to idle."""
+        """Set motors ``nodes`` (default: those served; 0: every motor) to idle: the ``idle`` row of
+        :mod:`drempower.actions` for each, so the bridge's bus knows them idle (its safety gate then
+        refuses motion to them until an ``enable``)."""
         nodes = set(self.ids) if nodes is None else nodes
-        targets = [0] if 0 in nodes else sorted(nodes)
-        self.hub.send(idle_frames(targets), BRIDGE_ORIGIN)
+        for n in [0] if 0 in nodes else sorted(nodes):
+            actions.run(self.bus, "idle", {"id": n})
 
     def stop(self) -> None:
         """Stop serving; idle every motor a client set moving. The bus stays open (:meth:`close`). Idempotent."""
@@ -422,6 +476,12 @@ class Bridge:
                 raise ValueError(f"bus {name!r}: no joint is on it")
         self._closed = threading.Event()
         self._order = ServiceOrder()
+        self.refused = 0
+        """Commands of the ROS 2 topics refused (a value out of range, the safety gate); nothing was sent."""
+        self.last_refusal: str | None = None
+        """The words of the last refusal (those of :mod:`drempower.actions` and the safety gate)."""
+        self._rosout_limit = RateLimit()
+        self._rosout_lock = threading.Lock()
         self.faces: dict[str, BusFace] = {}
         """The drempower face of each bus by name (``""`` for a bus served alone)."""
         self._joints: list[tuple[JointSpec, Gearing, BusFace]] = []
@@ -518,6 +578,10 @@ class Bridge:
             key, _ = declare("SS", name, rosmsg.TRIGGER)
             self.service_keys[name] = key
             self._decls.append(s.declare_queryable(key, lambda q, n=name: self._serve(q, n), complete=True))
+        self._rosout_key, self._rosout_gid = declare("MP", "/rosout", rosmsg.LOG)
+        self._rosout_pub = s.declare_publisher(self._rosout_key)
+        self._decls.append(self._rosout_pub)
+        self._rosout_seq = 0
         self._publisher_topics = {
             (rmw.mangle(rmw.qualify(ns, topic)), rosmsg.dds_type_name(rosmsg.FLOAT64_MULTI_ARRAY)): topic
             for topic in COMMAND_TOPICS
@@ -619,33 +683,42 @@ class Bridge:
             if self._closed.wait(delay):
                 return
 
-    def _commands(self, topic: str, data: Sequence[float]) -> list[tuple[BusFace, Any]]:
-        """Each bus's presets and start for ``data`` (one value per joint, SI at the joint), all checked first."""
+    def _commands(self, topic: str, data: Sequence[float]) -> list[tuple[BusFace, list[int], list[float]]]:
+        """Each bus's motors and values (motor units) for ``data`` (one value per joint, SI at the joint),
+        every value checked by the topic's row of :mod:`drempower.actions` first (its words, naming the joint)."""
+        row, field, what, unit = COMMAND_ROWS[topic]
+        act = actions.get(row)
+        convert = {"position_commands": "motor_angle", "velocity_commands": "motor_speed"}.get(topic, "motor_torque")
         groups: dict[str, tuple[list[int], list[float]]] = {}
         for (j, g, _), x in zip(self._joints, data, strict=True):
-            if topic == "position_commands":
-                v = g.motor_angle(x)
-            elif topic == "velocity_commands":
-                v = g.motor_speed(x)
-            else:
-                v = g.motor_torque(x)
+            try:
+                v = actions.validate(act, {"id": j.id, field: getattr(g, convert)(x)})[field]
+            except ValidationError as exc:
+                raise ValidationError(f"joint {j.name!r} ({what} {x:g} {unit}): {exc}") from None
             ids, values = groups.setdefault(j.bus, ([], []))
             ids.append(j.id)
             values.append(v)
-        out: list[tuple[BusFace, Any]] = []
-        for bus, (ids, values) in groups.items():
+        return [(self.faces[bus], ids, values) for bus, (ids, values) in groups.items()]
+
+    def _presets(self, topic: str, ids: list[int], values: list[float]) -> list[Message]:
+        """The presets of one bus's command (what its safety gate checks)."""
+        if topic == "position_commands":
+            return make_angles(ids, values, 0.0, self.options.bandwidth, 0)[0]
+        if topic == "velocity_commands":
+            return make_speeds(ids, values)[0]
+        return make_torques(ids, values)[0]
+
+    def _pass_gates(self, topic: str, batches: Sequence[tuple[BusFace, list[int], list[float]]]) -> None:
+        """Every bus's safety gate for its part of a command, before any bus is sent anything: soft limits,
+        and motors in closed loop (refused with :class:`MotorIdleError`'s words, the fix a ROS 2 caller's)."""
+        for face, ids, values in batches:
             try:
-                if topic == "position_commands":
-                    batch = make_angles(ids, values, 0.0, self.options.bandwidth, 0)
-                elif topic == "velocity_commands":
-                    batch = make_speeds(ids, values)
-                else:
-                    batch = make_torques(ids, values)
-            except (DrEmpowerError, ValueError) as exc:
-                names = [j.name for j, _, f in self._joints if f.name == bus]
-                raise ValueError(f"joints {', '.join(names)}: {exc}") from exc
-            out.append((self.faces[bus], batch))
-        return out
+                face.relearn()
+                face.bus.pass_gate(self._presets(topic, ids, values))
+            except MotorIdleError as exc:
+                raise _on_bus(face, in_ros_terms(exc), exc.nodes) from None
+            except DrEmpowerError as exc:
+                raise _on_bus(face, exc, [getattr(exc, "node", 0)]) from None
 
     def _on_command(self, topic: str, sample: Any) -> None:
         try:
@@ -665,14 +738,55 @@ class Bridge:
                 return
             try:
                 batches = self._commands(topic, data)  # nothing is sent on any bus if a value is invalid
-                for face, (presets, start) in batches:
-                    face.bus.send_batch(presets, start)
+                self._pass_gates(topic, batches)  # nor if a bus's gate refuses
+                for face, ids, values in batches:
+                    if topic == "position_commands":
+                        face.bus.set_angles(ids, values, 0.0, self.options.bandwidth, 0)
+                    elif topic == "velocity_commands":
+                        face.bus.set_speeds(ids, values)
+                    else:
+                        face.bus.set_torques(ids, values)
             except (DrEmpowerError, ValueError) as exc:
-                _log.warning("%s refused: %s", topic, exc)
+                self._refuse(topic, str(exc))
                 return
             stream.last = time.monotonic()
             stream.driven = True
             stream.count += 1
+
+    def _refuse(self, topic: str, why: str) -> None:
+        """A command of ``topic`` refused (nothing sent): counted, kept (:attr:`last_refusal`), logged, and
+        told the ROS 2 side on ``/rosout`` (one message per topic and second, the next one saying how many
+        were held back)."""
+        self.refused += 1
+        self.last_refusal = text = f"{topic} refused: {why}"
+        _log.warning("%s refused: %s", topic, why)
+        kind = logging.LogRecord(_log.name, logging.WARNING, __file__, 0, f"{topic} refused", None, None)
+        if self._rosout_limit.filter(kind):
+            self.rosout(ROSOUT_WARN, text + str(kind.msg)[len(f"{topic} refused") :])
+
+    def rosout(self, level: int, text: str) -> None:
+        """Say ``text`` on ``/rosout`` (``rcl_interfaces/msg/Log``, ``level`` as its constants), as the
+        bridge's node: what ``ros2 topic echo /rosout`` and rqt_console show."""
+        t = rosmsg.typestore().types
+        now = time.time_ns()
+        o = self.options
+        name = ".".join(p for p in (*self.namespace.strip("/").split("/"), o.node_name) if p)
+        msg = t[rosmsg.LOG](
+            stamp=t["builtin_interfaces/msg/Time"](sec=now // 1_000_000_000, nanosec=now % 1_000_000_000),
+            level=level,
+            name=name,
+            msg=text,
+            file="",
+            function="",
+            line=0,
+        )
+        try:
+            with self._rosout_lock:
+                self._rosout_seq += 1
+                att = rmw.Attachment(self._rosout_seq, now, self._rosout_gid).encode()
+                self._rosout_pub.put(rosmsg.encode(msg, rosmsg.LOG), attachment=att)
+        except Exception as exc:  # a closing session: the log line is there
+            _log.debug("/rosout: %s", exc)
 
     def _watchdog_loop(self) -> None:
         timeout = self.options.command_timeout
@@ -748,30 +862,32 @@ class Bridge:
             return "motors " + ", ".join(map(str, self._face.ids))
         return "joints " + ", ".join(self._names)
 
-    def _send_each(self, ticket: int, what: str, frame_of: Callable[[int], Frame]) -> tuple[bool, str]:
-        """``frame_of(id)`` to every motor served, one frame at a time, until an estop that arrived later fences it."""
+    def _run_each(self, ticket: int, service: str) -> tuple[bool, str]:
+        """The service's row of :mod:`drempower.actions` for every motor served, one at a time, until an
+        estop that arrived later fences it."""
+        row = SERVICE_ROWS[service]
         failures = []
         for face in self.faces.values():
             try:
                 for i in face.ids:
-                    if not face.send_unless([frame_of(i)], lambda: self._order.stale(ticket)):
+                    if not face.run_unless(row, i, lambda: self._order.stale(ticket)):
                         return False, (
-                            f"{what} not done: an estop called after it came first (call clear_errors, then enable)"
+                            f"{service} not done: an estop called after it came first (call clear_errors, then enable)"
                         )
             except Exception as exc:  # a reply in every case: the caller waits for one
                 failures.append(f"{face.name or face.prefix}: {exc}")
         if failures:
-            return False, f"{what} failed: " + "; ".join(failures)
+            return False, f"{service} failed: " + "; ".join(failures)
         return True, ""
 
     def _srv_clear_errors(self, ticket: int) -> tuple[bool, str]:
         """Clear the errors of every joint served, unless an estop that arrived later came first."""
-        ok, message = self._send_each(ticket, "clear_errors", lambda i: SystemCommand(i, SysCmd.CLEAR_ERRORS).encode())
+        ok, message = self._run_each(ticket, "clear_errors")
         return ok, message or "errors cleared on " + self._served()
 
     def _srv_enable(self, ticket: int) -> tuple[bool, str]:
         """Closed loop for every joint served, on every bus (a bus that fails does not keep the others from it)."""
-        ok, message = self._send_each(ticket, "enable", lambda i: ops.set_mode(i, 2).encode())
+        ok, message = self._run_each(ticket, "enable")
         return ok, message or "closed loop on " + self._served()
 
     # ------------------------------------------------------------------ lifetime
@@ -810,3 +926,13 @@ class Bridge:
         self.stop()
         for face in self.faces.values():
             face.close()
+
+
+def _on_bus(face: BusFace, exc: DrEmpowerError, nodes: Sequence[int]) -> DrEmpowerError:
+    """``exc`` of a bus of a robot, its words kept, prefixed with the bus and the joints it names; as it
+    is for a bus served alone."""
+    if not face.name:
+        return exc
+    names = [j.name for j in face.joints if j.id in nodes] or [j.name for j in face.joints]
+    out = DrEmpowerError(f"bus {face.name!r}, joint{'s' if len(names) > 1 else ''} {', '.join(names)}: {exc}")
+    return out

@@ -53,6 +53,7 @@ from ..motion.plan import FollowError, make_plan, robot_lanes, robot_limits
 from ..motion.trajectory import Trajectory
 from ..robot.config import BusSpec, RobotSpec
 from . import rmw, rosaction, rosmsg
+from .server import in_ros_terms
 
 if TYPE_CHECKING:
     from .server import Bridge
@@ -439,7 +440,7 @@ class TrajectoryAction:
         except FollowError as exc:
             outcome = GoalOutcome(rosaction.STATUS["ABORTED"], rosaction.ERROR["PATH_TOLERANCE_VIOLATED"], str(exc))
         except MotorIdleError as exc:  # nothing was sent
-            text = f"{exc}; call the enable service first"
+            text = str(in_ros_terms(exc))  # the words of the bridge's topics
             outcome = GoalOutcome(rosaction.STATUS["ABORTED"], rosaction.ERROR["INVALID_GOAL"], text)
         except Exception as exc:  # a bus failure: the follower held what it could
             outcome = GoalOutcome(rosaction.STATUS["ABORTED"], rosaction.ERROR["PATH_TOLERANCE_VIOLATED"], str(exc))

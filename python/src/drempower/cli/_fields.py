@@ -14,6 +14,7 @@ from typing import Any
 
 from ..client import Bus, MotorState
 from ..errors import DrEmpowerError
+from ..naming import COLUMNS, TIME_COLUMN
 from ..protocol import FastRead, ReadParam
 from ..protocol.addresses import CAN_CONFIG_HEARTBEAT_MS
 from ..protocol.parameters import Parameter, find_parameter
@@ -22,20 +23,6 @@ from ._output import LiveView, is_terminal, json_line, render_table
 __all__ = ["COLUMNS", "STATE_FIELDS", "SOURCES", "Field", "parse_fields", "run_fields"]
 
 _HEARTBEAT = CAN_CONFIG_HEARTBEAT_MS
-
-COLUMNS: dict[str, tuple[str, str]] = {
-    "id": ("id", "id"),
-    "position": ("position_deg", "position/deg"),
-    "speed": ("speed_rpm", "speed/rpm"),
-    "torque": ("torque_nm", "torque/Nm"),
-    "done": ("done", "done"),
-    "error": ("error", "error"),
-    "state": ("state", "state"),
-    "vbus_voltage": ("vbus_v", "vbus/V"),
-    "errors": ("errors", "errors"),
-}
-"""The one naming of readings across ``state``, ``monitor`` (table, ``--fields``, ``--json``, ``--csv``):
-channel or parameter -> (JSON and CSV key with its unit, table header with its unit)."""
 
 STATE_FIELDS: dict[str, tuple[str, Callable[[MotorState], object]]] = {
     "position": ("deg", lambda s: s.angle),
@@ -124,8 +111,8 @@ def run_fields(args: argparse.Namespace, bus: Bus, out: Any) -> int:
     need_state = any(f.parameter is None for f in fields)
     cap = _Capture(ids, fields)
     live = LiveView(out) if is_terminal(out) and not args.json else None
-    headers = ["time/s", "id", *(f.header for f in fields)]
-    keys = ["time_s", "id", *(f.key for f in fields)]
+    headers = [TIME_COLUMN[1], "id", *(f.header for f in fields)]
+    keys = [TIME_COLUMN[0], "id", *(f.key for f in fields)]
     start = time.monotonic()
     deadline = None if args.duration is None else start + args.duration
     beating: list[int] = []
@@ -168,7 +155,7 @@ def run_fields(args: argparse.Namespace, bus: Bus, out: Any) -> int:
                         break
                     values = cap.values[node]
                     records.append(
-                        {"time_s": round(t - start, 4), "id": node, **{f.key: values.get(f.name) for f in fields}}
+                        {TIME_COLUMN[0]: round(t - start, 4), "id": node, **{f.key: values.get(f.name) for f in fields}}
                     )
                 if writer is not None:
                     writer.writerows(records)

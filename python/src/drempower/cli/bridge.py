@@ -165,7 +165,7 @@ def run(args: argparse.Namespace) -> int:
         import rosbags  # noqa: F401
         import zenoh  # noqa: F401
 
-        from ..bridge.server import Bridge, BridgeOptions
+        from ..bridge.server import Bridge, BridgeOptions, motor_joints
     except ImportError as exc:
         print(f"drempower bridge: needs the bridge extra: pip install 'drempower[bridge]' ({exc})", file=sys.stderr)
         return 2
@@ -194,7 +194,7 @@ def run(args: argparse.Namespace) -> int:
         if args.sim and args.ids and not set(args.ids) <= set(args.sim):
             missing = ",".join(str(i) for i in args.ids if i not in args.sim)
             raise UsageError(f"--ids: motors {missing} are not simulated (--sim {','.join(map(str, args.sim))})")
-        joints = {f"motor_{i}": i for i in ids}
+        joints = motor_joints(ids)
     try:
         options = BridgeOptions(
             joints,

@@ -32,8 +32,7 @@ from typing import Protocol
 from ..errors import MotorIdleError, SoftLimitError, ValidationError
 from ..protocol.addresses import AXIS0_CURRENT_STATE, AXIS0_REQUESTED_STATE
 from ..protocol.enums import AxisState, VelocityMode
-from ..protocol.ids import SysCmd
-from ..protocol.limits import MOTION_CMDS
+from ..protocol.limits import MOTION_CMDS, OPEN_LOOP_SYS_CMDS
 from ..protocol.messages import (
     Message,
     ParamValue,
@@ -67,9 +66,7 @@ class _States(Protocol):
 
 
 _CLOSED = int(AxisState.CLOSED_LOOP_CONTROL)
-_FORGETS = frozenset(
-    int(c) for c in (SysCmd.ESTOP, SysCmd.CLEAR_ERRORS, SysCmd.REBOOT, SysCmd.INIT_CONFIG, SysCmd.ERASE_CONFIG)
-)
+_FORGETS = OPEN_LOOP_SYS_CMDS
 """System commands after which a motor is no longer known to be in closed loop."""
 
 LIMIT_UNITS = {"position": "deg", "speed": "r/min", "torque": "Nm", "accel": "(r/min)/s", "max_step": "deg"}

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 from .. import actions
 from ..client import Bus, ConfigBackup, Motor, MotorState
 from ..errors import DrEmpowerError, MotorIdleError, ValidationError
+from ..naming import COLUMNS, TIME_COLUMN, motor_name, motor_names
 from ..protocol import ERROR_WORDS, FastRead, flag_info
 from ..protocol.enums import AxisState, TorqueMode, VelocityMode
 from ..protocol.parameters import Parameter, find_parameter, parameters
@@ -56,6 +57,8 @@ _BANDWIDTH = "axis0.controller.config.input_filter_bandwidth"
 """Its domain bounds the T-mode ``param`` (the input filter bandwidth, 1/s)."""
 MOTION_ACTIONS = frozenset({"T", "Q", "P", "jog", "step", "V", "C", "impedance", "sync_move"})
 """Control actions that move a motor: refused while it is not in closed loop."""
+_CSV_COLUMNS = ("id", "position", "speed", "torque", "done", "error")
+"""The readings of a sample in the page's CSV (then the targets of position, speed and torque)."""
 PAGE_ROWS = {"stop": "stop", "idle": "idle", "enable": "enable", "clear_errors": "clear"}
 """The page's buttons that are rows of :mod:`drempower.actions` (the page's name: the row's)."""
 _LABEL = {w.name: w.label for w in ERROR_WORDS}
@@ -250,12 +253,15 @@ class Hub:
         return [self.key({field: i}, field) for i in ids]
 
     def label(self, key: int) -> str:
-        """How messages name a motor: ``motor 2``; over a robot ``joint elbow (bus right, motor 1)``."""
+        """How messages and log lines name a motor: by :mod:`drempower.naming` (``motor_2``); a joint of
+        the robot file by its name, with its bus and motor (``elbow (bus right, motor 1)``)."""
         if self.robot is None:
-            return f"motor {key}"
+            return motor_name(key)
         bus, i = self.buses[key // KEYS_PER_BUS][0], key % KEYS_PER_BUS
         j = self.joints.get(key)
-        return f"joint {j['joint']} (bus {bus}, motor {i})" if j else f"motor {i} of bus {bus}"
+        return (
+            f"{j['joint']} (bus {bus}, motor {i})" if j else self.names().get(key, {}).get("name", f"{bus}/motor_{i}")
+        )
 
     def description(self) -> str:
         """The bus, or every bus of the robot by name."""
@@ -290,13 +296,18 @@ class Hub:
         return state + plots
 
     def names(self) -> dict[int, dict[str, Any]]:
-        """What the page shows of each key over a robot: joints of the file and motors found (none on one bus)."""
-        if self.robot is None:
-            return {}
-        out = {k: dict(v) for k, v in self.joints.items()}
-        for k in self.motors:
-            out.setdefault(k, {"joint": None, "bus": self.buses[k // KEYS_PER_BUS][0], "id": k % KEYS_PER_BUS})
-        return out
+        """How the page names each motor it knows (the joints of a robot file, the motors found), by key:
+        ``{"name", "joint", "bus", "id"}``, ``name`` by :mod:`drempower.naming` (``motor_<id>``, a joint's
+        name, ``<bus>/motor_<id>`` where buses would collide)."""
+        where = {k: (self.buses[k // KEYS_PER_BUS][0], k % KEYS_PER_BUS) for k in sorted({*self.joints, *self.motors})}
+        joints = {(j["bus"], j["id"]): j["joint"] for j in self.joints.values()}
+        named = motor_names(where.values(), joints)
+        return {k: {"name": named[p], "joint": joints.get(p), "bus": p[0], "id": p[1]} for k, p in where.items()}
+
+    @staticmethod
+    def columns() -> dict[str, str]:
+        """The keys (with units) of the page's CSV, as ``monitor --csv`` and ``state --json`` name them."""
+        return {"time": TIME_COLUMN[0], "name": "name"} | {c: COLUMNS[c][0] for c in _CSV_COLUMNS}
 
     # ------------------------------------------------------------------ samples
 
@@ -770,9 +781,7 @@ class Hub:
                 self.motor(i).set_mode(1)
             except DrEmpowerError as exc:
                 log(f"idling {self.label(i)} failed: {exc}")
-        if ids and self.robot is None:
-            log(f"{why}: idled motors {','.join(map(str, ids))}")
-        elif ids:
+        if ids:
             log(f"{why}: idled {', '.join(map(self.label, ids))}")
         self.commanded.clear()
         self.targets.clear()

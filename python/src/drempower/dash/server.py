@@ -291,6 +291,7 @@ class Dashboard:
                     "budget": hub.budget_text(),
                     "scanning": hub.scanning or not self.scanned.is_set(),
                     "names": hub.names(),
+                    "columns": hub.columns(),
                     "actions": [actions.describe(a) for a in actions.table()],
                 }
             )

@@ -7,6 +7,7 @@ every front end refuse the same values with the same words:
   (:func:`check_motor`; :func:`~drempower.protocol.ids.check_node` takes broadcast too);
 * command sets: which commands move motors (:data:`MOTION_CMDS`), which system
   commands start presets (:data:`START_SYS_CMDS`) or stop (:data:`STOP_SYS_CMDS`),
+  which leave a motor out of closed loop (:data:`OPEN_LOOP_SYS_CMDS`),
   which are answered by a state frame when ``enable_reply_state`` is on
   (:data:`REPLY_STATE_CMDS`);
 * numeric bounds: an s16 field scaled by 0.01 holds :data:`S16_MIN`..:data:`S16_MAX`
@@ -30,6 +31,7 @@ __all__ = [
     "MOTION_CMDS",
     "START_SYS_CMDS",
     "STOP_SYS_CMDS",
+    "OPEN_LOOP_SYS_CMDS",
     "REPLY_STATE_CMDS",
     "S16_MIN",
     "S16_MAX",
@@ -56,6 +58,11 @@ START_SYS_CMDS: frozenset[int] = frozenset(range(int(SysCmd.START_T), int(SysCmd
 """System sub-commands (``sys_num``) that start the pending presets: they move motors too."""
 STOP_SYS_CMDS: frozenset[int] = frozenset((int(SysCmd.ESTOP),))
 """System sub-commands that stop a motor (an idle request is a parameter write, ``axis0.requested_state`` = 1)."""
+OPEN_LOOP_SYS_CMDS: frozenset[int] = STOP_SYS_CMDS | frozenset(
+    int(c) for c in (SysCmd.CLEAR_ERRORS, SysCmd.REBOOT, SysCmd.INIT_CONFIG, SysCmd.ERASE_CONFIG)
+)
+"""System sub-commands after which a motor is no longer in closed loop (an estop, a clear, a reboot,
+a configuration reset)."""
 REPLY_STATE_CMDS: frozenset[int] = MOTION_CMDS
 """Commands a motor answers with a state frame when ``enable_reply_state`` (31214) is on."""
 

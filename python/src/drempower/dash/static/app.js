@@ -97,6 +97,7 @@
         S.params = m.params; S.readOnly = m.read_only; S.bandwidth = m.bandwidth;
         S.paramByName = Object.fromEntries(m.params.map((p) => [p.name, p]));
         S.names = m.names || {};
+        S.columns = m.columns;
         $("#ro").hidden = !m.read_only;
         lockReadOnly();
         $("#busname").textContent = m.bus;
@@ -203,17 +204,14 @@
       e.disabled = S.readOnly;
     }
   }
-  // how the page names a motor: its joint, bus and id with --robot, else "motor ID"
+  // how the page names a motor: as the server names it (drempower.naming: motor_<id>, a robot file's joint,
+  // <bus>/motor_<id> where buses collide); one name in every label, list, legend, message and CSV row
   function motorName(id) {
     const n = S.names && S.names[id];
-    return n ? `${n.joint || "motor " + n.id} (${n.bus} #${n.id})` : `motor ${id}`;
+    return n && n.name ? n.name : `motor_${id}`;
   }
-  const legendName = (id) => (S.names && S.names[id] ? shortName(id) : `m${id}`);
-  // shorter, for lists and plot legends: the joint name (or bus#id) with a robot, the id on one bus
-  function shortName(id) {
-    const n = S.names && S.names[id];
-    return n ? n.joint || `${n.bus}#${n.id}` : String(id);
-  }
+  const legendName = motorName;
+  const shortName = motorName;
   function setMotors(ids) {
     ids = Array.from(new Set(ids)).sort((a, b) => a - b);
     if (ids.join() === S.motors.join()) return;
@@ -277,7 +275,7 @@
       const errs = (c.errors || []).map((e) => `<div class="err"><b>${e.word}: ${e.flag}</b> ${e.meaning} <i>${e.advice}</i></div>`).join("");
       const ro = S.readOnly ? "disabled" : "";
       const n = S.names[id];
-      const title = n ? `${n.joint || "motor " + n.id} <span class="dim">bus ${n.bus}, id ${n.id}</span>` : `Motor ${id}`;
+      const title = motorName(id) + (n && n.bus ? ` <span class="dim">bus ${n.bus}, id ${n.id}</span>` : "");
       return `<div class="card" data-id="${id}"><h3>${title}</h3>
         <table><tr><td>state</td><td>${c.state_name || "-"}</td></tr>
         <tr><td>angle</td><td>${r ? fmt(r[2], 2) : "-"} deg</td></tr>
@@ -430,13 +428,18 @@
     const src = S.paused && S.frozen ? S.frozen : S.data;
     let x0, x1;
     if (S.xRange) [x0, x1] = S.xRange; else { x1 = S.paused ? S.frozenT : S.lastT; x0 = x1 - windowS(); }
-    const lines = ["motor,t_s,angle_deg,speed_rpm,torque_nm,trajectory_done,error,target_angle_deg,target_speed_rpm,target_torque_nm"];
+    // the columns of monitor --csv and state --json (names with units, from the server), one row per sample
+    const C = S.columns;
+    const lines = [[C.time, C.id, C.name, C.position, C.speed, C.torque, C.done, C.error,
+      "target_" + C.position, "target_" + C.speed, "target_" + C.torque].join(",")];
     for (const id of selectedMotors()) {
       const d = src.get(id);
       if (!d) continue;
+      const n = S.names[id], name = motorName(id);
+      const quoted = /[",\n]/.test(name) ? `"${name.replace(/"/g, '""')}"` : name;
       for (let i = lowerBound(d.t, x0); i < d.t.length && d.t[i] <= x1; i++) {
         const r = d.rows[i];
-        lines.push([id, r[1].toFixed(4), r[2], r[3], r[4], r[5] & 1, (r[5] >> 1) & 1,
+        lines.push([r[1].toFixed(4), n ? n.id : id, quoted, r[2], r[3], r[4], r[5] & 1, (r[5] >> 1) & 1,
           r[6] ?? "", r[7] ?? "", r[8] ?? ""].join(","));
       }
     }
@@ -452,7 +455,7 @@
   function setWatched(w) {
     S.watched = w || [];
     $("#pw-list").innerHTML = S.watched.map(([id, name, hz]) =>
-      `<span>m${id} ${name} ${hz}/s <button data-unwatch="${id}|${name}" aria-label="stop plotting ${name}">&times;</button></span>`).join(" ");
+      `<span>${motorName(id)} ${name} ${hz}/s <button data-unwatch="${id}|${name}" aria-label="stop plotting ${name}">&times;</button></span>`).join(" ");
     rebuildPlot();
   }
   on("#pw-add", () => act("watch", { id: Number($("#pw-motor").value), name: $("#pw-name").value.trim(),
