@@ -174,3 +174,28 @@ def test_a_token_after_the_first_command_still_counts(tmp_path: Path) -> None:
         token.undeclare()
         wait_for(lambda: all(arm.motor(n).state == AxisState.IDLE for n in JOINTS), limit=3)
         pub.undeclare()
+
+
+def test_joint_commands_are_refused_in_the_words_of_the_tables_rows_and_the_gate(tmp_path: Path) -> None:
+    """The same words as the bridge's own command topics: the row of the actions table, the safety gate
+    with the ROS 2 caller's fix; the refusal is kept for /rosout; nothing sent."""
+    with served_arm() as arm, session(connect=[arm.endpoint]) as ros:
+        topics = JointTopics(arm.bridge, interfaces=["velocity"])
+        pub = ros.declare_publisher(topics.commands_key)
+        arm.bridge.bus.idle(range(1, 7))  # as after an estop
+        wait_for(lambda: all(arm.motor(n).state == AxisState.IDLE for n in JOINTS))
+        mark = len(arm.frames)
+        pub.put(joint_state(["base_yaw"], [0.0], velocity=[0.5]))
+        wait_for(lambda: topics.refused == 1)
+        idle = arm.bridge.last_refusal or ""
+        assert "is idle (not in closed loop): enable it first (call the enable service" in idle, idle
+        arm.enable(ros)
+        pub.put(joint_state(["base_yaw"], [0.0], velocity=[1e6]))
+        wait_for(lambda: topics.refused == 2)
+        far = arm.bridge.last_refusal or ""
+        assert "joint 'base_yaw' (velocity 1e+06 rad/s): speed=" in far and "-327.68..327.67" in far, far
+        pub.put(joint_state(["base_yaw"], [0.0], velocity=[math.nan]))
+        wait_for(lambda: topics.refused == 3)
+        assert "expected a finite number" in (arm.bridge.last_refusal or "")
+        time.sleep(0.1)
+        assert not [f for _, f in arm.frames[mark:] if f.arbitration_id & 0x1F in set(MOTION_CMDS)]

@@ -40,9 +40,10 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
+from .. import actions
 from ..client.commands import PositionMode, make_angle, make_impedance, make_speed, make_torque
 from ..client.watchdog import Watchdog, stop_messages
-from ..errors import DrEmpowerError
+from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..protocol.messages import Message, StartImpedance
 from . import rmw, rosmsg
 
@@ -66,6 +67,13 @@ DEFAULT_STATES_TOPIC = "/robot_joint_states"
 COMMAND_INTERFACES = ("position", "velocity", "effort")
 _CONTROLLER = "joint_commands"
 """The watchdog's name of the command topic's publishers."""
+_ROWS = {
+    "position": ("move", "angle", "rad", "motor_angle"),
+    "velocity": ("speed", "speed", "rad/s", "motor_speed"),
+    "effort": ("torque", "torque", "Nm", "motor_torque"),
+}
+"""Each command interface's row of :mod:`drempower.actions`, the row's field (motor units), the unit at the
+joint, and the gearing's conversion to the motor (as the bridge's own command topics)."""
 
 
 def check_interfaces(interfaces: Sequence[str]) -> tuple[str, ...]:
@@ -196,9 +204,14 @@ class JointTopics:
         for k, name in enumerate(names):
             j, g, face = self._faces[name]
             vals = {key: float(arrays[key][k]) if len(arrays[key]) else 0.0 for key in used}
-            for key, x in vals.items():
-                if not math.isfinite(x):
-                    raise ValueError(f"joint {name!r}: {key}={x!r}: expected a finite number")
+            for key, x in vals.items():  # each value by its row of the actions table, in the table's words
+                row, field, unit, convert = _ROWS[key]
+                try:
+                    if not math.isfinite(x):
+                        raise ValidationError(f"{field}={x!r}: expected a finite number")
+                    actions.validate(actions.get(row), {"id": j.id, field: getattr(g, convert)(x)})
+                except ValidationError as exc:
+                    raise ValidationError(f"joint {name!r} ({key} {x:g} {unit}): {exc}") from None
             try:
                 msgs = out.setdefault(face.name, [])
                 if used == ("position",):
@@ -228,9 +241,16 @@ class JointTopics:
 
     def _send(self, batches: dict[str, list[Message]]) -> None:
         """Every bus's messages through its safety gate first, then sent (nothing sent if one bus refuses)."""
+        from .server import _on_bus, in_ros_terms
+
         faces = self.bridge.faces
         for name, msgs in batches.items():
-            faces[name].bus.pass_gate(msgs, False)
+            face = faces[name]
+            try:
+                face.relearn()  # a motor a remote client idled is read again
+                face.bus.pass_gate(msgs, False)
+            except MotorIdleError as exc:  # the gate's words, with the fix a ROS 2 caller has
+                raise _on_bus(face, in_ros_terms(exc), exc.nodes) from None
         for name, msgs in batches.items():
             bus = faces[name].bus
             if self.interfaces == COMMAND_INTERFACES:
@@ -256,7 +276,7 @@ class JointTopics:
                 self._send(batches)
             except (DrEmpowerError, ValueError) as exc:
                 self.refused += 1
-                _log.warning("%s refused: %s", self.commands_topic, exc)
+                self.bridge._refuse(self.commands_topic, str(exc))  # logged, and told on /rosout
                 return
             now = time.monotonic()
             if self._registered is None:
