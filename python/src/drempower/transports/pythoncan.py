@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import os
+import queue
+import select
 import socket
 import threading
 import time
+import weakref
 from typing import Any
 
 import can
@@ -15,6 +19,7 @@ from can.interfaces import VALID_INTERFACES
 from ..protocol.ids import Frame, parse_int
 from .base import Transport
 from .errors import TransportError
+from .fds import close_fds, drain, nonblocking_pipe
 
 __all__ = ["PythonCanTransport", "SEND_TIMEOUT", "CONNECT_TIMEOUT"]
 
@@ -28,6 +33,10 @@ _SERIAL_PORTS = ("serialPortOrig", "_ser")
 """Where python-can's serial-port interfaces keep their pyserial port (slcan, serial)."""
 _KEYS = ("interface", "channel", "bitrate")
 _TIMEOUTS = (serial.SerialTimeoutException, TimeoutError)
+_RECV_ERRORS = (can.CanError, OSError, ValueError, AttributeError, TypeError)
+_FD_INTERFACES = frozenset(("socketcan",))
+"""python-can interfaces whose own ``fileno()`` turns readable exactly when ``recv(0)`` has a message
+to give (their buffers hold no whole message while it is not)."""
 
 
 def _shown(settings: dict[str, Any]) -> str:
@@ -77,6 +86,50 @@ def _probe_socketcand(host: object, port: object, timeout: float) -> None:
 
 SOCKETCAND_TX_LATENCY = 0.02
 """Margin (s) a socketcand link adds before a batch's start (see ``Transport.tx_latency``)."""
+
+
+class _SignalQueue(queue.Queue):  # type: ignore[type-arg]
+    """python-can's virtual bus queue that also writes a byte to a pipe for every message put in it,
+    so that the pipe's read end turns readable when a message arrives."""
+
+    def __init__(self, signal_w: int, maxsize: int = 0) -> None:
+        super().__init__(maxsize)
+        self._signal_w = signal_w
+
+    def _put(self, item: Any) -> None:
+        super()._put(item)
+        try:
+            os.write(self._signal_w, b"\0")
+        except OSError:  # full: a byte is already waiting; closed: nobody reads
+            pass
+
+
+def _signal_virtual(bus: can.BusABC) -> int | None:
+    """Give python-can's virtual ``bus`` a pipe that turns readable when a message reaches it; its read
+    end, or None when the bus is not laid out as python-can 4 lays it out (the bus is then left as is)."""
+    from can.interfaces import virtual
+
+    old = getattr(bus, "queue", None)
+    peers = getattr(bus, "channel", None)
+    lock = getattr(virtual, "channels_lock", None)
+    if type(old) is not queue.Queue or not isinstance(peers, list) or lock is None:
+        return None
+    r, w = nonblocking_pipe()
+    new = _SignalQueue(w, old.maxsize)
+    with lock:
+        index = next((i for i, q in enumerate(peers) if q is old), None)
+        if index is None:
+            close_fds(r, w)
+            return None
+        peers[index] = new
+        bus.queue = new  # type: ignore[attr-defined]
+    while True:  # what reached the old queue before the swap
+        try:
+            new.put_nowait(old.get_nowait())
+        except (queue.Empty, queue.Full):
+            break
+    weakref.finalize(bus, close_fds, r, w)
+    return r
 
 
 class PythonCanTransport(Transport):
@@ -133,6 +186,9 @@ class PythonCanTransport(Transport):
         self._send_lock = threading.Lock()
         rate = cfg.get("bitrate")
         self.wire_bitrate = rate if isinstance(rate, int) and rate > 0 else None
+        self._signal_r: int | None = None
+        self._socket: socket.socket | None = None
+        self._fd = self._descriptor(name)
         if name == "socketcand":  # a TCP hop and the server's own queue before the bus
             self.tx_latency = SOCKETCAND_TX_LATENCY
             self.unbounded_latency = True
@@ -142,6 +198,26 @@ class PythonCanTransport(Transport):
             self.description = f"python-can {info}"
         else:
             self.description = f"python-can {name} {chan}" if chan is not None else f"python-can {name}"
+
+    def _descriptor(self, name: str) -> int | None:
+        """The descriptor that turns readable when :meth:`read_nowait` has frames to give, or None."""
+        bus = self._bus
+        if name == "virtual":
+            self._signal_r = _signal_virtual(bus)
+            return self._signal_r
+        if name == "socketcand":
+            sock = getattr(bus, "_SocketCanDaemonBus__socket", None)
+            if isinstance(sock, socket.socket):
+                self._socket = sock
+                return sock.fileno()
+            return None
+        if name in _FD_INTERFACES:
+            try:
+                fd = bus.fileno()
+            except (NotImplementedError, can.CanError, OSError, ValueError):
+                return None
+            return fd if isinstance(fd, int) and fd >= 0 else None
+        return None
 
     @staticmethod
     def _resolve(given: dict[str, Any]) -> dict[str, Any]:
@@ -235,13 +311,48 @@ class PythonCanTransport(Transport):
                 if self._closing.is_set():
                     return None
                 msg = self._bus.recv(timeout)
-        except (can.CanError, OSError, ValueError, AttributeError, TypeError) as exc:
+        except _RECV_ERRORS as exc:
             if self._closing.is_set():
                 return None
             raise TransportError(f"{self.description}: receive failed: {exc}") from exc
         if msg is None or msg.is_error_frame:
             return None
         return Frame(msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame)
+
+    def fileno(self) -> int | None:
+        """A descriptor that turns readable when :meth:`read_nowait` has frames to give: the socket of
+        ``socketcan`` and ``socketcand``, the port of python-can's ``slcan``, a pipe signalled by the
+        ``virtual`` bus's queue; None for other interfaces (frames are then received in a thread)."""
+        return self._fd
+
+    def read_nowait(self) -> list[Frame]:
+        """Every frame python-can has for us now, without waiting (error frames are skipped)."""
+        if self._signal_r is not None:
+            drain(self._signal_r)  # first: a message that arrives meanwhile leaves the pipe readable
+        out: list[Frame] = []
+        try:
+            with self._recv_lock:
+                if self._closing.is_set():
+                    return out
+                recv = self._bus.recv
+                while (msg := recv(0.0)) is not None:
+                    if not msg.is_error_frame:
+                        out.append(Frame(msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame))
+                if not out and self._socket is not None:
+                    self._check_connected(self._socket)
+        except _RECV_ERRORS as exc:
+            if self._closing.is_set():
+                return out
+            raise TransportError(f"{self.description}: receive failed: {exc}") from exc
+        return out
+
+    def _check_connected(self, sock: socket.socket) -> None:
+        """Raise TransportError when the server closed the connection (python-can's socketcand does not
+        notice: its socket stays readable with nothing to read)."""
+        if not select.select([sock], [], [], 0)[0]:
+            return  # nothing to read: open (a socket with a timeout would wait in recv, whatever the flags)
+        if sock.recv(1, socket.MSG_PEEK) == b"":
+            raise TransportError(f"{self.description}: the socketcand server closed the connection")
 
     def close(self) -> None:
         """Shut the python-can bus down; bounded even when the device stopped reading."""
