@@ -4,8 +4,9 @@
 Run: ``python3 bench/bench_client.py [--requests N] [--seconds S]``. Prints figures; asserts nothing.
 
 1. Round-trip latency of ``get_state`` (fast read) and ``read_property`` through
-   every transport (in-process, python-can virtual, slcan and 0xAA over the
-   adapter pty, the motor UART pty, socketcand over TCP on 127.0.0.1), with the
+   every transport (in-process, python-can virtual, slcan (drempower's and
+   python-can's) and 0xAA over the adapter pty, the motor UART pty, socketcand
+   over TCP on 127.0.0.1), with the
    simulator answering at once: the cost of the client, the transport and the
    attachment, median and 99th percentile.
 2. ``bus.cycle`` rate for 1, 6 and 12 motors on the simulator's 1 Mbit/s timing
@@ -36,6 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python" / "src"
 import drempower
 from drempower.client import Bus
 from drempower.protocol import FastRead, PositionT, State, encode_aa, encode_uart11
+from drempower.protocol.slcan import encode_slcan
 from drempower.sim import (
     SimBus,
     attach_adapter_pty,
@@ -45,7 +47,7 @@ from drempower.sim import (
     frame_bits,
 )
 
-TRANSPORTS = ("inprocess", "virtual", "slcan", "adapter", "uart", "socketcand")
+TRANSPORTS = ("inprocess", "virtual", "slcan", "python-can:slcan", "adapter", "uart", "socketcand")
 BITRATE = 1_000_000
 _channels = itertools.count()
 
@@ -61,11 +63,11 @@ def link(kind: str, sim: SimBus) -> Iterator[Bus]:
             channel = f"drempower-bench-{next(_channels)}"
             stack.callback(attach_python_can(sim, channel=channel).close)
             bus = drempower.open_bus("virtual", channel, **opts)
-        elif kind in ("slcan", "adapter"):
+        elif kind in ("slcan", "python-can:slcan", "adapter"):
             pty = attach_adapter_pty(sim)
             stack.callback(pty.close)
-            if kind == "slcan":
-                bus = drempower.open_bus("slcan", pty.path, BITRATE, sleep_after_open=0, **opts)
+            if kind != "adapter":
+                bus = drempower.open_bus(kind, pty.path, BITRATE, sleep_after_open=0, **opts)
             else:
                 bus = drempower.open_bus("adapter", pty.path, **opts)
         elif kind == "uart":
@@ -93,30 +95,58 @@ def timings(fn: Callable[[], object], n: int) -> tuple[float, float]:
     return statistics.median(out) * 1e6, out[min(len(out) - 1, int(len(out) * 0.99))] * 1e6
 
 
-def raw_floor(kind: str, n: int) -> tuple[float, float]:
-    """The floor of a round trip on the simulator's pty: a minimal client that writes the fast-read
-    frame with ``os.write`` and takes the whole reply with ``select`` + ``os.read`` (no decoding)."""
-    sim = SimBus(ids=[1])
-    pty = attach_adapter_pty(sim) if kind == "adapter" else attach_uart_pty(sim, 1)
-    fd = os.open(pty.path, os.O_RDWR | os.O_NOCTTY)
-    try:
-        tty.setraw(fd)
+class RawFloor:
+    """The floor of a round trip on a simulator's pty: a minimal client that writes the fast-read frame
+    with ``os.write`` and takes the whole reply with ``select`` + ``os.read`` (no decoding).
+
+    ``kind`` is the pty's framing: ``adapter`` (0xAA), ``slcan`` (text lines: the channel is opened
+    first; the reply is the adapter's ``z`` answer and the state frame's line) or ``uart`` (11 bytes).
+    The pty is its own simulator's, in this process, unless ``path`` is given.
+    """
+
+    def __init__(self, kind: str = "adapter", path: str | None = None) -> None:
+        self.pty = None
+        if path is None:
+            sim = SimBus(ids=[1])
+            self.pty = attach_uart_pty(sim, 1) if kind == "uart" else attach_adapter_pty(sim)
+            path = self.pty.path
+        self.fd = os.open(path, os.O_RDWR | os.O_NOCTTY)
+        tty.setraw(self.fd)
         frame = FastRead(1).encode()
-        request = encode_aa(frame) if kind == "adapter" else encode_uart11(frame.arbitration_id, frame.data)
-        size = len(request)  # the reply (a state frame) has the same length
+        reply = State(1, 0.0, 0.0, 0.0, True, False).encode()
+        if kind == "uart":
+            self.request, self.size = encode_uart11(frame.arbitration_id, frame.data), 11
+        elif kind == "slcan":
+            self.request, self.size = encode_slcan(frame), len(b"z\r" + encode_slcan(reply))
+            os.write(self.fd, b"C\rS8\rO\r")
+            self._take(3)  # the three answers
+        else:
+            self.request, self.size = encode_aa(frame), len(encode_aa(reply))
 
-        def exchange() -> None:
-            os.write(fd, request)
-            got = 0
-            while got < size:
-                if not select.select([fd], [], [], 1.0)[0]:
-                    raise TimeoutError(f"no reply on the {kind} pty")
-                got += len(os.read(fd, size - got))
+    def _take(self, size: int) -> None:
+        fd, got = self.fd, 0
+        while got < size:
+            if not select.select([fd], [], [], 1.0)[0]:
+                raise TimeoutError("no reply on the pty")
+            got += len(os.read(fd, size - got))
 
-        return timings(exchange, n)
+    def __call__(self) -> None:
+        os.write(self.fd, self.request)
+        self._take(self.size)
+
+    def close(self) -> None:
+        os.close(self.fd)
+        if self.pty is not None:
+            self.pty.close()
+
+
+def raw_floor(kind: str, n: int) -> tuple[float, float]:
+    """Median and 99th percentile (us) of :class:`RawFloor` on a pty of ``kind``."""
+    floor = RawFloor(kind)
+    try:
+        return timings(floor, n)
     finally:
-        os.close(fd)
-        pty.close()
+        floor.close()
 
 
 def latency(n: int) -> None:
@@ -129,7 +159,7 @@ def latency(n: int) -> None:
             gs = timings(m.get_state, n)
             rp = timings(lambda m=m: m.read_property(38012), n)  # type: ignore[misc]
         print(f"  {kind:<12} {gs[0]:14.0f} us {gs[1]:6.0f} us {rp[0]:18.0f} us {rp[1]:6.0f} us")
-        if kind in ("adapter", "uart"):
+        if kind in ("adapter", "uart", "slcan"):
             floor = raw_floor(kind, n)
             print(
                 f"  {'  raw floor':<12} {floor[0]:14.0f} us {floor[1]:6.0f} us"

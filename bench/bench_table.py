@@ -53,7 +53,6 @@ import sys
 import threading
 import time
 import timeit
-import tty
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -62,8 +61,10 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "python" / "src"))
 sys.path.insert(0, str(HERE))
 
-import bench_client  # noqa: E402  (the raw pty floor, the fine simulated clock, the cycle's bits)
+import bench_client  # noqa: E402  (the client links, the raw pty floor, the fine simulated clock, the cycle's bits)
 import bench_idle  # noqa: E402  (import CPU time, wake-up counting)
+import can  # noqa: E402
+from bench_client import RawFloor  # noqa: E402
 
 import drempower  # noqa: E402
 from drempower.client import driver  # noqa: E402
@@ -84,7 +85,13 @@ from drempower.protocol import (  # noqa: E402
     decode_reply,
     encode_aa,
 )
-from drempower.sim import SimBus, attach_adapter_pty, attach_uart_pty  # noqa: E402
+from drempower.sim import (  # noqa: E402
+    SimBus,
+    attach_adapter_pty,
+    attach_python_can,
+    attach_socketcand,
+    attach_uart_pty,
+)
 from drempower.transports.sim import SimTransport  # noqa: E402
 
 ROWS: list[tuple[str, str, str, str]] = []
@@ -116,34 +123,6 @@ async def async_median_us(fn: Callable[[], object], n: int) -> float:
         await fn()  # type: ignore[misc]
         out.append(time.perf_counter() - t0)
     return statistics.median(out) * 1e6
-
-
-class RawFloor:
-    """A minimal client on an adapter pty (its own simulator's, in this process, unless ``path`` is
-    given): ``os.write`` the fast read, ``select`` + ``os.read`` the whole reply, no decoding."""
-
-    def __init__(self, path: str | None = None) -> None:
-        self.pty = None
-        if path is None:
-            self.pty = attach_adapter_pty(SimBus(ids=[1]))
-            path = self.pty.path
-        self.fd = os.open(path, os.O_RDWR | os.O_NOCTTY)
-        tty.setraw(self.fd)
-        self.request = encode_aa(FastRead(1).encode())
-
-    def __call__(self) -> None:
-        fd, size = self.fd, len(self.request)
-        os.write(fd, self.request)
-        got = 0
-        while got < size:
-            if not select.select([fd], [], [], 1.0)[0]:
-                raise TimeoutError("no reply on the adapter pty")
-            got += len(os.read(fd, size - got))
-
-    def close(self) -> None:
-        os.close(self.fd)
-        if self.pty is not None:
-            self.pty.close()
 
 
 @contextlib.contextmanager
@@ -202,11 +181,11 @@ def adapter_latency(n: int, own_process: bool = False) -> tuple[tuple[float, flo
     with ``own_process`` the client's and the floor's simulators each run in a process of their own."""
     with contextlib.ExitStack() as stack:
         if own_process:
-            path, floor = stack.enter_context(sim_process()), RawFloor(stack.enter_context(sim_process()))
+            path, floor = stack.enter_context(sim_process()), RawFloor("adapter", stack.enter_context(sim_process()))
         else:
             pty = attach_adapter_pty(SimBus(ids=[1]))
             stack.callback(pty.close)
-            path, floor = pty.path, RawFloor()
+            path, floor = pty.path, RawFloor("adapter")
         stack.callback(floor.close)
         return _adapter_latency(n, path, floor)
 
@@ -243,7 +222,7 @@ def _adapter_latency(
     return _ratio(sync, f_sync), _ratio(asy, f_async)
 
 
-def latency(n: int) -> None:
+def adapter_rows(n: int) -> None:
     sync, asy = adapter_latency(n)
     own_sync, own_asy = adapter_latency(n, own_process=True)
     driver.BusDriver.caller_reads = False
@@ -261,6 +240,8 @@ def latency(n: int) -> None:
     ):
         row(label, f"{got:.0f} us", f"{fl:.0f} us", f"{ratio:.2f}x floor")
 
+
+def inprocess(n: int) -> None:
     sim = SimBus(ids=[1])
     with drempower.open_bus("sim", bus=sim, time_scale=0, timeout=1.0, stop_on_close=False) as bus:
         inproc = median_us(bus.motor(1).get_state, n)
@@ -269,6 +250,82 @@ def latency(n: int) -> None:
     request = FastRead(1).encode()
     sim_floor = median_us(lambda: bare.send(request), n)
     row("get_state, in-process simulator", f"{inproc:.1f} us", f"{sim_floor:.1f} us", f"{inproc / sim_floor:.1f}x")
+
+
+class BareCan:
+    """Bare python-can doing the client's exchange: send the fast read, receive the reply."""
+
+    def __init__(self, **config: Any) -> None:
+        self.bus = can.Bus(**config)
+        frame = FastRead(1).encode()
+        self.msg = can.Message(arbitration_id=frame.arbitration_id, data=frame.data, is_extended_id=False)
+
+    def __call__(self) -> None:
+        self.bus.send(self.msg)
+        if self.bus.recv(1.0) is None:
+            raise TimeoutError("no reply through python-can")
+
+    def close(self) -> None:
+        self.bus.shutdown()
+
+
+@contextlib.contextmanager
+def python_can_floor(kind: str) -> Iterator[Callable[[], None]]:
+    """The floor of link ``kind``, on a simulator of its own: bare python-can on the same interface with
+    the same kind of peer (``virtual``, ``socketcand``), or the raw pty client (``slcan``)."""
+    sim = SimBus(ids=[1])
+    with contextlib.ExitStack() as stack:
+        floor: BareCan | RawFloor
+        if kind == "virtual":
+            channel = f"drempower-bench-floor-{os.getpid()}"
+            stack.callback(attach_python_can(sim, channel=channel).close)
+            floor = BareCan(interface="virtual", channel=channel)
+        elif kind == "socketcand":
+            server = attach_socketcand(sim)
+            stack.callback(server.close)
+            floor = BareCan(interface="socketcand", channel="can0", host=server.host, port=server.port)
+        else:
+            floor = RawFloor("slcan")
+        stack.callback(floor.close)
+        yield floor
+
+
+def alternate(
+    client: Callable[[], object], floor: Callable[[], object], n: int
+) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
+    """Blocks of ``floor`` and ``client`` calls in turn: (floor us, client us, ratio) of the wall time per
+    call (see :func:`_ratio`) and of the process's CPU time per call (all threads: the peers' too)."""
+    block = max(1, n // ROUNDS)
+    _timed(client, 50, [])
+    _timed(floor, 50, [])
+    walls: tuple[list[list[float]], list[list[float]]] = ([], [])
+    cpus: tuple[list[float], list[float]] = ([], [])
+    for _ in range(ROUNDS):
+        for fn, wall, cpu in ((floor, walls[0], cpus[0]), (client, walls[1], cpus[1])):
+            wall.append([])
+            t0 = time.process_time()
+            _timed(fn, block, wall[-1])
+            cpu.append((time.process_time() - t0) / block)
+    per_block = statistics.median(c / f for c, f in zip(cpus[1], cpus[0], strict=True))
+    cpu = (statistics.median(cpus[0]) * 1e6, statistics.median(cpus[1]) * 1e6, per_block)
+    return _ratio(walls[1], walls[0]), cpu
+
+
+PYTHON_CAN = (
+    ("virtual", "python-can virtual", "bare python-can"),
+    ("socketcand", "python-can socketcand, 127.0.0.1", "bare python-can"),
+    ("slcan", "slcan pty (drempower's reader)", "raw pty"),
+    ("python-can:slcan", "slcan pty (python-can:slcan)", "raw pty"),
+)
+"""The links of the python-can rows: (link of ``bench_client.link``, label, what the floor is)."""
+
+
+def python_can(n: int) -> None:
+    for kind, label, what in PYTHON_CAN:
+        with bench_client.link(kind, SimBus(ids=[1])) as bus, python_can_floor(kind) as floor:
+            (fw, cw, rw), (fc, cc, rc) = alternate(bus.motor(1).get_state, floor, n)
+        row(f"get_state, {label}", f"{cw:.0f} us", f"{fw:.0f} us", f"{rw:.2f}x {what}")
+        row("  CPU per call (every thread)", f"{cc:.0f} us", f"{fc:.0f} us", f"{rc:.2f}x {what}")
 
 
 def codec(seconds: float) -> None:
@@ -461,19 +518,39 @@ def import_cpu(runs: int) -> None:
     row("import drempower, CPU time", f"{full:.0f} ms", f"{bare:.0f} ms", f"+{full - bare:.0f} ms")
 
 
+ROW_GROUPS = ("adapter", "python-can", "inprocess", "codec", "cycle", "idle", "import")
+"""The groups of rows ``--rows`` picks from, in the order they run."""
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--requests", type=int, default=2000, help="calls per latency figure (default 2000)")
     ap.add_argument("--seconds", type=float, default=1.0, help="time per throughput figure (default 1)")
     ap.add_argument("--idle-seconds", type=float, default=3.0, help="time per wake-up figure (default 3)")
     ap.add_argument("--runs", type=int, default=5, help="fresh interpreters for the import figure (default 5)")
+    ap.add_argument(
+        "--rows",
+        default=",".join(ROW_GROUPS),
+        help=f"comma-separated groups of rows to run (default all: {','.join(ROW_GROUPS)})",
+    )
     args = ap.parse_args()
+    picked = [g.strip() for g in args.rows.split(",") if g.strip()]
+    unknown = [g for g in picked if g not in ROW_GROUPS]
+    if unknown:
+        ap.error(f"--rows: unknown {', '.join(unknown)}; choose from {', '.join(ROW_GROUPS)}")
+    runs: dict[str, Callable[[], None]] = {
+        "adapter": lambda: adapter_rows(args.requests),
+        "python-can": lambda: python_can(args.requests),
+        "inprocess": lambda: inprocess(args.requests),
+        "codec": lambda: codec(args.seconds),
+        "cycle": lambda: cycle(args.seconds),
+        "idle": lambda: idle(args.idle_seconds),
+        "import": lambda: import_cpu(args.runs),
+    }
     print(f"drempower speed table: Python {platform.python_version()} ({platform.python_implementation()})")
-    latency(args.requests)
-    codec(args.seconds)
-    cycle(args.seconds)
-    idle(args.idle_seconds)
-    import_cpu(args.runs)
+    for group in ROW_GROUPS:
+        if group in picked:
+            runs[group]()
 
 
 if __name__ == "__main__":
