@@ -19,7 +19,7 @@ from can.interfaces import VALID_INTERFACES
 from ..protocol.ids import Frame, parse_int
 from .base import Transport
 from .errors import TransportError
-from .fds import close_fds, drain, nonblocking_pipe
+from .fds import close_fds, nonblocking_pipe
 
 __all__ = ["PythonCanTransport", "SEND_TIMEOUT", "CONNECT_TIMEOUT"]
 
@@ -33,6 +33,7 @@ _SERIAL_PORTS = ("serialPortOrig", "_ser")
 """Where python-can's serial-port interfaces keep their pyserial port (slcan, serial)."""
 _KEYS = ("interface", "channel", "bitrate")
 _TIMEOUTS = (serial.SerialTimeoutException, TimeoutError)
+_new_frame = tuple.__new__
 _RECV_ERRORS = (can.CanError, OSError, ValueError, AttributeError, TypeError)
 _FD_INTERFACES = frozenset(("socketcan",))
 """python-can interfaces whose own ``fileno()`` turns readable exactly when ``recv(0)`` has a message
@@ -42,6 +43,11 @@ to give (their buffers hold no whole message while it is not)."""
 def _shown(settings: dict[str, Any]) -> str:
     """``interface=..., channel=..., bitrate=...`` of those in ``settings``."""
     return ", ".join(f"{k}={settings[k]!r}" for k in _KEYS if k in settings)
+
+
+def _frame(msg: can.Message) -> Frame:
+    """The frame a python-can message carries."""
+    return _new_frame(Frame, (msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame))
 
 
 def _why(exc: BaseException) -> str:
@@ -89,24 +95,28 @@ SOCKETCAND_TX_LATENCY = 0.02
 
 
 class _SignalQueue(queue.Queue):  # type: ignore[type-arg]
-    """python-can's virtual bus queue that also writes a byte to a pipe for every message put in it,
-    so that the pipe's read end turns readable when a message arrives."""
+    """python-can's virtual bus queue that also writes a byte to a pipe when a message reaches it empty,
+    so that the pipe's read end turns readable when messages arrive."""
 
     def __init__(self, signal_w: int, maxsize: int = 0) -> None:
         super().__init__(maxsize)
         self._signal_w = signal_w
+        self.signal_r = -1
+        """The pipe's read end."""
 
     def _put(self, item: Any) -> None:
+        signal = not self.queue  # (under the queue's lock) a reader empties the queue after the pipe
         super()._put(item)
-        try:
-            os.write(self._signal_w, b"\0")
-        except OSError:  # full: a byte is already waiting; closed: nobody reads
-            pass
+        if signal:
+            try:
+                os.write(self._signal_w, b"\0")
+            except OSError:  # full: a byte is already waiting; closed: nobody reads
+                pass
 
 
-def _signal_virtual(bus: can.BusABC) -> int | None:
-    """Give python-can's virtual ``bus`` a pipe that turns readable when a message reaches it; its read
-    end, or None when the bus is not laid out as python-can 4 lays it out (the bus is then left as is)."""
+def _signal_virtual(bus: can.BusABC) -> _SignalQueue | None:
+    """Give python-can's virtual ``bus`` a queue whose pipe turns readable when a message reaches it;
+    None when the bus is not laid out as python-can 4 lays it out (the bus is then left as is)."""
     from can.interfaces import virtual
 
     old = getattr(bus, "queue", None)
@@ -129,7 +139,8 @@ def _signal_virtual(bus: can.BusABC) -> int | None:
         except (queue.Empty, queue.Full):
             break
     weakref.finalize(bus, close_fds, r, w)
-    return r
+    new.signal_r = r
+    return new
 
 
 class PythonCanTransport(Transport):
@@ -187,6 +198,8 @@ class PythonCanTransport(Transport):
         rate = cfg.get("bitrate")
         self.wire_bitrate = rate if isinstance(rate, int) and rate > 0 else None
         self._signal_r: int | None = None
+        self._queue: queue.Queue[can.Message] | None = None
+        """The virtual bus's queue, read directly (its messages need no filtering)."""
         self._socket: socket.socket | None = None
         self._fd = self._descriptor(name)
         if name == "socketcand":  # a TCP hop and the server's own queue before the bus
@@ -203,7 +216,12 @@ class PythonCanTransport(Transport):
         """The descriptor that turns readable when :meth:`read_nowait` has frames to give, or None."""
         bus = self._bus
         if name == "virtual":
-            self._signal_r = _signal_virtual(bus)
+            signalled = _signal_virtual(bus)
+            if signalled is None:
+                return None
+            self._signal_r = signalled.signal_r
+            if not getattr(bus, "_filters", None):  # python-can's recv would take every message as it is
+                self._queue = signalled
             return self._signal_r
         if name == "socketcand":
             sock = getattr(bus, "_SocketCanDaemonBus__socket", None)
@@ -317,7 +335,7 @@ class PythonCanTransport(Transport):
             raise TransportError(f"{self.description}: receive failed: {exc}") from exc
         if msg is None or msg.is_error_frame:
             return None
-        return Frame(msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame)
+        return _frame(msg)
 
     def fileno(self) -> int | None:
         """A descriptor that turns readable when :meth:`read_nowait` has frames to give: the socket of
@@ -328,16 +346,29 @@ class PythonCanTransport(Transport):
     def read_nowait(self) -> list[Frame]:
         """Every frame python-can has for us now, without waiting (error frames are skipped)."""
         if self._signal_r is not None:
-            drain(self._signal_r)  # first: a message that arrives meanwhile leaves the pipe readable
+            try:  # first: a message that arrives meanwhile leaves the pipe readable
+                os.read(self._signal_r, 4096)
+            except OSError:  # empty (non-blocking), or closed
+                pass
         out: list[Frame] = []
+        q = self._queue
         try:
             with self._recv_lock:
                 if self._closing.is_set():
                     return out
+                if q is not None:
+                    while True:
+                        try:
+                            queued = q.get_nowait()
+                        except queue.Empty:
+                            break
+                        if not queued.is_error_frame:
+                            out.append(_frame(queued))
+                    return out
                 recv = self._bus.recv
                 while (msg := recv(0.0)) is not None:
                     if not msg.is_error_frame:
-                        out.append(Frame(msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame))
+                        out.append(_frame(msg))
                 if not out and self._socket is not None:
                     self._check_connected(self._socket)
         except _RECV_ERRORS as exc:
