@@ -68,6 +68,22 @@ def test_virtual_bus_received_by_recv_too() -> None:
         t.close()
 
 
+def test_filters_in_software_keep_the_receive_thread() -> None:
+    """python-can filters a virtual bus in its recv, which then gives None at a dropped message with more
+    held: such a bus has no descriptor, and only what passes the filter arrives."""
+    t = open_transport("virtual", "drempower-test-filtered", can_filters=[{"can_id": 0x21, "can_mask": 0x7FF}])
+    peer = can.Bus(interface="virtual", channel="drempower-test-filtered")
+    try:
+        assert t.fileno() is None
+        for arb in (0x22, 0x21):
+            peer.send(can.Message(arbitration_id=arb, data=b"", is_extended_id=False))
+        assert t.recv(1.0) == Frame(0x21, b"")
+        assert t.recv(0.05) is None
+    finally:
+        peer.shutdown()
+        t.close()
+
+
 def test_client_over_virtual_reads_in_the_calling_thread() -> None:
     sim = SimBus(ids=[1])
     channel = "drempower-test-descriptor-client"

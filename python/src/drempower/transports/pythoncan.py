@@ -159,6 +159,11 @@ class PythonCanTransport(Transport):
     the port's write timeout; for socketcand to the socket). A socketcand
     server is probed first (connection and greeting within
     :data:`CONNECT_TIMEOUT`), so a missing one fails at once naming host:port.
+
+    ``socketcan``, ``socketcand`` and ``virtual`` buses offer a descriptor
+    (:meth:`fileno`) that callers wait on in ``select`` and read with
+    :meth:`read_nowait`, with no thread handoff; other interfaces are read by
+    the bus's receive thread.
     """
 
     def __init__(
@@ -199,7 +204,7 @@ class PythonCanTransport(Transport):
         self.wire_bitrate = rate if isinstance(rate, int) and rate > 0 else None
         self._signal_r: int | None = None
         self._queue: queue.Queue[can.Message] | None = None
-        """The virtual bus's queue, read directly (its messages need no filtering)."""
+        """The virtual bus's queue, read directly (no filters: python-can's recv would take every message)."""
         self._socket: socket.socket | None = None
         self._fd = self._descriptor(name)
         if name == "socketcand":  # a TCP hop and the server's own queue before the bus
@@ -213,15 +218,20 @@ class PythonCanTransport(Transport):
             self.description = f"python-can {name} {chan}" if chan is not None else f"python-can {name}"
 
     def _descriptor(self, name: str) -> int | None:
-        """The descriptor that turns readable when :meth:`read_nowait` has frames to give, or None."""
+        """The descriptor that turns readable when :meth:`read_nowait` has frames to give, or None.
+
+        None where python-can filters in software (``can_filters`` on ``virtual`` or ``socketcand``): its
+        ``recv(0)`` then returns None at a message it drops, with more held, so the thread path is used.
+        """
         bus = self._bus
+        if getattr(bus, "_filters", None) and name in ("virtual", "socketcand"):
+            return None
         if name == "virtual":
             signalled = _signal_virtual(bus)
             if signalled is None:
                 return None
+            self._queue = signalled
             self._signal_r = signalled.signal_r
-            if not getattr(bus, "_filters", None):  # python-can's recv would take every message as it is
-                self._queue = signalled
             return self._signal_r
         if name == "socketcand":
             sock = getattr(bus, "_SocketCanDaemonBus__socket", None)
@@ -339,8 +349,8 @@ class PythonCanTransport(Transport):
 
     def fileno(self) -> int | None:
         """A descriptor that turns readable when :meth:`read_nowait` has frames to give: the socket of
-        ``socketcan`` and ``socketcand``, the port of python-can's ``slcan``, a pipe signalled by the
-        ``virtual`` bus's queue; None for other interfaces (frames are then received in a thread)."""
+        ``socketcan`` and ``socketcand``, a pipe signalled by the ``virtual`` bus's queue; None for other
+        interfaces (frames are then received in a thread)."""
         return self._fd
 
     def read_nowait(self) -> list[Frame]:
