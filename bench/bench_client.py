@@ -31,6 +31,7 @@ import tty
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python" / "src"))
 
@@ -46,6 +47,7 @@ from drempower.sim import (
     attach_uart_pty,
     frame_bits,
 )
+from drempower.transports import Transport, open_transport
 
 TRANSPORTS = ("inprocess", "virtual", "slcan", "python-can:slcan", "adapter", "uart", "socketcand")
 BITRATE = 1_000_000
@@ -53,32 +55,44 @@ _channels = itertools.count()
 
 
 @contextmanager
-def link(kind: str, sim: SimBus) -> Iterator[Bus]:
-    """A client bus on ``sim`` through transport ``kind`` (the simulated clock is not run: replies are instant)."""
+def endpoint(kind: str, sim: SimBus) -> Iterator[Transport]:
+    """An open transport of ``kind`` (any but ``inprocess``) to ``sim`` through its attachment (the simulated
+    clock is not run: replies are instant); both are closed after."""
     with ExitStack() as stack:
-        opts = {"timeout": 1.0, "stop_on_close": False}
-        if kind == "inprocess":
-            bus = drempower.open_bus("sim", bus=sim, time_scale=0, **opts)
-        elif kind == "virtual":
+        if kind == "virtual":
             channel = f"drempower-bench-{next(_channels)}"
             stack.callback(attach_python_can(sim, channel=channel).close)
-            bus = drempower.open_bus("virtual", channel, **opts)
+            t = open_transport("virtual", channel)
         elif kind in ("slcan", "python-can:slcan", "adapter"):
             pty = attach_adapter_pty(sim)
             stack.callback(pty.close)
-            if kind != "adapter":
-                bus = drempower.open_bus(kind, pty.path, BITRATE, sleep_after_open=0, **opts)
+            if kind == "adapter":
+                t = open_transport("adapter", pty.path)
             else:
-                bus = drempower.open_bus("adapter", pty.path, **opts)
+                t = open_transport(kind, pty.path, BITRATE, sleep_after_open=0)
         elif kind == "uart":
             pty = attach_uart_pty(sim, 1)
             stack.callback(pty.close)
-            bus = drempower.open_bus("uart", pty.path, **opts)
-        else:
+            t = open_transport("uart", pty.path)
+        elif kind == "socketcand":
             server = attach_socketcand(sim)
             stack.callback(server.close)
-            bus = drempower.open_bus("socketcand", "can0", host=server.host, port=server.port, **opts)
-        stack.callback(bus.close)
+            t = open_transport("socketcand", "can0", host=server.host, port=server.port)
+        else:
+            raise ValueError(f"unknown link {kind!r}")
+        stack.callback(t.close)
+        yield t
+
+
+@contextmanager
+def link(kind: str, sim: SimBus) -> Iterator[Bus]:
+    """A client bus on ``sim`` through transport ``kind`` (the simulated clock is not run: replies are instant)."""
+    opts: dict[str, Any] = {"timeout": 1.0, "stop_on_close": False}
+    if kind == "inprocess":
+        with drempower.open_bus("sim", bus=sim, time_scale=0, **opts) as bus:
+            yield bus
+        return
+    with endpoint(kind, sim) as t, drempower.open_bus(transport=t, **opts) as bus:
         yield bus
 
 

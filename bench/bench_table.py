@@ -92,6 +92,7 @@ from drempower.sim import (  # noqa: E402
     attach_socketcand,
     attach_uart_pty,
 )
+from drempower.transports import Transport  # noqa: E402
 from drempower.transports.sim import SimTransport  # noqa: E402
 
 ROWS: list[tuple[str, str, str, str]] = []
@@ -291,24 +292,51 @@ def python_can_floor(kind: str) -> Iterator[Callable[[], None]]:
 
 
 def alternate(
-    client: Callable[[], object], floor: Callable[[], object], n: int
-) -> tuple[tuple[float, float, float], tuple[float, float, float]]:
-    """Blocks of ``floor`` and ``client`` calls in turn: (floor us, client us, ratio) of the wall time per
-    call (see :func:`_ratio`) and of the process's CPU time per call (all threads: the peers' too)."""
+    floor: Callable[[], object], *others: Callable[[], object], n: int
+) -> list[tuple[tuple[float, float, float], tuple[float, float, float]]]:
+    """Blocks of ``floor`` and each of ``others`` in turn: for each of ``others``, (floor us, its us, ratio)
+    of the wall time per call (see :func:`_ratio`) and of the process's CPU time per call (every thread:
+    the peers' too)."""
     block = max(1, n // ROUNDS)
-    _timed(client, 50, [])
-    _timed(floor, 50, [])
-    walls: tuple[list[list[float]], list[list[float]]] = ([], [])
-    cpus: tuple[list[float], list[float]] = ([], [])
+    fns = (floor, *others)
+    for fn in fns:
+        _timed(fn, 50, [])
+    walls: list[list[list[float]]] = [[] for _ in fns]
+    cpus: list[list[float]] = [[] for _ in fns]
     for _ in range(ROUNDS):
-        for fn, wall, cpu in ((floor, walls[0], cpus[0]), (client, walls[1], cpus[1])):
+        for fn, wall, cpu in zip(fns, walls, cpus, strict=True):
             wall.append([])
             t0 = time.process_time()
             _timed(fn, block, wall[-1])
             cpu.append((time.process_time() - t0) / block)
-    per_block = statistics.median(c / f for c, f in zip(cpus[1], cpus[0], strict=True))
-    cpu = (statistics.median(cpus[0]) * 1e6, statistics.median(cpus[1]) * 1e6, per_block)
-    return _ratio(walls[1], walls[0]), cpu
+    out = []
+    for wall, cpu in zip(walls[1:], cpus[1:], strict=True):
+        per_block = statistics.median(c / f for c, f in zip(cpu, cpus[0], strict=True))
+        out.append(
+            (_ratio(wall, walls[0]), (statistics.median(cpus[0]) * 1e6, statistics.median(cpu) * 1e6, per_block))
+        )
+    return out
+
+
+def transport_alone(t: Transport) -> Callable[[], None]:
+    """drempower's transport alone doing the exchange, no client: send the fast read, wait in ``select`` on
+    its descriptor and ``read_nowait`` until a frame is there (``recv`` on a transport without one)."""
+    request = FastRead(1).encode()
+    fd = t.fileno()
+
+    def exchange() -> None:
+        t.send(request)
+        if fd is None:
+            if t.recv(1.0) is None:
+                raise TimeoutError("no reply through the transport")
+            return
+        while True:
+            if not select.select([fd], [], [], 1.0)[0]:
+                raise TimeoutError("no reply through the transport")
+            if t.read_nowait():
+                return
+
+    return exchange
 
 
 PYTHON_CAN = (
@@ -322,10 +350,18 @@ PYTHON_CAN = (
 
 def python_can(n: int) -> None:
     for kind, label, what in PYTHON_CAN:
-        with bench_client.link(kind, SimBus(ids=[1])) as bus, python_can_floor(kind) as floor:
-            (fw, cw, rw), (fc, cc, rc) = alternate(bus.motor(1).get_state, floor, n)
+        with (
+            bench_client.link(kind, SimBus(ids=[1])) as bus,
+            bench_client.endpoint(kind, SimBus(ids=[1])) as t,
+            python_can_floor(kind) as floor,
+        ):
+            client, alone = alternate(floor, bus.motor(1).get_state, transport_alone(t), n=n)
+        (fw, cw, rw), (fc, cc, rc) = client
         row(f"get_state, {label}", f"{cw:.0f} us", f"{fw:.0f} us", f"{rw:.2f}x {what}")
         row("  CPU per call (every thread)", f"{cc:.0f} us", f"{fc:.0f} us", f"{rc:.2f}x {what}")
+        (fw, cw, rw), (fc, cc, rc) = alone
+        row("  the transport alone, no client: wall", f"{cw:.0f} us", f"{fw:.0f} us", f"{rw:.2f}x {what}")
+        row("  the transport alone: CPU per call", f"{cc:.0f} us", f"{fc:.0f} us", f"{rc:.2f}x {what}")
 
 
 def codec(seconds: float) -> None:
