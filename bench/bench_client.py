@@ -165,18 +165,18 @@ def raw_floor(kind: str, n: int) -> tuple[float, float]:
 
 def latency(n: int) -> None:
     print(f"round trip through each transport ({n} calls each; simulator answers at once)")
-    print(f"  {'transport':<12} {'get_state median':>17} {'p99':>9} {'read_property median':>21} {'p99':>9}")
+    print(f"  {'transport':<16} {'get_state median':>17} {'p99':>9} {'read_property median':>21} {'p99':>9}")
     for kind in TRANSPORTS:
         sim = SimBus(ids=[1])
         with link(kind, sim) as bus:
             m = bus.motor(1)
             gs = timings(m.get_state, n)
             rp = timings(lambda m=m: m.read_property(38012), n)  # type: ignore[misc]
-        print(f"  {kind:<12} {gs[0]:14.0f} us {gs[1]:6.0f} us {rp[0]:18.0f} us {rp[1]:6.0f} us")
+        print(f"  {kind:<16} {gs[0]:14.0f} us {gs[1]:6.0f} us {rp[0]:18.0f} us {rp[1]:6.0f} us")
         if kind in ("adapter", "uart", "slcan"):
             floor = raw_floor(kind, n)
             print(
-                f"  {'  raw floor':<12} {floor[0]:14.0f} us {floor[1]:6.0f} us"
+                f"  {'  raw floor':<16} {floor[0]:14.0f} us {floor[1]:6.0f} us"
                 f"   (os.write + select + os.read on the same pty; get_state = {gs[0] / floor[0]:.1f}x floor)"
             )
 

@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """The speed table in one run: every figure beside its floor, measured on this machine now.
 
-Run: ``python3 bench/bench_table.py [--requests N] [--seconds S]``. Prints figures; asserts nothing.
+Run: ``python3 bench/bench_table.py [--requests N] [--seconds S] [--rows GROUP,...]``. Prints figures;
+asserts nothing. ``--rows`` picks groups of rows (adapter, python-can, inprocess, codec, cycle, idle,
+import; all by default).
 
 Rows (the floor of each in brackets):
 
@@ -10,20 +12,27 @@ Rows (the floor of each in brackets):
 2. the same through the asyncio client [the same raw floor]; rows 1 and 2 are also measured with
    the simulators (the client's and the floor's) each in a process of its own, as an adapter is its
    own device: then they do not share the client's interpreter lock;
-3. ``get_state`` through the in-process simulator with instant delivery [the
+3. ``get_state`` over python-can's ``virtual`` bus and over ``socketcand`` on 127.0.0.1 [bare
+   python-can doing the same exchange, send the fast read and receive the reply, on the same
+   interface with the same kind of simulator peer], and over slcan on the simulated adapter's pty,
+   drempower's reader and python-can's (``python-can:slcan``) [the raw pty client writing the slcan
+   line and reading the answer and reply lines]: wall time and CPU time per call (the process's,
+   every thread: the peers' too), and drempower's transport alone doing the exchange (send,
+   ``select``, ``read_nowait``; no client) beside the same floor, so that what the client adds shows;
+4. ``get_state`` through the in-process simulator with instant delivery [the
    simulated bus answering the fast read by itself: ``SimBus.send``];
-4. codec: encode + decode of one frame, a mix of commands and replies [the same
+5. codec: encode + decode of one frame, a mix of commands and replies [the same
    ``struct`` pack/unpack on plain tuples, without validation];
-5. the 0xAA stream decoder, per frame [cutting the frames out of the stream with no checks];
-6. ``bus.cycle`` of one motor with reply-state on, on the simulator's 1 Mbit/s
+6. the 0xAA stream decoder, per frame [cutting the frames out of the stream with no checks];
+7. ``bus.cycle`` of one motor with reply-state on, on the simulator's 1 Mbit/s
    timing model run in 20 us steps [the bus limit: 1 Mbit/s over the bits one cycle puts on the wire;
    and a minimal client on the same clock, which hands the encoded command to the simulator's
    transport and waits in ``select`` for the state: no client library];
-7. wake-ups per second of the receive thread of an idle open bus, adapter and UART
+8. wake-ups per second of the receive thread of an idle open bus, adapter and UART
    ptys [a thread blocked in ``select`` with no timeout];
-8. CPU time of ``import drempower`` in a fresh interpreter [``python -c pass``].
+9. CPU time of ``import drempower`` in a fresh interpreter [``python -c pass``].
 
-Row 6's clock is a thread that advances the simulated bus to the wall time every 20 us (less often
+Row 7's clock is a thread that advances the simulated bus to the wall time every 20 us (less often
 where a short ``sleep`` wakes late); the motors answer at once. A frame the client sends starts at
 the simulated time of the clock's last step, and a reply reaches the client at the first step after
 its last bit. So the figure counts the steps a cycle spans: the client's own time between a reply
@@ -31,8 +40,8 @@ and its next command counts only when the clock steps meanwhile (it runs while t
 releases the interpreter lock). The minimal client shows what this model leaves of the bus limit for
 any client, and ``bus.cycle`` is also printed against it (blocks alternate as in rows 1 and 2).
 
-Rows 1 and 2 alternate blocks of the client with blocks of the floor; their ratio is the median
-of the blocks' ratios (a shared machine's load changes within a run). Rows 1, 2 and 6 are also
+Rows 1-3 alternate blocks of the client with blocks of the floor; their ratio is the median
+of the blocks' ratios (a shared machine's load changes within a run). Rows 1, 2 and 7 are also
 measured with callers leaving every read to the receive thread (``BusDriver.caller_reads =
 False``), the way replies reached callers before.
 """
