@@ -138,7 +138,7 @@ def _signal_virtual(bus: can.BusABC) -> _SignalQueue | None:
             new.put_nowait(old.get_nowait())
         except (queue.Empty, queue.Full):
             break
-    weakref.finalize(bus, close_fds, r, w)
+    weakref.finalize(new, close_fds, r, w)  # with the queue: a sender that still holds it writes to its pipe
     new.signal_r = r
     return new
 
