@@ -224,3 +224,21 @@ def test_both_slcan_readers_reach_the_simulated_adapter(interface: str) -> None:
         assert not pty.slcan.is_open  # the close command reached the adapter
     finally:
         pty.close()
+
+
+def test_bitrate_from_python_cans_configuration(monkeypatch: pytest.MonkeyPatch, tmp_path: object) -> None:
+    """As python-can's slcan does, a bit rate not given comes from python-can's configuration."""
+    import can
+
+    for k in list(os.environ):
+        if k.startswith("CAN_"):
+            monkeypatch.delenv(k)
+    monkeypatch.setenv("HOME", str(tmp_path))
+    monkeypatch.setattr(can, "rc", {})
+    monkeypatch.setenv("CAN_BITRATE", "250000")
+    with device() as (dev, path):
+        t = open_transport("slcan", path, sleep_after_open=0)
+        try:
+            assert read_lines(dev, 3) == [b"C\r", b"S5\r", b"O\r"]
+        finally:
+            t.close()
