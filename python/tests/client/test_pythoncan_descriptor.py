@@ -3,8 +3,10 @@ allows it (virtual through a signalled queue, socketcand's socket, socketcan's),
 
 from __future__ import annotations
 
+import queue
 import select
 import socket
+import threading
 import time
 from typing import Any
 
@@ -172,4 +174,41 @@ def test_a_bus_descriptor_is_used_where_python_can_promises_it(
         assert t.read_nowait() == [Frame(0x10, b"\x01"), Frame(0x12, b"\x02\x03")]
         assert t.read_nowait() == []
     finally:
+        t.close()
+
+
+class _ClosesOnPut(queue.Queue):  # type: ignore[type-arg]
+    """A virtual bus's queue that, when a message reaches it, has its bus shut down by another thread."""
+
+    def __init__(self, closer: threading.Thread) -> None:
+        super().__init__()
+        self.closer = closer
+
+    def put(self, item: Any, block: bool = True, timeout: float | None = None) -> None:
+        super().put(item, block, timeout)
+        self.closer.start()
+        self.closer.join(0.2)  # the shutdown runs now, unless the send holds it off
+
+
+def test_a_virtual_bus_closing_during_a_send_loses_no_frame_of_another() -> None:
+    """python-can's virtual send walks the channel's queues while a closing bus removes its own: the walk
+    skips the next queue (without the transport's lock over its send, ``other`` gets nothing here)."""
+    from can.interfaces import virtual
+
+    channel = "drempower-test-close-race"
+    t = open_transport("virtual", channel)
+    closing = can.Bus(interface="virtual", channel=channel)
+    other = can.Bus(interface="virtual", channel=channel)
+    closer = threading.Thread(target=closing.shutdown)
+    with virtual.channels_lock:
+        q = _ClosesOnPut(closer)
+        closing.channel[closing.channel.index(closing.queue)] = q
+        closing.queue = q
+    try:
+        t.send(Frame(0x21, b"\x01"))
+        closer.join(2.0)
+        msg = other.recv(0.5)
+        assert msg is not None and msg.arbitration_id == 0x21
+    finally:
+        other.shutdown()
         t.close()

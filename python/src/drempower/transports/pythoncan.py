@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import os
 import queue
 import select
@@ -12,6 +13,7 @@ import weakref
 from typing import Any
 
 import can
+import can.interfaces.virtual
 import can.util
 import serial
 from can.interfaces import VALID_INTERFACES
@@ -207,6 +209,11 @@ class PythonCanTransport(Transport):
         """The virtual bus's queue, read directly (no filters: python-can's recv would take every message)."""
         self._socket: socket.socket | None = None
         self._fd = self._descriptor(name)
+        # python-can's virtual send walks the channel's list of queues without a lock while a bus shutting
+        # down removes its queue from it (under channels_lock): the walk then skips the queue after it
+        self._send_guard: contextlib.AbstractContextManager[Any] = (
+            can.interfaces.virtual.channels_lock if name == "virtual" else contextlib.nullcontext()
+        )
         if name == "socketcand":  # a TCP hop and the server's own queue before the bus
             self.tx_latency = SOCKETCAND_TX_LATENCY
             self.unbounded_latency = True
@@ -318,7 +325,8 @@ class PythonCanTransport(Transport):
             if self._closing.is_set():
                 raise TransportError(f"{self.description}: closed, frame not sent")
             try:
-                self._bus.send(msg, timeout=self._send_timeout)
+                with self._send_guard:
+                    self._bus.send(msg, timeout=self._send_timeout)
             except (can.CanError, OSError, ValueError) as exc:
                 cause = exc.__cause__
                 if isinstance(exc, can.CanTimeoutError | TimeoutError) or isinstance(cause, _TIMEOUTS):
