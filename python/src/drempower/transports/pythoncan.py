@@ -97,8 +97,8 @@ SOCKETCAND_TX_LATENCY = 0.02
 
 
 class _SignalQueue(queue.Queue):  # type: ignore[type-arg]
-    """python-can's virtual bus queue that also writes a byte to a pipe when a message reaches it empty,
-    so that the pipe's read end turns readable when messages arrive."""
+    """python-can's virtual bus queue that also writes a byte to a pipe for each message put in it, so
+    that the pipe's read end turns readable when messages arrive (a reader empties the pipe, then the queue)."""
 
     def __init__(self, signal_w: int, maxsize: int = 0) -> None:
         super().__init__(maxsize)
@@ -106,14 +106,12 @@ class _SignalQueue(queue.Queue):  # type: ignore[type-arg]
         self.signal_r = -1
         """The pipe's read end."""
 
-    def _put(self, item: Any) -> None:
-        signal = not self.queue  # (under the queue's lock) a reader empties the queue after the pipe
-        super()._put(item)
-        if signal:
-            try:
-                os.write(self._signal_w, b"\0")
-            except OSError:  # full: a byte is already waiting; closed: nobody reads
-                pass
+    def put(self, item: Any, block: bool = True, timeout: float | None = None) -> None:
+        super().put(item, block, timeout)
+        try:  # after the queue's lock is released: the woken reader takes the message at once
+            os.write(self._signal_w, b"\0")
+        except OSError:  # full: a byte is already waiting; closed: nobody reads
+            pass
 
 
 def _signal_virtual(bus: can.BusABC) -> _SignalQueue | None:
