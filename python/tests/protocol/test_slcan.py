@@ -58,12 +58,36 @@ def test_decoder_skips_answers_and_counts_refusals() -> None:
 
 @pytest.mark.parametrize(
     "line",
-    [b"t03E9AA", b"t03E2AA", b"tXYZ0", b"t8000", b"t+3E0", b"t03EA", b"r0011AA", b"q", b"T2000000000", b"t03E1GG"],
+    [
+        b"t03E9AA",
+        b"t03E2AA",
+        b"tXYZ0",
+        b"t8000",
+        b"t+3E0",
+        b"t03EA",
+        b"r0011AA",
+        b"q",
+        b"T2000000000",
+        b"t03E1GG",
+        b"t03E1AA123",
+        b"t03E1AA12345",
+    ],
 )
 def test_decoder_drops_malformed_lines_and_goes_on(line: bytes) -> None:
     d = SlcanDecoder()
     assert d.feed(line + b"\rt7FF0\r") == [Frame(0x7FF, b"")]
     assert d.dropped == len(line)
+
+
+def test_decoder_skips_an_adapters_time_stamp() -> None:
+    d = SlcanDecoder()
+    got = d.feed(b"t04380000B4429600E7FF1A2B\rt7FF0FFFF\rr12330001\rt7FF0GGGG\r")
+    assert got == [
+        Frame(0x043, bytes.fromhex("0000b4429600e7ff")),
+        Frame(0x7FF, b""),
+        Frame(0x123, bytes(3), False, True),
+    ]
+    assert d.dropped == len(b"t7FF0GGGG")
 
 
 def test_decoder_drops_a_run_without_cr() -> None:

@@ -76,7 +76,8 @@ class SlcanDecoder:
     """Incremental decoder of the lines an slcan adapter sends: the frames it received.
 
     ``feed`` takes bytes as they arrive and returns the frames completed by them.
-    Answers that are no frame (CR alone, ``z``/``Z`` for a transmitted frame,
+    A frame line may end in a 4-digit time stamp (an adapter with time stamps
+    on, ``Z1``), which is skipped. Answers that are no frame (CR alone, ``z``/``Z`` for a transmitted frame,
     ``F``/``V``/``N`` replies) are skipped and counted in ``answers``; each BEL
     (a refused command) is counted in ``refused``. A line that is not valid is
     dropped and its bytes counted in ``dropped``, as is a run of more than
@@ -164,8 +165,13 @@ class SlcanDecoder:
         n = _LEN.get(line[1 + id_len], -1) if size > 1 + id_len else -1
         head = line[1 : 1 + id_len]
         remote = kind == 0x72 or kind == 0x52
-        if n < 0 or size != 2 + id_len + (0 if remote else 2 * n) or head.translate(None, _HEX):
-            self.dropped += size
+        end = 2 + id_len + (0 if remote else 2 * n)
+        if (
+            n < 0
+            or head.translate(None, _HEX)
+            or (size != end and (size != end + 4 or line[end:].translate(None, _HEX)))
+        ):
+            self.dropped += size  # (4 more hex digits are the adapter's time stamp, when it is on: ``Z1``)
             return None
         arb = int(head, 16)
         ext = id_len == 8
@@ -175,7 +181,7 @@ class SlcanDecoder:
         if remote:
             return _new_frame(Frame, (arb, bytes(n), ext, True))
         try:
-            payload = binascii.unhexlify(line[2 + id_len :])
+            payload = binascii.unhexlify(line[2 + id_len : end])
         except binascii.Error:
             self.dropped += size
             return None
