@@ -150,32 +150,30 @@ def test_a_silent_device_is_a_timeout() -> None:
         assert read_lines(dev, 1) == [encode_slcan(FastRead(1).encode())]
 
 
-def answering(dev: int, answer: Callable[[bytes], bytes]) -> threading.Thread:
-    """A device thread: after the opening, each line the host writes gets ``answer(line)`` written back."""
+@contextmanager
+def answering(dev: int, answer: Callable[[bytes], bytes]) -> Iterator[None]:
+    """A device thread while the block runs: after the opening, each line the host writes gets
+    ``answer(line)`` written back. It ends before the block does, so that it never reads a descriptor
+    that a later test reopened under the same number."""
+    stop = threading.Event()
 
     def run() -> None:
         buf = b""
-        while True:
-            try:
-                if not select.select([dev], [], [], 0.05)[0]:
-                    continue
-                chunk = os.read(dev, 4096)
-            except OSError:
-                return
-            if not chunk:
-                return
-            buf += chunk
+        while not stop.is_set():
+            if not select.select([dev], [], [], 0.05)[0]:
+                continue
+            buf += os.read(dev, 4096)
             *lines, buf = buf.split(b"\r")
             for line in lines:
-                out = b"\r" if line[:1] in (b"C", b"O", b"S") else answer(line + b"\r")
-                try:
-                    os.write(dev, out)
-                except OSError:
-                    return
+                os.write(dev, b"\r" if line[:1] in (b"C", b"O", b"S") else answer(line + b"\r"))
 
     th = threading.Thread(target=run, daemon=True)
     th.start()
-    return th
+    try:
+        yield
+    finally:
+        stop.set()
+        th.join(5.0)
 
 
 def test_a_reply_is_matched_to_its_request_only() -> None:
@@ -188,18 +186,19 @@ def test_a_reply_is_matched_to_its_request_only() -> None:
         assert line == encode_slcan(FastRead(1).encode())
         return b"z\r" + encode_slcan(other) + encode_slcan(mine)
 
-    with device() as (dev, path):
-        answering(dev, answer)
-        with drempower.open_bus("slcan", path, timeout=1.0, sleep_after_open=0, stop_on_close=False) as bus:
-            state = bus.motor(1).get_state()
-            assert state.node == 1 and state.angle == pytest.approx(45.0)
-            assert state.speed == pytest.approx(1.5)
+    with (
+        device() as (dev, path),
+        answering(dev, answer),
+        drempower.open_bus("slcan", path, timeout=1.0, sleep_after_open=0, stop_on_close=False) as bus,
+    ):
+        state = bus.motor(1).get_state()
+        assert state.node == 1 and state.angle == pytest.approx(45.0)
+        assert state.speed == pytest.approx(1.5)
 
 
 def test_only_a_state_of_another_motor_is_a_timeout() -> None:
     other = State(2, -90.0, 0.0, 0.0, True, False).encode()
-    with device() as (dev, path):
-        answering(dev, lambda line: b"z\r" + encode_slcan(other))
+    with device() as (dev, path), answering(dev, lambda line: b"z\r" + encode_slcan(other)):
         bus = drempower.open_bus("slcan", path, timeout=0.3, sleep_after_open=0, stop_on_close=False)
         with bus, pytest.raises(drempower.TimeoutError):
             bus.motor(1).get_state()
