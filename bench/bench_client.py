@@ -4,8 +4,9 @@
 Run: ``python3 bench/bench_client.py [--requests N] [--seconds S]``. Prints figures; asserts nothing.
 
 1. Round-trip latency of ``get_state`` (fast read) and ``read_property`` through
-   every transport (in-process, python-can virtual, slcan and 0xAA over the
-   adapter pty, the motor UART pty, socketcand over TCP on 127.0.0.1), with the
+   every transport (in-process, python-can virtual, slcan (drempower's and
+   python-can's) and 0xAA over the adapter pty, the motor UART pty, socketcand
+   over TCP on 127.0.0.1), with the
    simulator answering at once: the cost of the client, the transport and the
    attachment, median and 99th percentile.
 2. ``bus.cycle`` rate for 1, 6 and 12 motors on the simulator's 1 Mbit/s timing
@@ -30,12 +31,14 @@ import tty
 from collections.abc import Callable, Iterator
 from contextlib import ExitStack, contextmanager
 from pathlib import Path
+from typing import Any
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python" / "src"))
 
 import drempower
 from drempower.client import Bus
 from drempower.protocol import FastRead, PositionT, State, encode_aa, encode_uart11
+from drempower.protocol.slcan import encode_slcan
 from drempower.sim import (
     SimBus,
     attach_adapter_pty,
@@ -44,39 +47,52 @@ from drempower.sim import (
     attach_uart_pty,
     frame_bits,
 )
+from drempower.transports import Transport, open_transport
 
-TRANSPORTS = ("inprocess", "virtual", "slcan", "adapter", "uart", "socketcand")
+TRANSPORTS = ("inprocess", "virtual", "slcan", "python-can:slcan", "adapter", "uart", "socketcand")
 BITRATE = 1_000_000
 _channels = itertools.count()
 
 
 @contextmanager
-def link(kind: str, sim: SimBus) -> Iterator[Bus]:
-    """A client bus on ``sim`` through transport ``kind`` (the simulated clock is not run: replies are instant)."""
+def endpoint(kind: str, sim: SimBus) -> Iterator[Transport]:
+    """An open transport of ``kind`` (any but ``inprocess``) to ``sim`` through its attachment (the simulated
+    clock is not run: replies are instant); both are closed after."""
     with ExitStack() as stack:
-        opts = {"timeout": 1.0, "stop_on_close": False}
-        if kind == "inprocess":
-            bus = drempower.open_bus("sim", bus=sim, time_scale=0, **opts)
-        elif kind == "virtual":
+        if kind == "virtual":
             channel = f"drempower-bench-{next(_channels)}"
             stack.callback(attach_python_can(sim, channel=channel).close)
-            bus = drempower.open_bus("virtual", channel, **opts)
-        elif kind in ("slcan", "adapter"):
+            t = open_transport("virtual", channel)
+        elif kind in ("slcan", "python-can:slcan", "adapter"):
             pty = attach_adapter_pty(sim)
             stack.callback(pty.close)
-            if kind == "slcan":
-                bus = drempower.open_bus("slcan", pty.path, BITRATE, sleep_after_open=0, **opts)
+            if kind == "adapter":
+                t = open_transport("adapter", pty.path)
             else:
-                bus = drempower.open_bus("adapter", pty.path, **opts)
+                t = open_transport(kind, pty.path, BITRATE, sleep_after_open=0)
         elif kind == "uart":
             pty = attach_uart_pty(sim, 1)
             stack.callback(pty.close)
-            bus = drempower.open_bus("uart", pty.path, **opts)
-        else:
+            t = open_transport("uart", pty.path)
+        elif kind == "socketcand":
             server = attach_socketcand(sim)
             stack.callback(server.close)
-            bus = drempower.open_bus("socketcand", "can0", host=server.host, port=server.port, **opts)
-        stack.callback(bus.close)
+            t = open_transport("socketcand", "can0", host=server.host, port=server.port)
+        else:
+            raise ValueError(f"unknown link {kind!r}")
+        stack.callback(t.close)
+        yield t
+
+
+@contextmanager
+def link(kind: str, sim: SimBus) -> Iterator[Bus]:
+    """A client bus on ``sim`` through transport ``kind`` (the simulated clock is not run: replies are instant)."""
+    opts: dict[str, Any] = {"timeout": 1.0, "stop_on_close": False}
+    if kind == "inprocess":
+        with drempower.open_bus("sim", bus=sim, time_scale=0, **opts) as bus:
+            yield bus
+        return
+    with endpoint(kind, sim) as t, drempower.open_bus(transport=t, **opts) as bus:
         yield bus
 
 
@@ -93,46 +109,74 @@ def timings(fn: Callable[[], object], n: int) -> tuple[float, float]:
     return statistics.median(out) * 1e6, out[min(len(out) - 1, int(len(out) * 0.99))] * 1e6
 
 
-def raw_floor(kind: str, n: int) -> tuple[float, float]:
-    """The floor of a round trip on the simulator's pty: a minimal client that writes the fast-read
-    frame with ``os.write`` and takes the whole reply with ``select`` + ``os.read`` (no decoding)."""
-    sim = SimBus(ids=[1])
-    pty = attach_adapter_pty(sim) if kind == "adapter" else attach_uart_pty(sim, 1)
-    fd = os.open(pty.path, os.O_RDWR | os.O_NOCTTY)
-    try:
-        tty.setraw(fd)
+class RawFloor:
+    """The floor of a round trip on a simulator's pty: a minimal client that writes the fast-read frame
+    with ``os.write`` and takes the whole reply with ``select`` + ``os.read`` (no decoding).
+
+    ``kind`` is the pty's framing: ``adapter`` (0xAA), ``slcan`` (text lines: the channel is opened
+    first; the reply is the adapter's ``z`` answer and the state frame's line) or ``uart`` (11 bytes).
+    The pty is its own simulator's, in this process, unless ``path`` is given.
+    """
+
+    def __init__(self, kind: str = "adapter", path: str | None = None) -> None:
+        self.pty = None
+        if path is None:
+            sim = SimBus(ids=[1])
+            self.pty = attach_uart_pty(sim, 1) if kind == "uart" else attach_adapter_pty(sim)
+            path = self.pty.path
+        self.fd = os.open(path, os.O_RDWR | os.O_NOCTTY)
+        tty.setraw(self.fd)
         frame = FastRead(1).encode()
-        request = encode_aa(frame) if kind == "adapter" else encode_uart11(frame.arbitration_id, frame.data)
-        size = len(request)  # the reply (a state frame) has the same length
+        reply = State(1, 0.0, 0.0, 0.0, True, False).encode()
+        if kind == "uart":
+            self.request, self.size = encode_uart11(frame.arbitration_id, frame.data), 11
+        elif kind == "slcan":
+            self.request, self.size = encode_slcan(frame), len(b"z\r" + encode_slcan(reply))
+            os.write(self.fd, b"C\rS8\rO\r")
+            self._take(3)  # the three answers
+        else:
+            self.request, self.size = encode_aa(frame), len(encode_aa(reply))
 
-        def exchange() -> None:
-            os.write(fd, request)
-            got = 0
-            while got < size:
-                if not select.select([fd], [], [], 1.0)[0]:
-                    raise TimeoutError(f"no reply on the {kind} pty")
-                got += len(os.read(fd, size - got))
+    def _take(self, size: int) -> None:
+        fd, got = self.fd, 0
+        while got < size:
+            if not select.select([fd], [], [], 1.0)[0]:
+                raise TimeoutError("no reply on the pty")
+            got += len(os.read(fd, size - got))
 
-        return timings(exchange, n)
+    def __call__(self) -> None:
+        os.write(self.fd, self.request)
+        self._take(self.size)
+
+    def close(self) -> None:
+        os.close(self.fd)
+        if self.pty is not None:
+            self.pty.close()
+
+
+def raw_floor(kind: str, n: int) -> tuple[float, float]:
+    """Median and 99th percentile (us) of :class:`RawFloor` on a pty of ``kind``."""
+    floor = RawFloor(kind)
+    try:
+        return timings(floor, n)
     finally:
-        os.close(fd)
-        pty.close()
+        floor.close()
 
 
 def latency(n: int) -> None:
     print(f"round trip through each transport ({n} calls each; simulator answers at once)")
-    print(f"  {'transport':<12} {'get_state median':>17} {'p99':>9} {'read_property median':>21} {'p99':>9}")
+    print(f"  {'transport':<16} {'get_state median':>17} {'p99':>9} {'read_property median':>21} {'p99':>9}")
     for kind in TRANSPORTS:
         sim = SimBus(ids=[1])
         with link(kind, sim) as bus:
             m = bus.motor(1)
             gs = timings(m.get_state, n)
             rp = timings(lambda m=m: m.read_property(38012), n)  # type: ignore[misc]
-        print(f"  {kind:<12} {gs[0]:14.0f} us {gs[1]:6.0f} us {rp[0]:18.0f} us {rp[1]:6.0f} us")
-        if kind in ("adapter", "uart"):
+        print(f"  {kind:<16} {gs[0]:14.0f} us {gs[1]:6.0f} us {rp[0]:18.0f} us {rp[1]:6.0f} us")
+        if kind in ("adapter", "uart", "slcan"):
             floor = raw_floor(kind, n)
             print(
-                f"  {'  raw floor':<12} {floor[0]:14.0f} us {floor[1]:6.0f} us"
+                f"  {'  raw floor':<16} {floor[0]:14.0f} us {floor[1]:6.0f} us"
                 f"   (os.write + select + os.read on the same pty; get_state = {gs[0] / floor[0]:.1f}x floor)"
             )
 

@@ -1,7 +1,9 @@
 #!/usr/bin/env python3
 """The speed table in one run: every figure beside its floor, measured on this machine now.
 
-Run: ``python3 bench/bench_table.py [--requests N] [--seconds S]``. Prints figures; asserts nothing.
+Run: ``python3 bench/bench_table.py [--requests N] [--seconds S] [--rows GROUP,...]``. Prints figures;
+asserts nothing. ``--rows`` picks groups of rows (adapter, python-can, inprocess, codec, cycle, idle,
+import; all by default).
 
 Rows (the floor of each in brackets):
 
@@ -10,20 +12,27 @@ Rows (the floor of each in brackets):
 2. the same through the asyncio client [the same raw floor]; rows 1 and 2 are also measured with
    the simulators (the client's and the floor's) each in a process of its own, as an adapter is its
    own device: then they do not share the client's interpreter lock;
-3. ``get_state`` through the in-process simulator with instant delivery [the
+3. ``get_state`` over python-can's ``virtual`` bus and over ``socketcand`` on 127.0.0.1 [bare
+   python-can doing the same exchange, send the fast read and receive the reply, on the same
+   interface with the same kind of simulator peer], and over slcan on the simulated adapter's pty,
+   drempower's reader and python-can's (``python-can:slcan``) [the raw pty client writing the slcan
+   line and reading the answer and reply lines]: wall time and CPU time per call (the process's,
+   every thread: the peers' too), and drempower's transport alone doing the exchange (send,
+   ``select``, ``read_nowait``; no client) beside the same floor, so that what the client adds shows;
+4. ``get_state`` through the in-process simulator with instant delivery [the
    simulated bus answering the fast read by itself: ``SimBus.send``];
-4. codec: encode + decode of one frame, a mix of commands and replies [the same
+5. codec: encode + decode of one frame, a mix of commands and replies [the same
    ``struct`` pack/unpack on plain tuples, without validation];
-5. the 0xAA stream decoder, per frame [cutting the frames out of the stream with no checks];
-6. ``bus.cycle`` of one motor with reply-state on, on the simulator's 1 Mbit/s
+6. the 0xAA stream decoder, per frame [cutting the frames out of the stream with no checks];
+7. ``bus.cycle`` of one motor with reply-state on, on the simulator's 1 Mbit/s
    timing model run in 20 us steps [the bus limit: 1 Mbit/s over the bits one cycle puts on the wire;
    and a minimal client on the same clock, which hands the encoded command to the simulator's
    transport and waits in ``select`` for the state: no client library];
-7. wake-ups per second of the receive thread of an idle open bus, adapter and UART
+8. wake-ups per second of the receive thread of an idle open bus, adapter and UART
    ptys [a thread blocked in ``select`` with no timeout];
-8. CPU time of ``import drempower`` in a fresh interpreter [``python -c pass``].
+9. CPU time of ``import drempower`` in a fresh interpreter [``python -c pass``].
 
-Row 6's clock is a thread that advances the simulated bus to the wall time every 20 us (less often
+Row 7's clock is a thread that advances the simulated bus to the wall time every 20 us (less often
 where a short ``sleep`` wakes late); the motors answer at once. A frame the client sends starts at
 the simulated time of the clock's last step, and a reply reaches the client at the first step after
 its last bit. So the figure counts the steps a cycle spans: the client's own time between a reply
@@ -31,8 +40,8 @@ and its next command counts only when the clock steps meanwhile (it runs while t
 releases the interpreter lock). The minimal client shows what this model leaves of the bus limit for
 any client, and ``bus.cycle`` is also printed against it (blocks alternate as in rows 1 and 2).
 
-Rows 1 and 2 alternate blocks of the client with blocks of the floor; their ratio is the median
-of the blocks' ratios (a shared machine's load changes within a run). Rows 1, 2 and 6 are also
+Rows 1-3 alternate blocks of the client with blocks of the floor; their ratio is the median
+of the blocks' ratios (a shared machine's load changes within a run). Rows 1, 2 and 7 are also
 measured with callers leaving every read to the receive thread (``BusDriver.caller_reads =
 False``), the way replies reached callers before.
 """
@@ -53,7 +62,6 @@ import sys
 import threading
 import time
 import timeit
-import tty
 from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Any
@@ -62,8 +70,10 @@ HERE = Path(__file__).resolve().parent
 sys.path.insert(0, str(HERE.parent / "python" / "src"))
 sys.path.insert(0, str(HERE))
 
-import bench_client  # noqa: E402  (the raw pty floor, the fine simulated clock, the cycle's bits)
+import bench_client  # noqa: E402  (the client links, the raw pty floor, the fine simulated clock, the cycle's bits)
 import bench_idle  # noqa: E402  (import CPU time, wake-up counting)
+import can  # noqa: E402
+from bench_client import RawFloor  # noqa: E402
 
 import drempower  # noqa: E402
 from drempower.client import driver  # noqa: E402
@@ -84,7 +94,14 @@ from drempower.protocol import (  # noqa: E402
     decode_reply,
     encode_aa,
 )
-from drempower.sim import SimBus, attach_adapter_pty, attach_uart_pty  # noqa: E402
+from drempower.sim import (  # noqa: E402
+    SimBus,
+    attach_adapter_pty,
+    attach_python_can,
+    attach_socketcand,
+    attach_uart_pty,
+)
+from drempower.transports import Transport  # noqa: E402
 from drempower.transports.sim import SimTransport  # noqa: E402
 
 ROWS: list[tuple[str, str, str, str]] = []
@@ -116,34 +133,6 @@ async def async_median_us(fn: Callable[[], object], n: int) -> float:
         await fn()  # type: ignore[misc]
         out.append(time.perf_counter() - t0)
     return statistics.median(out) * 1e6
-
-
-class RawFloor:
-    """A minimal client on an adapter pty (its own simulator's, in this process, unless ``path`` is
-    given): ``os.write`` the fast read, ``select`` + ``os.read`` the whole reply, no decoding."""
-
-    def __init__(self, path: str | None = None) -> None:
-        self.pty = None
-        if path is None:
-            self.pty = attach_adapter_pty(SimBus(ids=[1]))
-            path = self.pty.path
-        self.fd = os.open(path, os.O_RDWR | os.O_NOCTTY)
-        tty.setraw(self.fd)
-        self.request = encode_aa(FastRead(1).encode())
-
-    def __call__(self) -> None:
-        fd, size = self.fd, len(self.request)
-        os.write(fd, self.request)
-        got = 0
-        while got < size:
-            if not select.select([fd], [], [], 1.0)[0]:
-                raise TimeoutError("no reply on the adapter pty")
-            got += len(os.read(fd, size - got))
-
-    def close(self) -> None:
-        os.close(self.fd)
-        if self.pty is not None:
-            self.pty.close()
 
 
 @contextlib.contextmanager
@@ -202,11 +191,11 @@ def adapter_latency(n: int, own_process: bool = False) -> tuple[tuple[float, flo
     with ``own_process`` the client's and the floor's simulators each run in a process of their own."""
     with contextlib.ExitStack() as stack:
         if own_process:
-            path, floor = stack.enter_context(sim_process()), RawFloor(stack.enter_context(sim_process()))
+            path, floor = stack.enter_context(sim_process()), RawFloor("adapter", stack.enter_context(sim_process()))
         else:
             pty = attach_adapter_pty(SimBus(ids=[1]))
             stack.callback(pty.close)
-            path, floor = pty.path, RawFloor()
+            path, floor = pty.path, RawFloor("adapter")
         stack.callback(floor.close)
         return _adapter_latency(n, path, floor)
 
@@ -243,7 +232,7 @@ def _adapter_latency(
     return _ratio(sync, f_sync), _ratio(asy, f_async)
 
 
-def latency(n: int) -> None:
+def adapter_rows(n: int) -> None:
     sync, asy = adapter_latency(n)
     own_sync, own_asy = adapter_latency(n, own_process=True)
     driver.BusDriver.caller_reads = False
@@ -261,6 +250,8 @@ def latency(n: int) -> None:
     ):
         row(label, f"{got:.0f} us", f"{fl:.0f} us", f"{ratio:.2f}x floor")
 
+
+def inprocess(n: int) -> None:
     sim = SimBus(ids=[1])
     with drempower.open_bus("sim", bus=sim, time_scale=0, timeout=1.0, stop_on_close=False) as bus:
         inproc = median_us(bus.motor(1).get_state, n)
@@ -269,6 +260,117 @@ def latency(n: int) -> None:
     request = FastRead(1).encode()
     sim_floor = median_us(lambda: bare.send(request), n)
     row("get_state, in-process simulator", f"{inproc:.1f} us", f"{sim_floor:.1f} us", f"{inproc / sim_floor:.1f}x")
+
+
+class BareCan:
+    """Bare python-can doing the client's exchange: send the fast read, receive the reply."""
+
+    def __init__(self, **config: Any) -> None:
+        self.bus = can.Bus(**config)
+        frame = FastRead(1).encode()
+        self.msg = can.Message(arbitration_id=frame.arbitration_id, data=frame.data, is_extended_id=False)
+
+    def __call__(self) -> None:
+        self.bus.send(self.msg)
+        if self.bus.recv(1.0) is None:
+            raise TimeoutError("no reply through python-can")
+
+    def close(self) -> None:
+        self.bus.shutdown()
+
+
+@contextlib.contextmanager
+def python_can_floor(kind: str) -> Iterator[Callable[[], None]]:
+    """The floor of link ``kind``, on a simulator of its own: bare python-can on the same interface with
+    the same kind of peer (``virtual``, ``socketcand``), or the raw pty client (``slcan``)."""
+    sim = SimBus(ids=[1])
+    with contextlib.ExitStack() as stack:
+        floor: BareCan | RawFloor
+        if kind == "virtual":
+            channel = f"drempower-bench-floor-{os.getpid()}"
+            stack.callback(attach_python_can(sim, channel=channel).close)
+            floor = BareCan(interface="virtual", channel=channel)
+        elif kind == "socketcand":
+            server = attach_socketcand(sim)
+            stack.callback(server.close)
+            floor = BareCan(interface="socketcand", channel="can0", host=server.host, port=server.port)
+        else:
+            floor = RawFloor("slcan")
+        stack.callback(floor.close)
+        yield floor
+
+
+def alternate(
+    floor: Callable[[], object], *others: Callable[[], object], n: int
+) -> list[tuple[tuple[float, float, float], tuple[float, float, float]]]:
+    """Blocks of ``floor`` and each of ``others`` in turn: for each of ``others``, (floor us, its us, ratio)
+    of the wall time per call (see :func:`_ratio`) and of the process's CPU time per call (every thread:
+    the peers' too)."""
+    block = max(1, n // ROUNDS)
+    fns = (floor, *others)
+    for fn in fns:
+        _timed(fn, 50, [])
+    walls: list[list[list[float]]] = [[] for _ in fns]
+    cpus: list[list[float]] = [[] for _ in fns]
+    for _ in range(ROUNDS):
+        for fn, wall, cpu in zip(fns, walls, cpus, strict=True):
+            wall.append([])
+            t0 = time.process_time()
+            _timed(fn, block, wall[-1])
+            cpu.append((time.process_time() - t0) / block)
+    out = []
+    for wall, cpu in zip(walls[1:], cpus[1:], strict=True):
+        per_block = statistics.median(c / f for c, f in zip(cpu, cpus[0], strict=True))
+        out.append(
+            (_ratio(wall, walls[0]), (statistics.median(cpus[0]) * 1e6, statistics.median(cpu) * 1e6, per_block))
+        )
+    return out
+
+
+def transport_alone(t: Transport) -> Callable[[], None]:
+    """drempower's transport alone doing the exchange, no client: send the fast read, wait in ``select`` on
+    its descriptor and ``read_nowait`` until a frame is there (``recv`` on a transport without one)."""
+    request = FastRead(1).encode()
+    fd = t.fileno()
+
+    def exchange() -> None:
+        t.send(request)
+        if fd is None:
+            if t.recv(1.0) is None:
+                raise TimeoutError("no reply through the transport")
+            return
+        while True:
+            if not select.select([fd], [], [], 1.0)[0]:
+                raise TimeoutError("no reply through the transport")
+            if t.read_nowait():
+                return
+
+    return exchange
+
+
+PYTHON_CAN = (
+    ("virtual", "python-can virtual", "bare python-can"),
+    ("socketcand", "python-can socketcand, 127.0.0.1", "bare python-can"),
+    ("slcan", "slcan pty (drempower's reader)", "raw pty"),
+    ("python-can:slcan", "slcan pty (python-can:slcan)", "raw pty"),
+)
+"""The links of the python-can rows: (link of ``bench_client.link``, label, what the floor is)."""
+
+
+def python_can(n: int) -> None:
+    for kind, label, what in PYTHON_CAN:
+        with (
+            bench_client.link(kind, SimBus(ids=[1])) as bus,
+            bench_client.endpoint(kind, SimBus(ids=[1])) as t,
+            python_can_floor(kind) as floor,
+        ):
+            client, alone = alternate(floor, bus.motor(1).get_state, transport_alone(t), n=n)
+        (fw, cw, rw), (fc, cc, rc) = client
+        row(f"get_state, {label}", f"{cw:.0f} us", f"{fw:.0f} us", f"{rw:.2f}x {what}")
+        row("  CPU per call (every thread)", f"{cc:.0f} us", f"{fc:.0f} us", f"{rc:.2f}x {what}")
+        (fw, cw, rw), (fc, cc, rc) = alone
+        row("  the transport alone, no client: wall", f"{cw:.0f} us", f"{fw:.0f} us", f"{rw:.2f}x {what}")
+        row("  the transport alone: CPU per call", f"{cc:.0f} us", f"{fc:.0f} us", f"{rc:.2f}x {what}")
 
 
 def codec(seconds: float) -> None:
@@ -461,19 +563,39 @@ def import_cpu(runs: int) -> None:
     row("import drempower, CPU time", f"{full:.0f} ms", f"{bare:.0f} ms", f"+{full - bare:.0f} ms")
 
 
+ROW_GROUPS = ("adapter", "python-can", "inprocess", "codec", "cycle", "idle", "import")
+"""The groups of rows ``--rows`` picks from, in the order they run."""
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--requests", type=int, default=2000, help="calls per latency figure (default 2000)")
     ap.add_argument("--seconds", type=float, default=1.0, help="time per throughput figure (default 1)")
     ap.add_argument("--idle-seconds", type=float, default=3.0, help="time per wake-up figure (default 3)")
     ap.add_argument("--runs", type=int, default=5, help="fresh interpreters for the import figure (default 5)")
+    ap.add_argument(
+        "--rows",
+        default=",".join(ROW_GROUPS),
+        help=f"comma-separated groups of rows to run (default all: {','.join(ROW_GROUPS)})",
+    )
     args = ap.parse_args()
+    picked = [g.strip() for g in args.rows.split(",") if g.strip()]
+    unknown = [g for g in picked if g not in ROW_GROUPS]
+    if unknown:
+        ap.error(f"--rows: unknown {', '.join(unknown)}; choose from {', '.join(ROW_GROUPS)}")
+    runs: dict[str, Callable[[], None]] = {
+        "adapter": lambda: adapter_rows(args.requests),
+        "python-can": lambda: python_can(args.requests),
+        "inprocess": lambda: inprocess(args.requests),
+        "codec": lambda: codec(args.seconds),
+        "cycle": lambda: cycle(args.seconds),
+        "idle": lambda: idle(args.idle_seconds),
+        "import": lambda: import_cpu(args.runs),
+    }
     print(f"drempower speed table: Python {platform.python_version()} ({platform.python_implementation()})")
-    latency(args.requests)
-    codec(args.seconds)
-    cycle(args.seconds)
-    idle(args.idle_seconds)
-    import_cpu(args.runs)
+    for group in ROW_GROUPS:
+        if group in picked:
+            runs[group]()
 
 
 if __name__ == "__main__":

@@ -8,11 +8,13 @@ puts the simulated motors on a Linux virtual CAN interface.
 
 from __future__ import annotations
 
+import contextlib
 import threading
 from types import TracebackType
 from typing import Any
 
 import can
+from can.interfaces import virtual
 
 from ..protocol.ids import Frame
 from .bus import SimBus
@@ -32,6 +34,11 @@ class PythonCanAttachment:
         self.interface = interface
         self.can_bus = can.Bus(channel=channel, interface=interface, **kwargs)
         """The python-can bus on the simulator's side."""
+        self._send_guard: contextlib.AbstractContextManager[Any] = (
+            virtual.channels_lock if interface == "virtual" else contextlib.nullcontext()
+        )
+        """Held around a send on python-can's virtual bus: its send walks the channel's queues without a lock
+        while a bus shutting down removes its own (under this lock), and the walk would skip the next one."""
         self._stop = threading.Event()
         bus.add_listener(self._out, host_frames=True)
         self._thread = threading.Thread(target=self._pump, name="drempower-sim-python-can", daemon=True)
@@ -45,7 +52,8 @@ class PythonCanAttachment:
             is_remote_frame=frame.is_remote,
         )
         try:
-            self.can_bus.send(msg)
+            with self._send_guard:  # a bus closing meanwhile must not make the send skip another
+                self.can_bus.send(msg)
         except can.CanError:
             pass  # a full or failed interface loses the frame, as a bus would
 

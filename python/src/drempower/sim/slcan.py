@@ -11,7 +11,9 @@ flags, ``Z`` time stamps, ``M``/``m`` acceptance filter, and the frames ``tIIIL.
 from __future__ import annotations
 
 from ..errors import ProtocolError
-from ..protocol.ids import Frame, parse_int
+from ..protocol.ids import Frame
+from ..protocol.slcan import encode_slcan as format_frame
+from ..protocol.slcan import parse_slcan as parse_frame
 
 __all__ = ["OK", "ERROR", "SlcanSession", "format_frame", "parse_frame"]
 
@@ -20,45 +22,6 @@ ERROR = b"\a"
 VERSION = b"V2003\r"
 """Hardware 2.0, software 0.3 (the adapter's factory information)."""
 SERIAL = b"N0001\r"
-
-
-def parse_frame(line: str) -> Frame:
-    """A ``t``/``T``/``r``/``R`` command (without CR) as a frame; raises :class:`ProtocolError` when malformed."""
-    kind = line[:1]
-    id_len = 8 if kind in ("T", "R") else 3
-    if kind not in ("t", "T", "r", "R") or len(line) < 2 + id_len:
-        raise ProtocolError(f"not an slcan frame: {line!r}")
-    try:
-        arb = parse_int(line[1 : 1 + id_len], "id", base=16)
-        dlc = parse_int(line[1 + id_len], "length")
-    except ValueError:
-        raise ProtocolError(f"bad id or length: {line!r}") from None
-    if dlc > 8 or arb > (0x1FFFFFFF if id_len == 8 else 0x7FF):
-        raise ProtocolError(f"bad id or length: {line!r}")
-    remote = kind in ("r", "R")
-    hexdata = line[2 + id_len :]
-    if remote:
-        if hexdata:
-            raise ProtocolError(f"a remote frame carries no data: {line!r}")
-        data = bytes(dlc)
-    else:
-        if len(hexdata) != 2 * dlc:
-            raise ProtocolError(f"length {dlc} does not match the data: {line!r}")
-        try:
-            data = bytes.fromhex(hexdata)
-        except ValueError:
-            raise ProtocolError(f"bad data: {line!r}") from None
-    return Frame(arb, data, id_len == 8, remote)
-
-
-def format_frame(frame: Frame) -> bytes:
-    """A received frame as the adapter sends it to the host (CR-terminated)."""
-    n = len(frame.data)
-    if frame.is_remote:
-        head = f"R{frame.arbitration_id:08X}{n}" if frame.is_extended else f"r{frame.arbitration_id:03X}{n}"
-        return head.encode() + OK
-    head = f"T{frame.arbitration_id:08X}{n}" if frame.is_extended else f"t{frame.arbitration_id:03X}{n}"
-    return (head + frame.data.hex().upper()).encode() + OK
 
 
 class SlcanSession:

@@ -8,7 +8,7 @@ from typing import Any
 from .base import Transport
 from .errors import TransportError
 
-__all__ = ["open_transport", "INTERFACES", "Opener", "SERIAL_ADAPTER", "MOTOR_UART", "SIMULATOR", "ZENOH"]
+__all__ = ["open_transport", "INTERFACES", "Opener", "SERIAL_ADAPTER", "MOTOR_UART", "SLCAN", "SIMULATOR", "ZENOH"]
 
 Opener = Callable[[str, str | int | None, int | None, dict[str, Any]], Transport]
 """``opener(interface, channel, bitrate, kwargs)`` -> an open transport, or :class:`TransportError`."""
@@ -47,6 +47,39 @@ def _uart(interface: str, channel: str | int | None, bitrate: int | None, kwargs
     return UartTransport(port, **kwargs)
 
 
+def _slcan(interface: str, channel: str | int | None, bitrate: int | None, kwargs: dict[str, Any]) -> Transport:
+    from .slcan import SlcanTransport
+
+    port = _serial_port(interface, channel)
+    if bitrate is None:
+        bitrate = _configured_bitrate(interface, port)
+    if "send_timeout" in kwargs:  # the python-can transports' name for it
+        kwargs.setdefault("write_timeout", kwargs.pop("send_timeout"))
+    unknown = sorted(set(kwargs) - _SLCAN_OPTIONS)
+    if unknown:
+        raise TransportError(
+            f"cannot open slcan adapter on {port}: unknown option(s) {', '.join(unknown)}; it takes "
+            f"{', '.join(sorted(_SLCAN_OPTIONS))} (interface 'python-can:slcan' is python-can's own slcan)"
+        )
+    return SlcanTransport(port, bitrate, **kwargs)
+
+
+_SLCAN_OPTIONS = frozenset(("tty_baudrate", "sleep_after_open", "listen_only", "rtscts", "write_timeout", "exclusive"))
+"""What the slcan transport takes besides channel and bitrate (``tty_baudrate`` is the serial rate)."""
+
+
+def _configured_bitrate(interface: str, channel: str) -> int | None:
+    """The bit rate python-can's configuration (config file, CAN_BITRATE) gives, as python-can's slcan would use."""
+    import can.util
+
+    try:
+        cfg = can.util.load_config(config={"interface": interface, "channel": channel})
+    except Exception:  # no usable configuration: no bit rate from it
+        return None
+    rate = cfg.get("bitrate")
+    return rate if isinstance(rate, int) else None
+
+
 def _sim(interface: str, channel: str | int | None, bitrate: int | None, kwargs: dict[str, Any]) -> Transport:
     from .sim import SimTransport
 
@@ -78,6 +111,7 @@ INTERFACES: dict[str, Opener] = {
     "adapter": _adapter,
     "serial": _adapter,
     "uart": _uart,
+    "slcan": _slcan,
     "sim": _sim,
     "zenoh": _zenoh,
 }
@@ -88,6 +122,8 @@ SERIAL_ADAPTER = frozenset(n for n, o in INTERFACES.items() if o is _adapter)
 """Interface names of the vendor USB-CAN adapter (0xAA framing; channel = serial port)."""
 MOTOR_UART = frozenset(n for n, o in INTERFACES.items() if o is _uart)
 """Interface name of a G-series motor's UART (11-byte frames; channel = serial port)."""
+SLCAN = frozenset(n for n, o in INTERFACES.items() if o is _slcan)
+"""Interface name of an slcan adapter read by drempower (channel = serial port; python-can's: ``python-can:slcan``)."""
 SIMULATOR = frozenset(n for n, o in INTERFACES.items() if o is _sim)
 """Interface name of the in-process simulator."""
 ZENOH = frozenset(n for n, o in INTERFACES.items() if o is _zenoh)
@@ -109,12 +145,17 @@ def open_transport(
       the vendor's configuration tool.
     * ``"uart"``: a G-series motor's UART, ``channel`` = serial port or URL,
       ``bitrate`` (or ``baudrate``) = UART rate, 115200 by default.
+    * ``"slcan"``: an slcan (Lawicel) adapter, ``channel`` = serial port (``PORT@BAUD``
+      gives the serial rate), ``bitrate`` = CAN bit rate (from python-can's
+      configuration when not given), ``sleep_after_open`` (s, default 2 as in
+      python-can), ``listen_only``, ``send_timeout``; read with ``select`` and
+      ``os.read`` as the adapter is. ``"python-can:slcan"`` is python-can's own.
     * ``"sim"``: the in-process simulator; ``motors=[1, 2, 3]``, ``time_scale``
       and the simulator's other options as keyword arguments.
     * ``"zenoh"``: a bus served by ``drempower bridge``, ``channel`` = its key prefix
       (default ``"drempower"``), ``connect=``/``listen=`` Zenoh endpoints.
     * any other name: a python-can interface (``"socketcan"``, ``"pcan"``,
-      ``"slcan"``, ``"virtual"``...) with ``channel``, ``bitrate`` and keyword
+      ``"virtual"``...) with ``channel``, ``bitrate`` and keyword
       arguments passed on; ``"python-can:serial"`` reaches python-can's own
       ``serial`` interface. ``interface=None`` lets python-can's configuration
       (config file, ``CAN_*`` environment variables) decide. ``send_timeout``

@@ -2,12 +2,18 @@
 
 from __future__ import annotations
 
+import contextlib
+import os
+import queue
+import select
 import socket
 import threading
 import time
+import weakref
 from typing import Any
 
 import can
+import can.interfaces.virtual
 import can.util
 import serial
 from can.interfaces import VALID_INTERFACES
@@ -15,6 +21,7 @@ from can.interfaces import VALID_INTERFACES
 from ..protocol.ids import Frame, parse_int
 from .base import Transport
 from .errors import TransportError
+from .fds import close_fds, nonblocking_pipe
 
 __all__ = ["PythonCanTransport", "SEND_TIMEOUT", "CONNECT_TIMEOUT"]
 
@@ -28,11 +35,21 @@ _SERIAL_PORTS = ("serialPortOrig", "_ser")
 """Where python-can's serial-port interfaces keep their pyserial port (slcan, serial)."""
 _KEYS = ("interface", "channel", "bitrate")
 _TIMEOUTS = (serial.SerialTimeoutException, TimeoutError)
+_new_frame = tuple.__new__
+_RECV_ERRORS = (can.CanError, OSError, ValueError, AttributeError, TypeError)
+_FD_INTERFACES = frozenset(("socketcan",))
+"""python-can interfaces whose own ``fileno()`` turns readable exactly when ``recv(0)`` has a message
+to give (their buffers hold no whole message while it is not)."""
 
 
 def _shown(settings: dict[str, Any]) -> str:
     """``interface=..., channel=..., bitrate=...`` of those in ``settings``."""
     return ", ".join(f"{k}={settings[k]!r}" for k in _KEYS if k in settings)
+
+
+def _frame(msg: can.Message) -> Frame:
+    """The frame a python-can message carries."""
+    return _new_frame(Frame, (msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame))
 
 
 def _why(exc: BaseException) -> str:
@@ -79,6 +96,53 @@ SOCKETCAND_TX_LATENCY = 0.02
 """Margin (s) a socketcand link adds before a batch's start (see ``Transport.tx_latency``)."""
 
 
+class _SignalQueue(queue.Queue):  # type: ignore[type-arg]
+    """python-can's virtual bus queue that also writes a byte to a pipe for each message put in it, so
+    that the pipe's read end turns readable when messages arrive (a reader empties the pipe, then the queue)."""
+
+    def __init__(self, signal_w: int, maxsize: int = 0) -> None:
+        super().__init__(maxsize)
+        self._signal_w = signal_w
+        self.signal_r = -1
+        """The pipe's read end."""
+
+    def put(self, item: Any, block: bool = True, timeout: float | None = None) -> None:
+        super().put(item, block, timeout)
+        try:  # after the queue's lock is released: the woken reader takes the message at once
+            os.write(self._signal_w, b"\0")
+        except OSError:  # full: a byte is already waiting; closed: nobody reads
+            pass
+
+
+def _signal_virtual(bus: can.BusABC) -> _SignalQueue | None:
+    """Give python-can's virtual ``bus`` a queue whose pipe turns readable when a message reaches it;
+    None when the bus is not laid out as python-can 4 lays it out (the bus is then left as is)."""
+    from can.interfaces import virtual
+
+    old = getattr(bus, "queue", None)
+    peers = getattr(bus, "channel", None)
+    lock = getattr(virtual, "channels_lock", None)
+    if type(old) is not queue.Queue or not isinstance(peers, list) or lock is None:
+        return None
+    r, w = nonblocking_pipe()
+    new = _SignalQueue(w, old.maxsize)
+    with lock:
+        index = next((i for i, q in enumerate(peers) if q is old), None)
+        if index is None:
+            close_fds(r, w)
+            return None
+        peers[index] = new
+        bus.queue = new  # type: ignore[attr-defined]
+    while True:  # what reached the old queue before the swap
+        try:
+            new.put_nowait(old.get_nowait())
+        except (queue.Empty, queue.Full):
+            break
+    weakref.finalize(new, close_fds, r, w)  # with the queue: a sender that still holds it writes to its pipe
+    new.signal_r = r
+    return new
+
+
 class PythonCanTransport(Transport):
     """A python-can bus carrying DrEmpower frames.
 
@@ -95,6 +159,11 @@ class PythonCanTransport(Transport):
     the port's write timeout; for socketcand to the socket). A socketcand
     server is probed first (connection and greeting within
     :data:`CONNECT_TIMEOUT`), so a missing one fails at once naming host:port.
+
+    ``socketcan``, ``socketcand`` and ``virtual`` buses offer a descriptor
+    (:meth:`fileno`) that callers wait on in ``select`` and read with
+    :meth:`read_nowait`, with no thread handoff; other interfaces are read by
+    the bus's receive thread.
     """
 
     def __init__(
@@ -133,6 +202,16 @@ class PythonCanTransport(Transport):
         self._send_lock = threading.Lock()
         rate = cfg.get("bitrate")
         self.wire_bitrate = rate if isinstance(rate, int) and rate > 0 else None
+        self._signal_r: int | None = None
+        self._queue: queue.Queue[can.Message] | None = None
+        """The virtual bus's queue, read directly (no filters: python-can's recv would take every message)."""
+        self._socket: socket.socket | None = None
+        self._fd = self._descriptor(name)
+        # python-can's virtual send walks the channel's list of queues without a lock while a bus shutting
+        # down removes its queue from it (under channels_lock): the walk then skips the queue after it
+        self._send_guard: contextlib.AbstractContextManager[Any] = (
+            can.interfaces.virtual.channels_lock if name == "virtual" else contextlib.nullcontext()
+        )
         if name == "socketcand":  # a TCP hop and the server's own queue before the bus
             self.tx_latency = SOCKETCAND_TX_LATENCY
             self.unbounded_latency = True
@@ -142,6 +221,36 @@ class PythonCanTransport(Transport):
             self.description = f"python-can {info}"
         else:
             self.description = f"python-can {name} {chan}" if chan is not None else f"python-can {name}"
+
+    def _descriptor(self, name: str) -> int | None:
+        """The descriptor that turns readable when :meth:`read_nowait` has frames to give, or None.
+
+        None where python-can filters in software (``can_filters`` on ``virtual`` or ``socketcand``): its
+        ``recv(0)`` then returns None at a message it drops, with more held, so the thread path is used.
+        """
+        bus = self._bus
+        if getattr(bus, "_filters", None) and name in ("virtual", "socketcand"):
+            return None
+        if name == "virtual":
+            signalled = _signal_virtual(bus)
+            if signalled is None:
+                return None
+            self._queue = signalled
+            self._signal_r = signalled.signal_r
+            return self._signal_r
+        if name == "socketcand":
+            sock = getattr(bus, "_SocketCanDaemonBus__socket", None)
+            if isinstance(sock, socket.socket):
+                self._socket = sock
+                return sock.fileno()
+            return None
+        if name in _FD_INTERFACES:
+            try:
+                fd = bus.fileno()
+            except (NotImplementedError, can.CanError, OSError, ValueError):
+                return None
+            return fd if isinstance(fd, int) and fd >= 0 else None
+        return None
 
     @staticmethod
     def _resolve(given: dict[str, Any]) -> dict[str, Any]:
@@ -214,7 +323,8 @@ class PythonCanTransport(Transport):
             if self._closing.is_set():
                 raise TransportError(f"{self.description}: closed, frame not sent")
             try:
-                self._bus.send(msg, timeout=self._send_timeout)
+                with self._send_guard:
+                    self._bus.send(msg, timeout=self._send_timeout)
             except (can.CanError, OSError, ValueError) as exc:
                 cause = exc.__cause__
                 if isinstance(exc, can.CanTimeoutError | TimeoutError) or isinstance(cause, _TIMEOUTS):
@@ -235,13 +345,61 @@ class PythonCanTransport(Transport):
                 if self._closing.is_set():
                     return None
                 msg = self._bus.recv(timeout)
-        except (can.CanError, OSError, ValueError, AttributeError, TypeError) as exc:
+        except _RECV_ERRORS as exc:
             if self._closing.is_set():
                 return None
             raise TransportError(f"{self.description}: receive failed: {exc}") from exc
         if msg is None or msg.is_error_frame:
             return None
-        return Frame(msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame)
+        return _frame(msg)
+
+    def fileno(self) -> int | None:
+        """A descriptor that turns readable when :meth:`read_nowait` has frames to give: the socket of
+        ``socketcan`` and ``socketcand``, a pipe signalled by the ``virtual`` bus's queue; None for other
+        interfaces (frames are then received in a thread)."""
+        return self._fd
+
+    def read_nowait(self) -> list[Frame]:
+        """Every frame python-can has for us now, without waiting (error frames are skipped)."""
+        if self._signal_r is not None:
+            try:  # first: a message that arrives meanwhile leaves the pipe readable
+                os.read(self._signal_r, 4096)
+            except OSError:  # empty (non-blocking), or closed
+                pass
+        out: list[Frame] = []
+        q = self._queue
+        try:
+            with self._recv_lock:
+                if self._closing.is_set():
+                    return out
+                if q is not None:
+                    while True:
+                        try:
+                            queued = q.get_nowait()
+                        except queue.Empty:
+                            break
+                        if not queued.is_error_frame:
+                            out.append(_frame(queued))
+                    return out
+                recv = self._bus.recv
+                while (msg := recv(0.0)) is not None:
+                    if not msg.is_error_frame:
+                        out.append(_frame(msg))
+                if not out and self._socket is not None:
+                    self._check_connected(self._socket)
+        except _RECV_ERRORS as exc:
+            if self._closing.is_set():
+                return out
+            raise TransportError(f"{self.description}: receive failed: {exc}") from exc
+        return out
+
+    def _check_connected(self, sock: socket.socket) -> None:
+        """Raise TransportError when the server closed the connection (python-can's socketcand does not
+        notice: its socket stays readable with nothing to read)."""
+        if not select.select([sock], [], [], 0)[0]:
+            return  # nothing to read: open (a socket with a timeout would wait in recv, whatever the flags)
+        if sock.recv(1, socket.MSG_PEEK) == b"":
+            raise TransportError(f"{self.description}: the socketcand server closed the connection")
 
     def close(self) -> None:
         """Shut the python-can bus down; bounded even when the device stopped reading."""

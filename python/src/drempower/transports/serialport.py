@@ -138,18 +138,24 @@ class SerialFrameTransport(Transport):
         with self._wlock:
             if self._closing.is_set():
                 raise TransportError(f"{self.description}: closed, frame not sent")
-            if self._broken is not None:
-                raise TransportError(f"{self.description}: frame not sent: {self._broken}; close and reopen the bus")
-            if self._fd is not None:
-                self._write_fd(self._fd, data)
-            else:
-                self._write_pyserial(data)
+            self._write(data)
 
-    def _write_fd(self, fd: int, data: bytes) -> None:
-        """Write ``data`` whole, counting what the device took; never longer than the write timeout."""
+    def _write(self, data: bytes, timeout: float | None = None) -> None:
+        """Write ``data`` whole (the write lock is held) within ``timeout`` s (None: the write timeout)."""
+        if self._broken is not None:
+            raise TransportError(f"{self.description}: frame not sent: {self._broken}; close and reopen the bus")
+        if self._fd is not None:
+            self._write_fd(self._fd, data, timeout)
+        else:
+            self._write_pyserial(data)
+
+    def _write_fd(self, fd: int, data: bytes, timeout: float | None = None) -> None:
+        """Write ``data`` whole, counting what the device took; never longer than ``timeout`` s (None: the
+        write timeout)."""
         total = len(data)
         sent = 0
-        deadline = time.monotonic() + self._write_timeout
+        limit = self._write_timeout if timeout is None else timeout
+        deadline = time.monotonic() + limit
         while True:
             try:
                 sent += os.write(fd, data[sent:] if sent else data)
@@ -168,7 +174,7 @@ class SerialFrameTransport(Transport):
                 select.select([], [fd], [], min(left, _WRITE_SLICE))
             except (OSError, ValueError) as exc:
                 raise self._failed(sent, total, f"write failed: {exc}") from exc
-        raise self._failed(sent, total, f"the device took no data for {self._write_timeout:g} s (not reading?)")
+        raise self._failed(sent, total, f"the device took no data for {limit:g} s (not reading?)")
 
     def _failed(self, sent: int, total: int, why: str) -> TransportError:
         if sent == 0:
