@@ -31,8 +31,8 @@ test: test-python test-c test-lerobot
 
 test-python: $(DEVSTAMP) sysdeps
 	cd python && ../$(BIN)/python -m pytest -q
-	cd python && ../$(BIN)/ruff check src tests $(LINTED)
-	cd python && ../$(BIN)/ruff format --check src tests
+	cd python && ../$(BIN)/ruff check src tests plugins $(LINTED)
+	cd python && ../$(BIN)/ruff format --check src tests plugins
 	cd python && ../$(BIN)/mypy
 
 # System packages some tests drive: Debian's chromium for the dashboard's browser tests (Playwright's own
@@ -69,7 +69,7 @@ $(LRSTAMP): python/pyproject.toml $(addsuffix /pyproject.toml,$(PLUGINS))
 	touch $(LRSTAMP)
 
 test-lerobot: $(LRSTAMP)
-	cd python && ../$(LRBIN)/python -m pytest -q --confcutdir=tests/lerobot tests/lerobot
+	cd python && ../$(LRBIN)/python -m pytest -q -W ignore::pytest.PytestConfigWarning --confcutdir=tests/lerobot tests/lerobot
 
 test-c:
 	@if [ -f c/scripts/test.sh ]; then bash c/scripts/test.sh; else echo "no C library yet"; fi
