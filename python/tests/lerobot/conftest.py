@@ -25,6 +25,8 @@ from drempower.sim.twin import Twin, TwinRunner, couple_robot
 
 REPO_ROOT = Path(__file__).resolve().parents[3]
 ARM = REPO_ROOT / "examples" / "robots" / "arm6.toml"
+TIMEOUT = 1.0
+"""s per request of the arms served here (the buses' own 0.1 s is short on a loaded, shared machine)."""
 JOINTS = ("base_yaw", "shoulder", "elbow", "wrist_roll", "wrist_pitch", "flange_roll")
 
 

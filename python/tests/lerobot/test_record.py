@@ -13,7 +13,7 @@ pytest.importorskip("lerobot", reason="LeRobot is not installed here: make test-
 
 from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
-from .conftest import JOINTS, Running, lerobot_command, lerobot_env, served_arms
+from .conftest import JOINTS, TIMEOUT, Running, lerobot_command, lerobot_env, served_arms
 
 FPS = 30
 SECONDS = 5.0
@@ -35,11 +35,13 @@ def test_record_an_episode_load_it_and_replay_it(tmp_path: Path) -> None:
             [
                 lerobot_command("lerobot-record"),
                 "--robot.type=drempower",
+                f"--robot.timeout={TIMEOUT}",
                 f"--robot.robot_file={follower.robot_file}",
                 "--robot.observe_speeds=true",
                 "--robot.observe_torques=true",
                 "--robot.id=follower",
                 "--teleop.type=drempower_leader",
+                f"--teleop.timeout={TIMEOUT}",
                 f"--teleop.robot_file={leader.robot_file}",
                 "--teleop.id=leader",
                 f"--dataset.repo_id={REPO}",
@@ -96,6 +98,7 @@ def test_record_an_episode_load_it_and_replay_it(tmp_path: Path) -> None:
             [
                 lerobot_command("lerobot-replay"),
                 "--robot.type=drempower",
+                f"--robot.timeout={TIMEOUT}",
                 f"--robot.robot_file={replayed.robot_file}",
                 "--robot.id=replayed",
                 f"--dataset.repo_id={REPO}",

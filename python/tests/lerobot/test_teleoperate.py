@@ -12,7 +12,7 @@ import pytest
 
 pytest.importorskip("lerobot", reason="LeRobot is not installed here: make test-lerobot runs these")
 
-from .conftest import JOINTS, Running, lerobot_command, lerobot_env, served_arms
+from .conftest import JOINTS, TIMEOUT, Running, lerobot_command, lerobot_env, served_arms
 
 SECONDS = 6.0
 """The teleoperation's length (--teleop_time_s)."""
@@ -30,9 +30,11 @@ def test_the_leader_drives_the_follower(tmp_path: Path) -> None:
             [
                 lerobot_command("lerobot-teleoperate"),
                 "--robot.type=drempower",
+                f"--robot.timeout={TIMEOUT}",
                 f"--robot.robot_file={follower.robot_file}",
                 "--robot.id=follower",
                 "--teleop.type=drempower_leader",
+                f"--teleop.timeout={TIMEOUT}",
                 f"--teleop.robot_file={leader.robot_file}",
                 "--teleop.id=leader",
                 "--fps=30",

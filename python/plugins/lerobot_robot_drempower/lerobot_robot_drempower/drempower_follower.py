@@ -1,8 +1,8 @@
 """The ``drempower`` follower robot: a DrEmpower arm from its robot file, driven by joint positions.
 
 Observation: ``<joint>.pos`` (deg at the joint), optionally ``<joint>.vel`` (deg/s) and
-``<joint>.torque`` (Nm), plus the cameras. Action: ``<joint>.pos`` (deg). Each action is one
-synchronised T-mode (filtered position) command to every joint, through the safety gate: the robot
+``<joint>.torque`` (Nm), plus the cameras. Action: ``<joint>.pos`` (deg). Each action is one control
+cycle (``robot.cycle``) of T-mode (filtered position) commands, through the safety gate: the robot
 file's limits and ``max_step`` refuse it (nothing is sent, the gate's ``SoftLimitError`` is raised);
 a target beyond the model's range of a joint without limits in the file is refused the same way.
 ``max_relative_target`` bounds the step toward the target instead, as LeRobot's arms do.
@@ -150,8 +150,12 @@ class DrEmpowerFollower(Robot):  # type: ignore[misc]  # LeRobot has no type inf
             if rng is not None and not rng[0] <= deg <= rng[1]:
                 js = self.choice.spec.joints[n]
                 raise SoftLimitError(js.id, f"{n}{POS}", deg, rng[0], rng[1], "deg", rng[2])
-        angles = {n: robot.joint(n).gearing.motor_angle(math.radians(deg)) for n, deg in goal.items()}
-        robot.set_angles(angles, 0.0, self.config.bandwidth, PositionMode.T)
+        commands = {}
+        for n, deg in goal.items():
+            joint = robot.joint(n)
+            angle = joint.gearing.motor_angle(math.radians(deg))
+            commands[n] = joint.make_angle(angle, 0.0, self.config.bandwidth, PositionMode.T)
+        robot.cycle(commands)  # through the safety gate before anything is sent; the states come back
         self._last.update(goal)
         return {f"{n}{POS}": deg for n, deg in goal.items()}
 
