@@ -65,6 +65,14 @@ def served_arms(tmp_path: Path, names: Sequence[str]) -> Iterator[dict[str, Serv
         yield arms
 
 
+def idle_on_timeout(robot_file: Path, joint: str) -> None:
+    """Give ``joint`` of ``robot_file`` (an example arm's copy) ``on_timeout = "idle"``."""
+    text = robot_file.read_text()
+    entry = f"[joints.{joint}]\n"
+    assert text.count(entry) == 1
+    robot_file.write_text(text.replace(entry, f'{entry}on_timeout = "idle"\n'))
+
+
 def lerobot_env(home: Path) -> dict[str, str]:
     """The environment of a LeRobot command: its homes under ``home``, offline, unbuffered, headless."""
     env = dict(os.environ)
@@ -122,8 +130,8 @@ class Running:
             time.sleep(0.01)
         pytest.fail(f"no {marker!r} within {timeout} s:\n{self.output[-4000:]}")
 
-    def finish(self, timeout: float) -> str:
-        """Wait for the command to end (killed after ``timeout`` s); asserts it succeeded; its output."""
+    def finish(self, timeout: float, returncode: int = 0) -> str:
+        """Wait for the command to end (killed after ``timeout`` s); asserts its exit status; its output."""
         try:
             self.proc.wait(timeout)
         except subprocess.TimeoutExpired:
@@ -131,5 +139,5 @@ class Running:
             self.proc.wait(10)
             pytest.fail(f"still running after {timeout} s:\n{self.output[-4000:]}")
         self._reader.join(5)
-        assert self.proc.returncode == 0, self.output[-4000:]
+        assert self.proc.returncode == returncode, self.output[-4000:]
         return self.output

@@ -5,6 +5,7 @@ the follower ends where the leader is."""
 
 from __future__ import annotations
 
+import signal
 import time
 from pathlib import Path
 
@@ -12,7 +13,7 @@ import pytest
 
 pytest.importorskip("lerobot", reason="LeRobot is not installed here: make test-lerobot runs these")
 
-from .conftest import JOINTS, TIMEOUT, Running, lerobot_command, lerobot_env, served_arms
+from .conftest import JOINTS, TIMEOUT, Running, idle_on_timeout, lerobot_command, lerobot_env, served_arms
 
 SECONDS = 6.0
 """The teleoperation's length (--teleop_time_s)."""
@@ -66,3 +67,38 @@ def test_the_leader_drives_the_follower(tmp_path: Path) -> None:
         + ", ".join(f"{a} {d:.3f}" for a, d in drift.items())
     )
     assert max(drift.values()) < 3.0, drift
+
+
+@pytest.mark.timeout(240)
+def test_sigterm_leaves_both_arms_as_their_on_timeout_says(tmp_path: Path) -> None:
+    """Stopped by SIGTERM (systemd, docker), LeRobot's process still disconnects both arms: their joints
+    hold, and the one whose robot file says ``on_timeout = "idle"`` is released."""
+    from drempower import open_robot
+
+    with served_arms(tmp_path, ("leader", "follower")) as arms:
+        for arm in arms.values():
+            idle_on_timeout(arm.robot_file, "wrist_roll")
+        run = Running(
+            [
+                lerobot_command("lerobot-teleoperate"),
+                "--robot.type=drempower",
+                f"--robot.timeout={TIMEOUT}",
+                f"--robot.robot_file={arms['follower'].robot_file}",
+                "--teleop.type=drempower_leader",
+                f"--teleop.timeout={TIMEOUT}",
+                f"--teleop.robot_file={arms['leader'].robot_file}",
+                "--fps=30",
+                "--teleop_time_s=60",
+            ],
+            lerobot_env(tmp_path),
+        )
+        run.wait_for("Teleop loop time", 120)
+        time.sleep(1.0)
+        run.proc.send_signal(signal.SIGTERM)
+        run.finish(60, returncode=128 + signal.SIGTERM)
+        states = {}
+        for name, arm in arms.items():
+            with open_robot(arm.robot_file, stop_on_close=False, timeout=TIMEOUT) as check:
+                states[name] = {j: check.joint(j).read_property("axis0.current_state") for j in JOINTS}
+    expected = {j: (1 if j == "wrist_roll" else 8) for j in JOINTS}  # 1 idle, 8 closed loop
+    assert states == {"leader": expected, "follower": expected}

@@ -13,6 +13,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from drempower import ConfigError, open_robot
+from drempower.client.signals import install_stop_handlers
 from drempower.robot import Robot, RobotSpec, load_robot
 
 __all__ = [
@@ -77,7 +78,9 @@ def position_keys(names: Sequence[str]) -> dict[str, type]:
 def open_arm(choice: ArmChoice, sim: Mapping[str, Any], timeout: float | None) -> Robot:
     """Open the robot file's buses (the file's ``sim`` buses with ``sim`` options) and enable the chosen
     joints (closed loop). Closing the buses sends nothing: :func:`release` leaves the joints as their
-    ``on_timeout`` says."""
+    ``on_timeout`` says. SIGTERM and SIGHUP then end the process as ``SystemExit`` (128 + the signal) in
+    its main thread, so that LeRobot's ``finally`` disconnects (and so releases) its devices, as on Ctrl-C."""
+    install_stop_handlers()
     robot = open_robot(choice.spec, timeout=timeout, stop_on_close=False, sim=dict(sim) or None)
     try:
         for name in choice.names:
