@@ -53,8 +53,9 @@ sysdeps:
 	  else echo "make: some tests need:$$missing (sudo apt-get install$$missing); they are skipped without them"; fi; \
 	fi
 
-# The LeRobot plugins (python/plugins/) run in a venv of their own: LeRobot pins versions (packaging, setuptools...)
-# the development venv has newer, and brings torch (with PyPI's CUDA libraries: several GB). Their tests are
+# The LeRobot plugins (python/plugins/) run in a venv of their own: LeRobot would take numpy, packaging and
+# setuptools in the development venv back to older versions, and it brings torch (with PyPI's CUDA libraries:
+# the venv takes 8.4 GB; about 5 minutes to install). Their tests are
 # python/tests/lerobot/, which the main pytest run skips (LeRobot is not installed there).
 LEROBOT_VENV ?= .venv-lerobot
 LEROBOT ?= lerobot==0.4.4
