@@ -21,14 +21,9 @@ from lerobot_teleoperator_drempower import DrEmpowerLeader, DrEmpowerLeaderConfi
 from drempower import DrEmpowerError, SoftLimitError, ValidationError, open_robot
 from drempower.client.effects import sleep
 
-from .conftest import ARM, JOINTS, served_arms
+from .conftest import ARM, JOINTS, TIMEOUT, idle_on_timeout, served_arms
 
 VIRTUAL = {"clock": "virtual"}
-
-
-@pytest.fixture(autouse=True)
-def _homes(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv("HF_LEROBOT_CALIBRATION", str(tmp_path / "calibration"))
 
 
 def _arm_file(tmp_path: Path) -> Path:
@@ -55,7 +50,11 @@ def _arm_file(tmp_path: Path) -> Path:
 def follower(tmp_path: Path) -> Iterator[DrEmpowerFollower]:
     robot = DrEmpowerFollower(
         DrEmpowerFollowerConfig(
-            robot_file=str(_arm_file(tmp_path)), sim=VIRTUAL, observe_speeds=True, observe_torques=True
+            calibration_dir=tmp_path,
+            robot_file=str(_arm_file(tmp_path)),
+            sim=VIRTUAL,
+            observe_speeds=True,
+            observe_torques=True,
         )
     )
     robot.connect()
@@ -72,8 +71,10 @@ def _pose(action: dict[str, float]) -> dict[str, float]:
     return {f"{j}.pos": action.get(j, 0.0) for j in JOINTS}
 
 
-def test_observation_in_degrees_at_the_joints() -> None:
-    cfg = DrEmpowerFollowerConfig(robot_file=str(ARM), sim=VIRTUAL, observe_speeds=True, observe_torques=True)
+def test_observation_in_degrees_at_the_joints(tmp_path: Path) -> None:
+    cfg = DrEmpowerFollowerConfig(
+        calibration_dir=tmp_path, robot_file=str(ARM), sim=VIRTUAL, observe_speeds=True, observe_torques=True
+    )
     follower = DrEmpowerFollower(cfg)
     follower.connect()
     try:
@@ -115,7 +116,9 @@ def test_a_step_beyond_max_step_is_refused_by_the_gate_and_nothing_moves(followe
 
 
 def test_max_relative_target_bounds_the_step(tmp_path: Path) -> None:
-    cfg = DrEmpowerFollowerConfig(robot_file=str(_arm_file(tmp_path)), sim=VIRTUAL, max_relative_target={"elbow": 2.0})
+    cfg = DrEmpowerFollowerConfig(
+        calibration_dir=tmp_path, robot_file=str(_arm_file(tmp_path)), sim=VIRTUAL, max_relative_target={"elbow": 2.0}
+    )
     robot = DrEmpowerFollower(cfg)
     robot.connect()
     try:
@@ -149,7 +152,7 @@ def test_actions_with_a_missing_or_unknown_key_or_not_a_number(follower: DrEmpow
 
 
 def test_leader_actions_are_its_joint_positions(tmp_path: Path) -> None:
-    leader = DrEmpowerLeader(DrEmpowerLeaderConfig(robot_file=str(ARM), sim=VIRTUAL))
+    leader = DrEmpowerLeader(DrEmpowerLeaderConfig(calibration_dir=tmp_path, robot_file=str(ARM), sim=VIRTUAL))
     assert leader.compensate  # the file names a model
     leader.connect()
     try:
@@ -168,8 +171,10 @@ def test_leader_actions_are_its_joint_positions(tmp_path: Path) -> None:
         leader.disconnect()
 
 
-def test_a_leader_whose_teach_mode_stopped_says_so() -> None:
-    leader = DrEmpowerLeader(DrEmpowerLeaderConfig(robot_file=str(ARM), sim=VIRTUAL, compensate=False))
+def test_a_leader_whose_teach_mode_stopped_says_so(tmp_path: Path) -> None:
+    leader = DrEmpowerLeader(
+        DrEmpowerLeaderConfig(calibration_dir=tmp_path, robot_file=str(ARM), sim=VIRTUAL, compensate=False)
+    )
     leader.connect()
     assert leader.robot is not None
     leader.robot.close()  # the buses go away under teach mode
@@ -184,19 +189,13 @@ def test_a_leader_whose_teach_mode_stopped_says_so() -> None:
 
 def test_disconnect_leaves_each_joint_as_its_on_timeout_says(tmp_path: Path) -> None:
     with served_arms(tmp_path, ("arm",)) as arms:
-        text = (
-            arms["arm"]
-            .robot_file.read_text()
-            .replace(
-                '[joints.wrist_roll]\nbus = "arm"\nid = 4\n',
-                '[joints.wrist_roll]\nbus = "arm"\nid = 4\non_timeout = "idle"\n',
-            )
+        idle_on_timeout(arms["arm"].robot_file, "wrist_roll")
+        robot = DrEmpowerFollower(
+            DrEmpowerFollowerConfig(calibration_dir=tmp_path, robot_file=str(arms["arm"].robot_file), timeout=TIMEOUT)
         )
-        arms["arm"].robot_file.write_text(text)
-        robot = DrEmpowerFollower(DrEmpowerFollowerConfig(robot_file=str(arms["arm"].robot_file)))
         robot.connect()
         robot.send_action(_pose({"elbow": 10.0}))
         robot.disconnect()
-        with open_robot(arms["arm"].robot_file, stop_on_close=False, timeout=2.0) as check:
+        with open_robot(arms["arm"].robot_file, stop_on_close=False, timeout=TIMEOUT) as check:
             states = {j: check.joint(j).read_property("axis0.current_state") for j in JOINTS}
     assert states == {j: (1 if j == "wrist_roll" else 8) for j in JOINTS}  # 1 idle, 8 closed loop
