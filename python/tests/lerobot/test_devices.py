@@ -27,7 +27,7 @@ VIRTUAL = {"clock": "virtual"}
 
 
 def _arm_file(tmp_path: Path) -> Path:
-    """The example arm with a largest step of 0.05 rad on the elbow and the wrist roll idled when left."""
+    """The example arm with a largest step of 0.05 rad on the elbow and a range of -1..1 rad on the wrist pitch."""
     text = (
         ARM.read_text()
         .replace('file = "arm6.xml"', f'file = "{ARM.parent / "arm6.xml"}"')
@@ -36,11 +36,11 @@ def _arm_file(tmp_path: Path) -> Path:
             '[joints.elbow]\nbus = "arm"\nid = 3\nlimits = { max_step = 0.05 }\n',
         )
         .replace(
-            '[joints.wrist_roll]\nbus = "arm"\nid = 4\n',
-            '[joints.wrist_roll]\nbus = "arm"\nid = 4\non_timeout = "idle"\n',
+            '[joints.wrist_pitch]\nbus = "arm"\nid = 5\n',
+            '[joints.wrist_pitch]\nbus = "arm"\nid = 5\nlimits = { position = [-1.0, 1.0] }\n',
         )
     )
-    assert text.count("max_step") == 1 and text.count('on_timeout = "idle"') == 1
+    assert text.count("max_step") == 1 and text.count("position = [-1.0, 1.0]") == 1
     path = tmp_path / "arm.toml"
     path.write_text(text)
     return path
@@ -133,11 +133,21 @@ def test_max_relative_target_bounds_the_step(tmp_path: Path) -> None:
         robot.disconnect()
 
 
-def test_a_target_beyond_the_models_range_is_refused(follower: DrEmpowerFollower) -> None:
+def test_a_target_beyond_a_range_is_refused(follower: DrEmpowerFollower, caplog: pytest.LogCaptureFixture) -> None:
+    """The model's range where the robot file gives none (checked by the plugin), the file's by the gate."""
     _, high, _ = follower.ranges["shoulder"]
     with pytest.raises(SoftLimitError, match=rf"shoulder.pos {high + 1:g} deg .*range of model joint 'shoulder'"):
         follower.send_action(_pose({"shoulder": high + 1}))
-    assert "elbow" not in follower.ranges  # the robot file's limits: the gate's
+    assert "wrist_pitch" not in follower.ranges and "elbow" in follower.ranges  # max_step alone is no range
+    with pytest.raises(
+        SoftLimitError, match=r"motor 5: position .* \(set by .*arm.toml: \[joints.wrist_pitch\] limits\)"
+    ):
+        follower.send_action(_pose({"wrist_pitch": 60.0}))  # 1.05 rad
+    caplog.set_level("INFO")
+    follower.calibrate()  # nothing to ask: says where each zero and range come from
+    said = caplog.text
+    assert "shoulder: motor 2 on bus arm; zero: the motor's, gear 2, offset 0 rad; range -114.6..114.6 deg" in said
+    assert "wrist_pitch: motor 5 on bus arm; zero: the motor's, gear 1, offset 0 rad; range -57.3..57.3 deg" in said
 
 
 def test_actions_with_a_missing_or_unknown_key_or_not_a_number(follower: DrEmpowerFollower) -> None:

@@ -100,7 +100,18 @@ class DrEmpowerFollower(Robot):  # type: ignore[misc]  # LeRobot has no type inf
         ``gear`` and ``offset``, its range the file's ``limits`` (else the model's joint range)."""
         for n in self.choice.names:
             js = self.choice.spec.joints[n]
-            log.info("%s: motor %d on bus %s, gear %g, offset %g rad", n, js.id, js.bus, js.gear, js.offset)
+            own = js.limits.get("position")
+            if own is not None:
+                rng = f"{degrees(own[0]):.1f}..{degrees(own[1]):.1f} deg (the robot file's limits)"
+            elif n in self.ranges:
+                low, high, where = self.ranges[n]
+                rng = f"{low:.1f}..{high:.1f} deg ({where})"
+            else:
+                rng = "none known (connect to read the model's)"
+            log.info(
+                "%s: motor %d on bus %s; zero: the motor's, gear %g, offset %g rad; range %s",
+                *(n, js.id, js.bus, js.gear, js.offset, rng),
+            )
 
     def configure(self) -> None:
         """Nothing to write: the motors keep their configuration (gains, limits) in flash."""

@@ -1,5 +1,5 @@
 """The joints' ranges the follower checks itself: the model's joint ranges, for joints the robot file
-gives no ``limits`` (those the safety gate checks)."""
+gives no ``position`` limit (those the safety gate checks)."""
 
 from __future__ import annotations
 
@@ -7,24 +7,29 @@ import math
 from collections.abc import Sequence
 from typing import Any
 
-from drempower.motion.plan import model_ranges, robot_limits
+from drempower.motion.plan import model_ranges
 from drempower.robot import Robot
 
 __all__ = ["joint_ranges"]
 
 
 def joint_ranges(robot: Robot, names: Sequence[str]) -> dict[str, tuple[float, float, str]]:
-    """Joint -> (low, high, where from) in deg, for the joints of ``names`` whose range comes from the
-    robot's model (the twin's, else the model file's when MuJoCo is installed)."""
+    """Joint -> (low, high, where from) in deg, for the joints of ``names`` without a ``position`` limit
+    in the robot file whose model joint has a range (the twin's model, else the model file's when MuJoCo
+    is installed)."""
     model = _model(robot)
     if model is None:
         return {}
+    model_range = model_ranges(model)
     out: dict[str, tuple[float, float, str]] = {}
-    for name, known in robot_limits(robot.spec, names, model_ranges(model)).items():
-        rng = known.get("position")
-        if rng is None or robot.spec.joints[name].limits:
-            continue  # the robot file's limits: the gate's
-        out[name] = (math.degrees(rng[0]), math.degrees(rng[1]), str(known["source"]))
+    for name in names:
+        js = robot.spec.joints[name]
+        if "position" in js.limits:
+            continue  # the robot file's: the gate's
+        mj_name = js.model_joint or name
+        rng = model_range(mj_name)
+        if rng is not None:
+            out[name] = (math.degrees(rng[0]), math.degrees(rng[1]), f"the range of model joint {mj_name!r}")
     return out
 
 
