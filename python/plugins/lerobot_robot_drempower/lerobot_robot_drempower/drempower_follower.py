@@ -19,8 +19,7 @@ from lerobot.cameras.utils import make_cameras_from_configs
 from lerobot.robots import Robot
 from lerobot.utils.errors import DeviceAlreadyConnectedError, DeviceNotConnectedError
 
-from drempower import SoftLimitError, ValidationError
-from drempower.client.commands import PositionMode
+from drempower import PositionMode, SoftLimitError, ValidationError
 from drempower.robot import Robot as DrRobot
 
 from .arm import POS, TORQUE, VEL, choose_joints, degrees, open_arm, position_keys, release
