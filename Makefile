@@ -1,6 +1,6 @@
 # drempower: the two commands of the README, and a few helpers.
 #   make demo   run the main job (simulated motors; no hardware needed)
-#   make test   run every test (Python: pytest, ruff, mypy; C: ctest, sanitizers)
+#   make test   run every test (Python: pytest, ruff, mypy; C: ctest, sanitizers; the LeRobot plugins)
 
 PYTHON ?= python3
 VENV   ?= .venv
@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 DEVSTAMP := $(VENV)/.installed-dev
 LINTED := ../tools ../bench $(addprefix ../,$(wildcard examples))
 
-.PHONY: demo test test-python test-c lint bench generate clean sysdeps
+.PHONY: demo test test-python test-c test-lerobot lint bench generate clean sysdeps
 
 # the main job needs only the package and its core dependencies (python-can, pyserial)
 $(STAMP): python/pyproject.toml
@@ -27,12 +27,12 @@ demo: $(STAMP)
 	$(BIN)/drempower demo
 	@echo "Next: watch and drive simulated motors in a browser: $(BIN)/pip install --quiet -e 'python[dash]' && $(BIN)/drempower dash --sim 1,2,3"
 
-test: test-python test-c
+test: test-python test-c test-lerobot
 
 test-python: $(DEVSTAMP) sysdeps
 	cd python && ../$(BIN)/python -m pytest -q
-	cd python && ../$(BIN)/ruff check src tests $(LINTED)
-	cd python && ../$(BIN)/ruff format --check src tests
+	cd python && ../$(BIN)/ruff check src tests plugins $(LINTED)
+	cd python && ../$(BIN)/ruff format --check src tests plugins
 	cd python && ../$(BIN)/mypy
 
 # System packages some tests drive: Debian's chromium for the dashboard's browser tests (Playwright's own
@@ -53,6 +53,25 @@ sysdeps:
 	  else echo "make: some tests need:$$missing (sudo apt-get install$$missing); they are skipped without them"; fi; \
 	fi
 
+# The LeRobot plugins (python/plugins/) run in a venv of their own: LeRobot would take numpy, packaging and
+# setuptools in the development venv back to older versions, and it brings torch (with PyPI's CUDA libraries:
+# the venv takes 8.4 GB; about 5 minutes to install). Their tests are
+# python/tests/lerobot/, which the main pytest run skips (LeRobot is not installed there).
+LEROBOT_VENV ?= .venv-lerobot
+LEROBOT ?= lerobot==0.4.4
+LRBIN := $(LEROBOT_VENV)/bin
+LRSTAMP := $(LEROBOT_VENV)/.installed
+PLUGINS := python/plugins/lerobot_robot_drempower python/plugins/lerobot_teleoperator_drempower
+
+$(LRSTAMP): python/pyproject.toml $(addsuffix /pyproject.toml,$(PLUGINS))
+	$(PYTHON) -m venv $(LEROBOT_VENV)
+	$(LRBIN)/python -m pip install --quiet --upgrade pip
+	$(LRBIN)/python -m pip install --quiet -e 'python[physics]' $(addprefix -e ,$(PLUGINS)) '$(LEROBOT)' 'pytest>=8' 'pytest-timeout>=2.3'
+	touch $(LRSTAMP)
+
+test-lerobot: $(LRSTAMP)
+	cd python && ../$(LRBIN)/python -m pytest -q -W ignore::pytest.PytestConfigWarning --confcutdir=tests/lerobot tests/lerobot
+
 test-c:
 	@if [ -f c/scripts/test.sh ]; then bash c/scripts/test.sh; else echo "no C library yet"; fi
 
@@ -66,4 +85,4 @@ generate: $(DEVSTAMP)
 	$(BIN)/python tools/gen_sync.py
 
 clean:
-	rm -rf $(VENV) build .pytest_cache python/.pytest_cache python/.mypy_cache python/.ruff_cache
+	rm -rf $(VENV) $(LEROBOT_VENV) build .pytest_cache python/.pytest_cache python/.mypy_cache python/.ruff_cache
