@@ -12,8 +12,9 @@ import pytest
 import drempower
 from drempower.client import Motor, MotorState
 from drempower.client.commands import q_move_time
-from drempower.errors import BusClosedError, FieldRangeError, TransportError, ValidationError
+from drempower.errors import BusClosedError, FieldRangeError, SoftLimitError, TransportError, ValidationError
 from drempower.protocol import Preset, ReadParam, Start, SysCmd, SystemCommand, decode_command
+from drempower.protocol.limits import MOTION_CMDS
 from drempower.protocol.parameters import DataType
 from drempower.robot import Gearing, Joint, JointSpec, Robot, open_robot
 from drempower.sim import SimBus
@@ -183,3 +184,18 @@ def test_virtual_buses_with_attached_simulators(virtual_robot: tuple[Path, dict[
         assert robot.joint_states(["b"])["b"].position == pytest.approx(math.radians(-40.0) / 10, abs=1e-3)
         robot.estop()
     assert sims["left"].motors[1].axis_error and sims["right"].motors[3].axis_error
+
+
+def test_a_cycle_sends_nothing_on_any_bus_when_one_buss_gate_refuses(robot: Robot) -> None:
+    """The soft limit of a joint on one bus refuses the whole cycle before the other bus sends its part."""
+    sh, el = robot.joint("shoulder"), robot.joint("elbow")
+    for name, bus in robot.buses.items():
+        bus.enable(sorted(_sims(robot)[name].motors))
+    robot.bus("right").set_limits(1, position=(-30.0, 30.0))  # the elbow's motor, in motor degrees
+    recs = {name: Recorder(sim) for name, sim in _sims(robot).items()}
+    with pytest.raises(SoftLimitError, match="motor 1: position 45 deg is beyond its soft limit"):
+        robot.cycle({"shoulder": sh.make_angle(10.0, 0.0, 20.0, 0), "elbow": el.make_angle(45.0, 0.0, 20.0, 0)})
+    motion = set(MOTION_CMDS)
+    assert not [f for rec in recs.values() for f in rec.frames if f.arbitration_id & 0x1F in motion]
+    states = robot.cycle({"shoulder": sh.make_angle(10.0, 0.0, 20.0, 0), "elbow": el.make_angle(20.0, 0.0, 20.0, 0)})
+    assert set(states) == {"shoulder", "elbow"}

@@ -173,9 +173,13 @@ class AsyncRobot(AsyncRobotBase):
         self, commands: Mapping[str, Message], *, timeout: float | None = None, reply_state: bool | None = None
     ) -> dict[str, MotorState]:
         """Send one command per joint (``{name: message}``, e.g. from ``robot.joint(n).make_angle(...)``)
-        and return each joint's state; the buses run their cycles at the same time."""
+        and return each joint's state; the buses run their cycles at the same time. Nothing is sent on any
+        bus when one bus's safety gate refuses its part."""
         groups = per_bus(self.spec, commands)
         check_commands(self.spec, commands)
+        if len(groups) > 1:  # the safety gate of every bus before any bus sends (one bus: its cycle's own)
+            for b, msgs in groups.items():
+                await self.buses[b].pass_gate(list(msgs.values()))
 
         def part(bus: str, msgs: dict[str, Message]) -> AsyncPart[dict[str, MotorState]]:
             async def run() -> dict[str, MotorState]:
