@@ -11,7 +11,8 @@ device, ``TimeoutError`` for a silent motor)::
     │   │   ├── DomainError                    a value outside a parameter's domain (spec/parameters.csv)
     │   │   └── SoftLimitError                 a value beyond a soft limit (set_limits, a robot file)
     │   ├── ConfigError                        a robot file that cannot be used
-    │   └── BackupFileError                    a backup document that cannot be restored
+    │   ├── BackupFileError                    a backup document that cannot be restored
+    │   └── TransportOptionError               (also a TransportError) an option a transport cannot use
     ├── TransportError (OSError)               a bus that cannot be opened, a device that failed
     ├── TimeoutError (builtins.TimeoutError)   a motor that did not answer in time
     ├── BusClosedError                         the bus is closed or its receive loop stopped
@@ -51,6 +52,7 @@ __all__ = [
     "DomainError",
     "ConfigError",
     "TransportError",
+    "TransportOptionError",
     "TimeoutError",
     "BusClosedError",
     "BusStoppedError",
@@ -108,6 +110,12 @@ class TransportError(DrEmpowerError, OSError):
     The message says what was tried (interface, channel or serial port) and why
     it failed.
     """
+
+
+class TransportOptionError(ValidationError, TransportError):
+    """An option a transport cannot use (a bit rate the adapter does not set, a serial rate that is not a
+    number, a negative wait): the bus was not opened and nothing was sent. A :class:`ValidationError` (the
+    CLI's exit 2: a user's mistake) and a :class:`TransportError` (opening the bus failed)."""
 
 
 def motors(nodes: Sequence[int]) -> str:

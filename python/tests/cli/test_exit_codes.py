@@ -91,3 +91,16 @@ def test_sim_config_dir_with_deeply_nested_json(cli: Cli, tmp_path: Path) -> Non
     (tmp_path / "motor-1.json").write_text("[" * 100_000 + "]" * 100_000)
     r = cli("sim", "--ids", "1", "--config-dir", str(tmp_path))
     assert r.code == 2 and "Traceback" not in r.err and "motor-1.json" in r.err, r.err
+
+
+@pytest.mark.parametrize(
+    ("argv", "words"),
+    [
+        (("-i", "slcan", "-c", "/dev/null", "--bitrate", "123"), "bitrate=123; slcan sets 10000"),
+        (("-i", "slcan", "-c", "/dev/null@fast"), "serial rate 'fast' is not a number"),
+    ],
+)
+def test_a_transport_option_it_cannot_use_is_a_usage_error(cli: Cli, argv: tuple[str, ...], words: str) -> None:
+    """A bad option of the connection is the user's mistake (exit 2), not a failure on the bus (exit 1)."""
+    r = cli("state", "1", *argv)
+    assert r.code == 2 and words in r.err and "Traceback" not in r.err

@@ -14,6 +14,7 @@ from contextlib import contextmanager
 import pytest
 
 import drempower
+from drempower.errors import ValidationError
 from drempower.protocol import FastRead, State
 from drempower.protocol.ids import Frame
 from drempower.protocol.slcan import encode_slcan
@@ -121,6 +122,7 @@ def test_bad_options_are_named_and_nothing_is_written(kwargs: dict[str, object],
     with device() as (dev, path):
         with pytest.raises(TransportError) as info:
             open_transport("slcan", path, **kwargs)  # type: ignore[arg-type]
+        assert isinstance(info.value, ValidationError)  # a user's mistake: the CLI's exit 2
         for w in words:
             assert w in str(info.value)
         assert quiet(dev)

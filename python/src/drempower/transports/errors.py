@@ -2,6 +2,6 @@
 
 from __future__ import annotations
 
-from ..errors import TransportError
+from ..errors import TransportError, TransportOptionError
 
-__all__ = ["TransportError"]
+__all__ = ["TransportError", "TransportOptionError"]

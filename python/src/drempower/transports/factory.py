@@ -6,7 +6,7 @@ from collections.abc import Callable
 from typing import Any
 
 from .base import Transport
-from .errors import TransportError
+from .errors import TransportError, TransportOptionError
 
 __all__ = ["open_transport", "INTERFACES", "Opener", "SERIAL_ADAPTER", "MOTOR_UART", "SLCAN", "SIMULATOR", "ZENOH"]
 
@@ -57,7 +57,7 @@ def _slcan(interface: str, channel: str | int | None, bitrate: int | None, kwarg
         kwargs.setdefault("write_timeout", kwargs.pop("send_timeout"))
     unknown = sorted(set(kwargs) - _SLCAN_OPTIONS)
     if unknown:
-        raise TransportError(
+        raise TransportOptionError(
             f"cannot open slcan adapter on {port}: unknown option(s) {', '.join(unknown)}; it takes "
             f"{', '.join(sorted(_SLCAN_OPTIONS))} (interface 'python-can:slcan' is python-can's own slcan)"
         )
@@ -95,7 +95,7 @@ def _zenoh(interface: str, channel: str | int | None, bitrate: int | None, kwarg
     from .zenoh import ZenohTransport
 
     if bitrate is not None:
-        raise TransportError("a remote bus takes no bitrate: the bridge's bus has its own")
+        raise TransportOptionError("a remote bus takes no bitrate: the bridge's bus has its own")
     return ZenohTransport(None if channel is None else str(channel), **kwargs)
 
 

@@ -16,7 +16,7 @@ import serial
 
 from ..protocol.ids import Frame
 from .base import Transport
-from .errors import TransportError
+from .errors import TransportError, TransportOptionError
 from .fds import close_fds
 
 try:
@@ -88,7 +88,7 @@ class SerialFrameTransport(Transport):
     ) -> None:
         write_timeout = serial_kwargs.pop("write_timeout", WRITE_TIMEOUT)
         if isinstance(write_timeout, bool) or not isinstance(write_timeout, int | float) or not write_timeout > 0:
-            raise TransportError(
+            raise TransportOptionError(
                 f"cannot open {what} on serial port {port!r}: write_timeout={write_timeout!r} "
                 "must be a number of seconds > 0 (a write must not hang)"
             )

@@ -6,7 +6,7 @@ import time
 from typing import Any
 
 from ..protocol.slcan import SlcanDecoder, encode_slcan
-from .errors import TransportError
+from .errors import TransportError, TransportOptionError
 from .serialport import SerialFrameTransport
 
 __all__ = ["SlcanTransport", "BITRATES", "SLEEP_AFTER_OPEN"]
@@ -57,13 +57,17 @@ class SlcanTransport(SerialFrameTransport):
         if "@" in port:
             port, _, rate = port.rpartition("@")
             if not rate.isdigit() or not rate.isascii():
-                raise TransportError(f"cannot open slcan adapter on {port!r}: serial rate {rate!r} is not a number")
+                raise TransportOptionError(
+                    f"cannot open slcan adapter on {port!r}: serial rate {rate!r} is not a number"
+                )
             tty_baudrate = int(rate)
         if bitrate is not None and bitrate not in BITRATES:
             allowed = ", ".join(str(b) for b in sorted(BITRATES))
-            raise TransportError(f"cannot open slcan adapter on {port!r}: bitrate={bitrate!r}; slcan sets {allowed}")
+            raise TransportOptionError(
+                f"cannot open slcan adapter on {port!r}: bitrate={bitrate!r}; slcan sets {allowed}"
+            )
         if isinstance(sleep_after_open, bool) or not isinstance(sleep_after_open, int | float) or sleep_after_open < 0:
-            raise TransportError(
+            raise TransportOptionError(
                 f"cannot open slcan adapter on {port!r}: sleep_after_open={sleep_after_open!r} must be seconds >= 0"
             )
         super().__init__(port, tty_baudrate, SlcanDecoder(), encode_slcan, "slcan adapter", **serial_kwargs)
