@@ -73,7 +73,7 @@ class Arg:
     high: float | None = None
     default: Any = _REQUIRED
     positive: bool = False
-    """A magnitude > 0 (after rounding to the wire's 0.01 step); ``low`` is then that step."""
+    """A magnitude > 0 after rounding to the wire's 0.01 step (0.006 goes as 0.01); ``low`` is then that step."""
     choices: tuple[Any, ...] = ()
     """The values allowed (none: any in the domain); text is matched ignoring case."""
     modes: tuple[Any, ...] = ()
@@ -117,8 +117,11 @@ class Arg:
         number = _number(self, value)
         low = -math.inf if self.low is None else self.low
         high = math.inf if self.high is None else self.high
-        if not low <= number <= high or (self.positive and round(number * 100) < 1):
-            raise FieldRangeError(self.name, value, low, high, self.unit)
+        inside = round(number * 100) >= 1 and number <= high if self.positive else low <= number <= high
+        if not inside:
+            zero = self.positive and 0 < number < 0.01  # the motor takes steps of 0.01
+            why = f"{self.unit}; the motor takes steps of 0.01: it would get 0" if zero else self.unit
+            raise FieldRangeError(self.name, value, low, high, why)
         return number
 
     def _choice(self, value: object) -> Any:
