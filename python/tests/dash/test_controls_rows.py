@@ -22,6 +22,9 @@ from drempower.protocol import Frame
 from drempower.protocol.enums import ControlMode, InputMode
 from drempower.sim import SimBus
 
+from .conftest import Served
+from .test_browser import reset
+
 BW = "axis0.controller.config.input_filter_bandwidth"
 
 
@@ -255,3 +258,33 @@ def test_the_same_bad_value_gets_the_same_words_from_the_command_line_and_the_pa
     err = capsys.readouterr().err
     assert err.endswith(f"error: argument {option}: {value} is out of range{words}\n"), err
     assert frames == []
+
+
+def test_the_page_s_step_and_velocity_controls_run_their_rows_in_chromium(page: Any, served: Served) -> None:
+    """In headless Chromium: the Step button (a T step through the motor's own filter) moves the motor;
+    a ramp of 0 passes the page's own bounds and is refused by row ``speed`` in its words, shown as an
+    error, with nothing sent."""
+    reset(served)
+    page.wait_for_function("document.querySelectorAll('.card').length === 3")
+    page.get_by_role("tab", name="Control").click()
+    page.locator("#ctl-motor").select_option("1")
+    m1 = served.sim.motors[1]
+    at = m1.position
+    page.locator("#step-delta").fill("30")
+    page.get_by_role("button", name="Step", exact=True).click()
+    assert _settles(lambda: abs(m1.position - (at + 30)) < 0.5, 8), (at, m1.position)
+    assert served.hub.targets[1][0] == pytest.approx(at + 30, abs=0.5)
+    page.evaluate("document.querySelector('#msg').textContent = ''")
+    page.locator("#vel-speed").fill("30")
+    page.locator("#vel-mode").select_option("2")
+    page.locator("#vel-param").fill("0")
+    page.get_by_role("button", name="Run", exact=True).click()
+    page.wait_for_function("document.querySelector('#msg').textContent.includes('ramp=0')")
+    msg = page.locator("#msg")
+    with pytest.raises(ValidationError) as row:
+        actions.validate("speed", {"id": 1, "speed": 30, "mode": 2, "ramp": 0})
+    assert msg.inner_text() == str(row.value)
+    assert "info" not in (msg.get_attribute("class") or "")  # an error, never green
+    time.sleep(0.3)
+    assert abs(m1.speed) < 0.5 and m1.drive.in_vel == 0
+    reset(served)
