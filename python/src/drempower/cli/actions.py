@@ -89,7 +89,7 @@ def option(arg: table.Arg) -> str:
 
 
 def _arg_help(arg: table.Arg) -> str:
-    text = f"{arg.help} ({arg.domain_text()})" if arg.kind in ("int", "float") else arg.help
+    text = f"{arg.help} ({arg.domain_text()})" if arg.kind in ("int", "float") or arg.choices else arg.help
     if not arg.required and arg.default is not None:
         text += f"; default {arg.default}"
     return text.replace("%", "%%")
@@ -234,7 +234,7 @@ def _value(value: Any) -> str:
 
 def _arg_text(arg: dict[str, Any]) -> str:
     shown = arg["name"] if arg["required"] else f"[{arg['name']}]"
-    return f"{shown} {arg['domain']}" if arg["kind"] in ("int", "float") else shown
+    return f"{shown} {arg['domain']}" if arg["kind"] in ("int", "float") or arg["choices"] else shown
 
 
 def _command(name: str) -> str:
