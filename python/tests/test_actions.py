@@ -78,6 +78,9 @@ def test_command_line_text_is_typed() -> None:
     assert actions.validate("speed", {"id": "2", "speed": "12.5", "enable": "yes"}) == {
         "id": 2,
         "speed": 12.5,
+        "mode": 1,
+        "torque_ff": 0.0,
+        "ramp": None,
         "duration": None,
         "enable": True,
     }

@@ -33,8 +33,9 @@ from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from .client.commands import MAX_ANGLE
+from .client.commands import MAX_ANGLE, MAX_BANDWIDTH, PositionMode
 from .errors import FieldRangeError, ValidationError
+from .protocol.enums import TorqueMode, VelocityMode
 from .protocol.limits import MAX_NODE, MIN_MOTOR, S16_MAX, SPEED_RANGE, TORQUE_RANGE
 from .protocol.parameters import find_parameter
 
@@ -43,6 +44,7 @@ __all__ = [
     "Action",
     "Safety",
     "MOTOR",
+    "bandwidth_range",
     "table",
     "get",
     "register",
@@ -71,14 +73,22 @@ class Arg:
     high: float | None = None
     default: Any = _REQUIRED
     positive: bool = False
-    """A magnitude > 0 (after rounding to the wire's 0.01 step); ``low`` is then that step."""
+    """A magnitude > 0 after rounding to the wire's 0.01 step (0.006 goes as 0.01); ``low`` is then that step."""
+    choices: tuple[Any, ...] = ()
+    """The values allowed (none: any in the domain); text is matched ignoring case."""
+    modes: tuple[Any, ...] = ()
+    """The values of the row's ``mode`` argument this argument belongs to (none: every mode). Given
+    in another mode it is refused; in its own, a missing one takes its default (none: it is missing)."""
 
     @property
     def required(self) -> bool:
-        return self.default is _REQUIRED
+        """Needed whatever the mode (an argument of some modes is needed only in them)."""
+        return self.default is _REQUIRED and not self.modes
 
     def domain_text(self) -> str:
-        """The domain in words, e.g. ``-327.68..327.67 r/min``."""
+        """The domain in words, e.g. ``-327.68..327.67 r/min``, ``T, Q or P``."""
+        if self.choices:
+            return _either(self.choices)
         if self.kind == "bool":
             return "true or false"
         if self.kind == "str":
@@ -89,6 +99,8 @@ class Arg:
 
     def check(self, value: object) -> Any:
         """``value`` (a number, or its text) as this argument's type, in its domain; else a ValidationError."""
+        if self.choices:
+            return self._choice(value)
         if self.kind == "str":
             if not isinstance(value, str) or not value:
                 raise ValidationError(f"{self.name}={value!r}: expected a name")
@@ -105,9 +117,30 @@ class Arg:
         number = _number(self, value)
         low = -math.inf if self.low is None else self.low
         high = math.inf if self.high is None else self.high
-        if not low <= number <= high or (self.positive and round(number * 100) < 1):
-            raise FieldRangeError(self.name, value, low, high, self.unit)
+        inside = round(number * 100) >= 1 and number <= high if self.positive else low <= number <= high
+        if not inside:
+            zero = self.positive and 0 < number < 0.01  # the motor takes steps of 0.01
+            why = f"{self.unit}; the motor takes steps of 0.01: it would get 0" if zero else self.unit
+            raise FieldRangeError(self.name, value, low, high, why)
         return number
+
+    def _choice(self, value: object) -> Any:
+        for choice in self.choices:
+            if isinstance(choice, str) and isinstance(value, str) and value.strip().upper() == choice.upper():
+                return choice
+            if not isinstance(choice, str) and not isinstance(value, bool):
+                try:
+                    if _number(self, value) == choice:
+                        return choice
+                except ValidationError:
+                    break
+        raise ValidationError(f"{self.name}={value!r}: expected {_either(self.choices)}")
+
+
+def _either(values: tuple[Any, ...]) -> str:
+    """``("T", "Q", "P")`` -> ``"T, Q or P"``."""
+    words = [str(v) for v in values]
+    return words[0] if len(words) == 1 else f"{', '.join(words[:-1])} or {words[-1]}"
 
 
 def _number(arg: Arg, value: object) -> int | float:
@@ -161,10 +194,65 @@ VERIFY = Arg("verify", "bool", "", "read the value back (a single motor only)", 
 ENABLE = Arg("enable", "bool", "", "enable the motor first if it is idle", default=False)
 ANGLE = Arg("angle", "float", "deg", "target angle", -MAX_ANGLE, MAX_ANGLE)
 STEP = Arg("angle", "float", "deg", "step from where the motor is", -MAX_ANGLE, MAX_ANGLE)
-CRUISE = Arg("speed", "float", "r/min", "cruise speed", 0.01, S16_MAX, 10.0, positive=True)
-ACCEL = Arg("accel", "float", "(r/min)/s", "acceleration", 0.01, S16_MAX, 10.0, positive=True)
+POSITION_MODE = Arg(
+    "mode",
+    "str",
+    "",
+    "T tracks through a filter (bandwidth), Q a trapezoid profile (speed, accel), P with feed-forward "
+    "(speed_ff, torque_ff); default Q, or the mode of the arguments given",
+    default="Q",
+    choices=tuple(m.name for m in PositionMode),
+)
+CRUISE = Arg("speed", "float", "r/min", "Q: cruise speed", 0.01, S16_MAX, 10.0, positive=True, modes=("Q",))
+ACCEL = Arg("accel", "float", "(r/min)/s", "Q: acceleration", 0.01, S16_MAX, 10.0, positive=True, modes=("Q",))
+
+
+_BANDWIDTH = "axis0.controller.config.input_filter_bandwidth"
+
+
+def bandwidth_range() -> tuple[float, float]:
+    """The T-mode filter bandwidth's range (1/s): the domain of ``input_filter_bandwidth`` (spec/parameters.csv)."""
+    p = find_parameter(_BANDWIDTH)
+    lo = p.minimum if p is not None and p.minimum is not None else 0.0
+    hi = p.maximum if p is not None and p.maximum is not None else MAX_BANDWIDTH
+    return lo, hi
+
+
+BANDWIDTH = Arg(
+    "bandwidth",
+    "float",
+    "1/s",
+    "T: input filter bandwidth (the motor keeps it)",
+    0.01,
+    bandwidth_range()[1],
+    20.0,
+    positive=True,
+    modes=("T",),
+)
+"""The T-mode bandwidth: within the parameter's domain, and > 0 on the wire."""
+SPEED_FF = Arg("speed_ff", "float", "r/min", "P: speed feed-forward", *SPEED_RANGE, 0.0, modes=("P",))
+TORQUE_FF = Arg("torque_ff", "float", "Nm", "P: torque feed-forward", *TORQUE_RANGE, 0.0, modes=("P",))
 SPEED = Arg("speed", "float", "r/min", "speed", *SPEED_RANGE)
+SPEED_MODE = Arg(
+    "mode",
+    "int",
+    "",
+    "1: the speed at once, with torque_ff; 2: reached at the ramp rate; default 1, or 2 with ramp",
+    default=int(VelocityMode.PASSTHROUGH),
+    choices=tuple(int(m) for m in VelocityMode),
+)
+SPEED_TFF = Arg("torque_ff", "float", "Nm", "mode 1: torque feed-forward", *TORQUE_RANGE, 0.0, modes=(1,))
+SPEED_RAMP = Arg("ramp", "float", "(r/min)/s", "mode 2: ramp rate", 0.01, S16_MAX, positive=True, modes=(2,))
 TORQUE = Arg("torque", "float", "Nm", "torque", *TORQUE_RANGE)
+TORQUE_MODE = Arg(
+    "mode",
+    "int",
+    "",
+    "1: the torque at once; 6: reached at the ramp rate; default 1, or 6 with ramp",
+    default=int(TorqueMode.DIRECT),
+    choices=tuple(int(m) for m in TorqueMode),
+)
+TORQUE_RAMP = Arg("ramp", "float", "Nm/s", "mode 6: ramp rate", 0.01, S16_MAX, positive=True, modes=(6,))
 DURATION = Arg(
     "duration", "float", "s", "stop by itself after this long (none: until the next command)", 0.001, None, None
 )
@@ -174,10 +262,25 @@ KP = Arg("kp", "float", "Nm/rad", "stiffness", 0, S16_MAX)
 KD = Arg("kd", "float", "Nm/(rad/s)", "damping", 0, S16_MAX)
 VEL = Arg("vel", "float", "r/min", "target speed", *SPEED_RANGE, 0.0)
 TFF = Arg("tff", "float", "Nm", "torque feed-forward", *TORQUE_RANGE, 0.0)
+POSITION_ARGS = (POSITION_MODE, CRUISE, ACCEL, BANDWIDTH, SPEED_FF, TORQUE_FF, ENABLE)
+"""The arguments ``move`` and ``step`` share after the angle."""
+_POSITION_FIELDS = {"T": (None, "bandwidth"), "Q": ("speed", "accel"), "P": ("speed_ff", "torque_ff")}
+"""The ``speed`` and ``param`` of set_angle / step_angle in each position mode, by argument."""
 
 
 def _motor(bus: Any, a: Mapping[str, Any]) -> Any:
     return bus.motor(a["id"])
+
+
+def _position(a: Mapping[str, Any]) -> tuple[float, float, int]:
+    """``speed``, ``param`` and ``mode`` of set_angle / step_angle from a move's arguments."""
+    speed, param = _POSITION_FIELDS[a["mode"]]
+    return 0.0 if speed is None else a[speed], a[param], int(PositionMode[a["mode"]])
+
+
+def _param(a: Mapping[str, Any], *names: str) -> float:
+    """The ``param`` of set_speed / set_torque: the first of ``names`` the mode has (none: 0, unused)."""
+    return next((float(a[n]) for n in names if a.get(n) is not None), 0.0)
 
 
 def _estop(bus: Any, a: Mapping[str, Any]) -> Any:
@@ -218,30 +321,34 @@ for _a in (
     Action(
         "move",
         "motion",
-        "move to an angle (trapezoid profile)",
-        (MOTOR, ANGLE, CRUISE, ACCEL, ENABLE),
-        lambda b, a: _motor(b, a).set_angle(a["angle"], a["speed"], a["accel"], 1, enable=a["enable"]),
+        "move to an angle (mode T, Q or P; default Q, a trapezoid profile)",
+        (MOTOR, ANGLE, *POSITION_ARGS),
+        lambda b, a: _motor(b, a).set_angle(a["angle"], *_position(a), enable=a["enable"]),
     ),
     Action(
         "step",
         "motion",
-        "move by an angle from where the motor is",
-        (MOTOR, STEP, CRUISE, ACCEL, ENABLE),
-        lambda b, a: _motor(b, a).step_angle(a["angle"], a["speed"], a["accel"], 1, enable=a["enable"]),
+        "move by an angle from where the motor is (mode T, Q or P)",
+        (MOTOR, STEP, *POSITION_ARGS),
+        lambda b, a: _motor(b, a).step_angle(a["angle"], *_position(a), enable=a["enable"]),
     ),
     Action(
         "speed",
         "motion",
-        "turn at a speed",
-        (MOTOR, SPEED, DURATION, ENABLE),
-        lambda b, a: _motor(b, a).set_speed(a["speed"], duration=a["duration"], enable=a["enable"]),
+        "turn at a speed (mode 1 at once, mode 2 ramped)",
+        (MOTOR, SPEED, SPEED_MODE, SPEED_TFF, SPEED_RAMP, DURATION, ENABLE),
+        lambda b, a: _motor(b, a).set_speed(
+            a["speed"], _param(a, "torque_ff", "ramp"), a["mode"], duration=a["duration"], enable=a["enable"]
+        ),
     ),
     Action(
         "torque",
         "motion",
-        "apply a torque",
-        (MOTOR, TORQUE, DURATION, ENABLE),
-        lambda b, a: _motor(b, a).set_torque(a["torque"], duration=a["duration"], enable=a["enable"]),
+        "apply a torque (mode 1 at once, mode 6 ramped)",
+        (MOTOR, TORQUE, TORQUE_MODE, TORQUE_RAMP, DURATION, ENABLE),
+        lambda b, a: _motor(b, a).set_torque(
+            a["torque"], _param(a, "ramp"), a["mode"], duration=a["duration"], enable=a["enable"]
+        ),
     ),
     Action(
         "impedance",
@@ -308,6 +415,7 @@ def validate(action: Action | str, args: Mapping[str, Any]) -> dict[str, Any]:
             raise ValidationError(f"{act.name}: {a.name} is missing ({a.help}, {a.domain_text()})")
         else:
             out[a.name] = a.default
+    _modes(act, args, out)
     if "name" in out:
         key: str | int = int(out["name"]) if out["name"].isdigit() else out["name"]
         p = find_parameter(key)
@@ -319,6 +427,31 @@ def validate(action: Action | str, args: Mapping[str, Any]) -> dict[str, Any]:
             whole = isinstance(given, int) or (isinstance(given, str) and given.strip().lstrip("-").isdigit())
             out["value"] = p.check(int(out["value"]) if whole else out["value"])  # its own domain, named
     return out
+
+
+def _modes(act: Action, args: Mapping[str, Any], out: dict[str, Any]) -> None:
+    """Settle the row's ``mode`` (given; else its default, or the one mode the arguments given belong to)
+    and its arguments: another mode's given is refused, its own missing takes its default (none: it is
+    missing), the other modes' are None."""
+    tagged = [a for a in act.args if a.modes]
+    if not tagged:
+        return
+    choices = act.arg("mode")
+    given = [a for a in tagged if args.get(a.name) is not None]
+    if args.get("mode") is None:
+        fits = [m for m in choices.choices if all(m in a.modes for a in given)]
+        if not fits:
+            named = ", ".join(f"{a.name} (mode {_either(a.modes)})" for a in given)
+            raise ValidationError(f"{act.name}: {named}: the arguments of one mode only")
+        out["mode"] = choices.default if choices.default in fits else fits[0]
+    mode = out["mode"]
+    for a in tagged:
+        if mode not in a.modes:
+            if a in given:
+                raise ValidationError(f"{act.name}: {a.name} applies to mode {_either(a.modes)}, not {mode}")
+            out[a.name] = None
+        elif out[a.name] is _REQUIRED:
+            raise ValidationError(f"{act.name}: {a.name} is missing ({a.help}, {a.domain_text()})")
 
 
 def run(bus: Any, action: Action | str, args: Mapping[str, Any]) -> Any:
@@ -352,7 +485,9 @@ def describe(action: Action | str) -> dict[str, Any]:
                 "low": a.low,
                 "high": a.high,
                 "required": a.required,
-                "default": None if a.required else a.default,
+                "default": None if a.default is _REQUIRED else a.default,
+                "choices": list(a.choices),
+                "modes": list(a.modes),
                 "help": a.help,
                 "domain": a.domain_text(),
             }

@@ -76,23 +76,42 @@ def test_value_count_must_match(cli: Cli, host_frames: list[Frame], argv: tuple[
 
 def test_out_of_range_values_are_refused_before_sending(cli: Cli, host_frames: list[Frame]) -> None:
     r = cli("move", "1", "90", "--speed", "400", "--sim", "1")
-    assert r.code == 2 and "argument --speed: expected a number 0.01..327.67, got '400'" in r.err
+    assert r.code == 2 and "argument --speed: 400 is out of range: allowed 0.01..327.67 (r/min)\n" in r.err
     assert host_frames == []
+
+
+_ZERO = "the motor takes steps of 0.01: it would get 0)\n"
+"""How a rate that would reach the motor as 0 is refused (row move's, speed's or torque's words)."""
 
 
 @pytest.mark.parametrize(
     ("argv", "message"),
     [
-        (("move", "1", "45", "--accel", "0.001"), "argument --accel: expected a number 0.01..327.67, got '0.001'"),
-        (("move", "1", "45", "--speed", "0.004"), "argument --speed: expected a number 0.01..327.67, got '0.004'"),
-        (("move", "1", "45", "--speed", "0.005"), "argument --speed: expected a number 0.01..327.67, got '0.005'"),
+        (
+            ("move", "1", "45", "--accel", "0.001"),
+            "argument --accel: 0.001 is out of range: allowed 0.01..327.67 ((r/min)/s; " + _ZERO,
+        ),
+        (
+            ("move", "1", "45", "--speed", "0.004"),
+            "argument --speed: 0.004 is out of range: allowed 0.01..327.67 (r/min; " + _ZERO,
+        ),
+        (
+            ("move", "1", "45", "--speed", "0.005"),
+            "argument --speed: 0.005 is out of range: allowed 0.01..327.67 (r/min; " + _ZERO,
+        ),
         (
             ("move", "1", "45", "--mode", "t", "--bandwidth", "0.001"),
-            "argument --bandwidth: expected a number 0.01..300",
+            "argument --bandwidth: 0.001 is out of range: allowed 0.01..300 (1/s; " + _ZERO,
         ),
-        (("speed", "1", "10", "--ramp", "0.001"), "argument --ramp: expected a number 0.01..327.67, got '0.001'"),
-        (("torque", "1", "0.5", "--ramp", "0.0049"), "argument --ramp: expected a number 0.01..327.67, got '0.0049'"),
-        (("move", "1", "45", "--accel", "nan"), "argument --accel: expected a number 0.01..327.67, got 'nan'"),
+        (
+            ("speed", "1", "10", "--ramp", "0.001"),
+            "argument --ramp: 0.001 is out of range: allowed 0.01..327.67 ((r/min)/s; " + _ZERO,
+        ),
+        (
+            ("torque", "1", "0.5", "--ramp", "0.0049"),
+            "argument --ramp: 0.0049 is out of range: allowed 0.01..327.67 (Nm/s; " + _ZERO,
+        ),
+        (("move", "1", "45", "--accel", "nan"), "argument --accel: expected a finite number, got 'nan'"),
     ],
 )
 def test_rates_that_would_reach_the_motor_as_0_are_refused(

@@ -126,7 +126,7 @@ async def test_a_position_step_uses_the_motors_filter_bandwidth(page: Page) -> N
     r = await page.ask("step", id=1, mode="position", amplitude=10, duration=0.5, bandwidth=40)
     assert r["ok"] and page.sim.motors[1].param(bw) == pytest.approx(40)
     r = await page.ask("step", id=1, mode="position", amplitude=10, duration=0.5, bandwidth=400)
-    assert not r["ok"] and r["error"].startswith("bandwidth=400: the input filter bandwidth is 0..300 1/s")
+    assert not r["ok"] and r["error"].startswith("bandwidth=400 is out of range: allowed 0.01..300 (1/s)")
 
 
 async def test_the_first_scan_runs_by_itself_and_the_cards_carry_the_versions(page: Page) -> None:

@@ -84,7 +84,7 @@ async def test_a_bind_beyond_the_default_needs_the_token(proc: subprocess.Popen[
             assert proc.wait(10) == 128 + signal.SIGTERM
     assert proc.stderr is not None
     err = proc.stderr.read()
-    assert "set_speed(20.0, param=0.0, mode=1)" in err
+    assert "motor_1 speed(speed=20.0, mode=1, torque_ff=0.0, enable=False)" in err  # row speed of the table
     assert "SIGTERM: stopping" in err and "idled motor_1" in err
 
 
@@ -399,7 +399,7 @@ async def test_writes_and_inputs_outside_their_domains_are_refused_before_sendin
             bad = [
                 ({"action": "V", "speed": 301}, "speed=301: outside -300..300 r/min, the speed limit motor_1 holds"),
                 ({"action": "C", "torque": -12.5}, "torque=-12.5: outside -12..12 Nm, the torque limit motor_1"),
-                ({"action": "T", "angle": 10, "param": 301}, "param=301: the T-mode filter bandwidth is 0..300 1/s"),
+                ({"action": "T", "angle": 10, "param": 301}, "bandwidth=301 is out of range: allowed 0.01..300 (1/s)"),
                 ({"action": "Q", "angle": 10, "speed": 310, "param": 10}, "speed=310: outside -300..300"),
             ]
             for k, (args, text) in enumerate(bad):

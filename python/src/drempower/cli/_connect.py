@@ -18,12 +18,10 @@ import math
 import os
 import shlex
 import sys
-from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from ..client.timeouts import MAX_TIMEOUT
 from ..errors import DrEmpowerError
-from ..protocol import S16_MAX
 from ..protocol.limits import MAX_NODE, MIN_MOTOR, is_motor
 from ._output import clean
 from ._robot import joint_or_ids
@@ -57,7 +55,6 @@ __all__ = [
     "positive",
     "retries",
     "sim_time_scale",
-    "wire_rate",
 ]
 
 TIME_SCALE_ENV = "DREMPOWER_SIM_TIME_SCALE"
@@ -190,28 +187,6 @@ def seconds(text: str) -> float:
     if value > MAX_TIMEOUT:
         raise argparse.ArgumentTypeError(f"expected at most {MAX_TIMEOUT:g} s (one day), got {text!r}")
     return value
-
-
-def wire_rate(high: float = S16_MAX) -> Callable[[str], float]:
-    """An argument type: a speed, acceleration, bandwidth or ramp rate that travels as s16 x 0.01.
-
-    The motor gets the value rounded to 0.01, so it must round to at least 0.01
-    (a smaller one would reach the motor as 0) and be at most ``high``.
-    """
-
-    def parse(text: str) -> float:
-        try:
-            value = ascii_float(text)
-        except ValueError:
-            value = math.nan
-        if not (math.isfinite(value) and round(value * 100) >= 1 and value <= high):
-            zero = math.isfinite(value) and 0 < value < 0.01
-            why = " (the motor takes steps of 0.01: it would get 0)" if zero else ""
-            raise argparse.ArgumentTypeError(f"expected a number 0.01..{high:g}, got {text!r}{why}")
-        return value
-
-    parse.__name__ = "rate"
-    return parse
 
 
 def number(text: str) -> float:

@@ -83,8 +83,13 @@ def register_rows(sub: Any) -> dict[str, str]:
     return groups
 
 
+def option(arg: table.Arg) -> str:
+    """The command line's option of an optional argument: ``torque_ff`` -> ``--torque-ff``."""
+    return "--" + arg.name.replace("_", "-")
+
+
 def _arg_help(arg: table.Arg) -> str:
-    text = f"{arg.help} ({arg.domain_text()})" if arg.kind in ("int", "float") else arg.help
+    text = f"{arg.help} ({arg.domain_text()})" if arg.kind in ("int", "float") or arg.choices else arg.help
     if not arg.required and arg.default is not None:
         text += f"; default {arg.default}"
     return text.replace("%", "%%")
@@ -107,11 +112,11 @@ def add_row(sub: Any, action: table.Action, name: str) -> argparse.ArgumentParse
             p.add_argument(dest, metavar=arg.name.upper(), help=_arg_help(arg))
         elif arg.kind == "bool":
             p.add_argument(
-                f"--{arg.name}", dest=dest, action=argparse.BooleanOptionalAction, default=None, help=_arg_help(arg)
+                option(arg), dest=dest, action=argparse.BooleanOptionalAction, default=None, help=_arg_help(arg)
             )
         else:
             metavar = (arg.unit or arg.name).upper().replace("%", "%%")
-            p.add_argument(f"--{arg.name}", dest=dest, metavar=metavar, help=_arg_help(arg))
+            p.add_argument(option(arg), dest=dest, metavar=metavar, help=_arg_help(arg))
     add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run_row, action_name=action.name)
@@ -229,7 +234,7 @@ def _value(value: Any) -> str:
 
 def _arg_text(arg: dict[str, Any]) -> str:
     shown = arg["name"] if arg["required"] else f"[{arg['name']}]"
-    return f"{shown} {arg['domain']}" if arg["kind"] in ("int", "float") else shown
+    return f"{shown} {arg['domain']}" if arg["kind"] in ("int", "float") or arg["choices"] else shown
 
 
 def _command(name: str) -> str:

@@ -8,7 +8,7 @@ from typing import Any
 from ..client import TorqueMode, VelocityMode
 from ..client.commands import make_impedances, make_speeds, make_torques
 from . import _readings
-from ._connect import add_connection_args, number, wire_rate
+from ._connect import add_connection_args, number
 from ._motion import add_duration_arg, add_motion_args, add_watchdog_arg, driving, hold, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
 from ._usage import options_named
@@ -27,7 +27,7 @@ def register(sub: Any) -> None:
     add_motion_args(s, "RPM", "speeds in r/min")
     ramp = s.add_mutually_exclusive_group()
     ramp.add_argument(
-        "--ramp", type=wire_rate(), metavar="RPM/S", help="reach the speed at this rate, 0.01-327.67 (r/min)/s"
+        "--ramp", type=number, metavar="RPM/S", help="reach the speed at this rate, 0.01-327.67 (r/min)/s"
     )
     ramp.add_argument("--torque-ff", type=number, default=0.0, metavar="NM", help="torque feed-forward (default 0)")
     add_watchdog_arg(s)
@@ -42,7 +42,7 @@ def register(sub: Any) -> None:
         description="Torque control: the torque is applied at once, or reached at --ramp Nm/s.",
     )
     add_motion_args(t, "NM", "torques in Nm")
-    t.add_argument("--ramp", type=wire_rate(), metavar="NM/S", help="reach the torque at this rate, 0.01-327.67 Nm/s")
+    t.add_argument("--ramp", type=number, metavar="NM/S", help="reach the torque at this rate, 0.01-327.67 Nm/s")
     add_watchdog_arg(t)
     add_duration_arg(t)
     add_json_arg(t)
@@ -79,6 +79,10 @@ def _report(args: argparse.Namespace, what: str, unit: str, values: list[float],
         print(f"{motors_text(args.ids)}: {what} {', '.join(fmt(v) for v in values)} {unit}{extra}")
 
 
+_SPEED_OPTIONS = {"speed": "RPM", "torque_ff": "--torque-ff", "ramp": "--ramp"}
+"""Row ``speed``'s arguments, by the option that sets them."""
+
+
 def run_speed(args: argparse.Namespace) -> int:
     speeds = per_motor(args.ids, args.values, "speed")
     if args.ramp is None:
@@ -87,7 +91,8 @@ def run_speed(args: argparse.Namespace) -> int:
             extra = f" (torque feed-forward {param:g} Nm)"
     else:
         mode, param, extra, option = VelocityMode.RAMP, args.ramp, f" (ramp {args.ramp:g} rpm/s)", "--ramp"
-    check_row("speed", args.ids, {"speed": speeds}, {"duration": args.duration}, {"speed": "RPM"})
+    shared = {"mode": int(mode), "duration": args.duration, option.strip("-").replace("-", "_"): param}
+    check_row("speed", args.ids, {"speed": speeds}, shared, _SPEED_OPTIONS)
     with options_named({"speed_list": "RPM", "param": option, "param (ramp rate)": "--ramp"}):
         make_speeds(args.ids, speeds, param, mode)  # every value checked before connecting
     with driving(args) as bus:
@@ -104,7 +109,8 @@ def run_torque(args: argparse.Namespace) -> int:
         mode, param, extra = TorqueMode.DIRECT, 0.0, ""
     else:
         mode, param, extra = TorqueMode.RAMP, args.ramp, f" (ramp {args.ramp:g} Nm/s)"
-    check_row("torque", args.ids, {"torque": torques}, {"duration": args.duration}, {"torque": "NM"})
+    shared = {"mode": int(mode), "duration": args.duration, "ramp": args.ramp}
+    check_row("torque", args.ids, {"torque": torques}, shared, {"torque": "NM", "ramp": "--ramp"})
     with options_named({"torque_list": "NM", "param": "--ramp", "param (ramp rate)": "--ramp"}):
         make_torques(args.ids, torques, param, mode)
     with driving(args) as bus:

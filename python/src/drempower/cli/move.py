@@ -5,10 +5,11 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from .. import actions as table
 from ..client import DEFAULT_MOVE_TIMEOUT, PositionMode
-from ..client.commands import MAX_BANDWIDTH, make_angles
+from ..client.commands import make_angles
 from . import _readings
-from ._connect import add_connection_args, number, seconds, wire_rate
+from ._connect import add_connection_args, number, seconds
 from ._motion import add_motion_args, add_watchdog_arg, driving, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
 from ._usage import UsageError, options_named
@@ -19,11 +20,23 @@ GROUP = "motion"
 
 _MODES = {"t": PositionMode.T, "q": PositionMode.Q, "p": PositionMode.P}
 _OPTIONS = {
-    PositionMode.T: {"bandwidth": 20.0},
-    PositionMode.Q: {"speed": 10.0, "accel": 10.0},
-    PositionMode.P: {"speed_ff": 0.0, "torque_ff": 0.0},
+    mode: {name: table.get("move").arg(name).default for name in names}
+    for mode, names in {
+        PositionMode.T: ("bandwidth",),
+        PositionMode.Q: ("speed", "accel"),
+        PositionMode.P: ("speed_ff", "torque_ff"),
+    }.items()
 }
-"""The options each mode takes, with their defaults."""
+"""The options each mode takes, with their defaults (row ``move``'s of the table of actions)."""
+_ROW_OPTIONS = {
+    "angle": "ANGLES",
+    "speed": "--speed",
+    "accel": "--accel",
+    "bandwidth": "--bandwidth",
+    "speed_ff": "--speed-ff",
+    "torque_ff": "--torque-ff",
+}
+"""Row ``move``'s arguments, by the option that sets them."""
 _FIELDS = {
     PositionMode.T: {"param (bandwidth)": "--bandwidth"},
     PositionMode.Q: {"speed": "--speed", "param (accel)": "--accel"},
@@ -44,22 +57,14 @@ def register(sub: Any) -> None:
         ),
     )
     add_motion_args(p, "ANGLES", "target angles in deg, e.g. 90 or 90,-45,180")
-    p.add_argument("--mode", type=str.lower, choices=_MODES, default="q", help="q (default), t or p")
     p.add_argument(
-        "--speed",
-        type=wire_rate(),
-        metavar="RPM",
-        help="q: cruise speed of the furthest mover, 0.01-327.67 (default 10)",
+        "--mode", type=str.lower, choices=_MODES, default="q", help="q (default), t or p (T, Q, P: any case)"
     )
     p.add_argument(
-        "--accel", type=wire_rate(), metavar="RPM/S", help="q: acceleration, 0.01-327.67 (r/min)/s (default 10)"
+        "--speed", type=number, metavar="RPM", help="q: cruise speed of the furthest mover, 0.01-327.67 (default 10)"
     )
-    p.add_argument(
-        "--bandwidth",
-        type=wire_rate(MAX_BANDWIDTH),
-        metavar="1/S",
-        help="t: input filter bandwidth, 0.01-300 (default 20)",
-    )
+    p.add_argument("--accel", type=number, metavar="RPM/S", help="q: acceleration, 0.01-327.67 (r/min)/s (default 10)")
+    p.add_argument("--bandwidth", type=number, metavar="1/S", help="t: input filter bandwidth, 0.01-300 (default 20)")
     p.add_argument("--speed-ff", type=number, metavar="RPM", help="p: speed feed-forward (default 0)")
     p.add_argument("--torque-ff", type=number, metavar="NM", help="p: torque feed-forward (default 0)")
     p.add_argument("--relative", action="store_true", help="angles are offsets from where the motors are")
@@ -91,9 +96,8 @@ def run(args: argparse.Namespace) -> int:
     mode = _MODES[args.mode]
     angles = per_motor(ids, args.values, "angle")
     speed, param = _params(args, mode)
-    cruise = {"speed": args.speed, "accel": args.accel} if mode is PositionMode.Q else {}
-    names = {"angle": "ANGLES", "speed": "--speed", "accel": "--accel"}
-    check_row("step" if args.relative else "move", ids, {"angle": angles}, cruise, names)
+    given = {name: getattr(args, name) for name in _OPTIONS[mode]}
+    check_row("step" if args.relative else "move", ids, {"angle": angles}, {"mode": mode.name, **given}, _ROW_OPTIONS)
     with options_named({"angle_list": "ANGLES", **_FIELDS[mode]}):
         # every value checked before connecting (the Q move time needs the positions: it is checked when sent)
         make_angles(ids, angles, speed, param, mode, move_time=1.0, relative=args.relative)

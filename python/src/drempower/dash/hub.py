@@ -18,11 +18,12 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from .. import actions
+from ..actions import bandwidth_range
 from ..client import Bus, ConfigBackup, Motor, MotorState
 from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..naming import COLUMNS, TIME_COLUMN, motor_name, motor_names
 from ..protocol import ERROR_WORDS, FastRead, flag_info
-from ..protocol.enums import AxisState, TorqueMode, VelocityMode
+from ..protocol.enums import AxisState
 from ..protocol.parameters import Parameter, find_parameter, parameters
 from . import tuning
 from .logline import log
@@ -30,7 +31,7 @@ from .logline import log
 if TYPE_CHECKING:
     from ..robot import Robot
 
-__all__ = ["Hub", "Sample", "param_table"]
+__all__ = ["Hub", "Sample", "bandwidth_range", "param_table"]
 
 Sample = tuple[int, float, float, float, float, int, float | None, float | None, float | None]
 """(key, t s, angle deg, speed r/min, torque Nm, flags (1 = T, 2 = E), target angle, speed, torque)."""
@@ -54,13 +55,28 @@ _LIMIT_READS = (
 )
 """The limits a motor holds that bound the Control inputs (read at scan and after a write of one)."""
 _BANDWIDTH = "axis0.controller.config.input_filter_bandwidth"
-"""Its domain bounds the T-mode ``param`` (the input filter bandwidth, 1/s)."""
-MOTION_ACTIONS = frozenset({"T", "Q", "P", "jog", "step", "V", "C", "impedance", "sync_move"})
-"""Control actions that move a motor: refused while it is not in closed loop."""
+"""The motor's T-mode input filter bandwidth (1/s): a step from the page or the Tuning view without
+one goes through it."""
 _CSV_COLUMNS = ("id", "position", "speed", "torque", "done", "error")
 """The readings of a sample in the page's CSV (then the targets of position, speed and torque)."""
 PAGE_ROWS = {"stop": "stop", "idle": "idle", "enable": "enable", "clear_errors": "clear"}
 """The page's buttons that are rows of :mod:`drempower.actions` (the page's name: the row's)."""
+PAGE_CONTROLS: dict[str, tuple[str, dict[str, str], dict[str, Any]]] = {
+    "T": ("move", {"angle": "angle", "param": "bandwidth"}, {"mode": "T"}),
+    "Q": ("move", {"angle": "angle", "speed": "speed", "param": "accel"}, {"mode": "Q"}),
+    "P": ("move", {"angle": "angle", "speed": "speed_ff", "param": "torque_ff"}, {"mode": "P"}),
+    "jog": ("step", {"delta": "angle", "speed": "speed", "param": "accel"}, {"mode": "Q"}),
+    "step": ("step", {"delta": "angle", "param": "bandwidth"}, {"mode": "T"}),
+    "V": ("speed", {"speed": "speed", "mode": "mode"}, {}),
+    "C": ("torque", {"torque": "torque", "mode": "mode"}, {}),
+    "impedance": ("impedance", {"angle": "pos", "speed": "vel", "torque": "tff", "kp": "kp", "kd": "kd"}, {}),
+}
+"""The page's controls that are rows of :mod:`drempower.actions`: the row, the row's argument for each
+field the page sends, and the arguments the control fixes (its mode). The T-mode speed the page sends is
+not passed: the motor does not use it."""
+PAGE_PARAM: dict[str, dict[int, str]] = {"V": {1: "torque_ff", 2: "ramp"}, "C": {6: "ramp"}}
+"""The row's argument for the page's ``param`` of the velocity and torque controls, by mode (direct
+torque, mode 1, has none: the motor does not use it)."""
 _LABEL = {w.name: w.label for w in ERROR_WORDS}
 BITS_PER_FRAME = 130
 """Bits on the wire of one 8-byte standard CAN frame with stuffing (about), for the bus load."""
@@ -121,14 +137,6 @@ def motor_id(args: dict[str, Any], key: str = "id") -> int:
     return value
 
 
-def bandwidth_range() -> tuple[float, float]:
-    """The T-mode filter bandwidth's range (1/s): the domain of the input filter bandwidth parameter."""
-    p = find_parameter(_BANDWIDTH)
-    lo = p.minimum if p is not None and p.minimum is not None else 0.0
-    hi = p.maximum if p is not None and p.maximum is not None else 300.0
-    return lo, hi
-
-
 def bounds(raw: dict[str, float | None]) -> dict[str, Any]:
     """Control-input bounds from the limits a motor holds: ``speed`` r/min and ``torque`` Nm (magnitudes,
     None: unknown), ``bandwidth`` [low, high] 1/s; the torque bound is the smaller of the torque
@@ -143,13 +151,6 @@ def bounds(raw: dict[str, float | None]) -> dict[str, Any]:
 def _within(key: str, value: float, bound: float | None, unit: str, what: str) -> None:
     if bound is not None and abs(value) > bound:
         raise ValidationError(f"{key}={value:g}: outside -{bound:g}..{bound:g} {unit}, the {what}")
-
-
-def _whole(args: dict[str, Any], key: str, default: int, allowed: tuple[int, ...]) -> int:
-    value = args.get(key, default)
-    if isinstance(value, bool) or value not in allowed:
-        raise ValidationError(f"{key}={value!r}: expected one of {', '.join(map(str, allowed))}")
-    return int(value)
 
 
 def _ids(args: dict[str, Any], key: str = "ids") -> list[int]:
@@ -587,10 +588,11 @@ class Hub:
     def do_control(self, who: str, args: dict[str, Any]) -> Any:
         """One control action from a page: ``args["action"]`` names it; returns what the page shows.
 
-        With ``args["args"]`` (an object) it is a row of :mod:`drempower.actions` run by
-        :meth:`do_action` (the Actions panel); the buttons Enable, Stop, Idle and Clear errors are
-        rows too (:data:`PAGE_ROWS`). The other controls (position modes, jog, velocity and torque
-        modes, impedance, synchronised move) take the page's own arguments."""
+        Every control is a row of :mod:`drempower.actions` run by :meth:`do_action`: with
+        ``args["args"]`` (an object) the row named (the Actions panel); the buttons Enable, Stop,
+        Idle and Clear errors (:data:`PAGE_ROWS`); the position modes, jog, step, velocity, torque
+        and impedance (:data:`PAGE_CONTROLS`: the page's fields renamed to the row's arguments).
+        The synchronised move is :meth:`do_sync_move` (each motor checked by row ``move``)."""
         action = args.get("action")
         if "args" in args:
             row_args = args["args"]
@@ -599,84 +601,22 @@ class Hub:
             return self.do_action(who, str(action), row_args)
         if isinstance(action, str) and action in PAGE_ROWS:
             return self.do_action(who, PAGE_ROWS[action], {"id": args.get("id")})
-        if action in MOTION_ACTIONS:
-            self.require_enabled(self.keys(args) if action == "sync_move" else [self.key(args)])
         if action == "sync_move":
-            ids = self.keys(args)
-            angles = args.get("angles")
-            if not isinstance(angles, list) or len(angles) != len(ids):
-                raise ValidationError(f"angles={angles!r}: one angle per motor of ids={ids}")
-            angles_f = [_num({"angle": a}, "angle") for a in angles]
-            speed, accel = _num(args, "speed", 10.0), _num(args, "accel", 10.0)
-            for i in ids:
-                self._speed(i, "speed", speed)
-            t = self._sync_move(who, ids, angles_f, speed, accel)
-            for i, a in zip(ids, angles_f, strict=True):
-                self._target(i, angle=a)
-            return {"seconds": t}
-        i = self.key(args)
-        m = self.motor(i)
-        if action in ("T", "Q", "P"):
-            mode = "TQP".index(action)
-            angle, speed, param = _num(args, "angle"), _num(args, "speed", 0.0), _num(args, "param", 0.0)
-            self._speed(i, "speed", speed)
-            if action == "T":
-                lo, hi = bandwidth_range()
-                if not lo <= param <= hi:
-                    raise ValidationError(
-                        f"param={param:g}: the T-mode filter bandwidth is {lo:g}..{hi:g} 1/s "
-                        f"(the domain of {_BANDWIDTH})"
-                    )
-            elif action == "P":
-                self._torque(i, "param", param)
-            self._control(who, f"{self.label(i)} set_angle({angle}, speed={speed}, param={param}, mode={mode})")
-            m.set_angle(angle, speed, param, mode)
-            self._target(i, angle=angle)
-        elif action in ("jog", "step"):
-            delta = _num(args, "delta")
-            speed, param = _num(args, "speed", 10.0), _num(args, "param", 10.0)
-            self._speed(i, "speed", speed)
-            mode = 1 if action == "jog" else 0
-            base = self.targets.get(i, [None])[0]
-            st = m.state
-            if base is None:
-                base = st.angle if st is not None else 0.0
-            self._control(who, f"{self.label(i)} step_angle({delta}, speed={speed}, param={param}, mode={mode})")
-            m.step_angle(delta, speed, param, mode)
-            self._target(i, angle=base + delta)
-        elif action == "V":
-            speed, param, mode = (
-                _num(args, "speed"),
-                _num(args, "param", 0.0),
-                _whole(args, "mode", 1, tuple(VelocityMode)),
-            )
-            self._speed(i, "speed", speed)
-            if mode == VelocityMode.PASSTHROUGH:
-                self._torque(i, "param", param)
-            self._control(who, f"{self.label(i)} set_speed({speed}, param={param}, mode={mode})")
-            m.set_speed(speed, param, mode)
-            self._target(i, speed=speed)
-        elif action == "C":
-            torque, param, mode = (
-                _num(args, "torque"),
-                _num(args, "param", 0.0),
-                _whole(args, "mode", 1, tuple(TorqueMode)),
-            )
-            self._torque(i, "torque", torque)
-            self._control(who, f"{self.label(i)} set_torque({torque}, param={param}, mode={mode})")
-            m.set_torque(torque, param, mode)
-            self._target(i, torque=torque)
-        elif action == "impedance":
-            pos, vel, tff = _num(args, "angle"), _num(args, "speed", 0.0), _num(args, "torque", 0.0)
-            kp, kd = _num(args, "kp"), _num(args, "kd")
-            self._speed(i, "speed", vel)
-            self._torque(i, "torque", tff)
-            self._control(who, f"{self.label(i)} impedance_control({pos}, vel={vel}, tff={tff}, kp={kp}, kd={kd})")
-            m.impedance_control(pos, vel, tff, kp, kd)
-            self._target(i, angle=pos)
-        else:
+            return self.do_sync_move(who, args)
+        if not isinstance(action, str) or action not in PAGE_CONTROLS:
             raise ValidationError(f"action={action!r}: unknown control action")
-        return None
+        row, fields, fixed = PAGE_CONTROLS[action]
+        row_args = {"id": args.get("id"), **fixed}
+        row_args.update({arg: args[field] for field, arg in fields.items() if field in args})
+        if action in PAGE_PARAM and "param" in args:  # its meaning is the mode's (the row's words for a bad mode)
+            mode = actions.get(row).arg("mode")
+            given = args.get("mode")
+            name = PAGE_PARAM[action].get(mode.default if given is None else mode.check(given))
+            if name is not None:
+                row_args[name] = args["param"]
+        elif action == "step" and "param" not in args:  # a T step through the motor's own filter
+            row_args["bandwidth"] = float(self.motor(self.key(args)).read_property(_BANDWIDTH))
+        return self.do_action(who, row, row_args)
 
     def do_action(self, who: str, name: str, args: dict[str, Any]) -> Any:
         """Run row ``name`` of :mod:`drempower.actions` with ``args`` (``id``: a motor key of this
@@ -705,13 +645,8 @@ class Hub:
                     self.arm_watchdog([key])
             else:
                 self.require_enabled([key])
-            for field in ("speed", "vel"):
-                if field in typed and act.arg(field).unit == "r/min":
-                    self._speed(key, field, typed[field])
-            for field in ("torque", "tff"):
-                if field in typed:
-                    self._torque(key, field, typed[field])
-        shown = ", ".join(f"{k}={v}" for k, v in typed.items() if k != "id")
+            self._within_limits(act, key, typed)
+        shown = ", ".join(f"{k}={v}" for k, v in typed.items() if k != "id" and v is not None)
         log(f"{who}: {'every motor' if key == 0 else self.label(key)} {act.name}({shown})")
         base = self._base(key) if act.name == "step" else 0.0
         results = [actions.run(bus, act, typed if node < 0 else {**typed, "id": node}) for bus, node in places]
@@ -719,6 +654,41 @@ class Hub:
         if act.name == "enable" and key != 0:
             self._confirm_enabled(key)  # never a silent success: closed loop, or why not
         return actions.plain(results[0] if len(results) == 1 else results)
+
+    def _within_limits(self, act: actions.Action, key: int, typed: dict[str, Any]) -> None:
+        """A motion's speeds and torques (targets and feed-forwards) within the limits motor ``key`` holds."""
+        for field in ("speed", "vel", "speed_ff"):
+            if typed.get(field) is not None and act.arg(field).unit == "r/min":
+                self._speed(key, field, typed[field])
+        for field in ("torque", "tff", "torque_ff"):
+            if typed.get(field) is not None:
+                self._torque(key, field, typed[field])
+
+    def do_sync_move(self, who: str, args: dict[str, Any]) -> dict[str, Any]:
+        """A synchronised Q move of ``args["ids"]`` to ``args["angles"]`` (deg), cruise ``speed``, ``accel``:
+        each motor's values checked by row ``move`` of :mod:`drempower.actions` (its words) and the
+        limits it holds, every motor in closed loop, then one ``set_angles`` (the table's rows act on one
+        motor each: a move that starts motors together, across buses by the robot's joints, is no row)."""
+        keys = self.keys(args)
+        angles = args.get("angles")
+        if not isinstance(angles, list) or len(angles) != len(keys):
+            raise ValidationError(f"angles={angles!r}: one angle per motor of ids={keys}")
+        move = actions.get("move")
+        shared = {"mode": "Q", "speed": args.get("speed"), "accel": args.get("accel")}
+        typed = [
+            actions.validate(move, {"id": self.where(k)[1], "angle": a, **shared})
+            for k, a in zip(keys, angles, strict=True)
+        ]
+        if self.read_only:
+            raise ValidationError("this dashboard is read-only (--read-only)")
+        self.require_enabled(keys)
+        for k, t in zip(keys, typed, strict=True):
+            self._within_limits(move, k, t)
+        speed, accel = typed[0]["speed"], typed[0]["accel"]
+        seconds = self._sync_move(who, keys, [t["angle"] for t in typed], speed, accel)
+        for k, t in zip(keys, typed, strict=True):
+            self._target(k, angle=t["angle"])
+        return {"seconds": seconds}
 
     def _base(self, key: int) -> float:
         """Where a relative move starts from: the last target, else the last angle read."""
@@ -886,10 +856,8 @@ class Hub:
         m = self.motor(i)
         bandwidth = None
         if mode == "position":
-            bandwidth = _num(args, "bandwidth") if "bandwidth" in args else float(m.read_property(_BANDWIDTH))
-            lo, hi = bandwidth_range()
-            if not lo <= bandwidth <= hi:
-                raise ValidationError(f"bandwidth={bandwidth:g}: the input filter bandwidth is {lo:g}..{hi:g} 1/s")
+            given = args.get("bandwidth")  # checked as row move's T-mode bandwidth, in its words
+            bandwidth = float(m.read_property(_BANDWIDTH)) if given is None else actions.BANDWIDTH.check(given)
         self.require_enabled([i])
         st = m.get_state()
         base = st.angle if mode == "position" else st.speed

@@ -39,7 +39,8 @@
     if (!r) { box.innerHTML = "<legend>arguments</legend>"; return; }
     box.innerHTML = "<legend>arguments</legend>" + r.args.map((a) => {
       const id = `act-arg-${esc(a.name)}`;
-      const hint = `${esc(a.help)}${a.kind === "int" || a.kind === "float" ? " (" + esc(a.domain) + ")" : ""}`;
+      const ranged = a.kind === "int" || a.kind === "float" || (a.choices && a.choices.length);
+      const hint = `${esc(a.help)}${ranged ? " (" + esc(a.domain) + ")" : ""}`;
       if (a.kind === "bool") {
         return `<label title="${hint}">${esc(a.name)} <input type="checkbox" id="${id}" data-arg="${esc(a.name)}"` +
           `${a.default ? " checked" : ""}></label><div class="dim" style="margin: -3px 0 6px; font-size: 12px">${hint}</div>`;

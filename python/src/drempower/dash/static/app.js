@@ -493,7 +493,7 @@
     speed: num("#pos-speed"), param: num("#pos-param") }, `${motorName(ctlId())}: move to ${$("#pos-angle").value} deg`));
   on("#jog-plus", () => control({ action: "jog", delta: num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
   on("#jog-minus", () => control({ action: "jog", delta: -num("#jog-delta"), speed: num("#pos-speed"), param: num("#pos-param") }));
-  on("#step-go", () => control({ action: "step", delta: num("#step-delta"), speed: 0, param: 0 }));
+  on("#step-go", () => control({ action: "step", delta: num("#step-delta") })); // T, the motor's own bandwidth
   on("#vel-go", () => control({ action: "V", speed: num("#vel-speed"), mode: Number($("#vel-mode").value), param: num("#vel-param") }));
   on("#tq-go", () => control({ action: "C", torque: num("#tq-torque"), mode: Number($("#tq-mode").value), param: num("#tq-param") }));
   on("#imp-go", () => control({ action: "impedance", angle: num("#imp-angle"), speed: num("#imp-speed"),
