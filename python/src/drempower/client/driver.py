@@ -16,18 +16,16 @@ session's lock.
 
 from __future__ import annotations
 
-import atexit
 import logging
 import threading
 import time
-import weakref
 from collections.abc import Callable, Coroutine, Sequence
 from typing import TYPE_CHECKING, Any, TypeVar, cast
 
 from ..protocol.ids import Frame, SysCmd
 from ..protocol.messages import Message, Start, StartImpedance, SystemCommand
 from ..transports.base import Transport
-from . import signals
+from . import open_buses, signals
 from .effects import Batch, Op, Runnable
 from .errors import BusClosedError
 from .receiver import LINGER as _LINGER  # noqa: F401  (how long the receive thread stays parked, s)
@@ -49,30 +47,7 @@ FrameTap = Callable[[Frame, bool], None]
 """``tap(frame, tx)``: a frame this bus sent (``tx`` True) or received (False)."""
 AsyncRun = Callable[[Runnable[Any]], Coroutine[Any, Any, Any]]
 
-_WAIT_SLICE = 1.0
-"""Longest single wait (s) of a caller for its operation (the session's deadlines are usually sooner)."""
-_SIGNAL_LOCK_WAIT = 0.2
-"""Longest wait (s) for a lock when a signal handler closes a bus or sends an estop: the
-interrupted code may hold it."""
 _monotonic = time.monotonic
-_open_drivers: weakref.WeakSet[BusDriver] = weakref.WeakSet()
-
-
-@atexit.register
-def _close_open_buses() -> None:
-    """Close (and so apply ``stop_on_close`` to) every bus still open when Python exits."""
-    for d in list(_open_drivers):
-        d.close()
-
-
-def _close_stopping_buses() -> None:
-    """From a signal handler: close every open bus with ``stop_on_close``, never waiting long on a lock."""
-    for d in list(_open_drivers):
-        if d.session.stop_on_close:
-            d.close(lock_timeout=_SIGNAL_LOCK_WAIT)
-
-
-signals.register_stopper(_close_stopping_buses)
 
 
 def tx_order(transport: Transport) -> TxOrder:
@@ -156,6 +131,8 @@ class BusDriver:
         self._fd = transport.fileno() if self.caller_reads and clock is None else None
         """The descriptor callers read themselves (None: the receive thread reads, or a virtual clock)."""
         self._rx = Receiver(self, self._fd)
+        self._reader = self._rx.lock
+        """The reader role of a transport with a descriptor (see :mod:`.receiver`)."""
         self._waits: ThreadWaits | VirtualWaits
         self._run_async: AsyncRun | None = None
         """The asyncio flavour's run, made on the first call from an event loop (see :meth:`run_async`)."""
@@ -163,9 +140,9 @@ class BusDriver:
             self._waits = ThreadWaits(self, self._rx)
             self._rx.start()
         else:  # frames arrive only while a caller lets time pass: it takes them
-            self._waits = VirtualWaits(self, clock)
+            self._waits = VirtualWaits(self, self._rx, clock)
             self._run_async = self._waits.run_async
-        _open_drivers.add(self)
+        open_buses.register(self)
         if stop_on_close:
             signals.install_stop_handlers()
 
@@ -192,11 +169,6 @@ class BusDriver:
 
     def _is_closed(self) -> bool:
         return self._closed
-
-    @property
-    def _reader(self) -> threading.Lock:
-        """The reader role of a transport with a descriptor (see :mod:`.receiver`)."""
-        return self._rx.lock
 
     @property
     def _loop_reader(self) -> LoopReader | None:
@@ -354,7 +326,7 @@ class BusDriver:
         awaited. Works even after the receive loop failed; only a closed bus refuses."""
         if self._closed:
             raise BusClosedError(f"the bus ({self.transport.description}) is closed")
-        held = self._lock.acquire(timeout=_SIGNAL_LOCK_WAIT)
+        held = self._lock.acquire(timeout=open_buses.SIGNAL_LOCK_WAIT)
         try:
             if held:
                 self.session.estop(nodes)
@@ -393,78 +365,7 @@ class BusDriver:
 
     def submit(self, op: Runnable[T], on_done: Callable[[], None] | None = None) -> Operation[T]:
         """Start ``op`` in the session now and write what it sends first."""
-        return self._submit_timed(op, on_done)[0]
-
-    def _submit_timed(self, op: Runnable[T], on_done: Callable[[], None] | None) -> tuple[Operation[T], float | None]:
-        """:meth:`submit`, also returning how long (s) the caller may wait before stepping (None: step now)."""
-        self.check_open()
-        with self._lock:
-            s = self.session
-            s.advance(self._now())
-            opn = s.submit(op, on_done)
-            self._flush()
-            events = self._take_events()
-            wait = None
-            if not opn.done and not s.awaiting_confirmation:
-                wait = self._until(s.next_deadline())
-        if events:
-            self._dispatch(events)
-        return opn, wait
-
-    def _step(self, opn: Operation[Any]) -> float | None:
-        """Act on the time now; returns how long (s) the caller may sleep before stepping again (None: done)."""
-        confirm = False
-        with self._lock:
-            s = self.session
-            s.advance(self._now())
-            self._flush()
-            events = self._take_events()
-            if opn.done:
-                wait = None
-            else:
-                confirm = s.awaiting_confirmation
-                wait = self._until(s.next_deadline())
-        if events:
-            self._dispatch(events)
-        if confirm:
-            ok = self.transport.wait_sent(wait or 0.0)
-            with self._lock:
-                s.transmitted(self._now(), ok)
-                self._flush()
-                events = self._take_events()
-            if events:
-                self._dispatch(events)
-            return 0.0
-        return wait
-
-    def _until(self, due: float | None) -> float:
-        """How long (s) a caller may wait for the session's next deadline ``due`` (at most :data:`_WAIT_SLICE`)."""
-        return _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - self._now()))
-
-    def _cancel(self, opn: Operation[Any]) -> None:
-        """Stop ``opn``, whose caller gave up (Ctrl-C): it must not take the next request's reply."""
-        with self._lock:
-            self.session.cancel(opn)
-
-    def _end_closed(self, opn: Operation[Any]) -> None:
-        """A wait that stopped because the bus closed: fail ``opn`` if the close has not yet."""
-        if not opn.done:
-            with self._lock:
-                self.session.cancel(opn, BusClosedError(f"the bus ({self.transport.description}) was closed"))
-
-    # ------------------------------------------------------------------ receiving
-
-    def _read_feed(self) -> None:
-        """One non-blocking read of the transport, fed to the session (by the reader role's holder, or on a
-        virtual clock the caller letting time pass)."""
-        try:
-            frames = self.transport.read_nowait()
-        except Exception as exc:
-            if not self._closed:
-                self._rx_failed(exc)
-            return
-        if frames:
-            self._feed(frames)
+        return self._waits.submit(op, on_done)[0]
 
     def _take(self, frames: Sequence[Frame], now: float) -> None:
         """Feed received ``frames`` to the session at ``now`` (the lock is held); their events wait in
@@ -478,33 +379,6 @@ class BusDriver:
                 continue
             if event is not None:
                 events.append(event)
-
-    def _feed(self, frames: Sequence[Frame]) -> None:
-        """Feed received ``frames`` to the session; dispatch their events after the lock."""
-        if self.frame_taps:
-            for f in frames:
-                self._tap(f, False)
-        s = self.session
-        with self._lock:
-            changes = s.changes
-            self._take(frames, self._now())
-            if s.wants_to_send:
-                try:
-                    self._flush()
-                except Exception as exc:
-                    _log.warning("sending after a received frame failed: %s", exc)
-            if s.changes != changes:  # new deadlines: sleeping callers must look again
-                for wake in list(self._sleepers):
-                    wake()
-            events = self._take_events()
-        if events:
-            self._dispatch(events)
-
-    def _rx_failed(self, exc: BaseException) -> None:
-        _log.error("receive loop on %s stopped: %s", self.transport.description, exc)
-        self._failure = exc
-        with self._lock:
-            self.session.close(BusClosedError(f"the receive loop stopped: {exc}"), final=False)
 
     # ------------------------------------------------------------------ closing
 
@@ -529,7 +403,7 @@ class BusDriver:
             self._closed = True
             self.closed_event.set()
             self._rx.closing(lock_timeout)
-            _open_drivers.discard(self)
+            open_buses.forget(self)
             held = self._lock.acquire(timeout=lock_timeout)
             try:
                 self.session.close(BusClosedError(f"the bus ({self.transport.description}) was closed"))

@@ -1,12 +1,14 @@
-"""The receive thread of a bus on a wall clock, and the reader role of a transport with a descriptor.
+"""What arrives on a bus: frames fed to the session, the receive thread of a bus on a wall clock, and
+the reader role of a transport with a descriptor.
 
 A transport without a descriptor is read by the receive thread alone: it feeds every frame to the
-driver, which wakes the caller whose operation ended. A transport with one (:meth:`Transport.fileno`:
+session, which wakes the caller whose operation ended. A transport with one (:meth:`Transport.fileno`:
 the adapter and UART serial ports) is read by whoever holds the reader role (:attr:`Receiver.lock`):
 a threaded caller waiting in ``select`` (:mod:`.wait_threaded`), an event loop through
 ``loop.add_reader`` (:mod:`.wait_asyncio`), or, while no caller reads and for :data:`LINGER` s after,
 the receive thread. Callers count themselves in (:meth:`Receiver.enter`) before they try for the role,
-so the thread parks rather than race them for each reply.
+so the thread parks rather than race them for each reply. On a virtual clock there is no thread: the
+caller letting time pass feeds what arrived (:mod:`.wait_virtual`).
 """
 
 from __future__ import annotations
@@ -17,10 +19,12 @@ import select
 import threading
 import time
 import weakref
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING
 
+from ..protocol.ids import Frame
 from ..transports.fds import close_fds, drain, nonblocking_pipe
+from .errors import BusClosedError
 
 if TYPE_CHECKING:
     from .driver import BusDriver
@@ -137,12 +141,56 @@ class Receiver:
         if self.thread is not None and self.thread is not threading.current_thread():
             self.thread.join(1.0)
 
+    # ------------------------------------------------------------------ feeding the session
+
+    def read_feed(self) -> None:
+        """One non-blocking read of the transport, fed to the session (by the reader role's holder, or on a
+        virtual clock by the caller letting time pass)."""
+        try:
+            frames = self.driver.transport.read_nowait()
+        except Exception as exc:
+            if not self.driver._closed:
+                self.failed(exc)
+            return
+        if frames:
+            self.feed(frames)
+
+    def feed(self, frames: Sequence[Frame]) -> None:
+        """Feed received ``frames`` to the session; dispatch their events after the lock."""
+        d = self.driver
+        if d.frame_taps:
+            for f in frames:
+                d._tap(f, False)
+        s = d.session
+        with d._lock:
+            changes = s.changes
+            d._take(frames, d._now())
+            if s.wants_to_send:
+                try:
+                    d._flush()
+                except Exception as exc:
+                    _log.warning("sending after a received frame failed: %s", exc)
+            if s.changes != changes:  # new deadlines: sleeping callers must look again
+                for wake in list(d._sleepers):
+                    wake()
+            events = d._take_events()
+        if events:
+            d._dispatch(events)
+
+    def failed(self, exc: BaseException) -> None:
+        """Receiving failed: the bus stops taking requests (sending stays possible, for the stops)."""
+        d = self.driver
+        _log.error("receive loop on %s stopped: %s", d.transport.description, exc)
+        d._failure = exc
+        with d._lock:
+            d.session.close(BusClosedError(f"the receive loop stopped: {exc}"), final=False)
+
     # ------------------------------------------------------------------ the thread
 
     def _loop(self) -> None:
         """The receive thread of a transport without a descriptor: every frame is fed as a caller's are."""
         d = self.driver
-        recv, feed = d.transport.recv, d._feed
+        recv, feed = d.transport.recv, self.feed
         try:
             while not d._is_closed():
                 frame = recv(RX_SLICE)
@@ -150,7 +198,7 @@ class Receiver:
                     feed((frame,))
         except Exception as exc:
             if not d._is_closed():
-                d._rx_failed(exc)
+                self.failed(exc)
 
     def _loop_fd(self) -> None:
         """The receive thread of a transport with a descriptor: reads while no caller does."""
@@ -191,9 +239,9 @@ class Receiver:
                 if fd not in ready or not reader.acquire(False):
                     continue  # a caller reads: park
                 try:
-                    d._read_feed()
+                    self.read_feed()
                 finally:
                     self.release()  # wakes a caller that found the role taken
         except Exception as exc:
             if not d._is_closed():
-                d._rx_failed(exc)
+                self.failed(exc)

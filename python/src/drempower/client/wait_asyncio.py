@@ -22,9 +22,9 @@ from typing import TYPE_CHECKING, Any, TypeVar
 from .effects import Runnable
 from .errors import BusClosedError
 from .receiver import LINGER
+from .wait_steps import WaitSteps
 
 if TYPE_CHECKING:
-    from .driver import BusDriver
     from .receiver import Receiver
     from .session import Operation
 
@@ -136,7 +136,7 @@ class LoopReader:
             if rx.driver._closed:
                 self.let_go(held=True)
                 return
-            rx.driver._read_feed()
+            rx.read_feed()
         finally:
             self._busy.release()
 
@@ -210,14 +210,10 @@ class LoopReader:
                 pass
 
 
-class AsyncWaits:
+class AsyncWaits(WaitSteps):
     """How a coroutine waits for its operation on ``driver`` (see the module docstring)."""
 
-    __slots__ = ("driver", "rx")
-
-    def __init__(self, driver: BusDriver, rx: Receiver) -> None:
-        self.driver = driver
-        self.rx = rx
+    __slots__ = ()
 
     async def run(self, op: Runnable[T]) -> T:
         """Submit ``op`` and await its end on the running loop; returns its result or raises its error."""
@@ -240,13 +236,13 @@ class AsyncWaits:
         d._sleepers.add(wake)  # new deadlines, or the role free again: look again
         opn: Operation[T] | None = None
         try:
-            opn, wait = d._submit_timed(op, wake)
+            opn, wait = self.submit(op, wake)
             while not opn.done:
                 if counted and (rd := self._reader(loop)) is not None:
                     counted = False
                     rd.users += 1
                 if wait is None:
-                    wait = await self._step(opn)
+                    wait = await self.step_async(opn)
                     if wait is None:
                         break
                 if wait > 0:
@@ -267,7 +263,7 @@ class AsyncWaits:
                     break
         except BaseException:
             if opn is not None:
-                d._cancel(opn)
+                self.cancel(opn)
             raise
         finally:
             d._sleepers.discard(wake)
@@ -277,7 +273,7 @@ class AsyncWaits:
                 rd.last = _monotonic()
             if counted:
                 rx.leave()
-        d._end_closed(opn)
+        self.end_closed(opn)
         return opn.result()
 
     def _reader(self, loop: asyncio.AbstractEventLoop) -> LoopReader | None:
@@ -307,13 +303,13 @@ class AsyncWaits:
             raise
         return rd
 
-    async def _step(self, opn: Operation[Any]) -> float | None:
-        """The driver's step from a coroutine: a transport's blocking wait for a confirmation runs in a
+    async def step_async(self, opn: Operation[Any]) -> float | None:
+        """:meth:`step` from a coroutine: a transport's blocking wait for a confirmation runs in a
         worker thread, never on the event loop (then 0.0: step again at once)."""
         d = self.driver
         with d._lock:
             confirm = d.session.awaiting_confirmation
         if confirm:
-            await asyncio.to_thread(d._step, opn)
+            await asyncio.to_thread(self.step, opn)
             return 0.0
-        return d._step(opn)
+        return self.step(opn)

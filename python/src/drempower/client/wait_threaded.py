@@ -16,6 +16,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, TypeVar
 
 from .effects import Runnable
+from .wait_steps import WaitSteps
 
 if TYPE_CHECKING:
     from .driver import BusDriver
@@ -56,14 +57,13 @@ class Wake:
         self._lock.acquire(False)
 
 
-class ThreadWaits:
+class ThreadWaits(WaitSteps):
     """How the calling thread waits for its operation on ``driver`` (see the module docstring)."""
 
-    __slots__ = ("_pool", "driver", "rx")
+    __slots__ = ("_pool",)
 
     def __init__(self, driver: BusDriver, rx: Receiver) -> None:
-        self.driver = driver
-        self.rx = rx
+        super().__init__(driver, rx)
         self._pool = threading.local()
         """Each thread's spare :class:`Wake` objects (reused across its calls; nested calls get their own)."""
 
@@ -97,7 +97,7 @@ class ThreadWaits:
         try:
             if opn is None:
                 assert op is not None
-                opn, wait = d._submit_timed(op, wake)
+                opn, wait = self.submit(op, wake)
             else:
                 opn.on_done = wake
             while not opn.done:
@@ -109,7 +109,7 @@ class ThreadWaits:
                         break
                     continue
                 if wait is None:
-                    wait = d._step(opn)
+                    wait = self.step(opn)
                     if wait is None:
                         break
                 if wait > 0:
@@ -118,7 +118,7 @@ class ThreadWaits:
                 wait = None
         except BaseException:  # Ctrl-C: the operation must not take the next request's reply
             if opn is not None:
-                d._cancel(opn)
+                self.cancel(opn)
             raise
         finally:
             if reading:
@@ -129,7 +129,7 @@ class ThreadWaits:
                 d._sleepers.discard(ev.set)
                 ev.clear()
                 self._pool.spare.append(ev)
-        d._end_closed(opn)
+        self.end_closed(opn)
         return opn
 
     def _wake(self) -> Wake:
@@ -150,7 +150,7 @@ class ThreadWaits:
         fds, rest = rx.read_fds, rx.rest_time
         while not opn.done and not d._is_closed():
             if wait is None:
-                wait = d._step(opn)
+                wait = self.step(opn)
                 if wait is None:
                     return
             if wait > 0:
@@ -161,7 +161,7 @@ class ThreadWaits:
                         return
                     raise
             wait = None
-            d._read_feed()
+            rx.read_feed()
             if rest is not None and not opn.done:
                 pause = rest()
                 if pause > 0:  # part of a frame is here: let the rest arrive rather than wake per byte

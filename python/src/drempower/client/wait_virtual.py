@@ -14,9 +14,11 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any, Protocol, TypeVar
 
 from .effects import Runnable, sleep
+from .wait_steps import WaitSteps
 
 if TYPE_CHECKING:
     from .driver import BusDriver
+    from .receiver import Receiver
     from .session import Operation
 
 __all__ = ["VirtualClock", "VirtualWaits"]
@@ -46,13 +48,14 @@ class VirtualClock(Protocol):
         ...
 
 
-class VirtualWaits:
-    """How a caller waits for its operation on ``driver`` whose transport is the ``clock``."""
+class VirtualWaits(WaitSteps):
+    """How a caller waits for its operation on ``driver`` whose transport is the ``clock`` (``rx`` feeds
+    what arrives; it starts no thread)."""
 
-    __slots__ = ("_turn", "clock", "driver")
+    __slots__ = ("_turn", "clock")
 
-    def __init__(self, driver: BusDriver, clock: VirtualClock) -> None:
-        self.driver = driver
+    def __init__(self, driver: BusDriver, rx: Receiver, clock: VirtualClock) -> None:
+        super().__init__(driver, rx)
         self.clock = clock
         self._turn = threading.RLock()
         """Held by the caller letting time pass (one at a time)."""
@@ -60,7 +63,7 @@ class VirtualWaits:
     def run(self, op: Runnable[T]) -> T:
         """Submit ``op`` and let time pass until it is done; returns its result or raises its error.
         Replies to what it sends first came inside the send."""
-        opn = self.driver.submit(op)
+        opn = self.submit(op, None)[0]
         if not opn.done:
             self.wait(opn)
         return opn.result()
@@ -72,13 +75,11 @@ class VirtualWaits:
     def pass_time(self, seconds: float, until: Callable[[], bool] | None = None) -> None:
         """Let ``seconds`` of simulated time pass, taking the frames that arrive meanwhile; end early once
         ``until()`` is true (checked after each frame taken). No wall time passes."""
-        d = self.driver
-        d.check_open()
-        opn = d.submit(sleep(seconds))
+        opn = self.submit(sleep(seconds), None)[0]
         if not opn.done:
             self.wait(opn, until)
         if not opn.done:
-            d._cancel(opn)
+            self.cancel(opn)
 
     def wait(self, opn: Operation[Any], until: Callable[[], bool] | None = None) -> None:
         """Let simulated time pass until ``opn`` is done (or ``until()``): up to the session's next
@@ -86,11 +87,11 @@ class VirtualWaits:
         time pass at a time (the turn); the others look at their operation meanwhile, which that
         caller's frames may finish."""
         d, clock, turn = self.driver, self.clock, self._turn
-        session = d.session
+        session, read_feed = d.session, self.rx.read_feed
 
         def taken() -> bool:
             """Feed what the transport queued while time passed; whether the wait is over."""
-            d._read_feed()
+            read_feed()
             return opn.done or (until is not None and until())
 
         try:
@@ -100,23 +101,23 @@ class VirtualWaits:
                 try:
                     if taken():
                         break
-                    wait = d._step(opn)
+                    wait = self.step(opn)
                     if wait is None or taken():
                         break
                     with d._lock:
                         idle = session.next_deadline() is None
                     if not idle:
                         clock.advance(min(max(wait, _TICK), _SLICE))
-                        d._read_feed()
+                        read_feed()
                 finally:
                     turn.release()
                 if idle:  # nothing is due: what it waits for is another thread's to do; then time goes on
                     time.sleep(_IDLE)
                     with turn:
                         clock.advance(_SLICE)
-                        d._read_feed()
+                        read_feed()
         except BaseException:  # Ctrl-C: the operation must not take the next request's reply
-            d._cancel(opn)
+            self.cancel(opn)
             raise
         if d._closed:
-            d._end_closed(opn)
+            self.end_closed(opn)
