@@ -54,7 +54,8 @@ class Receiver:
         """The reader role: held by whoever reads a transport with a descriptor."""
         self.loop_reader: LoopReader | None = None
         """The event loop holding the role, if one does (see :mod:`.wait_asyncio`)."""
-        self._gate = threading.Condition(threading.Lock())
+        self._gate_lock = threading.Lock()
+        self._gate = threading.Condition(self._gate_lock)
         """Guards the count of reading callers; the parked receive thread waits on it."""
         self._callers = 0
         self._last_caller = 0.0
@@ -84,7 +85,7 @@ class Receiver:
 
     def enter(self) -> None:
         """Count a caller that may read the transport; a receive thread waiting in ``select`` parks."""
-        with self._gate:
+        with self._gate_lock:
             self._callers += 1
             if self._selecting:
                 try:
@@ -94,14 +95,13 @@ class Receiver:
 
     def leave(self, lock_timeout: float = -1) -> None:
         """Count a reading caller out (``lock_timeout`` s: a signal handler may interrupt the lock's holder)."""
-        gate = self._gate
-        held = gate.acquire(timeout=lock_timeout)
+        held = self._gate_lock.acquire(timeout=lock_timeout)
         try:
             self._callers -= 1
             self._last_caller = _monotonic()
         finally:
             if held:
-                gate.release()
+                self._gate_lock.release()
 
     def release(self, own: Callable[[], None] | None = None) -> None:
         """Give the role up; wake the sleeping callers (but ``own``), one of which may take it over."""
@@ -126,12 +126,11 @@ class Receiver:
                 os.write(self._close_w, b"c")
             except OSError:
                 pass
-            gate = self._gate
-            if gate.acquire(timeout=lock_timeout):  # a signal may interrupt its holder
+            if self._gate_lock.acquire(timeout=lock_timeout):  # a signal may interrupt its holder
                 try:
-                    gate.notify_all()
+                    self._gate.notify_all()
                 finally:
-                    gate.release()
+                    self._gate_lock.release()
         rd = self.loop_reader
         if rd is not None:
             rd.let_go(lock_timeout, force=True)
