@@ -64,8 +64,9 @@ class ThreadWaits(WaitSteps):
 
     def __init__(self, driver: BusDriver, rx: Receiver) -> None:
         super().__init__(driver, rx)
-        self._instant = rx.fd is None and driver._collect is not None
-        """Replies come inside the send (the in-process simulator): most operations end in their submit."""
+        self._instant = driver._collect is not None
+        """Replies come inside the send (the in-process simulator): most operations end in their submit,
+        before any reader role or wake-up is needed."""
         self._pool = threading.local()
         """Each thread's spare :class:`Wake` objects (reused across its calls; nested calls get their own)."""
 
