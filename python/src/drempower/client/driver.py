@@ -17,6 +17,7 @@ session's lock.
 from __future__ import annotations
 
 import logging
+import sys
 import threading
 import time
 from collections.abc import Callable, Coroutine, Sequence
@@ -135,9 +136,12 @@ class BusDriver:
         """The reader role of a transport with a descriptor (see :mod:`.receiver`)."""
         self._waits: ThreadWaits | VirtualWaits
         self._run_async: AsyncRun | None = None
-        """The asyncio flavour's run, made on the first call from an event loop (see :meth:`run_async`)."""
+        """The asyncio flavour's run, made with the driver when asyncio is loaded, else on the first call
+        from an event loop (see :meth:`run_async`)."""
         if clock is None:
             self._waits = ThreadWaits(self, self._rx)
+            if "asyncio" in sys.modules:  # likely an asyncio program: its flavour now, not in its first call
+                self._asyncio_waits()
             self._rx.start()
         else:  # frames arrive only while a caller lets time pass: it takes them
             self._waits = VirtualWaits(self, self._rx, clock)
@@ -348,13 +352,16 @@ class BusDriver:
         """Run operation ``op`` to completion on the running event loop; returns its result or raises its
         error. No thread per call (see :mod:`.wait_asyncio`); on a virtual clock the call runs as
         :meth:`run` does (simulated time passes inside it)."""
-        run = self._run_async
-        if run is None:
-            from .wait_asyncio import AsyncWaits  # asyncio is imported only by programs that use it
-
-            run = self._run_async = AsyncWaits(self, self._rx).run
+        run = self._run_async or self._asyncio_waits()
         result: T = await run(op)
         return result
+
+    def _asyncio_waits(self) -> AsyncRun:
+        """Make the asyncio flavour (its module imports asyncio: only programs that use it load it)."""
+        from .wait_asyncio import AsyncWaits
+
+        run = self._run_async = AsyncWaits(self, self._rx).run
+        return run
 
     def pass_time(self, seconds: float, until: Callable[[], bool] | None = None) -> None:
         """Let ``seconds`` of the bus's time pass, taking the frames that arrive meanwhile; end early once

@@ -54,6 +54,7 @@ class Wake:
         self._lock.acquire(timeout=timeout)
 
     def clear(self) -> None:
+        """Forget a wake-up nobody waited for."""
         self._lock.acquire(False)
 
 
