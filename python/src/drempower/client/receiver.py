@@ -44,8 +44,8 @@ _monotonic = time.monotonic
 
 
 class Receiver:
-    """The reader role of ``driver``'s transport (descriptor ``fd``, None: read by the thread alone)
-    and the receive thread (:meth:`start`)."""
+    """What arrives on ``driver``'s transport: frames fed to the session (:meth:`feed`), the reader role
+    of its descriptor ``fd`` (None: the receive thread reads alone) and the receive thread (:meth:`start`)."""
 
     def __init__(self, driver: BusDriver, fd: int | None) -> None:
         self.driver = driver
