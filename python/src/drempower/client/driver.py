@@ -226,7 +226,7 @@ class BusDriver:
             if self.frame_taps:
                 for f in back:
                     self._tap(f, False)
-            self._take(back, self._now())
+            self._rx.take(back, self._now())
             s.now = self._now()
             frames = s.data_to_send()
 
@@ -373,19 +373,6 @@ class BusDriver:
     def submit(self, op: Runnable[T], on_done: Callable[[], None] | None = None) -> Operation[T]:
         """Start ``op`` in the session now and write what it sends first."""
         return self._waits.submit(op, on_done)[0]
-
-    def _take(self, frames: Sequence[Frame], now: float) -> None:
-        """Feed received ``frames`` to the session at ``now`` (the lock is held); their events wait in
-        ``_events`` for dispatch after the lock."""
-        receive, events = self.session.receive, self._events
-        for f in frames:
-            try:
-                event = receive(f, now)
-            except Exception:
-                _log.exception("dispatching %r failed", f)
-                continue
-            if event is not None:
-                events.append(event)
 
     # ------------------------------------------------------------------ closing
 

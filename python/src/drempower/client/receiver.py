@@ -154,6 +154,20 @@ class Receiver:
         if frames:
             self.feed(frames)
 
+    def take(self, frames: Sequence[Frame], now: float) -> None:
+        """Feed received ``frames`` to the session at ``now`` (the driver's lock is held); their events wait
+        in the driver's ``_events`` for dispatch after the lock."""
+        d = self.driver
+        receive, events = d.session.receive, d._events
+        for f in frames:
+            try:
+                event = receive(f, now)
+            except Exception:
+                _log.exception("dispatching %r failed", f)
+                continue
+            if event is not None:
+                events.append(event)
+
     def feed(self, frames: Sequence[Frame]) -> None:
         """Feed received ``frames`` to the session; dispatch their events after the lock."""
         d = self.driver
@@ -163,7 +177,7 @@ class Receiver:
         s = d.session
         with d._lock:
             changes = s.changes
-            d._take(frames, d._now())
+            self.take(frames, d._now())
             if s.wants_to_send:
                 try:
                     d._flush()
