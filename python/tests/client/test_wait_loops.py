@@ -89,8 +89,8 @@ def test_threaded_wait_ends_at_the_reply_and_times_out_at_the_deadline(
     kind: str, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     with wall_bus(kind, monkeypatch, timeout=5.0) as (bus, _):
-        assert isinstance(bus.core._waits, ThreadWaits)
-        assert (bus.core._fd is not None) == (kind == "caller-reads")
+        assert isinstance(bus._core._waits, ThreadWaits)
+        assert (bus._core._fd is not None) == (kind == "caller-reads")
         for _ in range(3):
             t0 = time.monotonic()
             assert bus.motor(1).get_state().node == 1
@@ -156,7 +156,7 @@ def test_threaded_pass_time_sleeps_its_time_unless_its_condition_or_a_close_ends
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     with wall_bus("receive-thread", monkeypatch) as (bus, _):
-        core = bus.core
+        core = bus._core
         t0 = time.monotonic()
         core.pass_time(0.2)
         assert 0.2 <= time.monotonic() - t0 < 0.6
@@ -191,7 +191,7 @@ def test_asyncio_wait_leaves_the_event_loop_free_and_times_out_at_the_deadline(
             abus = drempower.open_bus_async("adapter", pty.path, timeout=1.0, stop_on_close=False)
         async with abus:
             assert (await abus.motor(1).get_state()).node == 1
-            assert isinstance(abus.core._run_async.__self__, AsyncWaits)  # type: ignore[union-attr]
+            assert isinstance(abus._core._run_async.__self__, AsyncWaits)  # type: ignore[union-attr]
             threads = threading.active_count()
             ticks: list[float] = []
             stop = asyncio.Event()
@@ -247,21 +247,21 @@ def test_a_coroutine_takes_the_reader_role_for_its_loop_once_the_receive_thread_
         abus.subscribe(slow, 4)
         os.write(master, encode_aa(State(4, 1.0, 0.0, 0.0, False, False).encode()))
         assert await asyncio.to_thread(busy.wait, 2.0)  # the receive thread holds the role, in the callback
-        free = abus.core._loop_reader is None  # not yet taken by the loop
+        free = abus._core._loop_reader is None  # not yet taken by the loop
         answer = threading.Thread(target=motor)
         answer.start()
         t0 = time.monotonic()
         st = await abus.motor(1).get_state()
         took = time.monotonic() - t0
         answer.join(5)
-        rd = abus.core._loop_reader
+        rd = abus._core._loop_reader
         return free, st.angle, took, rd is not None and rd.loop is asyncio.get_running_loop()
 
     try:
         free, angle, took, held = asyncio.run(main())
     finally:
         release.set()
-        abus.core.close()
+        abus._core.close()
         os.close(master)
     assert free and angle == 7.0
     assert took < 0.9  # answered, not woken by its 1 s deadline
@@ -274,7 +274,7 @@ def test_a_coroutine_takes_the_reader_role_for_its_loop_once_the_receive_thread_
 def test_virtual_wait_lets_time_pass_exactly_to_the_replys_arrival() -> None:
     sim = SimBus(ids=[1], bitrate=1_000_000)
     with drempower.open_bus("sim", bus=sim, clock="virtual", timeout=0.2, stop_on_close=False) as bus:
-        core = bus.core
+        core = bus._core
         assert isinstance(core._waits, VirtualWaits)
         for _ in range(3):
             t0 = core.now()
@@ -287,7 +287,7 @@ def test_virtual_wait_lets_time_pass_exactly_to_the_replys_arrival() -> None:
 def test_virtual_wait_for_a_missing_reply_ends_exactly_at_its_deadline(timeout: float) -> None:
     with drempower.open_bus("sim", motors=[1, 2], clock="virtual", stop_on_close=False) as bus:
         bus.transport.bus.faults.silent.add(2)  # type: ignore[attr-defined]
-        core = bus.core
+        core = bus._core
         wall, t0 = time.monotonic(), core.now()
         with pytest.raises(drempower.TimeoutError, match="motor 2"):
             bus.motor(2).get_state(timeout=timeout)
@@ -299,7 +299,7 @@ def test_virtual_wait_from_a_coroutine_runs_inside_the_call() -> None:
     async def main() -> tuple[float, float]:
         async with drempower.open_bus_async("sim", motors=[1, 2], clock="virtual", stop_on_close=False) as abus:
             abus.transport.bus.faults.silent.add(2)  # type: ignore[attr-defined]
-            core = abus.core
+            core = abus._core
             t0, wall = core.now(), time.monotonic()
             with pytest.raises(drempower.TimeoutError, match="motor 2"):
                 await abus.motor(2).get_state(timeout=0.5)
