@@ -5,18 +5,18 @@ from __future__ import annotations
 import pytest
 
 import drempower
-from drempower.bridge import hub
 from drempower.client import session
 from drempower.client.commands import make_speed, make_speeds, make_torque, make_torques
 from drempower.errors import FieldRangeError
 from drempower.protocol import limits
 from drempower.protocol.ids import Cmd, Frame
 from drempower.protocol.messages import S16_MAX, S16_MIN
+from drempower.transports import zenoh_wire
 
 
 def test_one_definition_of_the_motion_commands() -> None:
     assert session.MOTION_CMDS is limits.MOTION_CMDS
-    assert hub._MOTION is limits.MOTION_CMDS
+    assert zenoh_wire.MOTION_CMDS is limits.MOTION_CMDS  # the remote clients' driven motors
     assert {0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D} == limits.MOTION_CMDS
     assert Cmd.READ not in limits.MOTION_CMDS and Cmd.WRITE not in limits.MOTION_CMDS
     assert set(range(0x10, 0x16)) == limits.START_SYS_CMDS
