@@ -205,15 +205,16 @@ class BusDriver:
 
     # ------------------------------------------------------------------ writing
 
-    def _flush(self) -> None:
-        """Write what the session wants sent (the lock is held). A failed write fails the operations
-        waiting on the session and is raised. Replies a transport gives back at once (instant
-        delivery) are taken here; their events wait in ``_events`` for :meth:`_dispatch` after the lock."""
+    def _flush(self, now: float | None = None) -> None:
+        """Write what the session wants sent (the lock is held) at ``now`` (s; None: read the clock). A
+        failed write fails the operations waiting on the session and is raised. Replies a transport gives
+        back at once (instant delivery) are taken here; their events wait in ``_events`` for
+        :meth:`_dispatch` after the lock."""
         s = self.session
         if self._stopped:  # estops written without the lock: what the session holds must not follow them
             stopped, self._stopped = self._stopped, ()
             s.stopped(stopped)
-        s.now = self._now()
+        s.now = self._now() if now is None else now
         frames = s.data_to_send()
         while frames:
             try:
@@ -226,8 +227,11 @@ class BusDriver:
             if self.frame_taps:
                 for f in back:
                     self._tap(f, False)
-            self._rx.take(back, self._now())
-            s.now = self._now()
+            now = self._now()
+            self._rx.take(back, now)
+            if not s.outbox.frames:  # the replies queued nothing more (the commonest)
+                return
+            s.now = now  # what they queued is sent at the time they came
             frames = s.data_to_send()
 
     def _write(self, frames: Sequence[Frame], collect: Callable[[Frame], list[Frame]] | None = None) -> list[Frame]:

@@ -113,7 +113,7 @@ class ThreadWaits(WaitSteps):
                     reading = rx.lock.acquire(False)
                 if reading:
                     self._read_until(opn, wait)
-                    if d._is_closed():
+                    if d._closed:
                         break
                     continue
                 if wait is None:
@@ -156,7 +156,7 @@ class ThreadWaits(WaitSteps):
         first wait is ``wait`` s (None: as the session says)."""
         d, rx = self.driver, self.rx
         fds, rest = rx.read_fds, rx.rest_time
-        while not opn.done and not d._is_closed():
+        while not opn.done and not d._closed:
             if wait is None:
                 wait = self.step(opn)
                 if wait is None:
