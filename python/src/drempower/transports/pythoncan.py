@@ -373,11 +373,11 @@ class PythonCanTransport(Transport):
                 if self._closing.is_set():
                     return out
                 if q is not None:
-                    while True:
-                        try:
-                            queued = q.get_nowait()
-                        except queue.Empty:
-                            break
+                    # this bus is the queue's only reader (under _recv_lock): a message counted is there to
+                    # get, and looking at the count spares the failed get (and its exception) that ends a loop
+                    waiting = q.queue
+                    while waiting:
+                        queued = q.get_nowait()
                         if not queued.is_error_frame:
                             out.append(_frame(queued))
                     return out
