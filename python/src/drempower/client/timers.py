@@ -7,9 +7,12 @@ clock. Times are seconds on the driver's clock.
 from __future__ import annotations
 
 from collections.abc import Callable
-from heapq import heappop, heappush
+from heapq import heapify, heappop, heappush
 
 __all__ = ["Timers"]
+
+_COMPACT_AT = 64
+"""Entries in the heap from which dropped timers are cleared out when they outnumber the live ones."""
 
 
 class Timers:
@@ -35,8 +38,15 @@ class Timers:
     def add(self, due: float, fire: Callable[[], None]) -> int:
         """Call ``fire()`` once the time reaches ``due`` (s); returns the timer's id (for :meth:`drop`)."""
         self.changes = tid = self.changes + 1
-        self._timers[tid] = (due, fire)
-        heappush(self.heap, (due, tid))
+        timers, heap = self._timers, self.heap
+        timers[tid] = (due, fire)
+        if len(heap) >= _COMPACT_AT and len(heap) > 4 * len(timers):
+            # dropped timers (answered requests) outnumber the live ones: keep only these, so that a run
+            # of fast calls, each dropping its timer, pushes onto a heap of a few entries, not thousands
+            heap[:] = [(d, t) for t, (d, _) in timers.items()]
+            heapify(heap)
+        else:
+            heappush(heap, (due, tid))
         return tid
 
     def drop(self, tid: int) -> None:
