@@ -137,7 +137,8 @@ class ThreadWaits(WaitSteps):
                 d._sleepers.discard(ev.set)
                 ev.clear()
                 self._pool.spare.append(ev)
-        self.end_closed(opn)
+        if not opn.done:
+            self.end_closed(opn)
         return opn
 
     def _wake(self) -> Wake:
