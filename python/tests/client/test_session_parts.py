@@ -87,6 +87,31 @@ def test_a_timer_set_while_timers_fire_waits_for_the_next_call_even_when_already
     assert fired == ["first", "set while firing"]
 
 
+def test_dropped_timers_are_cleared_out_so_a_run_of_answered_requests_keeps_the_heap_small() -> None:
+    timers = Timers()
+    fired: list[str] = []
+    timers.add(50.0, functools.partial(fired.append, "late"))
+    timers.add(2.0, functools.partial(fired.append, "soon"))
+    for i in range(5000):  # each request's timer, dropped once it is answered
+        timers.drop(timers.add(1.0 + i / 1000, functools.partial(fired.append, "dropped")))
+        assert len(timers.heap) <= 4 * 64 + 1
+    assert len(timers) == 2 and timers.next_due() == 2.0
+
+    def refill() -> None:  # adds and drops while timers fire: the clear-out may happen mid-round
+        fired.append("refill")
+        for _ in range(300):
+            timers.drop(timers.add(3.0, functools.partial(fired.append, "dropped")))
+        timers.add(3.0, functools.partial(fired.append, "set while firing"))
+
+    timers.add(2.5, refill)
+    timers.fire_due(2.5)
+    assert fired == ["soon", "refill"]
+    timers.fire_due(3.0)
+    assert fired == ["soon", "refill", "set while firing"]
+    timers.fire_due(100.0)
+    assert fired == ["soon", "refill", "set while firing", "late"] and timers.next_due() is None
+
+
 def test_touch_counts_a_change_without_a_timer() -> None:
     timers = Timers()
     before = timers.changes

@@ -100,6 +100,8 @@ class BusBase(ABC, Generic[M]):
     def _check_broadcast_reads(self, msgs: Sequence[Message]) -> None:
         """Refuse, before sending, a read addressed to every motor (id 0) when the bus knows several:
         each would answer and the reply taken would be any one of them."""
+        if len(msgs) == 1 and msgs[0].node:  # the commonest: one request to one motor
+            return
         if any(m.node == 0 and isinstance(m, (FastRead, ReadParam)) for m in msgs):
             known = self.known_motors()
             if len(known) > 1:

@@ -146,6 +146,7 @@ class BusDriver:
         else:  # frames arrive only while a caller lets time pass: it takes them
             self._waits = VirtualWaits(self, self._rx, clock)
             self._run_async = self._waits.run_async
+        self.run = self._waits.run  # type: ignore[method-assign]  # run's body, bound: one call fewer per operation
         open_buses.register(self)
         if stop_on_close:
             signals.install_stop_handlers()
@@ -205,15 +206,16 @@ class BusDriver:
 
     # ------------------------------------------------------------------ writing
 
-    def _flush(self) -> None:
-        """Write what the session wants sent (the lock is held). A failed write fails the operations
-        waiting on the session and is raised. Replies a transport gives back at once (instant
-        delivery) are taken here; their events wait in ``_events`` for :meth:`_dispatch` after the lock."""
+    def _flush(self, now: float | None = None) -> None:
+        """Write what the session wants sent (the lock is held) at ``now`` (s; None: read the clock). A
+        failed write fails the operations waiting on the session and is raised. Replies a transport gives
+        back at once (instant delivery) are taken here; their events wait in ``_events`` for
+        :meth:`_dispatch` after the lock."""
         s = self.session
         if self._stopped:  # estops written without the lock: what the session holds must not follow them
             stopped, self._stopped = self._stopped, ()
             s.stopped(stopped)
-        s.now = self._now()
+        s.now = self._now() if now is None else now
         frames = s.data_to_send()
         while frames:
             try:
@@ -226,8 +228,11 @@ class BusDriver:
             if self.frame_taps:
                 for f in back:
                     self._tap(f, False)
-            self._rx.take(back, self._now())
-            s.now = self._now()
+            now = self._now()
+            self._rx.take(back, now)
+            if not s.outbox.frames:  # the replies queued nothing more (the commonest)
+                return
+            s.now = now  # what they queued is sent at the time they came
             frames = s.data_to_send()
 
     def _write(self, frames: Sequence[Frame], collect: Callable[[Frame], list[Frame]] | None = None) -> list[Frame]:

@@ -225,12 +225,13 @@ class _Exchange:
             self.start()
 
 
-class _OneRequest:
+class _OneRequest(Waiter):
     """A :class:`~drempower.client.effects.Single` request of one message: :class:`_Exchange`'s rules
     (matching on every echoed field, retries, the held-back zero replies at expiry) for the
-    commonest call, without its bookkeeping for many requests."""
+    commonest call, without its bookkeeping for many requests. It is its own
+    :class:`~drempower.client.requests.Waiter` (one object, one call fewer per request)."""
 
-    __slots__ = ("frame", "key", "msg", "op", "runner", "timeout", "timer", "tries", "waiter")
+    __slots__ = ("frame", "key", "msg", "op", "runner", "timeout", "timer", "tries")
 
     def __init__(self, runner: RequestRunner, op: Operation[Any], effect: Request) -> None:
         self.runner = runner
@@ -244,33 +245,41 @@ class _OneRequest:
         self.tries = 0
         if msg.__class__ is FastRead:  # the commonest: its answer is a state frame, with no data type to echo
             key = self.key = msg.node << 16
-            dtypes = None
+            self.dtypes = None
         else:
             key = self.key = request_key(msg)
             dtype = request_dtype(msg)
-            dtypes = None if dtype is None else (dtype,)
-        self.waiter = Waiter((key,), self._answered, dtypes)
+            self.dtypes = None if dtype is None else (dtype,)
+        self.keys = (key,)
+        self.results = [None]
+        self.remaining = 1
+        self.on_complete = self._answered
         self.timer = 0
 
     def start(self) -> None:
         r = self.runner
         s = r.session
-        w = self.waiter
-        w.results[0] = None
-        w.remaining = 1
-        r.matcher.register(w)
+        self.results[0] = None
+        self.remaining = 1
+        # Matcher.register for its one key, inline
+        table = r.matcher._table
+        lst = table.get(self.key)
+        if lst is None:
+            table[self.key] = [(self, 0)]
+        else:
+            lst.append((self, 0))
         s.outbox.frames.append(self.frame)
         self.timer = s.timers.add(s.now + self.timeout, self._expire)
 
     def cancel(self) -> None:
         r = self.runner
         r.session.timers.drop(self.timer)
-        r.matcher.cancel(self.waiter)
+        r.matcher.cancel(self)
 
     def _answered(self) -> None:
         s = self.runner.session
-        s.timers.drop(self.timer)
-        r = self.waiter.results[0]
+        s.timers._timers.pop(self.timer, None)  # Timers.drop, inline
+        r = self.results[0]
         node = getattr(r, "node", 0)
         if node:
             s.known.heard.add(node)
@@ -283,9 +292,9 @@ class _OneRequest:
         grace = s.grace
         if grace.held:
             grace.settle(0.0, [(key >> 16, key & 0xFFFF)])
-            if not self.waiter.remaining:
+            if not self.remaining:
                 return  # a held-back reply answered it
-        r.matcher.cancel(self.waiter)
+        r.matcher.cancel(self)
         self.tries += 1
         if self.tries <= r.retries:
             self.start()

@@ -73,6 +73,9 @@ def _checked(fn: Callable[..., Any]) -> Callable[..., Any] | None:
     if not checks:
         return None
 
+    first = min(index for index, _, _ in checks)
+    """The first position a time argument may take: a call with fewer arguments and no keywords has none."""
+
     def check(args: tuple[Any, ...], kwargs: dict[str, Any]) -> None:
         for index, name, none_ok in checks:
             if name in kwargs:
@@ -84,14 +87,16 @@ def _checked(fn: Callable[..., Any]) -> Callable[..., Any] | None:
 
         @functools.wraps(fn)
         async def run_async(*args: Any, **kwargs: Any) -> Any:
-            check(args, kwargs)
+            if kwargs or len(args) > first:  # else no time argument was given
+                check(args, kwargs)
             return await fn(*args, **kwargs)
 
         return run_async
 
     @functools.wraps(fn)
     def run(*args: Any, **kwargs: Any) -> Any:
-        check(args, kwargs)
+        if kwargs or len(args) > first:  # else no time argument was given (get_state() and the like)
+            check(args, kwargs)
         return fn(*args, **kwargs)
 
     return run

@@ -7,9 +7,12 @@ clock. Times are seconds on the driver's clock.
 from __future__ import annotations
 
 from collections.abc import Callable
-from heapq import heappop, heappush
+from heapq import heapify, heappop, heappush
 
 __all__ = ["Timers"]
+
+_COMPACT_AT = 64
+"""Entries in the heap from which dropped timers are cleared out when they outnumber the live ones."""
 
 
 class Timers:
@@ -20,12 +23,13 @@ class Timers:
     have come).
     """
 
-    __slots__ = ("_heap", "_timers", "changes")
+    __slots__ = ("_timers", "changes", "heap")
 
     def __init__(self) -> None:
         self.changes = 0
         self._timers: dict[int, tuple[float, Callable[[], None]]] = {}
-        self._heap: list[tuple[float, int]] = []
+        self.heap: list[tuple[float, int]] = []
+        """(due s, id) of every timer, dropped ones included until popped: a heap, the soonest first."""
         """(due, timer id) of every timer, earliest first; a dropped timer's entry stays until it surfaces."""
 
     def __len__(self) -> int:
@@ -34,8 +38,15 @@ class Timers:
     def add(self, due: float, fire: Callable[[], None]) -> int:
         """Call ``fire()`` once the time reaches ``due`` (s); returns the timer's id (for :meth:`drop`)."""
         self.changes = tid = self.changes + 1
-        self._timers[tid] = (due, fire)
-        heappush(self._heap, (due, tid))
+        timers, heap = self._timers, self.heap
+        timers[tid] = (due, fire)
+        if len(heap) >= _COMPACT_AT and len(heap) > 4 * len(timers):
+            # dropped timers (answered requests) outnumber the live ones: keep only these, so that a run
+            # of fast calls, each dropping its timer, pushes onto a heap of a few entries, not thousands
+            heap[:] = [(d, t) for t, (d, _) in timers.items()]
+            heapify(heap)
+        else:
+            heappush(heap, (due, tid))
         return tid
 
     def drop(self, tid: int) -> None:
@@ -48,14 +59,14 @@ class Timers:
 
     def next_due(self) -> float | None:
         """When the earliest timer is due (s), or None."""
-        heap, timers = self._heap, self._timers
+        heap, timers = self.heap, self._timers
         while heap and heap[0][1] not in timers:  # dropped timers leave their entry behind
             heappop(heap)
         return heap[0][0] if heap else None
 
     def fire_due(self, now: float) -> None:
         """Fire every timer due by ``now`` (s), earliest first; timers they add wait for the next call."""
-        heap, timers = self._heap, self._timers
+        heap, timers = self.heap, self._timers
         if not heap or heap[0][0] > now:
             return
         newest = self.changes
@@ -74,4 +85,4 @@ class Timers:
     def clear(self) -> None:
         """Drop every timer."""
         self._timers.clear()
-        self._heap.clear()
+        self.heap.clear()

@@ -34,16 +34,22 @@ class WaitSteps:
         """Start ``op`` in the session now and write what it sends first; returns it and how long (s) the
         caller may wait before stepping (None: step now)."""
         d = self.driver
-        d.check_open()
+        if d._closed or d._failure is not None:
+            d.check_open()
         with d._lock:
             s = d.session
-            s.advance(d._now())
+            now = d._now()
+            s.advance(now)
             opn = s.submit(op, on_done)
-            d._flush()
-            events = d._take_events()
+            if s.outbox.frames or d._stopped:
+                d._flush(now)
+            events = d._events
+            if events:
+                d._events = []
             wait = None
-            if not opn.done and not s.awaiting_confirmation:
-                wait = self.until(s.next_deadline())
+            if not opn.done and not s.hold.awaiting_confirmation:
+                due = s.next_deadline()
+                wait = _WAIT_SLICE if due is None else min(_WAIT_SLICE, max(0.0, due - d._now()))
         if events:
             d._dispatch(events)
         return opn, wait

@@ -113,7 +113,7 @@ class ThreadWaits(WaitSteps):
                     reading = rx.lock.acquire(False)
                 if reading:
                     self._read_until(opn, wait)
-                    if d._is_closed():
+                    if d._closed:
                         break
                     continue
                 if wait is None:
@@ -137,7 +137,8 @@ class ThreadWaits(WaitSteps):
                 d._sleepers.discard(ev.set)
                 ev.clear()
                 self._pool.spare.append(ev)
-        self.end_closed(opn)
+        if not opn.done:
+            self.end_closed(opn)
         return opn
 
     def _wake(self) -> Wake:
@@ -156,7 +157,7 @@ class ThreadWaits(WaitSteps):
         first wait is ``wait`` s (None: as the session says)."""
         d, rx = self.driver, self.rx
         fds, rest = rx.read_fds, rx.rest_time
-        while not opn.done and not d._is_closed():
+        while not opn.done and not d._closed:
             if wait is None:
                 wait = self.step(opn)
                 if wait is None:

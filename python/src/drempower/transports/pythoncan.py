@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-import contextlib
+import collections
 import os
 import queue
 import select
@@ -206,12 +206,12 @@ class PythonCanTransport(Transport):
         self._queue: queue.Queue[can.Message] | None = None
         """The virtual bus's queue, read directly (no filters: python-can's recv would take every message)."""
         self._socket: socket.socket | None = None
+        self._parsed: collections.deque[can.Message] | None = None
+        """socketcand's messages parsed and not yet returned by its ``recv``: empty, the socket tells the rest."""
         self._fd = self._descriptor(name)
         # python-can's virtual send walks the channel's list of queues without a lock while a bus shutting
         # down removes its queue from it (under channels_lock): the walk then skips the queue after it
-        self._send_guard: contextlib.AbstractContextManager[Any] = (
-            can.interfaces.virtual.channels_lock if name == "virtual" else contextlib.nullcontext()
-        )
+        self._send_guard: threading.RLock | None = can.interfaces.virtual.channels_lock if name == "virtual" else None
         if name == "socketcand":  # a TCP hop and the server's own queue before the bus
             self.tx_latency = SOCKETCAND_TX_LATENCY
             self.unbounded_latency = True
@@ -242,6 +242,8 @@ class PythonCanTransport(Transport):
             sock = getattr(bus, "_SocketCanDaemonBus__socket", None)
             if isinstance(sock, socket.socket):
                 self._socket = sock
+                parsed = getattr(bus, "_SocketCanDaemonBus__message_buffer", None)
+                self._parsed = parsed if isinstance(parsed, collections.deque) else None
                 return sock.fileno()
             return None
         if name in _FD_INTERFACES:
@@ -323,8 +325,12 @@ class PythonCanTransport(Transport):
             if self._closing.is_set():
                 raise TransportError(f"{self.description}: closed, frame not sent")
             try:
-                with self._send_guard:
+                guard = self._send_guard
+                if guard is None:
                     self._bus.send(msg, timeout=self._send_timeout)
+                else:
+                    with guard:
+                        self._bus.send(msg, timeout=self._send_timeout)
             except (can.CanError, OSError, ValueError) as exc:
                 cause = exc.__cause__
                 if isinstance(exc, can.CanTimeoutError | TimeoutError) or isinstance(cause, _TIMEOUTS):
@@ -373,18 +379,20 @@ class PythonCanTransport(Transport):
                 if self._closing.is_set():
                     return out
                 if q is not None:
-                    while True:
-                        try:
-                            queued = q.get_nowait()
-                        except queue.Empty:
-                            break
+                    # this bus is the queue's only reader (under _recv_lock): a message counted is there to
+                    # get, and looking at the count spares the failed get (and its exception) that ends a loop
+                    waiting = q.queue
+                    while waiting:
+                        queued = q.get_nowait()
                         if not queued.is_error_frame:
                             out.append(_frame(queued))
                     return out
-                recv = self._bus.recv
+                recv, parsed = self._bus.recv, self._parsed
                 while (msg := recv(0.0)) is not None:
                     if not msg.is_error_frame:
                         out.append(_frame(msg))
+                    if parsed is not None and not parsed:
+                        break  # nothing parsed is left: more leaves the socket readable (no recv finding none)
                 if not out and self._socket is not None:
                     self._check_connected(self._socket)
         except _RECV_ERRORS as exc:

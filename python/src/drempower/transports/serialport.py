@@ -138,7 +138,18 @@ class SerialFrameTransport(Transport):
         with self._wlock:
             if self._closing.is_set():
                 raise TransportError(f"{self.description}: closed, frame not sent")
-            self._write(data)
+            fd = self._fd
+            if fd is None or self._broken is not None:
+                self._write(data)
+                return
+            try:  # the commonest: the device takes the whole frame at once
+                sent = os.write(fd, data)
+            except (BlockingIOError, InterruptedError):
+                sent = 0
+            except OSError as exc:
+                raise self._failed(0, len(data), f"write failed: {exc}") from exc
+            if sent < len(data):
+                self._write_fd(fd, data, sent=sent)
 
     def _write(self, data: bytes, timeout: float | None = None) -> None:
         """Write ``data`` whole (the write lock is held) within ``timeout`` s (None: the write timeout)."""
@@ -149,11 +160,10 @@ class SerialFrameTransport(Transport):
         else:
             self._write_pyserial(data)
 
-    def _write_fd(self, fd: int, data: bytes, timeout: float | None = None) -> None:
-        """Write ``data`` whole, counting what the device took; never longer than ``timeout`` s (None: the
-        write timeout)."""
+    def _write_fd(self, fd: int, data: bytes, timeout: float | None = None, sent: int = 0) -> None:
+        """Write ``data`` whole (its first ``sent`` bytes are out already), counting what the device took;
+        never longer than ``timeout`` s (None: the write timeout)."""
         total = len(data)
-        sent = 0
         limit = self._write_timeout if timeout is None else timeout
         deadline = time.monotonic() + limit
         while True:
