@@ -34,18 +34,17 @@ the joints from ``/robot_joint_states``, both ``sensor_msgs/msg/JointState``.
 from __future__ import annotations
 
 import logging
-import math
 import threading
 import time
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
-from .. import actions
 from ..client.commands import PositionMode, make_angle, make_impedance, make_speed, make_torque
 from ..client.watchdog import Watchdog, stop_messages
-from ..errors import DrEmpowerError, MotorIdleError, ValidationError
+from ..errors import DrEmpowerError, MotorIdleError
 from ..protocol.messages import Message, StartImpedance
 from . import rmw, rosmsg
+from .server import _on_bus, check_joint_value, in_ros_terms
 
 if TYPE_CHECKING:
     from .server import Bridge, BusFace
@@ -67,13 +66,6 @@ DEFAULT_STATES_TOPIC = "/robot_joint_states"
 COMMAND_INTERFACES = ("position", "velocity", "effort")
 _CONTROLLER = "joint_commands"
 """The watchdog's name of the command topic's publishers."""
-_ROWS = {
-    "position": ("move", "angle", "rad", "motor_angle"),
-    "velocity": ("speed", "speed", "rad/s", "motor_speed"),
-    "effort": ("torque", "torque", "Nm", "motor_torque"),
-}
-"""Each command interface's row of :mod:`drempower.actions`, the row's field (motor units), the unit at the
-joint, and the gearing's conversion to the motor (as the bridge's own command topics)."""
 
 
 def check_interfaces(interfaces: Sequence[str]) -> tuple[str, ...]:
@@ -205,13 +197,7 @@ class JointTopics:
             j, g, face = self._faces[name]
             vals = {key: float(arrays[key][k]) if len(arrays[key]) else 0.0 for key in used}
             for key, x in vals.items():  # each value by its row of the actions table, in the table's words
-                row, field, unit, convert = _ROWS[key]
-                try:
-                    if not math.isfinite(x):
-                        raise ValidationError(f"{field}={x!r}: expected a finite number")
-                    actions.validate(actions.get(row), {"id": j.id, field: getattr(g, convert)(x)})
-                except ValidationError as exc:
-                    raise ValidationError(f"joint {name!r} ({key} {x:g} {unit}): {exc}") from None
+                check_joint_value(f"{key}_commands", j, g, x)
             try:
                 msgs = out.setdefault(face.name, [])
                 if used == ("position",):
@@ -241,8 +227,6 @@ class JointTopics:
 
     def _send(self, batches: dict[str, list[Message]]) -> None:
         """Every bus's messages through its safety gate first, then sent (nothing sent if one bus refuses)."""
-        from .server import _on_bus, in_ros_terms
-
         faces = self.bridge.faces
         for name, msgs in batches.items():
             face = faces[name]

@@ -63,12 +63,25 @@ FORGET_AFTER = 10.0
 """s of silence after which a client that drives nothing is forgotten (its last estop's number too)."""
 COMMAND_TOPICS = ("position_commands", "velocity_commands", "effort_commands")
 COMMAND_ROWS = {
-    "position_commands": ("move", "angle", "position", "rad"),
-    "velocity_commands": ("speed", "speed", "velocity", "rad/s"),
-    "effort_commands": ("torque", "torque", "effort", "Nm"),
+    "position_commands": ("move", "angle", "position", "rad", "motor_angle"),
+    "velocity_commands": ("speed", "speed", "velocity", "rad/s", "motor_speed"),
+    "effort_commands": ("torque", "torque", "effort", "Nm", "motor_torque"),
 }
 """Each command topic's row of :mod:`drempower.actions`, the row's field that a value becomes (motor units),
-and what a value is at the joint, with its unit."""
+what a value is at the joint with its unit, and the gearing's conversion to the motor."""
+
+
+def check_joint_value(topic: str, j: JointSpec, g: Gearing, x: float) -> float:
+    """``x`` (SI at joint ``j``) in motor units, checked by ``topic``'s row of :mod:`drempower.actions`
+    (its words, naming the joint): the one check of the bridge's command topics and its ros2_control topics."""
+    row, field, what, unit, convert = COMMAND_ROWS[topic]
+    try:
+        value: float = actions.validate(actions.get(row), {"id": j.id, field: getattr(g, convert)(x)})[field]
+    except ValidationError as exc:
+        raise ValidationError(f"joint {j.name!r} ({what} {x:g} {unit}): {exc}") from None
+    return value
+
+
 SERVICE_ROWS = {"estop": "estop", "clear_errors": "clear", "enable": "enable"}
 """Each service's row of :mod:`drempower.actions`, run for every motor served."""
 ROSOUT_WARN = 30
@@ -686,15 +699,9 @@ class Bridge:
     def _commands(self, topic: str, data: Sequence[float]) -> list[tuple[BusFace, list[int], list[float]]]:
         """Each bus's motors and values (motor units) for ``data`` (one value per joint, SI at the joint),
         every value checked by the topic's row of :mod:`drempower.actions` first (its words, naming the joint)."""
-        row, field, what, unit = COMMAND_ROWS[topic]
-        act = actions.get(row)
-        convert = {"position_commands": "motor_angle", "velocity_commands": "motor_speed"}.get(topic, "motor_torque")
         groups: dict[str, tuple[list[int], list[float]]] = {}
         for (j, g, _), x in zip(self._joints, data, strict=True):
-            try:
-                v = actions.validate(act, {"id": j.id, field: getattr(g, convert)(x)})[field]
-            except ValidationError as exc:
-                raise ValidationError(f"joint {j.name!r} ({what} {x:g} {unit}): {exc}") from None
+            v = check_joint_value(topic, j, g, x)
             ids, values = groups.setdefault(j.bus, ([], []))
             ids.append(j.id)
             values.append(v)
