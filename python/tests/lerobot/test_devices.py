@@ -177,6 +177,9 @@ def test_leader_actions_are_its_joint_positions(tmp_path: Path) -> None:
         assert got["elbow.pos"] - first["elbow.pos"] > 5.0
         for j in JOINTS:
             assert got[f"{j}.pos"] == pytest.approx(math.degrees(twin.joint_position(j)), abs=0.5)
+        leader.send_feedback({})  # no feedback features: an empty feedback is fine, any other refused
+        with pytest.raises(ValidationError, match=r"feedback=\['elbow.pos'\]: .* takes no feedback"):
+            leader.send_feedback({"elbow.pos": 1.0})
     finally:
         leader.disconnect()
 

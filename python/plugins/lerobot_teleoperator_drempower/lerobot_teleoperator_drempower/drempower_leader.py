@@ -22,7 +22,7 @@ from lerobot.teleoperators import Teleoperator
 from lerobot.utils.errors import DeviceAlreadyConnectedError, DeviceNotConnectedError
 from lerobot_robot_drempower.arm import POS, choose_joints, open_arm, position_keys, release
 
-from drempower import DrEmpowerError, TimeoutError
+from drempower import DrEmpowerError, TimeoutError, ValidationError
 from drempower.robot import Robot as DrRobot
 
 from .config_drempower_leader import DrEmpowerLeaderConfig
@@ -140,9 +140,10 @@ class DrEmpowerLeader(Teleoperator):  # type: ignore[misc]  # LeRobot has no typ
         return {f"{n}{POS}": latest[n] for n in self.choice.names}
 
     def send_feedback(self, feedback: dict[str, Any]) -> None:
-        """The leader takes no feedback (``feedback_features`` is empty)."""
+        """The leader takes no feedback (``feedback_features`` is empty): an empty one is accepted, any other
+        refused naming its keys (nothing is sent)."""
         if feedback:
-            raise NotImplementedError(f"{self.name} takes no feedback, got {', '.join(feedback)}")
+            raise ValidationError(f"feedback={sorted(feedback)}: {self.name} takes no feedback (its features: none)")
 
     def disconnect(self) -> None:
         """End teach mode (the joints hold where they are), then leave them as ``on_timeout`` says."""
