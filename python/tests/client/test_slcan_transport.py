@@ -7,7 +7,6 @@ import os
 import select
 import threading
 import time
-import tty
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
@@ -22,20 +21,9 @@ from drempower.sim import SimBus, attach_adapter_pty
 from drempower.transports import TransportError, open_transport
 from drempower.transports.slcan import SlcanTransport
 
+from .test_transport_faults import raw_pty as device  # a raw pty: (the device's end, the port's path)
+
 pytestmark = pytest.mark.skipif(os.name != "posix", reason="pseudo-terminals")
-
-
-@contextmanager
-def device() -> Iterator[tuple[int, str]]:
-    """A pseudo-terminal in raw mode: (the device's end, the port's path)."""
-    master, slave = os.openpty()
-    tty.setraw(master)
-    tty.setraw(slave)
-    try:
-        yield master, os.ttyname(slave)
-    finally:
-        os.close(master)
-        os.close(slave)
 
 
 def read_lines(fd: int, count: int, limit: float = 5.0) -> list[bytes]:
