@@ -41,10 +41,10 @@ from typing import TYPE_CHECKING, Any
 
 from ..client.commands import PositionMode, make_angle, make_impedance, make_speed, make_torque
 from ..client.watchdog import Watchdog, stop_messages
-from ..errors import DrEmpowerError, MotorIdleError
+from ..errors import DrEmpowerError
 from ..protocol.messages import Message, StartImpedance
 from . import rmw, rosmsg
-from .server import _on_bus, check_joint_value, in_ros_terms
+from .server import check_joint_value, pass_face_gate
 
 if TYPE_CHECKING:
     from .server import Bridge, BusFace
@@ -229,12 +229,7 @@ class JointTopics:
         """Every bus's messages through its safety gate first, then sent (nothing sent if one bus refuses)."""
         faces = self.bridge.faces
         for name, msgs in batches.items():
-            face = faces[name]
-            try:
-                face.relearn()  # a motor a remote client idled is read again
-                face.bus.pass_gate(msgs, False)
-            except MotorIdleError as exc:  # the gate's words, with the fix a ROS 2 caller has
-                raise _on_bus(face, in_ros_terms(exc), exc.nodes) from None
+            pass_face_gate(faces[name], msgs)
         for name, msgs in batches.items():
             bus = faces[name].bus
             if self.interfaces == COMMAND_INTERFACES:

@@ -719,13 +719,7 @@ class Bridge:
         """Every bus's safety gate for its part of a command, before any bus is sent anything: soft limits,
         and motors in closed loop (refused with :class:`MotorIdleError`'s words, the fix a ROS 2 caller's)."""
         for face, ids, values in batches:
-            try:
-                face.relearn()
-                face.bus.pass_gate(self._presets(topic, ids, values))
-            except MotorIdleError as exc:
-                raise _on_bus(face, in_ros_terms(exc), exc.nodes) from None
-            except DrEmpowerError as exc:
-                raise _on_bus(face, exc, [getattr(exc, "node", 0)]) from None
+            pass_face_gate(face, self._presets(topic, ids, values))
 
     def _on_command(self, topic: str, sample: Any) -> None:
         try:
@@ -933,6 +927,19 @@ class Bridge:
         self.stop()
         for face in self.faces.values():
             face.close()
+
+
+def pass_face_gate(face: BusFace, motion: Sequence[Message]) -> None:
+    """Bus ``face``'s safety gate for ``motion`` (a motor a remote client idled is read again first): soft
+    limits, and motors in closed loop, refused in :class:`MotorIdleError`'s words with a ROS 2 caller's fix;
+    the one gate of the bridge's command topics and its ros2_control topics. Sends no motion."""
+    try:
+        face.relearn()
+        face.bus.pass_gate(motion)
+    except MotorIdleError as exc:
+        raise _on_bus(face, in_ros_terms(exc), exc.nodes) from None
+    except DrEmpowerError as exc:
+        raise _on_bus(face, exc, [getattr(exc, "node", 0)]) from None
 
 
 def _on_bus(face: BusFace, exc: DrEmpowerError, nodes: Sequence[int]) -> DrEmpowerError:
