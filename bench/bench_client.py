@@ -6,7 +6,7 @@ Run: ``python3 bench/bench_client.py [--requests N] [--seconds S]``. Prints figu
 1. Round-trip latency of ``get_state`` (fast read) and ``read_property`` through
    every transport (in-process, python-can virtual, slcan (drempower's and
    python-can's) and 0xAA over the adapter pty, the motor UART pty, socketcand
-   over TCP on 127.0.0.1), with the
+   over TCP on 127.0.0.1 (drempower's client and python-can's)), with the
    simulator answering at once: the cost of the client, the transport and the
    attachment, median and 99th percentile.
 2. ``bus.cycle`` rate for 1, 6 and 12 motors on the simulator's 1 Mbit/s timing
@@ -49,7 +49,16 @@ from drempower.sim import (
 )
 from drempower.transports import Transport, open_transport
 
-TRANSPORTS = ("inprocess", "virtual", "slcan", "python-can:slcan", "adapter", "uart", "socketcand")
+TRANSPORTS = (
+    "inprocess",
+    "virtual",
+    "slcan",
+    "python-can:slcan",
+    "adapter",
+    "uart",
+    "socketcand",
+    "python-can:socketcand",
+)
 BITRATE = 1_000_000
 _channels = itertools.count()
 
@@ -74,10 +83,10 @@ def endpoint(kind: str, sim: SimBus) -> Iterator[Transport]:
             pty = attach_uart_pty(sim, 1)
             stack.callback(pty.close)
             t = open_transport("uart", pty.path)
-        elif kind == "socketcand":
+        elif kind in ("socketcand", "python-can:socketcand"):
             server = attach_socketcand(sim)
             stack.callback(server.close)
-            t = open_transport("socketcand", "can0", host=server.host, port=server.port)
+            t = open_transport(kind, "can0", host=server.host, port=server.port)
         else:
             raise ValueError(f"unknown link {kind!r}")
         stack.callback(t.close)

@@ -12,9 +12,10 @@ Rows (the floor of each in brackets):
 2. the same through the asyncio client [the same raw floor]; rows 1 and 2 are also measured with
    the simulators (the client's and the floor's) each in a process of its own, as an adapter is its
    own device: then they do not share the client's interpreter lock;
-3. ``get_state`` over python-can's ``virtual`` bus and over ``socketcand`` on 127.0.0.1 [bare
-   python-can doing the same exchange, send the fast read and receive the reply, on the same
-   interface with the same kind of simulator peer], and over slcan on the simulated adapter's pty,
+3. ``get_state`` over python-can's ``virtual`` bus and over ``socketcand`` on 127.0.0.1,
+   drempower's client and python-can's (``python-can:socketcand``) [bare python-can doing the same
+   exchange, send the fast read and receive the reply, on the same interface with the same kind of
+   simulator peer], and over slcan on the simulated adapter's pty,
    drempower's reader and python-can's (``python-can:slcan``) [the raw pty client writing the slcan
    line and reading the answer and reply lines]: wall time and CPU time per call (the process's,
    every thread: the peers' too), and drempower's transport alone doing the exchange (send,
@@ -290,7 +291,7 @@ def python_can_floor(kind: str) -> Iterator[Callable[[], None]]:
             channel = f"drempower-bench-floor-{os.getpid()}"
             stack.callback(attach_python_can(sim, channel=channel).close)
             floor = BareCan(interface="virtual", channel=channel)
-        elif kind == "socketcand":
+        elif kind in ("socketcand", "python-can:socketcand"):
             server = attach_socketcand(sim)
             stack.callback(server.close)
             floor = BareCan(interface="socketcand", channel="can0", host=server.host, port=server.port)
@@ -350,7 +351,8 @@ def transport_alone(t: Transport) -> Callable[[], None]:
 
 PYTHON_CAN = (
     ("virtual", "python-can virtual", "bare python-can"),
-    ("socketcand", "python-can socketcand, 127.0.0.1", "bare python-can"),
+    ("socketcand", "socketcand, 127.0.0.1 (drempower's client)", "bare python-can"),
+    ("python-can:socketcand", "socketcand, 127.0.0.1 (python-can's)", "bare python-can"),
     ("slcan", "slcan pty (drempower's reader)", "raw pty"),
     ("python-can:slcan", "slcan pty (python-can:slcan)", "raw pty"),
 )

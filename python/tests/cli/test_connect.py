@@ -47,7 +47,11 @@ def test_python_can_options_pass_through() -> None:
     )
     kw, how = connection_kwargs(args)
     assert kw == {"interface": "socketcand", "channel": "can0", "host": "127.0.0.1", "port": 29536}
-    assert how == "python-can socketcand can0"
+    assert how == "socketcand can0"  # drempower's own client
+    args.interface = "python-can:socketcand"
+    assert connection_kwargs(args)[1] == "python-can socketcand can0"
+    args.interface, args.channel, args.can_option = "pcan", "PCAN_USBBUS1", []
+    assert connection_kwargs(args)[1] == "python-can pcan PCAN_USBBUS1"
 
 
 def test_ids_named_twice_across_words(cli: Cli) -> None:

@@ -19,7 +19,7 @@ from drempower.sim import (
 )
 from drempower.sim.bus import Listener
 
-TRANSPORTS = ("inprocess", "virtual", "slcan", "adapter", "uart", "socketcand")
+TRANSPORTS = ("inprocess", "virtual", "slcan", "adapter", "uart", "socketcand", "python-can:socketcand")
 """Every way the client reaches the simulator."""
 
 _channels = itertools.count()
@@ -86,10 +86,10 @@ def link(kind: str, sim: SimBus, time_scale: float = 20.0, clock: str = "virtual
                 pty = attach_uart_pty(sim, min(sim.motors))
                 stack.callback(pty.close)
                 bus = open_bus("uart", pty.path, **options)
-            elif kind == "socketcand":
+            elif kind in ("socketcand", "python-can:socketcand"):
                 server = attach_socketcand(sim)
                 stack.callback(server.close)
-                bus = open_bus("socketcand", "can0", host=server.host, port=server.port, **options)
+                bus = open_bus(kind, "can0", host=server.host, port=server.port, **options)
             else:
                 raise ValueError(kind)
         stack.callback(bus.close)  # closes first: before the attachment and the runner stop

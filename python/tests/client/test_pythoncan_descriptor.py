@@ -98,10 +98,12 @@ def test_client_over_virtual_reads_in_the_calling_thread() -> None:
             assert bus.motor(1).get_state().node == 1
 
 
-def test_socketcand_reads_its_socket_and_notices_a_closed_server() -> None:
+@pytest.mark.parametrize("interface", ["socketcand", "python-can:socketcand"])
+def test_socketcand_reads_its_socket_and_notices_a_closed_server(interface: str) -> None:
+    """drempower's socketcand client and python-can's (through its socket) alike."""
     sim = SimBus(ids=[1])
     server = attach_socketcand(sim)
-    t = open_transport("socketcand", "can0", host=server.host, port=server.port)
+    t = open_transport(interface, "can0", host=server.host, port=server.port)
     try:
         fd = t.fileno()
         assert fd is not None

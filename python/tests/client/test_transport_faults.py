@@ -130,28 +130,36 @@ def test_estop_and_close_return_when_an_slcan_device_stalls() -> None:
 # ------------------------------------------------------------------ opening what is not there
 
 
-def test_socketcand_to_a_closed_port_fails_at_once_naming_host_and_port(caplog: pytest.LogCaptureFixture) -> None:
+@pytest.mark.parametrize("interface", ["socketcand", "python-can:socketcand"])
+def test_socketcand_to_a_closed_port_fails_at_once_naming_host_and_port(
+    interface: str, caplog: pytest.LogCaptureFixture
+) -> None:
     with socket.socket() as s:
         s.bind(("127.0.0.1", 0))
         port = s.getsockname()[1]
     # nothing listens on port now
-    _, exc, took = bounded(lambda: open_transport("socketcand", "can0", host="127.0.0.1", port=port))
+    _, exc, took = bounded(lambda: open_transport(interface, "can0", host="127.0.0.1", port=port))
     assert isinstance(exc, TransportError)
     assert f"127.0.0.1:{port}" in str(exc) and "socketcand" in str(exc)
     assert took < 5  # python-can alone retries for 10 s
     assert not [r for r in caplog.records if r.levelname == "WARNING"]
 
 
-def test_socketcand_to_a_silent_server_fails_naming_host_and_port(monkeypatch: pytest.MonkeyPatch) -> None:
-    """Something listens but never greets: no hang in python-can's handshake."""
+@pytest.mark.parametrize("interface", ["socketcand", "python-can:socketcand"])
+def test_socketcand_to_a_silent_server_fails_naming_host_and_port(
+    interface: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Something listens but never greets: no hang in the handshake (drempower's or python-can's)."""
     from drempower.transports import pythoncan
+    from drempower.transports import socketcand as own
 
     monkeypatch.setattr(pythoncan, "CONNECT_TIMEOUT", 0.3)  # short: the test waits it out
+    monkeypatch.setattr(own, "CONNECT_TIMEOUT", 0.3)
     with socket.socket() as server:
         server.bind(("127.0.0.1", 0))
         server.listen(4)
         port = server.getsockname()[1]
-        _, exc, _ = bounded(lambda: open_transport("socketcand", "can0", host="127.0.0.1", port=port))
+        _, exc, _ = bounded(lambda: open_transport(interface, "can0", host="127.0.0.1", port=port))
     assert isinstance(exc, TransportError)
     assert f"127.0.0.1:{port}" in str(exc) and "hi" in str(exc)
 

@@ -23,6 +23,7 @@ from typing import TYPE_CHECKING, Any
 from ..client.timeouts import MAX_TIMEOUT
 from ..errors import DrEmpowerError
 from ..protocol.limits import MAX_NODE, MIN_MOTOR, is_motor
+from ..transports.factory import INTERFACES
 from ._output import clean
 from ._robot import joint_or_ids
 from ._usage import UsageError
@@ -263,7 +264,7 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
         action="append",
         type=can_option,
         default=[],
-        help="extra python-can bus option, repeatable: -o host=127.0.0.1 -o port=29536 (socketcand), -o index=0",
+        help="extra bus option, repeatable: -o host=127.0.0.1 -o port=29536 (socketcand), -o index=0 (python-can)",
     )
     g.add_argument("--sim-time-scale", type=positive, help=argparse.SUPPRESS)
     g.add_argument(
@@ -282,6 +283,13 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
 
 
 _FLAGS = {"serial": "--serial", "uart": "--uart", "sim": "--sim", "interface": "-i/--interface"}
+
+
+def _described(interface: str, channel: object) -> str:
+    """``slcan /dev/ttyACM0``, ``socketcand can0`` (drempower's own readers) or ``python-can pcan PCAN_USBBUS1``."""
+    own = interface in INTERFACES
+    name = interface.removeprefix("python-can:")
+    return f"{'' if own else 'python-can '}{name} {channel or ''}".rstrip()
 
 
 def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
@@ -319,7 +327,7 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
         how = f"motor UART on {args.uart}"
     elif args.interface:
         kw = {"interface": args.interface, "channel": args.channel, **dict(args.can_option)}
-        how = f"python-can {args.interface} {args.channel or ''}".rstrip()
+        how = _described(args.interface, args.channel)
     elif not can_only and args.bitrate is None and len(adapters := find_adapters()) == 1:
         kw = {"interface": "adapter", "channel": adapters[0]}
         how = f"the USB-CAN adapter found on {adapters[0]} (--serial {adapters[0]})"

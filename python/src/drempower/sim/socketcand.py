@@ -36,17 +36,16 @@ import time
 from types import TracebackType
 
 from ..errors import ProtocolError, ValidationError
-from ..protocol.ids import Frame, parse_int
+from ..protocol.ids import Frame
+from ..protocol.socketcand import MAX_COMMAND, CommandParser, format_frame, parse_send
 from .bus import SimBus
 
-__all__ = ["CommandParser", "SocketcandServer", "attach_socketcand", "parse_send", "format_frame"]
+__all__ = ["MAX_COMMAND", "CommandParser", "SocketcandServer", "attach_socketcand", "parse_send", "format_frame"]
 
 _SETTLE = 0.02
 """Pause after the ``< ok >`` that ends the handshake, so that the client reads it on its own (s)."""
 _POLL = 0.2
 """Longest wait of the server threads (s), so that close() is noticed promptly."""
-MAX_COMMAND = 256
-"""Longest command accepted between ``<`` and ``>`` (bytes); the longest valid one is about 40."""
 MAX_QUEUE = 4096
 """Default bound of each client's output queue (messages)."""
 MAX_CLIENTS = 16
@@ -55,80 +54,6 @@ HANDSHAKE_TIMEOUT = 5.0
 """Time (s) a connection has to reach raw mode (``< open can0 >``, ``< rawmode >``) before it is closed."""
 EVICT_IDLE = 1.0
 """Silence (s) after which a client gives way to a new connection while the server is full."""
-
-
-class CommandParser:
-    """Splits a socketcand byte stream into the commands between ``<`` and ``>``, in one pass.
-
-    Bytes outside ``< >`` are skipped; a command longer than ``limit`` bytes is
-    reported as None (too long) when its ``>`` arrives, and its bytes are not kept.
-    """
-
-    __slots__ = ("_body", "_too_long", "limit")
-
-    def __init__(self, limit: int = MAX_COMMAND) -> None:
-        self.limit = limit
-        self._body: bytearray | None = None
-        self._too_long = False
-
-    def feed(self, chunk: bytes) -> list[str | None]:
-        """The commands completed by ``chunk`` (text between the brackets, stripped; None when too long)."""
-        out: list[str | None] = []
-        pos, n = 0, len(chunk)
-        while pos < n:
-            if self._body is None:
-                start = chunk.find(b"<", pos)
-                if start < 0:
-                    break
-                self._body = bytearray()
-                self._too_long = False
-                pos = start + 1
-            end = chunk.find(b">", pos)
-            stop = n if end < 0 else end
-            if not self._too_long:
-                if len(self._body) + stop - pos > self.limit:
-                    self._too_long = True
-                    self._body.clear()
-                else:
-                    self._body += chunk[pos:stop]
-            if end < 0:
-                break
-            out.append(None if self._too_long else self._body.decode("ascii", "replace").strip())
-            self._body = None
-            pos = end + 1
-        return out
-
-
-def _byte(text: str) -> int:
-    if not 1 <= len(text) <= 2:
-        raise ValueError(text)
-    return parse_int(text, "byte", base=16)
-
-
-def parse_send(body: str) -> Frame:
-    """``send ID LEN B0 ...`` (the text between ``<`` and ``>``) as a frame; raises :class:`ProtocolError`."""
-    parts = body.split()
-    if len(parts) < 3 or parts[0] != "send":
-        raise ProtocolError(f"not a send command: {body!r}")
-    try:
-        ident, length = parts[1], parse_int(parts[2], "length")
-        data = bytes(_byte(b) for b in parts[3:])
-        arb = parse_int(ident, "id", base=16)
-    except ValueError:
-        raise ProtocolError(f"bad send command: {body!r}") from None
-    if length != len(data) or length > 8 or len(ident) not in (3, 8) or "x" in ident.lower():
-        raise ProtocolError(f"bad send command: {body!r}")
-    top = 0x1FFFFFFF if len(ident) == 8 else 0x7FF
-    if arb > top:
-        raise ProtocolError(f"bad send command: id {ident} is above 0x{top:X}")
-    return Frame(arb, data, len(ident) == 8)
-
-
-def format_frame(frame: Frame, seconds: float) -> bytes:
-    """A frame as the server sends it, time stamped ``seconds``."""
-    ident = f"{frame.arbitration_id:08X}" if frame.is_extended else f"{frame.arbitration_id:03X}"
-    whole = int(seconds)
-    return f"< frame {ident} {whole}.{int((seconds - whole) * 1e6):06d} {frame.data.hex().upper()} >".encode()
 
 
 class _Client:

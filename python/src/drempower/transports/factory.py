@@ -52,7 +52,7 @@ def _slcan(interface: str, channel: str | int | None, bitrate: int | None, kwarg
 
     port = _serial_port(interface, channel)
     if bitrate is None:
-        bitrate = _configured_bitrate(interface, port)
+        bitrate = _configured(interface, port, ("bitrate",)).get("bitrate")
     if "send_timeout" in kwargs:  # the python-can transports' name for it
         kwargs.setdefault("write_timeout", kwargs.pop("send_timeout"))
     unknown = sorted(set(kwargs) - _SLCAN_OPTIONS)
@@ -68,16 +68,40 @@ _SLCAN_OPTIONS = frozenset(("tty_baudrate", "sleep_after_open", "listen_only", "
 """What the slcan transport takes besides channel and bitrate (``tty_baudrate`` is the serial rate)."""
 
 
-def _configured_bitrate(interface: str, channel: str) -> int | None:
-    """The bit rate python-can's configuration (config file, CAN_BITRATE) gives, as python-can's slcan would use."""
+def _socketcand(interface: str, channel: str | int | None, bitrate: int | None, kwargs: dict[str, Any]) -> Transport:
+    from .socketcand import SocketcandTransport
+
+    given: dict[str, Any] = {k: kwargs.pop(k) for k in ("host", "port") if k in kwargs}
+    if len(given) < 2:  # python-can's configuration (config file, CAN_* variables) may name the server
+        given = {**_configured(interface, channel, ("host", "port")), **given}
+    kwargs.pop("tcp_tune", None)  # python-can's option: drempower's connection has TCP_NODELAY on always
+    unknown = sorted(set(kwargs) - _SOCKETCAND_OPTIONS)
+    where = f"{given.get('host')}:{given.get('port')}"
+    if unknown:
+        raise TransportOptionError(
+            f"cannot open socketcand bus at {where}: unknown option(s) {', '.join(unknown)}; it takes host, port, "
+            f"{', '.join(sorted(_SOCKETCAND_OPTIONS))} (interface 'python-can:socketcand' is python-can's own client)"
+        )
+    if "host" not in given or "port" not in given:
+        raise TransportOptionError(f"cannot open socketcand bus: give host= and port= of the server (got {where})")
+    return SocketcandTransport(
+        given["host"], given["port"], "can0" if channel is None else str(channel), bitrate=bitrate, **kwargs
+    )
+
+
+_SOCKETCAND_OPTIONS = frozenset(("connect_timeout", "send_timeout"))
+"""What the socketcand transport takes besides host, port, channel and bitrate."""
+
+
+def _configured(interface: str, channel: str | int | None, keys: tuple[str, ...]) -> dict[str, Any]:
+    """``keys`` as python-can's configuration (config file, CAN_* variables) gives them for ``interface``."""
     import can.util
 
     try:
         cfg = can.util.load_config(config={"interface": interface, "channel": channel})
-    except Exception:  # no usable configuration: no bit rate from it
-        return None
-    rate = cfg.get("bitrate")
-    return rate if isinstance(rate, int) else None
+    except Exception:  # no usable configuration: nothing from it
+        return {}
+    return {k: cfg[k] for k in keys if cfg.get(k) is not None}
 
 
 def _sim(interface: str, channel: str | int | None, bitrate: int | None, kwargs: dict[str, Any]) -> Transport:
@@ -112,6 +136,7 @@ INTERFACES: dict[str, Opener] = {
     "serial": _adapter,
     "uart": _uart,
     "slcan": _slcan,
+    "socketcand": _socketcand,
     "sim": _sim,
     "zenoh": _zenoh,
 }
@@ -124,6 +149,8 @@ MOTOR_UART = frozenset(n for n, o in INTERFACES.items() if o is _uart)
 """Interface name of a G-series motor's UART (11-byte frames; channel = serial port)."""
 SLCAN = frozenset(n for n, o in INTERFACES.items() if o is _slcan)
 """Interface name of an slcan adapter read by drempower (channel = serial port; python-can's: ``python-can:slcan``)."""
+SOCKETCAND = frozenset(n for n, o in INTERFACES.items() if o is _socketcand)
+"""Interface name of a socketcand server read by drempower (python-can's client: ``python-can:socketcand``)."""
 SIMULATOR = frozenset(n for n, o in INTERFACES.items() if o is _sim)
 """Interface name of the in-process simulator."""
 ZENOH = frozenset(n for n, o in INTERFACES.items() if o is _zenoh)
@@ -150,6 +177,10 @@ def open_transport(
       configuration when not given), ``sleep_after_open`` (s, default 2 as in
       python-can), ``listen_only``, ``send_timeout``; read with ``select`` and
       ``os.read`` as the adapter is. ``"python-can:slcan"`` is python-can's own.
+    * ``"socketcand"``: a bus served by socketcand, ``host`` and ``port`` of the
+      server (from python-can's configuration when not given), ``channel`` = the
+      served bus (default ``"can0"``), ``connect_timeout``, ``send_timeout``;
+      read with ``select`` and ``recv``. ``"python-can:socketcand"`` is python-can's own.
     * ``"sim"``: the in-process simulator; ``motors=[1, 2, 3]``, ``time_scale``
       and the simulator's other options as keyword arguments.
     * ``"zenoh"``: a bus served by ``drempower bridge``, ``channel`` = its key prefix
