@@ -33,12 +33,12 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any
 
-sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python" / "src"))
+# the drempower source tree measured: this checkout's, or another's in DREMPOWER_SRC (bench_against.py)
+sys.path.insert(0, os.environ.get("DREMPOWER_SRC") or str(Path(__file__).resolve().parent.parent / "python" / "src"))
 
 import drempower
 from drempower.client import Bus
 from drempower.protocol import FastRead, PositionT, State, encode_aa, encode_uart11
-from drempower.protocol.slcan import encode_slcan
 from drempower.sim import (
     SimBus,
     attach_adapter_pty,
@@ -140,6 +140,8 @@ class RawFloor:
         if kind == "uart":
             self.request, self.size = encode_uart11(frame.arbitration_id, frame.data), 11
         elif kind == "slcan":
+            from drempower.protocol.slcan import encode_slcan  # (a revision compared may have none)
+
             self.request, self.size = encode_slcan(frame), len(b"z\r" + encode_slcan(reply))
             os.write(self.fd, b"C\rS8\rO\r")
             self._take(3)  # the three answers

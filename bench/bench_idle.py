@@ -30,7 +30,7 @@ import threading
 import time
 from pathlib import Path
 
-SRC = Path(__file__).resolve().parent.parent / "python" / "src"
+SRC = Path(os.environ.get("DREMPOWER_SRC") or Path(__file__).resolve().parent.parent / "python" / "src")
 sys.path.insert(0, str(SRC))
 
 

@@ -68,7 +68,9 @@ from pathlib import Path
 from typing import Any
 
 HERE = Path(__file__).resolve().parent
-sys.path.insert(0, str(HERE.parent / "python" / "src"))
+# the drempower source tree measured: this checkout's, or another's in DREMPOWER_SRC (bench_against.py)
+SRC = Path(os.environ.get("DREMPOWER_SRC") or HERE.parent / "python" / "src")
+sys.path.insert(0, str(SRC))
 sys.path.insert(0, str(HERE))
 
 import bench_client  # noqa: E402  (the client links, the raw pty floor, the fine simulated clock, the cycle's bits)
@@ -141,7 +143,7 @@ def sim_process() -> Iterator[str]:
     """A simulator of motor 1 in its own process (``drempower sim --adapter-pty``), as an adapter is its
     own device; yields the adapter pty's path."""
     cmd = [sys.executable, "-m", "drempower", "sim", "--adapter-pty", "--json"]
-    env = {**os.environ, "PYTHONPATH": str(HERE.parent / "python" / "src")}
+    env = {**os.environ, "PYTHONPATH": str(SRC)}
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, env=env)
     try:
         path = None
