@@ -76,6 +76,7 @@ def test_the_decoder_takes_a_stream_cut_anywhere(size: int) -> None:
     [
         b"< frame 0123 1.0 01 >",  # 4 id digits: neither 11 nor 29 bits
         b"< frame 800 1.0 01 >",  # above 0x7FF
+        b"< frame FFF 1.0 01 >",  # above 0x7FF
         b"< frame 023 1.0 012 >",  # odd hex digits
         b"< frame 023 1.0 010203040506070809 >",  # 9 bytes
         b"< frame 023 x1.0 01 >",  # bad time stamp
@@ -89,6 +90,9 @@ def test_a_malformed_message_is_dropped_and_counted_and_the_next_frame_still_dec
     d = FrameDecoder()
     assert d.feed(message + b"< frame 001 1.0 AA >") == [Frame(0x001, b"\xaa", False)]
     assert d.dropped == len(message)
+    alone = FrameDecoder()  # a chunk that is one message alone (the commonest read) is checked the same
+    assert alone.feed(message) == [] and alone.dropped == len(message) and alone.frames == 0
+    assert alone.feed(b"< frame 001 1.0 AA >") == [Frame(0x001, b"\xaa", False)] and alone.frames == 1
 
 
 def test_a_message_without_its_end_is_dropped_past_the_limit() -> None:
