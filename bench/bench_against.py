@@ -9,8 +9,10 @@ today is not comparable with one measured last week. This script checks ``REV`` 
 temporary git worktree and runs ``bench_table.py`` (this checkout's harness, so both trees are
 measured the same way) on each tree in turn, ``--rounds`` times, each run in a fresh interpreter
 with ``DREMPOWER_SRC`` naming the tree's ``python/src``. For every row it prints the median over
-the rounds of each tree's figure, floor and ratio, and how this checkout's figure compares with
-``REV``'s. Rows ``REV`` cannot run (an interface it does not have) are left out.
+the rounds of each tree's figure, floor and ratio, and this checkout's figure over ``REV``'s. Rows
+that one tree did not print (an interface ``REV`` does not have) are left out; an interface name the
+two trees open differently (``"socketcand"`` before drempower had its own client) measures, on each
+tree, what that tree opens. Sub-rows (``  CPU per call``...) are named with the row above them.
 """
 
 from __future__ import annotations
@@ -52,12 +54,18 @@ def table(src: Path, rows: str, requests: int) -> dict[str, tuple[float, str, fl
     cmd = [sys.executable, str(HERE / "bench_table.py"), "--rows", rows, "--requests", str(requests)]
     out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
     got: dict[str, tuple[float, str, float, float | None]] = {}
+    parent = ""
     for line in out.stdout.splitlines():
         m = _ROW.match(line)
         if m is None:
             continue
         ratio = re.match(r"([\d.]+)", m["ratio"])
-        got[m["label"].strip()] = (
+        label = m["label"].strip()
+        if m["label"].startswith("  "):  # a sub-row: the same words follow several rows
+            label = f"{parent}: {label}"
+        else:
+            parent = label
+        got[label] = (
             float(m["figure"]),
             m["unit"],
             float(m["floor"]),
@@ -75,6 +83,15 @@ def main() -> None:
     ap.add_argument("--rows", default="inprocess,adapter", help="bench_table.py's groups (default inprocess,adapter)")
     ap.add_argument("--requests", type=int, default=2000, help="calls per latency figure (default 2000)")
     args = ap.parse_args()
+    if args.rounds < 1 or args.requests < 1:
+        ap.error(f"--rounds {args.rounds}, --requests {args.requests}: both must be >= 1")
+    known = subprocess.run(
+        ["git", "-C", str(ROOT), "rev-parse", "--verify", "--quiet", f"{args.rev}^{{commit}}"],
+        capture_output=True,
+        check=False,
+    )
+    if known.returncode != 0:
+        ap.error(f"{args.rev}: not a revision of this repository")
     here = ROOT / "python" / "src"
     with worktree(args.rev) as other:
         there = other / "python" / "src"
@@ -83,8 +100,11 @@ def main() -> None:
             runs["rev"].append(table(there, args.rows, args.requests))
             runs["this"].append(table(here, args.rows, args.requests))
     labels = [label for label in runs["this"][0] if all(label in r for side in runs.values() for r in side)]
+    if not labels:
+        sys.exit("bench_against: no row ran on both trees (see the errors above)")
     print(f"this checkout against {args.rev}: medians of {args.rounds} runs each, taken in turns")
-    print(f"  {'row':<50} {'this':>10} {'(floor)':>9} {'ratio':>7}   {args.rev[:10]:>10} {'(floor)':>9} {'ratio':>7}")
+    head = f"{'this':>10} {'(floor)':>9} {'ratio':>7}   {args.rev[:10]:>10} {'(floor)':>9} {'ratio':>7}"
+    print(f"  {'row':<70} {head}   this/rev")
     for label in labels:
         cols = []
         for side in ("this", "rev"):
@@ -94,7 +114,10 @@ def main() -> None:
             ratio = f"{statistics.median(ratios):.2f}x" if ratios else ""
             cols.append((fig, floor, ratio, runs[side][0][label][1]))
         (a, af, ar, unit), (b, bf, br, _) = cols
-        print(f"  {label:<50} {a:>7.1f} {unit:<2} {af:>9.1f} {ar:>7}   {b:>7.1f} {unit:<2} {bf:>9.1f} {br:>7}")
+        versus = f"{a / b:.2f}" if b else ""
+        print(
+            f"  {label:<70} {a:>7.1f} {unit:<2} {af:>9.1f} {ar:>7}   {b:>7.1f} {unit:<2} {bf:>9.1f} {br:>7}   {versus}"
+        )
 
 
 if __name__ == "__main__":

@@ -3,7 +3,9 @@ the server's errors, a close that wakes a waiting receive; on 127.0.0.1 only."""
 
 from __future__ import annotations
 
+import asyncio
 import json
+import select
 import socket
 import threading
 import time
@@ -12,7 +14,7 @@ from contextlib import contextmanager
 
 import pytest
 
-from drempower import open_bus
+from drempower import BusClosedError, open_bus, open_bus_async
 from drempower.protocol import FastRead
 from drempower.protocol.ids import Frame
 from drempower.sim import SimBus, attach_socketcand
@@ -108,7 +110,9 @@ def test_frames_in_the_same_packet_as_the_last_ok_are_kept_and_errors_are_counte
     with scripted(answers) as port:
         t = SocketcandTransport("127.0.0.1", port, connect_timeout=1.0)
         try:
-            assert t.recv(1.0) == Frame(0x023, b"\x01\x02", False)
+            fd = t.fileno()
+            assert fd is not None and select.select([fd], [], [], 1.0)[0]  # left in the socket: it says so
+            assert t.read_nowait() == [Frame(0x023, b"\x01\x02", False)]
             deadline = time.monotonic() + 2
             while t.decoder.errors == 0 and time.monotonic() < deadline:
                 t.recv(0.05)
@@ -194,7 +198,8 @@ def test_close_wakes_a_waiting_receive_at_once() -> None:
         ({"port": None}, "give host= and port= of the server"),
         ({"port": "29x"}, "port: '29x' is not a whole number"),
         ({"port": 70000}, "port=70000 must be 1..65535"),
-        ({"send_timeout": 0}, "send_timeout=0 must be a number of seconds > 0"),
+        ({"send_timeout": 0}, "send_timeout=0 must be seconds in (0, 3600]"),
+        ({"connect_timeout": float("inf")}, "connect_timeout=inf must be seconds in (0, 3600]"),
     ],
 )
 def test_bad_options_are_refused_before_connecting(options: dict[str, object], words: str) -> None:
@@ -204,6 +209,23 @@ def test_bad_options_are_refused_before_connecting(options: dict[str, object], w
     with pytest.raises(TransportOptionError) as info:
         open_transport("socketcand", "can0", **kwargs)
     assert words in str(info.value)
+
+
+def test_python_cans_configuration_gives_the_channel_and_a_bad_one_is_refused_in_its_words(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    server = attach_socketcand(SimBus(ids=[1]), channel="vcan3")
+    try:
+        monkeypatch.setenv("CAN_CHANNEL", "vcan3")
+        t = open_transport("socketcand", host=server.host, port=server.port)
+        assert t.description == f"socketcand vcan3 at 127.0.0.1:{server.port}"
+        t.close()
+    finally:
+        server.close()
+    monkeypatch.setenv("CAN_CONFIG", json.dumps({"host": "127.0.0.1", "port": 99999}))
+    with pytest.raises(TransportOptionError) as info:
+        open_transport("socketcand", "can0")
+    assert "python-can's configuration is invalid: Port config must be inside 0-65535 range!" in str(info.value)
 
 
 def test_the_server_may_come_from_python_cans_configuration_and_bitrate_times_the_bus(
@@ -216,5 +238,74 @@ def test_the_server_may_come_from_python_cans_configuration_and_bitrate_times_th
             assert bus.transport.wire_bitrate == 1_000_000
             assert bus.transport.description == f"socketcand can0 at 127.0.0.1:{server.port}"
             assert bus.motor(1).get_state().node == 1
+    finally:
+        server.close()
+
+
+@pytest.mark.parametrize("interface", ["socketcand", "python-can:socketcand"])
+def test_a_server_that_goes_away_fails_the_bus_once_and_costs_no_cpu(
+    interface: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    """The socket of a closed connection stays readable: the receive thread stops at the first failure
+    (it used to read it again at once, logging each time, until the bus was closed)."""
+    server = attach_socketcand(SimBus(ids=[1]))
+    with open_bus(interface, "can0", host=server.host, port=server.port, timeout=0.5, stop_on_close=False) as bus:
+        assert bus.motor(1).get_state().node == 1
+        time.sleep(0.3)  # the receive thread takes the reading over from the caller
+        server.close()
+        cpu = time.process_time()
+        time.sleep(1.0)
+        assert time.process_time() - cpu < 0.3
+        stopped = [r for r in caplog.records if "receive loop" in r.getMessage()]
+        assert len(stopped) == 1, [r.getMessage() for r in stopped]
+        with pytest.raises(BusClosedError, match="the receive loop stopped"):
+            bus.motor(1).get_state()
+
+
+@pytest.mark.parametrize("interface", ["socketcand", "python-can:socketcand"])
+def test_an_event_loop_reading_a_server_that_goes_away_stops_reading_it(
+    interface: str, caplog: pytest.LogCaptureFixture
+) -> None:
+    async def main() -> float:
+        server = attach_socketcand(SimBus(ids=[1]))
+        bus = open_bus_async(interface, "can0", host=server.host, port=server.port, stop_on_close=False)
+        try:
+            assert (await bus.motor(1).get_state()).node == 1
+            waiting = asyncio.ensure_future(bus.motor(1).wait_state(5.0))
+            await asyncio.sleep(0.05)
+            server.close()
+            with pytest.raises(BusClosedError):
+                await asyncio.wait_for(waiting, 2.0)
+            cpu = time.process_time()
+            await asyncio.sleep(1.0)
+            return time.process_time() - cpu
+        finally:
+            await bus.close()
+            server.close()
+
+    assert asyncio.run(main()) < 0.3
+    assert len([r for r in caplog.records if "receive loop" in r.getMessage()]) == 1
+
+
+@pytest.mark.parametrize("interface", ["socketcand", "python-can:socketcand"])
+def test_the_last_frames_sent_before_close_reach_the_server(interface: str) -> None:
+    """Closing waits (briefly) for the server to close its side: a socket closed with unread data is reset,
+    and the reset would drop what it still had to send, the stops of stop_on_close among them."""
+    sim = SimBus(ids=[1])
+    heard: list[Frame] = []
+    sim.add_listener(heard.append, host_frames=True)
+    server = attach_socketcand(sim)
+    try:
+        t = open_transport(interface, "can0", host=server.host, port=server.port)
+        for i in range(20):
+            sim.send(Frame(0x100, bytes([i]), False))  # arrives at the client, unread
+        time.sleep(0.1)
+        for i in range(200):
+            t.send(Frame(0x200, i.to_bytes(2, "big"), False))
+        t.close()
+        deadline = time.monotonic() + 3
+        while sum(f.arbitration_id == 0x200 for f in heard) < 200 and time.monotonic() < deadline:
+            time.sleep(0.02)
+        assert sum(f.arbitration_id == 0x200 for f in heard) == 200
     finally:
         server.close()

@@ -74,7 +74,8 @@ def test_the_decoder_takes_a_stream_cut_anywhere(size: int) -> None:
 @pytest.mark.parametrize(
     "message",
     [
-        b"< frame 0123 1.0 01 >",  # 4 id digits: neither 11 nor 29 bits
+        b"< frame 123456789 1.0 01 >",  # 9 id digits
+        b"< frame FFFFFFFF 1.0 01 >",  # above 0x1FFFFFFF
         b"< frame 800 1.0 01 >",  # above 0x7FF
         b"< frame FFF 1.0 01 >",  # above 0x7FF
         b"< frame 023 1.0 012 >",  # odd hex digits
@@ -107,3 +108,11 @@ def test_the_servers_frames_decode_to_what_was_sent() -> None:
     frames = [f for f, _ in GOLDEN_SENDS]
     stream = b"".join(format_frame(f, 1234.5 + i) for i, f in enumerate(frames))
     assert d.feed(stream) == frames
+
+
+def test_ids_of_other_widths_read_as_python_can_reads_them_and_a_stray_bracket_costs_only_itself() -> None:
+    d = FrameDecoder()
+    assert d.feed(b"< frame 23 1.0 01 >") == [Frame(0x23, b"\x01", True)]  # not 3 digits: a 29-bit id
+    assert d.feed(b"< frame 1ABCD 1.0 >") == [Frame(0x1ABCD, b"", True)]
+    assert d.feed(b"<junk< frame 023 1.0 01 >") == [Frame(0x023, b"\x01", False)]
+    assert d.dropped == len(b"<junk")

@@ -148,7 +148,7 @@ class Receiver:
         try:
             frames = self.driver.transport.read_nowait()
         except Exception as exc:
-            if not self.driver._closed:
+            if not self.driver._closed and self.driver._failure is None:  # told once
                 self.failed(exc)
             return
         if frames:
@@ -193,6 +193,11 @@ class Receiver:
         if events:
             d._dispatch(events)
 
+    @property
+    def stopped(self) -> bool:
+        """True once receiving failed (:meth:`failed`): the transport is read no more."""
+        return self.driver._failure is not None
+
     def failed(self, exc: BaseException) -> None:
         """Receiving failed: the bus stops taking requests (sending stays possible, for the stops)."""
         d = self.driver
@@ -223,7 +228,7 @@ class Receiver:
         fds = [fd, self._poke_r, self._close_r]
         gate, reader = self._gate, self.lock
         try:
-            while not d._is_closed():
+            while not d._is_closed() and d._failure is None:
                 orphan: LoopReader | None = None
                 with gate:
                     while not d._is_closed():
@@ -248,7 +253,7 @@ class Receiver:
                 finally:
                     with gate:
                         self._selecting = False
-                if d._is_closed():
+                if d._is_closed() or d._failure is not None:
                     return
                 if self._poke_r in ready:
                     drain(self._poke_r)
@@ -258,6 +263,8 @@ class Receiver:
                     self.read_feed()
                 finally:
                     self.release()  # wakes a caller that found the role taken
+                if self.stopped:
+                    return  # the transport failed (a server gone leaves its socket readable): read no more
         except Exception as exc:
             if not d._is_closed():
                 self.failed(exc)

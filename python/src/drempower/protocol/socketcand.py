@@ -5,7 +5,8 @@ enters raw mode with ``< rawmode >``, each answered ``< ok >`` (or
 ``< error ... >``). In raw mode the client sends ``< send ID LEN B0 B1 ... >``
 (id 3 hex digits, or 8 for a 29-bit id; the length; each data byte in hex) and
 receives ``< frame ID SECS.USECS DATA >`` (the frame's time stamp, its data as
-one hex string). Raw mode carries no remote frames.
+one hex string; an id of 3 digits is an 11-bit id, of any other width up to 8 a
+29-bit one, as python-can reads it). Raw mode carries no remote frames.
 
 This module holds both sides: :func:`encode_send` and :class:`FrameDecoder`
 for a client, :class:`CommandParser`, :func:`parse_send` and
@@ -40,7 +41,7 @@ _HEX = b"0123456789abcdefABCDEF"
 _TIME = b"0123456789."
 _FRAME = b"< frame "
 _ANSWERS = (b"< ok >", b"< hi >", b"< echo >")
-_ONE_FRAME = re.compile(rb"< frame ([0-9A-Fa-f]{3}|[0-9A-Fa-f]{8}) [0-9.]+ ((?:[0-9A-Fa-f]{2}){0,8}) >")
+_ONE_FRAME = re.compile(rb"< frame ([0-9A-Fa-f]{1,8}) [0-9.]+ ((?:[0-9A-Fa-f]{2}){0,8}) >")
 """A chunk that is one whole frame message, the commonest read: parsed in one match."""
 
 
@@ -104,9 +105,10 @@ class FrameDecoder:
         if not self._buf and (one := _ONE_FRAME.fullmatch(chunk)) is not None:
             head = one[1]
             arb = int(head, 16)
-            if arb <= 0x7FF or len(head) == 8:
+            ext = len(head) != 3
+            if arb <= (0x1FFFFFFF if ext else 0x7FF):
                 self.frames += 1
-                return [_new_frame(Frame, (arb, binascii.unhexlify(one[2]), len(head) == 8, False))]
+                return [_new_frame(Frame, (arb, binascii.unhexlify(one[2]), ext, False))]
         data = self._buf + chunk if self._buf else chunk
         out: list[Frame] = []
         pos, n = 0, len(data)
@@ -116,12 +118,14 @@ class FrameDecoder:
                 self.dropped += n - pos
                 pos = n
                 break
-            if start > pos:
-                self.dropped += start - pos
             end = data.find(b">", start)
             if end < 0:
+                self.dropped += start - pos
                 pos = start
                 break
+            start = data.rfind(b"<", start, end)  # a message starts at the last "<" before its ">"
+            if start > pos:
+                self.dropped += start - pos
             message = data[start : end + 1]
             pos = end + 1
             if message.startswith(_FRAME):
@@ -154,7 +158,7 @@ class FrameDecoder:
         head, stamp, hexdata = parts
         size = len(head)
         if (
-            (size != 3 and size != 8)
+            not 1 <= size <= 8
             or head.translate(None, _HEX)
             or not stamp
             or stamp.translate(None, _TIME)
@@ -164,7 +168,7 @@ class FrameDecoder:
             self.dropped += len(message)
             return None
         arb = int(head, 16)
-        ext = size == 8
+        ext = size != 3  # as python-can reads it: 3 digits are an 11-bit id, any other width a 29-bit one
         if arb > (0x1FFFFFFF if ext else 0x7FF):
             self.dropped += len(message)
             return None

@@ -72,8 +72,11 @@ def _socketcand(interface: str, channel: str | int | None, bitrate: int | None, 
     from .socketcand import SocketcandTransport
 
     given: dict[str, Any] = {k: kwargs.pop(k) for k in ("host", "port") if k in kwargs}
-    if len(given) < 2:  # python-can's configuration (config file, CAN_* variables) may name the server
-        given = {**_configured(interface, channel, ("host", "port")), **given}
+    if len(given) < 2 or channel is None:  # python-can's configuration (config file, CAN_* variables) may say
+        cfg = _configured(interface, channel, ("host", "port", "channel"))
+        given = {**cfg, **given}
+        if channel is None:
+            channel = cfg.get("channel")
     kwargs.pop("tcp_tune", None)  # python-can's option: drempower's connection has TCP_NODELAY on always
     unknown = sorted(set(kwargs) - _SOCKETCAND_OPTIONS)
     where = f"{given.get('host')}:{given.get('port')}"
@@ -94,12 +97,20 @@ _SOCKETCAND_OPTIONS = frozenset(("connect_timeout", "send_timeout"))
 
 
 def _configured(interface: str, channel: str | int | None, keys: tuple[str, ...]) -> dict[str, Any]:
-    """``keys`` as python-can's configuration (config file, CAN_* variables) gives them for ``interface``."""
+    """``keys`` as python-can's configuration (config file, CAN_* variables) gives them for ``interface``
+    (and ``channel``, when given); raises :class:`TransportOptionError` when that configuration is invalid."""
     import can.util
 
+    config: dict[str, Any] = {"interface": interface}
+    if channel is not None:
+        config["channel"] = channel
     try:
-        cfg = can.util.load_config(config={"interface": interface, "channel": channel})
-    except Exception:  # no usable configuration: nothing from it
+        cfg = can.util.load_config(config=config)
+    except ValueError as exc:
+        raise TransportOptionError(
+            f"cannot open {interface} bus: python-can's configuration is invalid: {exc}"
+        ) from exc
+    except Exception:  # no usable configuration (an unknown interface named in it): nothing from it
         return {}
     return {k: cfg[k] for k in keys if cfg.get(k) is not None}
 

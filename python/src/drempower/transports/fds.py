@@ -1,10 +1,13 @@
-"""Small helpers for the file descriptors the transports and the driver wait on (wake-up pipes)."""
+"""Small helpers for the file descriptors the transports and the driver wait on (wake-up pipes, sockets)."""
 
 from __future__ import annotations
 
 import os
+import select
+import socket
+import time
 
-__all__ = ["close_fds", "drain", "nonblocking_pipe"]
+__all__ = ["close_fds", "drain", "drain_close", "nonblocking_pipe"]
 
 
 def nonblocking_pipe() -> tuple[int, int]:
@@ -31,3 +34,24 @@ def close_fds(*fds: int) -> None:
             os.close(fd)
         except OSError:
             pass
+
+
+def drain_close(sock: socket.socket, seconds: float) -> None:
+    """Close a TCP connection without losing what it still has to send: send the end of the stream, read
+    (and drop) until the peer closes its side, at most ``seconds`` s, then close. A socket closed with
+    unread data is reset, and the reset drops the frames it had queued (the stops of ``stop_on_close``)."""
+    try:
+        sock.shutdown(socket.SHUT_WR)
+        deadline = time.monotonic() + seconds
+        while (left := deadline - time.monotonic()) > 0:
+            if not select.select([sock], [], [], left)[0]:
+                break
+            try:
+                if not sock.recv(65536, socket.MSG_DONTWAIT):
+                    break  # the peer closed its side: everything sent was taken
+            except (BlockingIOError, InterruptedError):
+                continue
+    except (OSError, ValueError):  # not connected any more: nothing to keep
+        pass
+    finally:
+        sock.close()

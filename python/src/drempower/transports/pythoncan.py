@@ -21,7 +21,7 @@ from can.interfaces import VALID_INTERFACES
 from ..protocol.ids import Frame, parse_int
 from .base import Transport
 from .errors import TransportError
-from .fds import close_fds, nonblocking_pipe
+from .fds import close_fds, drain_close, nonblocking_pipe
 
 __all__ = ["PythonCanTransport", "SEND_TIMEOUT", "CONNECT_TIMEOUT"]
 
@@ -31,6 +31,8 @@ CONNECT_TIMEOUT = 2.0
 """How long (s) a socketcand server gets to accept the connection and greet."""
 _CLOSE_WRITE_TIMEOUT = 0.25
 """Bound (s) of what an interface writes while shutting down (slcan's close command)."""
+_CLOSE_DRAIN = 0.5
+"""Longest wait (s) on closing a socketcand connection for the server to close its side (see ``drain_close``)."""
 _SERIAL_PORTS = ("serialPortOrig", "_ser")
 """Where python-can's serial-port interfaces keep their pyserial port (slcan, serial)."""
 _KEYS = ("interface", "channel", "bitrate")
@@ -419,6 +421,9 @@ class PythonCanTransport(Transport):
         sending = self._send_lock.acquire(timeout=self._send_timeout + 0.5)
         receiving = self._recv_lock.acquire(timeout=1.0)
         try:
+            sock = getattr(self._bus, "_SocketCanDaemonBus__socket", None)
+            if isinstance(sock, socket.socket):  # socketcand: the last frames sent (the stops) must not be reset
+                drain_close(sock, _CLOSE_DRAIN)
             self._bus.shutdown()
         except Exception:  # e.g. slcan's close command timing out: release the port anyway
             for attr in _SERIAL_PORTS:

@@ -20,7 +20,7 @@ from ..protocol.ids import Frame, parse_int
 from ..protocol.socketcand import FrameDecoder, encode_send
 from .base import Transport
 from .errors import TransportError, TransportOptionError
-from .fds import close_fds, nonblocking_pipe
+from .fds import close_fds, drain_close, nonblocking_pipe
 
 __all__ = ["SocketcandTransport", "CONNECT_TIMEOUT", "SEND_TIMEOUT", "TX_LATENCY"]
 
@@ -34,6 +34,11 @@ _WRITE_SLICE = 0.05
 """Longest single wait of a send for room in the socket (s), so that ``close`` is noticed promptly."""
 _HANDSHAKE_LIMIT = 512
 """Most bytes read while waiting for one answer of the handshake."""
+MAX_TIMEOUT = 3600.0
+"""Longest ``connect_timeout`` and ``send_timeout`` taken (s): a wait must end."""
+_CLOSE_DRAIN = 0.5
+"""Longest wait (s) on closing for the server to close its side, so that what was sent last (the stops)
+is not discarded: a socket closed with unread data is reset, and the reset drops what it had queued."""
 
 
 def _why(exc: BaseException) -> str:
@@ -86,9 +91,9 @@ class SocketcandTransport(Transport):
                 f"cannot open socketcand bus at {where}: channel={channel!r} must be the served bus's name, e.g. 'can0'"
             )
         for name, value in (("connect_timeout", connect_timeout), ("send_timeout", send_timeout)):
-            if isinstance(value, bool) or not isinstance(value, int | float) or not value > 0:
+            if isinstance(value, bool) or not isinstance(value, int | float) or not 0 < value <= MAX_TIMEOUT:
                 raise TransportOptionError(
-                    f"cannot open socketcand bus at {where}: {name}={value!r} must be a number of seconds > 0"
+                    f"cannot open socketcand bus at {where}: {name}={value!r} must be seconds in (0, {MAX_TIMEOUT:g}]"
                 )
         if bitrate is not None and (isinstance(bitrate, bool) or not isinstance(bitrate, int) or bitrate <= 0):
             raise TransportOptionError(f"cannot open socketcand bus at {where}: bitrate={bitrate!r} must be bit/s > 0")
@@ -100,6 +105,8 @@ class SocketcandTransport(Transport):
         self._wlock = threading.Lock()
         self._closing = threading.Event()
         self._broken: str | None = None
+        wake_r, self._wake_w = nonblocking_pipe()
+        weakref.finalize(self, close_fds, wake_r, self._wake_w)
         try:
             sock = socket.create_connection((host, number), timeout=connect_timeout)
         except TimeoutError as exc:
@@ -108,22 +115,18 @@ class SocketcandTransport(Transport):
             raise TransportError(f"cannot reach socketcand at {where}: {_why(exc)}") from exc
         try:
             sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
-            rest = self._handshake(sock, channel, float(connect_timeout))
+            self._handshake(sock, channel, float(connect_timeout))
             sock.setblocking(False)
         except BaseException:
             sock.close()
             raise
         self._sock = sock
         self._fd = sock.fileno()
-        wake_r, self._wake_w = nonblocking_pipe()
-        weakref.finalize(self, close_fds, wake_r, self._wake_w)
         self._wait_fds = [self._fd, wake_r]
-        if rest:
-            self._frames.extend(self._decoder.feed(rest))
 
-    def _handshake(self, sock: socket.socket, channel: str, timeout: float) -> bytes:
-        """Greeting, open, raw mode; returns what the server sent after the last ``< ok >``."""
-        buf = b""
+    def _handshake(self, sock: socket.socket, channel: str, timeout: float) -> None:
+        """Greeting, open, raw mode. Only the answers are taken from the socket: what the server sends
+        after the last ``< ok >`` stays there, so the descriptor tells that it is there."""
         for say, want, step in (
             (None, b"< hi >", "greet with '< hi >'"),
             (b"< open %s >" % channel.encode(), b"< ok >", f"open bus {channel!r}"),
@@ -135,7 +138,7 @@ class SocketcandTransport(Transport):
                     sock.sendall(say)
                 except OSError as exc:
                     raise TransportError(f"{self.description}: the server did not {step}: {_why(exc)}") from exc
-            answer, buf = self._answer(sock, buf, timeout, step)
+            answer = self._answer(sock, timeout, step)
             if answer != want:
                 if answer.startswith(b"< error"):
                     words = answer[7:-1].strip().decode("ascii", "replace")
@@ -143,19 +146,22 @@ class SocketcandTransport(Transport):
                 raise TransportError(
                     f"{self.description}: the server did not {step} (it said {answer!r}); is it a socketcand server?"
                 )
-        return buf
 
-    def _answer(self, sock: socket.socket, buf: bytes, timeout: float, step: str) -> tuple[bytes, bytes]:
-        """The next ``< ... >`` message of the handshake and what follows it."""
+    def _answer(self, sock: socket.socket, timeout: float, step: str) -> bytes:
+        """The next ``< ... >`` message of the handshake, taken from the socket up to its ``>`` (what follows
+        stays unread: it is looked at with ``MSG_PEEK`` first)."""
         deadline = time.monotonic() + timeout
-        while (end := buf.find(b">")) < 0:
+        buf = b""
+        while True:
             left = deadline - time.monotonic()
             if left <= 0 or len(buf) > _HANDSHAKE_LIMIT:
                 got = f"got {buf!r}" if buf else "got nothing"
                 raise TransportError(f"{self.description}: the server did not {step} in {timeout:g} s ({got})")
             try:
                 sock.settimeout(left)
-                chunk = sock.recv(256)
+                peek = sock.recv(256, socket.MSG_PEEK)
+                end = peek.find(b">")
+                chunk = sock.recv(len(peek) if end < 0 else end + 1) if peek else b""
             except TimeoutError:
                 continue
             except OSError as exc:
@@ -163,8 +169,9 @@ class SocketcandTransport(Transport):
             if not chunk:
                 raise TransportError(f"{self.description}: the server closed the connection instead of answering")
             buf += chunk
-        start = buf.find(b"<")
-        return buf[max(start, 0) : end + 1], buf[end + 1 :]
+            if end >= 0:
+                start = buf.rfind(b"<")
+                return buf[max(start, 0) :]
 
     @property
     def decoder(self) -> FrameDecoder:
@@ -280,11 +287,7 @@ class SocketcandTransport(Transport):
         # a send in progress notices the close within one write slice; do not close the socket under it
         locked = self._wlock.acquire(timeout=max(1.0, 4 * _WRITE_SLICE))
         try:
-            try:
-                self._sock.shutdown(socket.SHUT_RDWR)
-            except OSError:
-                pass
-            self._sock.close()
+            drain_close(self._sock, _CLOSE_DRAIN)
         finally:
             if locked:
                 self._wlock.release()
