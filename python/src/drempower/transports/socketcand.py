@@ -103,7 +103,8 @@ class SocketcandTransport(Transport):
         self._decoder = FrameDecoder()
         self._frames: deque[Frame] = deque()
         self._wlock = threading.Lock()
-        self._closing = threading.Event()
+        self._closed = False
+        """Set once by :meth:`close` (a plain flag: read on every send and receive)."""
         self._broken: str | None = None
         wake_r, self._wake_w = nonblocking_pipe()
         weakref.finalize(self, close_fds, wake_r, self._wake_w)
@@ -183,7 +184,7 @@ class SocketcandTransport(Transport):
     def send(self, frame: Frame) -> None:
         data = encode_send(frame)
         with self._wlock:
-            if self._closing.is_set():
+            if self._closed:
                 raise TransportError(f"{self.description}: closed, frame not sent")
             if self._broken is not None:
                 raise TransportError(f"{self.description}: frame not sent: {self._broken}; close and reopen the bus")
@@ -202,7 +203,7 @@ class SocketcandTransport(Transport):
         deadline = time.monotonic() + self._send_timeout
         while sent < total:
             left = deadline - time.monotonic()
-            if left <= 0 or self._closing.is_set():
+            if left <= 0 or self._closed:
                 break
             try:
                 select.select([], [self._fd], [], min(left, _WRITE_SLICE))
@@ -213,7 +214,7 @@ class SocketcandTransport(Transport):
                 raise self._failed(sent, total, _why(exc)) from exc
         if sent < total:
             why = f"the server took no data for {self._send_timeout:g} s"
-            if self._closing.is_set():
+            if self._closed:
                 why = "closed while writing"
             raise self._failed(sent, total, why)
 
@@ -226,7 +227,7 @@ class SocketcandTransport(Transport):
     # ------------------------------------------------------------------ receiving
 
     def is_closed(self) -> bool:
-        return self._closing.is_set()
+        return self._closed
 
     def fileno(self) -> int | None:
         """The socket's descriptor: readable when the server sent something."""
@@ -238,23 +239,26 @@ class SocketcandTransport(Transport):
         Raises :class:`TransportError` when the server closed the connection.
         """
         frames = self._frames
-        out = list(frames) if frames else []
-        frames.clear()
+        out: list[Frame] = []
+        if frames:
+            out.extend(frames)
+            frames.clear()
         try:
             chunk = self._sock.recv(65536)
         except (BlockingIOError, InterruptedError):
             return out
         except OSError as exc:
-            if self._closing.is_set():
+            if self._closed:
                 return out
             raise TransportError(f"{self.description}: receive failed: {_why(exc)}") from exc
         if not chunk:
-            if self._closing.is_set():
+            if self._closed:
                 return out
             raise TransportError(f"{self.description}: the socketcand server closed the connection")
         got = self._decoder.feed(chunk)
-        if got:
-            out.extend(got)
+        if not out:
+            return got
+        out.extend(got)
         return out
 
     def wait_frame(self, timeout: float) -> Frame | None:
@@ -265,10 +269,10 @@ class SocketcandTransport(Transport):
         try:
             ready = select.select(self._wait_fds, [], [], timeout)[0]
         except (OSError, ValueError) as exc:
-            if self._closing.is_set():
+            if self._closed:
                 return None
             raise TransportError(f"{self.description}: receive failed: {_why(exc)}") from exc
-        if not ready or self._closing.is_set():
+        if not ready or self._closed:
             return None
         frames.extend(self.read_nowait())
         return frames.popleft() if frames else None
@@ -277,9 +281,9 @@ class SocketcandTransport(Transport):
 
     def close(self) -> None:
         """Close the connection (the server then closes the bus for this client); wakes a waiting receive."""
-        if self._closing.is_set():
+        if self._closed:
             return
-        self._closing.set()
+        self._closed = True
         try:
             os.write(self._wake_w, b"\0")
         except OSError:
