@@ -226,6 +226,14 @@ def test_python_cans_configuration_gives_the_channel_and_a_bad_one_is_refused_in
     with pytest.raises(TransportOptionError) as info:
         open_transport("socketcand", "can0")
     assert "python-can's configuration is invalid: Port config must be inside 0-65535 range!" in str(info.value)
+    monkeypatch.delenv("CAN_CHANNEL")
+    server = attach_socketcand(SimBus(ids=[1]))
+    try:  # what the caller gives takes precedence over the configuration, as in python-can
+        t = open_transport("socketcand", host=server.host, port=server.port)
+        assert t.description == f"socketcand can0 at 127.0.0.1:{server.port}"
+        t.close()
+    finally:
+        server.close()
 
 
 def test_the_server_may_come_from_python_cans_configuration_and_bitrate_times_the_bus(
@@ -242,14 +250,24 @@ def test_the_server_may_come_from_python_cans_configuration_and_bitrate_times_th
         server.close()
 
 
-@pytest.mark.parametrize("interface", ["socketcand", "python-can:socketcand"])
+@pytest.mark.parametrize(
+    ("interface", "options"),
+    [
+        ("socketcand", {}),
+        ("python-can:socketcand", {}),
+        ("python-can:socketcand", {"can_filters": [{"can_id": 0, "can_mask": 0}]}),  # read in a thread
+    ],
+)
 def test_a_server_that_goes_away_fails_the_bus_once_and_costs_no_cpu(
-    interface: str, caplog: pytest.LogCaptureFixture
+    interface: str, options: dict[str, object], caplog: pytest.LogCaptureFixture
 ) -> None:
     """The socket of a closed connection stays readable: the receive thread stops at the first failure
-    (it used to read it again at once, logging each time, until the bus was closed)."""
+    (it used to read it again at once, logging each time, until the bus was closed; with python-can's
+    filters, python-can's own receive never noticed and the bus timed out instead)."""
     server = attach_socketcand(SimBus(ids=[1]))
-    with open_bus(interface, "can0", host=server.host, port=server.port, timeout=0.5, stop_on_close=False) as bus:
+    with open_bus(
+        interface, "can0", host=server.host, port=server.port, timeout=0.5, stop_on_close=False, **options
+    ) as bus:
         assert bus.motor(1).get_state().node == 1
         time.sleep(0.3)  # the receive thread takes the reading over from the caller
         server.close()

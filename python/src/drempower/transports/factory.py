@@ -73,7 +73,7 @@ def _socketcand(interface: str, channel: str | int | None, bitrate: int | None, 
 
     given: dict[str, Any] = {k: kwargs.pop(k) for k in ("host", "port") if k in kwargs}
     if len(given) < 2 or channel is None:  # python-can's configuration (config file, CAN_* variables) may say
-        cfg = _configured(interface, channel, ("host", "port", "channel"))
+        cfg = _configured(interface, channel, ("host", "port", "channel"), given)
         given = {**cfg, **given}
         if channel is None:
             channel = cfg.get("channel")
@@ -96,17 +96,20 @@ _SOCKETCAND_OPTIONS = frozenset(("connect_timeout", "send_timeout"))
 """What the socketcand transport takes besides host, port, channel and bitrate."""
 
 
-def _configured(interface: str, channel: str | int | None, keys: tuple[str, ...]) -> dict[str, Any]:
+def _configured(
+    interface: str, channel: str | int | None, keys: tuple[str, ...], given: dict[str, Any] | None = None
+) -> dict[str, Any]:
     """``keys`` as python-can's configuration (config file, CAN_* variables) gives them for ``interface``
-    (and ``channel``, when given); raises :class:`TransportOptionError` when that configuration is invalid."""
+    (and ``channel`` and ``given``, which take precedence, as in python-can); raises
+    :class:`TransportOptionError` when that configuration is invalid."""
     import can.util
 
-    config: dict[str, Any] = {"interface": interface}
+    config: dict[str, Any] = {"interface": interface, **(given or {})}
     if channel is not None:
         config["channel"] = channel
     try:
         cfg = can.util.load_config(config=config)
-    except ValueError as exc:
+    except (ValueError, TypeError) as exc:
         raise TransportOptionError(
             f"cannot open {interface} bus: python-can's configuration is invalid: {exc}"
         ) from exc

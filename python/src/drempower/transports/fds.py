@@ -36,6 +36,10 @@ def close_fds(*fds: int) -> None:
             pass
 
 
+_DONTWAIT = getattr(socket, "MSG_DONTWAIT", 0)
+"""A receive that does not wait, where the system has the flag (after ``select`` said readable)."""
+
+
 def drain_close(sock: socket.socket, seconds: float) -> None:
     """Close a TCP connection without losing what it still has to send: send the end of the stream, read
     (and drop) until the peer closes its side, at most ``seconds`` s, then close. A socket closed with
@@ -47,7 +51,7 @@ def drain_close(sock: socket.socket, seconds: float) -> None:
             if not select.select([sock], [], [], left)[0]:
                 break
             try:
-                if not sock.recv(65536, socket.MSG_DONTWAIT):
+                if not sock.recv(65536, _DONTWAIT):
                     break  # the peer closed its side: everything sent was taken
             except (BlockingIOError, InterruptedError):
                 continue

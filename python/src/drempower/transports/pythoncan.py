@@ -231,6 +231,9 @@ class PythonCanTransport(Transport):
         ``recv(0)`` then returns None at a message it drops, with more held, so the thread path is used.
         """
         bus = self._bus
+        sock = getattr(bus, "_SocketCanDaemonBus__socket", None) if name == "socketcand" else None
+        if isinstance(sock, socket.socket):
+            self._socket = sock  # (also read by threads: wait_frame tells a server gone by it)
         if getattr(bus, "_filters", None) and name in ("virtual", "socketcand"):
             return None
         if name == "virtual":
@@ -241,9 +244,7 @@ class PythonCanTransport(Transport):
             self._signal_r = signalled.signal_r
             return self._signal_r
         if name == "socketcand":
-            sock = getattr(bus, "_SocketCanDaemonBus__socket", None)
             if isinstance(sock, socket.socket):
-                self._socket = sock
                 parsed = getattr(bus, "_SocketCanDaemonBus__message_buffer", None)
                 self._parsed = parsed if isinstance(parsed, collections.deque) else None
                 return sock.fileno()
@@ -357,7 +358,16 @@ class PythonCanTransport(Transport):
             if self._closing.is_set():
                 return None
             raise TransportError(f"{self.description}: receive failed: {exc}") from exc
-        if msg is None or msg.is_error_frame:
+        if msg is None:
+            if self._socket is not None:  # python-can's socketcand does not notice a server gone
+                try:
+                    self._check_connected(self._socket)
+                except OSError as exc:
+                    if self._closing.is_set():
+                        return None
+                    raise TransportError(f"{self.description}: receive failed: {_why(exc)}") from exc
+            return None
+        if msg.is_error_frame:
             return None
         return _frame(msg)
 
@@ -423,7 +433,10 @@ class PythonCanTransport(Transport):
         try:
             sock = getattr(self._bus, "_SocketCanDaemonBus__socket", None)
             if isinstance(sock, socket.socket):  # socketcand: the last frames sent (the stops) must not be reset
-                drain_close(sock, _CLOSE_DRAIN)
+                try:
+                    drain_close(sock, _CLOSE_DRAIN)
+                except Exception:  # whatever happens, python-can's own shutdown runs
+                    pass
             self._bus.shutdown()
         except Exception:  # e.g. slcan's close command timing out: release the port anyway
             for attr in _SERIAL_PORTS:
