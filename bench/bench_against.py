@@ -12,7 +12,8 @@ with ``DREMPOWER_SRC`` naming the tree's ``python/src``. For every row it prints
 the rounds of each tree's figure, floor and ratio, and this checkout's figure over ``REV``'s. Rows
 that one tree did not print (an interface ``REV`` does not have) are left out; an interface name the
 two trees open differently (``"socketcand"`` before drempower had its own client) measures, on each
-tree, what that tree opens. Sub-rows (``  CPU per call``...) are named with the row above them.
+tree, what that tree opens. Sub-rows whose words follow several rows (``  CPU per call``...) are
+named with the row above them.
 """
 
 from __future__ import annotations
@@ -54,17 +55,21 @@ def table(src: Path, rows: str, requests: int) -> dict[str, tuple[float, str, fl
     cmd = [sys.executable, str(HERE / "bench_table.py"), "--rows", rows, "--requests", str(requests)]
     out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=False)
     got: dict[str, tuple[float, str, float, float | None]] = {}
+    rows: list[tuple[str, str, re.Match[str]]] = []
     parent = ""
     for line in out.stdout.splitlines():
         m = _ROW.match(line)
         if m is None:
             continue
-        ratio = re.match(r"([\d.]+)", m["ratio"])
         label = m["label"].strip()
-        if m["label"].startswith("  "):  # a sub-row: the same words follow several rows
-            label = f"{parent}: {label}"
-        else:
+        if not m["label"].startswith("  "):
             parent = label
+        rows.append((parent, label, m))
+    repeated = {label for label in (r[1] for r in rows) if sum(r[1] == label for r in rows) > 1}
+    for parent, label, m in rows:
+        ratio = re.match(r"([\d.]+)", m["ratio"])
+        if label in repeated:  # a sub-row whose words follow several rows ("  CPU per call..."): named by its row
+            label = f"{parent}: {label}"
         got[label] = (
             float(m["figure"]),
             m["unit"],
@@ -104,7 +109,7 @@ def main() -> None:
         sys.exit("bench_against: no row ran on both trees (see the errors above)")
     print(f"this checkout against {args.rev}: medians of {args.rounds} runs each, taken in turns")
     head = f"{'this':>10} {'(floor)':>9} {'ratio':>7}   {args.rev[:10]:>10} {'(floor)':>9} {'ratio':>7}"
-    print(f"  {'row':<70} {head}   this/rev")
+    print(f"  {'row':<60} {head}   this/rev")
     for label in labels:
         cols = []
         for side in ("this", "rev"):
@@ -116,7 +121,7 @@ def main() -> None:
         (a, af, ar, unit), (b, bf, br, _) = cols
         versus = f"{a / b:.2f}" if b else ""
         print(
-            f"  {label:<70} {a:>7.1f} {unit:<2} {af:>9.1f} {ar:>7}   {b:>7.1f} {unit:<2} {bf:>9.1f} {br:>7}   {versus}"
+            f"  {label:<60} {a:>7.1f} {unit:<2} {af:>9.1f} {ar:>7}   {b:>7.1f} {unit:<2} {bf:>9.1f} {br:>7}   {versus}"
         )
 
 
