@@ -25,8 +25,15 @@ def eventually(cond: Callable[[], bool], limit: float = 5.0) -> bool:
 
 def scan(page: Any) -> None:
     page.get_by_role("tab", name="Bus").click()
+    # the page scans by itself when it finds no motors: let that scan end first, else its end ("done") could
+    # arrive after the click below reset the progress, while this scan still waits behind it
+    page.wait_for_function("document.querySelectorAll('#pw-names option').length > 0")  # the server's hello
+    page.wait_for_function("!document.querySelector('#scan-text').textContent.startsWith('scanning')")
     page.get_by_role("button", name="Rescan ids 1-63").click()
-    page.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
+    page.wait_for_function(
+        "document.querySelector('#scan-progress').value === 63"
+        " && document.querySelector('#scan-text').textContent.startsWith('done')"
+    )
     page.wait_for_function("document.querySelectorAll('.card').length === 3")
 
 
