@@ -148,7 +148,7 @@ class Receiver:
         try:
             frames = self.driver.transport.read_nowait()
         except Exception as exc:
-            if not self.driver._closed and self.driver._failure is None:  # told once
+            if not self.driver._closed and not self.stopped():  # told once
                 self.failed(exc)
             return
         if frames:
@@ -193,7 +193,6 @@ class Receiver:
         if events:
             d._dispatch(events)
 
-    @property
     def stopped(self) -> bool:
         """True once receiving failed (:meth:`failed`): the transport is read no more."""
         return self.driver._failure is not None
@@ -228,7 +227,7 @@ class Receiver:
         fds = [fd, self._poke_r, self._close_r]
         gate, reader = self._gate, self.lock
         try:
-            while not d._is_closed() and d._failure is None:
+            while not d._is_closed() and not self.stopped():
                 orphan: LoopReader | None = None
                 with gate:
                     while not d._is_closed():
@@ -253,7 +252,7 @@ class Receiver:
                 finally:
                     with gate:
                         self._selecting = False
-                if d._is_closed() or d._failure is not None:
+                if d._is_closed() or self.stopped():
                     return
                 if self._poke_r in ready:
                     drain(self._poke_r)
@@ -263,7 +262,7 @@ class Receiver:
                     self.read_feed()
                 finally:
                     self.release()  # wakes a caller that found the role taken
-                if self.stopped:
+                if self.stopped():
                     return  # the transport failed (a server gone leaves its socket readable): read no more
         except Exception as exc:
             if not d._is_closed():

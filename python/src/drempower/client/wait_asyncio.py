@@ -133,11 +133,11 @@ class LoopReader:
         if not self._busy.acquire(False):
             return  # being taken back this instant; the descriptor stays readable for whoever reads next
         try:
-            if rx.driver._closed or rx.driver._failure is not None:
+            if rx.driver._closed or rx.stopped():
                 self.let_go(held=True)
                 return
             rx.read_feed()
-            if rx.stopped:  # the transport failed; its descriptor may stay readable
+            if rx.stopped():  # the transport failed; its descriptor may stay readable
                 self.let_go(held=True)
         finally:
             self._busy.release()

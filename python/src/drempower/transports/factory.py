@@ -8,7 +8,17 @@ from typing import Any
 from .base import Transport
 from .errors import TransportError, TransportOptionError
 
-__all__ = ["open_transport", "INTERFACES", "Opener", "SERIAL_ADAPTER", "MOTOR_UART", "SLCAN", "SIMULATOR", "ZENOH"]
+__all__ = [
+    "open_transport",
+    "INTERFACES",
+    "Opener",
+    "SERIAL_ADAPTER",
+    "MOTOR_UART",
+    "SLCAN",
+    "SOCKETCAND",
+    "SIMULATOR",
+    "ZENOH",
+]
 
 Opener = Callable[[str, str | int | None, int | None, dict[str, Any]], Transport]
 """``opener(interface, channel, bitrate, kwargs)`` -> an open transport, or :class:`TransportError`."""

@@ -354,20 +354,13 @@ class PythonCanTransport(Transport):
                 if self._closing.is_set():
                     return None
                 msg = self._bus.recv(timeout)
+                if msg is None and self._socket is not None:  # python-can's socketcand misses a server gone
+                    self._check_connected(self._socket)
         except _RECV_ERRORS as exc:
             if self._closing.is_set():
                 return None
             raise TransportError(f"{self.description}: receive failed: {exc}") from exc
-        if msg is None:
-            if self._socket is not None:  # python-can's socketcand does not notice a server gone
-                try:
-                    self._check_connected(self._socket)
-                except OSError as exc:
-                    if self._closing.is_set():
-                        return None
-                    raise TransportError(f"{self.description}: receive failed: {_why(exc)}") from exc
-            return None
-        if msg.is_error_frame:
+        if msg is None or msg.is_error_frame:
             return None
         return _frame(msg)
 
