@@ -87,3 +87,79 @@ def test_a_second_signal_during_the_stopping_does_not_interrupt_it(monkeypatch: 
         sig._stop_and_chain(signal.SIGTERM, None)
     assert info.value.code == 128 + signal.SIGTERM
     assert calls == ["close begins", "close ends"]
+
+
+_EVERY_INSTRUCTION = """
+import signal, sys, threading, time
+from drempower.client.signals import SignalLatch
+
+at = 1
+while True:
+    latch = SignalLatch()
+    latch.install()
+    count, sent = [0], [0.0]
+
+    def trace(frame, event, arg):
+        frame.f_trace_opcodes = True
+        if event == "opcode":
+            count[0] += 1
+            if count[0] == at:
+                sent[0] = time.monotonic()
+                signal.pthread_kill(threading.main_thread().ident, signal.SIGTERM)
+        return trace
+
+    sys.settrace(trace)
+    try:
+        got = latch.wait(0.4)
+    finally:
+        sys.settrace(None)
+    late = time.monotonic() - sent[0]
+    got = got or latch.wait(0)  # a signal after the wait's last look is the next wait's
+    if count[0] < at:
+        print(at - 1)
+        break
+    assert got and latch.signum == signal.SIGTERM and late < 0.3, (at, got, late)
+    latch.close()
+    at += 1
+"""
+
+
+def test_a_signal_at_any_instruction_of_the_latch_wait_ends_it() -> None:
+    # A handler that set a threading.Event could run while the main thread held that event's lock inside wait()
+    # and wait for itself forever: `drempower bridge` then ignored SIGTERM. Deliver SIGTERM at every instruction.
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-c", _EVERY_INSTRUCTION], capture_output=True, text=True, timeout=30)
+    assert run.returncode == 0, run.stderr
+    assert int(run.stdout) >= 5  # the wait has that many instructions, each one tried
+
+
+def test_the_latch_keeps_the_first_signal_leaves_ignored_ones_and_puts_handlers_back() -> None:
+    def own(signum: int, frame: FrameType | None) -> None:
+        raise AssertionError("replaced while the latch is installed")
+
+    signal.signal(signal.SIGTERM, own)
+    signal.signal(signal.SIGHUP, signal.SIG_IGN)
+    with sig.SignalLatch() as latch:
+        assert not latch.wait(0.01) and latch.signum is None
+        assert signal.getsignal(signal.SIGHUP) is signal.SIG_IGN  # nohup's choice stays
+        os.kill(os.getpid(), signal.SIGTERM)
+        os.kill(os.getpid(), signal.SIGINT)
+        assert latch.wait(0) and latch.wait(5.0) and latch.signum == signal.SIGTERM
+    assert signal.getsignal(signal.SIGTERM) is own and signal.getsignal(signal.SIGHUP) is signal.SIG_IGN
+    assert signal.getsignal(signal.SIGINT) is signal.default_int_handler
+
+
+def test_a_latch_off_the_main_thread_installs_nothing() -> None:
+    before = signal.getsignal(signal.SIGTERM)
+    seen: list[bool] = []
+
+    def other() -> None:
+        with sig.SignalLatch() as latch:
+            seen.append(latch.wait(0.01))
+
+    thread = threading.Thread(target=other)
+    thread.start()
+    thread.join()
+    assert seen == [False] and signal.getsignal(signal.SIGTERM) is before

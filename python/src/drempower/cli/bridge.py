@@ -5,12 +5,11 @@ from __future__ import annotations
 import argparse
 import logging
 import os
-import signal
 import sys
-import threading
 from contextlib import ExitStack
 from typing import Any
 
+from ..client.signals import SignalLatch
 from ..transports.zenoh_config import check_endpoint
 from ._connect import add_connection_args, connection_kwargs, parse_ids, positive, sim_time_scale
 from ._motion import add_watchdog_arg, arm_watchdog, restore_watchdog
@@ -148,18 +147,6 @@ def _watchdog_fits(args: argparse.Namespace) -> None:
         )
 
 
-def _stop_on_signals(stop: threading.Event, got: list[int]) -> dict[int, Any]:
-    """Make SIGINT, SIGTERM and SIGHUP set ``stop`` (the first one is kept in ``got``); returns the old handlers."""
-
-    def handler(signum: int, _frame: Any) -> None:
-        if not got:
-            got.append(signum)
-        stop.set()
-
-    handled = [signal.SIGINT, signal.SIGTERM, signal.SIGHUP]
-    return {s: signal.signal(s, handler) for s in handled if signal.getsignal(s) is not signal.SIG_IGN}
-
-
 def run(args: argparse.Namespace) -> int:
     try:
         import rosbags  # noqa: F401
@@ -209,8 +196,7 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
     buses = _bus_kwargs(args)
-    stop = threading.Event()
-    got: list[int] = []
+    latch = SignalLatch()
     status = 0
     # Lines go to stderr from a thread of their own: a stderr nobody reads never holds up a Zenoh callback,
     # a service (estop included) or the way out.
@@ -218,7 +204,6 @@ def run(args: argparse.Namespace) -> int:
     log = logging.getLogger("drempower")
     log.addHandler(err)
     propagate, log.propagate = log.propagate, False
-    previous: dict[int, Any] = {}
     try:
         with ExitStack() as stack:
             transports: dict[str, Any] = {}
@@ -235,7 +220,7 @@ def run(args: argparse.Namespace) -> int:
                 ros2 = start_ros2_control(bridge, args, spec)
                 # After the bridge's bus (whose SIGTERM handler would close it at once): the way out below idles
                 # the motors, then puts their CAN timeout back on the still open bus.
-                previous = _stop_on_signals(stop, got)
+                latch.install()
                 for face in bridge.faces.values():
                     armed.append((face.bus, arm_watchdog(face.bus, face.ids, args.watchdog) if args.watchdog else {}))
                 if args.json:
@@ -262,7 +247,7 @@ def run(args: argparse.Namespace) -> int:
                     f"drempower bridge: {how}; joints {', '.join(options.joints)}; "
                     f"joint_states on {bridge.joint_states_key}; drempower {_prefixes(bridge)}"
                 )
-                while not stop.wait(0.2):
+                while not latch.wait(0.2):
                     if bridge.failure is not None:
                         err.line(f"drempower bridge: the bus stopped: {bridge.failure}")
                         status = 1
@@ -276,9 +261,8 @@ def run(args: argparse.Namespace) -> int:
                 bridge.close()
         err.line("drempower bridge: stopped; motors it drove are idle")
     finally:
-        for s, h in previous.items():
-            signal.signal(s, h)
+        latch.close()
         log.removeHandler(err)
         log.propagate = propagate
         err.flush_for(1.0)
-    return 128 + got[0] if got else status
+    return 128 + latch.signum if latch.signum is not None else status

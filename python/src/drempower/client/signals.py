@@ -17,10 +17,14 @@ Two policies, one per kind of program:
   handles Ctrl-C handles them too; :func:`exit_code` turns it into 128 + the
   signal number. Only the first signal raises: one arriving while the command
   stops its motors sets :func:`hurried` and lets the stop finish.
+* Servers that wait in a loop (:class:`SignalLatch`): SIGINT, SIGTERM and
+  SIGHUP are noted and wake the wait; the server then stops in its own time.
 """
 
 from __future__ import annotations
 
+import os
+import select
 import signal
 import threading
 from collections.abc import Callable, Iterator
@@ -30,6 +34,7 @@ from typing import Any
 
 __all__ = [
     "TERMINATING_SIGNALS",
+    "SignalLatch",
     "Terminated",
     "exit_code",
     "hurried",
@@ -165,3 +170,66 @@ def signals_interrupt() -> Iterator[None]:
         for number, handler in saved.items():
             signal.signal(number, handler if handler is not None else signal.SIG_DFL)
         _Flags.terminating = _Flags.hurry = False
+
+
+class SignalLatch:
+    """SIGINT, SIGTERM and SIGHUP noted for a server's wait loop, without a lock.
+
+    A handler runs between two bytecodes of the main thread. One that calls
+    :meth:`threading.Event.set` can run while that same thread is inside the
+    event's ``wait()`` holding its lock, and then waits for itself forever (a
+    server that never stops). This handler only keeps the first signal number
+    and writes a byte to a pipe; :meth:`wait` reads the pipe with ``select``.
+
+    :meth:`install` it (or enter it as a context manager) from the main
+    thread; elsewhere it notes nothing and :meth:`wait` only sleeps. A signal
+    that is ignored (SIGHUP under ``nohup``) stays ignored. :meth:`close` puts
+    back the handlers it replaced.
+    """
+
+    def __init__(self) -> None:
+        self.signum: int | None = None
+        """The first signal received, or ``None``."""
+        self._read, self._write = os.pipe()
+        os.set_blocking(self._write, False)
+        self._saved: dict[int, _Handler] = {}
+
+    def _note(self, signum: int, _frame: FrameType | None) -> None:
+        if self.signum is None:
+            self.signum = signum
+        try:
+            os.write(self._write, b"\0")
+        except OSError:
+            pass  # the pipe is full: a wake-up is already waiting
+
+    def install(self) -> None:
+        """Note SIGINT, SIGTERM and SIGHUP from now on (in the main thread; elsewhere nothing)."""
+        if threading.current_thread() is threading.main_thread() and not self._saved:
+            for signum in (signal.SIGINT, *TERMINATING_SIGNALS):
+                current = signal.getsignal(signum)
+                if current is not signal.SIG_IGN:
+                    self._saved[signum] = current
+                    signal.signal(signum, self._note)
+
+    def wait(self, timeout: float) -> bool:
+        """Wait up to ``timeout`` seconds for a signal; whether one has been received (now or before)."""
+        if self.signum is None:
+            select.select([self._read], [], [], timeout)
+        return self.signum is not None
+
+    def close(self) -> None:
+        """Put back the handlers it replaced and free the pipe. Idempotent."""
+        for number, handler in self._saved.items():
+            signal.signal(number, handler if handler is not None else signal.SIG_DFL)
+        self._saved.clear()
+        if self._read >= 0:
+            os.close(self._read)
+            os.close(self._write)
+            self._read = self._write = -1
+
+    def __enter__(self) -> SignalLatch:
+        self.install()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
