@@ -23,9 +23,8 @@ Two policies, one per kind of program:
 
 from __future__ import annotations
 
-import os
-import select
 import signal
+import socket
 import threading
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -179,7 +178,7 @@ class SignalLatch:
     :meth:`threading.Event.set` can run while that same thread is inside the
     event's ``wait()`` holding its lock, and then waits for itself forever (a
     server that never stops). This handler only keeps the first signal number
-    and writes a byte to a pipe; :meth:`wait` reads the pipe with ``select``.
+    and sends a byte to a socket pair, whose other end :meth:`wait` reads.
 
     :meth:`install` it (or enter it as a context manager) from the main
     thread; elsewhere it notes nothing and :meth:`wait` only sleeps. A signal
@@ -190,17 +189,17 @@ class SignalLatch:
     def __init__(self) -> None:
         self.signum: int | None = None
         """The first signal received, or ``None``."""
-        self._read, self._write = os.pipe()
-        os.set_blocking(self._write, False)
+        self._read, self._write = socket.socketpair()
+        self._write.setblocking(False)
         self._saved: dict[int, _Handler] = {}
 
     def _note(self, signum: int, _frame: FrameType | None) -> None:
         if self.signum is None:
             self.signum = signum
         try:
-            os.write(self._write, b"\0")
+            self._write.send(b"\0")
         except OSError:
-            pass  # the pipe is full: a wake-up is already waiting
+            pass  # full: a wake-up is already waiting
 
     def install(self) -> None:
         """Note SIGINT, SIGTERM and SIGHUP from now on (in the main thread; elsewhere nothing)."""
@@ -214,18 +213,20 @@ class SignalLatch:
     def wait(self, timeout: float) -> bool:
         """Wait up to ``timeout`` seconds for a signal; whether one has been received (now or before)."""
         if self.signum is None:
-            select.select([self._read], [], [], timeout)
+            self._read.settimeout(timeout)
+            try:
+                self._read.recv(64)
+            except OSError:  # the timeout (or a closed pair)
+                pass
         return self.signum is not None
 
     def close(self) -> None:
-        """Put back the handlers it replaced and free the pipe. Idempotent."""
+        """Put back the handlers it replaced and close the socket pair. Idempotent."""
         for number, handler in self._saved.items():
             signal.signal(number, handler if handler is not None else signal.SIG_DFL)
         self._saved.clear()
-        if self._read >= 0:
-            os.close(self._read)
-            os.close(self._write)
-            self._read = self._write = -1
+        self._read.close()
+        self._write.close()
 
     def __enter__(self) -> SignalLatch:
         self.install()
