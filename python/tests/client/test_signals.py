@@ -89,25 +89,29 @@ def test_a_second_signal_during_the_stopping_does_not_interrupt_it(monkeypatch: 
     assert calls == ["close begins", "close ends"]
 
 
-_EVERY_INSTRUCTION = """
+_SIGTERM_AT = """
+def trace(frame, event, arg):
+    frame.f_trace_opcodes = True
+    if event == "opcode":
+        count[0] += 1
+        if count[0] == at:
+            sent[0] = time.monotonic()
+            signal.pthread_kill(threading.main_thread().ident, signal.SIGTERM)
+    return trace
+"""
+
+_EVERY_INSTRUCTION = (
+    """
 import signal, sys, threading, time
 from drempower.client.signals import SignalLatch
-
+"""
+    + _SIGTERM_AT
+    + """
 at = 1
 while True:
     latch = SignalLatch()
     latch.install()
     count, sent = [0], [0.0]
-
-    def trace(frame, event, arg):
-        frame.f_trace_opcodes = True
-        if event == "opcode":
-            count[0] += 1
-            if count[0] == at:
-                sent[0] = time.monotonic()
-                signal.pthread_kill(threading.main_thread().ident, signal.SIGTERM)
-        return trace
-
     sys.settrace(trace)
     try:
         got = latch.wait(0.4)
@@ -122,6 +126,7 @@ while True:
     latch.close()
     at += 1
 """
+)
 
 
 def test_a_signal_at_any_instruction_of_the_latch_wait_ends_it() -> None:
@@ -133,6 +138,117 @@ def test_a_signal_at_any_instruction_of_the_latch_wait_ends_it() -> None:
     run = subprocess.run([sys.executable, "-c", _EVERY_INSTRUCTION], capture_output=True, text=True, timeout=30)
     assert run.returncode == 0, run.stderr
     assert int(run.stdout) >= 5  # the wait has that many instructions, each one tried
+
+
+_PASS_TIME = (
+    """
+import signal, sys, threading, time
+import drempower
+from drempower.protocol.enums import AxisState
+"""
+    + _SIGTERM_AT
+    + """
+for at in range(1, 151):
+    bus = drempower.open_bus("sim", motors=[1])
+    bus.motor(1).set_speed(30, enable=True)
+    count, sent, code = [0], [0.0], None
+    sys.settrace(trace)
+    try:
+        bus.pass_time(0.5)
+    except SystemExit as exc:
+        code = exc.code
+    finally:
+        sys.settrace(None)
+    late = time.monotonic() - sent[0]
+    assert count[0] >= at and code == 143 and late < 0.3 and bus.closed, (at, count[0], code, late)
+    assert bus.transport.bus.motors[1].state == AxisState.IDLE, at
+print(at)
+"""
+)
+
+
+def test_sigterm_at_any_instruction_of_pass_time_stops_the_motors_and_exits() -> None:
+    # pass_time slept on an event that the close sets: SIGTERM arriving while the main thread held that event's
+    # lock made the stopping handler wait for itself forever, the motors still turning.
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-c", _PASS_TIME], capture_output=True, text=True, timeout=60)
+    assert run.returncode == 0, run.stderr
+    assert run.stdout.split() == ["150"]
+
+
+_SEND = """
+import os, signal, sys, threading, time
+import drempower
+from drempower.sim import SimBus, attach_adapter_pty, attach_python_can
+from drempower.protocol.enums import AxisState
+
+def python_only(frame):
+    # Not in a Condition's __enter__ or __exit__: a signal at the entry of __exit__ leaves its lock held (a with
+    # statement is not safe against asynchronous exceptions) and python-can's virtual bus then takes no frame.
+    # Not under a finalizer (__del__, weakref.finalize): Python ignores the SystemExit raised there.
+    if frame.f_code.co_filename.endswith("threading.py") and frame.f_code.co_name in ("__enter__", "__exit__"):
+        return False
+    while frame is not None:
+        if frame.f_code.co_name == "__del__" or frame.f_code.co_filename.endswith("weakref.py"):
+            return False
+        frame = frame.f_back
+    return True
+
+def trace(frame, event, arg):
+    # SIGTERM at the entry of a function, where a handler runs (CPython looks for signals there)
+    if event == "call" and python_only(frame):
+        count[0] += 1
+        if count[0] == at:
+            sent[0] = time.monotonic()
+            signal.pthread_kill(threading.main_thread().ident, signal.SIGTERM)
+
+sim = SimBus(ids=[1])
+channel = f"sigterm-{os.getpid()}"
+link = attach_adapter_pty(sim) if sys.argv[1] == "adapter" else attach_python_can(sim, channel=channel)
+at = 0
+while True:
+    at += 1
+    if sys.argv[1] == "adapter":
+        bus = drempower.open_bus("adapter", link.path, timeout=1.0)
+    else:
+        bus = drempower.open_bus("virtual", channel, timeout=1.0)
+    motor = bus.motor(1)
+    motor.set_speed(30, enable=True)
+    count, sent, code = [0], [0.0], None
+    sys.settrace(trace)
+    try:
+        for _ in range(3):
+            motor.set_speed(30)
+    except SystemExit as exc:
+        code = exc.code
+    finally:
+        sys.settrace(None)
+    if count[0] < at:
+        bus.close()
+        break
+    late = time.monotonic() - sent[0]
+    bus.close()  # as the end of a with block or the exit does: waits for the close a handler handed over
+    end = time.monotonic() + 1.0
+    while sim.motors[1].state != AxisState.IDLE and time.monotonic() < end:
+        time.sleep(0.002)
+    assert code == 143 and late < 0.5 and sim.motors[1].state == AxisState.IDLE, (at, code, late)
+print(at - 1)
+link.close()
+"""
+
+
+@pytest.mark.parametrize("link", ["adapter", "virtual"])
+def test_sigterm_at_any_function_entry_of_a_send_stops_the_motor(link: str) -> None:
+    # The handler closed the bus at once: when it had interrupted its own thread inside a transport's send, the
+    # stop frames waited for that send's write lock forever (the process ignored SIGTERM, the motor turned on).
+    import subprocess
+    import sys
+
+    run = subprocess.run([sys.executable, "-c", _SEND, link], capture_output=True, text=True, timeout=90)
+    assert run.returncode == 0, run.stderr
+    assert int(run.stdout) >= 50  # positions tried: each function entered while the speeds were sent
 
 
 def test_the_latch_keeps_the_first_signal_leaves_ignored_ones_and_puts_handlers_back() -> None:

@@ -224,6 +224,7 @@ def test_the_transport_receives_on_simulated_time() -> None:
     [
         ({"clock": "fast"}, r"clock='fast': must be one of 'wall', 'virtual'"),
         ({"clock": "virtual", "time_scale": 5}, r"time_scale=5: takes no value with clock='virtual'"),
+        ({"ids": [1, 2]}, r"ids=\[1, 2\]: the simulated motors are given as motors= \(e.g. motors=\[1, 2\]\)"),
     ],
 )
 def test_bad_clock_options_are_refused(options: dict[str, object], message: str) -> None:

@@ -49,6 +49,8 @@ FrameTap = Callable[[Frame, bool], None]
 AsyncRun = Callable[[Runnable[Any]], Coroutine[Any, Any, Any]]
 
 _monotonic = time.monotonic
+_HANDOFF_WAIT = 2.0
+"""Longest wait (s) of a close handed to a thread (see :meth:`BusDriver._later`) for the bus lock."""
 
 
 def tx_order(transport: Transport) -> TxOrder:
@@ -113,11 +115,13 @@ class BusDriver:
         """Called after each frame is handed to the transport, with the frame and :func:`time.monotonic`
         of the hand-over (s); keep it short."""
         self.states = StateCache(self.session.states)
-        self._lock = threading.Lock()
+        self._lock = threading.RLock()
+        """The session's lock. Never taken twice by one thread; an RLock so that a signal handler can tell
+        that it interrupted its own thread's bus work (:meth:`_interrupted_here`)."""
         self._close_lock = threading.Lock()
         self._closed = False
-        self.closed_event = threading.Event()
-        """Set when the bus closes."""
+        self._closer: threading.Thread | None = None
+        """The thread closing the bus for a signal handler (see :meth:`_later`), once there is one."""
         self._failure: BaseException | None = None
         self._sleepers: set[Callable[[], None]] = set()
         """How to wake each caller sleeping until its operation's next deadline."""
@@ -274,6 +278,21 @@ class BusDriver:
                     except Exception:
                         _log.exception("unsolicited-frame hook %r failed", hook)
 
+    def _interrupted_here(self) -> bool:
+        """True when the calling thread holds the bus lock: it runs a signal handler that interrupted its own
+        bus work, perhaps in the middle of a transport's write. Writing now could wait for that write's
+        lock forever or cut its frame in two: the stopping is handed to :meth:`_later`."""
+        return bool(self._lock._is_owned())  # type: ignore[attr-defined]
+
+    def _later(self, what: Callable[..., None], *args: Any, **kwargs: Any) -> threading.Thread:
+        """Run ``what`` in a thread of its own: it takes the bus lock as soon as the interrupted code lets it
+        go (carrying on, or unwinding from the handler's ``SystemExit``). A close waits for it (at most
+        :data:`_HANDOFF_WAIT` twice): code a signal cuts short may leave a lock of a library held for good."""
+        name = f"drempower stop ({self.transport.description})"
+        thread = threading.Thread(target=what, args=args, kwargs=kwargs, name=name, daemon=True)
+        thread.start()
+        return thread
+
     def _send_frames(self, frames: Sequence[Frame], lock_timeout: float = -1) -> None:
         """Write ``frames`` as they are, after anything queued (no tracking: frames the protocol does not
         define, the stop frames of a close). With ``lock_timeout`` >= 0 (s), frames whose lock does not
@@ -335,6 +354,9 @@ class BusDriver:
         awaited. Works even after the receive loop failed; only a closed bus refuses."""
         if self._closed:
             raise BusClosedError(f"the bus ({self.transport.description}) is closed")
+        if self._interrupted_here():
+            self._later(self.estop, nodes)
+            return
         held = self._lock.acquire(timeout=open_buses.SIGNAL_LOCK_WAIT)
         try:
             if held:
@@ -387,8 +409,18 @@ class BusDriver:
         ``lock_timeout`` (s) bounds the waits for locks (a signal handler may
         run while the code it interrupted holds one): when another close holds
         the bus that long, it is left to finish; the stop frames go out even if
-        a send still holds the transport.
+        a send still holds the transport. Called by a signal handler that
+        interrupted this thread's own bus work, it returns at once and a thread
+        of its own closes the bus once that work lets the lock go.
         """
+        if self._interrupted_here():
+            if not self._closed and self._closer is None:
+                self._closer = self._later(self.close, lock_timeout=_HANDOFF_WAIT)
+            return
+        closer = self._closer
+        if closer is not None and closer is not threading.current_thread():
+            closer.join(2 * _HANDOFF_WAIT)  # the close a signal handler handed over (see _later)
+            return
         if not self._close_lock.acquire(timeout=lock_timeout):
             return
         try:
@@ -400,7 +432,6 @@ class BusDriver:
             except Exception as exc:
                 _log.warning("stopping the motors on close failed: %s", exc)
             self._closed = True
-            self.closed_event.set()
             self._rx.closing(lock_timeout)
             open_buses.forget(self)
             held = self._lock.acquire(timeout=lock_timeout)

@@ -11,7 +11,10 @@ Two policies, one per kind of program:
   (Python allows no other) and never over a signal that is ignored (``nohup``
   ignores SIGHUP: the program keeps running and so do its motors). A handler
   the program installs later replaces this one: call
-  :func:`stop_open_buses` from it to keep the guarantee.
+  :func:`stop_open_buses` from it to keep the guarantee. A handler that
+  interrupted its own thread in the middle of a bus's work (a send, say)
+  does not write to that bus: a thread of its own closes it as soon as the
+  interrupted code lets it go, and closing it again waits for that.
 * Commands (:func:`signals_interrupt`): SIGTERM and SIGHUP raise
   :class:`Terminated`, a :class:`KeyboardInterrupt`, so every path that
   handles Ctrl-C handles them too; :func:`exit_code` turns it into 128 + the

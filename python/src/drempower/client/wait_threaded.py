@@ -178,10 +178,13 @@ class ThreadWaits(WaitSteps):
 
     def pass_time(self, seconds: float, until: Callable[[], bool] | None = None) -> None:
         """Sleep ``seconds`` (the receive thread takes the frames meanwhile); end early once ``until()``
-        is true or the bus closes."""
+        is true or the bus closes (seen within :data:`_WALL_POLL`).
+
+        A plain sleep, not a wait on an event the close sets: a signal handler that closes the bus runs
+        in this thread, possibly while it holds that event's lock, and would wait for itself forever."""
         d = self.driver
         end = _monotonic() + seconds
         while not (until is not None and until()) and (left := end - _monotonic()) > 0:
-            d.closed_event.wait(min(left, _WALL_POLL))
+            time.sleep(min(left, _WALL_POLL))
             if d._is_closed():
                 return

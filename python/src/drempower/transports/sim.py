@@ -58,6 +58,9 @@ class SimTransport(QueuedTransport):
         robot_bus: str | None = None,
         **simbus_kwargs: Any,
     ) -> None:
+        if "ids" in simbus_kwargs:  # SimBus's own name for them
+            ids = simbus_kwargs["ids"]
+            raise ValidationError(f"ids={ids!r}: the simulated motors are given as motors= (e.g. motors=[1, 2])")
         if clock not in CLOCKS:
             allowed = ", ".join(map(repr, CLOCKS))
             raise ValidationError(f"clock={clock!r}: must be one of {allowed}")
