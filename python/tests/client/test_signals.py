@@ -38,6 +38,31 @@ def test_sigterm_closes_the_bus_then_calls_the_previous_handler() -> None:
     assert bus.closed and t.sent[-1] == IDLE  # after the motor was set idle
 
 
+def test_a_close_after_a_failed_handed_over_close_still_closes(
+    monkeypatch: pytest.MonkeyPatch, caplog: pytest.LogCaptureFixture
+) -> None:
+    t = ScriptedTransport(FakeMotors([1]))
+    bus = Bus(t, timeout=0.5)
+    bus.motor(1).set_speed(30)
+    core = bus._core
+    real = core.session.stop_frames
+    calls: list[int] = []
+
+    def fails_once() -> list[tuple[int, bytes, bool, bool]]:
+        calls.append(1)
+        if len(calls) == 1:
+            raise RuntimeError("no stop frames this time")
+        return real()
+
+    monkeypatch.setattr(core.session, "stop_frames", fails_once)
+    with core._lock:  # what a signal handler that interrupted this thread's own bus work finds
+        core.close(lock_timeout=0.2)
+        assert not bus.closed  # handed to a thread, which waits for the lock
+    bus.close()
+    assert bus.closed and t.sent[-1] == IDLE and len(calls) == 2
+    assert "stopping" in caplog.text and "no stop frames this time" in caplog.text
+
+
 def test_without_a_previous_handler_the_process_exits_128_plus_n() -> None:
     signal.signal(signal.SIGHUP, signal.SIG_DFL)
     t = ScriptedTransport(FakeMotors([1]))
@@ -183,6 +208,8 @@ import os, signal, sys, threading, time
 import drempower
 from drempower.sim import SimBus, attach_adapter_pty, attach_python_can
 from drempower.protocol.enums import AxisState
+from drempower.protocol.flags import AxisError
+from drempower.protocol.addresses import AXIS0_ERROR
 
 def python_only(frame):
     # Not in a Condition's __enter__ or __exit__: a signal at the entry of __exit__ leaves its lock held (a with
@@ -206,14 +233,19 @@ def trace(frame, event, arg):
 
 sim = SimBus(ids=[1])
 channel = f"sigterm-{os.getpid()}"
+estop = sys.argv[2] == "estop"
 link = attach_adapter_pty(sim) if sys.argv[1] == "adapter" else attach_python_can(sim, channel=channel)
 at = 0
 while True:
     at += 1
+    options = {"timeout": 1.0, "stop_on_close": not estop}
     if sys.argv[1] == "adapter":
-        bus = drempower.open_bus("adapter", link.path, timeout=1.0)
+        bus = drempower.open_bus("adapter", link.path, **options)
     else:
-        bus = drempower.open_bus("virtual", channel, timeout=1.0)
+        bus = drempower.open_bus("virtual", channel, **options)
+    if estop:  # the program's own handler: an emergency stop, then the exit
+        signal.signal(signal.SIGTERM, lambda signum, frame: (bus.estop(), sys.exit(128 + signum)))
+    sim.motors[1].errors[AXIS0_ERROR] = 0
     motor = bus.motor(1)
     motor.set_speed(30, enable=True)
     count, sent, code = [0], [0.0], None
@@ -230,23 +262,25 @@ while True:
         break
     late = time.monotonic() - sent[0]
     bus.close()  # as the end of a with block or the exit does: waits for the close a handler handed over
-    end = time.monotonic() + 1.0
-    while sim.motors[1].state != AxisState.IDLE and time.monotonic() < end:
+    m, end = sim.motors[1], time.monotonic() + 1.0
+    while not (m.state == AxisState.IDLE and (not estop or m.errors[AXIS0_ERROR] & AxisError.ESTOP_REQUESTED)):
+        assert time.monotonic() < end, (at, m.state, hex(m.errors[AXIS0_ERROR]))  # the frames are in the sim's hands
         time.sleep(0.002)
-    assert code == 143 and late < 0.5 and sim.motors[1].state == AxisState.IDLE, (at, code, late)
+    assert code == 143 and late < 0.5, (at, code, late)
 print(at - 1)
 link.close()
 """
 
 
-@pytest.mark.parametrize("link", ["adapter", "virtual"])
-def test_sigterm_at_any_function_entry_of_a_send_stops_the_motor(link: str) -> None:
+@pytest.mark.parametrize(("link", "stop"), [("adapter", "close"), ("virtual", "close"), ("adapter", "estop")])
+def test_sigterm_at_any_function_entry_of_a_send_stops_the_motor(link: str, stop: str) -> None:
     # The handler closed the bus at once: when it had interrupted its own thread inside a transport's send, the
     # stop frames waited for that send's write lock forever (the process ignored SIGTERM, the motor turned on).
+    # "estop": the program's own handler sends an emergency stop and exits; the close after it waits for it.
     import subprocess
     import sys
 
-    run = subprocess.run([sys.executable, "-c", _SEND, link], capture_output=True, text=True, timeout=90)
+    run = subprocess.run([sys.executable, "-c", _SEND, link, stop], capture_output=True, text=True, timeout=90)
     assert run.returncode == 0, run.stderr
     assert int(run.stdout) >= 50  # positions tried: each function entered while the speeds were sent
 

@@ -196,7 +196,6 @@ def run(args: argparse.Namespace) -> int:
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
     buses = _bus_kwargs(args)
-    latch = SignalLatch()
     status = 0
     # Lines go to stderr from a thread of their own: a stderr nobody reads never holds up a Zenoh callback,
     # a service (estop included) or the way out.
@@ -204,6 +203,7 @@ def run(args: argparse.Namespace) -> int:
     log = logging.getLogger("drempower")
     log.addHandler(err)
     propagate, log.propagate = log.propagate, False
+    latch = SignalLatch()
     try:
         with ExitStack() as stack:
             transports: dict[str, Any] = {}

@@ -116,12 +116,15 @@ class BusDriver:
         of the hand-over (s); keep it short."""
         self.states = StateCache(self.session.states)
         self._lock = threading.RLock()
-        """The session's lock. Never taken twice by one thread; an RLock so that a signal handler can tell
-        that it interrupted its own thread's bus work (:meth:`_interrupted_here`)."""
+        """The session's lock; an RLock so that a signal handler can tell that it interrupted its own
+        thread's bus work (:meth:`_interrupted_here`). Frame taps and ``on_sent`` run while it is held:
+        they must not send."""
         self._close_lock = threading.Lock()
         self._closed = False
         self._closer: threading.Thread | None = None
         """The thread closing the bus for a signal handler (see :meth:`_later`), once there is one."""
+        self._handed: list[threading.Thread] = []
+        """The threads doing what signal handlers handed over (estops, the close): a close waits for them."""
         self._failure: BaseException | None = None
         self._sleepers: set[Callable[[], None]] = set()
         """How to wake each caller sleeping until its operation's next deadline."""
@@ -286,12 +289,28 @@ class BusDriver:
 
     def _later(self, what: Callable[..., None], *args: Any, **kwargs: Any) -> threading.Thread:
         """Run ``what`` in a thread of its own: it takes the bus lock as soon as the interrupted code lets it
-        go (carrying on, or unwinding from the handler's ``SystemExit``). A close waits for it (at most
-        :data:`_HANDOFF_WAIT` twice): code a signal cuts short may leave a lock of a library held for good."""
+        go (carrying on, or unwinding from the handler's ``SystemExit``). A close waits for it first, but
+        not for good: code a signal cuts short may leave a lock of a library held for good."""
+
+        def run() -> None:
+            try:
+                what(*args, **kwargs)
+            except Exception:  # a later close tries again
+                _log.exception("stopping %s for a signal handler failed", self.transport.description)
+
         name = f"drempower stop ({self.transport.description})"
-        thread = threading.Thread(target=what, args=args, kwargs=kwargs, name=name, daemon=True)
+        thread = threading.Thread(target=run, name=name, daemon=True)
+        self._handed.append(thread)
         thread.start()
         return thread
+
+    def _wait_handed(self, timeout: float) -> None:
+        """Wait, ``timeout`` s at most in all, for the threads of :meth:`_later` (but the calling one)."""
+        end = _monotonic() + timeout
+        me = threading.current_thread()
+        for thread in list(self._handed):
+            if thread is not me:
+                thread.join(max(0.0, end - _monotonic()))
 
     def _send_frames(self, frames: Sequence[Frame], lock_timeout: float = -1) -> None:
         """Write ``frames`` as they are, after anything queued (no tracking: frames the protocol does not
@@ -354,10 +373,14 @@ class BusDriver:
         awaited. Works even after the receive loop failed; only a closed bus refuses."""
         if self._closed:
             raise BusClosedError(f"the bus ({self.transport.description}) is closed")
-        if self._interrupted_here():
-            self._later(self.estop, nodes)
+        if self._interrupted_here():  # the estop goes out as soon as the interrupted code lets the bus go
+            self._later(self._estop, nodes, _HANDOFF_WAIT)
             return
-        held = self._lock.acquire(timeout=open_buses.SIGNAL_LOCK_WAIT)
+        self._estop(nodes, open_buses.SIGNAL_LOCK_WAIT)
+
+    def _estop(self, nodes: Sequence[int], lock_wait: float) -> None:
+        """:meth:`estop`, waiting ``lock_wait`` s at most for another thread's write in progress."""
+        held = self._lock.acquire(timeout=lock_wait)
         try:
             if held:
                 self.session.estop(nodes)
@@ -417,10 +440,12 @@ class BusDriver:
             if not self._closed and self._closer is None:
                 self._closer = self._later(self.close, lock_timeout=_HANDOFF_WAIT)
             return
-        closer = self._closer
-        if closer is not None and closer is not threading.current_thread():
-            closer.join(2 * _HANDOFF_WAIT)  # the close a signal handler handed over (see _later)
-            return
+        if self._handed:  # what signal handlers handed over goes first: their estops, their close
+            self._wait_handed(lock_timeout if lock_timeout >= 0 else 2 * _HANDOFF_WAIT)
+            if self._closed:
+                return
+            if lock_timeout < 0:  # that close failed, or waits still: close here, never for good
+                lock_timeout = _HANDOFF_WAIT
         if not self._close_lock.acquire(timeout=lock_timeout):
             return
         try:

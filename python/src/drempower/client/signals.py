@@ -216,10 +216,10 @@ class SignalLatch:
     def wait(self, timeout: float) -> bool:
         """Wait up to ``timeout`` seconds for a signal; whether one has been received (now or before)."""
         if self.signum is None:
-            self._read.settimeout(timeout)
             try:
+                self._read.settimeout(timeout)
                 self._read.recv(64)
-            except OSError:  # the timeout (or a closed pair)
+            except OSError:  # the timeout (or a closed pair: nothing more to wait for)
                 pass
         return self.signum is not None
 
