@@ -12,6 +12,8 @@ import pytest
 from drempower.client import Bus
 from drempower.client import signals as sig
 from drempower.protocol import DataType, WriteParam
+from drempower.protocol.ids import SysCmd
+from drempower.protocol.messages import SystemCommand
 
 from .scripted import FakeMotors, ScriptedTransport
 
@@ -57,10 +59,25 @@ def test_a_close_after_a_failed_handed_over_close_still_closes(
     monkeypatch.setattr(core.session, "stop_frames", fails_once)
     with core._lock:  # what a signal handler that interrupted this thread's own bus work finds
         core.close(lock_timeout=0.2)
-        assert not bus.closed  # handed to a thread, which waits for the lock
+        assert not bus.closed  # handed to a thread (which fails before it would wait for the lock)
     bus.close()
     assert bus.closed and t.sent[-1] == IDLE and len(calls) == 2
     assert "stopping" in caplog.text and "no stop frames this time" in caplog.text
+
+
+def test_an_estop_handed_over_after_the_close_goes_out_before_it() -> None:
+    # The stop handler closes, then calls the program's own handler, which sends an estop: both handed over.
+    estop = SystemCommand(0, SysCmd.ESTOP).encode()
+    for _ in range(20):
+        t = ScriptedTransport(FakeMotors([1]))
+        bus = Bus(t, timeout=0.5)
+        bus.motor(1).set_speed(30)
+        core = bus._core
+        with core._lock:  # what a signal handler that interrupted this thread's own bus work finds
+            core.close(lock_timeout=0.2)
+            core.estop([0])
+        bus.close()
+        assert bus.closed and estop in t.sent and t.sent.index(estop) < t.sent.index(IDLE)
 
 
 def test_without_a_previous_handler_the_process_exits_128_plus_n() -> None:

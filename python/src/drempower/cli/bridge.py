@@ -197,13 +197,13 @@ def run(args: argparse.Namespace) -> int:
         raise UsageError(str(exc)) from exc
     buses = _bus_kwargs(args)
     status = 0
+    latch = SignalLatch()
     # Lines go to stderr from a thread of their own: a stderr nobody reads never holds up a Zenoh callback,
     # a service (estop included) or the way out.
     err = StderrLines().start()
     log = logging.getLogger("drempower")
     log.addHandler(err)
     propagate, log.propagate = log.propagate, False
-    latch = SignalLatch()
     try:
         with ExitStack() as stack:
             transports: dict[str, Any] = {}

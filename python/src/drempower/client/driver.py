@@ -300,17 +300,27 @@ class BusDriver:
 
         name = f"drempower stop ({self.transport.description})"
         thread = threading.Thread(target=run, name=name, daemon=True)
-        self._handed.append(thread)
         thread.start()
+        self._handed.append(thread)
         return thread
 
+    def _close_handed(self) -> None:
+        """The close a signal handler handed over (see :meth:`_later`): once the interrupted code lets the
+        bus go, after what the handlers handed over until then (a chained handler's estop)."""
+        if self._lock.acquire(timeout=_HANDOFF_WAIT):
+            self._lock.release()
+        self.close(lock_timeout=_HANDOFF_WAIT)
+
     def _wait_handed(self, timeout: float) -> None:
-        """Wait, ``timeout`` s at most in all, for the threads of :meth:`_later` (but the calling one)."""
+        """Wait, ``timeout`` s at most in all, for the threads of :meth:`_later` (but the calling one), those
+        handed over meanwhile included."""
         end = _monotonic() + timeout
         me = threading.current_thread()
-        for thread in list(self._handed):
-            if thread is not me:
-                thread.join(max(0.0, end - _monotonic()))
+        while (left := end - _monotonic()) > 0:
+            waiting = [t for t in self._handed if t is not me and t.is_alive()]
+            if not waiting:
+                return
+            waiting[0].join(left)
 
     def _send_frames(self, frames: Sequence[Frame], lock_timeout: float = -1) -> None:
         """Write ``frames`` as they are, after anything queued (no tracking: frames the protocol does not
@@ -437,8 +447,8 @@ class BusDriver:
         of its own closes the bus once that work lets the lock go.
         """
         if self._interrupted_here():
-            if not self._closed and self._closer is None:
-                self._closer = self._later(self.close, lock_timeout=_HANDOFF_WAIT)
+            if not self._closed and (self._closer is None or not self._closer.is_alive()):
+                self._closer = self._later(self._close_handed)
             return
         if self._handed:  # what signal handlers handed over goes first: their estops, their close
             self._wait_handed(lock_timeout if lock_timeout >= 0 else 2 * _HANDOFF_WAIT)

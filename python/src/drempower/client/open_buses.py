@@ -36,7 +36,10 @@ def forget(bus: BusDriver) -> None:
 def _close_open_buses() -> None:
     """Close (and so apply ``stop_on_close`` to) every bus still open when Python exits."""
     for bus in list(_open):
-        bus.close()
+        try:
+            bus.close()
+        except BaseException:  # a signal's handler cut this close short, handing it to a thread: wait for that
+            bus.close()
 
 
 def _close_stopping_buses() -> None:
