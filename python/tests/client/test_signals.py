@@ -80,6 +80,44 @@ def test_an_estop_handed_over_after_the_close_goes_out_before_it() -> None:
         assert bus.closed and estop in t.sent and t.sent.index(estop) < t.sent.index(IDLE)
 
 
+_AT_EXIT = """
+import os, signal, sys, time
+sys.path.insert(0, sys.argv[1])
+from scripted import FakeMotors, ScriptedTransport
+from drempower.client import Bus
+from drempower.protocol import DataType, WriteParam
+
+IDLE = WriteParam(1, 30003, DataType.U32, 1).encode()
+t = ScriptedTransport(FakeMotors([1]))
+plain_send, signalled = t.send, []
+
+def send(frame):
+    if frame == IDLE and not signalled:  # SIGTERM in the middle of the exit-time close's stop frame
+        signalled.append(1)
+        os.kill(os.getpid(), signal.SIGTERM)
+    if frame == IDLE:
+        time.sleep(0.3)  # a slow device: the exit must wait for the close the handler handed over
+    plain_send(frame)
+    if frame == IDLE:
+        os.write(1, b"idle written\\n")
+
+t.send = send
+bus = Bus(t, timeout=0.5)
+bus.motor(1).set_speed(30)
+# the script ends with the bus open: the exit closes it
+"""
+
+
+def test_sigterm_during_the_exit_time_close_still_stops_the_motors() -> None:
+    import subprocess
+    import sys
+    from pathlib import Path
+
+    here = str(Path(__file__).parent)
+    run = subprocess.run([sys.executable, "-c", _AT_EXIT, here], capture_output=True, text=True, timeout=30)
+    assert run.stdout.splitlines() == ["idle written"], run.stderr
+
+
 def test_without_a_previous_handler_the_process_exits_128_plus_n() -> None:
     signal.signal(signal.SIGHUP, signal.SIG_DFL)
     t = ScriptedTransport(FakeMotors([1]))
