@@ -145,6 +145,24 @@ def _raise_terminated(signum: int, frame: FrameType | None) -> None:
 _raise_terminated._drempower_stops = True  # type: ignore[attr-defined]
 
 
+def _replace_handlers(handler: Callable[[int, FrameType | None], Any]) -> dict[int, _Handler]:
+    """Install ``handler`` for SIGINT, SIGTERM and SIGHUP, but where a signal is ignored (``nohup``'s
+    SIGHUP stays ignored); returns the handlers it replaced, for :func:`_put_back`."""
+    saved: dict[int, _Handler] = {}
+    for signum in (signal.SIGINT, *TERMINATING_SIGNALS):
+        current = signal.getsignal(signum)
+        if current is not signal.SIG_IGN:
+            saved[signum] = current
+            signal.signal(signum, handler)
+    return saved
+
+
+def _put_back(saved: dict[int, _Handler]) -> None:
+    """Reinstall the handlers :func:`_replace_handlers` replaced (one set outside Python: the default)."""
+    for number, handler in saved.items():
+        signal.signal(number, handler if handler is not None else signal.SIG_DFL)
+
+
 @contextmanager
 def signals_interrupt() -> Iterator[None]:
     """While inside: SIGINT, SIGTERM and SIGHUP raise in the main thread (the handlers restored afterwards).
@@ -158,19 +176,12 @@ def signals_interrupt() -> Iterator[None]:
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    saved: dict[int, _Handler] = {}
-    for signum in (signal.SIGINT, *TERMINATING_SIGNALS):
-        current = signal.getsignal(signum)
-        if current is signal.SIG_IGN:
-            continue
-        saved[signum] = current
-        signal.signal(signum, _raise_terminated)
+    saved = _replace_handlers(_raise_terminated)
     _Flags.terminating = _Flags.hurry = False
     try:
         yield
     finally:
-        for number, handler in saved.items():
-            signal.signal(number, handler if handler is not None else signal.SIG_DFL)
+        _put_back(saved)
         _Flags.terminating = _Flags.hurry = False
 
 
@@ -207,11 +218,7 @@ class SignalLatch:
     def install(self) -> None:
         """Note SIGINT, SIGTERM and SIGHUP from now on (in the main thread; elsewhere nothing)."""
         if threading.current_thread() is threading.main_thread() and not self._saved:
-            for signum in (signal.SIGINT, *TERMINATING_SIGNALS):
-                current = signal.getsignal(signum)
-                if current is not signal.SIG_IGN:
-                    self._saved[signum] = current
-                    signal.signal(signum, self._note)
+            self._saved = _replace_handlers(self._note)
 
     def wait(self, timeout: float) -> bool:
         """Wait up to ``timeout`` seconds for a signal; whether one has been received (now or before)."""
@@ -225,9 +232,8 @@ class SignalLatch:
 
     def close(self) -> None:
         """Put back the handlers it replaced and close the socket pair. Idempotent."""
-        for number, handler in self._saved.items():
-            signal.signal(number, handler if handler is not None else signal.SIG_DFL)
-        self._saved.clear()
+        _put_back(self._saved)
+        self._saved = {}
         self._read.close()
         self._write.close()
 

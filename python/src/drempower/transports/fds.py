@@ -40,7 +40,11 @@ _DONTWAIT = getattr(socket, "MSG_DONTWAIT", 0)
 """A receive that does not wait, where the system has the flag (after ``select`` said readable)."""
 
 
-def drain_close(sock: socket.socket, seconds: float) -> None:
+CLOSE_DRAIN = 0.5
+"""How long (s) :func:`drain_close` waits at most for the peer to close its side."""
+
+
+def drain_close(sock: socket.socket, seconds: float = CLOSE_DRAIN) -> None:
     """Close a TCP connection without losing what it still has to send: send the end of the stream, read
     (and drop) until the peer closes its side, at most ``seconds`` s, then close. A socket closed with
     unread data is reset, and the reset drops the frames it had queued (the stops of ``stop_on_close``)."""

@@ -31,8 +31,6 @@ CONNECT_TIMEOUT = 2.0
 """How long (s) a socketcand server gets to accept the connection and greet."""
 _CLOSE_WRITE_TIMEOUT = 0.25
 """Bound (s) of what an interface writes while shutting down (slcan's close command)."""
-_CLOSE_DRAIN = 0.5
-"""Longest wait (s) on closing a socketcand connection for the server to close its side (see ``drain_close``)."""
 _SERIAL_PORTS = ("serialPortOrig", "_ser")
 """Where python-can's serial-port interfaces keep their pyserial port (slcan, serial)."""
 _KEYS = ("interface", "channel", "bitrate")
@@ -424,10 +422,9 @@ class PythonCanTransport(Transport):
         sending = self._send_lock.acquire(timeout=self._send_timeout + 0.5)
         receiving = self._recv_lock.acquire(timeout=1.0)
         try:
-            sock = getattr(self._bus, "_SocketCanDaemonBus__socket", None)
-            if isinstance(sock, socket.socket):  # socketcand: the last frames sent (the stops) must not be reset
+            if self._socket is not None:  # socketcand: the last frames sent (the stops) must not be reset
                 try:
-                    drain_close(sock, _CLOSE_DRAIN)
+                    drain_close(self._socket)
                 except Exception:  # whatever happens, python-can's own shutdown runs
                     pass
             self._bus.shutdown()

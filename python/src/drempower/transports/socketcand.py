@@ -36,9 +36,6 @@ _HANDSHAKE_LIMIT = 512
 """Most bytes read while waiting for one answer of the handshake."""
 MAX_TIMEOUT = 3600.0
 """Longest ``connect_timeout`` and ``send_timeout`` taken (s): a wait must end."""
-_CLOSE_DRAIN = 0.5
-"""Longest wait (s) on closing for the server to close its side, so that what was sent last (the stops)
-is not discarded: a socket closed with unread data is reset, and the reset drops what it had queued."""
 
 
 def _why(exc: BaseException) -> str:
@@ -291,7 +288,7 @@ class SocketcandTransport(Transport):
         # a send in progress notices the close within one write slice; do not close the socket under it
         locked = self._wlock.acquire(timeout=max(1.0, 4 * _WRITE_SLICE))
         try:
-            drain_close(self._sock, _CLOSE_DRAIN)
+            drain_close(self._sock)  # what was sent last (the stops) is not reset away
         finally:
             if locked:
                 self._wlock.release()
