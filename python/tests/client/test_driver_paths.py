@@ -106,18 +106,38 @@ def test_instant_simulator_answers_in_the_calling_thread() -> None:
         assert callers == [threading.get_ident()]
 
 
+def _stray(transport: object) -> Frame:
+    """Queue a state frame nobody asked for on the simulator ``transport``; returns it."""
+    assert isinstance(transport, SimTransport)
+    stray = State(1, 1.0, 0.0, 0.0, False, False).encode()._replace(arbitration_id=(1 << 5) | 0x1E)
+    transport._deliver(stray)
+    return stray
+
+
 def test_late_frames_queued_before_a_send_are_taken_first() -> None:
+    sim = SimBus(ids=[1])
+    # on the virtual clock no receive thread runs: the frame waits in the queue until the send
+    with link("inprocess", sim, clock="virtual", timeout=1.0) as bus:
+        order: list[str] = []
+        bus.on_unsolicited = lambda f: order.append("stray")
+        bus.subscribe(lambda st: order.append("reply"), 1)
+        _stray(bus.transport)
+        assert bus.motor(1).get_state().node == 1
+        assert order == ["stray", "reply"]  # taken before the reply to the request sent after it
+        assert bus.stats["frames_received"] == 2
+
+
+def test_a_late_frame_is_taken_once_whoever_takes_it() -> None:
+    # on a wall clock the receive thread may take the frame before the send does: it reaches the hook once
     sim = SimBus(ids=[1])
     with link("inprocess", sim, time_scale=0, timeout=1.0) as bus:
         seen: list[Frame] = []
-        bus.on_unsolicited = seen.append
-        stray = State(1, 1.0, 0.0, 0.0, False, False).encode()._replace(arbitration_id=(1 << 5) | 0x1E)
-        transport = bus.transport
-        assert isinstance(transport, SimTransport)
-        with transport.bus.lock:  # delivered while no receive can run: it waits in the queue
-            transport._deliver(stray)
+        got = threading.Event()
+        bus.on_unsolicited = lambda f: (seen.append(f), got.set())
+        stray = _stray(bus.transport)
         assert bus.motor(1).get_state().node == 1
-        assert seen == [stray]  # taken before the reply to the request sent after it
+        assert got.wait(2.0)
+        assert seen == [stray]
         assert bus.stats["frames_received"] == 2
 
 
