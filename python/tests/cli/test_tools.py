@@ -129,6 +129,8 @@ def test_demo(cli: Cli) -> None:
     lines = r.out.splitlines()
     assert lines[0].startswith("3 simulated motors") and "90, -45, 180 deg" in lines[0]
     assert "targets reached: 3/3" in r.out
+    last = next(line for line in reversed(lines) if line.startswith("t = "))  # motors named by the naming rule
+    assert [w for w in last.split() if w.startswith("motor")] == ["motor_1", "motor_2", "motor_3"]
     sync = next(line for line in lines if line.startswith("max sync error:"))
     assert float(sync.split()[3]) < 1.0
 
@@ -150,4 +152,4 @@ def test_demo_live_on_a_terminal(cli: Cli, monkeypatch: pytest.MonkeyPatch) -> N
     monkeypatch.setattr("drempower.cli.demo.is_terminal", lambda stream: True)
     r = cli("demo", "--motors", "2")
     assert r.code == 0
-    assert "\x1b[3F" in r.out and "motor 2  [" in r.out and "targets reached: 2/2" in r.out
+    assert "\x1b[3F" in r.out and "motor_2  [" in r.out and "targets reached: 2/2" in r.out

@@ -11,6 +11,7 @@ from typing import Any
 
 from .. import open_bus
 from ..client import Bus, MotorState, PositionMode
+from ..naming import motor_name
 from ..protocol import FastRead
 from ._connect import positive, sim_time_scale
 from ._output import LiveView, fmt, is_terminal, json_line, number_text
@@ -155,8 +156,8 @@ def _table(tracker: Tracker, states: list[MotorState], t: float) -> list[str]:
         target = tracker.targets[st.node]
         done = "done" if st.trajectory_done else ""
         lines.append(
-            f"motor {st.node}  [{tracker.bar(st)}] {number_text(st.angle, 2, 8)} / {number_text(target, 2, 7)} deg  "
-            f"{number_text(st.speed, 2, 6)} rpm  {done}"
+            f"{motor_name(st.node)}  [{tracker.bar(st)}] {number_text(st.angle, 2, 8)} / "
+            f"{number_text(target, 2, 7)} deg  {number_text(st.speed, 2, 6)} rpm  {done}"
         )
     return lines
 
@@ -192,7 +193,7 @@ def run(args: argparse.Namespace) -> int:
                 live.draw(_table(tracker, states, t))
             elif finished or t - shown >= _PLAIN_EVERY * scale:
                 shown = t
-                say(f"t = {t:5.2f} s  " + "  ".join(f"motor {st.node} {fmt(st.angle):>7} deg" for st in states))
+                say(f"t = {t:5.2f} s  " + "  ".join(f"{motor_name(st.node)} {fmt(st.angle):>7} deg" for st in states))
             if finished:
                 break
             if t > 2 * planned + 5:
