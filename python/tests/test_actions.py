@@ -106,6 +106,21 @@ def test_run_moves_reads_and_stops(bus: drempower.Bus) -> None:
     bus.motor(1).wait_position_done(10)
 
 
+def test_outcomes_say_sent_for_commands_and_name_a_number_with_its_unit(bus: drempower.Bus) -> None:
+    """A command is "sent", never "done" (a motion command returns before the motor gets there); the
+    number a row returns is named with its unit, as its description says; a read is its value."""
+    t = actions.run(bus, "step", {"id": 1, "angle": 30})
+    assert isinstance(t, float) and t > 0
+    assert actions.describe("step")["result"] == "move time" and actions.describe("step")["result_unit"] == "s"
+    assert actions.outcome("step", t) == f" sent (move time {t:.6g} s)"
+    assert not bus.motor(1).get_state().trajectory_done  # sent, and on its way
+    assert actions.outcome("step", None) == " sent"  # modes T and P return no time
+    assert actions.outcome("move", actions.run(bus, "move", {"id": 2, "angle": 10})) == " sent"
+    assert actions.outcome("get", actions.run(bus, "get", {"id": 2, "name": "axis0.config.can_node_id"})) == ": 2"
+    assert actions.outcome("get", 24.000001) == ": 24"
+    assert actions.describe("get")["result"] == "" and actions.describe("get")["result_unit"] == ""
+
+
 def test_run_async_on_an_asyncio_bus() -> None:
     async def main() -> float:
         async with drempower.open_bus_async("sim", motors=[1], clock="virtual", stop_on_close=False) as b:

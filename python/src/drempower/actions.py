@@ -168,13 +168,17 @@ Operation = Callable[[Any, Mapping[str, Any]], Any]
 
 @dataclass(frozen=True)
 class Action:
-    """One thing to do to motors: its ``name``, ``safety`` class, ``help``, ``args`` and ``operation``."""
+    """One thing to do to motors: its ``name``, ``safety`` class, ``help``, ``args`` and ``operation``;
+    ``result`` names what the operation returns when that is a number (e.g. ``"move time"``), in
+    ``result_unit``, so that every front end shows it with its meaning and unit."""
 
     name: str
     safety: Safety
     help: str
     args: tuple[Arg, ...]
     operation: Operation
+    result: str = ""
+    result_unit: str = ""
 
     def arg(self, name: str) -> Arg:
         for a in self.args:
@@ -331,6 +335,8 @@ for _a in (
         "move by an angle from where the motor is (mode T, Q or P)",
         (MOTOR, STEP, *POSITION_ARGS),
         lambda b, a: _motor(b, a).step_angle(a["angle"], *_position(a), enable=a["enable"]),
+        result="move time",  # mode Q's planned time; T and P return nothing
+        result_unit="s",
     ),
     Action(
         "speed",
@@ -471,12 +477,15 @@ async def run_async(bus: Any, action: Action | str, args: Mapping[str, Any]) -> 
 
 def describe(action: Action | str) -> dict[str, Any]:
     """A row as JSON-ready data (what ``drempower actions --json`` prints and the dashboard builds its
-    Actions panel from): name, safety, help, and each argument's name, kind, unit, domain, default."""
+    Actions panel from): name, safety, help, what a number it returns means and its unit, and each
+    argument's name, kind, unit, domain, default."""
     act = get(action) if isinstance(action, str) else action
     return {
         "name": act.name,
         "safety": act.safety,
         "help": act.help,
+        "result": act.result,
+        "result_unit": act.result_unit,
         "args": [
             {
                 "name": a.name,
@@ -494,6 +503,23 @@ def describe(action: Action | str) -> dict[str, Any]:
             for a in act.args
         ],
     }
+
+
+def outcome(action: Action | str, result: Any) -> str:
+    """What running ``action`` came to, as every front end words it after the row's name: a command
+    is ``" sent"`` (it was sent, which is not "done": a motion command returns before the motor gets
+    there), with the number it returned named, e.g. ``" sent (move time 0.58 s)"``; a read is
+    ``": "`` and its value, named with its unit when the row says (a record or a list is shown by
+    each front end in its own form: rows, JSON)."""
+    act = get(action) if isinstance(action, str) else action
+    if result is None:
+        return " sent" if act.safety != "read" else ": none"
+    value = f"{result:.6g}" if isinstance(result, float) else str(plain(result))
+    if act.result:
+        value = f"{act.result} {value}"
+    if act.result_unit:
+        value = f"{value} {act.result_unit}"
+    return f" sent ({value})" if act.safety != "read" else f": {value}"
 
 
 def plain(result: Any) -> Any:

@@ -34,8 +34,11 @@ def test_the_generated_motion_command_refuses_an_idle_motor_and_sends_nothing(
     assert cmds and not MOTION_CMDS & set(cmds), cmds  # the state was read; nothing moved
     assert sim.motors[1].state == AxisState.IDLE
     r = cli("step", "1", "30", "--enable", "--sim", "1")
-    assert r.code == 0 and r.out.startswith("motor 1: step: "), r
+    assert r.code == 0 and r.out.startswith("motor 1: step sent (move time ") and r.out.endswith(" s)\n"), r
     assert sim.motors[1].state == AxisState.CLOSED_LOOP_CONTROL
+    (rec,) = cli("step", "1", "-30", "--sim", "1", "--json").records()
+    assert rec["action"] == "step" and rec["unit"] == "s" and rec["result"] > 0, rec
+    assert r.out == f"motor 1: step{actions.outcome('step', rec['result'])}\n"  # the same distance, the same time
 
 
 def test_row_stop_is_run_by_its_table_name_and_holds(cli: Cli, sim: SimBus) -> None:
@@ -86,7 +89,7 @@ def test_a_command_from_the_table_takes_a_joints_name_with_robot(cli: Cli, tmp_p
         encoding="utf-8",
     )
     r = cli("step", "elbow", "5", "--enable", "--robot", str(robot))
-    assert r.code == 0 and r.out.startswith("joint elbow: step: "), r
+    assert r.code == 0 and r.out.startswith("joint elbow: step sent (move time "), r
     r = cli("actions", "state", "shoulder", "--json", "--robot", str(robot))
     assert r.code == 0 and r.records()[0]["joint"] == "shoulder" and r.records()[0]["result"]["node"] == 1, r
     r = cli("step", "1,2", "5", "--sim", "1")

@@ -13,6 +13,7 @@ import pytest
 
 from drempower import actions, open_bus
 from drempower.cli import main
+from drempower.client import PositionMode
 from drempower.errors import MotorIdleError, ValidationError
 from drempower.protocol.enums import AxisState
 from drempower.sim.defaults import MotorModel
@@ -141,6 +142,18 @@ def test_the_page_offers_and_runs_the_new_row(volcur: actions.Action, browser: A
         text = p.locator("#act-result").inner_text()
         assert "motor 1 is idle" in text and "the Enable button" in text, text
         assert motors[1].state == AxisState.IDLE and 1 not in hub.commanded
+        # with enable: the step is sent, said as the command line says it (its move time named, in s),
+        # never "done" (the motor is on its way)
+        with open_bus("sim", motors=[1], clock="virtual", stop_on_close=False) as alone:
+            move_time = alone.motor(1).step_angle(30, 10.0, 10.0, PositionMode.Q, enable=True)
+        assert move_time is not None and move_time > 0
+        p.check("#act-arg-enable")
+        p.get_by_role("button", name="Run").click()
+        p.wait_for_function("document.querySelector('#act-result').textContent.startsWith('step sent')")
+        assert p.locator("#act-result").inner_text() == "step" + actions.outcome("step", move_time)
+        assert p.locator("#act-result").inner_text() == f"step sent (move time {move_time:.6g} s)"
+        assert p.locator("#msg").inner_text() == "step sent"
+        assert motors[1].state == AxisState.CLOSED_LOOP_CONTROL and 1 in hub.commanded
     finally:
         ctx.close()
         loop.call_soon_threadsafe(dash.stopping.set)

@@ -200,26 +200,29 @@ def run_row(args: argparse.Namespace) -> int:
     else:
         with open_from_args(args) as bus:
             result = table.run(bus, action, values)
-    show(args, action.name, node, table.plain(result))
+    show(args, action, node, table.plain(result))
     return 0
 
 
-def show(args: argparse.Namespace, name: str, node: int, result: Any) -> None:
-    """One action's result: a JSON line with ``--json``, else a line (and a field a line for a record)."""
+def show(args: argparse.Namespace, action: table.Action, node: int, result: Any) -> None:
+    """One action's result: a JSON line with ``--json`` (with the unit of a number the row names),
+    else a line in the table's words (:func:`~drempower.actions.outcome`), a field a line for a record."""
+    name = action.name
     spec, bus = getattr(args, "robot_spec", None), getattr(args, "robot_bus", None)
     joints = {j.id: j.name for j in spec.joints_on(bus)} if spec is not None and bus is not None else {}
     if getattr(args, "json", False):
         joint = {"joint": joints[node]} if node in joints else {}
-        sys.stdout.write(json_line({"id": node, **joint, "action": name, "result": result}) + "\n")
+        unit = {"unit": action.result_unit} if action.result_unit and result is not None else {}
+        sys.stdout.write(json_line({"id": node, **joint, "action": name, "result": result, **unit}) + "\n")
         return
     who = f"joint {joints[node]}" if node in joints else motors_text([node])
-    if result is None:
-        lines = [f"{who}: {name} sent"]
-    elif isinstance(result, dict):
+    if isinstance(result, dict):
         width = max((len(k) for k in result), default=0)
         lines = [f"{who}: {name}", *(f"  {k:<{width}}  {_value(v)}" for k, v in result.items())]
-    else:
+    elif isinstance(result, list):
         lines = [f"{who}: {name}: {_value(result)}"]
+    else:
+        lines = [f"{who}: {name}{table.outcome(action, result)}"]
     for line in lines:
         sys.stdout.write(clean(line) + "\n")
 
