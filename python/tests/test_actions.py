@@ -117,7 +117,13 @@ def test_outcomes_say_sent_for_commands_and_name_a_number_with_its_unit(bus: dre
     assert actions.outcome("step", None) == " sent"  # modes T and P return no time
     assert actions.outcome("move", actions.run(bus, "move", {"id": 2, "angle": 10})) == " sent"
     assert actions.outcome("get", actions.run(bus, "get", {"id": 2, "name": "axis0.config.can_node_id"})) == ": 2"
-    assert actions.outcome("get", 24.000001) == ": 24"
+    # numbers as the command line's tables show them (7 significant digits, no "-0"); records and lists
+    # are left to each front end's own form
+    for value, text in [(24.0, "24"), (3.14159265, "3.141593"), (1234567.0, "1234567"), (2e-05, "2e-05"), (-0.0, "0")]:
+        assert actions.outcome("get", value) == f": {text}"
+    assert actions.outcome("get", 7) == ": 7" and actions.outcome("get", True) == ": True"
+    assert actions.outcome("state", actions.run(bus, "state", {"id": 1})) is None
+    assert actions.outcome("state", {"node": 1}) is None and actions.outcome("get", [1, 2]) is None
     assert actions.describe("get")["result"] == "" and actions.describe("get")["result_unit"] == ""
 
 

@@ -29,13 +29,15 @@ import dataclasses
 import enum
 import inspect
 import math
+import time
 from collections.abc import Callable, Iterator, Mapping
 from dataclasses import dataclass
 from typing import Any, Literal
 
 from .client.commands import MAX_ANGLE, MAX_BANDWIDTH, PositionMode
 from .errors import FieldRangeError, ValidationError
-from .protocol.enums import TorqueMode, VelocityMode
+from .naming import number_text, state_name
+from .protocol.enums import AxisState, TorqueMode, VelocityMode
 from .protocol.limits import MAX_NODE, MIN_MOTOR, S16_MAX, SPEED_RANGE, TORQUE_RANGE
 from .protocol.parameters import find_parameter
 
@@ -505,16 +507,41 @@ def describe(action: Action | str) -> dict[str, Any]:
     }
 
 
-def outcome(action: Action | str, result: Any) -> str:
+ENABLE_SETTLE = 0.3
+"""How long (s) :func:`why_not_enabled` gives a motor to report closed loop after an enable."""
+_CURRENT_STATE = "axis0.current_state"
+
+
+def why_not_enabled(bus: Any, node: int, within: float = ENABLE_SETTLE) -> str | None:
+    """After row ``enable`` for motor ``node`` on a threaded ``bus``: None once the motor reads closed
+    loop (waiting up to ``within`` s), else why not, in the words the front ends put after the motor's
+    name: ``"did not enter closed loop (state idle): its error flags are set: clear errors first,
+    then enable again"``. A front end that reports an enable as done asks this first: a sent enable
+    is no closed loop (a motor with error flags ignores it)."""
+    motor = bus.motor(node)
+    deadline = time.monotonic() + within
+    while True:
+        state = motor.read_property(_CURRENT_STATE, timeout=0.2)
+        if int(state) == AxisState.CLOSED_LOOP_CONTROL:
+            return None
+        if time.monotonic() >= deadline:
+            why = "its error flags are set: clear errors first" if motor.get_state().error else "see its state"
+            return f"did not enter closed loop (state {state_name(state)}): {why}, then enable again"
+        time.sleep(0.02)
+
+
+def outcome(action: Action | str, result: Any) -> str | None:
     """What running ``action`` came to, as every front end words it after the row's name: a command
     is ``" sent"`` (it was sent, which is not "done": a motion command returns before the motor gets
-    there), with the number it returned named, e.g. ``" sent (move time 0.58 s)"``; a read is
-    ``": "`` and its value, named with its unit when the row says (a record or a list is shown by
-    each front end in its own form: rows, JSON)."""
+    there), with the number it returned named in its unit, e.g. ``" sent (move time 1.42 s)"``; a read
+    is ``": "`` and its value (numbers as :func:`~drempower.naming.number_text` shows them). None for
+    a record or a list, which each front end shows in its own form (rows, JSON)."""
     act = get(action) if isinstance(action, str) else action
     if result is None:
         return " sent" if act.safety != "read" else ": none"
-    value = f"{result:.6g}" if isinstance(result, float) else str(plain(result))
+    if isinstance(result, (dict, list, tuple)) or hasattr(result, "_asdict") or dataclasses.is_dataclass(result):
+        return None
+    value = number_text(result, None) if isinstance(result, float) else str(plain(result))
     if act.result:
         value = f"{act.result} {value}"
     if act.result_unit:

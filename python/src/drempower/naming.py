@@ -6,16 +6,18 @@ a name (two buses each with a motor 1).
 
 A reading is named once too, with its unit (:data:`COLUMNS`): ``position_deg``,
 ``speed_rpm``... in ``state --json``, ``monitor`` (table, ``--fields``, ``--json``,
-``--csv``) and the dashboard's CSV.
+``--csv``) and the dashboard's CSV; and shown as text one way (:func:`number_text`).
 """
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 
+from .protocol.enums import AxisState
 from .protocol.limits import check_motor
 
-__all__ = ["COLUMNS", "TIME_COLUMN", "motor_name", "motor_names"]
+__all__ = ["COLUMNS", "TIME_COLUMN", "motor_name", "motor_names", "number_text", "state_name"]
 
 COLUMNS: dict[str, tuple[str, str]] = {
     "id": ("id", "id"),
@@ -57,3 +59,25 @@ def motor_names(
         (bus, node): motor_name(node, bus if len(buses_of[node]) > 1 else None, named=joints.get((bus, node)))
         for bus, node in pairs
     }
+
+
+def number_text(value: float, digits: int | None = 2, width: int = 0) -> str:
+    """``value`` with ``digits`` decimals (None: 7 significant digits), right-aligned in ``width``.
+
+    A value that rounds to zero is shown without a sign: ``-0.001`` -> ``"0.00"``, never ``"-0.00"``.
+    """
+    text = f"{value:.7g}" if digits is None else f"{value:.{digits}f}"
+    if text.startswith("-") and math.isfinite(value) and float(text) == 0:
+        text = text[1:]
+    return text.rjust(width)
+
+
+def state_name(value: float | None) -> str | None:
+    """``8`` -> ``"closed_loop"``, ``1`` -> ``"idle"``; other axis states by their lower-case name."""
+    if value is None:
+        return None
+    try:
+        state = AxisState(int(value))
+    except ValueError:
+        return f"state_{value}"
+    return "closed_loop" if state is AxisState.CLOSED_LOOP_CONTROL else state.name.lower()

@@ -149,6 +149,28 @@ def test_after_the_estop_service_commands_are_refused_until_enable(served: Serve
         pub.undeclare()
 
 
+def test_the_enable_service_succeeds_only_once_the_motors_are_in_closed_loop(served: Served) -> None:
+    """A motor with error flags ignores an enable: the service says so (which motor, its state, the fix)
+    rather than success, in the words the dashboard uses; after clear_errors it succeeds."""
+    from drempower.protocol.flags import MotorError
+
+    m2 = served.sim.bus.motors[2]
+    m2.inject_error(MotorError.DRV_FAULT)  # the axis drops to idle and refuses closed loop
+    assert m2.state == AxisState.IDLE
+    with session(connect=[served.endpoint]) as ros:
+        resp, _ = _call(ros, served.bridge.service_keys["enable"], 1)
+        assert resp.success is False
+        assert resp.message == (
+            "enable failed: motor 2 did not enter closed loop (state idle): its error flags are set: "
+            "clear errors first, then enable again"
+        )
+        assert served.sim.bus.motors[1].state == AxisState.CLOSED_LOOP_CONTROL  # the other one was enabled
+        assert _call(ros, served.bridge.service_keys["clear_errors"], 2)[0].success
+        resp, _ = _call(ros, served.bridge.service_keys["enable"], 3)
+        assert resp.success is True and resp.message == "closed loop on motors 1, 2"
+        assert m2.state == AxisState.CLOSED_LOOP_CONTROL
+
+
 def _joint_state_names(bridge: Bridge, endpoint: str) -> list[str]:
     got: list[Any] = []
     with session(connect=[endpoint]) as ros:

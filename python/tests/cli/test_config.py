@@ -50,11 +50,12 @@ def test_set_needs_name_value_pairs(cli: Cli) -> None:
 
 def test_save_and_reboot_keep_the_value(cli: Cli, sim: SimBus) -> None:
     cli("set", "1,2", STALL, "4", "--sim", "1,2")
-    assert cli("save", "1", "--sim", "1").out == "motor 1: configuration saved\n"
+    assert cli("save", "1", "--sim", "1").out == "motor 1: save sent\n"  # the protocol has no answer to it
     r = cli("reboot", "1", "2", "--wait", "--sim", "1,2")
     assert r.code == 0 and r.out == "motors 1, 2: rebooted and answering\n"
     recs = cli("get", "1,2", STALL, "--json", "--sim", "1,2").records()
     assert [rec["value"] for rec in recs] == [4, 10]
+    assert cli("reboot", "2", "--sim", "1,2").out == "motor 2: reboot sent\n"  # not waited for: not "rebooted"
 
 
 def test_save_reboot_set_id_and_set_bitrate_json(cli: Cli, sim: SimBus) -> None:
@@ -77,7 +78,7 @@ def test_save_reboot_set_id_and_set_bitrate_json(cli: Cli, sim: SimBus) -> None:
 
 def test_set_with_save(cli: Cli, sim: SimBus) -> None:
     r = cli("set", "3", "can.config.heartbeat_ms", "0x10", "--save", "--sim", "3")
-    assert r.code == 0 and r.out.endswith("motor 3: configuration saved\n")
+    assert r.code == 0 and r.out.endswith("motor 3: save sent\n")
     cli("reboot", "all", "--sim", "3")
     assert sim.motors[3].param("can.config.heartbeat_ms") == 16
 

@@ -887,9 +887,24 @@ class Bridge:
         return ok, message or "errors cleared on " + self._served()
 
     def _srv_enable(self, ticket: int) -> tuple[bool, str]:
-        """Closed loop for every joint served, on every bus (a bus that fails does not keep the others from it)."""
+        """Closed loop for every joint served, on every bus (a bus that fails does not keep the others from
+        it); success only once each reads closed loop (an enable is ignored by a motor with error flags)."""
         ok, message = self._run_each(ticket, "enable")
-        return ok, message or "closed loop on " + self._served()
+        if not ok:
+            return ok, message
+        failures = []
+        for face in self.faces.values():
+            for j in face.joints:
+                try:
+                    why = actions.why_not_enabled(face.bus, j.id)
+                except Exception as exc:  # a reply in every case: the caller waits for one
+                    why = f"state not read: {exc}"
+                if why is not None:
+                    who = f"motor {j.id}" if j.name == motor_name(j.id) else f"joint {j.name} (motor {j.id})"
+                    failures.append(f"{who} {why}")
+        if failures:
+            return False, "enable failed: " + "; ".join(failures)
+        return True, "closed loop on " + self._served()
 
     # ------------------------------------------------------------------ lifetime
 

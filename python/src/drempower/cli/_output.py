@@ -10,6 +10,8 @@ import sys
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any, TextIO
 
+from ..naming import number_text
+
 __all__ = [
     "add_json_arg",
     "clean",
@@ -69,17 +71,6 @@ def fmt(value: object, digits: int | None = 2) -> str:
     if isinstance(value, (list, tuple)):
         return clean(" ".join(map(str, value))) or "-"
     return clean(str(value))
-
-
-def number_text(value: float, digits: int | None = 2, width: int = 0) -> str:
-    """``value`` with ``digits`` decimals (None: 7 significant digits), right-aligned in ``width``.
-
-    A value that rounds to zero is shown without a sign: ``-0.001`` -> ``"0.00"``, never ``"-0.00"``.
-    """
-    text = f"{value:.7g}" if digits is None else f"{value:.{digits}f}"
-    if text.startswith("-") and math.isfinite(value) and float(text) == 0:
-        text = text[1:]
-    return text.rjust(width)
 
 
 def no_answer(ids: Sequence[int]) -> int:

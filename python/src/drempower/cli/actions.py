@@ -216,13 +216,14 @@ def show(args: argparse.Namespace, action: table.Action, node: int, result: Any)
         sys.stdout.write(json_line({"id": node, **joint, "action": name, "result": result, **unit}) + "\n")
         return
     who = f"joint {joints[node]}" if node in joints else motors_text([node])
-    if isinstance(result, dict):
+    said = table.outcome(action, result)
+    if said is not None:
+        lines = [f"{who}: {name}{said}"]
+    elif isinstance(result, dict):
         width = max((len(k) for k in result), default=0)
         lines = [f"{who}: {name}", *(f"  {k:<{width}}  {_value(v)}" for k, v in result.items())]
-    elif isinstance(result, list):
-        lines = [f"{who}: {name}: {_value(result)}"]
     else:
-        lines = [f"{who}: {name}{table.outcome(action, result)}"]
+        lines = [f"{who}: {name}: {_value(result)}"]
     for line in lines:
         sys.stdout.write(clean(line) + "\n")
 

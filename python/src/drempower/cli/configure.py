@@ -98,7 +98,7 @@ def run_save(args: argparse.Namespace) -> int:
     with open_from_args(args) as bus:
         for node in args.ids:
             bus.motor(node).save_config()
-    report(args, f"{motors_text(args.ids)}: configuration saved", sent(args.ids, "save"))
+    report(args, f"{motors_text(args.ids)}: save sent", sent(args.ids, "save"))
     return 0
 
 
@@ -120,6 +120,6 @@ def run_reboot(args: argparse.Namespace) -> int:
             bus.motor(node).reboot()
         if waited:
             _wait_answer(bus, args.ids, args.wait_timeout)
-    text = f"{motors_text(args.ids)}: rebooted" + (" and answering" if waited else "")
+    text = f"{motors_text(args.ids)}: " + ("rebooted and answering" if waited else "reboot sent")
     report(args, text, sent(args.ids, "reboot", answering=True if waited else None))
     return 0

@@ -181,5 +181,5 @@ def run_set(args: argparse.Namespace) -> int:
                 motor.save_config()
     emit(args, ("id", "name", "was", "value", "unit"), records, digits=None)
     if args.save:
-        report(args, f"{motors_text(args.ids)}: configuration saved", sent(args.ids, "save"))
+        report(args, f"{motors_text(args.ids)}: save sent", sent(args.ids, "save"))
     return 0

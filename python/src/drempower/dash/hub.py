@@ -21,7 +21,7 @@ from .. import actions
 from ..actions import bandwidth_range
 from ..client import Bus, ConfigBackup, Motor, MotorState
 from ..errors import DrEmpowerError, MotorIdleError, ValidationError
-from ..naming import COLUMNS, TIME_COLUMN, motor_name, motor_names
+from ..naming import COLUMNS, TIME_COLUMN, motor_name, motor_names, state_name
 from ..protocol import ERROR_WORDS, FastRead, flag_info
 from ..protocol.enums import AxisState
 from ..protocol.parameters import Parameter, find_parameter, parameters
@@ -87,17 +87,6 @@ POLL_BUDGET = 0.30
 together, request and reply frames) may take."""
 _TIMEOUT_MS = "can.config.timeout_ms"
 """The motor's CAN timeout (ms): with ``--watchdog`` a motor idles by itself when the dashboard is gone."""
-
-
-def state_name(value: float | None) -> str | None:
-    """``8`` -> ``"closed_loop"``, ``1`` -> ``"idle"``; other axis states by their lower-case name."""
-    if value is None:
-        return None
-    try:
-        state = AxisState(int(value))
-    except ValueError:
-        return f"state_{value}"
-    return "closed_loop" if state is AxisState.CLOSED_LOOP_CONTROL else state.name.lower()
 
 
 def param_table() -> list[dict[str, Any]]:
@@ -564,20 +553,11 @@ class Hub:
         if self.watchdog_ms:
             self.arm_watchdog(keys)
 
-    def _confirm_enabled(self, i: int, within: float = 0.3) -> None:
-        """After an enable: wait up to ``within`` s for closed loop, else say why not (never a silent success)."""
-        deadline = time.monotonic() + within
-        while True:
-            state = self.motor(i).read_property(_STATE, timeout=0.2)
-            if int(state) == AxisState.CLOSED_LOOP_CONTROL:
-                return
-            if time.monotonic() >= deadline:
-                error = self.motor(i).get_state().error
-                why = "its error flags are set: clear errors first" if error else "see its card"
-                raise DrEmpowerError(
-                    f"{self.label(i)} did not enter closed loop (state {state_name(state)}): {why}, then enable again"
-                )
-            time.sleep(0.02)
+    def _confirm_enabled(self, i: int) -> None:
+        """After an enable: closed loop, or why not (never a silent success)."""
+        why = actions.why_not_enabled(*self.where(i))
+        if why is not None:
+            raise DrEmpowerError(f"{self.label(i)} {why}")
 
     def _target(
         self, i: int, angle: float | None = None, speed: float | None = None, torque: float | None = None
@@ -653,7 +633,18 @@ class Hub:
         self._track(act, key, typed, base)
         if act.name == "enable" and key != 0:
             self._confirm_enabled(key)  # never a silent success: closed loop, or why not
+        if all(r is None for r in results):  # a command (one frame per bus for a broadcast): sent
+            return None
         return actions.plain(results[0] if len(results) == 1 else results)
+
+    def do_row(self, who: str, req: dict[str, Any]) -> dict[str, Any]:
+        """The Actions view's request: row ``req["action"]`` with the object ``req["args"]``, run by
+        :meth:`do_control`; returns its ``result`` and ``said``, what it came to in the words the
+        command line prints (:func:`drempower.actions.outcome`; None for a record or a list)."""
+        name = str(req.get("action"))
+        result = self.do_control(who, {"action": name, "args": req.get("args")})
+        said = actions.outcome(name, result)
+        return {"result": result, "said": None if said is None else name + said}
 
     def _within_limits(self, act: actions.Action, key: int, typed: dict[str, Any]) -> None:
         """A motion's speeds and torques (targets and feed-forwards) within the limits motor ``key`` holds."""

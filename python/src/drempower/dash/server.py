@@ -340,6 +340,8 @@ class Dashboard:
                 result = await self._scan()
             elif op == "control":
                 result = await self._run(hub.do_control, who, req)
+            elif op == "action":
+                result = await self._run(hub.do_row, who, req)
             elif op == "rate":
                 result = await self._run(hub.do_rate, who, float(req.get("hz", 0)))
             elif op == "params":

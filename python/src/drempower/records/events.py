@@ -37,7 +37,7 @@ Event = tuple[str, dict[str, Any]]
 class FrameEvents:
     """Turns frames into ``(topic, message)`` pairs; remembers each motor's E bit to report changes.
 
-    ``names`` maps motor ids to joint names (default ``motor<id>``); ``channel`` is the headers' ``frame_id``;
+    ``names`` maps motor ids to joint names (default ``motor_<id>``); ``channel`` is the headers' ``frame_id``;
     ``topic_prefix`` the raw frames' topics' (``<prefix>/tx``, ``<prefix>/rx``). ``gears`` maps motor ids
     to a robot joint's ``(gear, offset)``: its states are then at the joint (rad / gear + offset,
     rad/s / gear, Nm x gear, as :class:`drempower.robot.Gearing`); other motors' at the motor.

@@ -29,7 +29,7 @@ class Recorder(FrameSink):
     queued by the bus's threads and written by the recorder's own thread, so
     recording never slows the bus down; :meth:`close` writes what is queued and
     finishes the file. ``names`` maps motor ids to joint names (default
-    ``motor<id>``); ``channel`` names the bus in the headers' ``frame_id``.
+    ``motor_<id>``); ``channel`` names the bus in the headers' ``frame_id``.
     ``attach(bus, name=..., joints=...)`` records one bus of a robot: its raw
     frames on ``/can/<name>/tx`` and ``/can/<name>/rx``, its states under the joint
     names, at the joint (see :meth:`FrameSink.attach`).

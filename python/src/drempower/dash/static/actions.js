@@ -72,19 +72,6 @@
     return out;
   }
 
-  // the words of drempower.actions.outcome, as the command line says them: a command was "sent" (not
-  // "done": a motion command returns before the motor gets there), with a number it returned named and
-  // in its unit; a read's value likewise; null for a record or a list (shown as JSON)
-  function outcome(r, result) {
-    if (result === null || result === undefined) return r.safety === "read" ? ": none" : " sent";
-    if (typeof result === "object") return null;
-    let value = typeof result === "boolean" ? (result ? "True" : "False")
-      : typeof result === "number" && !Number.isInteger(result) ? String(Number(result.toPrecision(6))) : String(result);
-    if (r.result) value = `${r.result} ${value}`;
-    if (r.result_unit) value = `${value} ${r.result_unit}`;
-    return r.safety === "read" ? `: ${value}` : ` sent (${value})`;
-  }
-
   async function run() {
     const r = row();
     const out = document.querySelector("#act-result");
@@ -94,9 +81,10 @@
     out.style.color = "";
     out.textContent = `${r.name}: running...`;
     try {
-      const result = await window.dashCall("control", { action: r.name, args });
-      const said = outcome(r, result);
-      out.textContent = said === null ? `${r.name}: ${JSON.stringify(result, null, 1)}` : `${r.name}${said}`;
+      // the server words what the row came to as the command line does (a command is "sent", never
+      // "done"; a number named in its unit); a record or a list is shown as JSON
+      const { result, said } = await window.dashCall("action", { action: r.name, args });
+      out.textContent = said === null ? `${r.name}: ${JSON.stringify(result, null, 1)}` : said;
       window.dashSay(`${r.name} ${r.safety === "read" ? "read" : "sent"}`, true);
     } catch (e) {
       out.className = "err";
