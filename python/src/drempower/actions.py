@@ -30,16 +30,18 @@ import enum
 import inspect
 import math
 import time
-from collections.abc import Callable, Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
 from .client.commands import MAX_ANGLE, MAX_BANDWIDTH, PositionMode
-from .errors import FieldRangeError, ValidationError
+from .errors import DrEmpowerError, FieldRangeError, ValidationError
 from .naming import number_text, state_name
+from .protocol.addresses import AXIS0_CURRENT_STATE
 from .protocol.enums import AxisState, TorqueMode, VelocityMode
 from .protocol.limits import MAX_NODE, MIN_MOTOR, S16_MAX, SPEED_RANGE, TORQUE_RANGE
-from .protocol.parameters import find_parameter
+from .protocol.messages import ReadParam
+from .protocol.parameters import DataType, find_parameter
 
 __all__ = [
     "Arg",
@@ -508,26 +510,41 @@ def describe(action: Action | str) -> dict[str, Any]:
 
 
 ENABLE_SETTLE = 0.3
-"""How long (s) :func:`why_not_enabled` gives a motor to report closed loop after an enable."""
-_CURRENT_STATE = "axis0.current_state"
+"""How long (s) :func:`why_not_enabled` gives motors to report closed loop after an enable."""
 
 
-def why_not_enabled(bus: Any, node: int, within: float = ENABLE_SETTLE) -> str | None:
-    """After row ``enable`` for motor ``node`` on a threaded ``bus``: None once the motor reads closed
-    loop (waiting up to ``within`` s), else why not, in the words the front ends put after the motor's
-    name: ``"did not enter closed loop (state idle): its error flags are set: clear errors first,
-    then enable again"``. A front end that reports an enable as done asks this first: a sent enable
-    is no closed loop (a motor with error flags ignores it)."""
-    motor = bus.motor(node)
+def why_not_enabled(
+    bus: Any, nodes: Sequence[int], within: float = ENABLE_SETTLE, stop: Callable[[], bool] | None = None
+) -> dict[int, str]:
+    """After row ``enable`` for motors ``nodes`` on a threaded ``bus``: ``{}`` once each reads closed loop
+    (their states read in one exchange, again every 20 ms, ``within`` s at most), else for each that did
+    not, why not, in the words the front ends put after its name: ``"did not enter closed loop (state
+    idle): its error flags are set: clear errors first, then enable again"``. ``stop()`` true ends the
+    wait early. A front end that reports an enable as done asks this first: a sent enable is no closed
+    loop (a motor with error flags ignores it)."""
+    waiting = list(nodes)
     deadline = time.monotonic() + within
     while True:
-        state = motor.read_property(_CURRENT_STATE, timeout=0.2)
-        if int(state) == AxisState.CLOSED_LOOP_CONTROL:
-            return None
-        if time.monotonic() >= deadline:
-            why = "its error flags are set: clear errors first" if motor.get_state().error else "see its state"
-            return f"did not enter closed loop (state {state_name(state)}): {why}, then enable again"
+        read = bus.request([ReadParam(n, AXIS0_CURRENT_STATE, DataType.U32) for n in waiting], missing_ok=True)
+        states = {n: None if r is None else int(r.value) for n, r in zip(waiting, read, strict=True)}
+        waiting = [n for n in waiting if states[n] != AxisState.CLOSED_LOOP_CONTROL]
+        if not waiting:
+            return {}
+        if time.monotonic() >= deadline or (stop is not None and stop()):
+            break
         time.sleep(0.02)
+    why: dict[int, str] = {}
+    for n in waiting:
+        if states[n] is None:
+            why[n] = "did not answer the read of its state: is it on the bus?"
+            continue
+        try:
+            flags = "its error flags are set: clear errors first" if bus.motor(n).get_state().error else None
+        except DrEmpowerError:
+            flags = None
+        fix = flags or "see its errors"
+        why[n] = f"did not enter closed loop (state {state_name(states[n])}): {fix}, then enable again"
+    return why
 
 
 def outcome(action: Action | str, result: Any) -> str | None:

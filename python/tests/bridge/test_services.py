@@ -124,3 +124,32 @@ def test_service_calls_run_in_arrival_order_and_an_estop_fences_the_earlier_ones
     assert not order.stale(after)
     with order.turn(after):
         pass
+
+
+def test_an_estop_behind_an_enable_waiting_for_closed_loop_is_not_delayed(
+    slow: tuple[Bridge, _SlowSim, str],
+) -> None:
+    """An enable waits (up to ENABLE_SETTLE s) for closed loop: an estop from the same caller right behind
+    it is answered at once and fences it; the enable then says the estop came first, not that the motors
+    failed to enter closed loop."""
+    from drempower.protocol.flags import MotorError
+
+    bridge, sim, endpoint = slow
+    sim.bus.motors[8].inject_error(MotorError.DRV_FAULT)  # refuses closed loop: the enable waits for it
+    caller = session(connect=[endpoint])
+    try:
+        time.sleep(0.3)  # the link is up
+        enable = _issue(caller, bridge.service_keys["enable"])
+        time.sleep(0.1)  # its 8 frames are out (3 ms each); it waits for motor 8
+        t0 = time.monotonic()
+        stop = _issue(caller, bridge.service_keys["estop"])
+        assert _reply(stop).success is True
+        took = time.monotonic() - t0
+        late = _reply(enable)
+        assert took < 0.15, took  # not behind the enable's wait
+        assert late.success is False
+        assert late.message == "enable not done: an estop called after it came first (call clear_errors, then enable)"
+        time.sleep(0.05)
+        assert _estopped(sim)
+    finally:
+        caller.close()

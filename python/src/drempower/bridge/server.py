@@ -86,6 +86,8 @@ SERVICE_ROWS = {"estop": "estop", "clear_errors": "clear", "enable": "enable"}
 """Each service's row of :mod:`drempower.actions`, run for every motor served."""
 ROSOUT_WARN = 30
 """``rcl_interfaces/msg/Log``'s WARN level."""
+_FENCED = "{service} not done: an estop called after it came first (call clear_errors, then enable)"
+"""A service call an estop that arrived after it fenced off (see :mod:`.order`)."""
 ENABLE_FIX = "(call the enable service, or drempower enable {ids})"
 """How a refusal for a motor not in closed loop names the fix, in the terms of a ROS 2 caller."""
 
@@ -804,14 +806,28 @@ class Bridge:
                             self._idle_all()
 
     def _serve(self, query: Any, name: str) -> None:
-        """Answer a call of service ``name``: an estop at once, the others one at a time in arrival order."""
+        """Answer a call of service ``name``: an estop at once; the others one at a time in arrival order,
+        each in a thread of its own (an enable waits for closed loop: Zenoh's callback, which an estop
+        from the same link would wait behind, returns at once)."""
         if name == "estop":
-            success, message = self._srv_estop()
-        else:
-            ticket = self._order.arrive()
+            self._reply(query, *self._srv_estop())
+            return
+        ticket = self._order.arrive()  # here: the order of arrival
+        threading.Thread(
+            target=self._serve_in_turn, args=(query, name, ticket), name=f"drempower bridge {name}", daemon=True
+        ).start()
+
+    def _serve_in_turn(self, query: Any, name: str, ticket: int) -> None:
+        try:
             with self._order.turn(ticket):
                 handler = self._srv_enable if name == "enable" else self._srv_clear_errors
                 success, message = handler(ticket)
+        except Exception as exc:  # a reply in every case: the caller waits for one
+            success, message = False, f"{name} failed: {exc}"
+        self._reply(query, success, message)
+
+    def _reply(self, query: Any, success: bool, message: str) -> None:
+        """The ``std_srvs/srv/Trigger`` response to ``query``, with rmw_zenoh's attachment."""
         att = query.attachment.to_bytes() if query.attachment is not None else b""
         try:
             req = rmw.Attachment.decode(att)
@@ -822,7 +838,11 @@ class Bridge:
             t[rosmsg.TRIGGER + "_Response"](success=success, message=message), rosmsg.TRIGGER + "_Response"
         )
         reply = rmw.Attachment(req.sequence_number, time.time_ns(), req.gid).encode()
-        query.reply(query.key_expr, payload, attachment=reply)
+        try:
+            query.reply(query.key_expr, payload, attachment=reply)
+            query.drop()  # the reply is final
+        except Exception as exc:  # the session closed meanwhile
+            _log.warning("service reply not sent: %s", exc)
 
     def estop(self) -> list[str]:
         """Emergency stop of every motor served on every bus at once; returns the failures (``"bus: error"``).
@@ -872,9 +892,7 @@ class Bridge:
             try:
                 for i in face.ids:
                     if not face.run_unless(row, i, lambda: self._order.stale(ticket)):
-                        return False, (
-                            f"{service} not done: an estop called after it came first (call clear_errors, then enable)"
-                        )
+                        return False, _FENCED.format(service=service)
             except Exception as exc:  # a reply in every case: the caller waits for one
                 failures.append(f"{face.name or face.prefix}: {exc}")
         if failures:
@@ -888,20 +906,29 @@ class Bridge:
 
     def _srv_enable(self, ticket: int) -> tuple[bool, str]:
         """Closed loop for every joint served, on every bus (a bus that fails does not keep the others from
-        it); success only once each reads closed loop (an enable is ignored by a motor with error flags)."""
+        it); success only once each reads closed loop (a motor with error flags ignores an enable), within
+        :data:`~drempower.actions.ENABLE_SETTLE` s in all, unless an estop that arrived later comes first."""
         ok, message = self._run_each(ticket, "enable")
         if not ok:
             return ok, message
         failures = []
+        deadline = time.monotonic() + actions.ENABLE_SETTLE
+
+        def stale() -> bool:
+            return self._order.stale(ticket)
+
         for face in self.faces.values():
+            try:
+                why = actions.why_not_enabled(face.bus, face.ids, max(0.0, deadline - time.monotonic()), stale)
+            except Exception as exc:  # a reply in every case: the caller waits for one
+                failures.append(f"{face.name or face.prefix}: state not read: {exc}")
+                continue
             for j in face.joints:
-                try:
-                    why = actions.why_not_enabled(face.bus, j.id)
-                except Exception as exc:  # a reply in every case: the caller waits for one
-                    why = f"state not read: {exc}"
-                if why is not None:
+                if j.id in why:
                     who = f"motor {j.id}" if j.name == motor_name(j.id) else f"joint {j.name} (motor {j.id})"
-                    failures.append(f"{who} {why}")
+                    failures.append(f"{who} {why[j.id]}")
+        if stale():
+            return False, _FENCED.format(service="enable")
         if failures:
             return False, "enable failed: " + "; ".join(failures)
         return True, "closed loop on " + self._served()

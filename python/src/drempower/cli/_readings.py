@@ -11,12 +11,13 @@ from typing import Any
 from ..client import Bus, MotorState
 from ..client.errors import TimeoutError
 from ..errors import DrEmpowerError, MotorIdleError
+from ..naming import state_name
 from ..protocol import DataType, FastRead, ReadParam
 from ..protocol.addresses import AXIS0_CURRENT_STATE, CAN_CONFIG_TIMEOUT_MS
 from ..protocol.enums import AxisState
 from ._fields import COLUMNS
 
-__all__ = ["FIELDS", "HEADERS", "Reading", "axis_state_name", "read", "require_ready", "warn_leftover_watchdog"]
+__all__ = ["FIELDS", "HEADERS", "Reading", "read", "require_ready", "warn_leftover_watchdog"]
 
 _VBUS = 1
 _CURRENT_STATE = AXIS0_CURRENT_STATE
@@ -28,18 +29,6 @@ HEADERS = tuple(COLUMNS[c][1] for c in _COLUMNS)
 
 FIELDS = tuple(COLUMNS[c][0] for c in _COLUMNS)
 """Keys of :meth:`Reading.record`, in order: ``id``, ``position_deg``, ``speed_rpm``, ..."""
-
-
-def axis_state_name(value: int | None) -> str | None:
-    """``8`` -> ``"closed_loop"``, ``1`` -> ``"idle"``; other states by their lower-case name."""
-    if value is None:
-        return None
-    if value == AxisState.CLOSED_LOOP_CONTROL:
-        return "closed_loop"
-    try:
-        return AxisState(value).name.lower()
-    except ValueError:
-        return f"state_{value}"
 
 
 @dataclass(frozen=True, slots=True)
@@ -77,7 +66,7 @@ class Reading:
             None if st is None else st.speed,
             None if st is None else st.torque,
             None if st is None else st.trajectory_done,
-            axis_state_name(self.axis_state),
+            state_name(self.axis_state),
             None if self.vbus is None else round(self.vbus, 3),
             self.error_text(),
         )

@@ -16,6 +16,7 @@ from typing import Any
 
 from ..client import Bus, Motor
 from ..errors import DrEmpowerError
+from ..naming import state_name
 from ..protocol.addresses import (
     AXIS0_CONFIG_EXTRA_SETTING_ENCODER_OFFSET_CALIBRATED,
     AXIS0_CURRENT_STATE,
@@ -88,7 +89,7 @@ def _follow(args: argparse.Namespace, motor: Motor, max_time: float) -> float:
             if state != AxisState.IDLE and (not seen or seen[-1] != state):
                 seen.append(state)
                 text = PHASE_TEXT.get(state) if isinstance(state, AxisState) else None
-                text = text or f"{_readings.axis_state_name(int(state))}"
+                text = text or f"{state_name(int(state))}"
                 if not args.json:
                     progress.clear()
                     print(f"motor {args.id}: {text}...", file=sys.stderr, flush=True)
@@ -104,7 +105,7 @@ def _check_time(args: argparse.Namespace, state: AxisState | int, elapsed: float
     if elapsed > max_time:
         raise DrEmpowerError(
             f"motor {args.id}: calibration still running after {max_time:g} s (state "
-            f"{_readings.axis_state_name(int(state))}); it was set idle"
+            f"{state_name(int(state))}); it was set idle"
         )
 
 

@@ -555,7 +555,8 @@ class Hub:
 
     def _confirm_enabled(self, i: int) -> None:
         """After an enable: closed loop, or why not (never a silent success)."""
-        why = actions.why_not_enabled(*self.where(i))
+        bus, node = self.where(i)
+        why = actions.why_not_enabled(bus, [node]).get(node)
         if why is not None:
             raise DrEmpowerError(f"{self.label(i)} {why}")
 
