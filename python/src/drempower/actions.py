@@ -40,7 +40,7 @@ from .naming import number_text, state_name
 from .protocol.addresses import AXIS0_CURRENT_STATE
 from .protocol.enums import AxisState, TorqueMode, VelocityMode
 from .protocol.limits import MAX_NODE, MIN_MOTOR, S16_MAX, SPEED_RANGE, TORQUE_RANGE
-from .protocol.messages import ReadParam
+from .protocol.messages import FastRead, ReadParam
 from .protocol.parameters import DataType, find_parameter
 
 __all__ = [
@@ -510,7 +510,29 @@ def describe(action: Action | str) -> dict[str, Any]:
 
 
 ENABLE_SETTLE = 0.3
-"""How long (s) :func:`why_not_enabled` gives motors to report closed loop after an enable."""
+"""How long (s) :func:`why_not_enabled` and :func:`why_not_cleared` give motors to get there."""
+_SILENT = "did not answer the read of its state: is it on the bus?"
+
+
+def _settle(
+    bus: Any,
+    nodes: Sequence[int],
+    ask: Callable[[int], Any],
+    reached: Callable[[Any], bool],
+    within: float,
+    stop: Callable[[], bool] | None,
+) -> dict[int, Any]:
+    """Ask every motor of ``nodes`` (``ask(node)``: the message, one exchange for all) again every 20 ms
+    until each answer is ``reached``, ``within`` s at most or until ``stop()``; returns the last answer
+    (None: none came) of each motor that did not get there."""
+    waiting = list(nodes)
+    deadline = time.monotonic() + within
+    while True:
+        answers = dict(zip(waiting, bus.request([ask(n) for n in waiting], missing_ok=True), strict=True))
+        waiting = [n for n in waiting if answers[n] is None or not reached(answers[n])]
+        if not waiting or time.monotonic() >= deadline or (stop is not None and stop()):
+            return {n: answers[n] for n in waiting}
+        time.sleep(0.02)
 
 
 def why_not_enabled(
@@ -522,29 +544,41 @@ def why_not_enabled(
     idle): its error flags are set: clear errors first, then enable again"``. ``stop()`` true ends the
     wait early. A front end that reports an enable as done asks this first: a sent enable is no closed
     loop (a motor with error flags ignores it)."""
-    waiting = list(nodes)
-    deadline = time.monotonic() + within
-    while True:
-        read = bus.request([ReadParam(n, AXIS0_CURRENT_STATE, DataType.U32) for n in waiting], missing_ok=True)
-        states = {n: None if r is None else int(r.value) for n, r in zip(waiting, read, strict=True)}
-        waiting = [n for n in waiting if states[n] != AxisState.CLOSED_LOOP_CONTROL]
-        if not waiting:
-            return {}
-        if time.monotonic() >= deadline or (stop is not None and stop()):
-            break
-        time.sleep(0.02)
+    left = _settle(
+        bus,
+        nodes,
+        lambda n: ReadParam(n, AXIS0_CURRENT_STATE, DataType.U32),
+        lambda r: int(r.value) == AxisState.CLOSED_LOOP_CONTROL,
+        within,
+        stop,
+    )
     why: dict[int, str] = {}
-    for n in waiting:
-        if states[n] is None:
-            why[n] = "did not answer the read of its state: is it on the bus?"
+    for n, r in left.items():
+        if r is None:
+            why[n] = _SILENT
             continue
         try:
             flags = "its error flags are set: clear errors first" if bus.motor(n).get_state().error else None
         except DrEmpowerError:
             flags = None
         fix = flags or "see its errors"
-        why[n] = f"did not enter closed loop (state {state_name(states[n])}): {fix}, then enable again"
+        why[n] = f"did not enter closed loop (state {state_name(int(r.value))}): {fix}, then enable again"
     return why
+
+
+def why_not_cleared(
+    bus: Any, nodes: Sequence[int], within: float = ENABLE_SETTLE, stop: Callable[[], bool] | None = None
+) -> dict[int, str]:
+    """After row ``clear`` for motors ``nodes``: ``{}`` once no state frame of theirs has the error bit
+    (read as :func:`why_not_enabled` reads), else for each that still has it, in the same kind of words:
+    ``"errors remain after clearing: see its errors (an encoder error needs zeroing first)"``."""
+    left = _settle(bus, nodes, FastRead, lambda st: not st.error, within, stop)
+    return {
+        n: _SILENT
+        if st is None
+        else "errors remain after clearing: see its errors (an encoder error needs zeroing first)"
+        for n, st in left.items()
+    }
 
 
 def outcome(action: Action | str, result: Any) -> str | None:

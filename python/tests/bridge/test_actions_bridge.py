@@ -171,6 +171,25 @@ def test_the_enable_service_succeeds_only_once_the_motors_are_in_closed_loop(ser
         assert m2.state == AxisState.CLOSED_LOOP_CONTROL
 
 
+def test_the_clear_errors_service_succeeds_only_once_no_error_remains(served: Served) -> None:
+    """An encoder error stays after a clear (it needs zeroing): the service says so rather than success;
+    once zeroed, clearing succeeds."""
+    from drempower.protocol.flags import EncoderError
+
+    m1 = served.sim.bus.motors[1]
+    m1.inject_error(EncoderError.EDR_BATTERY_LOW)
+    with session(connect=[served.endpoint]) as ros:
+        resp, _ = _call(ros, served.bridge.service_keys["clear_errors"], 1)
+        assert resp.success is False
+        assert resp.message == (
+            "clear_errors failed: motor 1 errors remain after clearing: see its errors "
+            "(an encoder error needs zeroing first)"
+        )
+        next(iter(served.bridge.faces.values())).bus.motor(1).set_zero_position()  # as drempower zero does
+        resp, _ = _call(ros, served.bridge.service_keys["clear_errors"], 2)
+        assert resp.success is True and resp.message == "errors cleared on motors 1, 2"
+
+
 def _joint_state_names(bridge: Bridge, endpoint: str) -> list[str]:
     got: list[Any] = []
     with session(connect=[endpoint]) as ros:

@@ -154,3 +154,17 @@ async def test_an_enable_that_does_not_take_is_an_error_not_a_success(page: Page
     assert (await page.ask("control", action="clear_errors", id=1))["ok"]
     assert (await page.ask("control", action="enable", id=1))["ok"]
     assert motor.state == AxisState.CLOSED_LOOP_CONTROL
+
+
+async def test_a_clear_that_leaves_an_error_is_an_error_not_a_success(page: Page) -> None:
+    from drempower.protocol.flags import EncoderError
+
+    motor = page.sim.motors[1]
+    motor.inject_error(EncoderError.EDR_BATTERY_LOW)  # stays after a clear until the motor is zeroed
+    r = await page.ask("control", action="clear_errors", id=1)
+    assert not r["ok"]
+    assert r["error"] == "motor_1 errors remain after clearing: see its errors (an encoder error needs zeroing first)"
+    with page.sim.lock:  # as drempower zero does
+        motor._set_zero()
+    assert (await page.ask("control", action="clear_errors", id=1))["ok"]
+    assert motor.axis_error == 0

@@ -900,15 +900,23 @@ class Bridge:
         return True, ""
 
     def _srv_clear_errors(self, ticket: int) -> tuple[bool, str]:
-        """Clear the errors of every joint served, unless an estop that arrived later came first."""
-        ok, message = self._run_each(ticket, "clear_errors")
-        return ok, message or "errors cleared on " + self._served()
+        """Clear the errors of every joint served, unless an estop that arrived later came first; success
+        only once none reports an error (an encoder error stays until zeroed)."""
+        return self._settled(ticket, "clear_errors", actions.why_not_cleared, "errors cleared on ")
 
     def _srv_enable(self, ticket: int) -> tuple[bool, str]:
         """Closed loop for every joint served, on every bus (a bus that fails does not keep the others from
-        it); success only once each reads closed loop (a motor with error flags ignores an enable), within
-        :data:`~drempower.actions.ENABLE_SETTLE` s in all, unless an estop that arrived later comes first."""
-        ok, message = self._run_each(ticket, "enable")
+        it); success only once each reads closed loop (a motor with error flags ignores an enable)."""
+        return self._settled(ticket, "enable", actions.why_not_enabled, "closed loop on ")
+
+    def _settled(
+        self, ticket: int, service: str, why_not: Callable[..., dict[int, str]], done: str
+    ) -> tuple[bool, str]:
+        """Run ``service``'s row for every joint served (:meth:`_run_each`), then check that each got where
+        the row takes it (``why_not``: :func:`~drempower.actions.why_not_enabled` or ``why_not_cleared``),
+        within :data:`~drempower.actions.ENABLE_SETTLE` s in all, unless an estop that arrived later comes
+        first; ``done`` + what is served on success."""
+        ok, message = self._run_each(ticket, service)
         if not ok:
             return ok, message
         failures = []
@@ -919,7 +927,7 @@ class Bridge:
 
         for face in self.faces.values():
             try:
-                why = actions.why_not_enabled(face.bus, face.ids, max(0.0, deadline - time.monotonic()), stale)
+                why = why_not(face.bus, face.ids, max(0.0, deadline - time.monotonic()), stale)
             except Exception as exc:  # a reply in every case: the caller waits for one
                 failures.append(f"{face.name or face.prefix}: state not read: {exc}")
                 continue
@@ -928,10 +936,10 @@ class Bridge:
                     who = f"motor {j.id}" if j.name == motor_name(j.id) else f"joint {j.name} (motor {j.id})"
                     failures.append(f"{who} {why[j.id]}")
         if stale():
-            return False, _FENCED.format(service="enable")
+            return False, _FENCED.format(service=service)
         if failures:
-            return False, "enable failed: " + "; ".join(failures)
-        return True, "closed loop on " + self._served()
+            return False, f"{service} failed: " + "; ".join(failures)
+        return True, done + self._served()
 
     # ------------------------------------------------------------------ lifetime
 

@@ -59,6 +59,8 @@ _BANDWIDTH = "axis0.controller.config.input_filter_bandwidth"
 one goes through it."""
 _CSV_COLUMNS = ("id", "position", "speed", "torque", "done", "error")
 """The readings of a sample in the page's CSV (then the targets of position, speed and torque)."""
+_CONFIRMED = {"enable": actions.why_not_enabled, "clear": actions.why_not_cleared}
+"""The rows whose end the dashboard checks before it reports success, and how."""
 PAGE_ROWS = {"stop": "stop", "idle": "idle", "enable": "enable", "clear_errors": "clear"}
 """The page's buttons that are rows of :mod:`drempower.actions` (the page's name: the row's)."""
 PAGE_CONTROLS: dict[str, tuple[str, dict[str, str], dict[str, Any]]] = {
@@ -553,10 +555,11 @@ class Hub:
         if self.watchdog_ms:
             self.arm_watchdog(keys)
 
-    def _confirm_enabled(self, i: int) -> None:
-        """After an enable: closed loop, or why not (never a silent success)."""
+    def _confirm(self, i: int, why_not: Callable[..., dict[int, str]]) -> None:
+        """After an enable or a clear: motor ``i`` got there (``why_not``: :func:`~drempower.actions.why_not_enabled`
+        or ``why_not_cleared``), or why not (never a silent success)."""
         bus, node = self.where(i)
-        why = actions.why_not_enabled(bus, [node]).get(node)
+        why = why_not(bus, [node]).get(node)
         if why is not None:
             raise DrEmpowerError(f"{self.label(i)} {why}")
 
@@ -632,8 +635,8 @@ class Hub:
         base = self._base(key) if act.name == "step" else 0.0
         results = [actions.run(bus, act, typed if node < 0 else {**typed, "id": node}) for bus, node in places]
         self._track(act, key, typed, base)
-        if act.name == "enable" and key != 0:
-            self._confirm_enabled(key)  # never a silent success: closed loop, or why not
+        if act.name in _CONFIRMED and key != 0:
+            self._confirm(key, _CONFIRMED[act.name])  # never a silent success: got there, or why not
         if all(r is None for r in results):  # a command (one frame per bus for a broadcast): sent
             return None
         return actions.plain(results[0] if len(results) == 1 else results)
