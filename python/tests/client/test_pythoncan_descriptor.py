@@ -214,3 +214,75 @@ def test_a_virtual_bus_closing_during_a_send_loses_no_frame_of_another() -> None
     finally:
         other.shutdown()
         t.close()
+
+
+def test_a_virtual_send_gives_each_peer_what_python_cans_own_send_gives() -> None:
+    """The transport puts a frame in the virtual channel's queues itself (no deep copy per peer): each peer
+    gets a message of its own with python-can's fields (the channel, ``is_rx``, a timestamp of now)."""
+    channel = "drempower-test-direct-send"
+    t = open_transport("virtual", channel)
+    peers = [can.Bus(interface="virtual", channel=channel) for _ in range(2)]
+    reference = can.Bus(interface="virtual", channel=channel)
+    try:
+        assert isinstance(t, pythoncan.PythonCanTransport) and t._direct
+        before = time.time()
+        for f in FRAMES:
+            t.send(f)
+        got = [[p.recv(1.0) for _ in FRAMES] for p in peers]
+        for msgs in got:
+            assert [(m.arbitration_id, bytes(m.data), m.is_extended_id, m.is_remote_frame) for m in msgs] == FRAMES
+            for m in msgs:
+                assert m.channel == channel and m.is_rx and before <= m.timestamp <= time.time()
+                assert m.dlc == len(m.data)
+        assert got[0][0] is not got[1][0]  # one message each
+        assert [reference.recv(1.0) is not None for _ in FRAMES] == [True] * len(FRAMES)
+        assert t.read_nowait() == []  # not its own frames (receive_own_messages is off)
+        assert peers[0].recv(0.0) is None
+        # python-can's own send of the same frame on the same channel gives the same fields
+        ref = can.Message(arbitration_id=FRAMES[0][0], data=FRAMES[0][1], is_extended_id=False)
+        reference.send(ref)
+        theirs = peers[0].recv(1.0)
+        ours = got[0][0]
+        for attr in ("arbitration_id", "data", "is_extended_id", "is_remote_frame", "dlc", "channel", "is_rx"):
+            assert getattr(ours, attr) == getattr(theirs, attr), attr
+    finally:
+        for p in (*peers, reference):
+            p.shutdown()
+        t.close()
+
+
+def test_a_virtual_send_with_receive_own_messages_reaches_itself() -> None:
+    channel = "drempower-test-direct-own"
+    t = open_transport("virtual", channel, receive_own_messages=True)
+    try:
+        t.send(FRAMES[0])
+        assert take(t, 1) == [FRAMES[0]]
+    finally:
+        t.close()
+
+
+def test_a_virtual_send_a_full_peer_refuses_is_an_error_and_others_still_get_it() -> None:
+    channel = "drempower-test-direct-full"
+    t = open_transport("virtual", channel, send_timeout=0.05)
+    full = can.Bus(interface="virtual", channel=channel, rx_queue_size=1)
+    other = can.Bus(interface="virtual", channel=channel)
+    try:
+        t.send(FRAMES[0])  # fills ``full``
+        with pytest.raises(TransportError, match=r"send did not complete in 0.05 s \(1 receiving bus"):
+            t.send(FRAMES[1])
+        assert [other.recv(1.0).arbitration_id for _ in range(2)] == [FRAMES[0][0], FRAMES[1][0]]  # type: ignore[union-attr]
+    finally:
+        full.shutdown()
+        other.shutdown()
+        t.close()
+
+
+def test_a_virtual_send_after_python_can_shut_the_bus_down_is_an_error() -> None:
+    t = open_transport("virtual", "drempower-test-direct-shut")
+    assert isinstance(t, pythoncan.PythonCanTransport)
+    t.bus.shutdown()
+    try:
+        with pytest.raises(TransportError, match="shut down"):
+            t.send(FRAMES[0])
+    finally:
+        t.close()

@@ -114,6 +114,18 @@ class _SignalQueue(queue.Queue):  # type: ignore[type-arg]
             pass
 
 
+def _virtual_put(bus: can.BusABC) -> bool:
+    """True when python-can's virtual ``bus`` is laid out as python-can 4 lays it out, so that a frame can
+    be put in its peers' queues directly (:meth:`PythonCanTransport._send_virtual`)."""
+    return (
+        isinstance(getattr(bus, "channel", None), list)
+        and isinstance(getattr(bus, "_open", None), bool)
+        and isinstance(getattr(bus, "receive_own_messages", None), bool)
+        and getattr(bus, "preserve_timestamps", None) is False
+        and hasattr(bus, "channel_id")
+    )
+
+
 def _signal_virtual(bus: can.BusABC) -> _SignalQueue | None:
     """Give python-can's virtual ``bus`` a queue whose pipe turns readable when a message reaches it;
     None when the bus is not laid out as python-can 4 lays it out (the bus is then left as is)."""
@@ -212,6 +224,9 @@ class PythonCanTransport(Transport):
         # python-can's virtual send walks the channel's list of queues without a lock while a bus shutting
         # down removes its queue from it (under channels_lock): the walk then skips the queue after it
         self._send_guard: threading.RLock | None = can.interfaces.virtual.channels_lock if name == "virtual" else None
+        self._direct = name == "virtual" and _virtual_put(self._bus)
+        """Frames go straight into the virtual channel's queues, one new message each (python-can's own send
+        deep-copies the message for each, which costs more than the rest of a request)."""
         if name == "socketcand":  # a TCP hop and the server's own queue before the bus
             self.tx_latency = SOCKETCAND_TX_LATENCY
             self.unbounded_latency = True
@@ -316,6 +331,9 @@ class PythonCanTransport(Transport):
         return self._bus
 
     def send(self, frame: Frame) -> None:
+        if self._direct:
+            self._send_virtual(frame)
+            return
         msg = can.Message(
             arbitration_id=frame[0],
             data=frame[1],
@@ -341,6 +359,43 @@ class PythonCanTransport(Transport):
                     ) from exc
                 why = _why(exc) if cause is None else f"{_why(exc)} ({_why(cause)})"
                 raise TransportError(f"{self.description}: send failed: {why}") from exc
+
+    def _send_virtual(self, frame: Frame) -> None:
+        """:meth:`send` on python-can's virtual bus: what its ``send`` does (a message per other bus of the
+        channel, stamped now, ``is_rx`` set; an error when a full queue refused it), without the deep copy."""
+        bus: Any = self._bus
+        arb, data, ext, rtr = frame
+        with self._send_lock:
+            if self._closing.is_set():
+                raise TransportError(f"{self.description}: closed, frame not sent")
+            assert self._send_guard is not None
+            with self._send_guard:
+                if not bus._open:
+                    raise TransportError(f"{self.description}: send failed: the python-can bus is shut down")
+                now = time.time()
+                own, own_too, channel_id = bus.queue, bus.receive_own_messages, bus.channel_id
+                refused = 0
+                for q in bus.channel:
+                    if q is own and not own_too:
+                        continue
+                    msg = can.Message(
+                        timestamp=now,
+                        arbitration_id=arb,
+                        is_extended_id=ext,
+                        is_remote_frame=rtr,
+                        data=data,
+                        channel=channel_id,
+                        is_rx=q is not own,
+                    )
+                    try:
+                        q.put(msg, True, self._send_timeout)
+                    except queue.Full:
+                        refused += 1
+            if refused:
+                raise TransportError(
+                    f"{self.description}: send did not complete in {self._send_timeout:g} s "
+                    f"({refused} receiving bus(es) of the virtual channel full)"
+                )
 
     def is_closed(self) -> bool:
         return self._closing.is_set()
