@@ -185,8 +185,19 @@ def test_joint_commands_are_refused_in_the_words_of_the_tables_rows_and_the_gate
         arm.bridge.bus.idle(range(1, 7))  # as after an estop
         wait_for(lambda: all(arm.motor(n).state == AxisState.IDLE for n in JOINTS))
         mark = len(arm.frames)
-        pub.put(joint_state(["base_yaw"], [0.0], velocity=[0.5]))
-        wait_for(lambda: topics.refused == 1)
+
+        def put_until_refused(msg: bytes) -> None:
+            """Put ``msg`` until the topics refuse it (the first put may come before Zenoh matched them)."""
+            seen = topics.refused
+            t0 = time.monotonic()
+            while topics.refused == seen:
+                assert time.monotonic() - t0 < 5.0, "not refused within 5 s"
+                pub.put(msg)
+                put_at = time.monotonic()
+                while topics.refused == seen and time.monotonic() - put_at < 0.5:
+                    time.sleep(0.01)
+
+        put_until_refused(joint_state(["base_yaw"], [0.0], velocity=[0.5]))
         idle = arm.bridge.last_refusal or ""
         assert "is idle (not in closed loop): enable it first (call the enable service" in idle, idle
         arm.enable(ros)

@@ -254,10 +254,19 @@ def test_a_virtual_send_gives_each_peer_what_python_cans_own_send_gives() -> Non
 def test_a_virtual_send_with_receive_own_messages_reaches_itself() -> None:
     channel = "drempower-test-direct-own"
     t = open_transport("virtual", channel, receive_own_messages=True)
+    peer = can.Bus(interface="virtual", channel=channel)
     try:
+        assert isinstance(t, pythoncan.PythonCanTransport) and t._direct
+        data = bytearray(b"\x01\x02")
+        t.send(Frame(0x10, data))  # type: ignore[arg-type]
+        data[0] = 0xFF  # the caller's buffer changes after the send: what was sent does not
+        assert take(t, 1) == [Frame(0x10, b"\x01\x02")]
+        msg = peer.recv(1.0)
+        assert msg is not None and bytes(msg.data) == b"\x01\x02"
         t.send(FRAMES[0])
         assert take(t, 1) == [FRAMES[0]]
     finally:
+        peer.shutdown()
         t.close()
 
 

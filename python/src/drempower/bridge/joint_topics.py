@@ -241,8 +241,8 @@ class JointTopics:
         try:
             msg = rosmsg.decode(sample.payload.to_bytes(), rosmsg.JOINT_STATE)
         except Exception as exc:
-            self.refused += 1
             _log.warning("%s: not a sensor_msgs/msg/JointState (%s)", self.commands_topic, exc)
+            self.refused += 1
             return
         with self._lock:
             if self._closed.is_set():
@@ -254,8 +254,8 @@ class JointTopics:
                 batches = self._messages(msg)
                 self._send(batches)
             except (DrEmpowerError, ValueError) as exc:
-                self.refused += 1
                 self.bridge._refuse(self.commands_topic, str(exc))  # logged, and told on /rosout
+                self.refused += 1  # after the words: a reader of the count finds them said
                 return
             now = time.monotonic()
             if self._registered is None:

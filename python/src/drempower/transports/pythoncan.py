@@ -123,6 +123,8 @@ def _virtual_put(bus: can.BusABC) -> bool:
         and isinstance(getattr(bus, "receive_own_messages", None), bool)
         and getattr(bus, "preserve_timestamps", None) is False
         and hasattr(bus, "channel_id")
+        and isinstance(getattr(bus, "queue", None), queue.Queue)
+        and getattr(type(bus), "send", None) is can.interfaces.virtual.VirtualBus.send
     )
 
 
@@ -362,9 +364,12 @@ class PythonCanTransport(Transport):
 
     def _send_virtual(self, frame: Frame) -> None:
         """:meth:`send` on python-can's virtual bus: what its ``send`` does (a message per other bus of the
-        channel, stamped now, ``is_rx`` set; an error when a full queue refused it), without the deep copy."""
+        channel, and its own with ``receive_own_messages``, stamped now, ``is_rx`` set; an error when a full
+        queue refused it), without the deep copy."""
         bus: Any = self._bus
         arb, data, ext, rtr = frame
+        if data.__class__ is not bytes:  # a bytearray would be shared by every receiver (python-can copies)
+            data = bytes(data)
         with self._send_lock:
             if self._closing.is_set():
                 raise TransportError(f"{self.description}: closed, frame not sent")
