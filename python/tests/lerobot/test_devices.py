@@ -171,12 +171,16 @@ def test_leader_actions_are_its_joint_positions(tmp_path: Path) -> None:
         assert twin is not None
         first = leader.get_action()
         assert list(first) == [f"{j}.pos" for j in JOINTS]
+        cycles = leader._cycles
         twin.push_joint("elbow", torque=1.0, duration=0.2)
         _settle(leader.robot, 3.0)  # pushed, it moves, slows down and stays
         got = leader.get_action()
+        assert leader._cycles - cycles >= 300  # teach mode's 100 cycles per s went on while the test let time pass
         assert got["elbow.pos"] - first["elbow.pos"] > 5.0
         for j in JOINTS:
             assert got[f"{j}.pos"] == pytest.approx(math.degrees(twin.joint_position(j)), abs=0.5)
+        _settle(leader.robot, 1.0)
+        assert leader.get_action() == pytest.approx(got, abs=0.5)  # where it was left
         leader.send_feedback({})  # no feedback features: an empty feedback is fine, any other refused
         with pytest.raises(ValidationError, match=r"feedback=\['elbow.pos'\]: .* takes no feedback"):
             leader.send_feedback({"elbow.pos": 1.0})

@@ -1,9 +1,11 @@
 """Teach mode on the twin arm: with gravity compensation it drifts less than 1 deg in 5 s at three poses;
-without, it falls. The path taught comes back as a trajectory, and drempower teach records it."""
+without, it falls. The path taught comes back as a trajectory, and drempower teach records it. On a
+virtual clock, teach mode on a thread keeps its rate while another thread lets time pass."""
 
 from __future__ import annotations
 
 import math
+import threading
 from pathlib import Path
 
 import pytest
@@ -39,6 +41,33 @@ def test_held_in_teach_mode_it_stays_and_without_compensation_it_falls(pose: tup
     print(f"pose {pose}: drift with compensation {max(held):.3f} deg, without {max(fell):.1f} deg")
     assert max(held) < 1.0
     assert max(fell) > 10.0
+
+
+def test_on_a_thread_it_keeps_its_rate_while_another_thread_lets_time_pass() -> None:
+    """As the LeRobot leader runs it: teach mode on a thread of its own, the caller letting 2 s pass on the
+    same virtual clock. Every cycle comes one period after the last (none is skipped while the other
+    thread's wait lets time pass)."""
+    with drempower.open_robot(ARM, sim={"clock": "virtual"}) as robot:
+        first, stop = threading.Event(), threading.Event()
+        got: list[Trajectory] = []
+
+        def seen(t: float, positions: object) -> None:
+            first.set()
+
+        taught = threading.Thread(target=lambda: got.append(teach(robot, None, on_state=seen, stop=stop.is_set)))
+        taught.start()
+        try:
+            assert first.wait(10)
+            start = robot.bus("arm").now()
+            robot.bus("arm").run(sleep(2.0))
+            assert robot.bus("arm").now() - start >= 2.0
+        finally:
+            stop.set()
+            taught.join(10)
+    (path,) = got
+    gaps = [b - a for a, b in zip(path.times, path.times[1:], strict=False)]
+    assert path.duration >= 2.0
+    assert max(gaps) == pytest.approx(0.01, abs=1e-6)  # 100 cycles per s, on time
 
 
 def test_drempower_teach_records_the_path(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

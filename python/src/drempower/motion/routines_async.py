@@ -12,12 +12,11 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from ..client.commands import PositionMode, make_angle, make_impedance
+from ..client.commands import PositionMode
 from ..client.effects import sleep
 from ..errors import DrEmpowerError
-from ..protocol.messages import Message, StartImpedance
 from .identify import Identification, check_excitation, excitation, from_samples
-from .teach import GravityModel, teach_cycle
+from .teach import GravityModel, TeachLoop
 from .trajectory import Trajectory
 from .tune import GAIN_NAMES, Step, TuneReport, gains_for, step_metrics
 
@@ -152,56 +151,47 @@ async def teach(
 ) -> Trajectory:
     """Run teach mode (see :mod:`drempower.motion.teach`) on ``joints`` (default all) for ``seconds`` s
     (None: until ``stop()`` is true or Ctrl-C, which then ends it and returns the path); ``on_state(t,
-    {joint: rad})`` sees every cycle. Returns the path taught."""
+    {joint: rad})`` sees every cycle. Returns the path taught.
+
+    On a virtual clock, the joints of a robot of one bus are taught by one operation of that bus, so its
+    cycles keep their rate in simulated time while other threads let time pass too; ``on_state`` then
+    runs in whichever thread lets it pass, and must not use the bus (see :class:`~.teach.TeachLoop`)."""
     names = list(joints or robot.joints)
     gravity = GravityModel(robot.spec, names) if compensate else None
-    lanes: dict[str, list[str]] = {}
-    for n in names:
-        lanes.setdefault(robot.spec.joints[n].bus, []).append(n)
-    period = 1.0 / rate
-    times: list[float] = []
-    rows: list[list[float]] = []
-    first_bus = robot.bus(next(iter(lanes)))
-    now = first_bus.now
+    first_bus = robot.bus(robot.spec.joints[names[0]].bus)
     states = await robot.joint_states(names)
-    pos = {n: states[n].position for n in names}
-    latest = {n: states[n].motor for n in names}
-    t0 = now()
-    k = 0
+    loop = TeachLoop(
+        robot.spec,
+        robot.joints,
+        names,
+        states,
+        first_bus.now,
+        seconds=seconds,
+        rate=rate,
+        kp=kp,
+        kd=kd,
+        gravity=gravity,
+        on_state=on_state,
+        stop=stop,
+    )
     try:
-        while seconds is None or now() - t0 < seconds:
-            if stop is not None and stop():
-                break
-            tau = gravity.torques([pos[n] for n in names]) if gravity is not None else [0.0] * len(names)
-            by_name = dict(zip(names, tau, strict=True))
-            for bus_name, group in lanes.items():
-                presets: list[Message] = []
-                for n in group:
-                    j = robot.joints[n]
-                    preset, _ = make_impedance(j.id, latest[n].angle, 0.0, j.gearing.motor_torque(by_name[n]), kp, kd)
-                    presets.append(preset)
-                ids = [robot.joints[n].id for n in group]
-                got = await robot.bus(bus_name).run(teach_cycle(presets, StartImpedance(0, kp, kd), ids, None))
-                for n, st in zip(group, got, strict=True):
-                    latest[n] = st
-                    pos[n] = robot.joints[n].gearing.joint_state(st).position
-            t = now() - t0
-            times.append(t)
-            rows.append([pos[n] for n in names])
-            if on_state is not None:
-                on_state(t, dict(pos))
-            k += 1
-            wait = t0 + k * period - now()
-            if wait > 0:
-                await first_bus.run(sleep(wait))
+        if len(loop.lanes) == 1 and first_bus.virtual:
+            # one operation: on a virtual clock its cycles stay due on the session's timers, whichever
+            # thread lets time pass (see TeachLoop)
+            await first_bus.run(loop.operation())
+        else:
+            steps = loop.steps()
+            got: Any = None
+            while True:
+                try:
+                    bus_name, op = steps.send(got)
+                except StopIteration:
+                    break
+                got = await robot.bus(bus_name).run(op)
     except KeyboardInterrupt:
         if seconds is not None:
             raise
     finally:
-        for bus_name, group in lanes.items():
-            await robot.bus(bus_name).send_many(
-                [make_angle(robot.joints[n].id, latest[n].angle, 0.0, 20.0, PositionMode.T) for n in group]
-            )
-    if len(times) < 2:
-        raise DrEmpowerError("teach: fewer than 2 cycles ran: nothing to return")
-    return Trajectory([t - times[0] for t in times], rows, joints=names)
+        for bus_name in loop.lanes:
+            await robot.bus(bus_name).send_many(loop.holds(bus_name))
+    return loop.path()

@@ -6,24 +6,31 @@ stiffness (``kp`` 0 by default), a little damping (``kd``) and that torque as fe
 taught is returned as a :class:`~drempower.motion.Trajectory` (rad at the joints), ready to save or
 ``follow``. On the way out, however it ends, every joint holds where it is.
 
-This module is the part without I/O; the run is ``teach`` in ``routines_async.py`` (asyncio) and
-``routines_sync.py`` (threads), offered as ``robot.teach()``.
+This module is the part without I/O (:class:`TeachLoop`: the cycles, as operations of the buses); the run
+is ``teach`` in ``routines_async.py`` (asyncio) and ``routines_sync.py`` (threads), offered as
+``robot.teach()``.
 """
 
 from __future__ import annotations
 
-from collections.abc import Sequence
-from typing import TYPE_CHECKING
+from collections.abc import Callable, Generator, Mapping, Sequence
+from typing import TYPE_CHECKING, Any, Protocol, TypeAlias
 
-from ..client.effects import Batch, Op, read_states
+from ..client.commands import PositionMode, make_angle, make_impedance
+from ..client.effects import Batch, Op, read_states, sleep
 from ..client.state import MotorState
 from ..errors import ConfigError, DrEmpowerError
 from ..protocol.messages import Message, StartImpedance
+from .trajectory import Trajectory
 
 if TYPE_CHECKING:
+    from ..robot.joint import Gearing, JointState
     from ..robotfile import RobotSpec
 
-__all__ = ["GravityModel", "teach_cycle"]
+__all__ = ["GravityModel", "TeachLoop", "TeachStep", "teach_cycle"]
+
+TeachStep: TypeAlias = tuple[str, Op[Any]]
+"""What :meth:`TeachLoop.steps` yields: the name of a bus and an operation to run on it."""
 
 
 class GravityModel:
@@ -89,3 +96,120 @@ def teach_cycle(
     yield Batch(presets, start)
     states = yield from read_states(ids, timeout)
     return [st for st in states if st is not None]
+
+
+class _Joint(Protocol):
+    """What teach mode uses of a joint handle: its motor's id and its gearing."""
+
+    @property
+    def id(self) -> int: ...
+
+    @property
+    def gearing(self) -> Gearing: ...
+
+
+class TeachLoop:
+    """The cycles of teach mode on the joints ``names`` of a robot (``spec`` and its joint handles ``joints``)
+    from their ``states`` now: each cycle, every bus's joints get their impedance presets (``kp``, ``kd``,
+    the ``gravity`` torques at the positions last read, or none) and their start, and are read; then the
+    loop waits for the next cycle (``rate`` per s on the clock ``now``, that of the first bus). It runs for
+    ``seconds`` (None: until ``stop()`` is true); ``on_state(t, {joint: rad})`` sees every cycle.
+
+    :meth:`steps` gives the cycles as operations of the buses, each run on its bus by the caller; a robot
+    of one bus can run them all as one operation (:meth:`operation`), so that on a virtual clock the
+    loop's next deadline is always the session's, whichever thread lets time pass (a caller running
+    each step itself leaves the session without one between steps, and another thread's wait then lets
+    time pass over the cycles it would have run). Then ``on_state`` runs in the thread that lets time
+    pass, inside the bus's session: it must not use the bus.
+    """
+
+    def __init__(
+        self,
+        spec: RobotSpec,
+        joints: Mapping[str, _Joint],
+        names: Sequence[str],
+        states: Mapping[str, JointState],
+        now: Callable[[], float],
+        *,
+        seconds: float | None,
+        rate: float,
+        kp: float,
+        kd: float,
+        gravity: GravityModel | None,
+        on_state: Callable[[float, Mapping[str, float]], None] | None,
+        stop: Callable[[], bool] | None,
+    ) -> None:
+        self.names = list(names)
+        self.lanes: dict[str, list[str]] = {}
+        """The joints of each bus, in the order of ``names``."""
+        for n in self.names:
+            self.lanes.setdefault(spec.joints[n].bus, []).append(n)
+        self._joints = joints
+        self._now = now
+        self._seconds, self._period, self._kp, self._kd = seconds, 1.0 / rate, kp, kd
+        self._gravity, self._on_state, self._stop = gravity, on_state, stop
+        self.pos = {n: states[n].position for n in self.names}
+        """The joints' latest positions (rad)."""
+        self.latest = {n: states[n].motor for n in self.names}
+        """The joints' latest states (wire units)."""
+        self.times: list[float] = []
+        self.rows: list[list[float]] = []
+        self._t0 = now()
+
+    def steps(self) -> Generator[TeachStep, Any, None]:
+        """The cycles until their time is over or ``stop()``: ``(bus, operation)`` to run on that bus, each
+        sent back its result."""
+        names, lanes, joints, now, t0 = self.names, self.lanes, self._joints, self._now, self._t0
+        pos, latest, gravity, kp, kd = self.pos, self.latest, self._gravity, self._kp, self._kd
+        first = next(iter(lanes))
+        k = 0
+        while self._seconds is None or now() - t0 < self._seconds:
+            if self._stop is not None and self._stop():
+                return
+            tau = gravity.torques([pos[n] for n in names]) if gravity is not None else [0.0] * len(names)
+            by_name = dict(zip(names, tau, strict=True))
+            for bus_name, group in lanes.items():
+                presets: list[Message] = []
+                for n in group:
+                    j = joints[n]
+                    preset, _ = make_impedance(j.id, latest[n].angle, 0.0, j.gearing.motor_torque(by_name[n]), kp, kd)
+                    presets.append(preset)
+                ids = [joints[n].id for n in group]
+                got = yield bus_name, teach_cycle(presets, StartImpedance(0, kp, kd), ids, None)
+                for n, st in zip(group, got, strict=True):
+                    latest[n] = st
+                    pos[n] = joints[n].gearing.joint_state(st).position
+            t = now() - t0
+            self.times.append(t)
+            self.rows.append([pos[n] for n in names])
+            if self._on_state is not None:
+                self._on_state(t, dict(pos))
+            k += 1
+            wait = t0 + k * self._period - now()
+            if wait > 0:
+                yield first, sleep(wait)
+
+    def operation(self) -> Op[None]:
+        """Every step of a robot of one bus as one operation of that bus."""
+        if len(self.lanes) != 1:
+            raise DrEmpowerError(f"teach: joints on buses {', '.join(self.lanes)}: one operation runs on one bus")
+        steps = self.steps()
+        got: Any = None
+        while True:
+            try:
+                _, op = steps.send(got)
+            except StopIteration:
+                return
+            got = yield from op
+
+    def holds(self, bus: str) -> list[Message]:
+        """Where teach ends, however it ends: each joint of ``bus`` holds its latest position (T mode)."""
+        j, latest = self._joints, self.latest
+        return [make_angle(j[n].id, latest[n].angle, 0.0, 20.0, PositionMode.T) for n in self.lanes[bus]]
+
+    def path(self) -> Trajectory:
+        """The path taught (rad at the joints, times from the first cycle)."""
+        times = self.times
+        if len(times) < 2:
+            raise DrEmpowerError("teach: fewer than 2 cycles ran: nothing to return")
+        return Trajectory([t - times[0] for t in times], self.rows, joints=self.names)
