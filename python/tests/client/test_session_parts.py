@@ -87,6 +87,25 @@ def test_a_timer_set_while_timers_fire_waits_for_the_next_call_even_when_already
     assert fired == ["first", "set while firing"]
 
 
+def test_a_timer_that_raises_leaves_the_timers_set_while_firing_due() -> None:
+    timers = Timers()
+    fired: list[str] = []
+
+    def first() -> None:
+        timers.add(0.0, lambda: fired.append("set while firing"))
+
+    def failing() -> None:
+        raise RuntimeError("boom")
+
+    timers.add(0.1, first)
+    timers.add(0.2, failing)
+    with pytest.raises(RuntimeError, match="boom"):
+        timers.fire_due(0.2)
+    assert timers.next_due() == 0.0
+    timers.fire_due(0.2)
+    assert fired == ["set while firing"] and timers.next_due() is None
+
+
 def test_dropped_timers_are_cleared_out_so_a_run_of_answered_requests_keeps_the_heap_small() -> None:
     timers = Timers()
     fired: list[str] = []

@@ -47,8 +47,7 @@ def test_the_leader_drives_the_follower(tmp_path: Path) -> None:
             ],
             lerobot_env(tmp_path),
         )
-        run.wait_for("Teleop loop time", 120)
-        started = time.monotonic()
+        started = run.wait_for("Teleop loop time", 120)
         time.sleep(STEADY)  # the loop's first iterations (LeRobot's and the arms' first calls) can stall it
         start = leader.degrees()
         for joint, torque in PUSHES.items():

@@ -108,6 +108,9 @@ class Operations:
             except Exception as exc:
                 self.finish(opn, None, exc)
                 return
+            except BaseException as exc:  # Ctrl-C in a thread resuming another's operation: that one ends too
+                self.finish(opn, None, exc)
+                raise
             try:
                 value = begin(opn, effect)
                 error = None

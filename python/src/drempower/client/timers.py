@@ -71,16 +71,18 @@ class Timers:
             return
         newest = self.changes
         later: list[tuple[float, int]] = []
-        while heap and heap[0][0] <= now:
-            item = heappop(heap)
-            if item[1] > newest:
-                later.append(item)
-                continue
-            entry = timers.pop(item[1], None)
-            if entry is not None:
-                entry[1]()
-        for item in later:
-            heappush(heap, item)
+        try:
+            while heap and heap[0][0] <= now:
+                item = heappop(heap)
+                if item[1] > newest:
+                    later.append(item)
+                    continue
+                entry = timers.pop(item[1], None)
+                if entry is not None:
+                    entry[1]()
+        finally:  # a timer that raised leaves the ones set meanwhile due all the same
+            for item in later:
+                heappush(heap, item)
 
     def clear(self) -> None:
         """Drop every timer."""

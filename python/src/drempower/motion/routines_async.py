@@ -153,9 +153,10 @@ async def teach(
     (None: until ``stop()`` is true or Ctrl-C, which then ends it and returns the path); ``on_state(t,
     {joint: rad})`` sees every cycle. Returns the path taught.
 
-    On a virtual clock, the joints of a robot of one bus are taught by one operation of that bus, so its
-    cycles keep their rate in simulated time while other threads let time pass too; ``on_state`` then
-    runs in whichever thread lets it pass, and must not use the bus (see :class:`~.teach.TeachLoop`)."""
+    On a virtual clock, joints all on one bus are taught by one operation of that bus, so its cycles keep
+    their rate in simulated time while other threads let time pass too; ``on_state`` and ``stop`` then run
+    in whichever thread lets it pass: they must not use the bus nor wait for a thread that does (see
+    :class:`~.teach.TeachLoop`)."""
     names = list(joints or robot.joints)
     gravity = GravityModel(robot.spec, names) if compensate else None
     first_bus = robot.bus(robot.spec.joints[names[0]].bus)

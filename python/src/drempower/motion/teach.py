@@ -113,14 +113,14 @@ class TeachLoop:
     from their ``states`` now: each cycle, every bus's joints get their impedance presets (``kp``, ``kd``,
     the ``gravity`` torques at the positions last read, or none) and their start, and are read; then the
     loop waits for the next cycle (``rate`` per s on the clock ``now``, that of the first bus). It runs for
-    ``seconds`` (None: until ``stop()`` is true); ``on_state(t, {joint: rad})`` sees every cycle.
+    ``seconds`` (None: for good), or until ``stop()`` is true; ``on_state(t, {joint: rad})`` sees every cycle.
 
-    :meth:`steps` gives the cycles as operations of the buses, each run on its bus by the caller; a robot
-    of one bus can run them all as one operation (:meth:`operation`), so that on a virtual clock the
+    :meth:`steps` gives the cycles as operations of the buses, each run on its bus by the caller; joints
+    all on one bus can run them all as one operation (:meth:`operation`), so that on a virtual clock the
     loop's next deadline is always the session's, whichever thread lets time pass (a caller running
     each step itself leaves the session without one between steps, and another thread's wait then lets
-    time pass over the cycles it would have run). Then ``on_state`` runs in the thread that lets time
-    pass, inside the bus's session: it must not use the bus.
+    time pass over the cycles it would have run). Then ``on_state`` and ``stop`` run in the thread that
+    lets time pass, inside the bus's session: they must not use the bus nor wait for a thread that does.
     """
 
     def __init__(
@@ -190,7 +190,7 @@ class TeachLoop:
                 yield first, sleep(wait)
 
     def operation(self) -> Op[None]:
-        """Every step of a robot of one bus as one operation of that bus."""
+        """Every step, the joints all on one bus, as one operation of that bus."""
         if len(self.lanes) != 1:
             raise DrEmpowerError(f"teach: joints on buses {', '.join(self.lanes)}: one operation runs on one bus")
         steps = self.steps()

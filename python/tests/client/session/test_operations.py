@@ -150,3 +150,21 @@ def test_abort_fails_running_operations_and_takes_new_ones() -> None:
     assert again.result()[0] is not None and rig.now == pytest.approx(0.001)
     where = rig.run(_batch())
     assert where.result() == [0]  # the sequence of starts is free again
+
+
+def test_an_interrupt_raised_in_an_operation_ends_it_and_reaches_the_thread_resuming_it() -> None:
+    """Ctrl-C while a thread resumes an operation (another thread's, when time passes for both): the
+    interrupt goes on in that thread, and the operation ends with it rather than staying unfinished."""
+    s = BusSession()
+
+    def interrupted() -> Op[str]:
+        yield from sleep(0.1)
+        raise KeyboardInterrupt
+
+    opn = s.submit(interrupted())
+    with pytest.raises(KeyboardInterrupt):
+        s.advance(0.1)
+    assert opn.done
+    with pytest.raises(KeyboardInterrupt):
+        opn.result()
+    assert s.next_deadline() is None
