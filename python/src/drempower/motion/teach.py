@@ -24,7 +24,6 @@ from ..protocol.messages import Message, StartImpedance
 from .trajectory import Trajectory
 
 if TYPE_CHECKING:
-    from ..robot.joint import Gearing, JointState
     from ..robotfile import RobotSpec
 
 __all__ = ["GravityModel", "TeachLoop", "TeachStep", "teach_cycle"]
@@ -98,6 +97,24 @@ def teach_cycle(
     return [st for st in states if st is not None]
 
 
+class _JointState(Protocol):
+    """What teach mode uses of a joint's state (a robot's ``JointState``): its position and its motor's state."""
+
+    @property
+    def position(self) -> float: ...
+
+    @property
+    def motor(self) -> MotorState: ...
+
+
+class _Gearing(Protocol):
+    """What teach mode uses of a joint's gearing: torque at the motor, state at the joint."""
+
+    def motor_torque(self, torque: float) -> float: ...
+
+    def joint_state(self, st: MotorState) -> _JointState: ...
+
+
 class _Joint(Protocol):
     """What teach mode uses of a joint handle: its motor's id and its gearing."""
 
@@ -105,7 +122,7 @@ class _Joint(Protocol):
     def id(self) -> int: ...
 
     @property
-    def gearing(self) -> Gearing: ...
+    def gearing(self) -> _Gearing: ...
 
 
 class TeachLoop:
@@ -128,7 +145,7 @@ class TeachLoop:
         spec: RobotSpec,
         joints: Mapping[str, _Joint],
         names: Sequence[str],
-        states: Mapping[str, JointState],
+        states: Mapping[str, _JointState],
         now: Callable[[], float],
         *,
         seconds: float | None,
