@@ -20,8 +20,11 @@ Rows (the floor of each in brackets):
    line and reading the answer and reply lines]: wall time and CPU time per call (the process's,
    every thread: the peers' too), and drempower's transport alone doing the exchange (send,
    ``select``, ``read_nowait``; no client) beside the same floor, so that what the client adds shows;
+   slcan and socketcand are also measured with the simulators (the client's and the floor's) each in a
+   process of its own, as an slcan adapter or a socketcand server is (wall time: the process's CPU would
+   no longer count the peers');
 4. ``get_state`` through the in-process simulator with instant delivery [the
-   simulated bus answering the fast read by itself: ``SimBus.send``];
+   simulated bus answering the fast read by itself: ``SimBus.send``], in alternating blocks;
 5. codec: encode + decode of one frame, a mix of commands and replies [the same
    ``struct`` pack/unpack on plain tuples, without validation];
 6. the 0xAA stream decoder, per frame [cutting the frames out of the stream with no checks];
@@ -104,7 +107,7 @@ from drempower.sim import (  # noqa: E402
     attach_socketcand,
     attach_uart_pty,
 )
-from drempower.transports import Transport  # noqa: E402
+from drempower.transports import Transport, open_transport  # noqa: E402
 from drempower.transports.sim import SimTransport  # noqa: E402
 
 ROWS: list[tuple[str, str, str, str]] = []
@@ -142,20 +145,29 @@ async def async_median_us(fn: Callable[[], object], n: int) -> float:
 def sim_process() -> Iterator[str]:
     """A simulator of motor 1 in its own process (``drempower sim --adapter-pty``), as an adapter is its
     own device; yields the adapter pty's path."""
-    cmd = [sys.executable, "-m", "drempower", "sim", "--adapter-pty", "--json"]
+    with sim_attachment("--adapter-pty") as info:
+        yield str(info["path"])
+
+
+@contextlib.contextmanager
+def sim_attachment(*options: str) -> Iterator[dict[str, Any]]:
+    """A simulator of motor 1 in its own process (``drempower sim OPTIONS``); yields what it printed of
+    its attachment (``path``, or ``host`` and ``port``)."""
+    cmd = [sys.executable, "-m", "drempower", "sim", *options, "--json"]
     env = {**os.environ, "PYTHONPATH": str(SRC)}
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, env=env)
     try:
-        path = None
+        attachment: dict[str, Any] | None = None
         assert proc.stdout is not None
         for line in proc.stdout:
             info = json.loads(line)
-            path = info.get("path", path)
+            if "attachment" in info:
+                attachment = info
             if info.get("running"):
                 break
-        if path is None:
-            raise RuntimeError("the simulator process gave no adapter pty")
-        yield path
+        if attachment is None:
+            raise RuntimeError(f"the simulator process gave no attachment ({' '.join(options)})")
+        yield attachment
     finally:
         proc.terminate()
         proc.wait(5)
@@ -256,13 +268,13 @@ def adapter_rows(n: int) -> None:
 
 def inprocess(n: int) -> None:
     sim = SimBus(ids=[1])
-    with drempower.open_bus("sim", bus=sim, time_scale=0, timeout=1.0, stop_on_close=False) as bus:
-        inproc = median_us(bus.motor(1).get_state, n)
     bare = SimBus(ids=[1])
     bare.add_listener(lambda f: None)
     request = FastRead(1).encode()
-    sim_floor = median_us(lambda: bare.send(request), n)
-    row("get_state, in-process simulator", f"{inproc:.1f} us", f"{sim_floor:.1f} us", f"{inproc / sim_floor:.1f}x")
+    with drempower.open_bus("sim", bus=sim, time_scale=0, timeout=1.0, stop_on_close=False) as bus:
+        wall, _ = alternate(lambda: bare.send(request), bus.motor(1).get_state, n=max(n, 20 * ROUNDS))[0]
+    floor, inproc, ratio = wall
+    row("get_state, in-process simulator", f"{inproc:.1f} us", f"{floor:.1f} us", f"{ratio:.1f}x")
 
 
 class BareCan:
@@ -375,6 +387,29 @@ def python_can(n: int) -> None:
         (fw, cw, rw), (fc, cc, rc) = alone
         row("  the transport alone, no client: wall", f"{cw:.0f} us", f"{fw:.0f} us", f"{rw:.2f}x {what}")
         row("  the transport alone: CPU per call", f"{cc:.0f} us", f"{fc:.0f} us", f"{rc:.2f}x {what}")
+        if kind in ("slcan", "socketcand"):
+            fw, cw, rw = own_process(kind, n)
+            row("  wall, simulators in processes of their own", f"{cw:.0f} us", f"{fw:.0f} us", f"{rw:.2f}x {what}")
+
+
+def own_process(kind: str, n: int) -> tuple[float, float, float]:
+    """(floor us, get_state us, ratio) of the wall time over ``kind`` (``slcan`` or ``socketcand``) with
+    the client's and the floor's simulators each in a process of its own, as an slcan adapter or a
+    socketcand server is (see :func:`_ratio`)."""
+    with contextlib.ExitStack() as stack:
+        floor: BareCan | RawFloor
+        if kind == "slcan":
+            floor = RawFloor("slcan", stack.enter_context(sim_process()))
+            t = open_transport("slcan", stack.enter_context(sim_process()), bench_client.BITRATE, sleep_after_open=0)
+        else:
+            server = stack.enter_context(sim_attachment("--socketcand-port", "0"))
+            floor = BareCan(interface="socketcand", channel="can0", host=server["host"], port=server["port"])
+            ours = stack.enter_context(sim_attachment("--socketcand-port", "0"))
+            t = open_transport("socketcand", "can0", host=ours["host"], port=ours["port"])
+        stack.callback(floor.close)
+        stack.callback(t.close)
+        bus = stack.enter_context(drempower.open_bus(transport=t, timeout=1.0, stop_on_close=False))
+        return alternate(floor, bus.motor(1).get_state, n=n)[0][0]
 
 
 def codec(seconds: float) -> None:
