@@ -181,6 +181,9 @@ class _Exchange:
             self.runner.matcher.cancel(self.waiter)
 
     def _answered(self) -> None:
+        w = self.waiter
+        if w is not None:  # its last call: no cycle through this bound method is left for the collector
+            w.on_complete = None
         self.runner.session.timers.drop(self.timer)
         self._collect()
 
@@ -277,6 +280,7 @@ class _OneRequest(Waiter):
         r.matcher.cancel(self)
 
     def _answered(self) -> None:
+        self.on_complete = None  # its last call: no cycle through this bound method is left for the collector
         s = self.runner.session
         s.timers._timers.pop(self.timer, None)  # Timers.drop, inline
         r = self.results[0]
@@ -349,6 +353,7 @@ class _CycleRun:
         r.matcher.cancel(self.waiter)
 
     def _answered(self) -> None:
+        self.waiter.on_complete = None  # its last call: no cycle through this bound method is left for the collector
         s = self.runner.session
         s.timers.drop(self.timer)
         nodes = self.nodes
