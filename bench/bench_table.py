@@ -24,7 +24,8 @@ Rows (the floor of each in brackets):
    process of its own, as an slcan adapter or a socketcand server is (wall time: the process's CPU would
    no longer count the peers');
 4. ``get_state`` through the in-process simulator with instant delivery [the
-   simulated bus answering the fast read by itself: ``SimBus.send``], in alternating blocks;
+   simulated bus answering the fast read by itself: ``SimBus.send``], in alternating blocks; and how
+   often Python's cycle collector ran during 10 000 requests [as many ``SimBus.send``];
 5. codec: encode + decode of one frame, a mix of commands and replies [the same
    ``struct`` pack/unpack on plain tuples, without validation];
 6. the 0xAA stream decoder, per frame [cutting the frames out of the stream with no checks];
@@ -55,6 +56,7 @@ from __future__ import annotations
 import argparse
 import asyncio
 import contextlib
+import gc
 import json
 import os
 import platform
@@ -275,6 +277,40 @@ def inprocess(n: int) -> None:
         wall, _ = alternate(lambda: bare.send(request), bus.motor(1).get_state, n=max(n, 20 * ROUNDS))[0]
     floor, inproc, ratio = wall
     row("get_state, in-process simulator", f"{inproc:.1f} us", f"{floor:.1f} us", f"{ratio:.1f}x")
+    with drempower.open_bus("sim", bus=SimBus(ids=[1]), time_scale=0, timeout=1.0, stop_on_close=False) as bus:
+        m = bus.motor(1)
+        ours = collections_during(lambda: (m.get_state(), m.get_volcur()), COLLECTED_REQUESTS // 2)
+    sends = collections_during(lambda: bare.send(request), COLLECTED_REQUESTS)
+    row(
+        f"  cycle collector runs in {COLLECTED_REQUESTS} requests (get_state, get_volcur)",
+        f"{ours} runs",
+        f"{sends} runs",
+        "(each run pauses the caller; floor: as many SimBus.send)",
+    )
+
+
+COLLECTED_REQUESTS = 10_000
+"""Requests over which the cycle collector's runs are counted (after a warm-up)."""
+
+
+def collections_during(fn: Callable[[], object], n: int) -> int:
+    """How often Python's cycle collector ran (any generation) during ``n`` calls of ``fn``."""
+    for _ in range(50):
+        fn()
+    gc.collect()
+    runs = [0]
+
+    def count(phase: str, info: dict[str, int]) -> None:
+        if phase == "start":
+            runs[0] += 1
+
+    gc.callbacks.append(count)
+    try:
+        for _ in range(n):
+            fn()
+    finally:
+        gc.callbacks.remove(count)
+    return runs[0]
 
 
 class BareCan:
