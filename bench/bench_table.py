@@ -45,7 +45,7 @@ and its next command counts only when the clock steps meanwhile (it runs while t
 releases the interpreter lock). The minimal client shows what this model leaves of the bus limit for
 any client, and ``bus.cycle`` is also printed against it (blocks alternate as in rows 1 and 2).
 
-Rows 1-3 alternate blocks of the client with blocks of the floor; their ratio is the median
+Rows 1-4 alternate blocks of the client with blocks of the floor; their ratio is the median
 of the blocks' ratios (a shared machine's load changes within a run). Rows 1, 2 and 7 are also
 measured with callers leaving every read to the receive thread (``BusDriver.caller_reads =
 False``), the way replies reached callers before.
@@ -436,13 +436,14 @@ def own_process(kind: str, n: int) -> tuple[float, float, float]:
         floor: BareCan | RawFloor
         if kind == "slcan":
             floor = RawFloor("slcan", stack.enter_context(sim_process()))
+            stack.callback(floor.close)
             t = open_transport("slcan", stack.enter_context(sim_process()), bench_client.BITRATE, sleep_after_open=0)
         else:
             server = stack.enter_context(sim_attachment("--socketcand-port", "0"))
             floor = BareCan(interface="socketcand", channel="can0", host=server["host"], port=server["port"])
+            stack.callback(floor.close)
             ours = stack.enter_context(sim_attachment("--socketcand-port", "0"))
             t = open_transport("socketcand", "can0", host=ours["host"], port=ours["port"])
-        stack.callback(floor.close)
         stack.callback(t.close)
         bus = stack.enter_context(drempower.open_bus(transport=t, timeout=1.0, stop_on_close=False))
         return alternate(floor, bus.motor(1).get_state, n=n)[0][0]

@@ -14,24 +14,26 @@ import gc
 from collections.abc import Callable, Iterator
 
 import drempower
+from drempower.protocol import FastRead
 from drempower.sim import SimBus
 
 
 @contextlib.contextmanager
 def collected_garbage() -> Iterator[list[object]]:
-    """The objects the cycle collector finds unreachable after the block (kept, not freed)."""
+    """The objects the cycle collector finds unreachable after the block (kept, not freed); the
+    collector's state (enabled, debug flags, ``gc.garbage``) is as it was after."""
     gc.collect()
-    was_enabled = gc.isenabled()
+    was_enabled, flags, before = gc.isenabled(), gc.get_debug(), len(gc.garbage)
     gc.disable()
     gc.set_debug(gc.DEBUG_SAVEALL)
     found: list[object] = []
     try:
         yield found
         gc.collect()
-        found.extend(gc.garbage)
+        found.extend(gc.garbage[before:])
     finally:
-        gc.set_debug(0)
-        gc.garbage.clear()
+        gc.set_debug(flags)
+        del gc.garbage[before:]
         if was_enabled:
             gc.enable()
 
@@ -52,6 +54,9 @@ def test_requests_of_every_kind_leave_no_cycles() -> None:
             "get_volcur (an exchange)": m1.get_volcur,
             "read_property": lambda: m1.read_property(31214),
             "cycle (two motors)": lambda: bus.cycle(cmds),
+            "a poll with missing_ok, motor 9 silent": lambda: bus.request(
+                [FastRead(1), FastRead(9)], missing_ok=True, timeout=0.01
+            ),
         }
         for name, call in calls.items():
             call()

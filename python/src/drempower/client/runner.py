@@ -177,8 +177,10 @@ class _Exchange:
 
     def cancel(self) -> None:
         self.runner.session.timers.drop(self.timer)
-        if self.waiter is not None:
-            self.runner.matcher.cancel(self.waiter)
+        w = self.waiter
+        if w is not None:
+            self.runner.matcher.cancel(w)
+            w.on_complete = None
 
     def _answered(self) -> None:
         w = self.waiter
@@ -196,6 +198,7 @@ class _Exchange:
             if not w.remaining:
                 return  # the held-back replies answered it (and _answered ran)
         self.runner.matcher.cancel(w)
+        w.on_complete = None  # done with (a retry registers a waiter of its own)
         self._collect()
 
     def _collect(self) -> None:
@@ -278,6 +281,7 @@ class _OneRequest(Waiter):
         r = self.runner
         r.session.timers.drop(self.timer)
         r.matcher.cancel(self)
+        self.on_complete = None
 
     def _answered(self) -> None:
         self.on_complete = None  # its last call: no cycle through this bound method is left for the collector
@@ -303,6 +307,7 @@ class _OneRequest(Waiter):
         if self.tries <= r.retries:
             self.start()
             return
+        self.on_complete = None
         s.operations.finish(self.op, None, TimeoutError([key >> 16], describe_request(self.msg), self.timeout))
 
 
@@ -351,6 +356,7 @@ class _CycleRun:
         r = self.runner
         r.session.timers.drop(self.timer)
         r.matcher.cancel(self.waiter)
+        self.waiter.on_complete = None
 
     def _answered(self) -> None:
         self.waiter.on_complete = None  # its last call: no cycle through this bound method is left for the collector
@@ -373,6 +379,7 @@ class _CycleRun:
             if not w.remaining:
                 return  # held-back replies answered it (and _answered ran)
         r.matcher.cancel(w)
+        w.on_complete = None
         nodes = self.nodes
         silent = sorted(nodes[i] for i in w.missing())
         s.operations.effect_done(self.op, None, TimeoutError(silent, "a control cycle", self.timeout))
