@@ -39,8 +39,11 @@ def collected_garbage() -> Iterator[list[object]]:
 
 
 def ours(garbage: list[object]) -> collections.Counter[str]:
-    """The kinds of drempower's objects among ``garbage`` (others may come from anything else in the process)."""
-    return collections.Counter(type(o).__qualname__ for o in garbage if type(o).__module__.startswith("drempower"))
+    """The kinds of the client's objects among ``garbage`` (others may come from anything else in the
+    process: another test's simulator still running, python-can...)."""
+    return collections.Counter(
+        type(o).__qualname__ for o in garbage if type(o).__module__.startswith("drempower.client.")
+    )
 
 
 def test_requests_of_every_kind_leave_no_cycles() -> None:
