@@ -49,7 +49,8 @@ def request_dtype(msg: Message) -> DataType | None:
 class Waiter:
     """The answers awaited by one exchange: ``results[i]`` answers ``keys[i]``.
 
-    ``on_complete`` is called once, when the last answer arrived.
+    ``on_complete`` is called once, when the last answer arrived, and dropped before: the waiter no longer
+    holds its owner (a bound method of it), so what a request made is freed as soon as it is answered.
     """
 
     __slots__ = ("dtypes", "keys", "on_complete", "remaining", "results")
@@ -124,8 +125,9 @@ class Matcher:
             del table[key]
         waiter.results[i] = value
         waiter.remaining -= 1
-        if waiter.remaining == 0 and waiter.on_complete is not None:
-            waiter.on_complete()
+        if waiter.remaining == 0 and (done := waiter.on_complete) is not None:
+            waiter.on_complete = None  # called once (and no cycle through its owner is left for the collector)
+            done()
         return MATCHED
 
     def resolve_state(self, node: int, value: object) -> bool:
@@ -143,8 +145,9 @@ class Matcher:
             del table[key]
         waiter.results[i] = value
         waiter.remaining -= 1
-        if waiter.remaining == 0 and waiter.on_complete is not None:
-            waiter.on_complete()
+        if waiter.remaining == 0 and (done := waiter.on_complete) is not None:
+            waiter.on_complete = None  # called once (and no cycle through its owner is left for the collector)
+            done()
         return True
 
     def waiting(self, node: int, address: int, dtype: DataType | None = None) -> bool:
@@ -170,6 +173,11 @@ class Matcher:
                 continue
             if not lst:
                 del table[key]
+
+    def drop(self, waiter: Waiter) -> None:
+        """:meth:`cancel`, for good: ``waiter``'s ``on_complete`` is dropped too (it will not be answered)."""
+        self.cancel(waiter)
+        waiter.on_complete = None
 
     def clear(self) -> list[Waiter]:
         """Forget every outstanding request; returns their waiters."""

@@ -177,15 +177,10 @@ class _Exchange:
 
     def cancel(self) -> None:
         self.runner.session.timers.drop(self.timer)
-        w = self.waiter
-        if w is not None:
-            self.runner.matcher.cancel(w)
-            w.on_complete = None
+        if self.waiter is not None:
+            self.runner.matcher.drop(self.waiter)
 
     def _answered(self) -> None:
-        w = self.waiter
-        if w is not None:  # its last call: no cycle through this bound method is left for the collector
-            w.on_complete = None
         self.runner.session.timers.drop(self.timer)
         self._collect()
 
@@ -197,8 +192,7 @@ class _Exchange:
             grace.settle(0.0, [(w.keys[i] >> 16, w.keys[i] & 0xFFFF) for i in w.missing()])
             if not w.remaining:
                 return  # the held-back replies answered it (and _answered ran)
-        self.runner.matcher.cancel(w)
-        w.on_complete = None  # done with (a retry registers a waiter of its own)
+        self.runner.matcher.drop(w)  # a retry registers a waiter of its own
         self._collect()
 
     def _collect(self) -> None:
@@ -280,11 +274,9 @@ class _OneRequest(Waiter):
     def cancel(self) -> None:
         r = self.runner
         r.session.timers.drop(self.timer)
-        r.matcher.cancel(self)
-        self.on_complete = None
+        r.matcher.drop(self)
 
     def _answered(self) -> None:
-        self.on_complete = None  # its last call: no cycle through this bound method is left for the collector
         s = self.runner.session
         s.timers._timers.pop(self.timer, None)  # Timers.drop, inline
         r = self.results[0]
@@ -307,7 +299,7 @@ class _OneRequest(Waiter):
         if self.tries <= r.retries:
             self.start()
             return
-        self.on_complete = None
+        self.on_complete = None  # not answered, for good (see Waiter)
         s.operations.finish(self.op, None, TimeoutError([key >> 16], describe_request(self.msg), self.timeout))
 
 
@@ -355,11 +347,9 @@ class _CycleRun:
     def cancel(self) -> None:
         r = self.runner
         r.session.timers.drop(self.timer)
-        r.matcher.cancel(self.waiter)
-        self.waiter.on_complete = None
+        r.matcher.drop(self.waiter)
 
     def _answered(self) -> None:
-        self.waiter.on_complete = None  # its last call: no cycle through this bound method is left for the collector
         s = self.runner.session
         s.timers.drop(self.timer)
         nodes = self.nodes
@@ -378,8 +368,7 @@ class _CycleRun:
             grace.settle(0.0, [(k >> 16, k & 0xFFFF) for k in w.keys])
             if not w.remaining:
                 return  # held-back replies answered it (and _answered ran)
-        r.matcher.cancel(w)
-        w.on_complete = None
+        r.matcher.drop(w)
         nodes = self.nodes
         silent = sorted(nodes[i] for i in w.missing())
         s.operations.effect_done(self.op, None, TimeoutError(silent, "a control cycle", self.timeout))
