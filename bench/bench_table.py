@@ -128,21 +128,6 @@ def best(fn: Callable[[], object], items: int, seconds: float, repeat: int = 5) 
     return min(timer.repeat(repeat=repeat, number=loops)) / loops / items
 
 
-def median_us(fn: Callable[[], object], n: int) -> float:
-    return bench_client.timings(fn, n)[0]
-
-
-async def async_median_us(fn: Callable[[], object], n: int) -> float:
-    for _ in range(min(50, n)):
-        await fn()  # type: ignore[misc]
-    out = []
-    for _ in range(n):
-        t0 = time.perf_counter()
-        await fn()  # type: ignore[misc]
-        out.append(time.perf_counter() - t0)
-    return statistics.median(out) * 1e6
-
-
 @contextlib.contextmanager
 def sim_process() -> Iterator[str]:
     """A simulator of motor 1 in its own process (``drempower sim --adapter-pty``), as an adapter is its
