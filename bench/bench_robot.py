@@ -26,7 +26,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python" / "src"))
 
 import drempower
-from drempower.client.commands import make_angles
+from drempower.client.engine.commands import make_angles
 from drempower.sim import SimBus, SimRunner, attach_python_can
 
 _channels = itertools.count()

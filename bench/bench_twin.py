@@ -32,7 +32,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python" / "src"
 from bench_client import FineClock, cycle_bits
 
 import drempower
-from drempower.client.commands import PositionMode
+from drempower.client.engine.commands import PositionMode
 from drempower.protocol import FastRead, PositionT
 from drempower.robot import load_robot
 from drempower.sim import SimBus

@@ -13,7 +13,7 @@ import math
 from pathlib import Path
 
 import drempower
-from drempower.client.effects import sleep
+from drempower.client.engine.effects import sleep
 
 ROBOT = Path(__file__).resolve().parent / "robots" / "arm6.toml"
 

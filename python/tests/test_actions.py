@@ -9,7 +9,7 @@ import pytest
 
 import drempower
 from drempower import actions
-from drempower.client.effects import sleep
+from drempower.client.engine.effects import sleep
 from drempower.errors import DomainError, FieldRangeError, MotorIdleError, ValidationError
 
 

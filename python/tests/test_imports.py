@@ -11,9 +11,9 @@ HEAVY = (
     "can",
     "serial",
     "json",
-    "drempower.client.aio",
-    "drempower.client.api_async",
-    "drempower.client.backup",
+    "drempower.client.api.bus_async",
+    "drempower.client.api.bus_async",
+    "drempower.client.engine.backup",
     "drempower.robot",
     "drempower.sim",
     "drempower.records",
@@ -47,12 +47,12 @@ def test_lazy_names_resolve_to_their_modules() -> None:
         "    c.RestoreReport.__module__, AsyncBus is drempower.AsyncBus]))\n"
     )
     assert got == [
-        "drempower.client.api_async",  # the one source of both front ends
-        "drempower.client.api_async",
-        "drempower.client.aio",
-        "drempower.client.backup",
-        "drempower.client.backup",
-        "drempower.client.backup",
+        "drempower.client.api.bus_async",  # the one source of both front ends
+        "drempower.client.api.bus_async",
+        "drempower.client.api.bus_async",
+        "drempower.client.engine.backup",
+        "drempower.client.engine.backup",
+        "drempower.client.engine.backup",
         True,
     ]
 

@@ -34,14 +34,14 @@ MODULE, TYPE, LAZY = "at module level", "under TYPE_CHECKING", "inside a functio
 
 ALLOWED: dict[tuple[str, str], tuple[frozenset[str], str]] = {
     **{
-        (f"drempower.client.api_{flavour}", f"drempower.motion.follow_{flavour}"): (
+        (f"drempower.client.api.bus_{flavour}", f"drempower.motion.follow_{flavour}"): (
             frozenset({LAZY}),
             "bus.follow is a door to the motion layer, opened on its first call",
         )
         for flavour in ("async", "sync")
     },
     **{
-        (f"drempower.client.api_{flavour}", f"drempower.motion.{module}"): (
+        (f"drempower.client.api.bus_{flavour}", f"drempower.motion.{module}"): (
             frozenset({TYPE}),
             "bus.follow's signature names the trajectory it takes and the report it returns",
         )
@@ -198,7 +198,7 @@ def test_every_form_of_import_counts() -> None:
     sources = _fake(
         {
             "drempower.sim.a": "from .. import bridge\n",  # a package, through `from .. import`
-            "drempower.sim.b": "import drempower.client.bus as bus\n",
+            "drempower.sim.b": "import drempower.client.api.bus_sync as bus\n",
             "drempower.sim.c": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from ..motion import plan\n",
             "drempower.sim.d": "def f():\n    from drempower.robot import Robot\n    return Robot\n",
             "drempower.sim.e": "class C:\n    async def m(self):\n        from ..dash import hub\n",
@@ -206,7 +206,7 @@ def test_every_form_of_import_counts() -> None:
             "drempower.sim.deep.f": "from . import g\nfrom ... import compat\n",
             "drempower.sim.deep.g": "",
             "drempower.bridge": "",
-            "drempower.client.bus": "",
+            "drempower.client.api.bus_sync": "",
             "drempower.motion.plan": "",
             "drempower.dash.hub": "",
             "drempower.transports.base": "",
@@ -219,7 +219,7 @@ def test_every_form_of_import_counts() -> None:
         f"drempower.sim.{m}" for m in ("a", "b", "c", "d", "deep", "deep.f", "e")
     ]
     assert "imports drempower.bridge (layer apps) at module level, line 1" in found[0]
-    assert "drempower.client.bus (layer client)" in found[1]
+    assert "drempower.client.api.bus_sync (layer client)" in found[1]
     assert "drempower.motion.plan (layer motion) under TYPE_CHECKING, line 3" in found[2]
     assert "drempower.robot (layer robot) inside a function, line 2" in found[3]
     assert "drempower.transports.base (layer transports)" in found[4]
@@ -228,10 +228,10 @@ def test_every_form_of_import_counts() -> None:
 
 
 def test_an_allowed_pair_counts_only_in_its_kind() -> None:
-    importer, imported = "drempower.client.api_async", "drempower.motion.follow_async"
-    lazy = "def follow():\n    from ..motion.follow_async import follow_bus\n"
+    importer, imported = "drempower.client.api.bus_async", "drempower.motion.follow_async"
+    lazy = "def follow():\n    from ...motion.follow_async import follow_bus\n"
     assert violations(_fake({importer: lazy, imported: ""})) == ([], {(importer, imported)})
-    eager = "from ..motion.follow_async import follow_bus\n"
+    eager = "from ...motion.follow_async import follow_bus\n"
     found, used = violations(_fake({importer: eager, imported: ""}))
     assert len(found) == 1 and "at module level" in found[0] and used == set()
 
@@ -258,3 +258,60 @@ def test_a_module_outside_the_table_has_no_layer() -> None:
         layer_of("drempower.newthing")
     assert layer_of("drempower") == layer_of("drempower.cli.monitor") == len(LAYERS) - 1
     assert layer_of("drempower.errors") == layer_of("drempower.protocol.ids") == 0
+
+
+CLIENT_ROOMS = ("engine", "driver", "api")
+"""The client's rooms from the lowest: the sans-I/O engine, the driver that runs it over a transport, the
+front end (docs/client.md, "Layers"). A room may import its own and those below, never one above."""
+
+
+def client_room_violations(sources: Mapping[str, tuple[str, bool]]) -> list[str]:
+    """Imports among the client's rooms that run back up (every kind of import counts)."""
+
+    def room(module: str) -> int | None:
+        parts = module.split(".")
+        if parts[:2] != ["drempower", "client"] or len(parts) < 3 or parts[2] not in CLIENT_ROOMS:
+            return None
+        return CLIENT_ROOMS.index(parts[2])
+
+    found = []
+    known = set(sources)
+    for module, (source, is_package) in sorted(sources.items()):
+        low = room(module)
+        if low is None:
+            continue
+        for imp in dict.fromkeys(imports_of(module, source, is_package, known)):
+            high = room(imp.imported)
+            if high is not None and high > low:
+                found.append(
+                    f"{imp.importer} (room {CLIENT_ROOMS[low]}) imports {imp.imported} "
+                    f"(room {CLIENT_ROOMS[high]}) {imp.kind}, line {imp.line}"
+                )
+    return found
+
+
+def test_the_client_rooms_import_only_downward() -> None:
+    sources = package_sources()
+    assert all(any(m.startswith(f"drempower.client.{r}.") for m in sources) for r in CLIENT_ROOMS)
+    found = client_room_violations(sources)
+    assert not found, "client rooms import higher ones:\n" + "\n".join(found)
+
+
+def test_a_client_room_importing_a_higher_one_is_reported() -> None:
+    found = client_room_violations(
+        _fake(
+            {
+                "drempower.client.engine.a": "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n"
+                "    from ..driver.bus_driver import BusDriver\n",
+                "drempower.client.driver.bus_driver": "from ..engine import a\n",
+                "drempower.client.driver.b": "def f():\n    from ..api import bus_sync\n",
+                "drempower.client.api.bus_sync": "from ..driver import bus_driver\n",
+            }
+        )
+    )
+    assert found == [
+        "drempower.client.driver.b (room driver) imports drempower.client.api.bus_sync (room api) "
+        "inside a function, line 2",
+        "drempower.client.engine.a (room engine) imports drempower.client.driver.bus_driver (room driver) "
+        "under TYPE_CHECKING, line 3",
+    ]

@@ -14,7 +14,7 @@ everywhere (``field=value is out of range: allowed low..high (unit)``), and
     await actions.run_async(abus, "speed", {"id": 1, "speed": 30, "duration": 2})
 
 Motion actions pass the bus's safety gate (idle motors, soft limits; see
-:mod:`drempower.client.gate`). A new query is one operation plus one row::
+:mod:`drempower.client.engine.gate`). A new query is one operation plus one row::
 
     actions.register(actions.Action("volcur", "read", "supply voltage and current",
                                     (actions.MOTOR,), lambda bus, a: bus.motor(a["id"]).get_volcur()))
@@ -34,7 +34,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any, Literal
 
-from .client.commands import MAX_ANGLE, MAX_BANDWIDTH, PositionMode
+from .client.engine.commands import MAX_ANGLE, MAX_BANDWIDTH, PositionMode
 from .errors import DrEmpowerError, FieldRangeError, ValidationError
 from .naming import number_text, state_name
 from .protocol.addresses import AXIS0_CURRENT_STATE

@@ -62,12 +62,11 @@ from collections.abc import Sequence
 from typing import Any
 
 from . import actions
-from .client.bus import Bus, open_bus
+from .client.api.bus_sync import Bus, Motor, open_bus
+from .client.engine.results import ErrorReport
+from .client.engine.session import DEFAULT_MOVE_TIMEOUT
+from .client.engine.state import MotorState
 from .client.errors import TimeoutError
-from .client.motor import Motor
-from .client.results import ErrorReport
-from .client.session import DEFAULT_MOVE_TIMEOUT
-from .client.state import MotorState
 from .errors import DrEmpowerError, FieldRangeError, ProtocolError, ValidationError
 from .protocol import Frame
 from .protocol.ids import check_node

@@ -21,8 +21,8 @@ and the transports read it; :mod:`drempower.robot.config` names the same objects
 
 ``limits`` are soft limits at the joint (rad, rad/s, Nm, rad/s^2, rad; each optional):
 a command beyond one is refused before any frame, naming the file and the joint
-(see :mod:`drempower.client.gate`). ``on_timeout`` is what the command watchdog
-(:mod:`drempower.client.watchdog`) does to the joint when its controller is gone.
+(see :mod:`drempower.client.engine.gate`). ``on_timeout`` is what the command watchdog
+(:mod:`drempower.client.engine.watchdog`) does to the joint when its controller is gone.
 
 Every key of a bus entry but ``interface`` goes to :func:`drempower.open_bus`
 (``channel``, ``bitrate``, ``host``, ``port``, ``timeout``, ``time_scale``...).
@@ -136,7 +136,7 @@ class RobotSpec:
 
     def on_timeout(self, bus: str) -> dict[int, str]:
         """``{motor id: "hold"|"idle"}`` of bus ``bus``'s joints, for its command watchdog
-        (:class:`~drempower.client.watchdog.Watchdog`)."""
+        (:class:`~drempower.client.engine.watchdog.Watchdog`)."""
         return {j.id: j.on_timeout for j in self.joints_on(bus)}
 
     def open_options(self, bus: str) -> dict[str, Any]:

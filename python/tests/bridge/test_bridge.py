@@ -346,8 +346,8 @@ class _Sample:
 
 
 def test_estop_overtakes_and_drops_what_was_queued_before_it(served: Served) -> None:
-    from drempower.client import ops
-    from drempower.client.commands import make_speed
+    from drempower.client.engine import ops
+    from drempower.client.engine.commands import make_speed
     from drempower.protocol.ids import SysCmd
     from drempower.protocol.messages import SystemCommand
 

@@ -36,7 +36,7 @@ def test_estop_recognised() -> None:
 
 
 def test_driven_nodes() -> None:
-    from drempower.client.commands import make_angle, make_speed
+    from drempower.client.engine.commands import make_angle, make_speed
 
     assert driven_nodes([make_speed(3, 10.0).encode(), FastRead(4).encode()]) == {3}
     assert driven_nodes([FastRead(4).encode(), SystemCommand(2, SysCmd.CLEAR_ERRORS).encode()]) == set()

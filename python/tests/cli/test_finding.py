@@ -27,7 +27,7 @@ def test_state_errors_and_monitor_without_ids_act_on_the_motors_found(cli: Cli, 
 
 
 def test_no_motor_found_is_a_failure_on_the_bus(cli: Cli, monkeypatch: pytest.MonkeyPatch) -> None:
-    from drempower.client.api_sync import Bus
+    from drempower.client.api.bus_sync import Bus
 
     monkeypatch.setattr(Bus, "scan", lambda self, *a, **k: [])
     r = cli("state", "--sim", "1")

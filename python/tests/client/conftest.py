@@ -8,7 +8,7 @@ from collections.abc import Iterator
 import pytest
 
 from drempower.client import Bus
-from drempower.client import signals as sig
+from drempower.client.driver import signals as sig
 
 from .scripted import FakeMotors, ScriptedTransport
 

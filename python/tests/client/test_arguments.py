@@ -7,7 +7,7 @@ from collections.abc import Callable
 import pytest
 
 from drempower.client import Bus
-from drempower.client.commands import (
+from drempower.client.engine.commands import (
     make_angle,
     make_angles,
     make_impedance,

@@ -10,7 +10,7 @@ import pytest
 
 import drempower
 from drempower.client import AsyncBus, Bus, PositionMode, open_bus_async
-from drempower.client.commands import make_angles
+from drempower.client.engine.commands import make_angles
 from drempower.errors import SoftLimitError, ValidationError
 from drempower.protocol.enums import AxisState
 from drempower.protocol.ids import Frame

@@ -15,9 +15,9 @@ from typing import Any
 
 import pytest
 
-from drempower.client import ops
-from drempower.client.effects import Batch, Op, read_states, request
-from drempower.client.session import BusSession, Operation
+from drempower.client.engine import ops
+from drempower.client.engine.effects import Batch, Op, read_states, request
+from drempower.client.engine.session import BusSession, Operation
 from drempower.errors import MoveError, MoveFaultError, TimeoutError
 from drempower.protocol import StartKind
 from drempower.protocol.ids import Frame

@@ -9,7 +9,7 @@ import pytest
 
 import drempower.compat as compat
 from drempower.client import AsyncBus, Bus
-from drempower.client.backup import ConfigBackup
+from drempower.client.engine.backup import ConfigBackup
 from drempower.errors import BackupFileError, FieldRangeError, ValidationError
 from drempower.protocol import WriteParam, parameter, parameters
 from drempower.protocol.addresses import (

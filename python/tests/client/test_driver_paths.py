@@ -14,7 +14,7 @@ from collections.abc import Iterator
 import pytest
 
 import drempower
-from drempower.client import driver
+from drempower.client.driver import bus_driver as driver
 from drempower.protocol import FastRead, State, encode_aa
 from drempower.protocol.ids import Frame
 from drempower.sim import SimBus, attach_adapter_pty
@@ -306,7 +306,7 @@ def test_the_event_loop_keeps_the_reader_role_while_in_use_and_lets_it_go_when_i
 
 
 def test_a_loop_closed_while_holding_the_reader_role_leaves_the_bus_usable() -> None:
-    from drempower.client.ops import fast_read
+    from drempower.client.engine.ops import fast_read
 
     sim = SimBus(ids=[1])
     pty = attach_adapter_pty(sim)
@@ -388,7 +388,7 @@ def test_coroutines_of_one_loop_time_out_each_at_its_own_deadline(order: str) ->
 
 
 def test_a_stopped_or_busy_loop_gives_the_reader_role_to_threads_that_need_it() -> None:
-    from drempower.client.ops import fast_read
+    from drempower.client.engine.ops import fast_read
 
     sim = SimBus(ids=[1])
     pty = attach_adapter_pty(sim)

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 import drempower
-from drempower.client.effects import sleep
+from drempower.client.engine.effects import sleep
 from drempower.protocol import AxisError, MotorError
 from drempower.sim import Faults, SimBus
 

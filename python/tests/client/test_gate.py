@@ -9,7 +9,7 @@ from collections.abc import Callable, Iterator
 import pytest
 
 import drempower
-from drempower.client.effects import sleep
+from drempower.client.engine.effects import sleep
 from drempower.errors import MotorIdleError, SoftLimitError
 from drempower.protocol import ReadParam, decode_command
 from drempower.protocol.flags import AxisError

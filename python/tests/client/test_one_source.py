@@ -15,8 +15,8 @@ from typing import Any
 import pytest
 
 from drempower.client import AsyncBus, AsyncMotor, Bus, Motor, VelocityMode
-from drempower.client.busbase import BusBase
-from drempower.client.motorbase import MotorBase
+from drempower.client.api.busbase import BusBase
+from drempower.client.api.motorbase import MotorBase
 from drempower.robot import AsyncJoint, AsyncRobot, Joint, Robot
 
 from ..conftest import REPO_ROOT

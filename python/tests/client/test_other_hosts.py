@@ -11,7 +11,7 @@ import pytest
 
 import drempower
 from drempower.client import Bus
-from drempower.client.session import ZERO_REPLY_GRACE
+from drempower.client.engine.session import ZERO_REPLY_GRACE
 from drempower.protocol import DataType, ReadParam
 from drempower.sim import SimBus
 

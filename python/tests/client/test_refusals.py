@@ -11,7 +11,7 @@ import pytest
 
 import drempower
 from drempower.client import AsyncBus, AsyncMotor, Bus, Motor
-from drempower.client.timeouts import MAX_TIMEOUT, check_timeout
+from drempower.client.engine.timeouts import MAX_TIMEOUT, check_timeout
 from drempower.errors import ValidationError
 
 from .scripted import FakeMotors, ScriptedTransport

@@ -7,15 +7,15 @@ import functools
 
 import pytest
 
+from drempower.client.engine.grace import ZeroReplyGrace
+from drempower.client.engine.hold import TRANSITIONS, HoldEvent, HoldState
+from drempower.client.engine.known import Known
+from drempower.client.engine.outbox import ASSUMED_BITRATE, Outbox
+from drempower.client.engine.requests import Matcher, Waiter
+from drempower.client.engine.session import BusSession
+from drempower.client.engine.stats import BusStats
+from drempower.client.engine.timers import Timers
 from drempower.client.errors import TimeoutError
-from drempower.client.grace import ZeroReplyGrace
-from drempower.client.hold import TRANSITIONS, HoldEvent, HoldState
-from drempower.client.known import Known
-from drempower.client.outbox import ASSUMED_BITRATE, Outbox
-from drempower.client.requests import Matcher, Waiter
-from drempower.client.session import BusSession
-from drempower.client.stats import BusStats
-from drempower.client.timers import Timers
 from drempower.protocol import (
     DataType,
     FastRead,

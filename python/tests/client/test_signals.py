@@ -10,7 +10,7 @@ from types import FrameType
 import pytest
 
 from drempower.client import Bus
-from drempower.client import signals as sig
+from drempower.client.driver import signals as sig
 from drempower.protocol import DataType, WriteParam
 from drempower.protocol.ids import SysCmd
 from drempower.protocol.messages import SystemCommand
@@ -183,7 +183,7 @@ def trace(frame, event, arg):
 _EVERY_INSTRUCTION = (
     """
 import signal, sys, threading, time
-from drempower.client.signals import SignalLatch
+from drempower.client.driver.signals import SignalLatch
 """
     + _SIGTERM_AT
     + """

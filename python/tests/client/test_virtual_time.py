@@ -18,8 +18,8 @@ import pytest
 
 import drempower
 from drempower.client import BusClosedError, PositionMode, open_bus_async
-from drempower.client.effects import sleep
-from drempower.client.session import idle_frames
+from drempower.client.engine.effects import sleep
+from drempower.client.engine.session import idle_frames
 from drempower.protocol.ids import Frame
 from drempower.sim import Faults, SimBus, SimRunner
 from drempower.transports import TransportError

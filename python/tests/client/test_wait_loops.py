@@ -19,10 +19,10 @@ from contextlib import contextmanager
 import pytest
 
 import drempower
-from drempower.client import driver
-from drempower.client.wait_asyncio import AsyncWaits
-from drempower.client.wait_threaded import ThreadWaits, Wake
-from drempower.client.wait_virtual import VirtualWaits
+from drempower.client.driver import bus_driver as driver
+from drempower.client.driver.wait_asyncio import AsyncWaits
+from drempower.client.driver.wait_threaded import ThreadWaits, Wake
+from drempower.client.driver.wait_virtual import VirtualWaits
 from drempower.protocol import FastRead, State, encode_aa
 from drempower.sim import SimBus, attach_adapter_pty
 from drempower.transports.serial_adapter import AdapterTransport

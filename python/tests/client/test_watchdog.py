@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 import drempower
-from drempower.client.effects import sleep
-from drempower.client.watchdog import Fired, Watchdog, stop_messages
+from drempower.client.engine.effects import sleep
+from drempower.client.engine.watchdog import Fired, Watchdog, stop_messages
 from drempower.errors import ValidationError
 from drempower.protocol import Velocity, WriteParam
 

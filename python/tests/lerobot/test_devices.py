@@ -19,7 +19,7 @@ from lerobot_robot_drempower import DrEmpowerFollower, DrEmpowerFollowerConfig
 from lerobot_teleoperator_drempower import DrEmpowerLeader, DrEmpowerLeaderConfig
 
 from drempower import DrEmpowerError, SoftLimitError, ValidationError, open_robot
-from drempower.client.effects import sleep
+from drempower.client.engine.effects import sleep
 
 from .conftest import ARM, JOINTS, TIMEOUT, idle_on_timeout, served_arms
 

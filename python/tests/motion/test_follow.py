@@ -100,7 +100,7 @@ def test_an_obstacle_in_the_path_stops_the_robot_by_max_error() -> None:
         assert report.stopped is not None and report.cycles < 401
         assert report.max_error["elbow"] > 0.05
         held = {n: s.position for n, s in robot.joint_states().items()}
-        from drempower.client.effects import sleep
+        from drempower.client.engine.effects import sleep
 
         robot.bus("arm").run(sleep(0.5))
         later = robot.joint_states()

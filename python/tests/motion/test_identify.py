@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 import drempower
-from drempower.client.effects import sleep
+from drempower.client.engine.effects import sleep
 from drempower.errors import ValidationError
 from drempower.motion.routines_sync import identify
 

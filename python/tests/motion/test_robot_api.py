@@ -157,11 +157,11 @@ def test_the_asyncio_robot_identifies_tunes_and_teaches(tmp_path: Path) -> None:
 
 
 def test_a_joint_alone_has_no_robot_to_identify_on() -> None:
-    from drempower.robot.aio import AsyncJoint
     from drempower.robot.config import JointSpec
+    from drempower.robot.robot_async import AsyncJoint
 
     with drempower.open_bus("sim", motors=[1]) as bus:
-        from drempower.robot.threaded import Joint
+        from drempower.robot.robot_sync import Joint
 
         j = Joint(bus, JointSpec("swing", "can0", 1))
         with pytest.raises(DrEmpowerError, match="not part of a robot"):

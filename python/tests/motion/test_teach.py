@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 import drempower
-from drempower.client.effects import sleep
+from drempower.client.engine.effects import sleep
 from drempower.motion import Trajectory
 from drempower.motion.routines_sync import teach
 

@@ -141,7 +141,7 @@ def test_a_recorded_session_plays_back_as_a_trajectory(tmp_path: Path) -> None:
     """The /joint_states of a recording of a moving simulated motor read back as its path, at the joint."""
     pytest.importorskip("mcap_ros2")
     import drempower
-    from drempower.client.effects import sleep
+    from drempower.client.engine.effects import sleep
     from drempower.records import Recorder
 
     path = tmp_path / "session.mcap"

@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 import drempower
-from drempower.client import session
-from drempower.client.commands import make_speed, make_speeds, make_torque, make_torques
+from drempower.client.engine import session
+from drempower.client.engine.commands import make_speed, make_speeds, make_torque, make_torques
 from drempower.errors import FieldRangeError
 from drempower.protocol import limits
 from drempower.protocol.ids import Cmd, Frame

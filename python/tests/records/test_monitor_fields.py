@@ -10,7 +10,7 @@ from typing import Any
 import pytest
 
 from drempower import open_bus
-from drempower.client.busbase import BusBase
+from drempower.client.api.busbase import BusBase
 from drempower.protocol import FastRead
 from drempower.sim import SimBus
 from drempower.transports.sim import SimTransport

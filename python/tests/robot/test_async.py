@@ -8,7 +8,7 @@ from pathlib import Path
 import pytest
 
 import drempower
-from drempower.client.commands import q_move_time
+from drempower.client.engine.commands import q_move_time
 from drempower.errors import BusClosedError, ValidationError
 from drempower.robot import AsyncJoint, AsyncRobot
 from drempower.sim import SimBus

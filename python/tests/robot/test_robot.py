@@ -11,7 +11,7 @@ import pytest
 
 import drempower
 from drempower.client import Motor, MotorState
-from drempower.client.commands import q_move_time
+from drempower.client.engine.commands import q_move_time
 from drempower.errors import BusClosedError, FieldRangeError, SoftLimitError, TransportError, ValidationError
 from drempower.protocol import Preset, ReadParam, Start, SysCmd, SystemCommand, decode_command
 from drempower.protocol.limits import MOTION_CMDS

@@ -97,7 +97,7 @@ def test_a_robot_move_to_idle_joints_is_refused(robot_file: Path) -> None:
 
 
 def test_a_timed_joint_velocity_ends_by_itself(robot_file: Path) -> None:
-    from drempower.client.effects import sleep
+    from drempower.client.engine.effects import sleep
 
     with drempower.open_robot(robot_file) as robot:
         wrist = robot.joint("wrist")

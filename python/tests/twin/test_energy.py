@@ -7,7 +7,7 @@ import xml.etree.ElementTree as ET
 from pathlib import Path
 
 import drempower
-from drempower.client.effects import sleep
+from drempower.client.engine.effects import sleep
 
 from .conftest import model_copy, robot_file
 

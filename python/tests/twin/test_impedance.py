@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 import drempower
-from drempower.client.effects import sleep
+from drempower.client.engine.effects import sleep
 
 from .conftest import model_copy, robot_file
 

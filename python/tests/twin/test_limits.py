@@ -5,7 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 
 import drempower
-from drempower.client.effects import sleep
+from drempower.client.engine.effects import sleep
 from drempower.protocol.flags import ControllerError
 
 from .conftest import model_copy, robot_file

@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 import drempower
-from drempower.client.effects import sleep
+from drempower.client.engine.effects import sleep
 from drempower.sim.twin import twin_of
 
 from .conftest import PENDULUM_GAINS, ROBOTS, G, pendulum_arm, pendulum_inertia, robot_file

@@ -13,7 +13,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from drempower import ConfigError, open_robot
-from drempower.client.signals import install_stop_handlers
+from drempower.client.driver.signals import install_stop_handlers
 from drempower.robot import Robot, RobotSpec, load_robot
 
 __all__ = [

@@ -25,7 +25,7 @@ the joints from ``/robot_joint_states``, both ``sensor_msgs/msg/JointState``.
   file, a motor not in closed loop refused: call the ``enable`` service first);
 * ``TopicBasedSystem`` publishes only when a position changes by more than
   1e-5: silence from a publisher whose rmw_zenoh liveliness token is alive holds
-  the last command (:class:`~drempower.client.watchdog.Watchdog`); when its token
+  the last command (:class:`~drempower.client.engine.watchdog.Watchdog`); when its token
   is gone each joint does its ``on_timeout`` (``hold``: speed 0 in closed loop,
   ``idle``). A publisher without a token (not rmw_zenoh) is gone after
   ``timeout`` s of silence.
@@ -39,8 +39,8 @@ import time
 from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
-from ..client.commands import PositionMode, make_angle, make_impedance, make_speed, make_torque
-from ..client.watchdog import Watchdog, stop_messages
+from ..client.engine.commands import PositionMode, make_angle, make_impedance, make_speed, make_torque
+from ..client.engine.watchdog import Watchdog, stop_messages
 from ..errors import DrEmpowerError
 from ..protocol.messages import Message, StartImpedance
 from . import rmw, rosmsg

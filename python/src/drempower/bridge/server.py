@@ -20,8 +20,8 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from .. import actions
-from ..client.bus import Bus
-from ..client.commands import make_angles, make_speeds, make_torques
+from ..client.api.bus_sync import Bus
+from ..client.engine.commands import make_angles, make_speeds, make_torques
 from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..logline import RateLimit
 from ..naming import motor_name

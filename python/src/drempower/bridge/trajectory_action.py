@@ -46,7 +46,7 @@ from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from ..client.state import MotorState
+from ..client.engine.state import MotorState
 from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..motion.follow_sync import stream
 from ..motion.plan import FollowError, make_plan, robot_lanes, robot_limits

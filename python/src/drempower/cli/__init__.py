@@ -18,7 +18,7 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 from .. import __version__
-from ..client.signals import Terminated, exit_code, signals_interrupt
+from ..client.driver.signals import Terminated, exit_code, signals_interrupt
 from ..errors import DrEmpowerError, ValidationError
 from ._output import clean
 from ._parser import Parser

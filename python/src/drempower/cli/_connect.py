@@ -20,7 +20,7 @@ import shlex
 import sys
 from typing import TYPE_CHECKING, Any
 
-from ..client.timeouts import MAX_TIMEOUT
+from ..client.engine.timeouts import MAX_TIMEOUT
 from ..errors import DrEmpowerError
 from ..protocol.limits import MAX_NODE, MIN_MOTOR, is_motor
 from ..transports.factory import INTERFACES

@@ -11,7 +11,7 @@ from collections.abc import Iterator, Sequence
 from contextlib import contextmanager
 
 from ..client import Bus
-from ..client.signals import Terminated, hurried
+from ..client.driver.signals import Terminated, hurried
 from ..errors import DrEmpowerError
 from ._connect import add_ids_arg, ascii_float, ascii_int, open_from_args, positive
 from ._output import clean, motors_text
@@ -87,7 +87,7 @@ def stop_commanded(bus: Bus, why: str) -> None:
     Idle stops driving, not turning: a motor that still moves is reported as
     coasting at its speed (r/min), so nobody takes "idle" for "at rest".
     A second signal while this runs never cuts it short (see
-    :func:`~drempower.client.signals.signals_interrupt`): every motor still
+    :func:`~drempower.client.driver.signals.signals_interrupt`): every motor still
     gets its idle frame, and only the reading of their motion is left out.
     """
     nodes = sorted(bus.commanded)

@@ -171,7 +171,7 @@ def _stop(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
 
 
 def _move(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
-    from ..client.session import DEFAULT_MOVE_TIMEOUT
+    from ..client.engine.session import DEFAULT_MOVE_TIMEOUT
     from ._motion import stop_commanded
     from .move import _MODES, _params
 

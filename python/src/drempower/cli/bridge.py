@@ -9,7 +9,7 @@ import sys
 from contextlib import ExitStack
 from typing import Any
 
-from ..client.signals import SignalLatch
+from ..client.driver.signals import SignalLatch
 from ..transports.zenoh_config import check_endpoint
 from ._connect import add_connection_args, connection_kwargs, parse_ids, positive, sim_time_scale
 from ._motion import add_watchdog_arg, arm_watchdog, restore_watchdog

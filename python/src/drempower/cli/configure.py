@@ -7,8 +7,8 @@ import time
 from typing import Any
 
 from ..client import Bus
+from ..client.engine.ops import CAN_BAUD_RATES, UART_BAUD_RATES
 from ..client.errors import TimeoutError
-from ..client.ops import CAN_BAUD_RATES, UART_BAUD_RATES
 from ..protocol import FastRead
 from ._connect import add_connection_args, add_ids_arg, bitrate, motor_id, open_from_args, seconds
 from ._output import add_json_arg, motors_text, report, sent

@@ -6,7 +6,7 @@ import argparse
 from typing import Any
 
 from ..client import TorqueMode, VelocityMode
-from ..client.commands import make_impedances, make_speeds, make_torques
+from ..client.engine.commands import make_impedances, make_speeds, make_torques
 from . import _readings
 from ._connect import add_connection_args, number
 from ._motion import add_duration_arg, add_motion_args, add_watchdog_arg, driving, hold, per_motor

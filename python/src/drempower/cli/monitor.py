@@ -10,7 +10,7 @@ import time
 from contextlib import ExitStack
 from typing import Any
 
-from ..client.signals import exit_code
+from ..client.driver.signals import exit_code
 from ..errors import DrEmpowerError
 from . import _readings
 from ._connect import add_connection_args, add_ids_arg, ids_or_found, open_from_args, positive

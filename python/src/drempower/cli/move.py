@@ -7,7 +7,7 @@ from typing import Any
 
 from .. import actions as table
 from ..client import DEFAULT_MOVE_TIMEOUT, PositionMode
-from ..client.commands import make_angles
+from ..client.engine.commands import make_angles
 from . import _readings
 from ._connect import add_connection_args, number, seconds
 from ._motion import add_motion_args, add_watchdog_arg, driving, per_motor

@@ -7,8 +7,8 @@ import sys
 import time
 from typing import Any
 
-from ..client.session import MOTION_CMDS
-from ..client.signals import exit_code
+from ..client.driver.signals import exit_code
+from ..client.engine.session import MOTION_CMDS
 from ..errors import DrEmpowerError, ProtocolError
 from ..protocol.addresses import AXIS0_REQUESTED_STATE
 from ..protocol.describe import CaptureDecoder

@@ -12,7 +12,7 @@ from contextlib import ExitStack, contextmanager
 from pathlib import Path
 from typing import Any, TextIO
 
-from ..client.signals import exit_code
+from ..client.driver.signals import exit_code
 from ..errors import DrEmpowerError, SavedConfigError, ValidationError
 from ..sim import (
     Faults,

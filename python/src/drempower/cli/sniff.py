@@ -8,7 +8,7 @@ import time
 from contextlib import ExitStack
 from typing import Any
 
-from ..client.signals import exit_code
+from ..client.driver.signals import exit_code
 from ..protocol.describe import CaptureDecoder
 from ..protocol.ids import Frame
 from ..records.framelog import FrameLog

@@ -9,8 +9,20 @@
 
 from typing import TYPE_CHECKING, Any
 
-from .bus import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, Bus, open_bus
-from .commands import (
+from ..errors import (
+    BusClosedError,
+    BusStoppedError,
+    IdTakenError,
+    MotorFaultError,
+    MoveError,
+    MoveFaultError,
+    MoveTimeoutError,
+    NoMotorError,
+    TimeoutError,
+    VerifyError,
+)
+from .api.bus_sync import Bus, Motor, open_bus
+from .engine.commands import (
     AxisMode,
     PositionMode,
     TorqueMode,
@@ -26,26 +38,13 @@ from .commands import (
     make_torques,
     q_move_time,
 )
-from .errors import (
-    BusClosedError,
-    BusStoppedError,
-    IdTakenError,
-    MotorFaultError,
-    MoveError,
-    MoveFaultError,
-    MoveTimeoutError,
-    NoMotorError,
-    TimeoutError,
-    VerifyError,
-)
-from .motor import Motor
-from .results import ErrorReport, GpioMode, MotorInfo
-from .session import DEFAULT_TIMEOUT, MOVE_TOLERANCE
-from .state import MotorState, Subscription
+from .engine.results import ErrorReport, GpioMode, MotorInfo
+from .engine.session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, DEFAULT_TIMEOUT, MOVE_TOLERANCE
+from .engine.state import MotorState, Subscription
 
 if TYPE_CHECKING:
-    from .aio import AsyncBus, AsyncMotor, open_bus_async
-    from .backup import ConfigBackup, ParamRecord, RestoreReport
+    from .api.bus_async import AsyncBus, AsyncMotor, open_bus_async
+    from .engine.backup import ConfigBackup, ParamRecord, RestoreReport
 
 __all__ = [
     "AsyncBus",
@@ -93,12 +92,12 @@ __all__ = [
 ]
 
 _LAZY = {
-    "AsyncBus": "aio",
-    "AsyncMotor": "aio",
-    "open_bus_async": "aio",
-    "ConfigBackup": "backup",
-    "ParamRecord": "backup",
-    "RestoreReport": "backup",
+    "AsyncBus": "api.bus_async",
+    "AsyncMotor": "api.bus_async",
+    "open_bus_async": "api.bus_async",
+    "ConfigBackup": "engine.backup",
+    "ParamRecord": "engine.backup",
+    "RestoreReport": "engine.backup",
 }
 
 

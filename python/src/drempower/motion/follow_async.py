@@ -2,7 +2,8 @@
 rad) and :func:`follow_bus` (motor ids, deg).
 
 The one source of both flavours: ``follow_sync.py`` is generated from this file by
-``tools/gen_sync.py``. :class:`~drempower.robot.aio.AsyncRobot` and :class:`~drempower.client.aio.AsyncBus`
+``tools/gen_sync.py``. :class:`~drempower.robot.robot_async.AsyncRobot` and
+:class:`~drempower.client.api.bus_async.AsyncBus`
 offer them as ``follow``.
 """
 
@@ -12,9 +13,9 @@ import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from ..client.effects import read_states, sleep
-from ..client.flavours import AsyncPart
-from ..client.state import MotorState
+from ..client.api.flavours import AsyncPart
+from ..client.engine.effects import read_states, sleep
+from ..client.engine.state import MotorState
 from ..errors import ValidationError
 from .plan import (
     AsyncEach,
@@ -61,7 +62,7 @@ async def follow_robot(
     timeout: float | None = None,
     trace: bool = False,
 ) -> FollowReport:
-    """Follow a trajectory with the robot's joints (rad); see :meth:`drempower.robot.aio.AsyncRobot.follow`."""
+    """Follow a trajectory with the robot's joints (rad); see :meth:`drempower.robot.robot_async.AsyncRobot.follow`."""
     tr = as_trajectory(times, positions, velocities, joints, list(robot.joints))
     for name in tr.joints:
         robot.joint(name)  # an unknown joint is named before anything else
@@ -112,7 +113,7 @@ async def follow_bus(
     trace: bool = False,
 ) -> FollowReport:
     """Follow a trajectory in motor units (deg) with motors ``ids``; see :meth:`AsyncBus.follow
-    <drempower.client.aio.AsyncBus.follow>`."""
+    <drempower.client.api.bus_async.AsyncBus.follow>`."""
     if isinstance(ids, str | bytes) or not isinstance(ids, Sequence) or not ids:
         raise ValidationError(f"ids={ids!r}: expected a list of motor ids, one per trajectory column")
     names = [str(i) for i in ids]

@@ -10,9 +10,9 @@ import math
 from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from ..client.effects import read_states, sleep
-from ..client.flavours import SyncPart
-from ..client.state import MotorState
+from ..client.api.flavours import SyncPart
+from ..client.engine.effects import read_states, sleep
+from ..client.engine.state import MotorState
 from ..errors import ValidationError
 from .plan import (
     FollowError,
@@ -59,7 +59,7 @@ def follow_robot(
     timeout: float | None = None,
     trace: bool = False,
 ) -> FollowReport:
-    """Follow a trajectory with the robot's joints (rad); see :meth:`drempower.robot.aio.Robot.follow`."""
+    """Follow a trajectory with the robot's joints (rad); see :meth:`drempower.robot.robot_sync.Robot.follow`."""
     tr = as_trajectory(times, positions, velocities, joints, list(robot.joints))
     for name in tr.joints:
         robot.joint(name)  # an unknown joint is named before anything else
@@ -110,7 +110,7 @@ def follow_bus(
     trace: bool = False,
 ) -> FollowReport:
     """Follow a trajectory in motor units (deg) with motors ``ids``; see :meth:`Bus.follow
-    <drempower.client.aio.Bus.follow>`."""
+    <drempower.client.api.bus_sync.Bus.follow>`."""
     if isinstance(ids, str | bytes) or not isinstance(ids, Sequence) or not ids:
         raise ValidationError(f"ids={ids!r}: expected a list of motor ids, one per trajectory column")
     names = [str(i) for i in ids]

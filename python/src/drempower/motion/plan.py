@@ -11,10 +11,10 @@ from collections.abc import Awaitable, Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any, Literal
 
-from ..client.commands import AxisMode, PositionMode, make_angle, make_impedance
-from ..client.effects import Batch, Op, read_states
-from ..client.ops import set_mode
-from ..client.state import MotorState
+from ..client.engine.commands import AxisMode, PositionMode, make_angle, make_impedance
+from ..client.engine.effects import Batch, Op, read_states
+from ..client.engine.ops import set_mode
+from ..client.engine.state import MotorState
 from ..errors import FollowError, ValidationError
 from ..protocol.messages import Message, StartImpedance
 from ..sim.timing import frame_bits

@@ -3,8 +3,8 @@
 
 The one source of both flavours: ``routines_sync.py`` is generated from this file by
 ``tools/gen_sync.py``. The parts without I/O are in ``identify.py``, ``tune.py`` and ``teach.py``;
-:class:`~drempower.robot.aio.AsyncJoint` offers ``identify`` and ``tune``,
-:class:`~drempower.robot.aio.AsyncRobot` ``teach``.
+:class:`~drempower.robot.robot_async.AsyncJoint` offers ``identify`` and ``tune``,
+:class:`~drempower.robot.robot_async.AsyncRobot` ``teach``.
 """
 
 from __future__ import annotations
@@ -12,8 +12,8 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from ..client.commands import PositionMode
-from ..client.effects import sleep
+from ..client.engine.commands import PositionMode
+from ..client.engine.effects import sleep
 from ..errors import DrEmpowerError
 from .identify import Identification, check_excitation, excitation, from_samples
 from .teach import GravityModel, TeachLoop

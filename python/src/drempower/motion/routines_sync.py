@@ -10,8 +10,8 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from typing import TYPE_CHECKING, Any
 
-from ..client.commands import PositionMode
-from ..client.effects import sleep
+from ..client.engine.commands import PositionMode
+from ..client.engine.effects import sleep
 from ..errors import DrEmpowerError
 from .identify import Identification, check_excitation, excitation, from_samples
 from .teach import GravityModel, TeachLoop

@@ -16,9 +16,9 @@ from __future__ import annotations
 from collections.abc import Callable, Generator, Mapping, Sequence
 from typing import TYPE_CHECKING, Any, Protocol, TypeAlias
 
-from ..client.commands import PositionMode, make_angle, make_impedance
-from ..client.effects import Batch, Op, read_states, sleep
-from ..client.state import MotorState
+from ..client.engine.commands import PositionMode, make_angle, make_impedance
+from ..client.engine.effects import Batch, Op, read_states, sleep
+from ..client.engine.state import MotorState
 from ..errors import ConfigError, DrEmpowerError
 from ..protocol.messages import Message, StartImpedance
 from .trajectory import Trajectory

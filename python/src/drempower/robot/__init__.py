@@ -9,11 +9,11 @@
 The file format is described in :mod:`drempower.robotfile` and docs/robot.md.
 """
 
-from .aio import AsyncJoint, AsyncRobot, open_robot_async
 from .config import BusSpec, JointSpec, RobotSpec, load_robot, parse_robot
 from .joint import Gearing, JointState
 from .plan import SyncMove
-from .threaded import Joint, Robot, open_robot
+from .robot_async import AsyncJoint, AsyncRobot, open_robot_async
+from .robot_sync import Joint, Robot, open_robot
 
 __all__ = [
     "AsyncJoint",

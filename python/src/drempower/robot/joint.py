@@ -1,6 +1,6 @@
 """Joints' units: the state at the joint (rad, rad/s, Nm) and the gearing between motor and joint.
 
-The joint handles (:class:`~drempower.robot.threaded.Joint`, :class:`~drempower.robot.aio.AsyncJoint`)
+The joint handles (:class:`~drempower.robot.robot_sync.Joint`, :class:`~drempower.robot.robot_async.AsyncJoint`)
 are motor handles that use these.
 
 A joint is motor ``id`` on one bus, seen through ``gear`` (motor output turns
@@ -18,7 +18,7 @@ import math
 from collections.abc import Mapping
 from typing import Any, NamedTuple
 
-from ..client.state import MotorState
+from ..client.engine.state import MotorState
 from .config import JointSpec
 
 __all__ = ["JointState", "Gearing"]
@@ -82,7 +82,7 @@ class Gearing:
 
     def motor_limits(self, limits: Mapping[str, Any]) -> dict[str, Any]:
         """Soft limits at the joint (rad, rad/s, Nm, rad/s^2, rad) in motor units (deg, r/min, Nm,
-        (r/min)/s, deg), as :meth:`~drempower.client.bus.Bus.set_limits` takes them."""
+        (r/min)/s, deg), as :meth:`~drempower.client.api.bus_sync.Bus.set_limits` takes them."""
         out: dict[str, Any] = {}
         for name, v in limits.items():
             if name == "position":

@@ -15,8 +15,8 @@ import threading
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-from ..client.commands import PositionMode, make_angles, position_mode, q_move_time
-from ..client.effects import Op, read_states
+from ..client.engine.commands import PositionMode, make_angles, position_mode, q_move_time
+from ..client.engine.effects import Op, read_states
 from ..errors import FieldRangeError, ValidationError
 from ..protocol.ids import Frame
 from ..protocol.messages import S16_MAX, Message, Start
@@ -40,7 +40,7 @@ __all__ = [
 @dataclass(frozen=True)
 class Target:
     """One motor's part of a move, in wire units: ``angle`` deg (absolute, or relative), ``speed`` r/min and
-    ``param`` as :meth:`~drempower.client.bus.Bus.set_angles` takes them."""
+    ``param`` as :meth:`~drempower.client.api.bus_sync.Bus.set_angles` takes them."""
 
     joint: str
     id: int

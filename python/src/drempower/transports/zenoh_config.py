@@ -8,7 +8,7 @@ import re
 from collections.abc import Sequence
 from typing import Any
 
-from ..transports.errors import TransportError
+from .errors import TransportError
 
 __all__ = ["DEFAULT_CONNECT", "LEASE", "check_endpoint", "open_config", "open_session", "session_config", "settings"]
 

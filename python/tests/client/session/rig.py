@@ -7,8 +7,8 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any, TypeVar
 
-from drempower.client.effects import Op
-from drempower.client.session import BusSession, Operation
+from drempower.client.engine.effects import Op
+from drempower.client.engine.session import BusSession, Operation
 from drempower.protocol import FastRead, ParamValue, ReadParam, State, decode_command
 from drempower.protocol.ids import Frame
 from drempower.protocol.messages import Command

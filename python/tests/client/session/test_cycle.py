@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import pytest
 
-from drempower.client import batch
-from drempower.client.effects import Cycle
+from drempower.client.engine import batch
+from drempower.client.engine.effects import Cycle
+from drempower.client.engine.session import BusSession, idle_frames
 from drempower.client.errors import TimeoutError
-from drempower.client.session import BusSession, idle_frames
 from drempower.errors import ValidationError
 from drempower.protocol import (
     DataType,
@@ -75,7 +75,7 @@ def test_a_start_after_a_cycle_of_presets_goes_out_at_once() -> None:
 
 
 def test_a_preset_cycled_to_one_motor_keeps_a_later_batch_of_others_from_broadcasting_its_start() -> None:
-    from drempower.client.effects import Batch
+    from drempower.client.engine.effects import Batch
 
     s = BusSession(tx="in_order")
     opn = s.submit(batch.cycle(s, [PresetT(3, 30.0, 20.0)], reply_state=True))

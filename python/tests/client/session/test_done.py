@@ -5,10 +5,10 @@ from __future__ import annotations
 
 import pytest
 
-from drempower.client.effects import Batch, Op
+from drempower.client.engine.effects import Batch, Op
+from drempower.client.engine.ops import wait_done
+from drempower.client.engine.state import MotorState
 from drempower.client.errors import MoveError, MoveFaultError, MoveTimeoutError
-from drempower.client.ops import wait_done
-from drempower.client.state import MotorState
 from drempower.protocol import FastRead, PositionT, Preset, PresetT, ReadParam, Start, StartKind, parameter
 from drempower.protocol.flags import AxisError, CanError
 

@@ -8,10 +8,10 @@ from __future__ import annotations
 
 import pytest
 
-from drempower.client import batch
-from drempower.client.effects import read_states
-from drempower.client.session import BusSession
-from drempower.client.state import MotorState
+from drempower.client.engine import batch
+from drempower.client.engine.effects import read_states
+from drempower.client.engine.session import BusSession
+from drempower.client.engine.state import MotorState
 from drempower.protocol import PositionT, State
 from drempower.protocol.ids import Frame
 from drempower.protocol.messages import STATE_CMDS

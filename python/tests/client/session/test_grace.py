@@ -5,8 +5,8 @@ from __future__ import annotations
 
 import pytest
 
-from drempower.client.effects import request
-from drempower.client.session import BusSession, Operation
+from drempower.client.engine.effects import request
+from drempower.client.engine.session import BusSession, Operation
 from drempower.protocol import DataType, ParamValue, PresetT, ReadParam
 from drempower.protocol.ids import Frame
 

@@ -7,10 +7,10 @@ from typing import Any
 
 import pytest
 
-from drempower.client.effects import read_states, request
+from drempower.client.engine.effects import read_states, request
+from drempower.client.engine.session import BusSession, Operation
+from drempower.client.engine.state import MotorState
 from drempower.client.errors import TimeoutError
-from drempower.client.session import BusSession, Operation
-from drempower.client.state import MotorState
 from drempower.protocol import DataType, FastRead, ParamValue, ReadParam
 from drempower.protocol.ids import Frame
 

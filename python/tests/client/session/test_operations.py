@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import pytest
 
-from drempower.client.effects import Batch, Op, await_state, read_states, request, sleep
+from drempower.client.engine.effects import Batch, Op, await_state, read_states, request, sleep
+from drempower.client.engine.session import BusSession, Operation
 from drempower.client.errors import BusClosedError, TimeoutError
-from drempower.client.session import BusSession, Operation
 from drempower.protocol import (
     DataType,
     FastRead,

@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
+from drempower.client.engine.ops import set_id
 from drempower.client.errors import IdTakenError, NoMotorError
-from drempower.client.ops import set_id
 from drempower.protocol import FastRead, SystemCommand, WriteParam
 
 from .rig import Rig

@@ -8,9 +8,9 @@ from collections.abc import Sequence
 
 import pytest
 
-from drempower.client.effects import Batch, Op
+from drempower.client.engine.effects import Batch, Op
+from drempower.client.engine.session import Operation, StartPolicy
 from drempower.client.errors import TimeoutError
-from drempower.client.session import Operation, StartPolicy
 from drempower.errors import BusStoppedError
 from drempower.protocol import (
     FastRead,
