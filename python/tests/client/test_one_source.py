@@ -42,14 +42,14 @@ def test_the_generated_front_end_is_fresh() -> None:
 
 
 def test_an_edit_of_either_side_alone_is_stale(tmp_path: Path) -> None:
-    """On a copy: a hand edit of api_sync.py, or an edit of api_async.py not regenerated, fails the check."""
+    """On a copy: a hand edit of bus_sync.py, or an edit of bus_async.py not regenerated, fails the check."""
     parts = [
         Path("tools/gen_sync.py"),
         Path("python/pyproject.toml"),
-        _CLIENT / "api_async.py",
-        _CLIENT / "api_sync.py",
-        _ROBOT / "aio.py",
-        _ROBOT / "threaded.py",
+        _CLIENT / "api" / "bus_async.py",
+        _CLIENT / "api" / "bus_sync.py",
+        _ROBOT / "robot_async.py",
+        _ROBOT / "robot_sync.py",
         *(_ROBOT.parent / "motion" / f for f in ("follow_async.py", "follow_sync.py")),
         *(_ROBOT.parent / "motion" / f for f in ("routines_async.py", "routines_sync.py")),
     ]
@@ -66,7 +66,7 @@ def test_an_edit_of_either_side_alone_is_stale(tmp_path: Path) -> None:
     text = generated.read_text()
     generated.write_text(text.replace("mode: int = VelocityMode.PASSTHROUGH", "mode: int = 1"))
     r = check()
-    assert r.returncode == 1 and "api_sync.py" in r.stderr
+    assert r.returncode == 1 and "bus_sync.py" in r.stderr
     generated.write_text(text)
     source = tmp_path / parts[2]
     source.write_text(source.read_text().replace("speed: float = 10.0", "speed: float = 20.0"))
@@ -77,7 +77,33 @@ def test_an_edit_of_either_side_alone_is_stale(tmp_path: Path) -> None:
     robot = tmp_path / parts[5]
     robot.write_text(robot.read_text().replace("speed: float = 10.0", "speed: float = 11.0"))
     r = check()
-    assert r.returncode == 1 and "threaded.py" in r.stderr
+    assert r.returncode == 1 and "robot_sync.py" in r.stderr
+
+
+def test_the_twins_are_found_by_path(tmp_path: Path) -> None:
+    """Every ``X_async.py`` of the package is a source with ``X_sync.py`` beside it; one the tool has no
+    docstring for is refused by name, and so is a listed source that is gone."""
+    gen = _gen_sync()
+    pairs = gen.find_pairs()
+    assert {(s.name, t.name) for s, t, _ in pairs} == {
+        ("bus_async.py", "bus_sync.py"),
+        ("robot_async.py", "robot_sync.py"),
+        ("follow_async.py", "follow_sync.py"),
+        ("routines_async.py", "routines_sync.py"),
+    }
+    assert all(s.parent == t.parent and t.exists() for s, t, _ in pairs)
+    package = tmp_path / "drempower"
+    for source, _, _ in pairs:
+        rel = source.relative_to(gen.PACKAGE)
+        (package / rel).parent.mkdir(parents=True, exist_ok=True)
+        (package / rel).write_text("")
+    (package / "extra_async.py").write_text("")
+    with pytest.raises(SystemExit, match="extra_async.py has no docstring"):
+        gen.find_pairs(package)
+    (package / "extra_async.py").unlink()
+    (package / "motion" / "follow_async.py").unlink()
+    with pytest.raises(SystemExit, match="no such source: motion/follow_async.py"):
+        gen.find_pairs(package)
 
 
 def test_the_transform() -> None:
