@@ -41,6 +41,10 @@ class ScriptedTransport(Transport):
         self.time = 1000.0
         """The scripted clock (s), when ``virtual`` (like :func:`time.monotonic`, it does not start at 0)."""
 
+    def clock(self) -> ScriptedTransport | None:
+        """This transport itself when ``virtual`` (its scripted clock), else None."""
+        return self if self.virtual_clock else None
+
     def now(self) -> float:
         return self.time
 

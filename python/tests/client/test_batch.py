@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from dataclasses import replace
 
 import pytest
 
@@ -21,6 +22,7 @@ from drempower.protocol import (
     TrajMode,
     WriteParam,
 )
+from drempower.transports.capabilities import Capabilities
 
 from .scripted import FakeMotors, ScriptedTransport
 
@@ -122,7 +124,10 @@ def test_multi_motor_start_is_broadcast_only_when_every_motor_of_the_bus_moves(m
 
     class FailAfter(ScriptedTransport):
         fail_at: int | None = None
-        motor_ids = frozenset((1, 2, 3))
+
+        @property
+        def capabilities(self) -> Capabilities:
+            return replace(super().capabilities, motor_ids=frozenset((1, 2, 3)))  # as the simulator declares
 
         def send(self, frame: object) -> None:
             if self.fail_at is not None and len(self.sent) == self.fail_at:

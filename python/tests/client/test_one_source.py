@@ -98,11 +98,11 @@ def test_the_twins_are_found_by_path(tmp_path: Path) -> None:
         (package / rel).parent.mkdir(parents=True, exist_ok=True)
         (package / rel).write_text("")
     (package / "extra_async.py").write_text("")
-    with pytest.raises(SystemExit, match="extra_async.py has no docstring"):
+    with pytest.raises(SystemExit, match=r"extra_async\.py has no docstring"):
         gen.find_pairs(package)
     (package / "extra_async.py").unlink()
     (package / "motion" / "follow_async.py").unlink()
-    with pytest.raises(SystemExit, match="no such source: motion/follow_async.py"):
+    with pytest.raises(SystemExit, match=r"no such source: motion/follow_async\.py"):
         gen.find_pairs(package)
 
 

@@ -6,16 +6,33 @@ import queue
 import time
 from abc import ABC, abstractmethod
 from types import TracebackType
-from typing import Any
+from typing import TYPE_CHECKING, Any, Protocol
 
 from ..protocol.ids import Frame
+from .capabilities import Capabilities
 
-__all__ = ["Transport", "QueuedTransport", "RECV_SLICE"]
+if TYPE_CHECKING:
+    from collections.abc import Callable
+
+__all__ = ["Capabilities", "Transport", "QueuedTransport", "RECV_SLICE", "VirtualClock"]
 
 RECV_SLICE = 0.1
 """Default longest single wait inside :meth:`Transport.recv` (s), so that ``close`` is noticed promptly."""
 _LONG = 3600.0
 """One wait of a transport whose ``close`` wakes its wait itself (s)."""
+
+
+class VirtualClock(Protocol):
+    """The simulated time of a transport with ``capabilities.virtual_clock``: read it, and let it pass."""
+
+    def now(self) -> float:
+        """The simulated time (s)."""
+        ...
+
+    def advance(self, seconds: float, until: Callable[[], bool] | None = None) -> bool:
+        """Let up to ``seconds`` of simulated time pass, ending early once a frame is queued or ``until()`` is
+        true; True when it ended early."""
+        ...
 
 
 class Transport(ABC):
@@ -55,6 +72,34 @@ class Transport(ABC):
     def wait_sent(self, timeout: float) -> bool | None:
         """Wait until every frame sent so far is on the wire: True once confirmed, False when
         ``timeout`` s passed first, None when this transport cannot tell (the default)."""
+        return None
+
+    @property
+    def capabilities(self) -> Capabilities:
+        """What this transport can do, in one object (the client reads it once when it opens a bus).
+
+        The default is made of the attributes above (``in_order``, ``wire_bitrate``, ``tx_latency``,
+        ``unbounded_latency``, ``virtual_clock``); a transport with more to declare (``confirms_sent``,
+        ``answers_in_send``, ``partial_frames``, ``motor_ids``) overrides this property.
+        """
+        return Capabilities(
+            in_order=self.in_order,
+            wire_bitrate=self.wire_bitrate,
+            tx_latency=self.tx_latency,
+            unbounded_latency=self.unbounded_latency,
+            virtual_clock=self.virtual_clock,
+        )
+
+    def send_collect(self, frame: Frame) -> list[Frame]:
+        """Send ``frame`` and return the frames it caused (only where ``capabilities.answers_in_send``)."""
+        raise NotImplementedError(f"{type(self).__name__} does not answer inside a send")
+
+    def rest_time(self) -> float:
+        """How long (s) the rest of a partly received frame takes (where ``capabilities.partial_frames``)."""
+        return 0.0
+
+    def clock(self) -> VirtualClock | None:
+        """The transport's simulated time (where ``capabilities.virtual_clock``), else None."""
         return None
 
     def fileno(self) -> int | None:

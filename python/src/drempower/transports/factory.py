@@ -18,6 +18,7 @@ __all__ = [
     "SOCKETCAND",
     "SIMULATOR",
     "ZENOH",
+    "ENTRY_POINT_GROUP",
 ]
 
 Opener = Callable[[str, str | int | None, int | None, dict[str, Any]], Transport]
@@ -181,6 +182,36 @@ ZENOH = frozenset(n for n, o in INTERFACES.items() if o is _zenoh)
 """Interface name of a remote bus served by ``drempower bridge`` (channel = key prefix)."""
 _PYTHON_CAN_PREFIX = "python-can:"
 
+ENTRY_POINT_GROUP = "drempower.transports"
+"""The entry-point group through which another package offers a transport, as python-can's ``can.interface``
+does: ``[project.entry-points."drempower.transports"] mylink = "mypackage.link:MyTransport"``. The object
+named is called as ``obj(channel=..., bitrate=..., **options)`` and returns a :class:`Transport` (a
+:class:`Transport` subclass with that constructor works as it is)."""
+
+
+def _registered(interface: str) -> Opener | None:
+    """The opener of a transport another package registered under ``interface``, or None."""
+    from importlib.metadata import entry_points
+
+    found = [ep for ep in entry_points(group=ENTRY_POINT_GROUP) if ep.name == interface]
+    if not found:
+        return None
+    ep = found[0]
+    try:
+        factory = ep.load()
+    except Exception as exc:  # a broken plug-in: say which, never a traceback
+        raise TransportError(f"cannot load transport {interface!r} ({ep.value}): {type(exc).__name__}: {exc}") from exc
+
+    def opener(name: str, channel: str | int | None, bitrate: int | None, kwargs: dict[str, Any]) -> Transport:
+        transport = factory(channel=channel, bitrate=bitrate, **kwargs)
+        if not isinstance(transport, Transport):
+            raise TransportError(
+                f"transport {name!r} ({ep.value}) gave a {type(transport).__name__}, not a drempower Transport"
+            )
+        return transport
+
+    return opener
+
 
 def open_transport(
     interface: str | None = None,
@@ -216,11 +247,14 @@ def open_transport(
       (config file, ``CAN_*`` environment variables) decide. ``send_timeout``
       (s, default 1) bounds a send.
 
-    The names are looked up in :data:`INTERFACES`. Raises
+    The names are looked up in :data:`INTERFACES`, then among the transports other packages register
+    under the entry-point group :data:`ENTRY_POINT_GROUP` (before python-can's names). Raises
     :class:`TransportError` at once, naming what was tried, when the bus cannot
     be opened.
     """
     opener = None if interface is None else INTERFACES.get(interface)
+    if opener is None and interface is not None and not interface.startswith(_PYTHON_CAN_PREFIX):
+        opener = _registered(interface)
     if opener is not None:
         assert interface is not None
         return opener(interface, channel, bitrate, kwargs)

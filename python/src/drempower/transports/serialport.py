@@ -10,12 +10,14 @@ import time
 import weakref
 from collections import deque
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any, Protocol
 
 import serial
 
 from ..protocol.ids import Frame
 from .base import Transport
+from .capabilities import Capabilities
 from .errors import TransportError, TransportOptionError
 from .fds import close_fds
 
@@ -252,6 +254,11 @@ class SerialFrameTransport(Transport):
     def fileno(self) -> int | None:
         """The port's descriptor (None for URLs and ports without one): readable when bytes arrived."""
         return self._fd
+
+    @property
+    def capabilities(self) -> Capabilities:
+        """A serial line's: frames arrive in pieces (:meth:`rest_time`)."""
+        return replace(super().capabilities, partial_frames=True)
 
     def rest_time(self) -> float:
         """How long (s) the rest of a partly received frame takes on the line (0 when none is):

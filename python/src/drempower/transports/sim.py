@@ -6,6 +6,7 @@ import os
 import queue
 import weakref
 from collections.abc import Callable, Iterable
+from dataclasses import replace
 from typing import Any
 
 from ..errors import ValidationError
@@ -13,6 +14,7 @@ from ..protocol.ids import Frame
 from ..robotfile import RobotSpec, load_robot
 from ..sim import SimBus, SimRunner
 from .base import QueuedTransport
+from .capabilities import Capabilities
 from .fds import close_fds, drain, nonblocking_pipe
 
 __all__ = ["SimTransport", "CLOCKS", "FOREVER"]
@@ -100,6 +102,21 @@ class SimTransport(QueuedTransport):
     def motor_ids(self) -> frozenset[int]:
         """The ids of the simulated motors (the client refuses broadcast reads when there are several)."""
         return frozenset(m.node_id for m in self.bus.motors.values())
+
+    @property
+    def capabilities(self) -> Capabilities:
+        """The simulator's: it confirms what is on the wire, answers inside a send with instant delivery,
+        knows its motors and, with ``clock="virtual"``, runs on its own time."""
+        return replace(
+            super().capabilities,
+            confirms_sent=True,
+            answers_in_send=self.instant,
+            motor_ids=self.motor_ids,
+        )
+
+    def clock(self) -> SimTransport | None:
+        """This transport itself with ``clock="virtual"`` (:meth:`now`, :meth:`advance`), else None."""
+        return self if self.virtual_clock else None
 
     def __enter__(self) -> SimTransport:
         return self

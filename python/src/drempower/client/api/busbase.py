@@ -84,7 +84,7 @@ class BusBase(ABC, Generic[M]):
         the transport declares (``motor_ids``, e.g. the in-process simulator's)."""
         known = set(self._motors) | self._session.heard.copy()  # copies in one step: safe while others add
         known.update(self._core.states.snapshot())
-        known.update(getattr(self._core.transport, "motor_ids", ()))
+        known.update(self._core.capabilities.motor_ids)
         known.discard(0)
         return known
 

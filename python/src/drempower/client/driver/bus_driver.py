@@ -21,12 +21,13 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Coroutine, Sequence
-from typing import TYPE_CHECKING, Any, TypeVar, cast
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from ...errors import BusClosedError
 from ...protocol.ids import Frame, SysCmd
 from ...protocol.messages import Message, Start, StartImpedance, SystemCommand
 from ...transports.base import Transport
+from ...transports.capabilities import Capabilities
 from ..engine.effects import Batch, Op, Runnable
 from ..engine.session import DEFAULT_TIMEOUT, BusSession, Operation, StartPolicy, StopOnClose, TxOrder
 from ..engine.state import MotorState, StateCache
@@ -34,7 +35,7 @@ from . import open_buses, signals
 from .receiver import LINGER as _LINGER  # noqa: F401  (how long the receive thread stays parked, s)
 from .receiver import Receiver
 from .wait_threaded import ThreadWaits
-from .wait_virtual import VirtualClock, VirtualWaits
+from .wait_virtual import VirtualWaits
 
 if TYPE_CHECKING:
     from .wait_asyncio import LoopReader
@@ -53,13 +54,14 @@ _HANDOFF_WAIT = 2.0
 """Longest wait (s) of a close handed to a thread (see :meth:`BusDriver._later`) for the bus lock."""
 
 
-def tx_order(transport: Transport) -> TxOrder:
-    """How a session over ``transport`` knows that frames are on the wire (see :data:`TxOrder`)."""
-    if transport.in_order:
+def tx_order(caps: Capabilities) -> TxOrder:
+    """How a session over a transport of capabilities ``caps`` knows that frames are on the wire
+    (see :data:`TxOrder`)."""
+    if caps.in_order:
         return "in_order"
-    if type(transport).wait_sent is not Transport.wait_sent:
+    if caps.confirms_sent:
         return "confirmed"
-    if transport.unbounded_latency:
+    if caps.unbounded_latency:
         return "answered"
     return "timed"
 
@@ -90,7 +92,12 @@ class BusDriver:
         start: StartPolicy = "auto",
         on_unsolicited: Callable[[Frame], None] | None = None,
     ) -> None:
-        clock: VirtualClock | None = cast(VirtualClock, transport) if transport.virtual_clock else None
+        caps = transport.capabilities
+        self.capabilities = caps
+        """What the transport declared it can do, read once."""
+        clock = transport.clock() if caps.virtual_clock else None
+        if caps.virtual_clock and clock is None:
+            raise TypeError(f"{type(transport).__name__} declares a virtual clock but its clock() gives none")
         self._clock = clock
         self._now: Callable[[], float] = _monotonic if clock is None else clock.now
         """The bus's clock (s): :func:`time.monotonic`, or the simulated time of a virtual-clock transport."""
@@ -99,10 +106,10 @@ class BusDriver:
             retries=retries,
             start=start,
             stop_on_close=stop_on_close,
-            tx=tx_order(transport),
-            bitrate=transport.wire_bitrate,
-            tx_latency=transport.tx_latency,
-            motor_ids=getattr(transport, "motor_ids", ()),
+            tx=tx_order(caps),
+            bitrate=caps.wire_bitrate,
+            tx_latency=caps.tx_latency,
+            motor_ids=caps.motor_ids,
             now=self._now(),
         )
         self.transport = transport
@@ -130,10 +137,7 @@ class BusDriver:
         """How to wake each caller sleeping until its operation's next deadline."""
         self._events: list[MotorState | Frame] = []
         """Events of frames taken in a sending caller's thread (instant delivery), dispatched after the lock."""
-        collect = getattr(transport, "send_collect", None)
-        self._collect: Callable[[Frame], list[Frame]] | None = (
-            collect if collect is not None and getattr(transport, "instant", False) else None
-        )
+        self._collect: Callable[[Frame], list[Frame]] | None = transport.send_collect if caps.answers_in_send else None
         self._stopped: tuple[int, ...] = ()
         """Motors an estop was written to without the session lock (see :meth:`estop`)."""
         self._fd = transport.fileno() if self.caller_reads and clock is None else None

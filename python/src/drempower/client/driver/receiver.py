@@ -68,7 +68,9 @@ class Receiver:
             self.pipes = [self._poke_r, self._poke_w, self._close_r, self._close_w]
             self.read_fds = [fd, self._close_r]
             """What a reading caller waits on in ``select``: the transport, and the close."""
-            self.rest_time: Callable[[], float] | None = getattr(driver.transport, "rest_time", None)
+            self.rest_time: Callable[[], float] | None = (
+                driver.transport.rest_time if driver.capabilities.partial_frames else None
+            )
             # closed with the driver: a late select on them (a caller still returning) stays valid
             weakref.finalize(driver, close_fds, *self.pipes)
 

@@ -1,7 +1,7 @@
 """The wait of a bus on a virtual clock: the bus's time passes only while a caller waits.
 
 A transport with a virtual clock (the in-process simulator with ``clock="virtual"``,
-:attr:`Transport.virtual_clock`) is the bus's clock. There is no receive thread: wherever a caller
+``Transport.capabilities.virtual_clock``) is the bus's clock. There is no receive thread: wherever a caller
 would wait it lets that much simulated time pass instead, up to the session's next deadline at a
 time, taking the frames that arrive meanwhile. asyncio calls run the same way, inside the call.
 """
@@ -11,17 +11,18 @@ from __future__ import annotations
 import threading
 import time
 from collections.abc import Callable
-from typing import TYPE_CHECKING, Any, Protocol, TypeVar
+from typing import TYPE_CHECKING, Any, TypeVar
 
 from ..engine.effects import Runnable, sleep
 from .wait_steps import WaitSteps
 
 if TYPE_CHECKING:
+    from ...transports.base import VirtualClock
     from ..engine.session import Operation
     from .bus_driver import BusDriver
     from .receiver import Receiver
 
-__all__ = ["VirtualClock", "VirtualWaits"]
+__all__ = ["VirtualWaits"]
 
 T = TypeVar("T")
 
@@ -34,18 +35,6 @@ _IDLE = 0.01
 """Wall time (s) a caller waits for other threads when the session has nothing due."""
 _TURN = 0.005
 """Longest wall wait (s) for the turn to let time pass before a caller looks at its operation again."""
-
-
-class VirtualClock(Protocol):
-    """What a transport with ``virtual_clock`` offers: its simulated time, and letting it pass."""
-
-    def now(self) -> float:
-        """The simulated time (s)."""
-        ...
-
-    def advance(self, seconds: float, until: Callable[[], bool] | None = None) -> bool:
-        """Let up to ``seconds`` pass; end early once a frame is queued (or ``until()``)."""
-        ...
 
 
 class VirtualWaits(WaitSteps):
