@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 DEVSTAMP := $(VENV)/.installed-dev
 LINTED := ../tools ../bench $(addprefix ../,$(wildcard examples))
 
-.PHONY: demo test test-python test-c test-lerobot lint bench generate clean sysdeps
+.PHONY: demo test test-fast test-python test-c test-lerobot lint bench generate clean sysdeps
 
 # the main job needs only the package and its core dependencies (python-can, pyserial)
 $(STAMP): python/pyproject.toml
@@ -29,8 +29,23 @@ demo: $(STAMP)
 
 test: test-python test-c test-lerobot
 
+# The fast tier: the protocol, the sans-I/O engine, the actions, the gate, parsing. Run with --fast-tier, a
+# test there fails as soon as it starts a process (a browser too) or sleeps (python/tests/conftest.py).
+FAST_TESTS := tests/protocol tests/client/session tests/client/test_session_parts.py tests/client/test_gate.py \
+	tests/client/test_watchdog.py tests/client/test_arguments.py tests/client/test_domains.py \
+	tests/client/test_vectors.py tests/client/test_client_vectors.py tests/client/test_refusals.py \
+	tests/client/test_virtual_time.py tests/client/test_batch.py tests/client/test_motor.py \
+	tests/robot/test_config.py tests/test_actions.py tests/test_layers.py tests/test_naming.py \
+	tests/test_errors.py tests/test_cli_params.py tests/cli/test_param_domains.py
+# the rest runs on every core (pytest-xdist); PYTEST_WORKERS=0 runs it in one process
+PYTEST_WORKERS ?= 2
+
+test-fast: $(DEVSTAMP)
+	cd python && ../$(BIN)/python -m pytest -q -p no:cacheprovider --fast-tier $(FAST_TESTS)
+
 test-python: $(DEVSTAMP) sysdeps
-	cd python && ../$(BIN)/python -m pytest -q
+	cd python && ../$(BIN)/python -m pytest -q -p no:cacheprovider --fast-tier $(FAST_TESTS)
+	cd python && ../$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) $(addprefix --ignore=,$(FAST_TESTS))
 	cd python && ../$(BIN)/ruff check src tests plugins $(LINTED)
 	cd python && ../$(BIN)/ruff format --check src tests plugins
 	cd python && ../$(BIN)/mypy

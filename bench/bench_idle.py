@@ -6,7 +6,9 @@ Run: ``python3 bench/bench_idle.py [--seconds S]``. Prints figures beside their 
 1. CPU time (user + system) of a fresh interpreter running ``import drempower``,
    with bytecode already compiled (as after installing a wheel), beside the bare
    interpreter (``python -c pass``) and the two core dependencies
-   (``import can, serial``, which drempower itself imports only when a bus opens).
+   (``import can, serial``, which drempower itself imports only when a bus opens);
+   and the command line's start: ``drempower --version`` and ``drempower state 1 --sim 1``
+   beside ``import can, serial``.
 2. Wake-ups per second of the receive thread of an open, idle bus on the
    simulator's USB-CAN adapter pty (0xAA) and on a motor's UART pty: how often
    the kernel scheduled that thread (``/proc/<pid>/task/<tid>/schedstat``, Linux
@@ -37,7 +39,7 @@ sys.path.insert(0, str(SRC))
 def cpu_ms(code: str, env: dict[str, str]) -> float:
     """CPU time (ms) of a fresh interpreter running ``code``."""
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    subprocess.run([sys.executable, "-c", code], check=True, env=env)
+    subprocess.run([sys.executable, "-c", code], check=True, env=env, stdout=subprocess.DEVNULL)
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     return (after.ru_utime + after.ru_stime - before.ru_utime - before.ru_stime) * 1e3
 
@@ -55,12 +57,24 @@ def import_time(runs: int) -> None:
             ("import drempower.protocol", "import drempower.protocol"),
             ("import drempower", "import drempower"),
             ("import drempower; drempower.AsyncBus", "import drempower; drempower.AsyncBus"),
+            ("drempower --version", _cli("--version")),
+            ("drempower state 1 --sim 1", _cli("state", "1", "--sim", "1")),
         ]
         for _, code in cases:
             cpu_ms(code, env)  # warm-up: fills the bytecode cache
+        medians: dict[str, float] = {}
         for label, code in cases:
             figures = [cpu_ms(code, env) for _ in range(runs)]
-            print(f"  {label:<40} {statistics.median(figures):6.0f} ms  (min {min(figures):.0f})")
+            medians[label] = statistics.median(figures)
+            over = ""
+            if label.startswith("drempower "):
+                over = f"  {medians[label] - medians[cases[1][0]]:+.0f} ms over import can, serial"
+            print(f"  {label:<40} {medians[label]:6.0f} ms  (min {min(figures):.0f}){over}")
+
+
+def _cli(*argv: str) -> str:
+    """Python code that runs ``drempower ARGV`` as the console script does."""
+    return f"import runpy, sys; sys.argv = ['drempower', *{list(argv)!r}]; runpy.run_module('drempower', run_name='__main__')"
 
 
 def _runs(tid: int) -> int | None:

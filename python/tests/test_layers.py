@@ -18,7 +18,7 @@ import pytest
 import drempower
 
 LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
-    ("protocol", ("protocol", "errors")),  # the wire format, and the error tree every layer raises
+    ("protocol", ("protocol", "errors", "_lazy")),  # the wire format, the error tree every layer raises; lazy names
     ("files", ("robotfile", "naming", "logline", "records")),  # robot files, names, log lines, frame logs
     ("sim", ("sim",)),  # the simulated motors the sim transport opens
     ("transports", ("transports",)),

@@ -2,19 +2,7 @@
 
 from typing import TYPE_CHECKING, Any
 
-from .client import (
-    Bus,
-    BusClosedError,
-    BusStoppedError,
-    Motor,
-    MotorFaultError,
-    MotorState,
-    MoveError,
-    MoveFaultError,
-    MoveTimeoutError,
-    PositionMode,
-    open_bus,
-)
+from ._lazy import lazy_names
 from .errors import (
     ConfigError,
     DrEmpowerError,
@@ -31,7 +19,22 @@ from .errors import (
 from .errors import TimeoutError as TimeoutError
 
 if TYPE_CHECKING:
-    from .client import AsyncBus, AsyncMotor, open_bus_async
+    from .client import (
+        AsyncBus,
+        AsyncMotor,
+        Bus,
+        BusClosedError,
+        BusStoppedError,
+        Motor,
+        MotorFaultError,
+        MotorState,
+        MoveError,
+        MoveFaultError,
+        MoveTimeoutError,
+        PositionMode,
+        open_bus,
+        open_bus_async,
+    )
     from .robot import AsyncRobot, Robot, open_robot, open_robot_async
 
 __version__ = "0.1.0"
@@ -69,19 +72,36 @@ __all__ = [
     "AsyncRobot",
 ]
 
-_ROBOT = frozenset(("open_robot", "open_robot_async", "Robot", "AsyncRobot"))
-_ASYNC = frozenset(("AsyncBus", "AsyncMotor", "open_bus_async"))
+_HOMES = {
+    "client": (
+        "AsyncBus",
+        "AsyncMotor",
+        "Bus",
+        "BusClosedError",
+        "BusStoppedError",
+        "Motor",
+        "MotorFaultError",
+        "MotorState",
+        "MoveError",
+        "MoveFaultError",
+        "MoveTimeoutError",
+        "PositionMode",
+        "open_bus",
+        "open_bus_async",
+    ),
+    "robot": ("AsyncRobot", "Robot", "open_robot", "open_robot_async"),
+}
+_PACKAGES = frozenset(
+    ("actions", "bridge", "cli", "client", "compat", "dash", "motion", "protocol", "records", "robot")
+) | {"sim", "transports"}
+_names = lazy_names(__name__, _HOMES)
 
 
 def __getattr__(name: str) -> Any:
-    """The robot layer and the asyncio front end are imported on first use (neither is needed
-    to drive one bus from threads, and asyncio is slow to import)."""
-    if name in _ROBOT:
-        from . import robot
+    """The client, the robot layer and the package's parts, imported on first use: ``import drempower``
+    costs next to nothing, and a command line tool imports only what its command needs."""
+    if name in _PACKAGES:
+        import importlib
 
-        return getattr(robot, name)
-    if name in _ASYNC:
-        from . import client
-
-        return getattr(client, name)
-    raise AttributeError(f"module 'drempower' has no attribute {name!r}")
+        return importlib.import_module(f"{__name__}.{name}")
+    return _names(name)

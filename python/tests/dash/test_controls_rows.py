@@ -136,7 +136,9 @@ CONTROLS: list[tuple[dict[str, Any], str, str, Callable[[Any], bool]]] = [
 ]
 
 
-@pytest.mark.parametrize(("control", "row", "logged", "holds"), CONTROLS, ids=lambda v: str(v)[:40])
+@pytest.mark.parametrize(
+    ("control", "row", "logged", "holds"), CONTROLS, ids=lambda v: "check" if callable(v) else str(v)[:40]
+)
 def test_each_page_control_runs_its_row(
     rig: tuple[Hub, Bus, SimBus, list[Frame], Lines],
     control: dict[str, Any],

@@ -2,7 +2,9 @@
 
 Each subcommand lives in its own module of this package and exposes
 ``register(subparsers)``; modules are discovered automatically, so adding a
-subcommand means adding a module. Each row of :mod:`drempower.actions` that no
+subcommand means adding a module (then ``tools/gen_cli_index.py`` adds it to
+:mod:`._index`, so that running it imports its module alone: a command the index
+does not name still runs, after every module is imported). Each row of :mod:`drempower.actions` that no
 module's command carries out becomes a command too (:mod:`.actions`). A module's ``GROUP`` (one of :data:`GROUPS`)
 says under which heading ``drempower --help`` lists its subcommands; those of a
 module without one are listed last.
@@ -18,11 +20,10 @@ from collections.abc import Sequence
 from typing import NoReturn
 
 from .. import __version__
-from ..client.driver.signals import Terminated, exit_code, signals_interrupt
 from ..errors import DrEmpowerError, ValidationError
+from ._index import ACTION_ROWS, COMMANDS
 from ._output import clean
 from ._parser import Parser
-from ._robot import apply_robot, run_command
 from ._usage import UsageError, cli_words
 
 __all__ = ["main", "build_parser"]
@@ -82,7 +83,10 @@ class _Parser(Parser):
         super().error(clean(message))
 
 
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The command line's parser: every subcommand, or with ``command`` only the module that makes that one
+    (:data:`._index.COMMANDS`), so that a command imports what it needs and no more (``""``: none, for
+    ``--version``)."""
     parser = _Parser(
         prog="drempower",
         description="Work with DrEmpower servo joint motors: decode, simulate, drive, configure.",
@@ -94,10 +98,15 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(prog=parser.prog, dest="command", metavar="COMMAND", help=argparse.SUPPRESS)
     sub.required = True
     group_of: dict[str, str] = {}
-    for info in sorted(pkgutil.iter_modules(__path__), key=lambda i: i.name):
-        if info.name.startswith("_"):
+    if command is None:
+        names = [i.name for i in sorted(pkgutil.iter_modules(__path__), key=lambda i: i.name)]
+    else:
+        home = COMMANDS.get(command)
+        names = [] if home is None or home == ACTION_ROWS else [home]
+    for name in names:
+        if name.startswith("_"):
             continue
-        mod = importlib.import_module(f"{__name__}.{info.name}")
+        mod = importlib.import_module(f"{__name__}.{name}")
         register = getattr(mod, "register", None)
         if register is not None:
             before = set(sub.choices)
@@ -107,13 +116,25 @@ def build_parser() -> argparse.ArgumentParser:
                 if name not in before:
                     chosen = group or _GROUP_OF_COMMAND.get(name, OTHER)
                     group_of[name] = chosen if chosen in GROUPS else OTHER
-    from .actions import register_rows
+    if command is None or COMMANDS.get(command) == ACTION_ROWS:
+        from .actions import register_rows
 
-    group_of.update(register_rows(sub))  # the table's rows no module took, last: every name is known
-    for command in sub.choices.values():
-        command.set_defaults(command_parser=command)
-    parser.epilog = _grouped_help(sub, group_of)
+        group_of.update(register_rows(sub))  # the table's rows no module took, last: every name is known
+    for each in sub.choices.values():
+        each.set_defaults(command_parser=each)
+    if command is None:
+        parser.epilog = _grouped_help(sub, group_of)
     return parser
+
+
+def _chosen(argv: Sequence[str]) -> str | None:
+    """The one command ``argv`` runs, when the parser can be built for it alone; None: build them all."""
+    if not argv:
+        return None
+    first = argv[0]
+    if first == "--version":
+        return ""
+    return first if first in COMMANDS else None
 
 
 def _grouped_help(sub: argparse._SubParsersAction[_Parser], group_of: dict[str, str]) -> str:
@@ -132,8 +153,12 @@ def _grouped_help(sub: argparse._SubParsersAction[_Parser], group_of: dict[str, 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``drempower`` console script; returns the exit code."""
-    parser = build_parser()
+    argv = sys.argv[1:] if argv is None else list(argv)
+    parser = build_parser(_chosen(argv))
     args = parser.parse_args(argv)
+    from ..client.driver.signals import Terminated, exit_code, signals_interrupt
+    from ._robot import apply_robot, run_command
+
     try:
         apply_robot(args)  # --robot: joint names, the buses the command runs on
         with signals_interrupt():  # SIGTERM and SIGHUP end a command as Ctrl-C does

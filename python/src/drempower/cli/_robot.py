@@ -20,7 +20,7 @@ import sys
 from collections.abc import Callable
 from typing import Any
 
-from ..robot.config import JOINT_NAME, RobotSpec, load_robot
+from ..robotfile import JOINT_NAME, RobotSpec, load_robot
 from ._output import emit, json_line
 from ._usage import UsageError
 

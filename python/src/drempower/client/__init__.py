@@ -7,8 +7,9 @@
 ...     m.wait_position_done(timeout=10)
 """
 
-from typing import TYPE_CHECKING, Any
+from typing import TYPE_CHECKING
 
+from .._lazy import lazy_names
 from ..errors import (
     BusClosedError,
     BusStoppedError,
@@ -21,30 +22,30 @@ from ..errors import (
     TimeoutError,
     VerifyError,
 )
-from .api.bus_sync import Bus, Motor, open_bus
-from .engine.commands import (
-    AxisMode,
-    PositionMode,
-    TorqueMode,
-    TrajMode,
-    VelocityMode,
-    make_angle,
-    make_angles,
-    make_impedance,
-    make_impedances,
-    make_speed,
-    make_speeds,
-    make_torque,
-    make_torques,
-    q_move_time,
-)
-from .engine.results import ErrorReport, GpioMode, MotorInfo
-from .engine.session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, DEFAULT_TIMEOUT, MOVE_TOLERANCE
-from .engine.state import MotorState, Subscription
 
 if TYPE_CHECKING:
     from .api.bus_async import AsyncBus, AsyncMotor, open_bus_async
+    from .api.bus_sync import Bus, Motor, open_bus
     from .engine.backup import ConfigBackup, ParamRecord, RestoreReport
+    from .engine.commands import (
+        AxisMode,
+        PositionMode,
+        TorqueMode,
+        TrajMode,
+        VelocityMode,
+        make_angle,
+        make_angles,
+        make_impedance,
+        make_impedances,
+        make_speed,
+        make_speeds,
+        make_torque,
+        make_torques,
+        q_move_time,
+    )
+    from .engine.results import ErrorReport, GpioMode, MotorInfo
+    from .engine.session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, DEFAULT_TIMEOUT, MOVE_TOLERANCE
+    from .engine.state import MotorState, Subscription
 
 __all__ = [
     "AsyncBus",
@@ -91,23 +92,28 @@ __all__ = [
     "q_move_time",
 ]
 
-_LAZY = {
-    "AsyncBus": "api.bus_async",
-    "AsyncMotor": "api.bus_async",
-    "open_bus_async": "api.bus_async",
-    "ConfigBackup": "engine.backup",
-    "ParamRecord": "engine.backup",
-    "RestoreReport": "engine.backup",
+_HOMES = {  # where each public name lives: imported on first use
+    "api.bus_async": ("AsyncBus", "AsyncMotor", "open_bus_async"),
+    "api.bus_sync": ("Bus", "Motor", "open_bus"),
+    "engine.backup": ("ConfigBackup", "ParamRecord", "RestoreReport"),
+    "engine.commands": (
+        "AxisMode",
+        "PositionMode",
+        "TorqueMode",
+        "TrajMode",
+        "VelocityMode",
+        "make_angle",
+        "make_angles",
+        "make_impedance",
+        "make_impedances",
+        "make_speed",
+        "make_speeds",
+        "make_torque",
+        "make_torques",
+        "q_move_time",
+    ),
+    "engine.results": ("ErrorReport", "GpioMode", "MotorInfo"),
+    "engine.session": ("DEFAULT_MOVE_TIMEOUT", "DEFAULT_POLL_INTERVAL", "DEFAULT_TIMEOUT", "MOVE_TOLERANCE"),
+    "engine.state": ("MotorState", "Subscription"),
 }
-
-
-def __getattr__(name: str) -> Any:
-    """The asyncio front end and the configuration backup are imported on first use (asyncio is slow to import)."""
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-
-    value = getattr(importlib.import_module(f"{__name__}.{module}"), name)
-    globals()[name] = value
-    return value
+__getattr__ = lazy_names(__name__, _HOMES)

@@ -9,11 +9,16 @@
 The file format is described in :mod:`drempower.robotfile` and docs/robot.md.
 """
 
-from .config import BusSpec, JointSpec, RobotSpec, load_robot, parse_robot
-from .joint import Gearing, JointState
-from .plan import SyncMove
-from .robot_async import AsyncJoint, AsyncRobot, open_robot_async
-from .robot_sync import Joint, Robot, open_robot
+from typing import TYPE_CHECKING
+
+from .._lazy import lazy_names
+
+if TYPE_CHECKING:
+    from .config import BusSpec, JointSpec, RobotSpec, load_robot, parse_robot
+    from .joint import Gearing, JointState
+    from .plan import SyncMove
+    from .robot_async import AsyncJoint, AsyncRobot, open_robot_async
+    from .robot_sync import Joint, Robot, open_robot
 
 __all__ = [
     "AsyncJoint",
@@ -31,3 +36,29 @@ __all__ = [
     "open_robot_async",
     "parse_robot",
 ]
+
+_HOMES = {
+    "config": (
+        "BusSpec",
+        "JointSpec",
+        "RobotSpec",
+        "load_robot",
+        "parse_robot",
+    ),
+    "joint": (
+        "Gearing",
+        "JointState",
+    ),
+    "plan": ("SyncMove",),
+    "robot_async": (
+        "AsyncJoint",
+        "AsyncRobot",
+        "open_robot_async",
+    ),
+    "robot_sync": (
+        "Joint",
+        "Robot",
+        "open_robot",
+    ),
+}
+__getattr__ = lazy_names(__name__, _HOMES)

@@ -14,16 +14,21 @@ python-can bus, pseudo-terminals that behave like the vendor USB-CAN adapter or
 a motor's UART, and a socketcand server.
 """
 
-from .adapter_pty import AdapterPty, attach_adapter_pty
-from .attach_pythoncan import PythonCanAttachment, attach_python_can
-from .bus import Listener, SimBus
-from .defaults import MotorModel
-from .faults import Faults
-from .motor import SimMotor
-from .runner import SimRunner
-from .socketcand import SocketcandServer, attach_socketcand
-from .timing import BusStats, frame_bits
-from .uart_pty import UartPty, attach_uart_pty
+from typing import TYPE_CHECKING
+
+from .._lazy import lazy_names
+
+if TYPE_CHECKING:
+    from .adapter_pty import AdapterPty, attach_adapter_pty
+    from .attach_pythoncan import PythonCanAttachment, attach_python_can
+    from .bus import Listener, SimBus
+    from .defaults import MotorModel
+    from .faults import Faults
+    from .motor import SimMotor
+    from .runner import SimRunner
+    from .socketcand import SocketcandServer, attach_socketcand
+    from .timing import BusStats, frame_bits
+    from .uart_pty import UartPty, attach_uart_pty
 
 __all__ = [
     "AdapterPty",
@@ -43,3 +48,35 @@ __all__ = [
     "attach_uart_pty",
     "frame_bits",
 ]
+
+_HOMES = {
+    "adapter_pty": (
+        "AdapterPty",
+        "attach_adapter_pty",
+    ),
+    "attach_pythoncan": (
+        "PythonCanAttachment",
+        "attach_python_can",
+    ),
+    "bus": (
+        "Listener",
+        "SimBus",
+    ),
+    "defaults": ("MotorModel",),
+    "faults": ("Faults",),
+    "motor": ("SimMotor",),
+    "runner": ("SimRunner",),
+    "socketcand": (
+        "SocketcandServer",
+        "attach_socketcand",
+    ),
+    "timing": (
+        "BusStats",
+        "frame_bits",
+    ),
+    "uart_pty": (
+        "UartPty",
+        "attach_uart_pty",
+    ),
+}
+__getattr__ = lazy_names(__name__, _HOMES)
