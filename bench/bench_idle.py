@@ -74,7 +74,8 @@ def import_time(runs: int) -> None:
 
 def _cli(*argv: str) -> str:
     """Python code that runs ``drempower ARGV`` as the console script does."""
-    return f"import runpy, sys; sys.argv = ['drempower', *{list(argv)!r}]; runpy.run_module('drempower', run_name='__main__')"
+    run = "runpy.run_module('drempower', run_name='__main__')"
+    return f"import runpy, sys; sys.argv = ['drempower', *{list(argv)!r}]; {run}"
 
 
 def _runs(tid: int) -> int | None:
