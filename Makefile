@@ -9,7 +9,7 @@ STAMP  := $(VENV)/.installed
 DEVSTAMP := $(VENV)/.installed-dev
 LINTED := ../tools ../bench $(addprefix ../,$(wildcard examples))
 
-.PHONY: demo test test-fast test-python test-c test-lerobot lint bench generate clean sysdeps
+.PHONY: demo docs test test-fast test-python test-c test-lerobot lint bench generate clean sysdeps
 
 # the main job needs only the package and its core dependencies (python-can, pyserial)
 $(STAMP): python/pyproject.toml
@@ -27,7 +27,13 @@ demo: $(STAMP)
 	$(BIN)/drempower demo
 	@echo "Next: watch and drive simulated motors in a browser: $(BIN)/pip install --quiet -e 'python[dash]' && $(BIN)/drempower dash --sim 1,2,3"
 
-test: test-python test-c test-lerobot
+test: test-python docs test-c test-lerobot
+
+# The docs as a site, with the API reference built from the docstrings (MkDocs, mkdocstrings; offline):
+# a warning (a broken page link or anchor, a docstring it cannot read) fails the build.
+docs: $(DEVSTAMP)
+	@mkdir -p build; $(BIN)/mkdocs build --strict 2>build/mkdocs.log \
+	  && echo "docs: built into build/site (API reference from the docstrings)" || { cat build/mkdocs.log; exit 1; }
 
 # The fast tier: the protocol, the sans-I/O engine, the actions, the gate, parsing. Run with --fast-tier, a
 # test there fails as soon as it starts a process (a browser too) or sleeps (python/tests/conftest.py).

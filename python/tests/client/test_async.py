@@ -35,7 +35,7 @@ async def test_async_queries_and_moves(motors: FakeMotors) -> None:
         motors.positions[2] = 15.0
         assert (await m.wait_position_done(1)).node == 2
         await m.set_traj_mode(2)
-        assert bus._core.session.traj_mode[2] == 2
+        assert bus._core.session.known.traj_mode[2] == 2
         report = await m.restore(await m.backup(), dry_run=True, force=True)  # the fake motor reads 0 for most
         assert report.ok
 

@@ -44,7 +44,7 @@ def test_backup_and_restore(bus: Bus, motors: FakeMotors, tmp_path: Path) -> Non
     assert report.ok and report.saved
     written = {name for name, _, _ in report.written}
     assert {"axis0.output_shaft.vel_limit", "axis0.controller.config.pos_gain"} <= written
-    assert "axis0.trap_traj.config.traj_mode" in written and bus._core.session.traj_mode[2] == 2
+    assert "axis0.trap_traj.config.traj_mode" in written and bus._core.session.known.traj_mode[2] == 2
     assert motors.params[2][38012] == 200.0 and motors.params[2][31001] == 2  # the id is not restored
     for skipped in ("vbus_voltage", "axis0.config.can_node_id", "axis0.requested_state", "axis0.controller.input_pos"):
         assert skipped in report.skipped

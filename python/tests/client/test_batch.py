@@ -103,7 +103,7 @@ def test_q_move_time_formulas() -> None:
 def test_set_traj_mode_is_verified_and_remembered(bus: Bus, motors: FakeMotors) -> None:
     bus.motor(1).set_traj_mode(2)
     assert motors.params[1][35104] == 2
-    assert bus._core.session.traj_mode[1] == 2
+    assert bus._core.session.known.traj_mode[1] == 2
     assert bus.motor(1).get_traj_mode() is TrajMode.S_CURVE
 
 

@@ -153,7 +153,7 @@ def test_traj_modes_read_once_then_known() -> None:
         bus.motor(1).set_traj_mode(1)
         sent: list[Frame] = []
         bus.add_tap(lambda f, tx: sent.append(f) if tx else None)
-        bus._core.session.traj_mode.clear()  # forget what the writes taught it
+        bus._core.session.known.traj_mode.clear()  # forget what the writes taught it
         assert bus.traj_modes([1, 2]) == {1: 1, 2: 2}
         assert len(sent) == 2  # one read each, in one exchange
         assert bus.traj_modes([2, 1]) == {2: 2, 1: 1}

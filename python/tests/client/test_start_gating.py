@@ -72,8 +72,8 @@ def test_presets_and_start_through_send_move_every_motor(how: str) -> None:
         done = bus.positions_done(IDS, timeout=10)
         assert [done[n].angle for n in IDS] == pytest.approx(TARGETS, abs=0.5)
         assert _positions(bus) == pytest.approx(TARGETS, abs=0.5)
-        assert [bus._core.session.moves[n].target for n in IDS] == pytest.approx(TARGETS)
-        assert [bus._core.session.moves[n].move_time for n in IDS] == [0.5] * 3
+        assert [bus._core.session.known.moves[n].target for n in IDS] == pytest.approx(TARGETS)
+        assert [bus._core.session.known.moves[n].move_time for n in IDS] == [0.5] * 3
 
 
 @pytest.mark.parametrize("clock", ["virtual", "wall"])  # wall: the start's wait runs in a worker thread

@@ -17,8 +17,8 @@ def test_positions_done_raises_when_a_joint_stops_at_its_limit(sim_robot_file: P
     with open_robot(sim_robot_file, sim={"time_scale": 20.0}, timeout=0.5) as robot:
         robot.joint("elbow").set_angle_range(-20, 20)
         move = robot.set_angles({"shoulder": 30.0, "elbow": 60.0}, speed=60.0, param=200.0)
-        assert robot.bus("right")._core.session.moves[1].target == 60.0
-        assert robot.bus("left")._core.session.moves[1].move_time == move.move_time
+        assert robot.bus("right")._core.session.known.moves[1].target == 60.0
+        assert robot.bus("left")._core.session.known.moves[1].move_time == move.move_time
         with pytest.raises(MoveError) as info:
             robot.positions_done(["shoulder", "elbow"], timeout=10)
         e = info.value

@@ -50,16 +50,20 @@ def test_a_cycle_with_reply_state_sends_the_commands_only_and_returns_each_state
     got = opn.result()
     assert list(got) == [1, 2]
     assert (got[1].angle, got[2].angle, got[1].timestamp) == (9.0, -4.0, 1.002)
-    assert s.heard >= {1, 2} and s.next_deadline() is None and len(s.matcher) == 0
+    assert s.known.heard >= {1, 2} and s.next_deadline() is None and len(s.matcher) == 0
 
 
 def test_a_cycle_records_what_its_commands_change_so_that_closing_stops_the_motors() -> None:
     s = BusSession(now=2.0)
     s.submit(batch.cycle(s, [PositionT(1, 10.0, 50.0), Velocity(2, 3.0)], reply_state=True))
     s.data_to_send()
-    assert s.commanded == {1, 2}
-    assert s.moves[1].target == 10.0 and s.moves[1].sent == 2.0 and s.moves[1].resend == (PositionT(1, 10.0, 50.0),)
-    assert 2 not in s.moves  # a speed command ends any position move
+    assert s.known.commanded == {1, 2}
+    assert (
+        s.known.moves[1].target == 10.0
+        and s.known.moves[1].sent == 2.0
+        and s.known.moves[1].resend == (PositionT(1, 10.0, 50.0),)
+    )
+    assert 2 not in s.known.moves  # a speed command ends any position move
     assert s.stop_frames() == idle_frames([1, 2])
 
 
@@ -69,7 +73,7 @@ def test_a_start_after_a_cycle_of_presets_goes_out_at_once() -> None:
     s.data_to_send()
     s.receive(_state(1), 0.0003)
     s.receive(_state(2), 0.0005)
-    assert set(opn.result()) == {1, 2} and s.commanded == {1, 2}
+    assert set(opn.result()) == {1, 2} and s.known.commanded == {1, 2}
     assert s.send([Start(0, StartKind.T)]) is None  # not held for the answered presets
     assert _sent(s) == [Start(0, StartKind.T)]
 
@@ -81,7 +85,7 @@ def test_a_preset_cycled_to_one_motor_keeps_a_later_batch_of_others_from_broadca
     opn = s.submit(batch.cycle(s, [PresetT(3, 30.0, 20.0)], reply_state=True))
     s.data_to_send()
     s.receive(_state(3), 0.001)
-    assert opn.done and s.pending_presets == {3}
+    assert opn.done and s.sequencer.pending_presets == {3}
 
     def move() -> object:
         yield Batch([PresetT(1, 10.0, 20.0), PresetT(2, 20.0, 20.0)], Start(0, StartKind.T))
@@ -90,7 +94,7 @@ def test_a_preset_cycled_to_one_motor_keeps_a_later_batch_of_others_from_broadca
     # a broadcast start would also fire motor 3's preset: each motor of the batch gets its own
     expected = [PresetT(1, 10.0, 20.0), PresetT(2, 20.0, 20.0), Start(1, StartKind.T), Start(2, StartKind.T)]
     assert s.data_to_send() == [m.encode() for m in expected]
-    assert s.pending_presets == {3}
+    assert s.sequencer.pending_presets == {3}
 
 
 def test_a_cycle_whose_frames_do_not_match_its_messages_is_refused_and_leaves_nothing_waiting() -> None:
@@ -124,7 +128,7 @@ def test_an_unknown_reply_state_is_read_once_then_the_cycle_follows() -> None:
     opn = s.submit(run)
     assert rig.take() == [ReadParam(1, _REPLY_STATE, DataType.U32), ReadParam(2, _REPLY_STATE, DataType.U32)]
     rig.at(0.002)
-    assert s.reply_state == {1: True, 2: False}
+    assert s.known.reply_state == {1: True, 2: False}
     assert rig.take() == [*cmds, FastRead(2)]  # motor 1 answers its command itself
     s.receive(_state(1, 1.5), 0.003)
     rig.at(0.004)  # motor 2's fast read answered

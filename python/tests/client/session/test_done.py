@@ -39,7 +39,7 @@ def test_stale_done_states_are_not_the_end_and_t0_then_t1_at_target_is() -> None
     assert (st.angle, st.trajectory_done) == (30.0, True)
     reads = rig.sent(FastRead)
     assert len(reads) == 4 and not rig.motors[1].states
-    assert rig.session.moves[1].took == pytest.approx(reads[2][0] + 0.001)  # the arrival of the T = 0 state
+    assert rig.session.known.moves[1].took == pytest.approx(reads[2][0] + 0.001)  # the arrival of the T = 0 state
 
 
 def test_a_move_with_a_planned_time_is_done_by_t1_after_that_time() -> None:
@@ -114,7 +114,7 @@ def test_with_retries_a_lost_move_is_sent_again_to_that_motor() -> None:
     rig.motors[1].states = [MOVING, AT_30]
     rig.settle(lambda: opn.done)
     assert opn.result()[1].angle == 30.0 and s.moves_resent == 1
-    assert s.moves[1].sent == pytest.approx(0.023) and s.moves[1].target == 30.0
+    assert s.known.moves[1].sent == pytest.approx(0.023) and s.known.moves[1].target == 30.0
 
 
 def test_a_lost_preset_of_a_batch_is_sent_again_with_a_start_to_that_motor_only() -> None:

@@ -30,7 +30,7 @@ def test_another_hosts_write_after_a_fast_read_is_no_state() -> None:
     assert s.data_to_send() == [FAST_READ_2]
     returned = s.receive(OTHER_HOSTS_WRITE, 0.001)
     assert returned == OTHER_HOSTS_WRITE  # handed on as a frame, not as a MotorState
-    assert not opn.done and 2 not in s.states
+    assert not opn.done and 2 not in s.known.states
     assert (s.foreign, s.unmatched, s.malformed, s.other_hosts) == (1, 1, 0, True)
     st = s.receive(STATE_2, 0.002)
     assert isinstance(st, MotorState) and (st.node, st.angle, st.torque, st.trajectory_done, st.error) == (
@@ -40,19 +40,19 @@ def test_another_hosts_write_after_a_fast_read_is_no_state() -> None:
         True,
         True,
     )
-    assert opn.result() == [st] and s.states[2] == st
+    assert opn.result() == [st] and s.known.states[2] == st
 
 
 @pytest.mark.parametrize("cmd", [0x19, 0x1B, 0x1D, 0x1F])
 def test_host_commands_with_bit_0_set_update_nothing(cmd: int) -> None:
     s = BusSession(timeout=0.05)
     s.receive(STATE_2, 0.001)
-    before = s.states[2]
+    before = s.known.states[2]
     opn = s.submit(read_states([2]))
     s.data_to_send()
     frame = Frame((2 << 5) | cmd, bytes.fromhex("0000C8420A001400"))
     assert s.receive(frame, 0.002) == frame
-    assert s.states[2] is before and not opn.done and s.foreign == 1
+    assert s.known.states[2] is before and not opn.done and s.foreign == 1
     s.advance(1.0)
     assert opn.done and opn.error is not None  # the request timed out: nothing answered it
 
@@ -61,7 +61,7 @@ def test_host_commands_with_bit_0_set_update_nothing(cmd: int) -> None:
 def test_state_frames_and_heartbeats_still_update_the_cache(cmd: int) -> None:
     s = BusSession()
     st = s.receive(Frame((3 << 5) | cmd, bytes.fromhex("0000B4420000E803")), 0.5)
-    assert isinstance(st, MotorState) and s.states[3] == st and st.angle == 90.0
+    assert isinstance(st, MotorState) and s.known.states[3] == st and st.angle == 90.0
     assert (st.trajectory_done, st.error) == (bool(cmd & 2), bool(cmd & 4))
     assert (s.foreign, s.unmatched) == (0, 0)
 
@@ -84,6 +84,6 @@ def test_a_cycle_takes_no_other_hosts_position_command_as_a_reply_state() -> Non
     s.data_to_send()
     other = PositionT(2, 45.0, 0.0, 20.0).encode()  # another host: T (0x19) to motor 2
     assert other.arbitration_id == 0x059
-    assert s.receive(other, 0.001) == other and not opn.done and 2 not in s.states
+    assert s.receive(other, 0.001) == other and not opn.done and 2 not in s.known.states
     s.receive(STATE_2, 0.002)
     assert opn.result()[2].angle == 90.0

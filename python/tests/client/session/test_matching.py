@@ -36,7 +36,7 @@ def test_the_reply_with_every_field_answers() -> None:
     assert s.receive(VBUS_1_IS_24, 0.004) is None
     assert opn.done and opn.result() == [ParamValue(1, VBUS, DataType.F32, 24.0)]
     assert (s.anomalies, s.unmatched, len(s.matcher), s.next_deadline()) == (0, 0, 0, None)
-    assert s.heard == {1}
+    assert s.known.heard == {1}
 
 
 @pytest.mark.parametrize(

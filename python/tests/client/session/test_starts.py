@@ -100,7 +100,7 @@ def test_confirmed_the_start_is_released_by_the_confirmation() -> None:
     assert rig.take() == [] and not opn.done
     s.transmitted(0.006, True)
     assert _kinds(rig.take()) == ["Start0"] and opn.result() == [0]
-    assert s.moves[1].sent == 0.006 and not s.awaiting_confirmation
+    assert s.known.moves[1].sent == 0.006 and not s.awaiting_confirmation
 
 
 @pytest.mark.parametrize(("timeout", "wait"), [(0.05, 0.1), (0.3, 0.3)])
@@ -117,7 +117,7 @@ def test_confirmed_without_confirmation_the_batch_fails_at_the_longer_of_timeout
     with pytest.raises(TimeoutError, match="the transmission of the presets") as info:
         opn.result()
     assert info.value.nodes == IDS and info.value.timeout == wait
-    assert rig.session.next_deadline() is None and not rig.session.moves
+    assert rig.session.next_deadline() is None and not rig.session.known.moves
 
 
 def test_confirmed_falls_back_to_the_bus_time_when_the_transport_cannot_tell() -> None:
@@ -151,7 +151,7 @@ def test_start_policy(policy: StartPolicy, nodes: list[int], motor_ids: tuple[in
     cmds = rig.take()
     assert _starts(cmds) == where and opn.result() == where
     assert [c.node for c in cmds if isinstance(c, Preset)] == nodes
-    assert rig.session.pending_presets == set()
+    assert rig.session.sequencer.pending_presets == set()
 
 
 def test_a_failed_batch_leaves_its_motors_marked_so_later_starts_go_per_motor() -> None:
@@ -160,17 +160,17 @@ def test_a_failed_batch_leaves_its_motors_marked_so_later_starts_go_per_motor() 
     rig.take()
     rig.at(0.1)
     assert isinstance(failed.error, TimeoutError)
-    assert rig.session.pending_presets == {1, 2, 3}  # they hold presets no start consumed
+    assert rig.session.sequencer.pending_presets == {1, 2, 3}  # they hold presets no start consumed
     s = rig.session
     opn = rig.submit(_batch([1, 2]))
     rig.take()
     s.transmitted(0.2, True)
     assert _starts(rig.take()) == [1, 2] and opn.result() == [1, 2]  # a broadcast would fire motor 3
-    assert s.pending_presets == {3}
+    assert s.sequencer.pending_presets == {3}
     again = rig.submit(_batch([1, 2, 3]))
     rig.take()
     s.transmitted(0.3, True)
-    assert _starts(rig.take()) == [0] and again.result() == [0] and s.pending_presets == set()
+    assert _starts(rig.take()) == [0] and again.result() == [0] and s.sequencer.pending_presets == set()
 
 
 def test_a_node_start_through_send_consumes_only_its_preset() -> None:
@@ -178,7 +178,7 @@ def test_a_node_start_through_send_consumes_only_its_preset() -> None:
     s = rig.session
     s.send([PresetT(1, 15.0, 20.0), PresetT(2, 25.0, 20.0), Start(1, StartKind.T)])
     assert _kinds(rig.take()) == ["Preset1", "Preset2", "Start1"]
-    assert s.pending_presets == {2} and list(s.moves) == [1] and s.moves[1].target == 15.0
+    assert s.sequencer.pending_presets == {2} and list(s.known.moves) == [1] and s.known.moves[1].target == 15.0
     rig.submit(_batch([1, 3]))
     assert _starts(rig.take()) == [1, 3]
 
@@ -191,7 +191,7 @@ def test_moves_are_recorded_with_target_sent_time_and_move_time() -> None:
     released = 2.0 + 3 * FRAME_BITS / 1_000_000 + 0.001
     rig.at(released)
     rig.take()
-    moves = rig.session.moves
+    moves = rig.session.known.moves
     assert [(n, mv.target, mv.move_time, mv.took) for n, mv in moves.items()] == [
         (n, 10.0 * n, 0.75, None) for n in IDS
     ]
@@ -205,12 +205,12 @@ def test_presets_and_a_q_start_through_send_record_the_preset_targets_and_time()
     rig.at(1.0)
     s.send([PresetQ(1, 30.0, 1.5, 200.0), PresetQ(2, -30.0, 1.5, 200.0), Start(0, StartKind.Q)])
     assert _kinds(rig.take()) == ["Preset1", "Preset2", "Start0"]
-    assert [(n, mv.target, mv.move_time, mv.sent) for n, mv in s.moves.items()] == [
+    assert [(n, mv.target, mv.move_time, mv.sent) for n, mv in s.known.moves.items()] == [
         (1, 30.0, 1.5, 1.0),
         (2, -30.0, 1.5, 1.0),
     ]
     s.send([PositionT(2, 45.0, 20.0)])
-    assert s.moves[2].target == 45.0 and s.moves[2].move_time is None and s.commanded == {1, 2}
+    assert s.known.moves[2].target == 45.0 and s.known.moves[2].move_time is None and s.known.commanded == {1, 2}
 
 
 def test_a_second_batch_goes_out_after_the_held_start_in_order() -> None:
@@ -238,7 +238,7 @@ def test_an_estop_drops_a_start_held_for_its_presets() -> None:
     assert "motor 2" in str(opn.error)
     rig.settle(until=1.0)  # the hold's time passes: nothing more goes out
     assert rig.take() == [] and not [c for _, c in rig.sent() if isinstance(c, Start)]
-    assert s.pending_presets == {1, 2}  # marked: no later broadcast start fires them
+    assert s.sequencer.pending_presets == {1, 2}  # marked: no later broadcast start fires them
     assert s.next_deadline() is None
 
 
@@ -298,7 +298,7 @@ def test_answered_a_silent_motor_fails_the_batch_and_sends_no_start(retries: int
     assert isinstance(opn.error, TimeoutError) and opn.error.nodes == (2,)
     assert rig.now == pytest.approx(0.2 * (1 + retries))
     assert [c.node for _, c in rig.sent(ReadParam)] == [1, 2, 3] + [2] * retries  # only the silent one again
-    assert rig.sent(Start) == [] and rig.session.pending_presets == {1, 2, 3}
+    assert rig.sent(Start) == [] and rig.session.sequencer.pending_presets == {1, 2, 3}
     assert len(rig.session.matcher) == 0
 
 

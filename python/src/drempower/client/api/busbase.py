@@ -82,7 +82,7 @@ class BusBase(ABC, Generic[M]):
     def known_motors(self) -> set[int]:
         """The motors this bus knows are attached: handles made, motors heard from, and those
         the transport declares (``motor_ids``, e.g. the in-process simulator's)."""
-        known = set(self._motors) | self._session.heard.copy()  # copies in one step: safe while others add
+        known = set(self._motors) | self._session.known.heard.copy()  # copies in one step: safe while others add
         known.update(self._core.states.snapshot())
         known.update(self._core.capabilities.motor_ids)
         known.discard(0)
@@ -216,7 +216,7 @@ class BusBase(ABC, Generic[M]):
     def reply_state(self) -> Mapping[int, bool]:
         """What the bus knows of each motor's ``enable_reply_state`` (31214): motor -> on (a live,
         read-only view; a motor missing is unknown)."""
-        return MappingProxyType(self._session.reply_state)
+        return MappingProxyType(self._session.known.reply_state)
 
     @property
     def on_sent(self) -> Callable[[Frame, float], None] | None:

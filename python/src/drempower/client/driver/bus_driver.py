@@ -121,7 +121,7 @@ class BusDriver:
         self.on_sent: Callable[[Frame, float], None] | None = None
         """Called after each frame is handed to the transport, with the frame and :func:`time.monotonic`
         of the hand-over (s); keep it short."""
-        self.states = StateCache(self.session.states)
+        self.states = StateCache(self.session.known.states)
         self._lock = threading.RLock()
         """The session's lock; an RLock so that a signal handler can tell that it interrupted its own
         thread's bus work (:meth:`_interrupted_here`). Frame taps and ``on_sent`` run while it is held:
@@ -167,7 +167,7 @@ class BusDriver:
     @property
     def commanded(self) -> frozenset[int]:
         """Motors this bus has sent motion commands or a requested state to (0 = broadcast)."""
-        return frozenset(self.session.commanded.copy())
+        return frozenset(self.session.known.commanded.copy())
 
     @property
     def closed(self) -> bool:

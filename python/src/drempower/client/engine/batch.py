@@ -120,7 +120,7 @@ def cycle(
             raise ValidationError("a control cycle sends commands; reads are answered by the cycle itself")
         frames.append(c.encode())
     if reply_state is None:
-        known = core.reply_state
+        known = core.known.reply_state
         unknown = [n for n in nodes if n not in known]
         if unknown:
             return _learn_then_cycle(core, cmds, frames, nodes, unknown, timeout)
@@ -151,7 +151,7 @@ def _learn_then_cycle(
     replies = yield from request([ReadParam(n, _REPLY_STATE, DataType.U32) for n in unknown], timeout)
     for n, r in zip(unknown, replies, strict=True):
         core.learn(n, _REPLY_STATE, r.value)
-    known = core.reply_state
+    known = core.known.reply_state
     states: dict[int, MotorState] = yield _cycle(cmds, frames, nodes, {n for n in nodes if known.get(n)}, timeout)
     return states
 

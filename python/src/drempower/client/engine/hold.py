@@ -23,7 +23,10 @@ from ...protocol.parameters import DataType
 from .requests import Waiter, request_key
 
 if TYPE_CHECKING:
-    from .session import BusSession
+    from .outbox import Outbox
+    from .requests import Matcher
+    from .runner import RequestPolicy
+    from .timers import Timers
 
 __all__ = ["TRANSITIONS", "HoldEvent", "HoldState", "StartHold", "TxOrder"]
 
@@ -104,13 +107,27 @@ class StartHold:
     """The start held until its presets are on the wire (at most one at a time: starts go in order).
 
     ``tx`` says how the session knows (:data:`TxOrder`); ``tx_latency`` (s) is
-    added to the bus time of a ``timed`` hold.
+    added to the bus time of a ``timed`` hold. Its collaborators: the ``timers`` (the time now, and a
+    count of new deadlines), the ``outbox`` (what is still to hand over, and when the wire is free), and,
+    for an ``answered`` hold's probe, the ``matcher`` its reads wait in and the ``policy`` of requests.
     """
 
-    __slots__ = ("current", "session", "tx", "tx_latency")
+    __slots__ = ("current", "matcher", "outbox", "policy", "timers", "tx", "tx_latency")
 
-    def __init__(self, session: BusSession, tx: TxOrder, tx_latency: float) -> None:
-        self.session = session
+    def __init__(
+        self,
+        tx: TxOrder,
+        tx_latency: float,
+        *,
+        timers: Timers,
+        outbox: Outbox,
+        matcher: Matcher,
+        policy: RequestPolicy,
+    ) -> None:
+        self.timers = timers
+        self.outbox = outbox
+        self.matcher = matcher
+        self.policy = policy
         self.tx: TxOrder = tx
         self.tx_latency = tx_latency
         self.current: _Hold | None = None
@@ -121,8 +138,7 @@ class StartHold:
         tx = self.tx
         if tx == "in_order":
             return False
-        s = self.session
-        wait = max(s.runner.timeout, _MIN_CONFIRM)
+        wait = max(self.policy.timeout, _MIN_CONFIRM)
 
         def ready() -> None:
             self.current = None
@@ -132,10 +148,10 @@ class StartHold:
             self.current = None
             fail(TimeoutError(nodes, "the transmission of the presets", wait) if error is None else error)
 
-        hold = self.current = _Hold(_FIRST[tx], ready, give_up, s.now + wait)
+        hold = self.current = _Hold(_FIRST[tx], ready, give_up, self.timers.now + wait)
         if tx == "answered":
             _Probe(self, hold, nodes, wait)
-        s.timers.touch()
+        self.timers.touch()
         self.check()
         return True
 
@@ -151,13 +167,13 @@ class StartHold:
     def check(self) -> None:
         """Release the held start if its presets are on the wire; fail it if its wait is over."""
         hold = self.current
-        s = self.session
-        if hold is None or s.outbox.frames:
+        outbox = self.outbox
+        if hold is None or outbox.frames:
             return
-        now = s.now
+        now = self.timers.now
         state = hold.state
         if state is _S.TIMED:
-            if now >= s.outbox.wire_free + self.tx_latency:
+            if now >= outbox.wire_free + self.tx_latency:
                 hold.release()
         elif state is _S.CONFIRMED:
             hold.release()
@@ -167,15 +183,15 @@ class StartHold:
     def next_due(self) -> float | None:
         """When (s) :meth:`check` has something to do, or None (nothing held, or frames still to hand over)."""
         hold = self.current
-        if hold is None or self.session.outbox.frames:
+        if hold is None or self.outbox.frames:
             return None
-        return self.session.outbox.wire_free + self.tx_latency if hold.state is _S.TIMED else hold.due
+        return self.outbox.wire_free + self.tx_latency if hold.state is _S.TIMED else hold.due
 
     @property
     def awaiting_confirmation(self) -> bool:
         """True when the held start waits for the transport's word and every frame is handed over."""
         hold = self.current
-        return hold is not None and hold.state is _S.CONFIRMING and not self.session.outbox.frames
+        return hold is not None and hold.state is _S.CONFIRMING and not self.outbox.frames
 
 
 class _Probe:
@@ -199,25 +215,25 @@ class _Probe:
 
     def ask(self, which: list[int]) -> None:
         reads = [ReadParam(n, AXIS0_CONFIG_CAN_NODE_ID, DataType.U32) for n in which]  # never 0
-        s = self.part.session
+        part = self.part
         w = self.waiter = Waiter([request_key(r) for r in reads], self.answered, [DataType.U32] * len(reads))
-        s.runner.matcher.register(w)
-        s.outbox.frames.extend(r.encode() for r in reads)
+        part.matcher.register(w)
+        part.outbox.frames.extend(r.encode() for r in reads)
 
     def answered(self) -> None:
         if self.part.current is self.hold:
             self.part.event(HoldEvent.ANSWERED)
 
     def failed(self, error: BaseException | None) -> None:
-        s = self.part.session
+        part = self.part
         w = self.waiter
-        s.runner.matcher.cancel(w)
+        part.matcher.cancel(w)
         missing = [w.keys[i] >> 16 for i in w.missing()]
-        if error is None and self.tries < s.runner.retries and missing:
+        if error is None and self.tries < part.policy.retries and missing:
             self.tries += 1
-            self.hold.due = s.now + self.wait
+            self.hold.due = part.timers.now + self.wait
             self.ask(missing)
-            s.timers.touch()  # a new deadline
+            part.timers.touch()  # a new deadline
             return
         if error is None:
             error = TimeoutError(missing or self.nodes, "reads sent after the presets (the start waits)", self.wait)

@@ -20,8 +20,12 @@ from .requests import MATCHED, MISMATCHED
 from .state import MotorState
 
 if TYPE_CHECKING:
-    from .operation import Operation
-    from .session import BusSession
+    from .grace import ZeroReplyGrace
+    from .known import Known
+    from .operation import Operation, Operations
+    from .requests import Matcher
+    from .stats import BusStats
+    from .timers import Timers
 
 __all__ = ["Inbox"]
 
@@ -34,12 +38,30 @@ _new_state = tuple.__new__
 
 
 class Inbox:
-    """Takes received frames (:meth:`receive`) and keeps the operations waiting for a motor's next state."""
+    """Takes received frames (:meth:`receive`) and keeps the operations waiting for a motor's next state.
 
-    __slots__ = ("session", "waits")
+    Its collaborators: the ``timers`` (the time now, and the expiry of state waits), what is ``known`` of
+    the motors (the latest states), the ``matcher`` that replies resolve, the zero-reply ``grace``, the
+    ``stats`` it counts into, and the ``operations`` a state wait resumes."""
 
-    def __init__(self, session: BusSession) -> None:
-        self.session = session
+    __slots__ = ("grace", "known", "matcher", "operations", "stats", "timers", "waits")
+
+    def __init__(
+        self,
+        *,
+        timers: Timers,
+        known: Known,
+        matcher: Matcher,
+        grace: ZeroReplyGrace,
+        stats: BusStats,
+        operations: Operations,
+    ) -> None:
+        self.timers = timers
+        self.known = known
+        self.matcher = matcher
+        self.grace = grace
+        self.stats = stats
+        self.operations = operations
         self.waits: dict[int, list[tuple[Operation[Any], float]]] = {}
         """Per motor, the operations waiting for a state newer than a time (s)."""
 
@@ -47,19 +69,19 @@ class Inbox:
         """``opn`` waits for a state of ``node`` newer than ``since`` (s): the cached one if it is, else
         :data:`~drempower.client.engine.operation.WAIT` (it resumes with the state, or TimeoutError after ``timeout``
         s)."""
-        s = self.session
-        st = s.known.states.get(node)
+        st = self.known.states.get(node)
         if st is not None and st.timestamp > since:
             return st
         entry = (opn, since)
         self.waits.setdefault(node, []).append(entry)
-        timers = s.timers
+        timers = self.timers
+        operations = self.operations
 
         def expire() -> None:
             self._drop_wait(node, entry)
-            s.operations.resume(opn, None, TimeoutError([node], "a state update", timeout))
+            operations.resume(opn, None, TimeoutError([node], "a state update", timeout))
 
-        tid = timers.add(s.now + timeout, expire)
+        tid = timers.add(timers.now + timeout, expire)
 
         def cancel() -> None:
             timers.drop(tid)
@@ -77,12 +99,12 @@ class Inbox:
 
     def receive(self, frame: Frame, now: float) -> MotorState | Frame | None:
         """Take ``frame``, received at ``now`` (s); see :meth:`~drempower.client.engine.session.BusSession.receive`."""
-        s = self.session
-        if now > s.now:
-            s.now = now
+        timers = self.timers
+        if now > timers.now:
+            timers.now = now
         else:
-            now = s.now
-        stats = s.stats
+            now = timers.now
+        stats = self.stats
         stats.frames_received += 1
         arb, data, ext, rtr = frame
         if ext or rtr or len(data) != 8:
@@ -95,23 +117,23 @@ class Inbox:
             node = arb >> 5
             pos, vel, tq = _STATE(data)
             st: MotorState = _new_state(MotorState, (node, pos, vel / 100, tq / 100, bool(cmd & 2), bool(cmd & 4), now))
-            known = s.known
+            known = self.known
             if not cmd & 2:
                 mv = known.moves.get(node)
                 if mv is not None and mv.took is None and st.timestamp > mv.sent:
                     mv.took = st.timestamp
             known.states[node] = st
-            s.runner.matcher.resolve_state(node, st)
+            self.matcher.resolve_state(node, st)
             waits = self.waits.get(node)
             if waits:
-                resume = s.operations.resume
+                resume = self.operations.resume
                 for opn, since in list(waits):
                     if st.timestamp > since:
                         if opn._cancel is not None:
                             opn._cancel()  # its timer and this entry
                         resume(opn, st, None)
             return st
-        grace = s.grace
+        grace = self.grace
         if cmd != 0x1E:
             if cmd in _HOST_ONLY_CMDS:  # 0x19/0x1B/0x1D/0x1F too: T, P, C and write, never a state
                 grace.other_hosts = True
@@ -132,7 +154,7 @@ class Inbox:
             stats.unmatched += 1
             return frame
         node, address, dtype = reply.node, reply.address, reply.dtype
-        matcher = s.runner.matcher
+        matcher = self.matcher
         if data[4:] == _ZERO4:
             # A reply of value 0 has the bytes of a read request: another host's read
             # of the same parameter looks exactly like it (see grace).

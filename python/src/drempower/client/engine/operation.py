@@ -1,9 +1,9 @@
 """The operation runner: runs each submitted operation's generator until it waits for an effect or ends.
 
-Each effect the generator yields is started by the session's part that runs it
-(requests and cycles by the request runner, sends and batches by the sequencer,
-sleeps on the timers, state waits by the inbox); when it ends, its result (or
-error) goes back into the generator.
+Each effect the generator yields is started by the part that runs it, found in one table by the
+effect's kind (:attr:`Operations.handlers`: requests and cycles by the request runner, sends and
+batches by the sequencer, sleeps on the timers, state waits by the inbox; the session fills it);
+when it ends, its result (or error) goes back into the generator.
 """
 
 from __future__ import annotations
@@ -12,12 +12,12 @@ from collections.abc import Callable, Generator
 from typing import TYPE_CHECKING, Any, Generic, TypeVar
 
 from ...errors import BusClosedError
-from .effects import AwaitState, Batch, Cycle, Effect, Request, Send, Sleep
+from .effects import Effect, Sleep
 
 if TYPE_CHECKING:
-    from .session import BusSession
+    from .timers import Timers
 
-__all__ = ["WAIT", "Operation", "Operations"]
+__all__ = ["WAIT", "EffectHandler", "Operation", "Operations"]
 
 T = TypeVar("T")
 
@@ -58,14 +58,24 @@ class Operation(Generic[T]):
         return value
 
 
+EffectHandler = Callable[["Operation[Any]", Any], Any]
+"""Starts an effect for an operation: returns its immediate result, or :data:`WAIT` (the part that runs
+it resumes the operation when it ends)."""
+
+
 class Operations:
-    """The running operations by id, and the generators run until they wait."""
+    """The running operations by id, and the generators run until they wait. ``timers`` run sleeps (and
+    give the time now); every other kind of effect goes to the part :attr:`handlers` names for it."""
 
-    __slots__ = ("running", "session")
+    __slots__ = ("closed_error", "handlers", "running", "timers")
 
-    def __init__(self, session: BusSession) -> None:
-        self.session = session
+    def __init__(self, timers: Timers) -> None:
+        self.timers = timers
         self.running: dict[int, Operation[Any]] = {}
+        self.closed_error: BaseException | None = None
+        """Set once the bus is closed or its receive loop failed: every effect begun after raises it."""
+        self.handlers: dict[type, EffectHandler] = {Sleep: self._sleep}
+        """How each kind of effect (its class) is started."""
 
     def add(self, opn: Operation[T]) -> Operation[T]:
         """Count ``opn`` as running (until it finishes)."""
@@ -122,28 +132,18 @@ class Operations:
 
     def _begin(self, opn: Operation[Any], effect: Effect) -> Any:
         """Start ``effect`` for ``opn`` in the part that runs it: its immediate result, or :data:`WAIT`."""
-        s = self.session
-        if s.closed_error is not None:
-            raise s.closed_error
-        if isinstance(effect, Request):
-            s.runner.request(opn, effect)
-            return WAIT
-        if effect.__class__ is Cycle:
-            s.runner.cycle(opn, effect)
-            return WAIT
-        if isinstance(effect, Send):
-            msgs = effect.messages
-            return WAIT if s.sequencer.send(opn, msgs, [m.encode() for m in msgs]) else None
-        if isinstance(effect, Batch):
-            s.sequencer.batch(opn, effect)
-            return WAIT
-        if isinstance(effect, Sleep):
-            timers = s.timers
-            tid = timers.add(s.now + effect.seconds, lambda: self.resume(opn, None, None))
-            opn._cancel = lambda: timers.drop(tid)
-            return WAIT
-        assert isinstance(effect, AwaitState)
-        return s.inbox.await_state(opn, effect.node, effect.newer_than, effect.timeout)
+        if self.closed_error is not None:
+            raise self.closed_error
+        handler = self.handlers.get(effect.__class__)
+        if handler is None:
+            raise TypeError(f"an operation yielded {effect!r}, which is no effect")
+        return handler(opn, effect)
+
+    def _sleep(self, opn: Operation[Any], effect: Sleep) -> Any:
+        timers = self.timers
+        tid = timers.add(timers.now + effect.seconds, lambda: self.resume(opn, None, None))
+        opn._cancel = lambda: timers.drop(tid)
+        return WAIT
 
     def cancel(self, opn: Operation[Any], error: BaseException | None = None) -> None:
         """Stop ``opn`` (its caller gave up): its effect stops waiting, its generator closes; no ``on_done``."""

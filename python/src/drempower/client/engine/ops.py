@@ -187,7 +187,7 @@ def set_id(core: BusSession, node: int, new_id: int, timeout: float | None = Non
     if node != new_id:
         for n in (node, new_id):
             core.forget(n)
-            core.states.pop(n, None)
+            core.known.states.pop(n, None)
 
 
 def get_volcur(node: int, timeout: float | None = None) -> Op[tuple[float, float]]:
@@ -253,13 +253,13 @@ def set_traj_mode(node: int, mode: int, timeout: float | None = None, retries: i
 
 def traj_modes(core: BusSession, nodes: Sequence[int], timeout: float | None = None) -> Op[dict[int, int]]:
     """The Q-mode profile of each motor: remembered ones, the rest read in one exchange."""
-    unknown = [n for n in nodes if n not in core.traj_mode]
+    unknown = [n for n in nodes if n not in core.known.traj_mode]
     if unknown:
         p = parameter(AXIS0_TRAP_TRAJ_CONFIG_TRAJ_MODE)
         replies = yield from request([ReadParam(n, p.address, p.dtype) for n in unknown], timeout)
         for n, r in zip(unknown, replies, strict=True):
             core.learn(n, p.address, int(_reported_traj_mode(n, r.value)))
-    return {n: core.traj_mode[n] for n in nodes}
+    return {n: core.known.traj_mode[n] for n in nodes}
 
 
 def set_angle_range(
@@ -425,7 +425,7 @@ def wait_done(
         raise ValidationError(f"tolerance={tolerance!r}: expected a finite number of degrees >= 0")
     deadline = core.now + timeout
     waiting = list(dict.fromkeys(nodes))
-    moves = core.moves
+    moves = core.known.moves
     resent: dict[int, int] = {}
     done: dict[int, MotorState] = {}
     last: dict[int, MotorState] = {}

@@ -19,10 +19,14 @@ from .effects import Cycle, Request
 from .requests import Matcher, Waiter, request_dtype, request_key
 
 if TYPE_CHECKING:
-    from .operation import Operation
-    from .session import BusSession
+    from .grace import ZeroReplyGrace
+    from .known import Known
+    from .operation import Operation, Operations
+    from .outbox import Outbox
+    from .sequencer import Sequencer
+    from .timers import Timers
 
-__all__ = ["DEFAULT_TIMEOUT", "RequestRunner", "describe_request"]
+__all__ = ["DEFAULT_TIMEOUT", "RequestPolicy", "RequestRunner", "describe_request"]
 
 DEFAULT_TIMEOUT = 0.1
 """Default time (s) a request waits for its reply."""
@@ -46,19 +50,73 @@ def _timeout(given: float | None, default: float) -> float:
     return timeout
 
 
-class RequestRunner:
-    """Runs requests and cycles for operations. ``timeout`` (s) is the default wait for a reply and
-    ``retries`` how often a read whose reply did not come is sent again; ``check_request``, when set,
-    is called with the messages of every request before it is sent and may raise to refuse it."""
+class RequestPolicy:
+    """How requests wait: ``timeout`` (s), the default wait for a reply, and ``retries``, how often a read
+    whose reply did not come is sent again (shared by the runner and the start hold's probe)."""
 
-    __slots__ = ("check_request", "matcher", "retries", "session", "timeout")
+    __slots__ = ("retries", "timeout")
 
-    def __init__(self, session: BusSession, timeout: float, retries: int) -> None:
-        self.session = session
-        self.matcher = Matcher()
+    def __init__(self, timeout: float, retries: int) -> None:
         self.timeout = timeout
         self.retries = retries
+
+
+class RequestRunner:
+    """Runs requests and cycles for operations, as ``policy`` says; ``check_request``, when set, is called
+    with the messages of every request before it is sent and may raise to refuse it.
+
+    Its collaborators: the ``matcher`` its waiters register in, the ``timers`` that expire them (and give
+    the time now), the ``outbox`` its frames go to, what is ``known`` of the motors, the zero-reply
+    ``grace`` settled at expiry, the ``operations`` its answers resume, the ``sequencer`` a cycle's
+    presets and starts go through, and ``tx_latency`` (s), how late a frame handed over may reach the wire.
+    """
+
+    __slots__ = (
+        "check_request",
+        "grace",
+        "known",
+        "matcher",
+        "operations",
+        "outbox",
+        "policy",
+        "sequencer",
+        "timers",
+        "tx_latency",
+    )
+
+    def __init__(
+        self,
+        policy: RequestPolicy,
+        *,
+        matcher: Matcher,
+        timers: Timers,
+        outbox: Outbox,
+        known: Known,
+        grace: ZeroReplyGrace,
+        operations: Operations,
+        sequencer: Sequencer,
+        tx_latency: float,
+    ) -> None:
+        self.policy = policy
+        self.matcher = matcher
+        self.timers = timers
+        self.outbox = outbox
+        self.known = known
+        self.grace = grace
+        self.operations = operations
+        self.sequencer = sequencer
+        self.tx_latency = tx_latency
         self.check_request: Callable[[Sequence[Message]], None] | None = None
+
+    @property
+    def timeout(self) -> float:
+        """The default wait (s) for a reply."""
+        return self.policy.timeout
+
+    @property
+    def retries(self) -> int:
+        """How often a read whose reply did not come is sent again."""
+        return self.policy.retries
 
     def single(self, opn: Operation[Any], effect: Request) -> None:
         """Run ``effect`` as ``opn``'s only effect (its first answer is the result); one message whose answer
@@ -168,25 +226,26 @@ class _Exchange:
             frames = [self.frames[i] for i in batch]
         self._batch = batch
         keys = self.keys
-        s = self.runner.session
+        r = self.runner
         w = self.waiter = Waiter([keys[i] for i in batch], self._answered, dtypes)
-        self.runner.matcher.register(w)
-        s.outbox.frames.extend(frames)
-        self.timer = s.timers.add(s.now + self.timeout, self._expire)
+        r.matcher.register(w)
+        r.outbox.frames.extend(frames)
+        timers = r.timers
+        self.timer = timers.add(timers.now + self.timeout, self._expire)
 
     def cancel(self) -> None:
-        self.runner.session.timers.drop(self.timer)
+        self.runner.timers.drop(self.timer)
         if self.waiter is not None:
             self.runner.matcher.drop(self.waiter)
 
     def _answered(self) -> None:
-        self.runner.session.timers.drop(self.timer)
+        self.runner.timers.drop(self.timer)
         self._collect()
 
     def _expire(self) -> None:
         w = self.waiter
         assert w is not None
-        grace = self.runner.session.grace
+        grace = self.runner.grace
         if grace.held:
             grace.settle(0.0, [(w.keys[i] >> 16, w.keys[i] & 0xFFFF) for i in w.missing()])
             if not w.remaining:
@@ -207,19 +266,19 @@ class _Exchange:
                 if tries[i] > self.retries:
                     failed.append(i)
         self._pending = [i for i in self._pending if results[i] is None and tries[i] <= self.retries]
-        s = self.runner.session
+        runner = self.runner
         if (failed and not self.missing_ok) or not self._pending:
             if failed and not self.missing_ok:
                 nodes = sorted({self.keys[i] >> 16 for i in failed})
                 what = self.what or describe_request(self.msgs[failed[0]])
-                s.operations.resume(self.op, None, TimeoutError(nodes, what, self.timeout))
+                runner.operations.resume(self.op, None, TimeoutError(nodes, what, self.timeout))
                 return
-            heard = s.known.heard
+            heard = runner.known.heard
             for r in results:
                 node = getattr(r, "node", 0)
                 if node:
                     heard.add(node)
-            s.operations.resume(self.op, results, None)
+            runner.operations.resume(self.op, results, None)
         else:
             self.start()
 
@@ -257,7 +316,6 @@ class _OneRequest(Waiter):
 
     def start(self) -> None:
         r = self.runner
-        s = r.session
         self.results[0] = None
         self.remaining = 1
         # Matcher.register for its one key, inline
@@ -267,28 +325,28 @@ class _OneRequest(Waiter):
             table[self.key] = [(self, 0)]
         else:
             lst.append((self, 0))
-        s.outbox.frames.append(self.frame)
-        self.timer = s.timers.add(s.now + self.timeout, self._expire)
+        r.outbox.frames.append(self.frame)
+        timers = r.timers
+        self.timer = timers.add(timers.now + self.timeout, self._expire)
 
     def cancel(self) -> None:
         r = self.runner
-        r.session.timers.drop(self.timer)
+        r.timers.drop(self.timer)
         r.matcher.drop(self)
 
     def _answered(self) -> None:
-        s = self.runner.session
-        s.timers._timers.pop(self.timer, None)  # Timers.drop, inline
+        runner = self.runner
+        runner.timers.drop(self.timer)
         r = self.results[0]
         node = getattr(r, "node", 0)
         if node:
-            s.known.heard.add(node)
-        s.operations.finish(self.op, r, None)
+            runner.known.heard.add(node)
+        runner.operations.finish(self.op, r, None)
 
     def _expire(self) -> None:
         r = self.runner
-        s = r.session
         key = self.key
-        grace = s.grace
+        grace = r.grace
         if grace.held:
             grace.settle(0.0, [(key >> 16, key & 0xFFFF)])
             if not self.remaining:
@@ -299,7 +357,7 @@ class _OneRequest(Waiter):
             self.start()
             return
         self.on_complete = None  # not answered, for good (see Waiter)
-        s.operations.finish(self.op, None, TimeoutError([key >> 16], describe_request(self.msg), self.timeout))
+        r.operations.finish(self.op, None, TimeoutError([key >> 16], describe_request(self.msg), self.timeout))
 
 
 class _CycleRun:
@@ -323,9 +381,9 @@ class _CycleRun:
         self.timeout = timeout
         nodes = self.nodes = cycle.nodes
         w = self.waiter = Waiter([n << 16 for n in nodes], self._answered)
-        s = runner.session
-        seq, note, now = s.sequencer, s.known.note, s.now
-        out = s.outbox.frames
+        seq, note, now = runner.sequencer, runner.known.note, runner.timers.now
+        outbox = runner.outbox
+        out = outbox.frames
         for m, f in zip(msgs, frames, strict=True):
             if m.cmd == 0x1E:
                 out.append(f)
@@ -338,31 +396,30 @@ class _CycleRun:
                 seq.start_pending(m, f, started)  # queues it, in order, without waiting
                 continue
             out.append(f)
-        self.last = s.outbox.handed + len(out)
+        self.last = outbox.handed + len(out)
         """The count of handed frames once this cycle's are: answered, they (and those before) are on the wire."""
         runner.matcher.register(w)
-        self.timer = s.timers.add(now + timeout, self._expire)
+        self.timer = runner.timers.add(now + timeout, self._expire)
 
     def cancel(self) -> None:
         r = self.runner
-        r.session.timers.drop(self.timer)
+        r.timers.drop(self.timer)
         r.matcher.drop(self.waiter)
 
     def _answered(self) -> None:
-        s = self.runner.session
-        s.timers.drop(self.timer)
+        r = self.runner
+        r.timers.drop(self.timer)
         nodes = self.nodes
-        s.known.heard.update(nodes)
-        outbox = s.outbox
+        r.known.heard.update(nodes)
+        outbox = r.outbox
         if outbox.handed <= self.last:  # every frame handed over is on the wire: a start need not wait for them
-            outbox.wire_free = min(outbox.wire_free, s.now - s.hold.tx_latency)
-        s.operations.effect_done(self.op, dict(zip(nodes, self.waiter.results, strict=True)), None)
+            outbox.wire_free = min(outbox.wire_free, r.timers.now - r.tx_latency)
+        r.operations.effect_done(self.op, dict(zip(nodes, self.waiter.results, strict=True)), None)
 
     def _expire(self) -> None:
         r = self.runner
-        s = r.session
         w = self.waiter
-        grace = s.grace
+        grace = r.grace
         if grace.held:
             grace.settle(0.0, [(k >> 16, k & 0xFFFF) for k in w.keys])
             if not w.remaining:
@@ -370,4 +427,4 @@ class _CycleRun:
         r.matcher.drop(w)
         nodes = self.nodes
         silent = sorted(nodes[i] for i in w.missing())
-        s.operations.effect_done(self.op, None, TimeoutError(silent, "a control cycle", self.timeout))
+        r.operations.effect_done(self.op, None, TimeoutError(silent, "a control cycle", self.timeout))

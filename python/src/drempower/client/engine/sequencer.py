@@ -33,8 +33,11 @@ from .effects import Batch
 from .known import MoveRecord
 
 if TYPE_CHECKING:
-    from .operation import Operation
-    from .session import BusSession
+    from .hold import StartHold
+    from .known import Known
+    from .operation import Operation, Operations
+    from .outbox import Outbox
+    from .timers import Timers
 
 __all__ = ["StartPolicy", "Sequencer", "sequenced"]
 
@@ -85,12 +88,42 @@ class _Job:
 class Sequencer:
     """Sends with presets or starts and batches, one job at a time, in order. ``policy`` chooses where a
     batch's start goes (see :class:`~drempower.client.engine.session.BusSession`); ``motor_ids`` are the bus's
-    motors when the transport declares them."""
+    motors when the transport declares them.
 
-    __slots__ = ("_busy", "_jobs", "_preset_msgs", "motor_ids", "pending_presets", "policy", "session")
+    Its collaborators: the ``timers`` (the time now), what is ``known`` of the motors (the moves a start
+    begins, what each command changes), the ``outbox`` its frames go to, the start ``hold`` a start waits
+    in until its presets are on the wire, and the ``operations`` a job's outcome resumes."""
 
-    def __init__(self, session: BusSession, policy: StartPolicy, motor_ids: frozenset[int]) -> None:
-        self.session = session
+    __slots__ = (
+        "_busy",
+        "_jobs",
+        "_preset_msgs",
+        "hold",
+        "known",
+        "motor_ids",
+        "operations",
+        "outbox",
+        "pending_presets",
+        "policy",
+        "timers",
+    )
+
+    def __init__(
+        self,
+        policy: StartPolicy,
+        motor_ids: frozenset[int],
+        *,
+        timers: Timers,
+        known: Known,
+        outbox: Outbox,
+        hold: StartHold,
+        operations: Operations,
+    ) -> None:
+        self.timers = timers
+        self.known = known
+        self.outbox = outbox
+        self.hold = hold
+        self.operations = operations
         self.policy: StartPolicy = policy
         self.motor_ids = motor_ids
         self.pending_presets: set[int] = set()
@@ -103,15 +136,14 @@ class Sequencer:
     def send(self, op: Operation[Any], msgs: Sequence[Message], frames: Sequence[Frame]) -> bool:
         """Queue sent messages for ``op``; True when presets or starts among them made it a job in order
         (``op`` then ends when its last frame is queued), False when every frame is queued now."""
-        s = self.session
         if sequenced(msgs):
             self._run(_Job(op, msgs, frames, None))
             return True
-        note, now = s.known.note, s.now
+        note, now = self.known.note, self.timers.now
         for m, f in zip(msgs, frames, strict=True):
             if m.cmd != 0x1E:
                 note(m, f, now)
-        s.outbox.frames.extend(frames)
+        self.outbox.frames.extend(frames)
         return False
 
     def batch(self, op: Operation[Any], batch: Batch) -> None:
@@ -124,7 +156,7 @@ class Sequencer:
     def stopped(self, nodes: Sequence[int]) -> None:
         """An emergency stop to ``nodes`` went out: drop the start held for its presets and the jobs queued
         behind it; their operations raise :class:`~drempower.errors.BusStoppedError`."""
-        hold = self.session.hold.current
+        hold = self.hold.current
         if hold is None:
             return
         queued = list(self._jobs)
@@ -155,9 +187,8 @@ class Sequencer:
     def start_pending(self, start: Message, frame: Frame, started: list[int]) -> None:
         """Queue ``start`` (its presets are on the wire); record the moves it starts, drop what it consumed."""
         node = start.node
-        s = self.session
-        sent = s.now
-        moves = s.known.moves
+        sent = self.timers.now
+        moves = self.known.moves
         kind = getattr(start, "kind", None)
         if 0 in started:  # a broadcast preset: which motors it reached is unknown
             moves.clear()
@@ -171,7 +202,7 @@ class Sequencer:
                 moves[n] = MoveRecord(None if getattr(start, "relative", False) else goal, sent, move_time, None, again)
             else:
                 moves.pop(n, None)
-        s.outbox.frames.append(frame)
+        self.outbox.frames.append(frame)
         pending = self.pending_presets
         if node == 0:
             pending.clear()
@@ -194,7 +225,7 @@ class Sequencer:
         """Hand a job's outcome to its operation: a send's own (it ends here) or a generator's effect."""
         op = job.op
         if op is not None:
-            self.session.operations.effect_done(op, value, error)
+            self.operations.effect_done(op, value, error)
 
     def _done(self, job: _Job, value: Any, error: BaseException | None) -> None:
         self._busy = False
@@ -208,13 +239,13 @@ class Sequencer:
         if job.batch is not None:
             self._step_batch(job)
             return
-        s = self.session
+        known, timers, out = self.known, self.timers, self.outbox.frames
         msgs, frames = job.msgs, job.frames
         while job.index < len(msgs):
             i = job.index
             m, f = msgs[i], frames[i]
             job.index = i + 1
-            s.known.note(m, f, s.now)
+            known.note(m, f, timers.now)
             if m.cmd == 0x0C:
                 self.hold_preset(m)
             elif isinstance(m, _STARTS) and self.starts_pending(m.node):
@@ -224,17 +255,19 @@ class Sequencer:
                     self.start_pending(m, f, started)
                     self._step(job)
 
-                if s.hold.begin([n for n in started if n] or [0], release, lambda error: self._done(job, None, error)):
+                if self.hold.begin(
+                    [n for n in started if n] or [0], release, lambda error: self._done(job, None, error)
+                ):
                     return
                 self.start_pending(m, f, started)  # in order: no wait
                 continue
-            s.outbox.frames.append(f)
+            out.append(f)
         self._done(job, None, None)
 
     def _step_batch(self, job: _Job) -> None:
         b = job.batch
         assert b is not None
-        s = self.session
+        known, timers, out = self.known, self.timers, self.outbox.frames
         presets, start = b.presets, b.start
         nodes = [p.node for p in presets]
         policy = self.policy
@@ -253,12 +286,12 @@ class Sequencer:
         self.pending_presets.update(nodes)
         for n in nodes:
             self._preset_msgs.pop(n, None)
-        s.known.commanded.update(nodes)
-        s.outbox.frames.extend(job.frames)
+        known.commanded.update(nodes)
+        out.extend(job.frames)
 
         def release() -> None:
-            sent = s.now
-            moves = s.known.moves
+            sent = timers.now
+            moves = known.moves
             if isinstance(start, Start) and start.kind in _POSITION_STARTS:
                 goals = b.targets if b.targets is not None else [None] * len(nodes)
                 for p, goal in zip(presets, goals, strict=True):
@@ -267,7 +300,7 @@ class Sequencer:
             else:
                 for n in nodes:
                     moves.pop(n, None)
-            s.outbox.frames.extend(starts)
+            self.outbox.frames.extend(starts)  # the list of now: the outbox hands over a new one each time
             if broadcast:
                 self.pending_presets.clear()
                 self._preset_msgs.clear()
@@ -275,5 +308,5 @@ class Sequencer:
                 self.pending_presets.difference_update(nodes)
             self._done(job, where, None)
 
-        if not s.hold.begin(nodes, release, lambda error: self._done(job, None, error)):
+        if not self.hold.begin(nodes, release, lambda error: self._done(job, None, error)):
             release()

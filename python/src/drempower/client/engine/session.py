@@ -22,7 +22,10 @@ parts, one job each, reached as its attributes: ``timers`` (the scheduler),
 matcher, cycles), ``inbox`` (received frames, state waits), ``grace`` (the
 zero-reply grace), ``sequencer`` (presets and starts in order), ``hold`` (a
 start held for its presets), ``known`` (what is known about each motor),
-``stats`` (the counters) and ``operations`` (the operation runner).
+``stats`` (the counters) and ``operations`` (the operation runner). Each part is given the
+collaborators it works with when it is made, and none holds the session: as in h11, the state
+machines know nothing of what drives them. The kinds of effect an operation yields are dispatched
+through one table (:attr:`Operations.handlers`, filled here).
 """
 
 from __future__ import annotations
@@ -34,15 +37,15 @@ from ...errors import ValidationError
 from ...protocol.ids import Frame
 from ...protocol.limits import MOTION_CMDS
 from ...protocol.messages import Message
-from .effects import Cycle, Runnable, Single
+from .effects import AwaitState, Batch, Cycle, Request, Runnable, Send, Single
 from .grace import ZERO_REPLY_GRACE, ZeroReplyGrace
 from .hold import HoldEvent, StartHold, TxOrder
 from .inbox import Inbox
 from .known import Known, MoveRecord
-from .operation import Operation, Operations
+from .operation import WAIT, Operation, Operations
 from .outbox import ASSUMED_BITRATE, Outbox
 from .requests import Matcher
-from .runner import DEFAULT_TIMEOUT, RequestRunner, describe_request
+from .runner import DEFAULT_TIMEOUT, RequestPolicy, RequestRunner, describe_request
 from .sequencer import Sequencer, StartPolicy, sequenced
 from .state import MotorState
 from .stats import BusStats
@@ -130,48 +133,71 @@ class BusSession:
         if retries.__class__ is not int or retries < 0:
             raise ValidationError(f"retries={retries!r}: must be an integer >= 0")
         self.stop_on_close = stop_on_close
-        self.now = now
-        """The latest time the driver gave (s)."""
-        self.timers = Timers()
-        self.outbox = Outbox(bitrate, now)
-        self.known = Known()
-        self.stats = BusStats()
-        self.runner = RequestRunner(self, float(timeout), retries)
-        self.grace = ZeroReplyGrace(self.runner.matcher, self.stats, self.timers, zero_reply_grace)
-        self.inbox = Inbox(self)
-        self.hold = StartHold(self, tx, tx_latency)
-        self.sequencer = Sequencer(self, start, frozenset(motor_ids))
-        self.operations = Operations(self)
-        # the parts' own containers, under the names callers have always used
-        self.states: dict[int, MotorState] = self.known.states
-        """The latest state of every motor heard from."""
-        self.heard: set[int] = self.known.heard
-        self.traj_mode: dict[int, int] = self.known.traj_mode
-        self.reply_state: dict[int, bool] = self.known.reply_state
-        self.moves: dict[int, MoveRecord] = self.known.moves
-        self.commanded: set[int] = self.known.commanded
-        self.pending_presets: set[int] = self.sequencer.pending_presets
-        self.matcher: Matcher = self.runner.matcher
-        self.closed_error: BaseException | None = None
-        """Set once the bus is closed or its receive loop failed: every new operation raises it."""
+        self.timers = timers = Timers(now)
+        self.outbox = outbox = Outbox(bitrate, now)
+        self.known = known = Known()
+        self.stats = stats = BusStats()
+        self.matcher = matcher = Matcher()
+        """Every request waiting for its reply."""
+        self.policy = policy = RequestPolicy(float(timeout), retries)
+        self.grace = grace = ZeroReplyGrace(matcher, stats, timers, zero_reply_grace)
+        self.operations = operations = Operations(timers)
+        self.hold = hold = StartHold(tx, tx_latency, timers=timers, outbox=outbox, matcher=matcher, policy=policy)
+        self.sequencer = sequencer = Sequencer(
+            start, frozenset(motor_ids), timers=timers, known=known, outbox=outbox, hold=hold, operations=operations
+        )
+        self.runner = runner = RequestRunner(
+            policy,
+            matcher=matcher,
+            timers=timers,
+            outbox=outbox,
+            known=known,
+            grace=grace,
+            operations=operations,
+            sequencer=sequencer,
+            tx_latency=tx_latency,
+        )
+        self.inbox = inbox = Inbox(
+            timers=timers, known=known, matcher=matcher, grace=grace, stats=stats, operations=operations
+        )
+        operations.handlers.update(_effect_handlers(runner, sequencer, inbox))
+        self._direct: dict[type, Callable[[Operation[Any], Any], None]] = {
+            Single: lambda run, op: runner.single(run, op.request),
+            Cycle: runner.cycle,
+        }
+        """Runnables that are one effect, run without a generator: their answer is the result."""
         self.closed = False
         """True once closed for good (an estop is still sent after a receive failure, not after this)."""
 
     # ------------------------------------------------------------------ settings and facts of the parts
 
     @property
+    def now(self) -> float:
+        """The latest time the driver gave (s)."""
+        return self.timers.now
+
+    @now.setter
+    def now(self, value: float) -> None:
+        self.timers.now = value
+
+    @property
+    def closed_error(self) -> BaseException | None:
+        """Set once the bus is closed or its receive loop failed: every new operation raises it."""
+        return self.operations.closed_error
+
+    @property
     def timeout(self) -> float:
         """The default wait (s) for a reply."""
-        return self.runner.timeout
+        return self.policy.timeout
 
     @timeout.setter
     def timeout(self, value: float) -> None:
-        self.runner.timeout = value
+        self.policy.timeout = value
 
     @property
     def retries(self) -> int:
         """How often a read whose reply did not come is sent again."""
-        return self.runner.retries
+        return self.policy.retries
 
     @property
     def tx(self) -> TxOrder:
@@ -242,13 +268,14 @@ class BusSession:
     def advance(self, now: float) -> None:
         """Act on the time ``now`` (s): expire requests, settle held-back replies, wake sleeping
         operations, release a start whose presets are on the wire."""
-        if now > self.now:
-            self.now = now
+        timers = self.timers
+        if now > timers.now:
+            timers.now = now
         if self.grace.held:
             self.grace.settle(now)
-        heap = self.timers.heap
+        heap = timers.heap
         if heap and heap[0][0] <= now:  # the check fire_due makes first, without its call on the fast path
-            self.timers.fire_due(now)
+            timers.fire_due(now)
         if self.hold.current is not None:
             self.hold.check()
 
@@ -283,8 +310,8 @@ class BusSession:
         """The transport says whether every frame handed to it is on the wire: True (a held start
         goes out), False (it gave up: the start's operation fails with :class:`TimeoutError`), None
         (it cannot tell: the start waits the bus time of what was written instead)."""
-        if now > self.now:
-            self.now = now
+        if now > self.timers.now:
+            self.timers.now = now
         if not self.outbox.frames:
             self.hold.event(_TX_EVENT[confirmed])
 
@@ -351,15 +378,12 @@ class BusSession:
         if self.closed_error is not None:
             raise self.closed_error
         ops = self.operations
-        cls = op.__class__
-        if cls is Single or cls is Cycle:
+        direct = self._direct.get(op.__class__)
+        if direct is not None:
             run: Operation[T] = Operation(None, on_done)
             ops.running[id(run)] = run
             try:
-                if cls is Single:
-                    self.runner.single(run, op.request)  # type: ignore[union-attr]
-                else:
-                    self.runner.cycle(run, op)  # type: ignore[arg-type]
+                direct(run, op)
             except Exception as exc:
                 ops.finish(run, None, exc)
             return run
@@ -373,7 +397,7 @@ class BusSession:
 
     def abort(self, error: BaseException) -> None:
         """Fail every running operation with ``error`` (a write failed); new operations are taken."""
-        for w in self.runner.matcher.clear():
+        for w in self.matcher.clear():
             w.on_complete = None
         self.timers.clear()
         self.inbox.waits.clear()
@@ -387,8 +411,8 @@ class BusSession:
         """End the session: every running operation fails with ``error``, and so does every new one.
 
         ``final`` False (the receive loop failed) still lets :meth:`estop` queue frames."""
-        if self.closed_error is None or final:
-            self.closed_error = error
+        if self.operations.closed_error is None or final:
+            self.operations.closed_error = error
         self.closed = self.closed or final
         self.abort(error)
 
@@ -403,3 +427,29 @@ class BusSession:
         reply of value 0 while other hosts are about, see :data:`ZERO_REPLY_GRACE`).
         """
         return self.inbox.receive(frame, now)
+
+
+def _effect_handlers(runner: RequestRunner, sequencer: Sequencer, inbox: Inbox) -> dict[type, Any]:
+    """The one table of how each kind of effect an operation yields is started (a sleep is the
+    operations' own): the part that runs it, and what the operation gets at once (:data:`WAIT`: later)."""
+
+    def request(opn: Operation[Any], effect: Request) -> Any:
+        runner.request(opn, effect)
+        return WAIT
+
+    def cycle(opn: Operation[Any], effect: Cycle[Any]) -> Any:
+        runner.cycle(opn, effect)
+        return WAIT
+
+    def send(opn: Operation[Any], effect: Send) -> Any:
+        msgs = effect.messages
+        return WAIT if sequencer.send(opn, msgs, [m.encode() for m in msgs]) else None
+
+    def batch(opn: Operation[Any], effect: Batch) -> Any:
+        sequencer.batch(opn, effect)
+        return WAIT
+
+    def await_state(opn: Operation[Any], effect: AwaitState) -> Any:
+        return inbox.await_state(opn, effect.node, effect.newer_than, effect.timeout)
+
+    return {Request: request, Cycle: cycle, Send: send, Batch: batch, AwaitState: await_state}

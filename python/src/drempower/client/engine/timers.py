@@ -23,9 +23,11 @@ class Timers:
     have come).
     """
 
-    __slots__ = ("_timers", "changes", "heap")
+    __slots__ = ("_timers", "changes", "heap", "now")
 
-    def __init__(self) -> None:
+    def __init__(self, now: float = 0.0) -> None:
+        self.now = now
+        """The latest time the driver gave (s): what the parts that schedule read as the time now."""
         self.changes = 0
         self._timers: dict[int, tuple[float, Callable[[], None]]] = {}
         self.heap: list[tuple[float, int]] = []
