@@ -28,7 +28,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python" / "src"
 
 import drempower
 from drempower.errors import ValidationError
-from drempower.motion import Trajectory
+from drempower.motion import Trajectory, follow_bus
 from drempower.motion.plan import Lane, Units, bus_rate_limit
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -118,9 +118,9 @@ def main() -> None:
                     joints=tr.joints,
                 )
                 line(
-                    "bus.follow (T mode)",
+                    "follow_bus (T mode)",
                     rate,
-                    measure(lambda t, rate, b=bus, i=ids: b.follow(i, t, rate=rate), tr, rate),
+                    measure(lambda t, rate, b=bus, i=ids: follow_bus(b, i, t, rate=rate), tr, rate),
                 )
 
 

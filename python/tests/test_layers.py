@@ -34,21 +34,6 @@ MODULE, TYPE, LAZY = "at module level", "under TYPE_CHECKING", "inside a functio
 
 ALLOWED: dict[tuple[str, str], tuple[frozenset[str], str]] = {
     **{
-        (f"drempower.client.api.bus_{flavour}", f"drempower.motion.follow_{flavour}"): (
-            frozenset({LAZY}),
-            "bus.follow is a door to the motion layer, opened on its first call",
-        )
-        for flavour in ("async", "sync")
-    },
-    **{
-        (f"drempower.client.api.bus_{flavour}", f"drempower.motion.{module}"): (
-            frozenset({TYPE}),
-            "bus.follow's signature names the trajectory it takes and the report it returns",
-        )
-        for flavour in ("async", "sync")
-        for module in ("plan", "trajectory")
-    },
-    **{
         (f"drempower.motion.{module}", "drempower.robot"): (
             frozenset({TYPE}),
             "the robot hands itself to the routines behind robot.follow, identify, tune...: they name its type",
@@ -228,10 +213,10 @@ def test_every_form_of_import_counts() -> None:
 
 
 def test_an_allowed_pair_counts_only_in_its_kind() -> None:
-    importer, imported = "drempower.client.api.bus_async", "drempower.motion.follow_async"
-    lazy = "def follow():\n    from ...motion.follow_async import follow_bus\n"
-    assert violations(_fake({importer: lazy, imported: ""})) == ([], {(importer, imported)})
-    eager = "from ...motion.follow_async import follow_bus\n"
+    importer, imported = "drempower.motion.follow_async", "drempower.robot"
+    typed = "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from ..robot import AsyncRobot\n"
+    assert violations(_fake({importer: typed, imported: ""})) == ([], {(importer, imported)})
+    eager = "from ..robot import AsyncRobot\n"
     found, used = violations(_fake({importer: eager, imported: ""}))
     assert len(found) == 1 and "at module level" in found[0] and used == set()
 
@@ -315,3 +300,68 @@ def test_a_client_room_importing_a_higher_one_is_reported() -> None:
         "drempower.client.engine.a (room engine) imports drempower.client.driver.bus_driver (room driver) "
         "under TYPE_CHECKING, line 3",
     ]
+
+
+def room_of(module: str) -> str:
+    """The room of a ``drempower`` module: its top-level package or module, or its room of the client."""
+    parts = module.split(".")
+    if len(parts) >= 3 and parts[1] == "client" and parts[2] in CLIENT_ROOMS:
+        return ".".join(parts[:3])
+    return ".".join(parts[:2])
+
+
+def circles(sources: Mapping[str, tuple[str, bool]]) -> list[list[str]]:
+    """The circles among rooms (strongly connected groups of two or more), every kind of import counted."""
+    known = set(sources)
+    edges: dict[str, set[str]] = {}
+    for module, (source, is_package) in sources.items():
+        for imp in imports_of(module, source, is_package, known):
+            a, b = room_of(imp.importer), room_of(imp.imported)
+            if a != b:
+                edges.setdefault(a, set()).add(b)
+    order: dict[str, int] = {}
+    low: dict[str, int] = {}
+    stack: list[str] = []
+    found: list[list[str]] = []
+
+    def visit(v: str) -> None:
+        order[v] = low[v] = len(order)
+        stack.append(v)
+        for w in sorted(edges.get(v, ())):
+            if w not in order:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in stack:
+                low[v] = min(low[v], order[w])
+        if low[v] == order[v]:
+            group = []
+            while True:
+                w = stack.pop()
+                group.append(w)
+                if w == v:
+                    break
+            if len(group) > 1:
+                found.append(sorted(group))
+
+    for v in sorted(edges):
+        if v not in order:
+            visit(v)
+    return sorted(found)
+
+
+def test_the_house_has_at_most_two_circles() -> None:
+    found = circles(package_sources())
+    assert len(found) <= 2, "circles among the rooms:\n" + "\n".join(" <-> ".join(c) for c in found)
+
+
+def test_a_circle_is_found_whatever_its_length() -> None:
+    sources = _fake(
+        {
+            "drempower.sim.a": "from ..transports import b\n",
+            "drempower.transports.b": "from ..client.engine import c\n",
+            "drempower.client.engine.c": "def f():\n    from ...sim import a\n",
+            "drempower.protocol.x": "from ..errors import E\n",
+            "drempower.errors": "",
+        }
+    )
+    assert circles(sources) == [["drempower.client.engine", "drempower.sim", "drempower.transports"]]

@@ -58,7 +58,7 @@ def test_backup_of_a_silent_motor_fails_fast(bus: Bus) -> None:
 
 
 def test_restore_reports_failures(motors: FakeMotors, tmp_path: Path) -> None:
-    t = ScriptedTransport(motors)
+    t = ScriptedTransport(motors, virtual=True)  # timeouts on the scripted clock: no wall time, any load
     realistic = {
         "axis0.config.extra_setting.gear_ratio": 10.0,
         "axis0.motor.config.pole_pairs": 14,

@@ -12,7 +12,8 @@ import pytest
 
 import drempower
 from drempower.errors import ValidationError
-from drempower.motion import Trajectory
+from drempower.motion import Trajectory, follow_bus
+from drempower.motion.follow_async import follow_bus as follow_bus_async
 from drempower.motion.plan import FollowError
 from drempower.protocol.ids import Frame
 from drempower.sim import SimBus
@@ -112,20 +113,20 @@ def test_an_obstacle_in_the_path_stops_the_robot_by_max_error() -> None:
 def test_bus_follow_on_the_plain_simulator_in_deg() -> None:
     with drempower.open_bus("sim", motors=[1, 2, 3], clock="virtual", bitrate=1_000_000) as bus:
         t = [0.0, 0.5, 1.0]
-        report = bus.follow([1, 2, 3], t, [[0.0, 0.0, 0.0], [30.0, -20.0, 10.0], [0.0, 0.0, 0.0]], max_error=5.0)
+        report = follow_bus(bus, [1, 2, 3], t, [[0.0, 0.0, 0.0], [30.0, -20.0, 10.0], [0.0, 0.0, 0.0]], max_error=5.0)
         assert set(report.max_error) == {"1", "2", "3"}
         print(f"plain simulator: largest tracking error {max(report.max_error.values()):.3f} deg")
         assert 0.0 < max(report.max_error.values()) < 5.0
         assert report.late == 0 and report.cycles == 201
         far = r"joint '2' is at -?0\.\d+ deg, the trajectory starts at 90 deg: more than start_tolerance"
         with pytest.raises(ValidationError, match=far):
-            bus.follow([1, 2], [0.0, 1.0], [[0.0, 90.0], [0.0, 90.0]])
+            follow_bus(bus, [1, 2], [0.0, 1.0], [[0.0, 90.0], [0.0, 90.0]])
 
 
 def test_async_bus_and_robot_follow() -> None:
     async def run() -> tuple[float, float]:
         async with drempower.open_bus_async("sim", motors=[1, 2], clock="virtual") as bus:
-            rep = await bus.follow([1, 2], [0.0, 1.0], [[0.0, 0.0], [20.0, -20.0]], mode="impedance", kp=5.0)
+            rep = await follow_bus_async(bus, [1, 2], [0.0, 1.0], [[0.0, 0.0], [20.0, -20.0]], mode="impedance", kp=5.0)
         spec = drempower.robot.parse_robot(
             {"buses": {"b": {"interface": "sim"}}, "joints": {"a": {"bus": "b", "id": 1, "gear": 2.0}}}
         )
@@ -141,7 +142,7 @@ def test_follow_through_the_adapter_pty_in_real_time() -> None:
     sim = SimBus([1, 2], bitrate=1_000_000)
     with link("adapter", sim, time_scale=1.0, stop_on_close=True) as bus:
         began = time.monotonic()
-        report = bus.follow([1, 2], [0.0, 0.75, 1.5], [[0.0, 0.0], [15.0, -15.0], [0.0, 0.0]], rate=100.0)
+        report = follow_bus(bus, [1, 2], [0.0, 0.75, 1.5], [[0.0, 0.0], [15.0, -15.0], [0.0, 0.0]], rate=100.0)
         took = time.monotonic() - began
     worst = max(report.max_error.values())
     print(f"adapter pty: {report.rate:.1f} Hz, {report.late} late, largest error {worst:.2f} deg")
@@ -166,7 +167,7 @@ def test_ctrl_c_during_follow_holds_the_joints(tmp_path: Path) -> None:
 
         bus.cycle = interrupted  # type: ignore[method-assign]
         with pytest.raises(KeyboardInterrupt):
-            bus.follow([1], [0.0, 1.0], [[0.0], [40.0]])
+            follow_bus(bus, [1], [0.0, 1.0], [[0.0], [40.0]])
         last = sent[-1]
         at = bus.motor(1).get_state().angle
     from drempower.protocol.messages import PositionT, decode_command

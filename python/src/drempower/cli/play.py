@@ -177,9 +177,10 @@ def _run_bus(args: argparse.Namespace, tr: Trajectory, options: dict[str, Any]) 
         _dry_plan(tr, [lane], {}, options)
         _summary(args, tr, {}, "deg")
         return 0
+    from ..motion.follow_sync import follow_bus
     from ._connect import open_from_args
 
     with open_from_args(args) as bus:
-        report = bus.follow(ids, tr, **options)
+        report = follow_bus(bus, ids, tr, **options)
     _report(args, report, "deg")
     return 0

@@ -6,6 +6,14 @@
 1.25
 """
 
+from typing import TYPE_CHECKING
+
+from .._lazy import lazy_names
 from .trajectory import Peaks, Sample, Trajectory
 
-__all__ = ["Peaks", "Sample", "Trajectory"]
+if TYPE_CHECKING:
+    from .follow_sync import follow_bus
+
+__all__ = ["Peaks", "Sample", "Trajectory", "follow_bus"]
+
+__getattr__ = lazy_names(__name__, {"follow_sync": ("follow_bus",)})

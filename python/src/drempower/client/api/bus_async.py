@@ -51,8 +51,6 @@ from .motorbase import MotorBase
 from .timed import check_duration
 
 if TYPE_CHECKING:
-    from ...motion.plan import FollowReport
-    from ...motion.trajectory import Rows, Trajectory
     from ..engine import backup as _backup
 
 __all__ = ["AsyncBus", "AsyncMotor", "open_bus_async"]
@@ -498,20 +496,6 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         states = await self.run(run)
         self._sent(cmds)
         return states
-
-    async def follow(
-        self,
-        ids: Sequence[int],
-        times: Sequence[float] | Trajectory,
-        positions: Rows | None = None,
-        **options: Any,
-    ) -> FollowReport:
-        """Follow a trajectory (deg, one column per motor of ``ids``) through the control cycle; returns a
-        :class:`~drempower.motion.plan.FollowReport`. Options as :meth:`AsyncRobot.follow
-        <drempower.robot.robot_async.AsyncRobot.follow>` (``max_error`` in deg); see docs/motion.md."""
-        from ...motion.follow_async import follow_bus
-
-        return await follow_bus(self, ids, times, positions, **options)
 
     # ------------------------------------------------------------------ multi-motor (vendor names)
 

@@ -48,8 +48,6 @@ from .motorbase import MotorBase
 from .timed import check_duration
 
 if TYPE_CHECKING:
-    from ...motion.plan import FollowReport
-    from ...motion.trajectory import Rows, Trajectory
     from ..engine import backup as _backup
 
 __all__ = ["Bus", "Motor", "open_bus"]
@@ -489,20 +487,6 @@ class Bus(SyncBusBase[Motor]):
         states = self.run(run)
         self._sent(cmds)
         return states
-
-    def follow(
-        self,
-        ids: Sequence[int],
-        times: Sequence[float] | Trajectory,
-        positions: Rows | None = None,
-        **options: Any,
-    ) -> FollowReport:
-        """Follow a trajectory (deg, one column per motor of ``ids``) through the control cycle; returns a
-        :class:`~drempower.motion.plan.FollowReport`. Options as :meth:`Robot.follow
-        <drempower.robot.robot_sync.Robot.follow>` (``max_error`` in deg); see docs/motion.md."""
-        from ...motion.follow_sync import follow_bus
-
-        return follow_bus(self, ids, times, positions, **options)
 
     # ------------------------------------------------------------------ multi-motor (vendor names)
 
