@@ -133,7 +133,7 @@ def test_system_commands(bus: Bus, scripted: ScriptedTransport) -> None:
 
 
 def test_remembered_parameters_follow_every_write_and_reset(bus: Bus) -> None:
-    core = bus._core.session
+    core = bus._core.session.known
     bus.send(WriteParam.of(1, "axis0.trap_traj.config.traj_mode", 2))  # however it is sent
     assert core.traj_mode == {1: 2}
     bus.motor(2).get_traj_mode()
