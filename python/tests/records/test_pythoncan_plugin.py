@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import select
 import signal
 import subprocess
 import sys
@@ -72,6 +73,11 @@ def test_python_can_logger_and_player(adapter: tuple[SimBus, AdapterPty], tmp_pa
         env=env,
     )
     try:
+        # the logger says it is connected before it logs: the 1.5 s of heartbeats count from there (a loaded
+        # machine may take seconds to start an interpreter)
+        assert logger.stdout is not None
+        ready, _, _ = select.select([logger.stdout], [], [], 60.0)
+        assert ready and b"Connected to" in logger.stdout.readline()
         time.sleep(1.5)
     finally:
         logger.send_signal(signal.SIGINT)

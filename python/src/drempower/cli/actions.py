@@ -245,7 +245,13 @@ def _command(name: str) -> str:
     """How the command line runs row ``name``."""
     if name in HANDWRITTEN:
         return HANDWRITTEN[name]
-    return name if name in GENERATED else f"actions {name}"
+    if name in GENERATED:
+        return name
+    from ._index import ACTION_ROWS, COMMANDS
+
+    # without a parser of every command (drempower COMMAND builds its own alone): the index says whether a
+    # module's command took the name; a row registered since the index was made is a command if the name is free
+    return name if COMMANDS.get(name, ACTION_ROWS) == ACTION_ROWS else f"actions {name}"
 
 
 def run_list(args: argparse.Namespace) -> int:
