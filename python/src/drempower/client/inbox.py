@@ -19,6 +19,7 @@ from .errors import TimeoutError
 from .operation import WAIT
 from .requests import MATCHED, MISMATCHED
 from .state import MotorState
+from .status_bits import StatusBits
 
 if TYPE_CHECKING:
     from .operation import Operation
@@ -37,10 +38,12 @@ _new_state = tuple.__new__
 class Inbox:
     """Takes received frames (:meth:`receive`) and keeps the operations waiting for a motor's next state."""
 
-    __slots__ = ("session", "waits")
+    __slots__ = ("bits", "session", "waits")
 
     def __init__(self, session: BusSession) -> None:
         self.session = session
+        self.bits = StatusBits()
+        """What each motor's state frames hold in bits 3-4 (spec/PROTOCOL.md section 1.6)."""
         self.waits: dict[int, list[tuple[Operation[Any], float]]] = {}
         """Per motor, the operations waiting for a state newer than a time (s)."""
 
@@ -90,9 +93,22 @@ class Inbox:
             stats.unmatched += 1
             return frame
         cmd = arb & 0x1F
-        if cmd & 1 and cmd < 0x18:
-            # a state frame (protocol.messages.STATE_CMDS): decode bits 0-2 only, as decode_reply does
+        if cmd & 1 and (
+            cmd < 0x18
+            or self.bits.is_state(
+                arb >> 5,
+                cmd,
+                data,
+                s.runner.matcher.waiting(arb >> 5, 0) or (arb >> 5) in self.waits,
+                s.grace.other_hosts,
+            )
+        ):
+            # a state frame (spec/PROTOCOL.md 1.6, client.status_bits): decode bits 0-2 only, as decode_reply does
             node = arb >> 5
+            if cmd < 0x18:
+                bits = self.bits.known
+                if bits.get(node) != ("zero" if cmd < 0x08 else "kept"):
+                    self.bits.saw(node, cmd)
             pos, vel, tq = _STATE(data)
             st: MotorState = _new_state(MotorState, (node, pos, vel / 100, tq / 100, bool(cmd & 2), bool(cmd & 4), now))
             known = s.known
@@ -113,7 +129,7 @@ class Inbox:
             return st
         grace = s.grace
         if cmd != 0x1E:
-            if cmd in _HOST_ONLY_CMDS:  # 0x19/0x1B/0x1D/0x1F too: T, P, C and write, never a state
+            if cmd in _HOST_ONLY_CMDS:  # 0x19/0x1B/0x1D/0x1F that rule 1.6 takes as no state: T, P, C, write
                 grace.other_hosts = True
                 stats.foreign += 1
             else:
