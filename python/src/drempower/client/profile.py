@@ -13,7 +13,6 @@ keys of a motor are what doctor measured, kept for reports; the client does not 
 
 from __future__ import annotations
 
-import json
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -66,6 +65,8 @@ def load_profile(src: str | os.PathLike[str] | Mapping[str, Any] | FirmwareProfi
     if isinstance(src, Mapping):
         data: Any = src
     else:
+        import json  # here: importing drempower loads no json
+
         where = os.fspath(src)
         try:
             with open(where, encoding="utf-8") as f:
