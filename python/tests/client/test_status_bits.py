@@ -195,8 +195,20 @@ def test_profile_errors_name_the_key(tmp_path: object) -> None:
     assert (p.status_bits_of(1), p.status_bits_of(2)) == ("zero", "kept")
 
 
-def test_sim_state_frames_are_states_under_both_readings() -> None:
-    """The in-process simulator's frames (zero bits) are states for a client told either reading."""
-    for bits in ("auto", "zero", "kept"):
-        with drempower.open_bus("sim", bus=SimBus([1]), clock="virtual", profile={"status_bits": bits}) as bus:
+@pytest.mark.parametrize("firmware", ["zero", "kept"])
+def test_simulator_profiles_with_and_without_a_client_profile(firmware: str) -> None:
+    """The simulator's frames under each status-bits profile are states for a client that learns (auto) or
+    is told the right reading; a client told the wrong reading of kept-bits firmware gets no state."""
+    for told in ("auto", firmware):
+        sim = SimBus([1], status_bits=firmware)
+        with drempower.open_bus("sim", bus=sim, clock="virtual", profile={"status_bits": told}) as bus:
             assert bus.motor(1).get_state().node == 1
+            assert bus._session.inbox.bits.of(1) == firmware
+    if firmware == "kept":
+        with (
+            drempower.open_bus(
+                "sim", bus=SimBus([1], status_bits="kept"), clock="virtual", profile={"status_bits": "zero"}
+            ) as bus,
+            pytest.raises(drempower.TimeoutError, match="fast read"),
+        ):
+            bus.motor(1).get_state()

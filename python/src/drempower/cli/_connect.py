@@ -264,7 +264,8 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
         action="append",
         type=can_option,
         default=[],
-        help="extra bus option, repeatable: -o host=127.0.0.1 -o port=29536 (socketcand), -o index=0 (python-can)",
+        help="extra bus option, repeatable: -o host=127.0.0.1 -o port=29536 (socketcand), -o index=0 (python-can); "
+        "with --sim a firmware knob, e.g. -o status_bits=kept",
     )
     g.add_argument("--sim-time-scale", type=positive, help=argparse.SUPPRESS)
     g.add_argument(
@@ -281,6 +282,12 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
         "for lossy links",
     )
 
+
+_SIM_KNOBS = frozenset(
+    ("status_bits", "boot_s", "reply_state", "fast_read", "q_time_zero", "heartbeat", "factory_id", "clock")
+)
+"""What ``-o KEY=VALUE`` may set with ``--sim``: the simulated firmware's knobs (drempower.sim.firmware),
+and ``clock=virtual`` (simulated time passes only while the command waits)."""
 
 _FLAGS = {"serial": "--serial", "uart": "--uart", "sim": "--sim", "interface": "-i/--interface"}
 
@@ -305,7 +312,8 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
         raise UsageError("give one connection: " + ", ".join(_FLAGS[c] for c in chosen) + " conflict")
     can_only = ["-c/--channel"] if args.channel is not None else []
     can_only += ["-o/--can-option"] if args.can_option else []
-    if can_only and chosen and chosen[0] != "interface":
+    sim_knobs = bool(args.sim) and all(k in _SIM_KNOBS for k, _ in args.can_option) and args.channel is None
+    if can_only and chosen and chosen[0] != "interface" and not sim_knobs:
         raise UsageError(f"{' and '.join(can_only)}: only with -i/--interface, not with {_FLAGS[chosen[0]]}")
     if args.bitrate is not None and args.serial:
         raise UsageError(
@@ -314,7 +322,7 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
         )
     kw: dict[str, Any]
     if args.sim:
-        kw = {"interface": "sim", "motors": args.sim}
+        kw = {"interface": "sim", "motors": args.sim, **dict(args.can_option)}  # -o: firmware knobs
         scale = sim_time_scale(args)
         if scale is not None:
             kw["time_scale"] = scale

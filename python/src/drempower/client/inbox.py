@@ -105,10 +105,6 @@ class Inbox:
         ):
             # a state frame (spec/PROTOCOL.md 1.6, client.status_bits): decode bits 0-2 only, as decode_reply does
             node = arb >> 5
-            if cmd < 0x18:
-                bits = self.bits.known
-                if bits.get(node) != ("zero" if cmd < 0x08 else "kept"):
-                    self.bits.saw(node, cmd)
             pos, vel, tq = _STATE(data)
             st: MotorState = _new_state(MotorState, (node, pos, vel / 100, tq / 100, bool(cmd & 2), bool(cmd & 4), now))
             known = s.known
@@ -117,8 +113,10 @@ class Inbox:
                 if mv is not None and mv.took is None and st.timestamp > mv.sent:
                     mv.took = st.timestamp
             known.states[node] = st
-            s.runner.matcher.resolve_state(node, st)
+            answered = s.runner.matcher.resolve_state(node, st)
             waits = self.waits.get(node)
+            if cmd < 0x18 and (cmd > 0x07 or answered or waits):  # learn from answers, not from heartbeats
+                self.bits.saw(node, cmd)
             if waits:
                 resume = s.operations.resume
                 for opn, since in list(waits):

@@ -7,8 +7,10 @@ control frame (0x19-0x1D) and 0x09-0x0F for a preset (0x0C). 0x19/0x1B/0x1D/0x1F
 also the host commands T, P, C and write, so on a bus with another host one of those
 frames can be either. The rule, for a frame of node N with command ``cmd``:
 
-1. ``cmd`` odd below 0x18: N's state (no host sends these). 0x01-0x07 shows that N's
-   firmware sends bits 3-4 as 0, 0x09-0x17 that it keeps them.
+1. ``cmd`` odd below 0x18: N's state (no host sends these). 0x01-0x07 answering this
+   host's fast read, control cycle or wait shows that N's firmware sends bits 3-4 as 0
+   (an unsolicited one, a heartbeat, shows nothing: it answers no command); 0x09-0x17
+   shows that it keeps them.
 2. ``cmd`` 0x1F whose bytes 0-3 are a parameter write's ``[address != 0][data type 0-4]``:
    another host's write, never a state (as a position those bytes are a subnormal float).
 3. ``cmd`` 0x19/0x1B/0x1D and any other 0x1F:
@@ -69,8 +71,10 @@ class StatusBits:
         return self.known.get(node, self.default)
 
     def saw(self, node: int, cmd: int) -> None:
-        """Learn from a state frame of ``node`` with command value ``cmd`` below 0x18 (rule 1)."""
-        self.known[node] = "zero" if cmd < 0x08 else "kept"
+        """Learn from a state frame of ``node`` with command value ``cmd`` below 0x18 that answered this host
+        (or any with bits 3-4 set: rule 1)."""
+        if self.known.get(node) != (bits := "zero" if cmd < 0x08 else "kept"):
+            self.known[node] = bits
 
     def is_state(self, node: int, cmd: int, data: bytes, waited: bool, other_hosts: bool) -> bool:
         """Rules 2 and 3 for a frame of ``node`` with ``cmd`` 0x19/0x1B/0x1D/0x1F: True when it is ``node``'s

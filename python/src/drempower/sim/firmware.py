@@ -20,7 +20,16 @@ from ..protocol.limits import MAX_NODE, MIN_MOTOR
 from .behaviour import BOOT_SECONDS
 from .params import ParamStore
 
-__all__ = ["DEFAULT", "Firmware", "KNOBS", "factory_firmware_id", "STATUS_BITS", "REPLY_TRIGGERS", "Q_TIME_ZERO", "firmware_from"]
+__all__ = [
+    "DEFAULT",
+    "Firmware",
+    "KNOBS",
+    "factory_firmware_id",
+    "STATUS_BITS",
+    "REPLY_TRIGGERS",
+    "Q_TIME_ZERO",
+    "firmware_from",
+]
 
 STATUS_BITS = ("zero", "kept")
 REPLY_TRIGGERS = ("control+preset", "control", "all")

@@ -110,9 +110,9 @@ from ..protocol.messages import (
 )
 from ..protocol.parameters import F32_MAX, Parameter, parameter
 from . import behaviour as bh
+from . import firmware as firmware_module
 from .defaults import MotorModel
 from .drive import POSITION, TAU, TRAP_TRAJ, Drive
-from . import firmware as firmware_module
 from .firmware import Firmware, factory_firmware_id
 from .params import OUTPUT_VIEWS, ParamStore, view_factor
 
