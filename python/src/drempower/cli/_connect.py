@@ -324,7 +324,7 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
     if args.sim:
         kw = {"interface": "sim", "motors": args.sim, **dict(args.can_option)}  # -o: firmware knobs
         scale = sim_time_scale(args)
-        if scale is not None:
+        if scale is not None and kw.get("clock") != "virtual":
             kw["time_scale"] = scale
         how = f"simulated motors {','.join(map(str, args.sim))}"
     elif args.serial:
