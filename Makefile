@@ -31,6 +31,8 @@ test: test-python test-c test-lerobot
 
 test-python: $(DEVSTAMP) sysdeps
 	cd python && ../$(BIN)/python -m pytest -q
+	# the core tests of the client, the robot layer and the CLI again, on firmware that keeps bits 3-4 (PROTOCOL.md 1.6)
+	cd python && ../$(BIN)/python -m pytest -q -m status_bits --sim-status-bits kept
 	cd python && ../$(BIN)/ruff check src tests plugins $(LINTED)
 	cd python && ../$(BIN)/ruff format --check src tests plugins
 	cd python && ../$(BIN)/mypy

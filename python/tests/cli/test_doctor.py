@@ -95,7 +95,7 @@ def test_doctor_on_a_bus_with_no_motor_exits_1_in_one_line(capsys: pytest.Captur
 
 def test_doctor_motor_absent_exits_1(capsys: pytest.CaptureFixture[str]) -> None:
     code = main(["doctor", "7", "--sim", "1", "-o", "clock=virtual"])
-    out, err = capsys.readouterr()
+    err = capsys.readouterr().err
     assert code == 1 and "no motor answered (motor 7)" in err
 
 
@@ -117,3 +117,15 @@ def test_sim_option_errors_name_the_knob(capsys: pytest.CaptureFixture[str]) -> 
     code = main(["doctor", "--sim", "1", "-o", "status_bits=odd"])
     err = capsys.readouterr().err
     assert code in (1, 2) and "status_bits='odd'" in err and len(err.strip().splitlines()) == 1
+
+
+def test_cli_profile_option(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    """--profile FILE: a good one is taken (a state read works), a bad one exits 2 naming the key."""
+    good, bad = tmp_path / "good.json", tmp_path / "bad.json"
+    good.write_text('{"profile": 1, "status_bits": "zero"}')
+    bad.write_text('{"profile": 1, "status_bits": "maybe"}')
+    assert main(["state", "1", "--sim", "1", "--profile", str(good)]) == 0
+    capsys.readouterr()
+    assert main(["state", "1", "--sim", "1", "--profile", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert "status_bits='maybe'" in err and len(err.strip().splitlines()) == 1

@@ -267,6 +267,11 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
         help="extra bus option, repeatable: -o host=127.0.0.1 -o port=29536 (socketcand), -o index=0 (python-can); "
         "with --sim a firmware knob, e.g. -o status_bits=kept",
     )
+    g.add_argument(
+        "--profile",
+        metavar="FILE",
+        help="the motors' firmware profile, as drempower doctor --write-profile saves it (spec/PROTOCOL.md 1.6)",
+    )
     g.add_argument("--sim-time-scale", type=positive, help=argparse.SUPPRESS)
     g.add_argument(
         "--timeout",
@@ -403,6 +408,8 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
         kw["timeout"] = args.timeout
     if getattr(args, "retries", None) is not None:
         kw["retries"] = args.retries
+    if getattr(args, "profile", None) is not None:
+        kw["profile"] = args.profile
     bus: Bus = open_bus(**kw)
     return bus
 

@@ -40,7 +40,7 @@ class FirmwareProfile:
         """What the client assumes of ``node``'s state frames."""
         m = self.motors.get(node)
         bits = m.get("status_bits") if m is not None else None
-        return bits if bits in ("zero", "kept") else self.status_bits  # type: ignore[return-value]
+        return bits if bits in ("zero", "kept") else self.status_bits
 
     def to_json(self) -> dict[str, Any]:
         """The JSON object of this profile."""
@@ -54,7 +54,7 @@ class FirmwareProfile:
 def _bits(value: object, where: str) -> StatusBitsSetting:
     if value not in STATUS_BITS:
         raise ConfigError(f"{where}: status_bits={value!r}: one of {', '.join(map(repr, STATUS_BITS))}")
-    return value  # type: ignore[return-value]
+    return value
 
 
 def load_profile(src: str | os.PathLike[str] | Mapping[str, Any] | FirmwareProfile) -> FirmwareProfile:

@@ -50,7 +50,7 @@ _RW = struct.Struct("<HH").unpack_from
 def is_valid_write(data: bytes) -> bool:
     """True when ``data`` (8 bytes of a 0x1F frame) starts with a write's ``[u16 address != 0][u16 data type 0-4]``."""
     address, dtype = _RW(data)
-    return address != 0 and dtype <= 4
+    return bool(address != 0 and dtype <= 4)
 
 
 class StatusBits:
@@ -73,7 +73,8 @@ class StatusBits:
     def saw(self, node: int, cmd: int) -> None:
         """Learn from a state frame of ``node`` with command value ``cmd`` below 0x18 that answered this host
         (or any with bits 3-4 set: rule 1)."""
-        if self.known.get(node) != (bits := "zero" if cmd < 0x08 else "kept"):
+        bits: StatusBitsSetting = "zero" if cmd < 0x08 else "kept"
+        if self.known.get(node) != bits:
             self.known[node] = bits
 
     def is_state(self, node: int, cmd: int, data: bytes, waited: bool, other_hosts: bool) -> bool:
