@@ -20,6 +20,7 @@ from ..client.effects import sleep
 from ..client.profile import FirmwareProfile
 from ..errors import DrEmpowerError, TimeoutError
 from ..protocol import FastRead, PositionP, PresetQ, ReadParam, Start
+from ..protocol.addresses import FW_VERSION
 from ..protocol.ids import Frame, StartKind
 from ..protocol.parameters import DataType
 from ._connect import add_connection_args, add_ids_arg, open_from_args
@@ -272,7 +273,7 @@ def _moving_probes(
 
 def _reboot(bus: Any, node: int, fast_read: bool) -> float | None:
     """Reboot ``node`` and return how long (s) until it answers again."""
-    poll = FastRead(node) if fast_read else ReadParam(node, 6, DataType.U32)
+    poll = FastRead(node) if fast_read else ReadParam(node, FW_VERSION, DataType.U32)
     bus.motor(node).reboot()
     t0 = bus.now()
     while bus.now() - t0 < REBOOT_LIMIT_S:
@@ -290,7 +291,7 @@ def _find(bus: Any) -> list[int]:
     found = [m.id for m in bus.scan()]
     if found:
         return found
-    reads = [ReadParam(i, 6, DataType.U32) for i in range(1, 64)]
+    reads = [ReadParam(i, FW_VERSION, DataType.U32) for i in range(1, 64)]
     return [r.node for r in bus.request(reads, missing_ok=True) if r is not None]
 
 
