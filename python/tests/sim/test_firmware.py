@@ -202,3 +202,15 @@ def test_cli_sim_bad_knob_exits_2(capsys: pytest.CaptureFixture[str]) -> None:
     with pytest.raises(SystemExit) as exc:
         main(["sim", "--ids", "1", "--status-bits", "some", "--duration", "0.1"])
     assert exc.value.code == 2 and "--status-bits" in capsys.readouterr().err
+
+
+def test_robot_file_profile_is_relative_to_the_file(tmp_path: Path) -> None:
+    (tmp_path / "fw.json").write_text('{"profile": 1, "status_bits": "kept"}')
+    path = tmp_path / "robot.toml"
+    path.write_text(
+        '[buses.main]\ninterface = "sim"\nstatus_bits = "kept"\nprofile = "fw.json"\n[joints.a]\nbus = "main"\nid = 2\n'
+    )
+    with drempower.open_robot(path) as robot:
+        bus = robot.buses["main"]
+        assert bus._session.inbox.bits.default == "kept"
+        assert bus.motor(2).get_state().node == 2
