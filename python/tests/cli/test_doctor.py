@@ -12,8 +12,7 @@ import pytest
 import drempower
 from drempower.cli import main
 from drempower.client.profile import load_profile
-from drempower.sim import SimBus
-from drempower.sim import firmware
+from drempower.sim import SimBus, firmware
 from drempower.sim.firmware import Firmware
 
 _channels = itertools.count()
