@@ -184,6 +184,7 @@ def test_cli_sim_status_bits_kept() -> None:
     thread, stop, out = _start(["--ids", "4", "--python-can", channel, "--status-bits", "kept", "--boot-s", "0.5"])
     try:
         assert "Ctrl-C stops" in out.getvalue(), out.getvalue()
+        assert "firmware profile: status_bits=kept, boot_s=0.5" in out.getvalue()
         client = can.Bus(interface="virtual", channel=channel)
         try:
             client.send(can.Message(arbitration_id=0x09E, data=bytes(8), is_extended_id=False))

@@ -10,7 +10,7 @@ from ..errors import ValidationError
 from ..sim.firmware import KNOBS, Q_TIME_ZERO, REPLY_TRIGGERS, STATUS_BITS, Firmware, firmware_from
 from ._connect import ascii_float
 
-__all__ = ["add_firmware_options", "firmware_of"]
+__all__ = ["add_firmware_options", "firmware_changes", "firmware_of"]
 
 
 def _seconds(text: str) -> float:
@@ -68,3 +68,9 @@ def firmware_of(args: argparse.Namespace, file_options: Mapping[str, Any] | None
         return firmware_from(base, {k: getattr(args, k, None) for k in KNOBS})
     except (TypeError, ValueError) as exc:
         raise ValidationError(f"firmware profile: {exc}") from None
+
+
+def firmware_changes(fw: Firmware) -> dict[str, Any]:
+    """The knobs of ``fw`` that differ from the simulator's defaults."""
+    base = Firmware().to_json()
+    return {k: v for k, v in fw.to_json().items() if base[k] != v}

@@ -26,7 +26,7 @@ from ..sim import (
 from ..sim.bus import DEFAULT_HOST_QUEUE, parse_host_queue
 from ._connect import ascii_float, bitrate, can_option, parse_ids, positive
 from ._output import clean, json_line
-from ._sim_firmware import add_firmware_options, firmware_of
+from ._sim_firmware import add_firmware_options, firmware_changes, firmware_of
 from ._sim_robot import serve_robot
 from ._usage import UsageError
 
@@ -202,6 +202,10 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
             {"motors": list(args.ids), "bitrate": args.bitrate, "time_scale": args.time_scale},
             f"drempower sim: motors {ids} ({timing}, time x{args.time_scale:g})",
         )
+        changed = firmware_changes(bus.firmware)
+        if changed:
+            knobs = ", ".join(f"{k}={v}" for k, v in changed.items())
+            show({"firmware": changed}, f"firmware profile: {knobs}")
         if args.adapter_pty or default:
             path = stack.enter_context(attach_adapter_pty(bus)).path
             show(
