@@ -425,6 +425,8 @@ class SimMotor:
 
     def _timed_move(self, deg: float, seconds: float, accel: float) -> None:
         """Q target-time move: reach ``deg`` in ``seconds`` with ``accel`` (r/min)/s."""
+        if seconds <= 0.0 and self.firmware.q_time_zero == "ignore":
+            return  # this firmware does nothing with a time of 0 (sim.firmware)
         limit = float(self._read(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_ACCEL_LIMIT) or 0.0)
         self._set_output(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_ACCEL_LIMIT, accel)
         self._set_output(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_DECEL_LIMIT, accel)
@@ -432,8 +434,6 @@ class SimMotor:
         d = self.drive
         start = d.pos_sp if d.mode == POSITION else d.pos
         s_curve = self._s_curve()
-        if seconds <= 0.0 and self.firmware.q_time_zero == "ignore":
-            return
         if seconds <= 0.0:  # no move time: as fast as the speed and acceleration limits allow
             self._fastest_move(target, accel if accel > 0.0 else limit, s_curve)
             return
