@@ -212,3 +212,12 @@ def test_simulator_profiles_with_and_without_a_client_profile(firmware: str) -> 
             pytest.raises(drempower.TimeoutError, match="fast read"),
         ):
             bus.motor(1).get_state()
+
+
+async def test_open_bus_async_takes_a_profile() -> None:
+    sim = SimBus([1], status_bits="kept")
+    async with drempower.open_bus_async("sim", bus=sim, clock="virtual", profile={"status_bits": "kept"}) as bus:
+        assert bus._session.inbox.bits.default == "kept"
+        assert (await bus.motor(1).get_state()).node == 1
+    with pytest.raises(ConfigError, match="status_bits='x'"):
+        drempower.open_bus_async("sim", profile={"status_bits": "x"})
