@@ -52,6 +52,8 @@ test-fast: $(DEVSTAMP)
 test-python: $(DEVSTAMP) sysdeps
 	cd python && ../$(BIN)/python -m pytest -q -p no:cacheprovider --fast-tier $(FAST_TESTS)
 	cd python && ../$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) $(addprefix --ignore=,$(FAST_TESTS))
+	# the core tests of the client, the robot layer and the CLI again, on firmware that keeps bits 3-4 (PROTOCOL.md 1.6)
+	cd python && ../$(BIN)/python -m pytest -q -n $(PYTEST_WORKERS) -m status_bits --sim-status-bits kept
 	cd python && ../$(BIN)/ruff check src tests plugins $(LINTED)
 	cd python && ../$(BIN)/ruff format --check src tests plugins
 	cd python && ../$(BIN)/mypy

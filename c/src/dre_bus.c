@@ -474,6 +474,38 @@ static void take_held(dre_bus *bus, dre_request *r)
     complete(bus, r, &msg);
 }
 
+/*
+ * Is a frame of `node` with bit 0 set its state (PROTOCOL.md 1.6, as the Python client)? 0x01..0x17 always
+ * (one answering this bus, `answers` 1, shows bits 3-4 sent as 0; 0x09..0x17 shows them kept). 0x1F whose
+ * bytes 0-3 are a valid write never. 0x19/0x1B/0x1D/other 0x1F: not when the motor sends bits 3-4 as 0;
+ * yes when it answers a request of this bus (the motor is then taken to keep them); else only when the
+ * motor keeps them and no other host was seen.
+ */
+static int status_frame(dre_bus *bus, const dre_frame *frame, uint8_t node, int answers)
+{
+    uint8_t cmd = (uint8_t)(frame->id & 0x1Fu);
+    uint64_t bit = (uint64_t)1u << node;
+
+    if (cmd < 0x18u) {
+        if (cmd > 0x07u || answers) {
+            bus->bits_zero = cmd < 0x08u ? bus->bits_zero | bit : bus->bits_zero & ~bit;
+            bus->bits_kept = cmd < 0x08u ? bus->bits_kept & ~bit : bus->bits_kept | bit;
+        }
+        return 1;
+    }
+    if (cmd == 0x1Fu && (frame->data[0] | frame->data[1]) != 0u && frame->data[3] == 0u && frame->data[2] <= 4u) {
+        return 0;
+    }
+    if ((bus->bits_zero & bit) != 0u) {
+        return 0;
+    }
+    if (answers) {
+        bus->bits_kept |= bit;
+        return 1;
+    }
+    return (bus->bits_kept & bit) != 0u && !bus->other_hosts;
+}
+
 dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
 {
     dre_msg msg;
@@ -489,12 +521,6 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
         bus->stats.rx_malformed++;
         return DRE_E_PROTOCOL;
     }
-    if (msg.type == DRE_MSG_STATE && bus->move_hooks != NULL) {
-        bus->move_hooks->state(bus, &msg);
-    }
-    if (msg.type == DRE_MSG_PARAM_VALUE && msg.u.param.address == TRAJ_ADDRESS && msg.node != DRE_BROADCAST) {
-        traj_learn(bus, msg.node, msg.u.param.dtype, msg.u.param.value.i);
-    }
     for (i = 0u; i < bus->nslots; i++) {
         dre_request *r = &bus->slots[i];
         /* the oldest request is the one furthest behind the sequence counter */
@@ -503,6 +529,17 @@ dre_status dre_bus_feed(dre_bus *bus, const dre_frame *frame)
             best = r;
         }
         mismatched |= a < 0;
+    }
+    if (msg.type == DRE_MSG_STATE && !status_frame(bus, frame, msg.node, best != NULL)) {
+        bus->other_hosts = 1u; /* another host's T, P, C or write (PROTOCOL.md 1.6) */
+        bus->stats.rx_unmatched++;
+        return DRE_OK;
+    }
+    if (msg.type == DRE_MSG_STATE && bus->move_hooks != NULL) {
+        bus->move_hooks->state(bus, &msg);
+    }
+    if (msg.type == DRE_MSG_PARAM_VALUE && msg.u.param.address == TRAJ_ADDRESS && msg.node != DRE_BROADCAST) {
+        traj_learn(bus, msg.node, msg.u.param.dtype, msg.u.param.value.i);
     }
     if (msg.type == DRE_MSG_PARAM_VALUE && zero_value(frame)) {
         if (best != NULL && (best->flags & FLAG_HELD) != 0u) {

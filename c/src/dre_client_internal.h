@@ -41,12 +41,13 @@ enum {
  * times (counted in `link`; the verified writes, not dre_set_id). */
 enum { FLAG_VERIFY = 1, FLAG_SAVE = 2, FLAG_CHAIN = 4, FLAG_HELD = 8, FLAG_REWRITE = 16 };
 
-/* Commands only a host sends (system/start, preset, Q position, velocity, parameter write): seeing
- * one means another host is on the bus, as this bus never receives its own frames. */
+/* Commands only a host sends (system/start, preset, Q position, velocity): seeing one means another host
+ * is on the bus, as this bus never receives its own frames. 0x19/0x1B/0x1D/0x1F may also be a motor's state
+ * frame (PROTOCOL.md 1.6): dre_bus_feed tells them apart. */
 static inline int dre_i_host_only(uint16_t id)
 {
     uint16_t cmd = (uint16_t)(id & 0x1Fu);
-    return cmd == 0x08u || cmd == 0x0Cu || cmd == 0x1Au || cmd == 0x1Cu || cmd == 0x1Fu;
+    return cmd == 0x08u || cmd == 0x0Cu || cmd == 0x1Au || cmd == 0x1Cu;
 }
 
 /*

@@ -20,12 +20,54 @@ settings.register_profile("thorough", deadline=None, max_examples=5000)
 settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 
 
+# The core tests of the client, the robot layer and the CLI, run a second time on simulated firmware that
+# keeps bits 3-4 of the command a state frame answers (spec/PROTOCOL.md 1.6): `make test` runs
+# `pytest -m status_bits --sim-status-bits kept` after the whole suite.
+STATUS_BITS_CORE = (
+    "tests/client/test_motor.py",
+    "tests/client/test_batch.py",
+    "tests/client/test_move_done.py",
+    "tests/client/test_other_hosts.py",
+    "tests/client/test_status_bits.py",
+    "tests/client/test_async.py",
+    "tests/robot/test_robot.py",
+    "tests/robot/test_safety.py",
+    "tests/cli/test_read.py",
+    "tests/cli/test_motion.py",
+    "tests/cli/test_doctor.py",
+)
+
+
 def pytest_addoption(parser: pytest.Parser) -> None:
     parser.addoption(
         "--fast-tier",
         action="store_true",
         help="run as the fast tier (make test-fast): a test that starts a process or sleeps fails, naming what it did",
     )
+
+    parser.addoption(
+        "--sim-status-bits",
+        choices=("zero", "kept"),
+        default=None,
+        help="simulated motors given no profile send state frames with bits 3-4 zero or kept (default zero)",
+    )
+
+
+def pytest_configure(config: pytest.Config) -> None:
+    config.addinivalue_line("markers", "status_bits: a core test run on both status-bits profiles by `make test`")
+    bits = config.getoption("--sim-status-bits")
+    if bits is not None:
+        from drempower.sim import firmware
+
+        firmware.DEFAULT = firmware.Firmware(status_bits=bits)
+
+
+def pytest_collection_modifyitems(config: pytest.Config, items: list[pytest.Item]) -> None:
+    root = Path(__file__).resolve().parents[1]
+    core = {root / p for p in STATUS_BITS_CORE}
+    for item in items:
+        if item.path in core:
+            item.add_marker(pytest.mark.status_bits)
 
 
 @pytest.fixture(autouse=True)

@@ -255,6 +255,11 @@ typedef struct {
     uint32_t held_ms;    /**< tick when the start was held */
     int8_t held_status;  /**< DRE_PENDING while held, then DRE_OK, DRE_E_TIMEOUT or DRE_E_SEND */
     uint8_t other_hosts; /**< 1 once frames of another host were seen (see dre_bus_feed) */
+    /** Bit n: motor n's state frames carry bits 3-4 as 0 (bits_zero) or keep those of the command they
+     *  answer (bits_kept), as learned from its answers (PROTOCOL.md 1.6); set one before use to say so up
+     *  front, as a firmware profile does. */
+    uint64_t bits_zero;
+    uint64_t bits_kept;
     uint64_t traj_known;  /**< bit n: the Q profile of motor n is known */
     uint64_t traj_scurve; /**< bit n: motor n runs the S-curve profile */
     dre_move moves[DRE_MOVE_RECORDS]; /**< see dre_positions_done */
@@ -295,8 +300,9 @@ int dre_bus_isr_push(dre_bus *bus, const dre_frame *frame);
  * Another host on the bus: a parameter reply of value 0 has the bytes of a
  * read request, so another host's read of the parameter a request waits for
  * looks exactly like its answer. Once the bus has seen another host
- * (bus->other_hosts: a command only a host sends, 0x08, 0x0C, 0x1A, 0x1C or
- * 0x1F, or a reply of value 0 that answered nothing), such a reply is held
+ * (bus->other_hosts: a command only a host sends, 0x08, 0x0C, 0x1A or 0x1C,
+ * a 0x19/0x1B/0x1D/0x1F frame that is no state by the rule of PROTOCOL.md 1.6,
+ * or a reply of value 0 that answered nothing), such a reply is held
  * back for DRE_ZERO_REPLY_GRACE_MS: a non-zero reply meanwhile is the answer;
  * otherwise dre_bus_poll() takes the held one at the end of the grace (or at
  * the request's timeout, if that comes first). As the Python client.

@@ -25,7 +25,9 @@ a command beyond one is refused before any frame, naming the file and the joint
 (:mod:`drempower.client.engine.watchdog`) does to the joint when its controller is gone.
 
 Every key of a bus entry but ``interface`` goes to :func:`drempower.open_bus`
-(``channel``, ``bitrate``, ``host``, ``port``, ``timeout``, ``time_scale``...).
+(``channel``, ``bitrate``, ``host``, ``port``, ``timeout``, ``time_scale``...;
+``profile``, a firmware profile of ``drempower doctor --write-profile``, relative
+to the robot file; a sim bus's firmware knobs such as ``status_bits = "kept"``).
 A ``"sim"`` bus simulates the motors of its joints.
 
 A robot file may name a physics model (MJCF, or URDF through MuJoCo's import;
@@ -216,6 +218,9 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
             raise ConfigError(f"{where}: interface={interface!r}: give the interface, e.g. 'sim', 'socketcan'")
         if interface == "sim" and "motors" in opts:
             raise ConfigError(f"{where}: motors: a sim bus simulates the motors of its joints; leave motors out")
+        profile = opts.get("profile")
+        if isinstance(profile, str) and profile:  # a firmware profile file, relative to the robot file
+            opts["profile"] = os.path.normpath(os.path.join(base or os.getcwd(), os.path.expanduser(profile)))
         buses[name] = BusSpec(name, interface, opts)
     if not buses:
         raise ConfigError(f"{source}: no [buses.NAME] entry: a robot needs at least one bus")

@@ -264,7 +264,13 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
         action="append",
         type=can_option,
         default=[],
-        help="extra bus option, repeatable: -o host=127.0.0.1 -o port=29536 (socketcand), -o index=0 (python-can)",
+        help="extra bus option, repeatable: -o host=127.0.0.1 -o port=29536 (socketcand), -o index=0 (python-can); "
+        "with --sim a firmware knob, e.g. -o status_bits=kept",
+    )
+    g.add_argument(
+        "--profile",
+        metavar="FILE",
+        help="the motors' firmware profile, as drempower doctor --write-profile saves it (spec/PROTOCOL.md 1.6)",
     )
     g.add_argument("--sim-time-scale", type=positive, help=argparse.SUPPRESS)
     g.add_argument(
@@ -281,6 +287,12 @@ def add_connection_args(parser: argparse.ArgumentParser) -> None:
         "for lossy links",
     )
 
+
+_SIM_KNOBS = frozenset(
+    ("status_bits", "boot_s", "reply_state", "fast_read", "q_time_zero", "heartbeat", "factory_id", "clock")
+)
+"""What ``-o KEY=VALUE`` may set with ``--sim``: the simulated firmware's knobs (drempower.sim.firmware),
+and ``clock=virtual`` (simulated time passes only while the command waits)."""
 
 _FLAGS = {"serial": "--serial", "uart": "--uart", "sim": "--sim", "interface": "-i/--interface"}
 
@@ -305,7 +317,8 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
         raise UsageError("give one connection: " + ", ".join(_FLAGS[c] for c in chosen) + " conflict")
     can_only = ["-c/--channel"] if args.channel is not None else []
     can_only += ["-o/--can-option"] if args.can_option else []
-    if can_only and chosen and chosen[0] != "interface":
+    sim_knobs = bool(args.sim) and all(k in _SIM_KNOBS for k, _ in args.can_option) and args.channel is None
+    if can_only and chosen and chosen[0] != "interface" and not sim_knobs:
         raise UsageError(f"{' and '.join(can_only)}: only with -i/--interface, not with {_FLAGS[chosen[0]]}")
     if args.bitrate is not None and args.serial:
         raise UsageError(
@@ -314,9 +327,9 @@ def connection_kwargs(args: argparse.Namespace) -> tuple[dict[str, Any], str]:
         )
     kw: dict[str, Any]
     if args.sim:
-        kw = {"interface": "sim", "motors": args.sim}
+        kw = {"interface": "sim", "motors": args.sim, **dict(args.can_option)}  # -o: firmware knobs
         scale = sim_time_scale(args)
-        if scale is not None:
+        if scale is not None and kw.get("clock") != "virtual":
             kw["time_scale"] = scale
         how = f"simulated motors {','.join(map(str, args.sim))}"
     elif args.serial:
@@ -395,6 +408,8 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
         kw["timeout"] = args.timeout
     if getattr(args, "retries", None) is not None:
         kw["retries"] = args.retries
+    if getattr(args, "profile", None) is not None:
+        kw["profile"] = args.profile
     bus: Bus = open_bus(**kw)
     return bus
 

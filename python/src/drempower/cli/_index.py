@@ -21,6 +21,7 @@ COMMANDS: dict[str, str] = {
     "demo": "demo",
     "dfu": "dfu",
     "diff": "backup",
+    "doctor": "doctor",
     "enable": "control",
     "errors": "faults",
     "get": "getset",

@@ -32,6 +32,7 @@ from ..sim import (
     attach_uart_pty,
 )
 from ..sim.twin import TwinRunner, couple_robot
+from ._sim_firmware import firmware_of
 from ._usage import UsageError
 
 __all__ = ["serve_robot"]
@@ -103,6 +104,7 @@ def serve_robot(args: argparse.Namespace, show: Callable[..., None], stop: threa
             faults=faults,
             seed=args.seed,
             config_dir=None if args.config_dir is None else os.path.join(args.config_dir, name),
+            firmware=firmware_of(args, spec.buses[name].options),
         )
         for name in spec.buses
     }

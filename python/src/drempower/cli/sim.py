@@ -26,6 +26,7 @@ from ..sim import (
 from ..sim.bus import DEFAULT_HOST_QUEUE, parse_host_queue
 from ._connect import ascii_float, bitrate, can_option, parse_ids, positive
 from ._output import clean, json_line
+from ._sim_firmware import add_firmware_options, firmware_changes, firmware_of
 from ._sim_robot import serve_robot
 from ._usage import UsageError
 
@@ -78,6 +79,7 @@ def register(sub: Any) -> None:
     p.add_argument("--time-scale", type=positive, default=1.0, help="simulated seconds per second (default 1)")
     p.add_argument("--config-dir", metavar="DIR", help="keep each motor's saved configuration in DIR")
     p.add_argument("--duration", type=positive, metavar="S", help="stop after S seconds of wall time")
+    add_firmware_options(p)
     f = p.add_argument_group("faults")
     f.add_argument("--drop-rate", type=_rate, default=0.0, metavar="P", help="probability that a frame is lost")
     f.add_argument("--corrupt-rate", type=_rate, default=0.0, metavar="P", help="probability of one flipped bit")
@@ -187,6 +189,7 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
             faults=faults,
             seed=args.seed,
             config_dir=args.config_dir,
+            firmware=firmware_of(args),
         )
     except SavedConfigError as exc:  # a file in --config-dir that cannot be used: the user's to fix (exit 2)
         raise ValidationError(str(exc)) from None
@@ -199,6 +202,10 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
             {"motors": list(args.ids), "bitrate": args.bitrate, "time_scale": args.time_scale},
             f"drempower sim: motors {ids} ({timing}, time x{args.time_scale:g})",
         )
+        changed = firmware_changes(bus.firmware)
+        if changed:
+            knobs = ", ".join(f"{k}={v}" for k, v in changed.items())
+            show({"firmware": changed}, f"firmware profile: {knobs}")
         if args.adapter_pty or default:
             path = stack.enter_context(attach_adapter_pty(bus)).path
             show(

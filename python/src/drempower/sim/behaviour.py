@@ -5,6 +5,11 @@ least surprising behaviour and keeps all of those picks here, as constants and
 small pure functions, so that a finding on real hardware changes one place.
 docs/simulator.md lists them for users.
 
+Readings a host can see and that real firmware may take either way (the bits 3-4 of
+state frames, the boot time, what reply-state answers, the fast read, a Q time of 0,
+heartbeats, the factory id) are knobs of :mod:`drempower.sim.firmware`; its defaults
+are the choices stated here.
+
 Choices that are simply "do nothing" live in this docstring:
 
 * No reply to parameter writes (0x1F) or to system commands (0x08).
@@ -80,7 +85,6 @@ from ..protocol.flags import AxisError, ControllerError, MotorError
 from ..protocol.parameters import F32_MAX, DataType
 
 __all__ = [
-    "STATE_SPARE_BITS",
     "DONE_TOLERANCE_DEG",
     "IDLE_DAMPING_NM_PER_RPM",
     "WATCHDOG_ERROR",
@@ -101,9 +105,6 @@ __all__ = [
     "convert_value",
     "target_time_profile",
 ]
-
-STATE_SPARE_BITS = 0
-"""Bits 3-4 of a state frame's command field: 0, so state frames use 0x01/0x03/0x05/0x07."""
 
 DONE_TOLERANCE_DEG = 0.1
 """T bit in T and P modes (and Q with accel 0): 1 when the shaft is within this many degrees of

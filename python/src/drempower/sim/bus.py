@@ -27,8 +27,9 @@ import math
 import os
 import random
 import threading
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Mapping
 from pathlib import Path
+from typing import Any
 
 from ..errors import DrEmpowerError, ValidationError
 from ..protocol.ids import Frame
@@ -46,6 +47,7 @@ from ..protocol.messages import (
 )
 from .defaults import MotorModel
 from .faults import Faults
+from .firmware import Firmware, firmware_from
 from .motor import SimMotor
 from .timing import BusStats, frame_bits
 
@@ -106,7 +108,9 @@ class SimBus:
     ``motor-<id>.json`` (by the id the motor was created with). ``model`` sets
     the physical properties of every motor. ``host_queue`` models each host's
     transmit queue when there is a bit rate: ``"fifo"`` or ``"priority:N"``
-    (default ``"priority:3"``, see the module docstring).
+    (default ``"priority:3"``, see the module docstring). ``firmware`` and the knobs after it
+    (``status_bits``, ``boot_s``, ``reply_state``, ``fast_read``, ``q_time_zero``, ``heartbeat``,
+    ``factory_id``) pick the motors' reading of the vendor's document (:class:`~drempower.sim.firmware.Firmware`).
     """
 
     STEP = 0.001
@@ -122,7 +126,28 @@ class SimBus:
         config_dir: str | os.PathLike[str] | None = None,
         model: MotorModel | None = None,
         host_queue: str = DEFAULT_HOST_QUEUE,
+        firmware: Firmware | Mapping[str, Any] | None = None,
+        status_bits: str | None = None,
+        boot_s: float | None = None,
+        reply_state: str | None = None,
+        fast_read: bool | None = None,
+        q_time_zero: str | None = None,
+        heartbeat: bool | None = None,
+        factory_id: int | None = None,
     ) -> None:
+        self.firmware = firmware_from(
+            firmware,
+            {
+                "status_bits": status_bits,
+                "boot_s": boot_s,
+                "reply_state": reply_state,
+                "fast_read": fast_read,
+                "q_time_zero": q_time_zero,
+                "heartbeat": heartbeat,
+                "factory_id": factory_id,
+            },
+        )
+        """The firmware profile of every motor (:mod:`drempower.sim.firmware`)."""
         ids = list(ids)
         if not ids or any(not MIN_MOTOR <= i <= MAX_NODE for i in ids) or len(set(ids)) != len(ids):
             raise ValidationError(f"ids={ids!r}: motor ids must be distinct and in {MIN_MOTOR}..{MAX_NODE}")
@@ -148,7 +173,9 @@ class SimBus:
         self._replies: dict[int, Callable[[Frame], None]] = {}
         self._uart_taps: dict[int, list[Listener]] = {}
         for i in ids:
-            m = SimMotor(i, model=model, config_path=folder / f"motor-{i}.json" if folder else None)
+            m = SimMotor(
+                i, model=model, config_path=folder / f"motor-{i}.json" if folder else None, firmware=self.firmware
+            )
             self.motors[i] = m
             self._replies[i] = self._replier(m)
             m.emit = self._heartbeat_sink(m)

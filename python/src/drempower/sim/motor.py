@@ -110,8 +110,10 @@ from ..protocol.messages import (
 )
 from ..protocol.parameters import F32_MAX, Parameter, parameter
 from . import behaviour as bh
+from . import firmware as firmware_module
 from .defaults import MotorModel
 from .drive import POSITION, TAU, TRAP_TRAJ, Drive
+from .firmware import Firmware, factory_firmware_id
 from .params import OUTPUT_VIEWS, ParamStore, view_factor
 
 __all__ = ["SimMotor"]
@@ -148,10 +150,20 @@ class SimMotor:
     (kg*m^2 at the output).
     """
 
-    def __init__(self, ident: int, *, model: MotorModel | None = None, config_path: Path | None = None) -> None:
+    def __init__(
+        self,
+        ident: int,
+        *,
+        model: MotorModel | None = None,
+        config_path: Path | None = None,
+        firmware: Firmware | None = None,
+    ) -> None:
         self.ident = ident
         self.model = model or MotorModel()
+        self.firmware = firmware or firmware_module.DEFAULT
+        """The reading of the document this motor's firmware takes (:mod:`~drempower.sim.firmware`)."""
         self.params = ParamStore(ident, config_path)
+        factory_firmware_id(self.params, ident, self.firmware.factory_id)
         self.drive = Drive()
         self.time = 0.0
         """Simulated time of the last step (s)."""
@@ -274,8 +286,9 @@ class SimMotor:
         self._load_inertia = value
         self._refresh()
 
-    def state_frame(self) -> Frame:
-        """The real-time state frame as the motor would send it now."""
+    def state_frame(self, answered: int = 0) -> Frame:
+        """The real-time state frame as the motor would send it now, answering command ``answered``
+        (0: none, a heartbeat), whose bits 3-4 it may keep (:attr:`firmware`)."""
         d = self.drive
         pos = d.pos * 360.0 - self._offset
         return State(
@@ -285,7 +298,7 @@ class SimMotor:
             _s16(d.torque),
             self.trajectory_done,
             self.errors[AXIS0_ERROR] != 0,
-            bh.STATE_SPARE_BITS,
+            self.firmware.spare_bits(answered),
         ).encode()
 
     def param(self, key: str | int) -> int | float:
@@ -365,9 +378,9 @@ class SimMotor:
         self._last_rx = self.time
         _HANDLERS[type(msg)](self, msg, reply)
 
-    def _answer_state(self, reply: Reply) -> None:
-        if self._reply_state:
-            reply(self.state_frame())
+    def _answer_state(self, reply: Reply, cmd: int) -> None:
+        if self._reply_state and self.firmware.replies_to(cmd):
+            reply(self.state_frame(cmd))
 
     def _raw(self, deg: float) -> float:
         """Reported degrees -> internal output turns, clamped to the software limits when they are on."""
@@ -380,7 +393,7 @@ class SimMotor:
     def _on_t(self, msg: PositionT, reply: Reply) -> None:
         if self.drive.active:
             self._track(msg.position, msg.bandwidth)
-        self._answer_state(reply)
+        self._answer_state(reply, 0x19)
 
     def _track(self, deg: float, bandwidth: float) -> None:
         bw = abs(bandwidth)
@@ -390,7 +403,7 @@ class SimMotor:
     def _on_q(self, msg: PositionQ, reply: Reply) -> None:
         if self.drive.active:
             self._move(msg.position, abs(msg.speed), abs(msg.accel))
-        self._answer_state(reply)
+        self._answer_state(reply, 0x1A)
 
     def _move(self, deg: float, speed: float, accel: float) -> None:
         """Q move to ``deg`` at ``speed`` r/min and ``accel`` (r/min)/s."""
@@ -412,6 +425,8 @@ class SimMotor:
 
     def _timed_move(self, deg: float, seconds: float, accel: float) -> None:
         """Q target-time move: reach ``deg`` in ``seconds`` with ``accel`` (r/min)/s."""
+        if seconds <= 0.0 and self.firmware.q_time_zero == "ignore":
+            return  # this firmware does nothing with a time of 0 (sim.firmware)
         limit = float(self._read(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_ACCEL_LIMIT) or 0.0)
         self._set_output(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_ACCEL_LIMIT, accel)
         self._set_output(AXIS0_OUTPUT_SHAFT_TRAP_TRAJ_DECEL_LIMIT, accel)
@@ -445,12 +460,12 @@ class SimMotor:
     def _on_p(self, msg: PositionP, reply: Reply) -> None:
         if self.drive.active:
             self.drive.position(self._raw(msg.position), msg.speed_ff / 60.0, msg.torque_ff)
-        self._answer_state(reply)
+        self._answer_state(reply, 0x1B)
 
     def _on_v(self, msg: Velocity, reply: Reply) -> None:
         if self.drive.active:
             self._velocity(msg.speed, msg.param, msg.mode)
-        self._answer_state(reply)
+        self._answer_state(reply, 0x1C)
 
     def _velocity(self, speed: float, param: float, mode: VelocityMode) -> None:
         if mode == VelocityMode.PASSTHROUGH:
@@ -462,7 +477,7 @@ class SimMotor:
     def _on_c(self, msg: Torque, reply: Reply) -> None:
         if self.drive.active:
             self._torque(msg.torque, msg.param, msg.mode)
-        self._answer_state(reply)
+        self._answer_state(reply, 0x1D)
 
     def _torque(self, torque: float, param: float, mode: TorqueMode) -> None:
         if mode == TorqueMode.DIRECT:
@@ -473,7 +488,7 @@ class SimMotor:
 
     def _on_preset(self, msg: Preset, reply: Reply) -> None:
         self.preset = msg
-        self._answer_state(reply)
+        self._answer_state(reply, 0x0C)
 
     def _on_start(self, msg: Start | StartImpedance, reply: Reply) -> None:
         p, self.preset = self.preset, None
@@ -501,6 +516,8 @@ class SimMotor:
 
     def _on_system(self, msg: SystemCommand, reply: Reply) -> None:
         op = msg.op
+        if op < SysCmd.START_T:  # a start answers through its preset
+            self._answer_state(reply, 0x08)
         if op is SysCmd.ESTOP:
             self._fault(AXIS0_ERROR, AxisError.ESTOP_REQUESTED)
         elif op is SysCmd.CLEAR_ERRORS:
@@ -536,7 +553,7 @@ class SimMotor:
         self._enter_idle()
         self.preset = None
         self._hb_next = math.inf
-        self._boot_end = self.time + bh.BOOT_SECONDS
+        self._boot_end = self.time + self.firmware.boot_s
         self._rearm()
 
     def _on_read(self, msg: ReadParam, reply: Reply) -> None:
@@ -545,7 +562,8 @@ class SimMotor:
             reply(ParamValue(self.node_id, msg.address, msg.dtype, bh.convert_value(value, msg.dtype)).encode())
 
     def _on_fast_read(self, msg: FastRead, reply: Reply) -> None:
-        reply(self.state_frame())
+        if self.firmware.fast_read:
+            reply(self.state_frame(0x1E))
 
     def _on_write(self, msg: WriteParam, reply: Reply) -> None:
         try:
@@ -553,6 +571,7 @@ class SimMotor:
         except DrEmpowerError:
             return
         self._write(p, bh.convert_value(msg.value, p.dtype))
+        self._answer_state(reply, 0x1F)
 
     # ------------------------------------------------------------------ parameters
 
@@ -727,7 +746,7 @@ class SimMotor:
             if ram[AXIS0_CONTROLLER_CONFIG_ENABLE_OVERSPEED_ERROR]
             else math.inf
         )
-        self._hb_period = float(ram[CAN_CONFIG_HEARTBEAT_MS]) / 1000.0
+        self._hb_period = float(ram[CAN_CONFIG_HEARTBEAT_MS]) / 1000.0 if self.firmware.heartbeat else 0.0
         self._timeout = float(ram[CAN_CONFIG_TIMEOUT_MS]) / 1000.0
 
     # ------------------------------------------------------------------ states and errors

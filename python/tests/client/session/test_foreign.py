@@ -1,7 +1,8 @@
 """Another host's frames on the bus: never a motor's state, never an answer; counted as foreign.
 
-State frames have bit 0 set and bits 3-4 not both set (0x01..0x17). 0x19, 0x1B, 0x1D and 0x1F are the
-host commands T, P, C and write: from another host, such a frame carries no state.
+State frames have bit 0 set; 0x01..0x17 are always a motor's. 0x19, 0x1B, 0x1D and 0x1F are also the
+host commands T, P, C and write: once a motor's answers showed bits 3-4 sent as 0, such a frame is another
+host's and carries no state (spec/PROTOCOL.md 1.6; tests/client/test_status_bits.py for the other cases).
 """
 
 from __future__ import annotations
@@ -46,7 +47,10 @@ def test_another_hosts_write_after_a_fast_read_is_no_state() -> None:
 @pytest.mark.parametrize("cmd", [0x19, 0x1B, 0x1D, 0x1F])
 def test_host_commands_with_bit_0_set_update_nothing(cmd: int) -> None:
     s = BusSession(timeout=0.05)
-    s.receive(STATE_2, 0.001)
+    first = s.submit(read_states([2]))
+    s.data_to_send()
+    s.receive(STATE_2, 0.001)  # an answer with bits 3-4 zero: motor 2's firmware sends them as 0
+    assert first.done and s.inbox.bits.of(2) == "zero"
     before = s.known.states[2]
     opn = s.submit(read_states([2]))
     s.data_to_send()
@@ -80,6 +84,7 @@ def test_another_hosts_fast_read_is_foreign_not_malformed() -> None:
 
 def test_a_cycle_takes_no_other_hosts_position_command_as_a_reply_state() -> None:
     s = BusSession(timeout=0.05)
+    s.inbox.bits.default = "zero"  # a profile says so (else: undecidable during the first wait, PROTOCOL.md 1.6)
     opn = s.submit(batch.cycle(s, [PositionT(2, 10.0, 50.0)], reply_state=True))
     s.data_to_send()
     other = PositionT(2, 45.0, 0.0, 20.0).encode()  # another host: T (0x19) to motor 2

@@ -7,7 +7,7 @@ front ends: do not edit; edit ``bus_async.py`` and run ``make generate``.
 from __future__ import annotations
 
 import os
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
@@ -45,6 +45,7 @@ from ..engine.timeouts import checks_times
 from .busbase import connect
 from .flavours import SyncBusBase
 from .motorbase import MotorBase
+from .profile import FirmwareProfile, apply_profile, load_profile
 from .timed import check_duration
 
 if TYPE_CHECKING:
@@ -631,6 +632,7 @@ def open_bus(
     stop_on_close: StopOnClose = True,
     start: StartPolicy = "auto",
     transport: Transport | None = None,
+    profile: str | os.PathLike[str] | Mapping[str, Any] | FirmwareProfile | None = None,
     **kwargs: Any,
 ) -> Bus:
     """Open a bus: ``open_bus("sim", motors=[1, 2, 3])``, ``open_bus("socketcan", "can0")``,
@@ -639,12 +641,18 @@ def open_bus(
     ``interface``/``channel``/``bitrate`` and extra keyword arguments select the
     transport (see :func:`drempower.transports.open_transport`); or pass an open
     ``transport``. Fails at once with :class:`~drempower.transports.TransportError`
-    when the bus does not exist. The remaining options are those of :class:`Bus`;
-    use it as a context manager, which closes the bus (applying ``stop_on_close``).
+    when the bus does not exist. ``profile`` (a file of ``drempower doctor --write-profile``,
+    or its mapping) says what the motors' firmware sends (:mod:`drempower.client.api.profile`).
+    The remaining options are those of :class:`Bus`; use it as a context manager, which
+    closes the bus (applying ``stop_on_close``).
     """
+    prof = load_profile(profile) if profile is not None else None
     transport = connect(interface, channel, bitrate, transport, **kwargs)
     try:
-        return Bus(transport, timeout=timeout, retries=retries, stop_on_close=stop_on_close, start=start)
+        bus = Bus(transport, timeout=timeout, retries=retries, stop_on_close=stop_on_close, start=start)
+        if prof is not None:
+            apply_profile(bus._session.inbox.bits, prof)
+        return bus
     except BaseException:
         transport.close()
         raise

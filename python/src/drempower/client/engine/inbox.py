@@ -18,6 +18,7 @@ from ...protocol.messages import HOST_CMDS, decode_reply
 from .operation import WAIT
 from .requests import MATCHED, MISMATCHED
 from .state import MotorState
+from .status_bits import StatusBits
 
 if TYPE_CHECKING:
     from .grace import ZeroReplyGrace
@@ -42,9 +43,10 @@ class Inbox:
 
     Its collaborators: the ``timers`` (the time now, and the expiry of state waits), what is ``known`` of
     the motors (the latest states), the ``matcher`` that replies resolve, the zero-reply ``grace``, the
-    ``stats`` it counts into, and the ``operations`` a state wait resumes."""
+    ``stats`` it counts into, and the ``operations`` a state wait resumes. It keeps what each motor's
+    state frames hold in bits 3-4 (:attr:`bits`)."""
 
-    __slots__ = ("grace", "known", "matcher", "operations", "stats", "timers", "waits")
+    __slots__ = ("bits", "grace", "known", "matcher", "operations", "stats", "timers", "waits")
 
     def __init__(
         self,
@@ -62,6 +64,8 @@ class Inbox:
         self.grace = grace
         self.stats = stats
         self.operations = operations
+        self.bits = StatusBits()
+        """What each motor's state frames hold in bits 3-4 (spec/PROTOCOL.md section 1.6)."""
         self.waits: dict[int, list[tuple[Operation[Any], float]]] = {}
         """Per motor, the operations waiting for a state newer than a time (s)."""
 
@@ -112,8 +116,17 @@ class Inbox:
             stats.unmatched += 1
             return frame
         cmd = arb & 0x1F
-        if cmd & 1 and cmd < 0x18:
-            # a state frame (protocol.messages.STATE_CMDS): decode bits 0-2 only, as decode_reply does
+        if cmd & 1 and (
+            cmd < 0x18
+            or self.bits.is_state(
+                arb >> 5,
+                cmd,
+                data,
+                self.matcher.waiting(arb >> 5, 0) or (arb >> 5) in self.waits,
+                self.grace.other_hosts,
+            )
+        ):
+            # a state frame (spec/PROTOCOL.md 1.6, engine.status_bits): decode bits 0-2 only, as decode_reply does
             node = arb >> 5
             pos, vel, tq = _STATE(data)
             st: MotorState = _new_state(MotorState, (node, pos, vel / 100, tq / 100, bool(cmd & 2), bool(cmd & 4), now))
@@ -123,8 +136,10 @@ class Inbox:
                 if mv is not None and mv.took is None and st.timestamp > mv.sent:
                     mv.took = st.timestamp
             known.states[node] = st
-            self.matcher.resolve_state(node, st)
+            answered = self.matcher.resolve_state(node, st)
             waits = self.waits.get(node)
+            if cmd < 0x18 and (cmd > 0x07 or answered or waits):  # learn from answers, not from heartbeats
+                self.bits.saw(node, cmd)
             if waits:
                 resume = self.operations.resume
                 for opn, since in list(waits):
@@ -135,7 +150,7 @@ class Inbox:
             return st
         grace = self.grace
         if cmd != 0x1E:
-            if cmd in _HOST_ONLY_CMDS:  # 0x19/0x1B/0x1D/0x1F too: T, P, C and write, never a state
+            if cmd in _HOST_ONLY_CMDS:  # 0x19/0x1B/0x1D/0x1F that rule 1.6 takes as no state: T, P, C, write
                 grace.other_hosts = True
                 stats.foreign += 1
             else:
