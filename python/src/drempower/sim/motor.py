@@ -59,16 +59,16 @@ from ..protocol.addresses import (
     AXIS0_ENCODER_TURN_ABS,
     AXIS0_ENCODER_VEL_ESTIMATE,
     AXIS0_ERROR,
-    AXIS0_MOTOR_CONFIG_CURRENT_LIM,
+    AXIS0_FET_THERMISTOR_TEMPERATURE,
     AXIS0_MOTOR_CONFIG_PHASE_RESISTANCE,
     AXIS0_MOTOR_CONFIG_TORQUE_CONSTANT,
-    AXIS0_MOTOR_CONFIG_TORQUE_LIM,
     AXIS0_MOTOR_CURRENT_CONTROL_IBUS,
     AXIS0_MOTOR_CURRENT_CONTROL_IQ_MEASURED,
     AXIS0_MOTOR_CURRENT_CONTROL_IQ_SETPOINT,
     AXIS0_MOTOR_EFFECTIVE_CURRENT_LIM,
     AXIS0_MOTOR_ERROR,
     AXIS0_MOTOR_IS_CALIBRATED,
+    AXIS0_MOTOR_THERMISTOR_TEMPERATURE,
     AXIS0_OUTPUT_SHAFT_LOAD_INERTIA,
     AXIS0_OUTPUT_SHAFT_TORQUE_ESTIMATE,
     AXIS0_OUTPUT_SHAFT_TORQUE_RAMP_RATE,
@@ -113,6 +113,7 @@ from . import behaviour as bh
 from .defaults import MotorModel
 from .drive import POSITION, TAU, TRAP_TRAJ, Drive
 from .params import OUTPUT_VIEWS, ParamStore, view_factor
+from .thermal import Thermal, ThermalLimits
 
 __all__ = ["SimMotor"]
 
@@ -153,6 +154,9 @@ class SimMotor:
         self.model = model or MotorModel()
         self.params = ParamStore(ident, config_path)
         self.drive = Drive()
+        self.thermal = Thermal(self.model.thermal)
+        """Winding and board temperatures (degC); tests may set them (a heat gun)."""
+        self._limits = ThermalLimits()
         self.time = 0.0
         """Simulated time of the last step (s)."""
         self.state = AxisState.IDLE
@@ -320,6 +324,7 @@ class SimMotor:
             plant.sync(now)
         d.step(dt)
         self.time = now
+        self._heat(dt)
         if self.state == AxisState.ENCODER_OFFSET_CALIBRATION:
             self._encoder_scan(now)
         if d.active:
@@ -334,6 +339,15 @@ class SimMotor:
                 self._fault(AXIS0_CONTROLLER_ERROR, ControllerError.OVERSPEED)
         if now >= self._wake:
             self._timers()
+
+    def _heat(self, dt: float) -> None:
+        """Heat with this step's current, derate the current limit, trip above the upper limits."""
+        lim = self._limits
+        self.thermal.step(dt, self.current, lim.phase_resistance)
+        trip = lim.tripped(self.thermal)
+        if trip:
+            self._fault(trip, 0x1)
+        self.drive.tlim = lim.torque_limit(self.thermal)
 
     def _timers(self) -> None:
         now = self.time + _EPS
@@ -699,13 +713,8 @@ class SimMotor:
             if ram[AXIS0_CONTROLLER_CONFIG_ENABLE_VEL_LIMIT]
             else math.inf
         )
-        d.tlim = (
-            min(
-                float(ram[AXIS0_MOTOR_CONFIG_TORQUE_LIM]),
-                float(ram[AXIS0_MOTOR_CONFIG_CURRENT_LIM]) * float(ram[AXIS0_MOTOR_CONFIG_TORQUE_CONSTANT]),
-            )
-            * r
-        )
+        self._limits.configure(ram, r)
+        d.tlim = self._limits.torque_limit(self.thermal)
         d.jff = float(ram[AXIS0_CONTROLLER_CONFIG_INERTIA]) * r2 + float(ram[AXIS0_OUTPUT_SHAFT_LOAD_INERTIA])
         d.j = TAU * (m.rotor_inertia * r2 + self._load_inertia)
         d.b = TAU * m.viscous
@@ -859,7 +868,9 @@ _LIVE: dict[int, Callable[[SimMotor], int | float]] = {
     AXIS0_CONTROLLER_TRAJECTORY_DONE: lambda m: int(m.trajectory_done),
     AXIS0_CONTROLLER_CONFIG_CONTROL_MODE: lambda m: m.drive.mode,
     AXIS0_CONTROLLER_CONFIG_INPUT_MODE: lambda m: m.drive.input_mode,
-    AXIS0_MOTOR_EFFECTIVE_CURRENT_LIM: lambda m: m.params.ram[AXIS0_MOTOR_CONFIG_CURRENT_LIM],
+    AXIS0_MOTOR_EFFECTIVE_CURRENT_LIM: lambda m: m._limits.current_limit(m.thermal),
+    AXIS0_MOTOR_THERMISTOR_TEMPERATURE: lambda m: m.thermal.winding,
+    AXIS0_FET_THERMISTOR_TEMPERATURE: lambda m: m.thermal.board,
     AXIS0_MOTOR_CURRENT_CONTROL_IBUS: _ibus,
     AXIS0_MOTOR_CURRENT_CONTROL_IQ_SETPOINT: lambda m: m.current,
     AXIS0_MOTOR_CURRENT_CONTROL_IQ_MEASURED: lambda m: m.current,
