@@ -41,6 +41,7 @@ from .commands import (
 from .effects import Batch, Op, request
 from .flavours import AsyncBusBase
 from .gate import Intent, move_intents
+from .health import Health, read_health, read_healths
 from .motorbase import MotorBase
 from .results import ErrorReport, GpioMode, MotorInfo
 from .session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE
@@ -329,6 +330,11 @@ class AsyncMotor(MotorBase):
         """The seven error words, decoded into flag names."""
         return await self._bus.run(ops.dump_error(self._id, timeout))
 
+    async def health(self, *, timeout: float | None = None) -> Health:
+        """Temperatures (degC), effective current limit (A), derating (0..1) and errors, in one exchange
+        of five reads (a second one reads the error words when the motor is faulted)."""
+        return await self._bus.run(read_health(self._id, timeout))
+
     # ------------------------------------------------------------------ system
 
     async def clear_error(self) -> None:
@@ -463,6 +469,11 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
     async def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor (one broadcast frame) when None."""
         self.estop_now(id_list)
+
+    async def health(self, id_list: Iterable[int], *, timeout: float | None = None) -> dict[int, Health]:
+        """The health of every motor of ``id_list``, read in one exchange (see :meth:`AsyncMotor.health`)."""
+        nodes = check_ids(list(id_list))
+        return {h.id: h for h in await self.run(read_healths(nodes, timeout))}
 
     async def traj_modes(self, ids: Iterable[int], *, timeout: float | None = None) -> dict[int, int]:
         """The Q-mode profile of each motor (:class:`~drempower.client.commands.TrajMode` values): those the

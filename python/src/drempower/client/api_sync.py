@@ -38,6 +38,7 @@ from .commands import (
 from .effects import Batch, Op, request
 from .flavours import SyncBusBase
 from .gate import Intent, move_intents
+from .health import Health, read_health, read_healths
 from .motorbase import MotorBase
 from .results import ErrorReport, GpioMode, MotorInfo
 from .session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE
@@ -322,6 +323,11 @@ class Motor(MotorBase):
         """The seven error words, decoded into flag names."""
         return self._bus.run(ops.dump_error(self._id, timeout))
 
+    def health(self, *, timeout: float | None = None) -> Health:
+        """Temperatures (degC), effective current limit (A), derating (0..1) and errors, in one exchange
+        of five reads (a second one reads the error words when the motor is faulted)."""
+        return self._bus.run(read_health(self._id, timeout))
+
     # ------------------------------------------------------------------ system
 
     def clear_error(self) -> None:
@@ -454,6 +460,11 @@ class Bus(SyncBusBase[Motor]):
     def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor (one broadcast frame) when None."""
         self.estop_now(id_list)
+
+    def health(self, id_list: Iterable[int], *, timeout: float | None = None) -> dict[int, Health]:
+        """The health of every motor of ``id_list``, read in one exchange (see :meth:`Motor.health`)."""
+        nodes = check_ids(list(id_list))
+        return {h.id: h for h in self.run(read_healths(nodes, timeout))}
 
     def traj_modes(self, ids: Iterable[int], *, timeout: float | None = None) -> dict[int, int]:
         """The Q-mode profile of each motor (:class:`~drempower.client.commands.TrajMode` values): those the

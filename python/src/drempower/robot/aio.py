@@ -6,6 +6,7 @@ file by ``tools/gen_sync.py``; the parts that differ by nature are in ``flavours
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Callable, Iterable, Mapping
 from types import TracebackType
@@ -15,6 +16,7 @@ from ..client import AsyncBus, AsyncMotor, open_bus_async
 from ..client.commands import PositionMode
 from ..client.effects import read_states
 from ..client.gate import move_intent
+from ..client.health import Health, read_healths
 from ..client.session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL
 from ..client.state import MotorState
 from ..client.timeouts import checks_times
@@ -86,6 +88,10 @@ class AsyncJoint(AsyncMotor):
     async def set_joint_torque(self, torque: float, *, duration: float | None = None, enable: bool = False) -> None:
         """Apply ``torque`` Nm at the joint (for ``duration`` s, then 0, when given)."""
         await self.set_torque(self.gearing.motor_torque(torque), duration=duration, enable=enable)
+
+    async def health(self, *, timeout: float | None = None) -> Health:
+        """The motor's health (:meth:`AsyncMotor.health`), named for the joint."""
+        return dataclasses.replace(await super().health(timeout=timeout), name=self.name)
 
     def _of_robot(self) -> AsyncRobot:
         if self.robot is None:
@@ -312,6 +318,22 @@ class AsyncRobot(AsyncRobotBase):
         """As :meth:`get_states`, at the joints (rad, rad/s, Nm)."""
         states = await self.get_states(names, timeout=timeout)
         return {n: self.joints[n].gearing.joint_state(st) for n, st in states.items()}
+
+    async def health(self, names: Iterable[str] | None = None, *, timeout: float | None = None) -> dict[str, Health]:
+        """The health of the listed joints (all when None), by name; the buses read at once."""
+        groups = by_bus(self.spec, names)
+
+        def part(bus: str, group: list[str]) -> AsyncPart[dict[str, Health]]:
+            async def run() -> dict[str, Health]:
+                got = await self.buses[bus].run(read_healths([self.joints[n].id for n in group], timeout))
+                return {n: dataclasses.replace(h, name=n) for n, h in zip(group, got, strict=True)}
+
+            return run
+
+        out: dict[str, Health] = {}
+        for healths in (await self._each({b: part(b, g) for b, g in groups.items()})).values():
+            out.update(healths)
+        return {n: out[n] for g in groups.values() for n in g}
 
     async def estop(self, names: Iterable[str] | None = None) -> None:
         """Emergency stop: every motor of every bus (one broadcast frame per bus) when ``names`` is None,
