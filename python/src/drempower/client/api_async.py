@@ -46,6 +46,7 @@ from .motorbase import MotorBase
 from .results import ErrorReport, GpioMode, MotorInfo
 from .session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE
 from .state import MotorState
+from .supervisor import HealthEvent, HealthPolicy, Watch, prepare, supervise
 from .timed import check_duration
 from .timeouts import checks_times
 
@@ -474,6 +475,22 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         """The health of every motor of ``id_list``, read in one exchange (see :meth:`AsyncMotor.health`)."""
         nodes = check_ids(list(id_list))
         return {h.id: h for h in await self.run(read_healths(nodes, timeout))}
+
+    def watch_health(
+        self, id_list: Iterable[int], policy: HealthPolicy | None = None, names: dict[int, str] | None = None
+    ) -> list[Watch]:
+        """Watches for :meth:`supervise` over the motors of ``id_list`` (``names``: joint names to show)."""
+        pol = policy or HealthPolicy()
+        return [Watch(n, pol, (names or {}).get(n)) for n in check_ids(list(id_list))]
+
+    async def supervise(self, watches: Sequence[Watch], *, timeout: float | None = None) -> list[HealthEvent]:
+        """One supervisor step over ``watches`` (see :mod:`drempower.client.supervisor`): the state and health of
+        every watched motor in one exchange (12 frames per motor), the events that began, their actions sent.
+        Call it every ``policy.period`` s; the first call also reads each motor's limits (7 reads per motor)."""
+        fresh = [w for w in watches if w.limits.kt != w.limits.kt]
+        if fresh:
+            await self.run(prepare(fresh, timeout))
+        return await self.run(supervise(watches, self.now(), timeout))
 
     async def traj_modes(self, ids: Iterable[int], *, timeout: float | None = None) -> dict[int, int]:
         """The Q-mode profile of each motor (:class:`~drempower.client.commands.TrajMode` values): those the

@@ -19,6 +19,7 @@ from ..client.gate import move_intent
 from ..client.health import Health, read_healths
 from ..client.session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL
 from ..client.state import MotorState
+from ..client.supervisor import HealthEvent, HealthPolicy, Watch
 from ..client.timeouts import checks_times
 from ..errors import DrEmpowerError, ValidationError
 from ..protocol.messages import Message
@@ -151,6 +152,7 @@ class Robot(SyncRobotBase):
         for bus in self.buses.values():
             bus.on_sent = self._clock
         self._closed = False
+        self._watches: dict[str, list[Watch]] | None = None
         self._setup(len(self.buses))
 
     # ------------------------------------------------------------------ lookup
@@ -330,6 +332,41 @@ class Robot(SyncRobotBase):
         for healths in (self._each({b: part(b, g) for b, g in groups.items()})).values():
             out.update(healths)
         return {n: out[n] for g in groups.values() for n in g}
+
+    def health_policy(self) -> HealthPolicy | None:
+        """The supervisor's policy of the robot file's ``[health]`` (joints' ``on_overheat`` per motor), or None."""
+        if self.spec.health is None:
+            return None
+        joints = {j.id: j.on_overheat for j in self.spec.joints.values() if j.on_overheat is not None}
+        return HealthPolicy(**self.spec.health, joints=joints)
+
+    def supervise(self, policy: HealthPolicy | None = None, *, timeout: float | None = None) -> list[HealthEvent]:
+        """One step of the health supervisor over every joint (see :mod:`drempower.client.supervisor`); call it
+        every ``policy.period`` s. The first call fixes the policy: ``policy``, else the robot file's
+        ``[health]`` (a :class:`ValidationError` when it has none). Returns the events that began, joints named,
+        their actions (hold, idle) already sent; the buses are read at once."""
+        if self._watches is None:
+            pol = policy or self.health_policy()
+            if pol is None:
+                raise ValidationError(f"{self.spec.source}: no [health] section: give supervise() a HealthPolicy")
+            self._watches = {
+                b: self.buses[b].watch_health(
+                    [j.id for j in self.spec.joints_on(b)], pol, {j.id: j.name for j in self.spec.joints_on(b)}
+                )
+                for b in self.buses
+            }
+        watches = self._watches
+
+        def part(bus: str) -> SyncPart[list[HealthEvent]]:
+            def run() -> list[HealthEvent]:
+                return self.buses[bus].supervise(watches[bus], timeout=timeout)
+
+            return run
+
+        out: list[HealthEvent] = []
+        for events in (self._each({b: part(b) for b in watches})).values():
+            out.extend(events)
+        return out
 
     def estop(self, names: Iterable[str] | None = None) -> None:
         """Emergency stop: every motor of every bus (one broadcast frame per bus) when ``names`` is None,
