@@ -3,6 +3,7 @@ health key-values, every second and at once when a motor faults."""
 
 from __future__ import annotations
 
+import itertools
 import threading
 import time
 from typing import Any
@@ -45,7 +46,7 @@ def test_one_status_per_joint_with_the_health_values_about_once_a_second(served:
     assert set(values) == {"motor_temp_c", "driver_temp_c", "current_limit_a", "derating", "errors"}
     assert float(values["current_limit_a"]) == 15.0 and values["errors"] == "none"
     times = [t for t, _, _ in heard.got]
-    gaps = [b - a for a, b in zip(times, times[1:], strict=False)]
+    gaps = [b - a for a, b in itertools.pairwise(times)]
     assert all(0.5 < g < 2.5 for g in gaps), gaps  # 1 Hz, on a shared machine
     seqs = [a.sequence_number for _, _, a in heard.got]
     assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)
