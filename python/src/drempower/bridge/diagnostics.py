@@ -166,4 +166,3 @@ class Diagnostics:
         self._closed.set()
         self._wake.set()
         self._thread.join(timeout=5.0)
-
