@@ -93,14 +93,14 @@ class Health:
     errors: dict[str, list[str]] = field(default_factory=dict)
     name: str | None = None
     """The joint's name (a joint's reading), else None."""
+    derating: float = field(init=False)
+    """How much of the current the temperature takes away: 0 = none, 1 = no current left
+    (``1 - current_limit_a / configured_limit_a``)."""
 
-    @property
-    def derating(self) -> float:
-        """How much of the current the temperature takes away: 0 = none, 1 = no current left."""
+    def __post_init__(self) -> None:
         base = self.configured_limit_a
-        if not base > 0.0:
-            return 0.0
-        return min(1.0, max(0.0, 1.0 - self.current_limit_a / base))
+        d = min(1.0, max(0.0, 1.0 - self.current_limit_a / base)) if base > 0.0 else 0.0
+        object.__setattr__(self, "derating", d)
 
     @property
     def faults(self) -> list[Fault]:
