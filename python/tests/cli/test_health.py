@@ -34,7 +34,7 @@ def test_one_row_per_motor_with_the_health_keys(cli: Cli, sim: SimBus) -> None:
 
 def test_a_tripped_motor_is_named_with_its_error_and_fix_and_exits_1(cli: Cli, sim: SimBus) -> None:
     sim.motors[3].thermal.board = 120.0
-    sim.advance(0.002)
+    sim.advance(0.02)
     r = cli("health", "--sim", "1,2,3")
     assert r.code == 1
     lines = r.out.splitlines()

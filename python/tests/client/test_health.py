@@ -63,7 +63,7 @@ def test_a_tripped_motor_names_the_error_and_its_fix_with_one_more_exchange() ->
     with drempower.open_bus("sim", motors=[1, 2], clock="virtual") as bus:
         sim = _sim(bus)
         sim.motors[2].thermal.winding = 101.0
-        bus.pass_time(0.01)
+        bus.pass_time(0.02)
         frames = _Answers(sim)
         got = bus.health([1, 2])
         reads = frames.reads()

@@ -87,7 +87,7 @@ def test_a_fault_names_the_motor_the_error_and_its_fix() -> None:
     with drempower.open_bus("sim", motors=[1, 2], clock="virtual") as bus:
         sim = _sim(bus)
         sim.motors[2].thermal.board = 100.5  # beyond the upper limit: the firmware trips
-        bus.pass_time(0.01)
+        bus.pass_time(0.02)
         events = [e for e, _ in _run(bus, HealthPolicy(), [1, 2], 1.0)]
     faults = [e for e in events if e.kind == "fault"]
     assert {e.motor for e in faults} == {2}

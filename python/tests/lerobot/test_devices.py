@@ -233,7 +233,7 @@ def test_temperatures_are_observed_and_a_fault_ends_the_step_with_its_fix(tmp_pa
         assert obs["elbow.temp"] == pytest.approx(88.0, abs=0.5)
         assert obs["base_yaw.temp"] < 40.0
         sim.motors[elbow].thermal.winding = 101.0  # the firmware trips: the elbow idles
-        _settle(robot, 0.01)
+        _settle(robot, 0.02)
         with pytest.raises(MotorFaultError, match=r"joint elbow.*motor_thermistor.error OVER_TEMP.*Fix:"):
             follower.get_observation()
         with pytest.raises(DrEmpowerError):  # the fault, or the gate's refusal of the idle elbow: nothing moves

@@ -94,7 +94,7 @@ def test_above_the_upper_limit_the_thermistor_trips_and_the_axis_idles(node: str
     assert 99.8 < t < 99.9
     assert read(bus, 1, EFFECTIVE) == pytest.approx(15.0 * (100.0 - t) / 5.0, abs=1e-3)
     setattr(m.thermal, node, 100.05)
-    bus.advance(0.001)
+    bus.advance(0.01)  # the limiter's period (HEAT_STEPS)
     assert m.state == AxisState.IDLE
     assert read(bus, 1, word) == flag
     assert read(bus, 1, "axis0.error") & AxisError.OVER_TEMP
@@ -109,12 +109,12 @@ def test_a_lower_upper_limit_trips_earlier_and_a_disabled_thermistor_never() -> 
     write(bus, 2, "axis0.motor_thermistor.config.enabled", 0)
     for m in bus.motors.values():
         m.thermal.winding = 55.0
-    bus.advance(0.001)
+    bus.advance(0.01)
     assert read(bus, 1, EFFECTIVE) == pytest.approx(derated_limit(15.0, 55.0, 50.0, 60.0), abs=0.01)
     assert read(bus, 2, EFFECTIVE) == 15.0
     for m in bus.motors.values():
         m.thermal.winding = 150.0
-    bus.advance(0.001)
+    bus.advance(0.01)
     assert bus.motors[1].state == AxisState.IDLE
     assert bus.motors[2].state == AxisState.CLOSED_LOOP_CONTROL
     assert read(bus, 2, "axis0.motor_thermistor.error") == 0

@@ -113,7 +113,7 @@ from . import behaviour as bh
 from .defaults import MotorModel
 from .drive import POSITION, TAU, TRAP_TRAJ, Drive
 from .params import OUTPUT_VIEWS, ParamStore, view_factor
-from .thermal import Thermal, ThermalLimits
+from .thermal import HEAT_STEPS, Thermal, ThermalLimits
 
 __all__ = ["SimMotor"]
 
@@ -157,6 +157,11 @@ class SimMotor:
         self.thermal = Thermal(self.model.thermal)
         """Winding and board temperatures (degC); tests may set them (a heat gun)."""
         self._limits = ThermalLimits()
+        self._derating = False
+        self._tq_sq = 0.0
+        """Sum of the squared output torque (Nm^2) over the steps since the last thermal update."""
+        self._heat_n = 0
+        """The limiter acted at the last step (else the torque limit is the configured one)."""
         self.time = 0.0
         """Simulated time of the last step (s)."""
         self.state = AxisState.IDLE
@@ -324,7 +329,11 @@ class SimMotor:
             plant.sync(now)
         d.step(dt)
         self.time = now
-        self._heat(dt)
+        tq = d.torque
+        self._tq_sq += tq * tq
+        self._heat_n += 1
+        if self._heat_n >= HEAT_STEPS:
+            self._heat(dt)
         if self.state == AxisState.ENCODER_OFFSET_CALIBRATION:
             self._encoder_scan(now)
         if d.active:
@@ -341,13 +350,19 @@ class SimMotor:
             self._timers()
 
     def _heat(self, dt: float) -> None:
-        """Heat with this step's current, derate the current limit, trip above the upper limits."""
-        lim = self._limits
-        self.thermal.step(dt, self.current, lim.phase_resistance)
-        trip = lim.tripped(self.thermal)
+        """Heat with the mean square current of the last HEAT_STEPS steps (the step sums the torque's squares),
+        derate the current limit, trip above the upper limits."""
+        lim, t, n = self._limits, self.thermal, self._heat_n
+        t.heat(dt * n, self._tq_sq / (n * self._kt * self._kt), lim.phase_resistance)
+        self._tq_sq, self._heat_n = 0.0, 0
+        calm = t.winding < lim.calm_below and t.board < lim.calm_below
+        if calm and not self._derating:
+            return
+        self._derating = not calm
+        trip = lim.tripped(t)
         if trip:
             self._fault(trip, 0x1)
-        self.drive.tlim = lim.torque_limit(self.thermal)
+        self.drive.tlim = lim.torque_limit(t)
 
     def _timers(self) -> None:
         now = self.time + _EPS

@@ -11,7 +11,8 @@ ambient air through a thermal resistance::
 * driver board: ``P = P_idle + 1.5 * Iq^2 * R_fet`` (the MOSFETs' conduction
   loss and the board's own consumption).
 
-Each node is integrated exactly over a step (``T += (T_ss - T) * (1 - exp(-dt/tau))``),
+The motor updates the nodes every :data:`HEAT_STEPS` steps with the mean square
+current of those steps. Each node is integrated exactly over an update (``T += (T_ss - T) * (1 - exp(-dt/tau))``),
 so the temperature after ``t`` seconds at a constant current is the textbook
 exponential whatever the step. The thermistors read the nodes directly (no
 sensor lag); the nodes do not exchange heat with each other.
@@ -59,7 +60,12 @@ from ..protocol.addresses import (
     AXIS0_MOTOR_THERMISTOR_ERROR,
 )
 
-__all__ = ["ThermalModel", "Thermal", "ThermalLimits", "derated_limit", "OVER_TEMP_TRIP_MARGIN_C"]
+__all__ = ["HEAT_STEPS", "ThermalModel", "Thermal", "ThermalLimits", "derated_limit", "OVER_TEMP_TRIP_MARGIN_C"]
+
+HEAT_STEPS = 10
+"""The simulated motor updates its temperatures, the limiter and the trip every this many 1 ms steps (10 ms),
+with the mean square current of those steps: the loss is the same, the error of the exponential negligible
+(the time constants are 60 s and more), and the simulator stays fast."""
 
 OVER_TEMP_TRIP_MARGIN_C = 0.0
 """How far above ``temp_limit_upper`` (degC) a thermistor trips. PROTOCOL.md 3.5 (and ODrive's
@@ -97,7 +103,7 @@ def derated_limit(base: float, temperature: float, lower: float, upper: float) -
 class Thermal:
     """The temperatures of one motor's winding and driver board (degC), stepped with its current."""
 
-    __slots__ = ("_a_board", "_a_winding", "_dt", "board", "model", "winding")
+    __slots__ = ("_a_board", "_a_winding", "_dt", "_for", "board", "model", "winding")
 
     def __init__(self, model: ThermalModel) -> None:
         self.model = model
@@ -106,6 +112,7 @@ class Thermal:
         self.board = model.ambient_c
         """Driver board temperature (degC): axis0.fet_thermistor.temperature."""
         self._dt = -1.0
+        self._for: ThermalModel | None = None
         self._a_winding = self._a_board = 0.0
 
     def losses(self, current: float, phase_resistance: float) -> tuple[float, float]:
@@ -122,14 +129,19 @@ class Thermal:
 
     def step(self, dt: float, current: float, phase_resistance: float) -> None:
         """Advance by ``dt`` s at ``current`` A (exact for a current constant over the step)."""
-        if dt != self._dt:
-            m = self.model
-            self._dt = dt
+        self.heat(dt, current * current, phase_resistance)
+
+    def heat(self, dt: float, i_sq: float, phase_resistance: float) -> None:
+        """Advance by ``dt`` s with the mean square current ``i_sq`` A^2 over it (exact when it was constant)."""
+        m = self.model
+        if dt != self._dt or m is not self._for:
+            self._dt, self._for = dt, m
             self._a_winding = -math.expm1(-dt / m.winding_tau)
             self._a_board = -math.expm1(-dt / m.board_tau)
-        tw, tb = self.steady(current, phase_resistance)
-        self.winding += (tw - self.winding) * self._a_winding
-        self.board += (tb - self.board) * self._a_board
+        i2 = 1.5 * i_sq
+        amb = m.ambient_c
+        self.winding += (amb + i2 * phase_resistance * m.winding_r_th - self.winding) * self._a_winding
+        self.board += (amb + (m.board_idle_w + i2 * m.fet_resistance) * m.board_r_th - self.board) * self._a_board
 
 
 class ThermalLimits:
@@ -138,6 +150,7 @@ class ThermalLimits:
     __slots__ = (
         "board_on",
         "board_range",
+        "calm_below",
         "current_lim",
         "kt",
         "phase_resistance",
@@ -155,6 +168,8 @@ class ThermalLimits:
         self.phase_resistance = 0.0
         self.winding_on = self.board_on = False
         self.winding_range = self.board_range = (95.0, 100.0)
+        self.calm_below = math.inf
+        """Below this temperature (degC) on both nodes nothing derates or trips: the step skips the limiter."""
 
     def configure(self, ram: Mapping[int, int | float], ratio: float) -> None:
         """Read current_lim, torque_lim, torque_constant, phase_resistance and both thermistors' settings."""
@@ -173,6 +188,9 @@ class ThermalLimits:
             float(ram[AXIS0_FET_THERMISTOR_CONFIG_TEMP_LIMIT_LOWER]),
             float(ram[AXIS0_FET_THERMISTOR_CONFIG_TEMP_LIMIT_UPPER]),
         )
+        edges = [min(lo, hi + OVER_TEMP_TRIP_MARGIN_C) for on, (lo, hi) in
+                 ((self.winding_on, self.winding_range), (self.board_on, self.board_range)) if on]  # fmt: skip
+        self.calm_below = min(edges, default=math.inf)
 
     def current_limit(self, t: Thermal) -> float:
         """The effective current limit (A, axis0.motor.effective_current_lim): current_lim, derated."""
