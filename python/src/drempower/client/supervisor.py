@@ -179,9 +179,12 @@ class Watch:
         self.last = health
         p, lim = self.policy, self.limits
         found: dict[str, HealthEvent] = {}
-        hottest = max(health.motor_temp_c, health.driver_temp_c)
-        where = "winding" if health.motor_temp_c >= health.driver_temp_c else "driver board"
-        warn_at, act_at = self._at(lim.winding[0], lim.board[0], health)
+        # the node nearest its own derating threshold (temp_limit_lower) decides
+        if lim.winding[0] - health.motor_temp_c <= lim.board[0] - health.driver_temp_c:
+            where, hottest, lower = "winding", health.motor_temp_c, lim.winding[0]
+        else:
+            where, hottest, lower = "driver board", health.driver_temp_c, lim.board[0]
+        warn_at, act_at = min(p.warn_c, lower - p.warn_margin_c), lower - p.act_margin_c
         overheat = self.policy.overheat_action(self.node)
         act = "none" if overheat == "warn" else overheat
         if health.errors:
@@ -205,8 +208,7 @@ class Watch:
                 self.node,
                 "overheat",
                 "warn",
-                f"the {where} at {hottest:.1f} degC, {act_at + p.act_margin_c - hottest:.1f} K below the "
-                "firmware's derating",
+                f"the {where} at {hottest:.1f} degC, {lower - hottest:.1f} K below the firmware's derating",
                 "Let it cool and lower the load or duty cycle.",
                 act,
                 self.joint,
@@ -251,11 +253,6 @@ class Watch:
         self._active = set(found)
         self.level = "error" if any(e.level == "error" for e in found.values()) else "warn" if found else "ok"
         return out
-
-    def _at(self, winding_lower: float, board_lower: float, h: Health) -> tuple[float, float]:
-        lower = winding_lower if h.motor_temp_c - winding_lower >= h.driver_temp_c - board_lower else board_lower
-        p = self.policy
-        return min(p.warn_c, lower - p.warn_margin_c), lower - p.act_margin_c
 
 
 _LIMIT_PARAMETERS = (
