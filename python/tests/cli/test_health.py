@@ -70,3 +70,18 @@ def test_monitor_fields_take_the_health_keys(cli: Cli, sim: SimBus) -> None:
     assert rec["errors"] == "none"
     r = cli("monitor", "1", "--fields", "temperature_c", "--duration", "0.1", "--sim", "1,2,3")
     assert r.code == 2 and "health key" in r.err
+
+
+def test_watch_prints_each_event_once_with_what_it_did(cli: Cli, sim: SimBus) -> None:
+    _warm(sim, 2, 92.0)  # 3 K below the firmware's derating: the supervisor's "overheat"
+    r = cli("health", "--watch", "--duration", "2.5", "--json", "--sim", "1,2,3")
+    assert r.code == 0, r.err
+    events = r.records()
+    assert [(e["motor"], e["kind"], e["action"]) for e in events] == [(2, "overheat", "none")]  # warn: the default
+    assert "winding at 92.0 degC, 3.0 K below the firmware's derating" in events[0]["message"]
+    _warm(sim, 3, 101.0)  # the firmware trips
+    r = cli("health", "3", "--watch", "--duration", "1.5", "--sim", "1,2,3")
+    assert r.code == 1  # a fault
+    assert "error  motor 3: axis0.motor_thermistor.error OVER_TEMP" in r.out and "Fix:" in r.out
+    r = cli("health", "--duration", "1", "--sim", "1,2,3")
+    assert r.code == 2 and "--duration goes with --watch" in r.err

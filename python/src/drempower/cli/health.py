@@ -5,12 +5,15 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import sys
+import time
 from typing import Any
 
 from ..client.errors import TimeoutError
 from ..client.health import Health
-from ._connect import add_connection_args, add_ids_arg, ids_or_found, open_from_args
+from ..client.supervisor import HealthPolicy
+from ._connect import add_connection_args, add_ids_arg, ids_or_found, open_from_args, positive
 from ._output import add_json_arg, json_line, render_table
+from ._usage import UsageError
 
 GROUP = "bus"
 """Where ``drempower --help`` lists this module's subcommands."""
@@ -31,11 +34,54 @@ def register(sub: Any) -> None:
     )
     add_ids_arg(p, optional=True)
     add_json_arg(p)
+    p.add_argument(
+        "--watch",
+        action="store_true",
+        help="run the health supervisor until Ctrl-C or --duration: one line per event (warnings before the "
+        "firmware derates, stalls, faults with their fix) and what it did; the robot file's [health] and each "
+        "joint's on_overheat decide (default: warn only), 12 frames per motor and period",
+    )
+    p.add_argument("--duration", type=positive, metavar="S", help="with --watch: stop after S seconds")
     add_connection_args(p)
     p.set_defaults(func=run)
 
 
+def _policy(args: argparse.Namespace) -> HealthPolicy:
+    spec = getattr(args, "robot_spec", None)
+    if spec is None or spec.health is None:
+        return HealthPolicy()
+    joints = {j.id: j.on_overheat for j in spec.joints_on(args.robot_bus) if j.on_overheat is not None}
+    return HealthPolicy(**spec.health, joints=joints)
+
+
+def watch(args: argparse.Namespace) -> int:
+    """The supervisor's loop: one step per period, each event as a line (or a JSON object)."""
+    policy = _policy(args)
+    spec = getattr(args, "robot_spec", None)
+    names = {j.id: j.name for j in spec.joints_on(args.robot_bus)} if spec is not None else {}
+    worst = 0
+    with open_from_args(args) as bus:
+        watches = bus.watch_health(ids_or_found(args, bus), policy, names)
+        start = time.monotonic()
+        try:
+            while args.duration is None or time.monotonic() - start < args.duration:
+                for e in bus.supervise(watches):
+                    worst = max(worst, int(e.level == "error"))
+                    if args.json:
+                        print(json_line({"time_s": round(e.at, 3), **dataclasses.asdict(e)}), flush=True)
+                    else:
+                        print(f"{e.at:9.2f} s  {e.level:5}  {e}", flush=True)
+                time.sleep(max(0.0, policy.period - (time.monotonic() - start) % policy.period))
+        except KeyboardInterrupt:
+            pass
+    return worst
+
+
 def run(args: argparse.Namespace) -> int:
+    if args.watch:
+        return watch(args)
+    if args.duration is not None:
+        raise UsageError("--duration goes with --watch")
     got: list[Health | int] = []
     spec = getattr(args, "robot_spec", None)
     names = {j.id: j.name for j in spec.joints_on(args.robot_bus)} if spec is not None else {}
