@@ -21,7 +21,7 @@ LAYERS: list[set[str]] = [
     {"dre_bus"},
     {"dre_moves"},
     {"dre_motor"},
-    {"dre_wait", "dre_verified", "dre_batch"},
+    {"dre_wait", "dre_verified", "dre_batch", "dre_health"},
 ]
 
 

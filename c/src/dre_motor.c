@@ -1,5 +1,6 @@
 /* Single-motor commands: moves, system operations, parameter writes and reads (see dre_client.h). */
 #include "dre_client_internal.h"
+#include "drempower/dre_health.h"
 
 #include <math.h>
 #include <string.h>
@@ -251,6 +252,14 @@ dre_status dre_get_volcur(const dre_motor *m, dre_req req[2])
 {
     static const dre_param_t params[2] = {DRE_P_VBUS_VOLTAGE, DRE_P_AXIS0_MOTOR_CURRENT_CONTROL_IQ_MEASURED};
     return read_params(m, 2u, params, req);
+}
+
+dre_status dre_read_health(const dre_motor *m, dre_req req[DRE_HEALTH_READS])
+{
+    static const dre_param_t params[DRE_HEALTH_READS] = {
+        DRE_P_AXIS0_MOTOR_THERMISTOR_TEMPERATURE, DRE_P_AXIS0_FET_THERMISTOR_TEMPERATURE,
+        DRE_P_AXIS0_MOTOR_EFFECTIVE_CURRENT_LIM, DRE_P_AXIS0_MOTOR_CONFIG_CURRENT_LIM, DRE_P_AXIS0_ERROR};
+    return read_params(m, DRE_HEALTH_READS, params, req);
 }
 
 dre_status dre_dump_error(const dre_motor *m, dre_req req[DRE_ERROR_WORDS])

@@ -88,6 +88,10 @@ def check_tour(text: str, code: int) -> list[str]:
         m = re.search(rf"^volcur {i}: {num} V, {num} A$", text, re.M)
         if not m or not float(m.group(1)) > 0.0:
             bad.append(f"no supply voltage read of motor {i}")
+        m = re.search(rf"^health {i}: motor {num} degC, driver {num} degC, limit {num} A, derating {num}, active 0$",
+                      text, re.M)  # fmt: skip
+        if not m or not 0.0 < float(m.group(1)) < 80.0 or float(m.group(4)) != 0.0:
+            bad.append(f"no health reading of motor {i} (cool, no derating)")
         if not re.search(rf"^verified {i}: traj_mode 2 read back$", text, re.M):
             bad.append(f"no verified write of motor {i}")
         m = re.search(rf"^arrived {i}: position {num} deg", text, re.M)

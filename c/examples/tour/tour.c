@@ -170,6 +170,50 @@ static int step_read(const dre_tour_port *p, uint8_t id, float *position)
     return 0;
 }
 
+/* The health reading (five reads) and one supervisor step: temperatures, limit, derating, what began. */
+static int step_health(const dre_tour_port *p, uint8_t id)
+{
+    dre_motor m = {p->bus, id};
+    dre_req req[DRE_HEALTH_READS];
+    dre_msg replies[DRE_HEALTH_READS];
+    dre_health h;
+    dre_health_policy policy;
+    dre_health_watch watch = {0u, 0u, 0u};
+    dre_health_verdict v;
+    dre_status st = dre_read_health(&m, req);
+    line_t l;
+    uint8_t k;
+
+    for (k = 0u; k < DRE_HEALTH_READS; k++) {
+        if (st == DRE_OK) {
+            st = wait_reply(p, req[k], &replies[k]);
+        } else if (k > 0u) {
+            dre_cancel(p->bus, req[k]);
+        }
+    }
+    if (st == DRE_OK) {
+        st = dre_health_from(replies, &h);
+    }
+    if (st != DRE_OK) {
+        return fail(p, "read_health", id, st);
+    }
+    dre_health_policy_init(&policy, 1.0f, 12.0f);
+    dre_health_step(&watch, &policy, &h, NULL, 0u, &v);
+    start(&l, "health", id);
+    put(&l, " motor ");
+    put_fixed(&l, h.motor_temp_c);
+    put(&l, " degC, driver ");
+    put_fixed(&l, h.driver_temp_c);
+    put(&l, " degC, limit ");
+    put_fixed(&l, h.current_limit_a);
+    put(&l, " A, derating ");
+    put_fixed(&l, dre_health_derating(&h));
+    put(&l, ", active ");
+    put_uint(&l, v.active);
+    p->print(p->user, l.text);
+    return 0;
+}
+
 /* A verified write (written, read back, compared), then closed loop. */
 static int step_configure(const dre_tour_port *p, uint8_t id)
 {
@@ -319,7 +363,7 @@ int dre_tour_run(const dre_tour_port *p, uint8_t n, const uint8_t *ids)
         return fail(p, "motors", n, DRE_E_ARG);
     }
     for (i = 0u; i < n; i++) {
-        if (step_read(p, ids[i], &from[i]) != 0 || step_configure(p, ids[i]) != 0) {
+        if (step_read(p, ids[i], &from[i]) != 0 || step_health(p, ids[i]) != 0 || step_configure(p, ids[i]) != 0) {
             return 1;
         }
     }

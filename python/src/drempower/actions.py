@@ -320,6 +320,13 @@ for _a in (
     Action("errors", "read", "the error words, decoded", (MOTOR,), lambda b, a: _motor(b, a).dump_error()),
     Action("get", "read", "read a parameter", (MOTOR, PARAM), lambda b, a: _motor(b, a).read_property(a["name"])),
     Action(
+        "health",
+        "read",
+        "temperatures, effective current limit, derating and errors, with their fixes",
+        (MOTOR,),
+        lambda b, a: _motor(b, a).health(),
+    ),
+    Action(
         "set",
         "configure",
         "write a parameter (in RAM; save keeps it)",

@@ -80,11 +80,25 @@ JOINT_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
 """What a joint or bus name looks like: it starts with a letter or ``_``, so it never reads as a motor id."""
 _JOINT_KEYS = frozenset(("bus", "id", "gear", "offset"))
 # the safety keys of a joint: soft limits and the watchdog's action
-_SAFETY_KEYS = frozenset(("limits", "on_timeout"))
+_SAFETY_KEYS = frozenset(("limits", "on_timeout", "on_overheat"))
 JOINT_LIMITS = {"position": "rad", "speed": "rad/s", "torque": "Nm", "accel": "rad/s^2", "max_step": "rad"}
 """The soft limits a joint can have, in joint units."""
 ON_TIMEOUT = ("hold", "idle")
 """What the watchdog may do to a joint whose controller is gone; the first is a joint's default."""
+ON_OVERHEAT = ("warn", "hold", "idle")
+"""What the health supervisor may do to a joint that overheats or stalls."""
+HEALTH_KEYS: dict[str, tuple[float, float] | tuple[str, ...]] = {
+    "period": (0.05, 60.0),
+    "warn_c": (0.0, 150.0),
+    "warn_margin_c": (0.0, 100.0),
+    "act_margin_c": (0.0, 100.0),
+    "stall_s": (0.0, 600.0),
+    "stall_fraction": (0.1, 1.0),
+    "on_overheat": ON_OVERHEAT,
+    "on_stall": ON_OVERHEAT,
+}
+"""The ``[health]`` keys (the supervisor's policy, :class:`~drempower.client.engine.supervisor.HealthPolicy`):
+a number's range, or a choice's values."""
 
 
 @dataclass(frozen=True)
@@ -115,6 +129,8 @@ class JointSpec:
     """Soft limits in joint units (:data:`JOINT_LIMITS`): ``position`` (low, high) rad, the others magnitudes."""
     on_timeout: str = ON_TIMEOUT[0]
     """What the command watchdog does when the joint's controller is gone: ``hold`` or ``idle``."""
+    on_overheat: str | None = None
+    """What the health supervisor does when the joint overheats (None: ``[health]``'s ``on_overheat``)."""
     identified: Mapping[str, float] | None = None
     """The joint's identified ``inertia`` kg m^2, ``viscous`` Nm s/rad, ``coulomb`` Nm (``drempower identify
     --write``): the twin's joint has them in place of the model's and the motor's."""
@@ -131,6 +147,8 @@ class RobotSpec:
     model: ModelSpec | None = None
     ros2_control: Mapping[str, Any] = field(default_factory=dict)
     """The bridge's ros2_control settings (``[ros2_control]``: :data:`ROS2_CONTROL_KEYS`)."""
+    health: Mapping[str, Any] | None = None
+    """The health supervisor's policy (``[health]``: :data:`HEALTH_KEYS`); None: the file does not ask for it."""
 
     def joints_on(self, bus: str) -> list[JointSpec]:
         """The joints of bus ``bus``, in file order."""
@@ -202,11 +220,11 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
     """Check a robot description (the TOML file as a dict); raises :class:`ConfigError` naming the entry and key.
 
     ``base``: the folder a model's relative path starts from (default: the current one)."""
-    unknown = sorted(set(data) - {"buses", "joints", "model", "ros2_control"})
+    unknown = sorted(set(data) - {"buses", "joints", "model", "ros2_control", "health"})
     if unknown:
         raise ConfigError(
             f"{source}: unknown section {unknown[0]!r}: "
-            "a robot file has [buses.NAME], [joints.NAME], [model] and [ros2_control]"
+            "a robot file has [buses.NAME], [joints.NAME], [model], [ros2_control] and [health]"
         )
     buses: dict[str, BusSpec] = {}
     for name, entry in _table(data.get("buses", {}), f"{source}: buses").items():
@@ -234,7 +252,7 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         if extra:
             raise ConfigError(
                 f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear, offset, limits, on_timeout, "
-                "model_joint, friction, sim_params and identified"
+                "on_overheat, model_joint, friction, sim_params and identified"
             )
         bus = j.get("bus")
         if bus not in buses:
@@ -252,8 +270,19 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         on_timeout = j.get("on_timeout", ON_TIMEOUT[0])
         if on_timeout not in ON_TIMEOUT:
             raise ConfigError(f"{where}: on_timeout={on_timeout!r}: expected 'hold' or 'idle'")
+        on_overheat = j.get("on_overheat")
+        if on_overheat is not None and on_overheat not in ON_OVERHEAT:
+            raise ConfigError(f"{where}: on_overheat={on_overheat!r}: expected 'warn', 'hold' or 'idle'")
         joints[name] = JointSpec(
-            name, bus, ident, gear, offset, limits=limits, on_timeout=on_timeout, **_model_joint(j, where)
+            name,
+            bus,
+            ident,
+            gear,
+            offset,
+            limits=limits,
+            on_timeout=on_timeout,
+            on_overheat=on_overheat,
+            **_model_joint(j, where),
         )
     if not joints:
         raise ConfigError(f"{source}: no [joints.NAME] entry: a robot needs at least one joint")
@@ -262,7 +291,27 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         raise ConfigError(f"{source}: [buses.{empty[0]}] carries no joint: give it one or remove it")
     model = _model(data["model"], source, base) if "model" in data else None
     ros2 = _ros2_control(data.get("ros2_control", {}), f"{source}: [ros2_control]")
-    return RobotSpec(buses, joints, source, model, ros2)
+    health = _health(data["health"], f"{source}: [health]") if "health" in data else None
+    return RobotSpec(buses, joints, source, model, ros2, health)
+
+
+def _health(value: object, where: str) -> dict[str, Any]:
+    out: dict[str, Any] = {}
+    for key, v in _table(value, where).items():
+        allowed = HEALTH_KEYS.get(key)
+        if allowed is None:
+            raise ConfigError(f"{where}: unknown key {key!r}: the keys are {', '.join(HEALTH_KEYS)}")
+        if isinstance(allowed[0], str):
+            if v not in allowed:
+                raise ConfigError(f"{where}: {key}={v!r}: expected one of {', '.join(repr(a) for a in allowed)}")
+            out[key] = v
+            continue
+        lo, hi = allowed
+        x = _number(v, f"{where}: {key}")
+        if not lo <= x <= hi:
+            raise ConfigError(f"{where}: {key}={v!r}: expected {lo}..{hi}")
+        out[key] = x
+    return out
 
 
 ROS2_CONTROL_KEYS = {

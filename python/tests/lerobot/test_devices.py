@@ -18,7 +18,7 @@ pytest.importorskip("lerobot", reason="LeRobot is not installed here: make test-
 from lerobot_robot_drempower import DrEmpowerFollower, DrEmpowerFollowerConfig
 from lerobot_teleoperator_drempower import DrEmpowerLeader, DrEmpowerLeaderConfig
 
-from drempower import DrEmpowerError, SoftLimitError, ValidationError, open_robot
+from drempower import DrEmpowerError, MotorFaultError, SoftLimitError, ValidationError, open_robot
 from drempower.client.engine.effects import sleep
 
 from .conftest import ARM, JOINTS, TIMEOUT, idle_on_timeout, served_arms
@@ -216,3 +216,27 @@ def test_disconnect_leaves_each_joint_as_its_on_timeout_says(tmp_path: Path) -> 
         with open_robot(arms["arm"].robot_file, stop_on_close=False, timeout=TIMEOUT) as check:
             states = {j: check.joint(j).read_property("axis0.current_state") for j in JOINTS}
     assert states == {j: (1 if j == "wrist_roll" else 8) for j in JOINTS}  # 1 idle, 8 closed loop
+
+
+def test_temperatures_are_observed_and_a_fault_ends_the_step_with_its_fix(tmp_path: Path) -> None:
+    cfg = DrEmpowerFollowerConfig(calibration_dir=tmp_path, robot_file=str(ARM), sim=VIRTUAL, observe_temperatures=True)
+    follower = DrEmpowerFollower(cfg)
+    follower.connect()
+    try:
+        assert list(follower.observation_features) == [f"{j}{k}" for j in JOINTS for k in (".pos", ".temp")]
+        robot = follower.robot
+        assert robot is not None
+        sim = robot.bus("arm").transport.bus  # type: ignore[attr-defined]
+        elbow = robot.joint("elbow").id
+        sim.motors[elbow].thermal.winding = 88.0
+        obs = follower.get_observation()
+        assert obs["elbow.temp"] == pytest.approx(88.0, abs=0.5)
+        assert obs["base_yaw.temp"] < 40.0
+        sim.motors[elbow].thermal.winding = 101.0  # the firmware trips: the elbow idles
+        _settle(robot, 0.02)
+        with pytest.raises(MotorFaultError, match=r"joint elbow.*motor_thermistor.error OVER_TEMP.*Fix:"):
+            follower.get_observation()
+        with pytest.raises(DrEmpowerError):  # the fault, or the gate's refusal of the idle elbow: nothing moves
+            follower.send_action(_pose({}))
+    finally:
+        follower.disconnect()

@@ -26,7 +26,7 @@ __all__ = [
     "release",
 ]
 
-POS, VEL, TORQUE = ".pos", ".vel", ".torque"
+POS, VEL, TORQUE, TEMP = ".pos", ".vel", ".torque", ".temp"
 """The key suffixes of LeRobot's arms: position (deg), speed (deg/s), torque (Nm)."""
 
 _SIM_OPTIONS = frozenset(("clock", "time_scale", "bitrate", "host_queue", "seed", "config_dir"))

@@ -24,8 +24,9 @@ class DrEmpowerFollowerConfig(RobotConfig):  # type: ignore[misc]  # LeRobot has
     ``robot_file``: the robot file (TOML; its ``sim`` buses run the simulator, the twin when it names a
     model). ``joints``: the joints driven, in this order (empty: all, in file order). ``sim``: options
     for the file's simulated buses, as ``open_robot`` takes them (``clock``, ``time_scale``...).
-    ``observe_speeds`` / ``observe_torques``: add ``<joint>.vel`` (deg/s) / ``<joint>.torque`` (Nm) to
-    the observation. ``bandwidth``: the T-mode position filter (1/s, 0..300). ``max_relative_target``:
+    ``observe_speeds`` / ``observe_torques`` / ``observe_temperatures``: add ``<joint>.vel`` (deg/s) /
+    ``<joint>.torque`` (Nm) / ``<joint>.temp`` (winding, degC; five more reads per joint) to the observation.
+    ``bandwidth``: the T-mode position filter (1/s, 0..300). ``max_relative_target``:
     deg, one for all joints or by joint: a target further than this from the last one sent is moved
     that far toward it (LeRobot's meaning); the robot file's ``max_step`` is the gate's and refuses.
     ``timeout``: s per request (None: the buses' own).
@@ -36,6 +37,7 @@ class DrEmpowerFollowerConfig(RobotConfig):  # type: ignore[misc]  # LeRobot has
     sim: dict[str, Any] = field(default_factory=dict)
     observe_speeds: bool = False
     observe_torques: bool = False
+    observe_temperatures: bool = False
     bandwidth: float = 20.0
     max_relative_target: float | dict[str, float] | None = None
     timeout: float | None = None

@@ -1,7 +1,10 @@
 """The ``drempower`` follower robot: a DrEmpower arm from its robot file, driven by joint positions.
 
-Observation: ``<joint>.pos`` (deg at the joint), optionally ``<joint>.vel`` (deg/s) and
-``<joint>.torque`` (Nm), plus the cameras. Action: ``<joint>.pos`` (deg). Each action is one control
+Observation: ``<joint>.pos`` (deg at the joint), optionally ``<joint>.vel`` (deg/s),
+``<joint>.torque`` (Nm) and ``<joint>.temp`` (the winding, degC), plus the cameras. A joint whose
+motor reports an error (the E bit of its state) ends the observation or the action with
+:class:`~drempower.MotorFaultError` naming the joint, the error and its fix, instead of stale values.
+Action: ``<joint>.pos`` (deg). Each action is one control
 cycle (``robot.cycle``) of T-mode (filtered position) commands, through the safety gate: the robot
 file's limits and ``max_step`` refuse it (nothing is sent, the gate's ``SoftLimitError`` is raised);
 a target beyond the model's range of a joint without limits in the file is refused the same way.
@@ -19,10 +22,10 @@ from lerobot.cameras.utils import make_cameras_from_configs
 from lerobot.robots import Robot
 from lerobot.utils.errors import DeviceAlreadyConnectedError, DeviceNotConnectedError
 
-from drempower import PositionMode, SoftLimitError, ValidationError
+from drempower import MotorFaultError, PositionMode, SoftLimitError, ValidationError
 from drempower.robot import Robot as DrRobot
 
-from .arm import POS, TORQUE, VEL, choose_joints, degrees, open_arm, position_keys, release
+from .arm import POS, TEMP, TORQUE, VEL, choose_joints, degrees, open_arm, position_keys, release
 from .config_drempower_follower import DrEmpowerFollowerConfig
 from .ranges import joint_ranges
 
@@ -59,6 +62,8 @@ class DrEmpowerFollower(Robot):  # type: ignore[misc]  # LeRobot has no type inf
                 out[f"{n}{VEL}"] = float
             if self.config.observe_torques:
                 out[f"{n}{TORQUE}"] = float
+            if self.config.observe_temperatures:
+                out[f"{n}{TEMP}"] = float
         for key, cam in self.config.cameras.items():
             out[key] = (cam.height, cam.width, 3)
         return out
@@ -137,7 +142,10 @@ class DrEmpowerFollower(Robot):  # type: ignore[misc]  # LeRobot has no type inf
 
     def get_observation(self) -> dict[str, Any]:
         """Fresh joint states (one read per joint; a missing reply is ``drempower.TimeoutError``)."""
-        states = self._robot().joint_states(self.choice.names)
+        robot = self._robot()
+        states = robot.joint_states(self.choice.names)
+        self._check_faults({n: st.error for n, st in states.items()})
+        temps = robot.health(self.choice.names) if self.config.observe_temperatures else {}
         out: dict[str, Any] = {}
         for n in self.choice.names:
             st = states[n]
@@ -146,6 +154,8 @@ class DrEmpowerFollower(Robot):  # type: ignore[misc]  # LeRobot has no type inf
                 out[f"{n}{VEL}"] = degrees(st.velocity)
             if self.config.observe_torques:
                 out[f"{n}{TORQUE}"] = st.torque
+            if self.config.observe_temperatures:
+                out[f"{n}{TEMP}"] = temps[n].motor_temp_c
         for key, cam in self.cameras.items():
             out[key] = cam.async_read()
         return out
@@ -165,9 +175,24 @@ class DrEmpowerFollower(Robot):  # type: ignore[misc]  # LeRobot has no type inf
             joint = robot.joint(n)
             angle = joint.gearing.motor_angle(math.radians(deg))
             commands[n] = joint.make_angle(angle, 0.0, self.config.bandwidth, PositionMode.T)
-        robot.cycle(commands)  # through the safety gate before anything is sent; the states come back
+        states = robot.cycle(commands)  # through the safety gate before anything is sent; the states come back
+        self._check_faults({n: st.error for n, st in states.items()})
         self._last.update(goal)
         return {f"{n}{POS}": deg for n, deg in goal.items()}
+
+    def _check_faults(self, errors: dict[str, bool]) -> None:
+        """Raise :class:`MotorFaultError` for the first joint whose motor reports an error: the joint, its
+        error words and every flag's fix (read now), so a step never goes on with a faulted motor."""
+        faulted = [n for n, e in errors.items() if e]
+        if not faulted:
+            return
+        health = self._robot().health(faulted)
+        n = faulted[0]
+        h = health[n]
+        exc = MotorFaultError(h.id, f"(joint {n})", h.errors)
+        fixes = "; ".join(str(f) for f in h.faults)
+        exc.args = (f"{exc}. {fixes}" if fixes else str(exc),)
+        raise exc
 
     def _goal(self, action: dict[str, Any]) -> dict[str, float]:
         """The targets (deg) of ``action``: one finite ``<joint>.pos`` for every joint driven."""

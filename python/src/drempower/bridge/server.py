@@ -35,6 +35,7 @@ from ..robot.joint import Gearing
 from ..transports.base import Transport
 from ..transports.zenoh_wire import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
 from . import rmw, rosmsg
+from .diagnostics import DIAGNOSTIC_ARRAY, Diagnostics
 from .hub import BusHub, axis_changed, driven_nodes
 from .order import ServiceOrder
 
@@ -597,6 +598,12 @@ class Bridge:
         self._rosout_pub = s.declare_publisher(self._rosout_key)
         self._decls.append(self._rosout_pub)
         self._rosout_seq = 0
+        diag_key, diag_gid = declare("MP", "/diagnostics", DIAGNOSTIC_ARRAY)
+        self.diagnostics_key = diag_key
+        self._diag_pub = s.declare_publisher(diag_key)
+        self._decls.append(self._diag_pub)
+        self.diagnostics = Diagnostics(self.faces, lambda p, a: self._diag_pub.put(p, attachment=a), diag_gid)
+        """``/diagnostics``: each joint's health at 1 Hz and on change (:mod:`drempower.bridge.diagnostics`)."""
         self._publisher_topics = {
             (rmw.mangle(rmw.qualify(ns, topic)), rosmsg.dds_type_name(rosmsg.FLOAT64_MULTI_ARRAY)): topic
             for topic in COMMAND_TOPICS
@@ -673,6 +680,9 @@ class Bridge:
                 continue
             for j, st in zip(face.joints, got, strict=True):
                 out[j.name] = st
+            diag = getattr(self, "diagnostics", None)
+            if diag is not None:
+                diag.saw_states(face.name, got)
         return out
 
     def _state_loop(self) -> None:
@@ -960,6 +970,9 @@ class Bridge:
         if self._closed.is_set():
             return
         self._closed.set()
+        diag = getattr(self, "diagnostics", None)
+        if diag is not None:
+            diag.close()
         for th in getattr(self, "_threads", []):
             th.join(2.0)
         for d in self._decls + self._tokens:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import csv
+import itertools
 import queue
 import sys
 import time
@@ -16,11 +17,19 @@ from ..client import Bus, MotorState
 from ..errors import DrEmpowerError
 from ..naming import COLUMNS, TIME_COLUMN
 from ..protocol import FastRead, ReadParam
-from ..protocol.addresses import CAN_CONFIG_HEARTBEAT_MS
+from ..protocol.addresses import (
+    AXIS0_ERROR,
+    AXIS0_FET_THERMISTOR_TEMPERATURE,
+    AXIS0_MOTOR_CONFIG_CURRENT_LIM,
+    AXIS0_MOTOR_EFFECTIVE_CURRENT_LIM,
+    AXIS0_MOTOR_THERMISTOR_TEMPERATURE,
+    CAN_CONFIG_HEARTBEAT_MS,
+)
+from ..protocol.flags import decode_error_word
 from ..protocol.parameters import Parameter, find_parameter
 from ._output import LiveView, is_terminal, json_line, render_table
 
-__all__ = ["COLUMNS", "STATE_FIELDS", "SOURCES", "Field", "parse_fields", "run_fields"]
+__all__ = ["COLUMNS", "HEALTH_FIELDS", "STATE_FIELDS", "SOURCES", "Field", "parse_fields", "run_fields"]
 
 _HEARTBEAT = CAN_CONFIG_HEARTBEAT_MS
 
@@ -41,13 +50,51 @@ SOURCES = ("poll", "heartbeat", "replies")
 replies: only the states other programs' commands make the motors send (enable_reply_state)."""
 
 
+def _derating(values: Sequence[float | None]) -> float | None:
+    lim, base = values
+    if lim is None or base is None:
+        return None
+    return round(min(1.0, max(0.0, 1.0 - lim / base)), 4) if base > 0 else 0.0
+
+
+def _errors(values: Sequence[float | None]) -> str | None:
+    (word,) = values
+    return None if word is None else " ".join(decode_error_word("axis", int(word))) or "none"
+
+
+HEALTH_FIELDS: dict[str, tuple[str, tuple[int, ...], Callable[[Sequence[float | None]], object]]] = {
+    "motor_temp_c": ("", (AXIS0_MOTOR_THERMISTOR_TEMPERATURE,), lambda v: v[0]),
+    "driver_temp_c": ("", (AXIS0_FET_THERMISTOR_TEMPERATURE,), lambda v: v[0]),
+    "current_limit_a": ("", (AXIS0_MOTOR_EFFECTIVE_CURRENT_LIM,), lambda v: v[0]),
+    "derating": ("", (AXIS0_MOTOR_EFFECTIVE_CURRENT_LIM, AXIS0_MOTOR_CONFIG_CURRENT_LIM), _derating),
+    "errors": ("", (AXIS0_ERROR,), _errors),
+}
+"""The health keys (``drempower health``): name -> (unit, the parameters read, the value from them)."""
+
+
 @dataclass(frozen=True)
 class Field:
-    """One column: a state channel (``parameter`` None) or a parameter read at the poll rate."""
+    """One column: a state channel, a parameter read at the poll rate, or a health key (``reads``)."""
 
     name: str
     unit: str
     parameter: Parameter | None = None
+    reads: tuple[int, ...] = ()
+
+    @property
+    def is_state(self) -> bool:
+        """A channel of the state frame (no parameter read)."""
+        return self.parameter is None and not self.reads
+
+    def addresses(self) -> tuple[int, ...]:
+        """The parameters this field reads each sample."""
+        return (self.parameter.address,) if self.parameter is not None else self.reads
+
+    def value(self, got: Sequence[float | None]) -> object:
+        """The column's value from the values read for it."""
+        if self.parameter is not None:
+            return got[0]
+        return HEALTH_FIELDS[self.name][2](got)
 
     @property
     def key(self) -> str:
@@ -69,11 +116,15 @@ def parse_fields(text: str) -> list[Field]:
         if name in STATE_FIELDS:
             out.append(Field(name, STATE_FIELDS[name][0]))
             continue
+        if name in HEALTH_FIELDS:
+            out.append(Field(name, HEALTH_FIELDS[name][0], None, HEALTH_FIELDS[name][1]))
+            continue
         p = find_parameter(name)
         if p is None:
             raise argparse.ArgumentTypeError(
                 f"field {given!r} is neither a state channel ({', '.join(STATE_FIELDS)}, or "
-                f"{', '.join(COLUMNS[c][0] for c in STATE_FIELDS)}) nor a parameter name or address "
+                f"{', '.join(COLUMNS[c][0] for c in STATE_FIELDS)}), a health key ({', '.join(HEALTH_FIELDS)}) "
+                "nor a parameter name or address "
                 "(see drempower params)"
             )
         out.append(Field(p.name, p.unit or "", p))
@@ -97,7 +148,7 @@ class _Capture:
             return
         row = self.values[st.node]
         for f in self.fields:
-            if f.parameter is None:
+            if f.is_state:
                 row[f.name] = STATE_FIELDS[f.name][1](st)
         self.samples[st.node] += 1
         self.events.put((st.timestamp, st.node))
@@ -107,8 +158,8 @@ def run_fields(args: argparse.Namespace, bus: Bus, out: Any) -> int:
     """The ``--fields``/``--source`` mode of monitor: one record per sample, the achieved rate shown."""
     ids: list[int] = args.ids
     fields: list[Field] = args.fields
-    params = [f for f in fields if f.parameter is not None]
-    need_state = any(f.parameter is None for f in fields)
+    params = [f for f in fields if not f.is_state]
+    need_state = any(f.is_state for f in fields)
     cap = _Capture(ids, fields)
     live = LiveView(out) if is_terminal(out) and not args.json else None
     headers = [TIME_COLUMN[1], "id", *(f.header for f in fields)]
@@ -138,12 +189,16 @@ def run_fields(args: argparse.Namespace, bus: Bus, out: Any) -> int:
                 now = time.monotonic()
                 if deadline is not None and now >= deadline:
                     break
-                reads = [ReadParam.of(i, f.parameter) for i in ids for f in params if f.parameter is not None]
+                reads = [ReadParam.of(i, a) for i in ids for f in params for a in f.addresses()]
                 polls = [FastRead(i) for i in ids] if args.source == "poll" and need_state else []
                 if reads or polls:
-                    answers = bus.request([*polls, *reads], missing_ok=True)[len(polls) :]
-                    for (i, f), a in zip([(i, f) for i in ids for f in params], answers, strict=True):
-                        cap.values[i][f.name] = None if a is None else a.value
+                    answers = iter(bus.request([*polls, *reads], missing_ok=True)[len(polls) :])
+                    for i in ids:
+                        for f in params:
+                            got = [
+                                None if a is None else a.value for a in itertools.islice(answers, len(f.addresses()))
+                            ]
+                            cap.values[i][f.name] = f.value(got)
                     if not need_state:
                         for i in ids:
                             cap.events.put((time.monotonic(), i))

@@ -25,6 +25,7 @@ COMMANDS: dict[str, str] = {
     "enable": "control",
     "errors": "faults",
     "get": "getset",
+    "health": "health",
     "identify": "identify",
     "idle": "control",
     "impedance": "drive",

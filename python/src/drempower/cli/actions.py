@@ -32,6 +32,7 @@ GROUP_OF_SAFETY = {"read": "bus", "configure": "parameters", "motion": "motion",
 HANDWRITTEN = {
     "state": "state",
     "errors": "errors",
+    "health": "health",
     "get": "get",
     "set": "set",
     "move": "move",

@@ -44,9 +44,9 @@ _STATE = "axis0.current_state"
 _CARD_READS = (
     ("vbus", "vbus_voltage"),
     ("state", _STATE),
-    ("fet_temp", "axis0.fet_thermistor.temperature"),
-    ("motor_temp", "axis0.motor_thermistor.temperature"),
 )
+TREND_POINTS = 600
+"""Health readings kept per motor for the Health view's trends (one per card refresh: 10 minutes at 1 s)."""
 _LIMIT_READS = (
     ("speed", "axis0.output_shaft.vel_limit"),
     ("torque", "axis0.output_shaft.torque_lim"),
@@ -194,6 +194,9 @@ class Hub:
         self.scanning = False
         self.saved: dict[int, dict[str, float]] = {}
         self.limits: dict[int, dict[str, Any]] = {}
+        self.trends: dict[int, deque[tuple[float, float, float, float]]] = {}
+        """Per motor key, its health readings (s since start, winding degC, board degC, derating 0..1)."""
+        self._t0 = time.monotonic()
         self._watch: dict[tuple[int, str], tuple[float, float]] = {}
         self.param_samples: deque[tuple[int, str, float, float]] = deque()
         self._proposals: dict[int, Any] = {}
@@ -516,7 +519,27 @@ class Hub:
             card["limits"] = self.limits.get(i)
             st = m.state
             card["errors"] = []
-            if st is not None and st.error:
+            try:  # temperatures, effective current limit, derating and errors with their fixes (5 reads, +7 faulted)
+                h = m.health(timeout=0.2)
+            except DrEmpowerError:
+                h = None
+            if h is not None:
+                card.update(
+                    fet_temp=h.driver_temp_c,
+                    motor_temp=h.motor_temp_c,
+                    current_limit=h.current_limit_a,
+                    derating=h.derating,
+                )
+                trend = self.trends.setdefault(i, deque(maxlen=TREND_POINTS))
+                trend.append((round(time.monotonic() - self._t0, 2), round(h.motor_temp_c, 2),
+                              round(h.driver_temp_c, 2), round(h.derating, 4)))  # fmt: skip
+                card["trend"] = list(trend)
+                card["errors"] = [
+                    {"word": f.word, "flag": f.flag, "meaning": f.meaning, "advice": f.fix} for f in h.faults
+                ]
+            else:
+                card.update(fet_temp=None, motor_temp=None, current_limit=None, derating=None)
+            if h is None and st is not None and st.error:
                 try:
                     report = m.dump_error(timeout=0.2)
                     card["errors"] = []

@@ -6,6 +6,7 @@ do not edit; edit ``robot_async.py`` and run ``make generate``.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from collections.abc import Callable, Iterable, Mapping
 from types import TracebackType
@@ -15,8 +16,10 @@ from ..client import Bus, Motor, open_bus
 from ..client.engine.commands import PositionMode
 from ..client.engine.effects import read_states
 from ..client.engine.gate import move_intent
+from ..client.engine.health import Health, read_healths
 from ..client.engine.session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL
 from ..client.engine.state import MotorState
+from ..client.engine.supervisor import HealthEvent, HealthPolicy, Watch
 from ..client.engine.timeouts import checks_times
 from ..errors import DrEmpowerError, ValidationError
 from ..protocol.messages import Message
@@ -87,6 +90,10 @@ class Joint(Motor):
         """Apply ``torque`` Nm at the joint (for ``duration`` s, then 0, when given)."""
         self.set_torque(self.gearing.motor_torque(torque), duration=duration, enable=enable)
 
+    def health(self, *, timeout: float | None = None) -> Health:
+        """The motor's health (:meth:`Motor.health`), named for the joint."""
+        return dataclasses.replace(super().health(timeout=timeout), name=self.name)
+
     def _of_robot(self) -> Robot:
         if self.robot is None:
             raise DrEmpowerError(f"joint {self.name!r}: not part of a robot (open it with open_robot)")
@@ -145,6 +152,7 @@ class Robot(SyncRobotBase):
         for bus in self.buses.values():
             bus.on_sent = self._clock
         self._closed = False
+        self._watches: dict[str, list[Watch]] | None = None
         self._setup(len(self.buses))
 
     # ------------------------------------------------------------------ lookup
@@ -308,6 +316,57 @@ class Robot(SyncRobotBase):
         """As :meth:`get_states`, at the joints (rad, rad/s, Nm)."""
         states = self.get_states(names, timeout=timeout)
         return {n: self.joints[n].gearing.joint_state(st) for n, st in states.items()}
+
+    def health(self, names: Iterable[str] | None = None, *, timeout: float | None = None) -> dict[str, Health]:
+        """The health of the listed joints (all when None), by name; the buses read at once."""
+        groups = by_bus(self.spec, names)
+
+        def part(bus: str, group: list[str]) -> SyncPart[dict[str, Health]]:
+            def run() -> dict[str, Health]:
+                got = self.buses[bus].run(read_healths([self.joints[n].id for n in group], timeout))
+                return {n: dataclasses.replace(h, name=n) for n, h in zip(group, got, strict=True)}
+
+            return run
+
+        out: dict[str, Health] = {}
+        for healths in (self._each({b: part(b, g) for b, g in groups.items()})).values():
+            out.update(healths)
+        return {n: out[n] for g in groups.values() for n in g}
+
+    def health_policy(self) -> HealthPolicy | None:
+        """The supervisor's policy of the robot file's ``[health]`` (joints' ``on_overheat`` per motor), or None."""
+        if self.spec.health is None:
+            return None
+        joints = {j.id: j.on_overheat for j in self.spec.joints.values() if j.on_overheat is not None}
+        return HealthPolicy(**self.spec.health, joints=joints)
+
+    def supervise(self, policy: HealthPolicy | None = None, *, timeout: float | None = None) -> list[HealthEvent]:
+        """One step of the health supervisor over every joint (see :mod:`drempower.client.engine.supervisor`); call it
+        every ``policy.period`` s. The first call fixes the policy: ``policy``, else the robot file's
+        ``[health]`` (a :class:`ValidationError` when it has none). Returns the events that began, joints named,
+        their actions (hold, idle) already sent; the buses are read at once."""
+        if self._watches is None:
+            pol = policy or self.health_policy()
+            if pol is None:
+                raise ValidationError(f"{self.spec.source}: no [health] section: give supervise() a HealthPolicy")
+            self._watches = {
+                b: self.buses[b].watch_health(
+                    [j.id for j in self.spec.joints_on(b)], pol, {j.id: j.name for j in self.spec.joints_on(b)}
+                )
+                for b in self.buses
+            }
+        watches = self._watches
+
+        def part(bus: str) -> SyncPart[list[HealthEvent]]:
+            def run() -> list[HealthEvent]:
+                return self.buses[bus].supervise(watches[bus], timeout=timeout)
+
+            return run
+
+        out: list[HealthEvent] = []
+        for events in (self._each({b: part(b) for b in watches})).values():
+            out.extend(events)
+        return out
 
     def estop(self, names: Iterable[str] | None = None) -> None:
         """Emergency stop: every motor of every bus (one broadcast frame per bus) when ``names`` is None,

@@ -10,7 +10,9 @@ the gear ratio (see :mod:`drempower.sim.params`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+
+from .thermal import ThermalModel
 
 __all__ = ["FACTORY", "READ_ONLY_CONSTANTS", "MotorModel"]
 
@@ -101,8 +103,6 @@ READ_ONLY_CONSTANTS: dict[str, int | float] = {
     "axis0.encoder.index_found": 1,
     "axis0.encoder.battery_voltage": 3.6,
     "axis0.encoder.encoder_voltage": 3.3,
-    "axis0.fet_thermistor.temperature": 35.0,
-    "axis0.motor_thermistor.temperature": 35.0,
 }
 """Fixed readings of the hardware (the serial number's low word is the motor's creation id)."""
 
@@ -120,3 +120,5 @@ class MotorModel:
     viscous: float = 0.005
     coulomb: float = 0.1
     vbus: float = 24.0
+    thermal: ThermalModel = field(default_factory=ThermalModel)
+    """Winding and driver-board heating (:mod:`drempower.sim.thermal`)."""

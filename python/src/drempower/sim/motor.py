@@ -59,16 +59,16 @@ from ..protocol.addresses import (
     AXIS0_ENCODER_TURN_ABS,
     AXIS0_ENCODER_VEL_ESTIMATE,
     AXIS0_ERROR,
-    AXIS0_MOTOR_CONFIG_CURRENT_LIM,
+    AXIS0_FET_THERMISTOR_TEMPERATURE,
     AXIS0_MOTOR_CONFIG_PHASE_RESISTANCE,
     AXIS0_MOTOR_CONFIG_TORQUE_CONSTANT,
-    AXIS0_MOTOR_CONFIG_TORQUE_LIM,
     AXIS0_MOTOR_CURRENT_CONTROL_IBUS,
     AXIS0_MOTOR_CURRENT_CONTROL_IQ_MEASURED,
     AXIS0_MOTOR_CURRENT_CONTROL_IQ_SETPOINT,
     AXIS0_MOTOR_EFFECTIVE_CURRENT_LIM,
     AXIS0_MOTOR_ERROR,
     AXIS0_MOTOR_IS_CALIBRATED,
+    AXIS0_MOTOR_THERMISTOR_TEMPERATURE,
     AXIS0_OUTPUT_SHAFT_LOAD_INERTIA,
     AXIS0_OUTPUT_SHAFT_TORQUE_ESTIMATE,
     AXIS0_OUTPUT_SHAFT_TORQUE_RAMP_RATE,
@@ -115,6 +115,7 @@ from .defaults import MotorModel
 from .drive import POSITION, TAU, TRAP_TRAJ, Drive
 from .firmware import Firmware, factory_firmware_id
 from .params import OUTPUT_VIEWS, ParamStore, view_factor
+from .thermal import HEAT_STEPS, Thermal, ThermalLimits
 
 __all__ = ["SimMotor"]
 
@@ -165,6 +166,14 @@ class SimMotor:
         self.params = ParamStore(ident, config_path)
         factory_firmware_id(self.params, ident, self.firmware.factory_id)
         self.drive = Drive()
+        self.thermal = Thermal(self.model.thermal)
+        """Winding and board temperatures (degC); tests may set them (a heat gun)."""
+        self._limits = ThermalLimits()
+        self._derating = False
+        self._tq_sq = 0.0
+        """Sum of the squared output torque (Nm^2) over the steps since the last thermal update."""
+        self._heat_n = 0
+        """The limiter acted at the last step (else the torque limit is the configured one)."""
         self.time = 0.0
         """Simulated time of the last step (s)."""
         self.state = AxisState.IDLE
@@ -333,6 +342,11 @@ class SimMotor:
             plant.sync(now)
         d.step(dt)
         self.time = now
+        tq = d.torque
+        self._tq_sq += tq * tq
+        self._heat_n += 1
+        if self._heat_n >= HEAT_STEPS:
+            self._heat(dt)
         if self.state == AxisState.ENCODER_OFFSET_CALIBRATION:
             self._encoder_scan(now)
         if d.active:
@@ -347,6 +361,21 @@ class SimMotor:
                 self._fault(AXIS0_CONTROLLER_ERROR, ControllerError.OVERSPEED)
         if now >= self._wake:
             self._timers()
+
+    def _heat(self, dt: float) -> None:
+        """Heat with the mean square current of the last HEAT_STEPS steps (the step sums the torque's squares),
+        derate the current limit, trip above the upper limits."""
+        lim, t, n = self._limits, self.thermal, self._heat_n
+        t.heat(dt * n, self._tq_sq / (n * self._kt * self._kt), lim.phase_resistance)
+        self._tq_sq, self._heat_n = 0.0, 0
+        calm = t.winding < lim.calm_below and t.board < lim.calm_below
+        if calm and not self._derating:
+            return
+        self._derating = not calm
+        trip = lim.tripped(t)
+        if trip:
+            self._fault(trip, 0x1)
+        self.drive.tlim = lim.torque_limit(t)
 
     def _timers(self) -> None:
         now = self.time + _EPS
@@ -718,13 +747,8 @@ class SimMotor:
             if ram[AXIS0_CONTROLLER_CONFIG_ENABLE_VEL_LIMIT]
             else math.inf
         )
-        d.tlim = (
-            min(
-                float(ram[AXIS0_MOTOR_CONFIG_TORQUE_LIM]),
-                float(ram[AXIS0_MOTOR_CONFIG_CURRENT_LIM]) * float(ram[AXIS0_MOTOR_CONFIG_TORQUE_CONSTANT]),
-            )
-            * r
-        )
+        self._limits.configure(ram, r)
+        d.tlim = self._limits.torque_limit(self.thermal)
         d.jff = float(ram[AXIS0_CONTROLLER_CONFIG_INERTIA]) * r2 + float(ram[AXIS0_OUTPUT_SHAFT_LOAD_INERTIA])
         d.j = TAU * (m.rotor_inertia * r2 + self._load_inertia)
         d.b = TAU * m.viscous
@@ -878,7 +902,9 @@ _LIVE: dict[int, Callable[[SimMotor], int | float]] = {
     AXIS0_CONTROLLER_TRAJECTORY_DONE: lambda m: int(m.trajectory_done),
     AXIS0_CONTROLLER_CONFIG_CONTROL_MODE: lambda m: m.drive.mode,
     AXIS0_CONTROLLER_CONFIG_INPUT_MODE: lambda m: m.drive.input_mode,
-    AXIS0_MOTOR_EFFECTIVE_CURRENT_LIM: lambda m: m.params.ram[AXIS0_MOTOR_CONFIG_CURRENT_LIM],
+    AXIS0_MOTOR_EFFECTIVE_CURRENT_LIM: lambda m: m._limits.current_limit(m.thermal),
+    AXIS0_MOTOR_THERMISTOR_TEMPERATURE: lambda m: m.thermal.winding,
+    AXIS0_FET_THERMISTOR_TEMPERATURE: lambda m: m.thermal.board,
     AXIS0_MOTOR_CURRENT_CONTROL_IBUS: _ibus,
     AXIS0_MOTOR_CURRENT_CONTROL_IQ_SETPOINT: lambda m: m.current,
     AXIS0_MOTOR_CURRENT_CONTROL_IQ_MEASURED: lambda m: m.current,

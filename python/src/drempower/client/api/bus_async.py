@@ -41,9 +41,11 @@ from ..engine.commands import (
 )
 from ..engine.effects import Batch, Op, request
 from ..engine.gate import Intent, move_intents
+from ..engine.health import Health, read_health, read_healths
 from ..engine.results import ErrorReport, GpioMode, MotorInfo
 from ..engine.session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE, StartPolicy, StopOnClose
 from ..engine.state import MotorState
+from ..engine.supervisor import HealthEvent, Watch, prepare, supervise
 from ..engine.timeouts import checks_times
 from .busbase import connect
 from .flavours import AsyncBusBase
@@ -330,6 +332,11 @@ class AsyncMotor(MotorBase):
         """The seven error words, decoded into flag names."""
         return await self._bus.run(ops.dump_error(self._id, timeout))
 
+    async def health(self, *, timeout: float | None = None) -> Health:
+        """Temperatures (degC), effective current limit (A), derating (0..1) and errors, in one exchange
+        of five reads (a second one reads the error words when the motor is faulted)."""
+        return await self._bus.run(read_health(self._id, timeout))
+
     # ------------------------------------------------------------------ system
 
     async def clear_error(self) -> None:
@@ -464,6 +471,20 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
     async def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor (one broadcast frame) when None."""
         self.estop_now(id_list)
+
+    async def health(self, id_list: Iterable[int], *, timeout: float | None = None) -> dict[int, Health]:
+        """The health of every motor of ``id_list``, read in one exchange (see :meth:`AsyncMotor.health`)."""
+        nodes = check_ids(list(id_list))
+        return {h.id: h for h in await self.run(read_healths(nodes, timeout))}
+
+    async def supervise(self, watches: Sequence[Watch], *, timeout: float | None = None) -> list[HealthEvent]:
+        """One supervisor step over ``watches`` (see :mod:`drempower.client.engine.supervisor`): the state and health of
+        every watched motor in one exchange (12 frames per motor), the events that began, their actions sent.
+        Call it every ``policy.period`` s; the first call also reads each motor's limits (7 reads per motor)."""
+        fresh = [w for w in watches if w.limits.kt != w.limits.kt]
+        if fresh:
+            await self.run(prepare(fresh, timeout))
+        return await self.run(supervise(watches, self.now(), timeout))
 
     async def traj_modes(self, ids: Iterable[int], *, timeout: float | None = None) -> dict[int, int]:
         """The Q-mode profile of each motor (:class:`~drempower.client.engine.commands.TrajMode` values): those the

@@ -38,9 +38,11 @@ from ..engine.commands import (
 )
 from ..engine.effects import Batch, Op, request
 from ..engine.gate import Intent, move_intents
+from ..engine.health import Health, read_health, read_healths
 from ..engine.results import ErrorReport, GpioMode, MotorInfo
 from ..engine.session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE, StartPolicy, StopOnClose
 from ..engine.state import MotorState
+from ..engine.supervisor import HealthEvent, Watch, prepare, supervise
 from ..engine.timeouts import checks_times
 from .busbase import connect
 from .flavours import SyncBusBase
@@ -323,6 +325,11 @@ class Motor(MotorBase):
         """The seven error words, decoded into flag names."""
         return self._bus.run(ops.dump_error(self._id, timeout))
 
+    def health(self, *, timeout: float | None = None) -> Health:
+        """Temperatures (degC), effective current limit (A), derating (0..1) and errors, in one exchange
+        of five reads (a second one reads the error words when the motor is faulted)."""
+        return self._bus.run(read_health(self._id, timeout))
+
     # ------------------------------------------------------------------ system
 
     def clear_error(self) -> None:
@@ -455,6 +462,20 @@ class Bus(SyncBusBase[Motor]):
     def estop(self, id_list: Iterable[int] | None = None) -> None:
         """Emergency-stop the listed motors, or every motor (one broadcast frame) when None."""
         self.estop_now(id_list)
+
+    def health(self, id_list: Iterable[int], *, timeout: float | None = None) -> dict[int, Health]:
+        """The health of every motor of ``id_list``, read in one exchange (see :meth:`Motor.health`)."""
+        nodes = check_ids(list(id_list))
+        return {h.id: h for h in self.run(read_healths(nodes, timeout))}
+
+    def supervise(self, watches: Sequence[Watch], *, timeout: float | None = None) -> list[HealthEvent]:
+        """One supervisor step over ``watches`` (see :mod:`drempower.client.engine.supervisor`): the state and health of
+        every watched motor in one exchange (12 frames per motor), the events that began, their actions sent.
+        Call it every ``policy.period`` s; the first call also reads each motor's limits (7 reads per motor)."""
+        fresh = [w for w in watches if w.limits.kt != w.limits.kt]
+        if fresh:
+            self.run(prepare(fresh, timeout))
+        return self.run(supervise(watches, self.now(), timeout))
 
     def traj_modes(self, ids: Iterable[int], *, timeout: float | None = None) -> dict[int, int]:
         """The Q-mode profile of each motor (:class:`~drempower.client.engine.commands.TrajMode` values): those the

@@ -17,10 +17,12 @@ from ...protocol.parameters import find_parameter
 from ...transports.base import Transport
 from ...transports.factory import open_transport
 from ..driver.bus_driver import BusDriver, FrameTap
+from ..engine.commands import check_ids
 from ..engine.effects import Op
 from ..engine.gate import Intent, Limit, MotionGate, intents_of
 from ..engine.session import DEFAULT_TIMEOUT, BusSession, StartPolicy, StopOnClose
 from ..engine.state import MotorState, StateCallback, Subscription
+from ..engine.supervisor import HealthPolicy, Watch
 from ..engine.timeouts import seconds
 from .timed import TimedStops
 
@@ -122,6 +124,13 @@ class BusBase(ABC, Generic[M]):
                     f"a read addressed to every motor (id 0) is ambiguous on a bus with motors {ids}: "
                     "read each motor by its id"
                 )
+
+    def watch_health(
+        self, id_list: Iterable[int], policy: HealthPolicy | None = None, names: dict[int, str] | None = None
+    ) -> list[Watch]:
+        """Watches for :meth:`supervise` over the motors of ``id_list`` (``names``: joint names to show)."""
+        pol = policy or HealthPolicy()
+        return [Watch(n, pol, (names or {}).get(n)) for n in check_ids(list(id_list))]
 
     # ------------------------------------------------------------ the safety gate (see drempower.client.engine.gate)
 

@@ -283,6 +283,7 @@
         <tr><td>torque</td><td>${r ? fmt(r[4], 2) : "-"} Nm</td></tr>
         <tr><td>supply</td><td>${fmt(c.vbus, 1)} V</td></tr>
         <tr><td>temps</td><td>FET ${fmt(c.fet_temp, 1)} / motor ${fmt(c.motor_temp, 1)} &deg;C</td></tr>
+        <tr><td>current</td><td class="derating">limit ${fmt(c.current_limit, 2)} A, derating ${c.derating == null ? "-" : fmt(c.derating * 100, 0)} %</td></tr>
         <tr><td>fw/hw</td><td>${c.fw ?? "-"}/${c.hw ?? "-"}</td></tr></table>
         ${r && r[5] & 2 ? errs || '<div class="err">error flag set</div>' : ""}
         <button data-card="clear_errors" ${ro}>Clear errors</button>
@@ -297,6 +298,31 @@
     return act("control", { action: b.dataset.card, id }, `${motorName(id)}: ${b.dataset.card}`);
   });
   setInterval(() => { if (!$("#view-bus").hidden) renderCards(); }, 500);
+
+  // ------------------------------------------------------------------ health: temperatures, derating, faults
+  const HEALTH = { lo: 20, hi: 110, w: 360, h: 90 };
+  function trendSvg(trend) {
+    if (!trend || trend.length < 2) return '<svg class="trend"></svg>';
+    const t0 = trend[0][0], t1 = Math.max(trend[trend.length - 1][0], t0 + 1);
+    const x = (t) => ((t - t0) / (t1 - t0)) * HEALTH.w;
+    const y = (v) => HEALTH.h - ((Math.min(Math.max(v, HEALTH.lo), HEALTH.hi) - HEALTH.lo) / (HEALTH.hi - HEALTH.lo)) * HEALTH.h;
+    const line = (k, cls) => `<polyline class="${cls}" points="${trend.map((p) => `${x(p[0]).toFixed(1)},${y(p[k]).toFixed(1)}`).join(" ")}"/>`;
+    const mark = (v, cls) => `<line class="${cls}" x1="0" x2="${HEALTH.w}" y1="${y(v).toFixed(1)}" y2="${y(v).toFixed(1)}"/>`;
+    return `<svg class="trend" viewBox="0 0 ${HEALTH.w} ${HEALTH.h}" width="${HEALTH.w}" height="${HEALTH.h}">` +
+      mark(95, "derate") + mark(100, "trip") + line(2, "board") + line(1, "winding") + "</svg>";
+  }
+  function renderHealth() {
+    const rows = S.motors.map((id) => {
+      const c = S.cards[id] || { id };
+      const level = (c.errors || []).length ? "error" : c.derating > 0 || c.motor_temp >= 80 || c.fet_temp >= 80 ? "warn" : "ok";
+      const faults = (c.errors || []).map((e) => `<div class="err"><b>${e.word} ${e.flag}</b>: ${e.meaning} <i>Fix: ${e.advice}</i></div>`).join("");
+      return `<tr class="health-${level}" data-id="${id}"><td>${motorName(id)}</td><td>${level}</td>
+        <td>${fmt(c.motor_temp, 1)}</td><td>${fmt(c.fet_temp, 1)}</td><td>${fmt(c.current_limit, 2)}</td>
+        <td>${c.derating == null ? "-" : fmt(c.derating * 100, 0)} %</td><td>${trendSvg(c.trend)}${faults}</td></tr>`;
+    }).join("");
+    $("#health-table tbody").innerHTML = rows;
+  }
+  setInterval(() => { if (!$("#view-health").hidden) renderHealth(); }, 500);
 
   // ------------------------------------------------------------ plots
   let plot = null;
