@@ -70,7 +70,12 @@ def test_every_file_parses_and_names_every_joint(name: str, robot: str, tmp_path
     assert isinstance(pkg, ET.Element) and pkg.get("format") == "3" and pkg.findtext("name") == name
     assert pkg.findtext("buildtool_depend") == "ament_cmake"
     deps = {e.text for e in pkg.iter("exec_depend")}
-    assert {"topic_based_ros2_control", "rmw_zenoh_cpp", "controller_manager", "moveit_ros_move_group"} <= deps
+    assert {
+        "joint_state_topic_hardware_interface",
+        "rmw_zenoh_cpp",
+        "controller_manager",
+        "moveit_ros_move_group",
+    } <= deps
     cmake = files["CMakeLists.txt"].decode()
     assert f"project({name})" in cmake and "find_package(ament_cmake REQUIRED)" in cmake
     assert "install(DIRECTORY config launch robot urdf" in cmake and "ament_package()" in cmake
@@ -125,7 +130,12 @@ def test_every_file_parses_and_names_every_joint(name: str, robot: str, tmp_path
     moveit_launch = files["launch/moveit.launch.py"].decode()
     assert "MoveItConfigsBuilder" in moveit_launch and f"config/{model}.srdf" in moveit_launch
     readme = files["README.md"].decode()
-    for word in ("ros-jazzy-rmw-zenoh-cpp", "ros-jazzy-topic-based-ros2-control", "rmw_zenohd", "colcon build"):
+    for word in (
+        "ros-jazzy-rmw-zenoh-cpp",
+        "ros-jazzy-joint-state-topic-hardware-interface",
+        "rmw_zenohd",
+        "colcon build",
+    ):
         assert word in readme
     # the robot file copied into the package opens with its model beside it
     copied = load_robot(tmp_path / "robot" / robot)
@@ -137,6 +147,31 @@ def test_the_shipped_arm_package_is_what_the_command_writes(tmp_path: Path) -> N
     have = {str(p.relative_to(SHIPPED)): p.read_bytes() for p in sorted(SHIPPED.rglob("*")) if p.is_file()}
     stale = sorted(p for p in set(want) | set(have) if want.get(p) != have.get(p))
     assert not stale, f"examples/ros2/arm6_bringup is stale ({', '.join(stale)}): run {REGENERATE}"
+
+
+def test_the_first_plugin_is_built_from_source(tmp_path: Path) -> None:
+    assert (
+        main(
+            [
+                "ros2",
+                "package",
+                "arm6_bringup",
+                "--robot",
+                str(ROBOTS / "arm6.toml"),
+                "-o",
+                str(tmp_path),
+                "--plugin",
+                "topic_based_ros2_control/TopicBasedSystem",
+            ]
+        )
+        == 0
+    )
+    urdf = ET.parse(tmp_path / "urdf" / "arm6.urdf").getroot()
+    assert urdf.findtext("ros2_control/hardware/plugin") == "topic_based_ros2_control/TopicBasedSystem"
+    deps = {e.text for e in ET.parse(tmp_path / "package.xml").getroot().iter("exec_depend")}
+    assert "topic_based_ros2_control" in deps and "joint_state_topic_hardware_interface" not in deps
+    readme = (tmp_path / "README.md").read_text()
+    assert "PickNikRobotics/topic_based_ros2_control" in readme and "ros-jazzy-joint-state" not in readme
 
 
 def test_a_bad_name_is_refused_with_nothing_written(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

@@ -187,7 +187,7 @@ def test_ros2_control_block_names_the_bridges_topics_and_interfaces(tmp_path: Pa
     block = root.find("ros2_control")
     assert block is not None
     hw = block.find("hardware")
-    assert hw is not None and hw.findtext("plugin") == "topic_based_ros2_control/TopicBasedSystem"
+    assert hw is not None and hw.findtext("plugin") == "joint_state_topic_hardware_interface/JointStateTopicSystem"
     params = {p.get("name"): p.text for p in hw.iter("param")}
     assert params == {"joint_commands_topic": "/arm/cmd", "joint_states_topic": "/robot_joint_states"}
     joints = block.findall("joint")

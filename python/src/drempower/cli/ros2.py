@@ -37,14 +37,29 @@ def register(sub: Any) -> None:
         help="prefix of the mesh files' names in the URDF (default: the folder of --output's meshes/ as file://); "
         "the meshes are written to meshes/ beside --output",
     )
+    _plugin_arg(u)
     add_json_arg(u)
-    u.set_defaults(func=run_urdf)
+    u.set_defaults(func=run_urdf, robot_whole=True)  # the robot file is read whole, once: no bus is opened
     k = what.add_parser("package", help="write a colcon package: URDF, controllers, bringup launch, MoveIt")
     k.add_argument("name", metavar="NAME", help="the package's name, e.g. arm6_bringup")
     k.add_argument("--robot", required=True, metavar="FILE", help="the robot file (its [model] names the model)")
     k.add_argument("-o", "--output", required=True, metavar="DIR", help="the package's folder (created)")
+    _plugin_arg(k)
     add_json_arg(k)
-    k.set_defaults(func=run_package)
+    k.set_defaults(func=run_package, robot_whole=True)
+
+
+def _plugin_arg(p: argparse.ArgumentParser) -> None:
+    from ..ros2.urdf import DEFAULT_PLUGIN, PLUGINS
+
+    p.add_argument(
+        "--plugin",
+        choices=list(PLUGINS),
+        default=DEFAULT_PLUGIN,
+        help="the ros2_control hardware plugin on the bridge's joint topics (default: %(default)s, released for "
+        "Jazzy; topic_based_ros2_control/TopicBasedSystem is the same interface by its first name, built from "
+        "source on Jazzy)",
+    )
 
 
 def _write(path: str, data: bytes) -> None:
@@ -65,7 +80,7 @@ def run_urdf(args: argparse.Namespace) -> int:
     spec = load_robot(args.robot)
     where = os.path.dirname(os.path.abspath(args.output)) if args.output else os.getcwd()
     prefix = args.mesh_uri if args.mesh_uri is not None else "file://" + os.path.join(where, "meshes") + "/"
-    urdf = robot_urdf(spec, name=args.name, mesh_uri=lambda f: prefix + f)
+    urdf = robot_urdf(spec, name=args.name, mesh_uri=lambda f: prefix + f, plugin=args.plugin)
     for warning in urdf.warnings:
         print(f"drempower ros2 urdf: {warning}", file=sys.stderr)
     written = []
@@ -89,7 +104,7 @@ def run_package(args: argparse.Namespace) -> int:
 
     check_package_name(args.name)
     spec = load_robot(args.robot)
-    files = package_files(args.name, spec)
+    files = package_files(args.name, spec, plugin=args.plugin)
     remove_stale(args.output, files)
     for path, data in sorted(files.items()):
         _write(os.path.join(args.output, path), data)

@@ -16,7 +16,7 @@ from typing import Any
 
 from ..errors import ConfigError
 from ..robotfile import RobotSpec
-from .urdf import Urdf, robot_urdf
+from .urdf import DEFAULT_PLUGIN, PLUGINS, Urdf, robot_urdf
 
 __all__ = ["GROUP", "CONTROLLER", "check_package_name", "package_files", "write_package"]
 
@@ -67,10 +67,12 @@ def _scalar(v: Any) -> str:
     raise TypeError(v)
 
 
-def package_files(name: str, spec: RobotSpec, *, interfaces: list[str] | None = None) -> dict[str, bytes]:
+def package_files(
+    name: str, spec: RobotSpec, *, interfaces: list[str] | None = None, plugin: str = DEFAULT_PLUGIN
+) -> dict[str, bytes]:
     """Every file of the package ``name`` for the robot file ``spec`` (path in the package -> content)."""
     check_package_name(name)
-    urdf = robot_urdf(spec, mesh_uri=lambda f: f"package://{name}/meshes/{f}", interfaces=interfaces)
+    urdf = robot_urdf(spec, mesh_uri=lambda f: f"package://{name}/meshes/{f}", interfaces=interfaces, plugin=plugin)
     robot = urdf.name
     joints = [j.name for j in urdf.joints]
     if not joints:
@@ -92,7 +94,7 @@ def package_files(name: str, spec: RobotSpec, *, interfaces: list[str] | None = 
     with open(spec.model.file, "rb") as fh:
         files[f"robot/{model_file}"] = fh.read()
     dirs = ["config", "launch", "robot", "urdf"] + (["meshes"] if urdf.meshes else [])
-    text("package.xml", _package_xml(name, robot))
+    text("package.xml", _package_xml(name, robot, PLUGINS[plugin]))
     text("CMakeLists.txt", _cmake(name, dirs))
     text("config/controllers.yaml", _controllers(joints, urdf))
     text(f"config/{robot}.srdf", _srdf(robot, urdf))
@@ -114,7 +116,7 @@ def package_files(name: str, spec: RobotSpec, *, interfaces: list[str] | None = 
     text("config/moveit.rviz", _rviz())
     text("launch/bringup.launch.py", _bringup(name, robot, robot_file, bridge))
     text("launch/moveit.launch.py", _moveit_launch(name, robot))
-    text("README.md", _readme(name, robot, robot_file, model_file, joints, bridge, urdf))
+    text("README.md", _readme(name, robot, robot_file, model_file, joints, bridge, urdf, plugin))
     return files
 
 
@@ -137,13 +139,13 @@ def remove_stale(directory: str, files: Mapping[str, bytes]) -> None:
             shutil.rmtree(os.path.join(directory, sub))
 
 
-def _package_xml(name: str, robot: str) -> str:
+def _package_xml(name: str, robot: str, hardware: str) -> str:
     deps = [
         "robot_state_publisher",
         "controller_manager",
         "joint_state_broadcaster",
         "joint_trajectory_controller",
-        "topic_based_ros2_control",
+        hardware,
         "rmw_zenoh_cpp",
         "xacro",
         "moveit_configs_utils",
@@ -428,7 +430,25 @@ def generate_launch_description():
 '''
 
 
-def _readme(name: str, robot: str, robot_file: str, model_file: str, joints: list[str], bridge: str, urdf: Urdf) -> str:
+def _readme(
+    name: str, robot: str, robot_file: str, model_file: str, joints: list[str], bridge: str, urdf: Urdf, plugin: str
+) -> str:
+    hardware = PLUGINS[plugin]
+    if hardware == "topic_based_ros2_control":
+        apt_hw = ""
+        source = f"""
+`{plugin}` has no Jazzy release: build it in the workspace from source
+(github.com/PickNikRobotics/topic_based_ros2_control, `git clone` into `~/ws/src`
+before `colcon build`), or write the package again with its successor
+(`--plugin joint_state_topic_hardware_interface/JointStateTopicSystem`,
+released for Jazzy).
+"""
+    else:
+        apt_hw = " ros-jazzy-joint-state-topic-hardware-interface"
+        source = f"""
+`{plugin}` is ros-controls' successor of `topic_based_ros2_control`'s
+`TopicBasedSystem`: the same topics and parameters, released for Jazzy.
+"""
     tree = "\n".join(
         [
             f"{name}/",
@@ -456,15 +476,20 @@ after changing the robot file or its model. The joints: {", ".join(joints)}.
 With ROS 2 Jazzy installed from its apt repository (docs.ros.org, "Ubuntu (deb packages)"):
 
 ```sh
-sudo apt install ros-jazzy-rmw-zenoh-cpp ros-jazzy-topic-based-ros2-control \\
+sudo apt install ros-jazzy-rmw-zenoh-cpp{apt_hw} \\
     ros-jazzy-ros2-control ros-jazzy-ros2-controllers ros-jazzy-xacro \\
     ros-jazzy-moveit python3-colcon-common-extensions
 mkdir -p ~/ws/src && cp -r {name} ~/ws/src/
 cd ~/ws && source /opt/ros/jazzy/setup.bash && colcon build --packages-select {name}
 ```
+{source}
+drempower runs the bridge, on this machine or on the one with the bus, from a clone of
+its repository in a venv of its own (no ROS needed there):
 
-drempower itself (`pip install 'drempower[bridge,physics]'`, in a venv of its own) runs the
-bridge, on this machine or on the one with the bus.
+```sh
+python3 -m venv ~/drempower-venv && ~/drempower-venv/bin/pip install './python[bridge,physics]'
+export PATH=~/drempower-venv/bin:$PATH     # drempower on the PATH
+```
 
 ## Run
 
@@ -476,16 +501,20 @@ export RMW_IMPLEMENTATION=rmw_zenoh_cpp
 ```
 
 ```sh
-ros2 run rmw_zenoh_cpp rmw_zenohd                         # 1: the Zenoh router (tcp/[::]:7447)
-{bridge}   # 2: the bus (here: the twin)
-ros2 service call /enable std_srvs/srv/Trigger            # 3: closed loop before commanding
-ros2 launch {name} bringup.launch.py                  # 4: ros2_control
-ros2 launch {name} moveit.launch.py                   # 5: MoveIt and RViz
+ros2 run rmw_zenoh_cpp rmw_zenohd                   # 1: the Zenoh router (tcp/[::]:7447)
+drempower bridge --robot ~/ws/src/{name}/robot/{robot_file}   # 2: the bus (drempower's venv)
+ros2 service call /enable std_srvs/srv/Trigger      # 3: closed loop before commanding
+ros2 launch {name} bringup.launch.py                # 4: ros2_control
+ros2 launch {name} moveit.launch.py                 # 5: MoveIt and RViz
 ```
 
-The bridge (2) runs in drempower's venv, from the folder of `robot/{robot_file}`
-(its `[model] file` is found beside it). It connects to the router on
-127.0.0.1:7447 (`--connect tcp/HOST:7447` for a router elsewhere). In RViz, drag the
-MotionPlanning marker, then "Plan & Execute": MoveIt sends the trajectory to
-`arm_controller`, whose commands go to the bridge on `/robot_joint_commands`.
+The bridge (2) opens the robot file with its model beside it; for the
+example arm that is the twin: simulated motors on MuJoCo, inside the bridge.
+It connects to the router on localhost:7447 (`--connect tcp/HOST:7447` for a
+router elsewhere). `bringup.launch.py bridge:=true` starts it instead, with
+drempower on the PATH. In RViz, drag the MotionPlanning marker, then "Plan &
+Execute": MoveIt sends the trajectory to `arm_controller`'s action, and
+`arm_controller` its commands to the bridge on `/robot_joint_commands`.
+A robot on its own bus: change the robot file's `[buses]` and write the package
+again (`drempower ros2 package {name} --robot FILE -o DIR`).
 """

@@ -1,8 +1,10 @@
-"""A URDF of a robot file's model, with a ``<ros2_control>`` block for the bridge's ``TopicBasedSystem`` topics.
+"""A URDF of a robot file's model, with a ``<ros2_control>`` block on the bridge's joint topics.
 
 The model (MJCF, or URDF through MuJoCo's import) is compiled by MuJoCo and its
 bodies, joints, geoms and inertials are written out:
 
+* the ``<ros2_control>`` block names the robot file's joints and the bridge's
+  topics for a hardware plugin that speaks them (:data:`PLUGINS`);
 * each body is a link (the world body is ``world``); a body's joint (hinge:
   ``revolute``, or ``continuous`` without any range; slide: ``prismatic``) joins
   it to its parent's link, a body without one is joined by a ``fixed`` joint; a
@@ -38,6 +40,8 @@ from ..errors import ConfigError
 from ..robotfile import JointSpec, RobotSpec
 
 __all__ = [
+    "DEFAULT_PLUGIN",
+    "PLUGINS",
     "TYPICAL_SPEED",
     "TYPICAL_TORQUE",
     "JointInfo",
@@ -50,6 +54,15 @@ TYPICAL_SPEED = 300.0 * 2.0 * math.pi / 60.0
 """rad/s at the output of the typical motor (300 r/min), a joint's speed limit when its file gives none."""
 TYPICAL_TORQUE = 12.0
 """Nm at the output of the typical motor (its peak), a joint's effort limit when its file gives none."""
+PLUGINS = {
+    "joint_state_topic_hardware_interface/JointStateTopicSystem": "joint_state_topic_hardware_interface",
+    "topic_based_ros2_control/TopicBasedSystem": "topic_based_ros2_control",
+}
+"""The ros2_control hardware plugins that speak the bridge's joint topics, and their ROS 2 packages:
+ros-controls' ``JointStateTopicSystem`` (released for Jazzy, ``ros-jazzy-joint-state-topic-hardware-interface``)
+and PickNik's ``TopicBasedSystem`` it grew from (the same topics and parameters; released for Humble, built from
+source on Jazzy)."""
+DEFAULT_PLUGIN = "joint_state_topic_hardware_interface/JointStateTopicSystem"
 STATE_INTERFACES = ("position", "velocity", "effort")
 """What the bridge publishes on the joint states topic for every joint."""
 
@@ -184,12 +197,15 @@ def robot_urdf(
     interfaces: Sequence[str] | None = None,
     joint_commands: str | None = None,
     joint_states: str | None = None,
+    plugin: str = DEFAULT_PLUGIN,
 ) -> Urdf:
     """The URDF of the model of ``spec`` (a :class:`ConfigError` if the file names no model or the model
     cannot be written as a URDF). ``mesh_uri`` names a mesh file in the URDF; the other arguments override
     the robot file's ``[ros2_control]``."""
     from ..bridge.joint_topics import DEFAULT_COMMANDS_TOPIC, DEFAULT_STATES_TOPIC, check_interfaces
 
+    if plugin not in PLUGINS:
+        raise ConfigError(f"plugin {plugin!r}: the plugins that speak the bridge's topics are {', '.join(PLUGINS)}")
     if spec.model is None:
         raise ConfigError(f"{spec.source}: no [model]: a URDF is written from the robot's model (MJCF or URDF)")
     mujoco, m, model_name = _compile(spec.model.file)
@@ -405,6 +421,7 @@ def robot_urdf(
         out.joints,
         joint_commands or conf.get("joint_commands_topic", DEFAULT_COMMANDS_TOPIC),
         joint_states or conf.get("joint_states_topic", DEFAULT_STATES_TOPIC),
+        plugin,
     )
     out.text = "\n".join([*head, *lines, *joints_xml, *block, "</robot>", ""])
     return out
@@ -446,11 +463,11 @@ def _colliding(
     return sorted(pairs)
 
 
-def _ros2_control(name: str, joints: Sequence[JointInfo], commands: str, states: str) -> list[str]:
+def _ros2_control(name: str, joints: Sequence[JointInfo], commands: str, states: str, plugin: str) -> list[str]:
     out = [
         f'  <ros2_control name={quoteattr(name)} type="system">',
         "    <hardware>",
-        "      <plugin>topic_based_ros2_control/TopicBasedSystem</plugin>",
+        f"      <plugin>{plugin}</plugin>",
         f'      <param name="joint_commands_topic">{escape(commands)}</param>',
         f'      <param name="joint_states_topic">{escape(states)}</param>',
         "    </hardware>",
