@@ -50,7 +50,7 @@ def register(sub: Any) -> None:
 
 
 def _plugin_arg(p: argparse.ArgumentParser) -> None:
-    from ..ros2.urdf import DEFAULT_PLUGIN, PLUGINS
+    from ..ros2 import DEFAULT_PLUGIN, PLUGINS
 
     p.add_argument(
         "--plugin",
@@ -71,7 +71,15 @@ def _write(path: str, data: bytes) -> None:
         raise DrEmpowerError(f"cannot write {path}: {exc.strerror or exc}") from None
 
 
+def _physics() -> None:
+    """MuJoCo reads the model: without the physics extra, say so in one line before anything is read."""
+    from ..sim.twin import require_mujoco
+
+    require_mujoco()
+
+
 def run_urdf(args: argparse.Namespace) -> int:
+    _physics()
     from ..robotfile import load_robot
     from ..ros2.urdf import robot_urdf
 
@@ -99,6 +107,7 @@ def run_urdf(args: argparse.Namespace) -> int:
 
 
 def run_package(args: argparse.Namespace) -> int:
+    _physics()
     from ..robotfile import load_robot
     from ..ros2.package import check_package_name, package_files, remove_stale
 

@@ -38,6 +38,7 @@ import numpy as np
 
 from ..errors import ConfigError
 from ..robotfile import JointSpec, RobotSpec
+from . import DEFAULT_PLUGIN, PLUGINS
 
 __all__ = [
     "DEFAULT_PLUGIN",
@@ -54,15 +55,6 @@ TYPICAL_SPEED = 300.0 * 2.0 * math.pi / 60.0
 """rad/s at the output of the typical motor (300 r/min), a joint's speed limit when its file gives none."""
 TYPICAL_TORQUE = 12.0
 """Nm at the output of the typical motor (its peak), a joint's effort limit when its file gives none."""
-PLUGINS = {
-    "joint_state_topic_hardware_interface/JointStateTopicSystem": "joint_state_topic_hardware_interface",
-    "topic_based_ros2_control/TopicBasedSystem": "topic_based_ros2_control",
-}
-"""The ros2_control hardware plugins that speak the bridge's joint topics, and their ROS 2 packages:
-ros-controls' ``JointStateTopicSystem`` (released for Jazzy, ``ros-jazzy-joint-state-topic-hardware-interface``)
-and PickNik's ``TopicBasedSystem`` it grew from (the same topics and parameters; released for Humble, built from
-source on Jazzy)."""
-DEFAULT_PLUGIN = "joint_state_topic_hardware_interface/JointStateTopicSystem"
 STATE_INTERFACES = ("position", "velocity", "effort")
 """What the bridge publishes on the joint states topic for every joint."""
 
