@@ -45,7 +45,8 @@ def main() -> None:
     if twin is None:
         raise SystemExit(f"{args.robot}: no [model]: a leader twin needs the arm's model")
     with TwinRunner([sim]), attach_socketcand(sim, port, str(options.get("host", "127.0.0.1"))) as server:
-        print(f"leader twin on socketcand {server.host} port {server.port}; type JOINT TORQUE [SECONDS], or ?", flush=True)
+        where = f"socketcand {server.host} port {server.port}"
+        print(f"leader twin on {where}; type JOINT TORQUE [SECONDS], or ?", flush=True)
         try:
             for line in sys.stdin:
                 words = line.split()
