@@ -159,6 +159,20 @@ def test_every_link_is_where_mujoco_puts_it(robot: str, tmp_path: Path) -> None:
     assert pos < TOL and rot < 1e-6
 
 
+def test_a_urdf_model_keeps_its_links_and_visuals(tmp_path: Path) -> None:
+    robot = tmp_path / "pendulum_urdf.toml"
+    robot.write_text((ROBOTS / "pendulum.toml").read_text().replace('"pendulum.xml"', f'"{ROBOTS / "pendulum.urdf"}"'))
+    pos, rot, compared = _worst(robot, tmp_path)
+    assert compared >= 50 and pos < TOL and rot < 1e-6
+    root = ET.parse(tmp_path / "robot.urdf").getroot()
+    assert [link.get("name") for link in root.iter("link")] == ["world", "stand", "arm"]
+    arm = next(link for link in root.iter("link") if link.get("name") == "arm")
+    cylinder = arm.find("visual/geometry/cylinder")  # MuJoCo's URDF import drops visuals unless told not to
+    assert cylinder is not None and (cylinder.get("radius"), cylinder.get("length")) == ("0.012", "0.5")
+    visual_origin = arm.find("visual/origin")
+    assert visual_origin is not None and visual_origin.get("xyz") == "0 0 -0.25"
+
+
 def test_anchors_several_joints_a_slide_and_a_mesh(tmp_path: Path) -> None:
     (tmp_path / "odd.xml").write_text(ODD_MODEL)
     (tmp_path / "odd.toml").write_text(ODD_ROBOT)

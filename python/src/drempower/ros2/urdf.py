@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import struct
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
@@ -144,10 +145,24 @@ def _compile(path: str) -> Any:
 
     mujoco = require_mujoco()
     try:
-        spec = mujoco.MjSpec.from_file(path)
+        spec = _urdf_spec(mujoco, path) if path.lower().endswith(".urdf") else None
+        spec = spec or mujoco.MjSpec.from_file(path)
         return mujoco, spec.compile(), str(spec.modelname or "")
     except Exception as exc:  # MuJoCo's parser errors have no common type
         raise ConfigError(f"model {path}: {exc}") from None
+
+
+def _urdf_spec(mujoco: Any, path: str) -> Any:
+    """A URDF model as MuJoCo reads it, but keeping its visuals and its links without mass, which MuJoCo's URDF
+    import drops by default (``discardvisual``, ``fusestatic``); None if the URDF sets MuJoCo's compiler itself."""
+    with open(path, encoding="utf-8") as fh:
+        text = fh.read()
+    if "<mujoco" in text:
+        return None
+    folder = quoteattr(os.path.dirname(os.path.abspath(path)) + os.sep)
+    compiler = f'<mujoco><compiler discardvisual="false" fusestatic="false" meshdir={folder}/></mujoco>'
+    text, n = re.subn(r"(<robot\b[^>]*>)", lambda m: m.group(1) + compiler, text, count=1)
+    return mujoco.MjSpec.from_string(text) if n else None
 
 
 def _name(mujoco: Any, m: Any, kind: Any, i: int, fallback: str) -> str:
