@@ -163,6 +163,7 @@ def test_a_urdf_model_keeps_its_links_and_visuals(tmp_path: Path) -> None:
     robot = tmp_path / "pendulum_urdf.toml"
     robot.write_text((ROBOTS / "pendulum.toml").read_text().replace('"pendulum.xml"', f'"{ROBOTS / "pendulum.urdf"}"'))
     pos, rot, compared = _worst(robot, tmp_path)
+    print(f"pendulum.urdf: {compared} link poses, worst {pos * 1000:.2e} mm, {rot:.2e} rad")
     assert compared >= 50 and pos < TOL and rot < 1e-6
     root = ET.parse(tmp_path / "robot.urdf").getroot()
     assert [link.get("name") for link in root.iter("link")] == ["world", "stand", "arm"]
@@ -177,6 +178,7 @@ def test_anchors_several_joints_a_slide_and_a_mesh(tmp_path: Path) -> None:
     (tmp_path / "odd.xml").write_text(ODD_MODEL)
     (tmp_path / "odd.toml").write_text(ODD_ROBOT)
     pos, rot, compared = _worst(tmp_path / "odd.toml", tmp_path)
+    print(f"odd model: {compared} link poses, worst {pos * 1000:.2e} mm, {rot:.2e} rad")
     assert compared >= 200
     assert pos < TOL and rot < 1e-6
     root = ET.parse(tmp_path / "robot.urdf").getroot()
