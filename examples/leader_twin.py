@@ -5,12 +5,14 @@ Needs MuJoCo (pip install 'drempower[physics]'). Serves the twin of the robot fi
 127.0.0.1:29537) in real time, so that LeRobot's teleoperator opens the same file
 from its own process; each line typed here is a hand on the arm:
 
-    elbow 0.5          push the elbow with 0.5 Nm for 0.3 s (torque at the joint)
-    base_yaw -1 0.5    push the base with -1 Nm for 0.5 s
+    elbow 0.2          push the elbow with 0.2 Nm for 0.3 s (torque at the joint)
+    base_yaw -0.2      push the base with -0.2 Nm for 0.3 s
     ?                  print every joint's angle (deg)
 
 In teach mode (the leader's, gravity compensated and damped) a push moves the
-joint and the arm stays where it is left. Ctrl-C (or the end of input) stops.
+joint and the arm stays where it is left. Push gently: the follower's file
+refuses a step larger than its max_step (0.25 rad in follower_twin.toml), which
+ends LeRobot's loop; 1 Nm on the base for 0.2 s makes steps of some 10 deg at 30 fps. Ctrl-C (or the end of input) stops.
 """
 
 from __future__ import annotations
@@ -62,7 +64,7 @@ def main() -> None:
                     seconds = float(words[2]) if len(words) > 2 else 0.3
                     twin.push_joint(joint, torque, seconds)
                 except (IndexError, ValueError, DrEmpowerError) as exc:
-                    print(f"not a push: {line.strip()!r} ({exc}); e.g. elbow 0.5 0.3", flush=True)
+                    print(f"not a push: {line.strip()!r} ({exc}); e.g. elbow 0.2 0.3", flush=True)
                     continue
                 print(f"pushed {joint} with {torque:g} Nm for {seconds:g} s", flush=True)
         except KeyboardInterrupt:
