@@ -12,7 +12,8 @@ from its own process; each line typed here is a hand on the arm:
 In teach mode (the leader's, gravity compensated and damped) a push moves the
 joint and the arm stays where it is left. Push gently: the follower's file
 refuses a step larger than its max_step (0.25 rad in follower_twin.toml), which
-ends LeRobot's loop; 1 Nm on the base for 0.2 s makes steps of some 10 deg at 30 fps. Ctrl-C (or the end of input) stops.
+ends LeRobot's loop; 1 Nm on the base for 0.2 s makes steps of some 10 deg at 30 fps.
+Ctrl-C (or the end of input) stops.
 """
 
 from __future__ import annotations
