@@ -58,6 +58,8 @@ def test_every_file_parses_and_names_every_joint(name: str, robot: str, tmp_path
         "config/joint_limits.yaml",
         "config/kinematics.yaml",
         "config/moveit_controllers.yaml",
+        "config/ompl_planning.yaml",
+        "config/pilz_cartesian_limits.yaml",
         "config/moveit.rviz",
         "launch/bringup.launch.py",
         "launch/moveit.launch.py",
@@ -115,6 +117,10 @@ def test_every_file_parses_and_names_every_joint(name: str, robot: str, tmp_path
     mc = moveit["moveit_simple_controller_manager"]
     assert mc["controller_names"] == ["arm_controller"] and mc["arm_controller"]["joints"] == joints
     assert mc["arm_controller"]["action_ns"] == "follow_joint_trajectory"
+    ompl = parsed["config/ompl_planning.yaml"]
+    assert isinstance(ompl, dict) and ompl["planning_plugins"] == ["ompl_interface/OMPLPlanner"]
+    pilz = parsed["config/pilz_cartesian_limits.yaml"]
+    assert isinstance(pilz, dict) and set(pilz["cartesian_limits"]) >= {"max_trans_vel", "max_rot_vel"}
 
     launch = files["launch/bringup.launch.py"].decode()
     strings = {n.value for n in ast.walk(ast.parse(launch)) if isinstance(n, ast.Constant)}

@@ -113,6 +113,8 @@ def package_files(
         + "\n",
     )
     text("config/moveit_controllers.yaml", _moveit_controllers(joints))
+    text("config/ompl_planning.yaml", _OMPL)
+    text("config/pilz_cartesian_limits.yaml", _PILZ)
     text("config/moveit.rviz", _rviz())
     text("launch/bringup.launch.py", _bringup(name, robot, robot_file, bridge))
     text("launch/moveit.launch.py", _moveit_launch(name, robot))
@@ -259,6 +261,29 @@ def _joint_limits(spec: RobotSpec, urdf: Urdf) -> str:
         )
         + "\n"
     )
+
+
+_OMPL = """# MoveIt's OMPL pipeline (Jazzy's plugin and adapters); moveit_configs_utils adds OMPL's planner defaults
+planning_plugins:
+  - ompl_interface/OMPLPlanner
+start_state_max_bounds_error: 0.1
+request_adapters:
+  - default_planning_request_adapters/ResolveConstraintFrames
+  - default_planning_request_adapters/ValidateWorkspaceBounds
+  - default_planning_request_adapters/CheckStartStateBounds
+  - default_planning_request_adapters/CheckStartStateCollision
+response_adapters:
+  - default_planning_response_adapters/AddTimeOptimalParameterization
+  - default_planning_response_adapters/ValidateSolution
+  - default_planning_response_adapters/DisplayMotionPath
+"""
+_PILZ = """# Cartesian limits of MoveIt's Pilz planner (m/s, m/s^2, rad/s), which moveit_configs_utils loads
+cartesian_limits:
+  max_trans_vel: 0.5
+  max_trans_acc: 1.0
+  max_trans_dec: -1.0
+  max_rot_vel: 1.57
+"""
 
 
 def _moveit_controllers(joints: list[str]) -> str:
@@ -457,7 +482,8 @@ released for Jazzy).
             *(["  meshes/                       the model's meshes (binary STL)"] if urdf.meshes else []),
             f"  robot/{robot_file}, robot/{model_file}   the robot file and its model, for the bridge",
             "  config/controllers.yaml       joint_state_broadcaster and arm_controller (joint_trajectory_controller)",
-            f"  config/{robot}.srdf, kinematics.yaml, joint_limits.yaml, moveit_controllers.yaml, moveit.rviz",
+            f"  config/{robot}.srdf, kinematics.yaml, joint_limits.yaml, moveit_controllers.yaml, moveit.rviz,",
+            "    ompl_planning.yaml, pilz_cartesian_limits.yaml   MoveIt's configuration",
             "  launch/bringup.launch.py      robot_state_publisher, ros2_control_node, the spawners (bridge:=true)",
             "  launch/moveit.launch.py       move_group and RViz",
         ]
