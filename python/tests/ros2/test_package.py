@@ -180,6 +180,15 @@ def test_the_first_plugin_is_built_from_source(tmp_path: Path) -> None:
     assert "PickNikRobotics/topic_based_ros2_control" in readme and "ros-jazzy-joint-state" not in readme
 
 
+def test_json_says_what_was_written(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    import json
+
+    for argv in (["ros2", "package", "p", "--json"], ["ros2", "--json", "package", "p"]):
+        assert main([*argv, "--robot", str(ROBOTS / "pendulum.toml"), "-o", str(tmp_path / argv[1])]) == 0
+        out = json.loads(capsys.readouterr().out)
+        assert out["output"] == str(tmp_path / argv[1]) and "urdf/pendulum.urdf" in out["files"]
+
+
 def test_a_bad_name_is_refused_with_nothing_written(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["ros2", "package", "Arm-6", "--robot", str(ROBOTS / "arm6.toml"), "-o", str(tmp_path / "p")]) == 2
     assert "package name 'Arm-6'" in capsys.readouterr().err

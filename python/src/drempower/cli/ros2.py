@@ -25,6 +25,9 @@ def register(sub: Any) -> None:
             "configuration (docs/ros2_control.md)."
         ),
     )
+    p.add_argument(
+        "--json", dest="ros2_json", action="store_true", help="one JSON object of what was written (as WHAT's --json)"
+    )
     what = p.add_subparsers(dest="ros2_command", metavar="WHAT")
     what.required = True
     u = what.add_parser("urdf", help="write the URDF of the robot file's model")
@@ -79,6 +82,7 @@ def _physics() -> None:
 
 
 def run_urdf(args: argparse.Namespace) -> int:
+    args.json = args.json or args.ros2_json
     _physics()
     from ..robotfile import load_robot
     from ..ros2.urdf import robot_urdf
@@ -107,6 +111,7 @@ def run_urdf(args: argparse.Namespace) -> int:
 
 
 def run_package(args: argparse.Namespace) -> int:
+    args.json = args.json or args.ros2_json
     _physics()
     from ..robotfile import load_robot
     from ..ros2.package import check_package_name, package_files, remove_stale
