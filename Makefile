@@ -89,7 +89,7 @@ PLUGINS := python/plugins/lerobot_robot_drempower python/plugins/lerobot_teleope
 $(LRSTAMP): python/pyproject.toml $(addsuffix /pyproject.toml,$(PLUGINS))
 	$(PYTHON) -m venv $(LEROBOT_VENV)
 	$(LRBIN)/python -m pip install --quiet --upgrade pip
-	$(LRBIN)/python -m pip install --quiet -e 'python[physics]' $(addprefix -e ,$(PLUGINS)) '$(LEROBOT)' 'pytest>=8' 'pytest-timeout>=2.3'
+	$(LRBIN)/python -m pip install --quiet -e 'python[physics,dash]' $(addprefix -e ,$(PLUGINS)) '$(LEROBOT)' 'pytest>=8' 'pytest-timeout>=2.3'
 	touch $(LRSTAMP)
 
 test-lerobot: $(LRSTAMP)

@@ -25,7 +25,7 @@ LAYERS: tuple[tuple[str, tuple[str, ...]], ...] = (
     ("client", ("client", "actions")),  # the buses and motors; the table of actions the front ends share
     ("motion", ("motion",)),  # trajectories, following, identification, tuning
     ("robot", ("robot",)),
-    ("apps", ("cli", "dash", "bridge", "compat", "__main__", "")),  # "": the package's own __init__
+    ("apps", ("cli", "dash", "bridge", "ros2", "compat", "__main__", "")),  # "": the package's own __init__
 )
 """Layers from the lowest, each with the top-level modules and packages of ``drempower`` in it. A module
 may import its own layer and the layers below."""

@@ -101,9 +101,9 @@ def lerobot_command(name: str) -> str:
 class Running:
     """A LeRobot command in a subprocess; its output is collected, ``started`` waits for a marker."""
 
-    def __init__(self, argv: Sequence[str], env: dict[str, str]) -> None:
+    def __init__(self, argv: Sequence[str], env: dict[str, str], cwd: Path | None = None) -> None:
         self.proc = subprocess.Popen(
-            list(argv), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True, errors="replace"
+            list(argv), stdout=subprocess.PIPE, stderr=subprocess.STDOUT, env=env, text=True, errors="replace", cwd=cwd
         )
         self.lines: list[str] = []
         self._reader = threading.Thread(target=self._read, daemon=True)

@@ -37,6 +37,7 @@ COMMANDS: dict[str, str] = {
     "record": "record",
     "replay": "replay",
     "restore": "backup",
+    "ros2": "ros2",
     "save": "configure",
     "scan": "scan",
     "set": "getset",
