@@ -31,7 +31,11 @@ Differences from the vendor library (see docs/client.md):
   :class:`~drempower.errors.MotorIdleError` and sends nothing (the vendor's is
   silently ignored by the motor): call ``set_mode(id, 2)`` first, as vendor scripts
   do. ``estop``, ``set_mode``, ``clear_error``, ``save_config``, ``reboot``,
-  ``set_zero_position`` and ``write_property`` run through :mod:`drempower.actions`.
+  ``set_zero_position`` run through :mod:`drempower.actions`. ``write_property``
+  writes any parameter the vendor's does, checked against its domain; one that
+  commands motion (``input_pos``, ``input_vel``, modes...) passes the safety gate as
+  that motion (:data:`drempower.client.gate.MOTION_PARAMETERS`).
+* ``send_command`` is the raw path: its frame is sent as given, past the gate.
 * ``set_mode`` refuses modes other than 1 and 2 instead of ignoring them;
   ``set_id`` checks that the motor answers at its new id before saving.
 * Motors keep holding when the script ends, as with the vendor library: the bus
@@ -371,7 +375,7 @@ def set_traj_mode(id_num: int = 0, mode: int = 1) -> None:
 
 
 def write_property(id_num: int = 0, property: str | int = "", value: float = 0) -> None:
-    _act("set", id=id_num, name=str(property), value=value, verify=False)
+    _m(id_num).write_property(property, value)
 
 
 # ---------------------------------------------------------------------- read-back

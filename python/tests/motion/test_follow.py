@@ -174,3 +174,27 @@ def test_ctrl_c_during_follow_holds_the_joints(tmp_path: Path) -> None:
     msg = decode_command(last.arbitration_id, last.data)
     assert isinstance(msg, PositionT)
     assert msg.position == pytest.approx(at, abs=1.0) and 2.0 < msg.position < 35.0  # mid-way
+
+
+def test_max_step_checks_each_point_of_a_path_against_the_point_before() -> None:
+    """A path that leaves its start by more than ``max_step`` in all is followed: each point is checked
+    against the one before it (the first against where the motor is), on a bus and on a robot."""
+    with drempower.open_bus("sim", motors=[1], clock="virtual") as bus:
+        bus.set_limits(1, max_step=20)
+        report = bus.follow([1], [0.0, 3.0], [[0.0], [51.57]], max_error=5.0)
+        assert report.stopped is None
+        assert bus.motor(1).get_state().angle == pytest.approx(51.57, abs=1.0)
+        with pytest.raises(drempower.SoftLimitError, match="motor 1: max_step"):
+            bus.follow([1], [0.0, 0.01, 1.0], [[51.57], [80.0], [80.0]])  # one point 28 deg after the one before
+    from drempower.robot import parse_robot
+
+    spec = parse_robot(
+        {
+            "buses": {"b": {"interface": "sim"}},
+            "joints": {"a": {"bus": "b", "id": 1, "limits": {"position": [-1.0, 1.0], "max_step": 0.5}}},
+        }
+    )
+    with drempower.open_robot(spec, sim={"clock": "virtual"}) as robot:
+        rep = robot.follow([0.0, 3.0], [[0.0], [0.9]])
+        assert rep.stopped is None
+        assert robot.joint("a").get_joint_state().position == pytest.approx(0.9, abs=0.02)

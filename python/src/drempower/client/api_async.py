@@ -284,10 +284,19 @@ class AsyncMotor(MotorBase):
         (never outside a hard one, such as can_node_id 1..63, or the type's range).
         A read-back that differs is written and read again up to the bus's ``retries``
         times, then raises VerifyError.
+
+        A parameter that commands motion (the output shaft's ``input_pos``/``input_vel``/
+        ``input_torque``, modes...: :data:`~drempower.client.gate.MOTION_PARAMETERS`) passes the
+        safety gate as the motion command it is (MotorIdleError, SoftLimitError) or is refused
+        (MotionParameterError) before anything is sent.
         """
+        op = self._bus._param_gate(self._id, property, value, force)
+        if op is not None:
+            await self._bus.run(op)
         await self._bus.run(
             ops.write_property(self._id, property, value, verify, timeout, force, self._session.retries)
         )
+        self._bus._param_sent(self._id, property, value)
         if parameter(property).address == AXIS0_REQUESTED_STATE:
             self._gate.learn(self._id, int(value))
 
@@ -536,7 +545,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         result = await self.run(
             batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout)
         )
-        self._moved(id_list, angle_list, False)
+        self._moved(id_list)
         return result
 
     async def step_angles(
@@ -555,7 +564,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         result = await self.run(
             batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout)
         )
-        self._moved(id_list, angle_list, True)
+        self._moved(id_list)
         return result
 
     async def set_speeds(

@@ -279,8 +279,17 @@ class Motor(MotorBase):
         (never outside a hard one, such as can_node_id 1..63, or the type's range).
         A read-back that differs is written and read again up to the bus's ``retries``
         times, then raises VerifyError.
+
+        A parameter that commands motion (the output shaft's ``input_pos``/``input_vel``/
+        ``input_torque``, modes...: :data:`~drempower.client.gate.MOTION_PARAMETERS`) passes the
+        safety gate as the motion command it is (MotorIdleError, SoftLimitError) or is refused
+        (MotionParameterError) before anything is sent.
         """
+        op = self._bus._param_gate(self._id, property, value, force)
+        if op is not None:
+            self._bus.run(op)
         self._bus.run(ops.write_property(self._id, property, value, verify, timeout, force, self._session.retries))
+        self._bus._param_sent(self._id, property, value)
         if parameter(property).address == AXIS0_REQUESTED_STATE:
             self._gate.learn(self._id, int(value))
 
@@ -525,7 +534,7 @@ class Bus(SyncBusBase[Motor]):
         """
         self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=False), enable)
         result = self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout))
-        self._moved(id_list, angle_list, False)
+        self._moved(id_list)
         return result
 
     def step_angles(
@@ -542,7 +551,7 @@ class Bus(SyncBusBase[Motor]):
         """Synchronised relative move by ``angle_list`` deg (see :meth:`set_angles`)."""
         self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=True), enable)
         result = self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout))
-        self._moved(id_list, angle_list, True)
+        self._moved(id_list)
         return result
 
     def set_speeds(

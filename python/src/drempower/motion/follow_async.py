@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..client.effects import read_states, sleep
 from ..client.flavours import AsyncPart
+from ..client.gate import path_intents
 from ..client.state import MotorState
 from ..errors import ValidationError
 from .plan import (
@@ -206,7 +207,7 @@ async def stream(
                 )
 
     for lane in lanes:  # the gate once, before the clock starts: no cycle pays its read
-        await buses[lane.bus].pass_gate([m for cmds in plan.commands for m in cmds[lane.bus]])
+        await buses[lane.bus].pass_gate(path_intents(m for cmds in plan.commands for m in cmds[lane.bus]))
 
     def part(lane: Lane, k: int) -> AsyncPart[dict[int, MotorState]]:
         bus = buses[lane.bus]

@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..client.effects import read_states, sleep
 from ..client.flavours import SyncPart
+from ..client.gate import path_intents
 from ..client.state import MotorState
 from ..errors import ValidationError
 from .plan import (
@@ -204,7 +205,7 @@ def stream(
                 )
 
     for lane in lanes:  # the gate once, before the clock starts: no cycle pays its read
-        buses[lane.bus].pass_gate([m for cmds in plan.commands for m in cmds[lane.bus]])
+        buses[lane.bus].pass_gate(path_intents(m for cmds in plan.commands for m in cmds[lane.bus]))
 
     def part(lane: Lane, k: int) -> SyncPart[dict[int, MotorState]]:
         bus = buses[lane.bus]
