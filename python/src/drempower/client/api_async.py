@@ -428,6 +428,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         op = self._gate_op(msgs, enable)
         if op is not None:
             await self.run(op)
+        self._timed.arm(duration)  # its stop first: a command whose stop cannot be kept is not sent
         self._core.send_many(msgs)
         self._sent(msgs, duration)
 
@@ -583,6 +584,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         presets, _ = make_speeds(id_list, speed_list, param, mode)
         duration = check_duration(duration)
         await self.pass_gate(presets, enable)
+        self._timed.arm(duration)
         await self.run(batch.set_speeds(id_list, speed_list, param, mode))
         self._sent(presets, duration)
 
@@ -602,6 +604,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         presets, _ = make_torques(id_list, torque_list, param, mode)
         duration = check_duration(duration)
         await self.pass_gate(presets, enable)
+        self._timed.arm(duration)
         await self.run(batch.set_torques(id_list, torque_list, param, mode))
         self._sent(presets, duration)
 

@@ -421,6 +421,7 @@ class Bus(SyncBusBase[Motor]):
         op = self._gate_op(msgs, enable)
         if op is not None:
             self.run(op)
+        self._timed.arm(duration)  # its stop first: a command whose stop cannot be kept is not sent
         self._core.send_many(msgs)
         self._sent(msgs, duration)
 
@@ -570,6 +571,7 @@ class Bus(SyncBusBase[Motor]):
         presets, _ = make_speeds(id_list, speed_list, param, mode)
         duration = check_duration(duration)
         self.pass_gate(presets, enable)
+        self._timed.arm(duration)
         self.run(batch.set_speeds(id_list, speed_list, param, mode))
         self._sent(presets, duration)
 
@@ -589,6 +591,7 @@ class Bus(SyncBusBase[Motor]):
         presets, _ = make_torques(id_list, torque_list, param, mode)
         duration = check_duration(duration)
         self.pass_gate(presets, enable)
+        self._timed.arm(duration)
         self.run(batch.set_torques(id_list, torque_list, param, mode))
         self._sent(presets, duration)
 
