@@ -63,6 +63,11 @@ class BusBase(ABC, Generic[M]):
         self._motors_lock = threading.Lock()
         self._gate = MotionGate(self._core.now)
         self._timed = TimedStops(self._core)
+        declared: Mapping[int, Mapping[str, object]] = getattr(transport, "limits", None) or {}
+        for node, lim in declared.items():  # a remote bus: the limits its bridge holds (its robot file)
+            self._gate.set_limits(
+                node, str(lim.get("where", "the bridge")), **{k: v for k, v in lim.items() if k != "where"}
+            )
 
     @abstractmethod
     def _new_motor(self, id: int) -> M:
@@ -144,15 +149,18 @@ class BusBase(ABC, Generic[M]):
         """The soft limits of motor ``id`` (see :meth:`set_limits`): name -> :class:`~drempower.client.gate.Limit`."""
         return dict(self._gate.limits(id))
 
-    def _passage(self, intents: Sequence[Intent], enable: bool, timeout: float | None = None) -> Op[None] | None:
+    def _passage(
+        self, intents: Sequence[Intent], enable: bool, timeout: float | None = None, *, closed_loop: bool = True
+    ) -> Op[None] | None:
         """None when ``intents`` pass the gate as they are; else the operation that reads what it needs,
         enables (``enable``) or raises MotorIdleError / SoftLimitError (nothing sent). An intent for every
-        motor (node 0) stands for one to each motor the bus knows."""
+        motor (node 0) stands for one to each motor the bus knows. ``closed_loop`` False checks the limits
+        only (the bridge's remote face: the motor itself ignores motion until enabled)."""
         if enable.__class__ is not bool:
             raise ValidationError(f"enable={enable!r}: expected True or False")
         if any(it.node == 0 for it in intents):
             intents = self._each_motor(intents)
-        return self._gate.passage(intents, self._core.states, enable, timeout, self._core.now())
+        return self._gate.passage(intents, self._core.states, enable, timeout, self._core.now(), closed_loop)
 
     def _each_motor(self, intents: Sequence[Intent]) -> list[Intent]:
         """``intents`` with each one to every motor (node 0) replaced by one to each motor the bus knows;

@@ -404,10 +404,14 @@ class MotionGate:
         enable: bool,
         timeout: float | None = None,
         now: float | None = None,
+        closed_loop: bool = True,
     ) -> Op[None] | None:
         """None when ``intents`` may go at once; else the operation that reads what is missing, checks,
-        and enables when asked (raises before any motion frame exists). ``now``: see :meth:`needs`."""
+        and enables when asked (raises before any motion frame exists). ``now``: see :meth:`needs`;
+        ``closed_loop`` False: the soft limits only."""
         unknown, positions = self.needs(intents, states, now)
+        if not closed_loop:
+            unknown = []
         if not unknown and not positions:
             if any(self._limits.get(it.node) for it in intents):
                 self.check_positions(intents, states, now)

@@ -200,6 +200,10 @@ class Hub:
         """The Tuning view's gains proposed and not yet written, by key (:mod:`drempower.dash.propose`)."""
         self._stop = threading.Event()
         self._halt = threading.Event()
+        self._estops = 0
+        """ESTOPs pressed so far: a request issued before the latest is fenced (see :meth:`issued`)."""
+        self._issued = threading.local()
+        """The ESTOP count when the request the calling worker runs was issued (None: not a page's)."""
         self._subs = [b.subscribe(self._sink(k * KEYS_PER_BUS)) for k, (_, b) in enumerate(self.buses)]
         self._poller = threading.Thread(target=self._poll_loop, name="dash poll", daemon=True)
         self._poller.start()
@@ -533,9 +537,39 @@ class Hub:
 
     # ------------------------------------------------------------------ control
 
+    def ticket(self) -> int:
+        """What a request issued now carries (the count of ESTOPs pressed so far): take it when the
+        request arrives, before it waits for a worker, and run it with :meth:`issued`."""
+        return self._estops
+
+    def fence(self) -> None:
+        """An ESTOP was pressed: every request issued before it is fenced from now on, whichever page or
+        front end issued it; those issued after (a clear, an enable) run as usual."""
+        self._estops += 1
+
+    def issued(self, ticket: int, fn: Callable[..., Any], *args: Any) -> Any:
+        """Run ``fn(*args)`` in this worker as a request issued with ``ticket``: once an ESTOP came after
+        it was issued, each of its commands but the stopping ones (stop, idle, estop) is refused."""
+        self._issued.ticket = ticket
+        try:
+            return fn(*args)
+        finally:
+            self._issued.ticket = None
+
+    def fenced(self) -> bool:
+        """True when the request this worker runs was issued before the latest ESTOP."""
+        ticket = getattr(self._issued, "ticket", None)
+        return ticket is not None and ticket < self._estops
+
+    def check_fence(self) -> None:
+        """Refuse the rest of a request issued before the latest ESTOP (nothing more is sent)."""
+        if self.fenced():
+            raise ValidationError("an ESTOP was pressed after this request was issued: it was not carried out")
+
     def _control(self, who: str, what: str) -> None:
         if self.read_only:
             raise ValidationError("this dashboard is read-only (--read-only)")
+        self.check_fence()
         log(f"{who}: {what}")
 
     def require_enabled(self, keys: list[int]) -> None:
@@ -543,6 +577,7 @@ class Hub:
         motor's axis state; then, with ``--watchdog``, arm the motors not armed yet."""
         if self._halt.is_set():
             raise ValidationError("the dashboard is stopping: no motion is started any more")
+        self.check_fence()
         idle: list[tuple[int, int]] = []
         for i in keys:
             state = int(self.motor(i).read_property(_STATE, timeout=0.2))
@@ -609,6 +644,8 @@ class Hub:
         refuses all but reading and stopping, a motion needs a motor in closed loop (or
         ``enable``) and stays within the limits the motor holds; logged, and the targets kept."""
         act = actions.get(name)
+        if act.safety != "stop":
+            self.check_fence()
         raw = args.get("id")
         if raw == 0 or len(self.buses) == 1:  # the motor id is the key (0: each bus's broadcast)
             places = [(b, 0) for _, b in self.buses] if raw == 0 else [(self.bus, -1)]
@@ -729,6 +766,7 @@ class Hub:
     def estop(self, who: str) -> None:
         """Emergency-stop every motor on every bus (one broadcast frame per bus, all at once);
         allowed even when read-only."""
+        self.fence()
         if self.robot is None:
             log(f"{who}: ESTOP (broadcast emergency stop)")
             self.bus.estop()
@@ -869,7 +907,9 @@ class Hub:
                 self.do_control(who, {"action": "T", "id": i, "angle": target, "param": bandwidth})
             else:
                 self.do_control(who, {"action": "V", "id": i, "speed": target})
-            self._halt.wait(duration)
+            end = time.monotonic() + duration
+            while not self._halt.is_set() and not self.fenced() and time.monotonic() < end:
+                self._halt.wait(min(0.02, max(0.0, end - time.monotonic())))  # an ESTOP ends the run too
         finally:
             sub.cancel()
             try:
