@@ -75,3 +75,22 @@ def test_the_asyncio_bus_and_compat_check_the_same() -> None:
             compat._bus = None
         bus.pass_time(0.5)
         assert abs(sim.motors[1].speed) < 1 and abs(sim.motors[1].position) < 1
+
+
+def test_compat_presets_pass_the_gate() -> None:
+    sim = SimBus(ids=[1, 2])
+    with _open(sim) as bus:
+        bus.enable([1])
+        bus.idle([2])
+        bus.set_limits(1, position=(-90, 90), speed=30)
+        compat.use_bus(bus)
+        try:
+            with pytest.raises(SoftLimitError, match="motor 1: position 170 deg"):
+                compat.preset_angle(1, 170, 10, 50, 0)
+            with pytest.raises(SoftLimitError, match="motor 1: speed 200 r/min"):
+                compat.preset_speed(1, 200, 0, 1)
+            with pytest.raises(MotorIdleError, match="motor 2 is idle"):
+                compat.preset_speed(2, 20, 0, 1)
+            compat.preset_angle(1, 45, 10, 50, 0)  # within the limits: sent
+        finally:
+            compat._bus = None

@@ -176,6 +176,15 @@ class BusBase(ABC, Generic[M]):
             out.extend([dataclasses.replace(it, node=n) for n in known] if it.node == 0 else [it])
         return out
 
+    def check_limits(self, motion: Sequence[Message]) -> None:
+        """The soft limits that ``motion``'s own values meet (speed, torque, acceleration, absolute
+        positions; no I/O, nothing sent): SoftLimitError for the first beyond one. For a whole program
+        checked before its first command (a replayed log); each command still passes the gate as it goes."""
+        intents = intents_of(motion)
+        if any(it.node == 0 for it in intents) and self.known_motors():
+            intents = self._each_motor(intents)
+        self._gate.check_values(intents)
+
     def _param_gate(self, node: int, prop: str | int, value: float, force: bool) -> Op[None] | None:
         """The gate for writing ``value`` to parameter ``prop`` of motor ``node`` (0: every motor): the
         value checked against the parameter first (nothing sent), then, for a parameter that commands

@@ -384,6 +384,13 @@ class MotionGate:
             if lim is not None and it.relative and not lim.low <= last + step <= lim.high:
                 raise SoftLimitError(it.node, "position", last + step, lim.low, lim.high, "deg", lim.where)
 
+    def check_values(self, intents: Sequence[Intent]) -> None:
+        """The limits ``intents``' own values meet (no position needed); raises SoftLimitError."""
+        for it in intents:
+            table = self._limits.get(it.node)
+            if table:
+                _check_values(it.node, it, table)
+
     def _fresh_angle(self, node: int, states: _States, now: float | None) -> float | None:
         """The measured angle (deg) of motor ``node`` when its cached state is fresh: at most
         :data:`FRESH_STATE` s old at ``now`` (None: taken as just read) and newer than its last release."""
