@@ -92,3 +92,37 @@ def test_the_fence_in_the_hub() -> None:
             hub.issued(hub.ticket(), hub.do_control, "page A", {"action": "clear_errors", "id": 1})
         finally:
             hub.close()
+
+
+async def test_a_page_that_goes_idles_what_it_moved_while_another_stays() -> None:
+    """Each page is a controller: page A's connection goes, the motor it set moving is idled although
+    page B is still open; page B's own motor keeps going."""
+    bus = open_bus("sim", motors=[1, 2], stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(bus)
+    sim = bus.transport.bus  # type: ignore[attr-defined]
+    ws_url = url.replace("http:", "ws:") + "ws"
+    try:
+        async with aiohttp.ClientSession() as s, s.ws_connect(ws_url) as b:
+            await b.receive_json(timeout=5)
+            await b.send_json({"op": "control", "req": 1, "action": "V", "id": 1, "speed": 10})
+            a = await s.ws_connect(ws_url)
+            await a.receive_json(timeout=5)
+            await a.send_json({"op": "control", "req": 2, "action": "V", "id": 2, "speed": 20})
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline and not (sim.motors[1].speed > 5 and sim.motors[2].speed > 10):
+                await a.send_json({"op": "hb"})
+                await b.send_json({"op": "hb"})
+                await asyncio.sleep(0.02)
+            assert sim.motors[2].speed > 10
+            await a.close()  # page A goes
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < 1.5 and sim.motors[2].state != AxisState.IDLE:
+                await b.send_json({"op": "hb"})
+                await asyncio.sleep(0.02)
+            assert sim.motors[2].state == AxisState.IDLE, f"motor 2 still running {time.monotonic() - t0:.2f} s later"
+            assert sim.motors[1].state == AxisState.CLOSED_LOOP_CONTROL and sim.motors[1].speed > 5
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        bus.close()

@@ -190,6 +190,8 @@ class Hub:
         self.motors: dict[int, dict[str, Any]] = {}
         self.targets: dict[int, list[float | None]] = {}
         self.commanded: set[int] = set()
+        self.commanders: dict[int, str] = {}
+        """Per motor key, the page that last set it moving (see :meth:`idle_of`)."""
         self.heartbeat_ms = 0
         self.scanning = False
         self.saved: dict[int, dict[str, float]] = {}
@@ -672,6 +674,9 @@ class Hub:
         base = self._base(key) if act.name == "step" else 0.0
         results = [actions.run(bus, act, typed if node < 0 else {**typed, "id": node}) for bus, node in places]
         self._track(act, key, typed, base)
+        if act.safety == "motion":
+            for k in sorted(self.commanded) if key == 0 else [key]:
+                self.commanders[k] = who
         if act.name in _CONFIRMED and key != 0:
             self._confirm(key, _CONFIRMED[act.name])  # never a silent success: got there, or why not
         if all(r is None for r in results):  # a command (one frame per bus for a broadcast): sent
@@ -774,6 +779,22 @@ class Hub:
             log(f"{who}: ESTOP (broadcast emergency stop on buses {', '.join(n for n, _ in self.buses)})")
             self.robot.estop()
         self.targets.clear()
+
+    def idle_of(self, who: str, why: str) -> list[int]:
+        """Put into IDLE the motors page ``who`` was the last to set moving (it went away: a page is a
+        controller, and its motion ends with it); returns their keys."""
+        keys = sorted(k for k, w in list(self.commanders.items()) if w == who and k in self.commanded)
+        for k in keys:
+            self.commanded.discard(k)
+            self.commanders.pop(k, None)
+            self.targets.pop(k, None)
+            try:
+                self.motor(k).set_mode(1)
+            except DrEmpowerError as exc:
+                log(f"idling {self.label(k)} failed: {exc}")
+        if keys:
+            log(f"{why}: idled {', '.join(map(self.label, keys))}")
+        return keys
 
     def idle_commanded(self, why: str) -> list[int]:
         """Put the motors this dashboard moved into IDLE; returns their ids."""

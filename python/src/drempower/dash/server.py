@@ -320,6 +320,8 @@ class Dashboard:
             sender.cancel()
             self.clients.discard(client)
             log(f"{client.name} disconnected")
+            if not self.keep_running:  # a page is a controller: what it set moving stops with it
+                await self._idle_page(client.name, f"{client.name} disconnected")
             await self._check_watchers(f"{client.name} disconnected")
         return ws
 
@@ -333,6 +335,10 @@ class Dashboard:
     async def _idle(self, why: str) -> None:
         """Idle the dashboard's motors on the stop thread (nothing else queues there)."""
         await asyncio.get_running_loop().run_in_executor(self._stop_pool, self.hub.idle_commanded, why)
+
+    async def _idle_page(self, who: str, why: str) -> None:
+        """Idle the motors page ``who`` was the last to set moving, on the stop thread."""
+        await asyncio.get_running_loop().run_in_executor(self._stop_pool, self.hub.idle_of, who, why)
 
     async def _handle(self, client: Client, req: dict[str, Any], ticket: int) -> None:
         """Answer one request of a page; ``ticket``: :meth:`Hub.ticket` when it arrived."""
@@ -424,11 +430,15 @@ class Dashboard:
     # ------------------------------------------------------------------ periodic work
 
     async def _check_watchers(self, why: str) -> None:
-        """Idle the dashboard's motors when no browser with a live heartbeat remains."""
+        """Idle the motors of each page whose heartbeat stopped, and every motor the dashboard moved when
+        no browser with a live heartbeat remains."""
         hub = self.hub
         if self.keep_running or not hub.commanded:
             return
         now = time.monotonic()
+        for c in list(self.clients):  # a page whose heartbeat stopped: its motion ends as if it had gone
+            if now - c.last_hb >= HEARTBEAT_LOST_S and c.name in hub.commanders.values():
+                await self._idle_page(c.name, f"{c.name}: no heartbeat for 0.5 s")
         if any(now - c.last_hb < HEARTBEAT_LOST_S for c in self.clients if not c.ws.closed):
             return
         why = why if not self.clients else "no browser heartbeat for 0.5 s"
