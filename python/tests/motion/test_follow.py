@@ -7,6 +7,7 @@ import asyncio
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -198,3 +199,38 @@ def test_max_step_checks_each_point_of_a_path_against_the_point_before() -> None
         rep = robot.follow([0.0, 3.0], [[0.0], [0.9]])
         assert rep.stopped is None
         assert robot.joint("a").get_joint_state().position == pytest.approx(0.9, abs=0.02)
+
+
+def test_a_plan_is_made_as_it_is_followed_with_a_longest_duration() -> None:
+    """A plan's memory does not grow with its duration (its cycles' commands are made when asked for), and
+    a trajectory longer than MAX_DURATION is refused before anything is sent."""
+    import tracemalloc
+
+    from drempower.motion.plan import MAX_DURATION, Lane, Units, make_plan
+
+    def plan_of(seconds: float) -> Any:
+        tr = Trajectory([0.0, seconds], [[0.0], [10.0]], joints=["1"])
+        lane = Lane("bus", ["1"], [1], [Units(deg=True)], [0], ["idle"], None)
+        opts = {"rate": 200.0, "mode": "position", "max_error": None, "kp": 20.0, "kd": 1.0}
+        return make_plan(tr, [lane], limits={}, bandwidth=None, torques=None, timeout=None, **opts)
+
+    tracemalloc.start()
+    try:
+        plan = plan_of(100.0)
+        for _ in plan.commands:
+            pass
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert len(plan.commands) == 20001
+    assert plan.commands[-1]["bus"][0].position == pytest.approx(10.0)
+    print(f"a 100 s plan at 200 Hz, every cycle made: peak {peak / 1e6:.3f} MB")
+    assert peak < 2e6, peak  # a list of its 20001 cycles took about 13 MB
+    assert MAX_DURATION == 600.0
+    with pytest.raises(ValidationError, match=r"the trajectory lasts 6000 s, beyond the longest a plan follows"):
+        plan_of(6000.0)
+    with drempower.open_bus("sim", motors=[1], clock="virtual") as bus:
+        sent = _tx_frames(bus)
+        with pytest.raises(ValidationError, match="split it; nothing was sent"):
+            bus.follow([1], [0.0, 6000.0], [[0.0], [10.0]])
+        assert sent == []

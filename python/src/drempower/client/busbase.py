@@ -176,6 +176,12 @@ class BusBase(ABC, Generic[M]):
             out.extend([dataclasses.replace(it, node=n) for n in known] if it.node == 0 else [it])
         return out
 
+    def check_path(self, motion: Iterable[Message]) -> None:
+        """The soft limits of a path's commands, streamed in the order they will be sent (no I/O, nothing
+        sent): each one's values, each position's step from the one before. The first one's step from
+        where the motor is, and its axis state, are :meth:`pass_gate`'s."""
+        self._gate.check_path(motion)
+
     def check_limits(self, motion: Sequence[Message]) -> None:
         """The soft limits that ``motion``'s own values meet (speed, torque, acceleration, absolute
         positions; no I/O, nothing sent): SoftLimitError for the first beyond one. For a whole program

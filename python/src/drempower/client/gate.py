@@ -384,6 +384,24 @@ class MotionGate:
             if lim is not None and it.relative and not lim.low <= last + step <= lim.high:
                 raise SoftLimitError(it.node, "position", last + step, lim.low, lim.high, "deg", lim.where)
 
+    def check_path(self, msgs: Iterable[Message]) -> None:
+        """A path's commands one after another, streamed (no list of them): each one's values against the
+        limits, each position's step from the position before it (the first one's from the motor is the
+        gate's to check, :func:`path_intents`); raises SoftLimitError."""
+        before: dict[int, float] = {}
+        for m in msgs:
+            for it in intents_of((m,)):
+                table = self._limits.get(it.node)
+                if not table:
+                    continue
+                _check_values(it.node, it, table)
+                if it.position is None or it.relative:
+                    continue
+                last = before.get(it.node)
+                before[it.node] = it.position
+                if last is not None:
+                    self.check_positions([dataclasses.replace(it, after=last)], _NO_STATES)
+
     def check_values(self, intents: Sequence[Intent]) -> None:
         """The limits ``intents``' own values meet (no position needed); raises SoftLimitError."""
         for it in intents:
@@ -457,6 +475,16 @@ class MotionGate:
         if idle:
             raise MotorIdleError([n for n, _ in idle], [s for _, s in idle])
         return None
+
+
+class _NoStates:
+    """No state at all (a path's later points are measured from the point before)."""
+
+    def get(self, node: int) -> MotorState | None:
+        return None
+
+
+_NO_STATES = _NoStates()
 
 
 def _number(name: str, value: object) -> float:

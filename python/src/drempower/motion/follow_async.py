@@ -207,7 +207,9 @@ async def stream(
                 )
 
     for lane in lanes:  # the gate once, before the clock starts: no cycle pays its read
-        await buses[lane.bus].pass_gate(path_intents(m for cmds in plan.commands for m in cmds[lane.bus]))
+        bus = buses[lane.bus]
+        await bus.pass_gate(path_intents(plan.commands[0][lane.bus]))  # the first point from where it is
+        bus.check_path(m for cmds in plan.commands for m in cmds[lane.bus])  # each later from the one before
 
     def part(lane: Lane, k: int) -> AsyncPart[dict[int, MotorState]]:
         bus = buses[lane.bus]
