@@ -173,7 +173,7 @@ class Motor(MotorBase):
     def estop(self) -> None:
         """Emergency stop: the motor goes idle and ignores motion until clear_error + set_mode(2)."""
         self._core.estop([self._id])
-        self._gate.forget((self._id,))
+        self._gate.estopped((self._id,))
 
     def position_done(
         self,

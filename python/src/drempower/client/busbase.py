@@ -305,7 +305,7 @@ class BusBase(ABC, Generic[M]):
         does; a robot stops its buses at once with it)."""
         nodes = self._estop_nodes(id_list)
         self._core.estop(nodes)
-        self._gate.forget(nodes)
+        self._gate.estopped(nodes)
 
     def close_now(self) -> None:
         """Close the bus in the calling thread, in both flavours (it may block briefly): the pending stops

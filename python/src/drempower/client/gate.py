@@ -55,6 +55,7 @@ from typing import Protocol
 from ..errors import MotionParameterError, MotorIdleError, SoftLimitError, ValidationError
 from ..protocol.addresses import AXIS0_CURRENT_STATE, AXIS0_REQUESTED_STATE
 from ..protocol.enums import AxisState, VelocityMode
+from ..protocol.ids import SysCmd
 from ..protocol.limits import OPEN_LOOP_SYS_CMDS
 from ..protocol.messages import (
     Message,
@@ -229,6 +230,9 @@ class MotionGate:
         self._closed: set[int] = set()
         self._limits: dict[int, dict[str, Limit]] = {}
         self._now = now
+        self._estopped: set[int] = set()
+        """Motors this bus emergency-stopped and did not clear since (0: every motor): an enable alone
+        does not bring them back."""
         self._released: dict[int, float] = {}
         """Per motor (0: every motor), when (s, ``now``) it was last released, stopped or enabled: a state
         from before says nothing of where it is now (it may have been turned by hand meanwhile)."""
@@ -305,6 +309,11 @@ class MotionGate:
             else:
                 self._closed.discard(n)
 
+    def estopped(self, nodes: Iterable[int]) -> None:
+        """Motors (0 = every motor) this bus just emergency-stopped: they ignore an enable until cleared."""
+        self.forget(nodes)
+        self._estopped.update(nodes)
+
     def note_sent(self, msgs: Iterable[Message]) -> None:
         """Learn from what this bus sent: enables and idle requests, estops and other system commands."""
         for m in msgs:
@@ -317,6 +326,13 @@ class MotionGate:
                         self.learn(m.node, int(m.value))
             elif isinstance(m, SystemCommand) and m.op in _FORGETS:
                 self.forget((m.node,))
+                if m.op == SysCmd.ESTOP:
+                    self._estopped.add(m.node)
+                elif m.op in (SysCmd.CLEAR_ERRORS, SysCmd.REBOOT):
+                    if m.node == 0:
+                        self._estopped.clear()
+                    else:
+                        self._estopped.discard(m.node)
 
     def clear(self, msgs: Sequence[Message], states: _States) -> bool:
         """True when ``msgs`` pass without a look at their values: no soft limits anywhere and every
@@ -378,7 +394,7 @@ class MotionGate:
                 continue
             step = it.position if it.relative else it.position - last
             lim = table.get("max_step")
-            if lim is not None and not lim.low <= step <= lim.high:
+            if lim is not None and abs(step) > lim.high * (1 + 1e-12):  # (a limit converted from rad: its rounding)
                 raise SoftLimitError(it.node, "max_step", step, -lim.high, lim.high, "deg", lim.where)
             lim = table.get("position")
             if lim is not None and it.relative and not lim.low <= last + step <= lim.high:
@@ -461,6 +477,10 @@ class MotionGate:
         if not unknown:
             return None
         if enable:
+            stopped = [n for n in unknown if n in self._estopped or 0 in self._estopped]
+            if stopped:
+                fix = "after clearing its errors: it was emergency-stopped (clear_error(), then enable=True)"
+                raise MotorIdleError(stopped, fix=fix)
             writes = [WriteParam.of(n, "axis0.requested_state", _CLOSED) for n in unknown]
             yield Send(writes)
             self.note_sent(writes)

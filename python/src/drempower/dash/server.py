@@ -18,6 +18,7 @@ import asyncio
 import contextlib
 import hmac
 import json
+import re
 import secrets
 import signal
 import socket
@@ -151,6 +152,10 @@ def parse_request(text: str) -> dict[str, Any]:
     if nesting(req) > MAX_DEPTH:
         raise ValueError(f"message refused: lists and objects nested deeper than {MAX_DEPTH} levels")
     return req
+
+
+_REQ = re.compile(r'"req"\s*:\s*(-?\d{1,15})\b')
+"""A request's number in a message whose JSON cannot be parsed (its error reply carries it)."""
 
 
 class Dashboard:
@@ -304,8 +309,10 @@ class Dashboard:
                     continue
                 try:
                     req = parse_request(msg.data)
-                except ValueError as exc:
-                    client.put(json.dumps({"t": "reply", "req": None, "op": None, "ok": False, "error": str(exc)}))
+                except ValueError as exc:  # the request's number, when it can be found, so the page can match it
+                    found = _REQ.search(msg.data)
+                    req_no = int(found.group(1)) if found else None
+                    client.put(json.dumps({"t": "reply", "req": req_no, "op": None, "ok": False, "error": str(exc)}))
                     continue
                 client.last_hb = time.monotonic()
                 if req.get("op") == "hb":
