@@ -527,6 +527,9 @@ class Bridge:
         """Commands of the ROS 2 topics refused (a value out of range, the safety gate); nothing was sent."""
         self.last_refusal: str | None = None
         """The words of the last refusal (those of :mod:`drempower.actions` and the safety gate)."""
+        self.busy: Callable[[], str | None] = lambda: None
+        """Says why the command topics are refused now (a trajectory goal executing: its action sets it),
+        else None: a stray command then neither moves the joints nor starts the topic's watch."""
         self._rosout_limit = RateLimit()
         self._rosout_lock = threading.Lock()
         self.faces: dict[str, BusFace] = {}
@@ -772,6 +775,9 @@ class Bridge:
             if self._closed.is_set():
                 return
             try:
+                why = self.busy()
+                if why:
+                    raise ValueError(why)
                 batches = self._commands(topic, data)  # nothing is sent on any bus if a value is invalid
                 self._pass_gates(topic, batches)  # nor if a bus's gate refuses
                 for face, ids, values in batches:
