@@ -247,3 +247,25 @@ def test_the_motor_replaces_the_models_own_actuator_of_its_joint(tmp_path: Path)
         twin = robot.twin
         assert twin is not None
         assert [twin.model.actuator(i).name for i in range(twin.model.nu)] == ["drempower:swing"]
+
+
+def test_pushes_are_bounded_alone_and_together(tmp_path: Path) -> None:
+    """The API holds the hand to the bounds the dashboard shows (PUSH_LIMITS): one push, and all the pushes
+    acting on one body or joint together (300 pushes of 200 Nm no longer add up to 60000 Nm)."""
+    from drempower.sim.twin import PUSH_LIMITS
+
+    path = robot_file(tmp_path, ROBOTS / "pendulum.xml", {"swing": {"id": 1}})
+    with drempower.open_robot(path, sim={"clock": "virtual"}) as robot:
+        twin = robot.twin
+        assert twin is not None
+        with pytest.raises(ValidationError, match=r"force \(1e\+300, 0.0, 0.0\) N: beyond \+-1000 N"):
+            twin.push(body="arm", force=(1e300, 0, 0))
+        top = PUSH_LIMITS["torque"]
+        twin.push_joint("swing", torque=top, duration=5.0)
+        with pytest.raises(ValidationError, match=r"with the pushes acting on it: beyond \+-200 Nm"):
+            twin.push_joint("swing", torque=top, duration=5.0)
+        with pytest.raises(ValidationError, match="a push lasts at most 10 s"):
+            twin.push_joint("swing", torque=1.0, duration=60.0)
+        assert len(twin.pushes) == 1
+        twin.push_joint("swing", torque=-top, duration=5.0)  # the other way: within the bound together
+        assert len(twin.pushes) == 2

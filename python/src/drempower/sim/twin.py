@@ -49,7 +49,7 @@ if TYPE_CHECKING:
     from .bus import SimBus
     from .motor import SimMotor
 
-__all__ = ["Coupling", "Push", "Twin", "TwinRunner", "couple_robot", "twin_of", "require_mujoco"]
+__all__ = ["PUSH_LIMITS", "Coupling", "Push", "Twin", "TwinRunner", "couple_robot", "twin_of", "require_mujoco"]
 
 _EPS = 1e-9
 _ACTUATOR_PREFIX = "drempower:"
@@ -85,6 +85,11 @@ class Coupling:
     identified: Mapping[str, float] | None = None
     """The joint's identified ``inertia``, ``viscous``, ``coulomb`` (at the joint): they replace the model's
     armature (less the links' own inertia), damping and friction loss, and the motor's."""
+
+
+PUSH_LIMITS = {"force": 1000.0, "torque": 200.0, "duration": 10.0}
+"""The hand's bounds: force N and torque Nm per component (of one push, and of all pushes acting on one
+body or joint together), duration s (0 < d <= this)."""
 
 
 @dataclass(frozen=True)
@@ -298,6 +303,25 @@ class Twin:
             return [p for p in self._pushes if p.end > self.time + _EPS]
 
     def _add(self, push: Push) -> None:
+        """Add ``push`` when it, and the pushes acting on its body or joint with it, stay within
+        :data:`PUSH_LIMITS`; a ValidationError naming the limit otherwise (the lock held)."""
+        if push.end - self.time > PUSH_LIMITS["duration"] + _EPS:
+            raise ValidationError(
+                f"duration={push.end - self.time:g}: a push lasts at most {PUSH_LIMITS['duration']:g} s"
+            )
+        same = [p for p in self._pushes if p.end > self.time + _EPS and (p.body, p.dof) == (push.body, push.dof)]
+        for what, unit, parts in (
+            ("force", "N", [q.force for q in (*same, push)]),
+            ("torque", "Nm", [q.torque if push.dof is None else (q.joint_torque, 0.0, 0.0) for q in (*same, push)]),
+        ):
+            top = PUSH_LIMITS[what]
+            total = [sum(v[i] for v in parts) for i in range(3)]
+            if any(abs(x) > top for x in total):
+                together = " with the pushes acting on it" if same else ""
+                raise ValidationError(
+                    f"{what} {tuple(round(x, 6) for x in total)} {unit}{together}: beyond +-{top:g} {unit} "
+                    "per component (the hand's bound)"
+                )
         self._pushes.append(push)
         self._pushes.sort(key=lambda p: p.end)
         self._pushes_dirty = True
