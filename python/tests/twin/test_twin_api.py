@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -269,3 +270,16 @@ def test_pushes_are_bounded_alone_and_together(tmp_path: Path) -> None:
         assert len(twin.pushes) == 1
         twin.push_joint("swing", torque=-top, duration=5.0)  # the other way: within the bound together
         assert len(twin.pushes) == 2
+
+
+def test_a_model_with_nan_is_refused_naming_the_file_and_the_field(tmp_path: Path) -> None:
+    from .conftest import model_copy
+
+    def nan_axis(root: Any) -> None:
+        for j in root.iter("joint"):
+            j.set("axis", "0 nan 0")
+
+    model = model_copy(tmp_path, "pendulum.xml", nan_axis)
+    path = robot_file(tmp_path, model, {"swing": {"id": 1}})
+    with pytest.raises(ConfigError, match=r"jnt_axis \(joint 'swing'\) holds nan: expected finite numbers"):
+        drempower.open_robot(path, sim={"clock": "virtual"})

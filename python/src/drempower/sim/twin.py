@@ -190,6 +190,7 @@ class Twin:
             self.model = spec.compile()
         except Exception as exc:
             raise ConfigError(f"model {model_file}: {exc}") from None
+        _check_finite(self.model, model_file)
         self.data = mujoco.MjData(self.model)
         self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
         self._bias = self.model.actuator_biasprm
@@ -416,6 +417,48 @@ class Twin:
 
     def __repr__(self) -> str:
         return f"<Twin {self.source}: joints {', '.join(self.joints)}; t={self.time:.3f} s>"
+
+
+_FINITE = {
+    "body_pos": "body",
+    "body_quat": "body",
+    "body_ipos": "body",
+    "body_iquat": "body",
+    "body_mass": "body",
+    "body_inertia": "body",
+    "jnt_pos": "joint",
+    "jnt_axis": "joint",
+    "jnt_range": "joint",
+    "dof_damping": "dof",
+    "dof_armature": "dof",
+    "dof_frictionloss": "dof",
+    "geom_pos": "geom",
+    "geom_quat": "geom",
+    "geom_size": "geom",
+    "qpos0": "",
+}
+"""The compiled model's arrays that must hold finite numbers, and what each row is."""
+
+
+def _check_finite(model: Any, model_file: object) -> None:
+    """Refuse a model with NaN or infinity where physics needs numbers (an MJCF axis, a URDF origin): MuJoCo
+    would reset every step and the joints read 0. A ConfigError naming the file, the field and the element."""
+    import numpy as np
+
+    for field, kind in _FINITE.items():
+        values = np.asarray(getattr(model, field, ()), dtype=float)
+        bad = np.argwhere(~np.isfinite(values))
+        if bad.size:
+            row = int(bad[0][0])
+            name = ""
+            if kind in ("body", "joint", "geom"):
+                name = getattr(model, kind)(row).name or str(row)
+            elif kind == "dof":
+                name = model.joint(int(model.dof_jntid[row])).name or str(row)
+            what = f" ({kind} {name!r})" if name else ""
+            raise ConfigError(
+                f"model {model_file}: {field}{what} holds {float(values[tuple(bad[0])])!r}: expected finite numbers"
+            )
 
 
 def _vector(value: Iterable[float], what: str) -> tuple[float, float, float]:
