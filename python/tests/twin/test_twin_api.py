@@ -272,8 +272,12 @@ def test_pushes_are_bounded_alone_and_together(tmp_path: Path) -> None:
         assert len(twin.pushes) == 2
 
 
-def test_a_model_with_nan_is_refused_naming_the_file_and_the_field(tmp_path: Path) -> None:
+def test_a_model_with_nan_is_refused_naming_the_file_and_the_field(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
     from .conftest import model_copy
+
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warning about the NaN to MUJOCO_LOG.TXT here
 
     def nan_axis(root: Any) -> None:
         for j in root.iter("joint"):
