@@ -199,6 +199,9 @@ MOTOR = Arg("id", "int", "", "the motor's id", MIN_MOTOR, MAX_NODE)
 MOTOR_OR_ALL = Arg("id", "int", "", "the motor's id (0: every motor)", 0, MAX_NODE)
 """A motor id, or 0 for every motor (commands that need no answer)."""
 VERIFY = Arg("verify", "bool", "", "read the value back (a single motor only)", default=True)
+FORCE = Arg(
+    "force", "bool", "", "write a parameter not meant for users, or a value outside its soft domain", default=False
+)
 ENABLE = Arg("enable", "bool", "", "enable the motor first if it is idle", default=False)
 ANGLE = Arg("angle", "float", "deg", "target angle", -MAX_ANGLE, MAX_ANGLE)
 STEP = Arg("angle", "float", "deg", "step from where the motor is", -MAX_ANGLE, MAX_ANGLE)
@@ -291,6 +294,16 @@ def _param(a: Mapping[str, Any], *names: str) -> float:
     return next((float(a[n]) for n in names if a.get(n) is not None), 0.0)
 
 
+def _set(bus: Any, a: Mapping[str, Any]) -> Any:
+    """Row ``set``: a parameter not meant for users needs ``force`` (the CLI's words); one that commands
+    motion passes the safety gate in ``write_property``."""
+    p = find_parameter(a["name"])
+    if p is not None and p.writable and not (p.user_settable or a["force"]):
+        raise ValidationError(f"{p.name} is not meant to be changed by users (add force to write it anyway)")
+    force = a["force"]
+    return _motor(bus, a).write_property(a["name"], a["value"], verify=a["verify"] and a["id"] != 0, force=force)
+
+
 def _estop(bus: Any, a: Mapping[str, Any]) -> Any:
     return bus.estop(None if a["id"] == 0 else [a["id"]])
 
@@ -330,8 +343,8 @@ for _a in (
         "set",
         "configure",
         "write a parameter (in RAM; save keeps it)",
-        (MOTOR_OR_ALL, PARAM, VALUE, VERIFY),
-        lambda b, a: _motor(b, a).write_property(a["name"], a["value"], verify=a["verify"] and a["id"] != 0),
+        (MOTOR_OR_ALL, PARAM, VALUE, VERIFY, FORCE),
+        lambda b, a: _set(b, a),
     ),
     Action(
         "move",
@@ -442,7 +455,8 @@ def validate(action: Action | str, args: Mapping[str, Any]) -> dict[str, Any]:
         if "value" in out:
             given = args["value"]
             whole = isinstance(given, int) or (isinstance(given, str) and given.strip().lstrip("-").isdigit())
-            out["value"] = p.check(int(out["value"]) if whole else out["value"])  # its own domain, named
+            value = int(out["value"]) if whole else out["value"]
+            out["value"] = p.check(value, bool(out.get("force")))  # its own domain, named
     return out
 
 

@@ -31,7 +31,14 @@ Differences from the vendor library (see docs/client.md):
   :class:`~drempower.errors.MotorIdleError` and sends nothing (the vendor's is
   silently ignored by the motor): call ``set_mode(id, 2)`` first, as vendor scripts
   do. ``estop``, ``set_mode``, ``clear_error``, ``save_config``, ``reboot``,
-  ``set_zero_position`` and ``write_property`` run through :mod:`drempower.actions`.
+  ``set_zero_position`` run through :mod:`drempower.actions`. ``write_property``
+  writes any parameter the vendor's does, checked against its domain; one that
+  commands motion (``input_pos``, ``input_vel``, modes...) passes the safety gate as
+  that motion (:data:`drempower.client.engine.gate.MOTION_PARAMETERS`).
+* ``preset_angle``/``preset_speed``/``preset_torque`` pass the safety gate with
+  what their start will command (a position preset as an absolute target):
+  soft limits, and a motor not in closed loop raises ``MotorIdleError``.
+* ``send_command`` is the raw path: its frame is sent as given, past the gate.
 * ``set_mode`` refuses modes other than 1 and 2 instead of ignoring them;
   ``set_id`` checks that the motor answers at its new id before saving.
 * Motors keep holding when the script ends, as with the vendor library: the bus
@@ -63,6 +70,7 @@ from typing import Any
 
 from . import actions
 from .client.api.bus_sync import Bus, Motor, open_bus
+from .client.engine.gate import Intent
 from .client.engine.results import ErrorReport
 from .client.engine.session import DEFAULT_MOVE_TIMEOUT
 from .client.engine.state import MotorState
@@ -370,7 +378,7 @@ def set_traj_mode(id_num: int = 0, mode: int = 1) -> None:
 
 
 def write_property(id_num: int = 0, property: str | int = "", value: float = 0) -> None:
-    _act("set", id=id_num, name=str(property), value=value, verify=False)
+    _m(id_num).write_property(property, value)
 
 
 # ---------------------------------------------------------------------- read-back
@@ -490,30 +498,41 @@ def preset_angle(id_num: int = 0, angle: float = 0, t: float = 0, param: float =
         p2, p3 = t, param
     else:
         raise FieldRangeError("mode", mode, 0, 2, "0 = T, 1 = Q, 2 = P")
-    _preset(id_num, angle, p2, p3)
+    node = check_node(id_num, "id_num")
+    q, p = mode == 1, mode == 2  # what the start will command: Q's accel, P's feed-forwards
+    intent = Intent(
+        node, check_f32(angle, "angle"), speed=p2 if p else None, torque=p3 if p else None, accel=p3 if q else None
+    )
+    _preset(id_num, angle, p2, p3, intent)
 
 
 def preset_speed(id_num: int = 0, speed: float = 0, param: float = 0, mode: int = 1) -> bool:
     """Send a speed preset (0x0C), as the vendor's: mode 1 ``param`` = torque feed-forward Nm, else ramp (r/min)/s."""
+    node = check_node(id_num, "id_num")
     if mode == 1:
-        _preset(id_num, speed, 0 if speed == 0 else param, 1)
+        _preset(id_num, speed, 0 if speed == 0 else param, 1, Intent(node, speed=speed, torque=param))
     else:
-        _preset(id_num, speed, param, 2)
+        _preset(id_num, speed, param, 2, Intent(node, speed=speed, accel=param))
     return True
 
 
 def preset_torque(id_num: int = 0, torque: float = 0, param: float = 0, mode: int = 1) -> bool:
     """Send a torque preset (0x0C), as the vendor's: mode 1 direct, else ramp ``param`` Nm/s."""
+    node = check_node(id_num, "id_num")
     if mode == 1:
-        _preset(id_num, torque, 0, 1)
+        _preset(id_num, torque, 0, 1, Intent(node, torque=torque))
     else:
-        _preset(id_num, torque, param, 6)
+        _preset(id_num, torque, param, 6, Intent(node, torque=torque))
     return True
 
 
-def _preset(id_num: int, p1: float, p2: float, p3: float) -> None:
+def _preset(id_num: int, p1: float, p2: float, p3: float, intent: Intent) -> None:
+    """Send a preset once its values are valid and ``intent`` (what its start will command) passes the
+    safety gate: soft limits, closed loop (a preset to an idle motor raises MotorIdleError)."""
     msg = Preset(check_node(id_num, "id_num"), check_f32(p1, "p1"), _s16(p2, "p2"), _s16(p3, "p3"))
-    current_bus().send(msg)
+    bus = current_bus()
+    bus.pass_gate([intent])
+    bus.send(msg)
     reply_state(id_num)
 
 

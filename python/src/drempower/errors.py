@@ -10,6 +10,7 @@ device, ``TimeoutError`` for a silent motor)::
     │   ├── FieldRangeError                    a number outside the range its field holds
     │   │   ├── DomainError                    a value outside a parameter's domain (spec/parameters.csv)
     │   │   └── SoftLimitError                 a value beyond a soft limit (set_limits, a robot file)
+    │   ├── MotionParameterError               a parameter write commanding motion the soft limits cannot check
     │   ├── ConfigError                        a robot file that cannot be used
     │   ├── BackupFileError                    a backup document that cannot be restored
     │   └── TransportOptionError               (also a TransportError) an option a transport cannot use
@@ -57,6 +58,7 @@ __all__ = [
     "BusClosedError",
     "BusStoppedError",
     "MotorFaultError",
+    "MotionParameterError",
     "MotorIdleError",
     "FollowError",
     "SoftLimitError",
@@ -210,6 +212,23 @@ class SoftLimitError(FieldRangeError):
             f"motor {node}: {limit} {value:g} {unit} is beyond its soft limit {low:g}..{high:g} {unit} "
             f"(set by {where})",
         )
+
+
+class MotionParameterError(ValidationError):
+    """A parameter write that commands motion the soft limits cannot vouch for (a rotor-side input, a
+    mode, step/dir, a calibration state) was refused on a motor with soft limits; nothing was sent.
+
+    ``node`` is the motor, ``name`` the parameter, ``where`` where the motor's limits were set.
+    """
+
+    def __init__(self, node: int, name: str, value: float, kind: str, where: str) -> None:
+        super().__init__(
+            f"motor {node}: writing {name}={value:g} ({kind}) commands motion its soft limits (set by {where}) "
+            "cannot check: use the motion commands (set_angle, set_speed, set_torque) or the output shaft's input_*"
+        )
+        self.node = node
+        self.name = name
+        self.where = where
 
 
 class VerifyError(DrEmpowerError):

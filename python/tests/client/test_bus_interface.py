@@ -110,7 +110,7 @@ def test_on_sent_and_taps_see_the_frames() -> None:
         assert len(sent) == 1 and len(taps) == 2
 
 
-def test_send_batch_moves_the_motors_and_the_gate_learns_its_targets() -> None:
+def test_send_batch_moves_the_motors_and_the_gate_measures_from_where_they_are() -> None:
     sim = SimBus(ids=[1, 2])
     with drempower.open_bus("sim", bus=sim, clock="virtual") as bus:
         bus.enable([1, 2])
@@ -119,9 +119,11 @@ def test_send_batch_moves_the_motors_and_the_gate_learns_its_targets() -> None:
         where = bus.send_batch(presets, start, [50.0, -20.0])
         assert where == [0]  # one broadcast start (bus option start="auto" with every motor addressed)
         assert sim.motors[1].position == pytest.approx(0.0, abs=1.0)  # no time has passed yet
-        bus.motor(1).set_angle(100.0, 0.0, 20.0)  # 50 deg from the batch's target (100 from where it is): passes
-        with pytest.raises(SoftLimitError, match="max_step"):
-            bus.motor(1).set_angle(170.0, 0.0, 20.0)  # 70 deg from the last target: refused
+        with pytest.raises(SoftLimitError, match="max_step 100 deg"):
+            bus.motor(1).set_angle(100.0, 0.0, 20.0)  # 100 deg from where the motor is: refused
+        bus.pass_time(1.0)
+        assert sim.motors[1].position == pytest.approx(50.0, abs=0.5)
+        bus.motor(1).set_angle(100.0, 0.0, 20.0)  # 50 deg from where it now is: passes
         bus.pass_time(1.0)
         assert sim.motors[1].position == pytest.approx(100.0, abs=0.5)
         assert sim.motors[2].position == pytest.approx(-20.0, abs=0.5)

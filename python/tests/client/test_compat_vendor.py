@@ -63,6 +63,9 @@ def test_a_vendor_style_script(sim: tuple[SimBus, list[Frame]]) -> None:
 
 def test_presets_are_the_vendors_frames(sim: tuple[SimBus, list[Frame]]) -> None:
     _, sent = sim
+    dr.set_mode(1, 2)  # the presets pass the safety gate: their motors in closed loop
+    dr.set_mode(2, 2)
+    sent.clear()
     dr.preset_speed(1, 10, 0, 1)
     dr.preset_torque(1, 3, 10, 0)
     dr.preset_angle(1, 90, 0, 10, 0)

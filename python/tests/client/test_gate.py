@@ -207,7 +207,11 @@ def test_soft_limits_from_the_api_refuse_before_any_frame(idle: Idle) -> None:
             )
         assert _motion(idle.frames) == []  # max_step had the position read, nothing else was sent
         m.set_angle(40, 0, 50)  # within every limit, 40 deg from 0
-        m.set_angle(80, 0, 50)  # 40 deg from the last target
+        with pytest.raises(SoftLimitError, match="max_step 80 deg"):
+            m.set_angle(80, 0, 50)  # the motor is still at 0: it would go 80 deg
+        bus.pass_time(1.0)
+        m.set_angle(80, 0, 50)  # 40 deg from where the motor now is
+        bus.pass_time(1.0)
         with pytest.raises(SoftLimitError, match="max_step -80 deg"):
             m.set_angle(0, 0, 50)
         bus.set_limits(1)  # no limits any more

@@ -313,12 +313,15 @@ async def test_two_browsers_see_the_same_state_and_either_controls() -> None:
             # both receive the samples of the move
             sa, sb = await until(a, "samples"), await until(b, "samples")
             assert sa["s"] and sb["s"]
-            await b.close()  # one browser left, its heartbeat going: the motor keeps its command
+            await a.send_json({"op": "control", "req": 6, "action": "V", "id": 1, "speed": 10})
+            assert (await until(a, "reply", 6))["ok"]
+            await b.close()  # each page is a controller: what b set moving stops with it, a's goes on
             for _ in range(8):
                 await a.send_json({"op": "hb"})
                 await asyncio.sleep(0.1)
-            assert hub.commanded == {2}
-            assert sim[2].state == AxisState.CLOSED_LOOP_CONTROL
+            assert hub.commanded == {1}
+            assert sim[2].state == AxisState.IDLE
+            assert sim[1].state == AxisState.CLOSED_LOOP_CONTROL and sim[1].speed > 5
     finally:
         loop.call_soon_threadsafe(dash.stopping.set)
         thread.join(10)

@@ -7,6 +7,7 @@ import asyncio
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -175,3 +176,62 @@ def test_ctrl_c_during_follow_holds_the_joints(tmp_path: Path) -> None:
     msg = decode_command(last.arbitration_id, last.data)
     assert isinstance(msg, PositionT)
     assert msg.position == pytest.approx(at, abs=1.0) and 2.0 < msg.position < 35.0  # mid-way
+
+
+def test_max_step_checks_each_point_of_a_path_against_the_point_before() -> None:
+    """A path that leaves its start by more than ``max_step`` in all is followed: each point is checked
+    against the one before it (the first against where the motor is), on a bus and on a robot."""
+    with drempower.open_bus("sim", motors=[1], clock="virtual") as bus:
+        bus.set_limits(1, max_step=20)
+        report = follow_bus(bus, [1], [0.0, 3.0], [[0.0], [51.57]], max_error=5.0)
+        assert report.stopped is None
+        assert bus.motor(1).get_state().angle == pytest.approx(51.57, abs=1.0)
+        with pytest.raises(drempower.SoftLimitError, match="motor 1: max_step"):
+            follow_bus(bus, [1], [0.0, 0.01, 1.0], [[51.57], [80.0], [80.0]])  # one point 28 deg after the one before
+    from drempower.robot import parse_robot
+
+    spec = parse_robot(
+        {
+            "buses": {"b": {"interface": "sim"}},
+            "joints": {"a": {"bus": "b", "id": 1, "limits": {"position": [-1.0, 1.0], "max_step": 0.5}}},
+        }
+    )
+    with drempower.open_robot(spec, sim={"clock": "virtual"}) as robot:
+        rep = robot.follow([0.0, 3.0], [[0.0], [0.9]])
+        assert rep.stopped is None
+        assert robot.joint("a").get_joint_state().position == pytest.approx(0.9, abs=0.02)
+
+
+def test_a_plan_is_made_as_it_is_followed_with_a_longest_duration() -> None:
+    """A plan's memory does not grow with its duration (its cycles' commands are made when asked for), and
+    a trajectory longer than MAX_DURATION is refused before anything is sent."""
+    import tracemalloc
+
+    from drempower.motion.plan import MAX_DURATION, Lane, Units, make_plan
+
+    def plan_of(seconds: float) -> Any:
+        tr = Trajectory([0.0, seconds], [[0.0], [10.0]], joints=["1"])
+        lane = Lane("bus", ["1"], [1], [Units(deg=True)], [0], ["idle"], None)
+        opts = {"rate": 200.0, "mode": "position", "max_error": None, "kp": 20.0, "kd": 1.0}
+        return make_plan(tr, [lane], limits={}, bandwidth=None, torques=None, timeout=None, **opts)
+
+    tracemalloc.start()
+    try:
+        plan = plan_of(100.0)
+        for _ in plan.commands:
+            pass
+        _, peak = tracemalloc.get_traced_memory()
+    finally:
+        tracemalloc.stop()
+    assert len(plan.commands) == 20001
+    assert plan.commands[-1]["bus"][0].position == pytest.approx(10.0)
+    print(f"a 100 s plan at 200 Hz, every cycle made: peak {peak / 1e6:.3f} MB")
+    assert peak < 2e6, peak  # a list of its 20001 cycles took about 13 MB
+    assert MAX_DURATION == 600.0
+    with pytest.raises(ValidationError, match=r"the trajectory lasts 6000 s, beyond the longest a plan follows"):
+        plan_of(6000.0)
+    with drempower.open_bus("sim", motors=[1], clock="virtual") as bus:
+        sent = _tx_frames(bus)
+        with pytest.raises(ValidationError, match="split it; nothing was sent"):
+            follow_bus(bus, [1], [0.0, 6000.0], [[0.0], [10.0]])
+        assert sent == []

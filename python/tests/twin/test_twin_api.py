@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -247,3 +248,42 @@ def test_the_motor_replaces_the_models_own_actuator_of_its_joint(tmp_path: Path)
         twin = robot.twin
         assert twin is not None
         assert [twin.model.actuator(i).name for i in range(twin.model.nu)] == ["drempower:swing"]
+
+
+def test_pushes_are_bounded_alone_and_together(tmp_path: Path) -> None:
+    """The API holds the hand to the bounds the dashboard shows (PUSH_LIMITS): one push, and all the pushes
+    acting on one body or joint together (300 pushes of 200 Nm no longer add up to 60000 Nm)."""
+    from drempower.sim.twin import PUSH_LIMITS
+
+    path = robot_file(tmp_path, ROBOTS / "pendulum.xml", {"swing": {"id": 1}})
+    with drempower.open_robot(path, sim={"clock": "virtual"}) as robot:
+        twin = robot.twin
+        assert twin is not None
+        with pytest.raises(ValidationError, match=r"force \(1e\+300, 0.0, 0.0\) N: beyond \+-1000 N"):
+            twin.push(body="arm", force=(1e300, 0, 0))
+        top = PUSH_LIMITS["torque"]
+        twin.push_joint("swing", torque=top, duration=5.0)
+        with pytest.raises(ValidationError, match=r"with the pushes acting on it: beyond \+-200 Nm"):
+            twin.push_joint("swing", torque=top, duration=5.0)
+        with pytest.raises(ValidationError, match="a push lasts at most 10 s"):
+            twin.push_joint("swing", torque=1.0, duration=60.0)
+        assert len(twin.pushes) == 1
+        twin.push_joint("swing", torque=-top, duration=5.0)  # the other way: within the bound together
+        assert len(twin.pushes) == 2
+
+
+def test_a_model_with_nan_is_refused_naming_the_file_and_the_field(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from .conftest import model_copy
+
+    monkeypatch.chdir(tmp_path)  # MuJoCo writes its warning about the NaN to MUJOCO_LOG.TXT here
+
+    def nan_axis(root: Any) -> None:
+        for j in root.iter("joint"):
+            j.set("axis", "0 nan 0")
+
+    model = model_copy(tmp_path, "pendulum.xml", nan_axis)
+    path = robot_file(tmp_path, model, {"swing": {"id": 1}})
+    with pytest.raises(ConfigError, match=r"jnt_axis \(joint 'swing'\) holds nan: expected finite numbers"):
+        drempower.open_robot(path, sim={"clock": "virtual"})

@@ -133,6 +133,8 @@ class JointTopics:
                 lim = getattr(j, "limits", None)
                 if lim:
                     face.bus.set_limits(j.id, **_gearing(j).motor_limits(lim), where=f"joint {j.name!r} limits")
+        self._driven: dict[str, set[int]] = {}
+        """Per bus, the motors the commands named (those the publisher's watch stops)."""
         self._registered: bool | None = None
         """None: no command yet; else whether the publisher was registered with a liveness signal."""
         self._publishers: set[str] = set()
@@ -258,13 +260,14 @@ class JointTopics:
                 self.refused += 1  # after the words: a reader of the count finds them said
                 return
             now = time.monotonic()
-            if self._registered is None:
-                live = bool(self._publishers)
-                for dog, face in zip(self._dogs.values(), self.bridge.faces.values(), strict=True):
-                    dog.register(_CONTROLLER, face.ids, now=now, liveness=live)
-                self._registered = live
-            for name in batches:
+            live = bool(self._publishers)  # a token now (one gone and a later publisher without: none)
+            for name, msgs in batches.items():  # only the joints the command names are the publisher's
+                driven = self._driven.setdefault(name, set())
+                driven.update(m.node for m in msgs if m.node)
+                self._dogs[name].update(_CONTROLLER, sorted(driven), now=now, liveness=live)
                 self._dogs[name].feed(_CONTROLLER, now)
+            if batches:
+                self._registered = live
             self.received += 1
 
     # ------------------------------------------------------------------ the publisher's life
@@ -280,20 +283,22 @@ class JointTopics:
                 self._publishers.add(key)
                 if self._registered is False:  # its token came after its first command: its liveness counts now
                     now = time.monotonic()
-                    for dog, face in zip(self._dogs.values(), self.bridge.faces.values(), strict=True):
-                        dog.unregister(_CONTROLLER, now)
-                        dog.register(_CONTROLLER, face.ids, now=now, liveness=True)
+                    for name, dog in self._dogs.items():
+                        if self._driven.get(name):
+                            dog.update(_CONTROLLER, sorted(self._driven[name]), now=now, liveness=True)
                     self._registered = True
                 elif self._registered:
                     for dog in self._dogs.values():
-                        dog.alive(_CONTROLLER, True)
+                        if _CONTROLLER in dog.controllers():
+                            dog.alive(_CONTROLLER, True)
                 return
             self._publishers.discard(key)
             if self._publishers or not self._registered:
                 return
             _log.info("%s: its last publisher %s left", self.commands_topic, parts[2])
             for dog in self._dogs.values():
-                dog.alive(_CONTROLLER, False)
+                if _CONTROLLER in dog.controllers():
+                    dog.alive(_CONTROLLER, False)
             self._fire(time.monotonic())
 
     def _fire(self, now: float) -> None:

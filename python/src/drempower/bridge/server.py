@@ -38,6 +38,7 @@ from . import rmw, rosmsg
 from .diagnostics import DIAGNOSTIC_ARRAY, Diagnostics
 from .hub import BusHub, axis_changed, driven_nodes
 from .order import ServiceOrder
+from .remote_policy import RemotePolicy
 
 __all__ = [
     "Bridge",
@@ -211,9 +212,17 @@ class BusFace:
         )
         self.hub = BusHub(transport, self._publish_rx, self._client_sent)
         self.bus = Bus(self.hub.local, stop_on_close=True, timeout=timeout)
+        self._limits: dict[str, dict[str, Any]] = {}
+        """The soft limits of each motor (motor units), told remote clients in the bus's info."""
         for j in self.joints:
             if j.limits:  # the robot file's soft limits, in motor units: the safety gate holds every command to them
-                self.bus.set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=f"joint {j.name!r} limits")
+                where = f"joint {j.name!r} limits"
+                self.bus.set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=where)
+                self._limits[str(j.id)] = {**Gearing(j).motor_limits(j.limits), "where": f"{where} (the bridge's)"}
+        self.policy = RemotePolicy(self.bus)
+        """What remote peers may send (see :mod:`.remote_policy`)."""
+        self.refused = 0
+        """Remote frames refused by :attr:`policy`."""
         self._decls: list[Any] = []
         self._writer = threading.Thread(target=self._writer_loop, name=f"drempower bridge writer {name}", daemon=True)
         try:
@@ -235,6 +244,7 @@ class BusFace:
                 "motors": self.ids,
                 "joints": [j.name for j in self.joints],
                 "command_timeout": self.command_timeout,
+                "limits": self._limits,
                 **({"bus": self.name} if self.name else {}),
             }
         ).encode()
@@ -265,6 +275,8 @@ class BusFace:
             return
         origin, seq, frames = got
         self._heard[origin] = time.monotonic()
+        if not self._admit(frames, origin):
+            return
         with self._queue_cv:
             if seq < self._stopped_at.get(origin, -1):
                 self.dropped_by_estop += len(frames)
@@ -281,11 +293,31 @@ class BusFace:
             finally:
                 self._write_lock.release()
 
+    def _admit(self, frames: Sequence[Frame], origin: bytes, estop_key: bool = False) -> bool:
+        """True when a remote sample may go on the bus by :attr:`policy` (checked with the bridge bus's gate,
+        which may read a motor's position first); else False, logged and counted."""
+        try:
+            msgs = self.policy.messages(frames, estop_key)
+            op = self.policy.check(msgs)
+            if op is not None:
+                self.bus.run(op)
+        except DrEmpowerError as exc:
+            self.refused += len(frames)
+            where = "estop key" if estop_key else "bus"
+            _log.warning(
+                f"{where}: frames of client %s on %s refused: %s", origin.decode(errors="replace"), self.prefix, exc
+            )
+            return False
+        self.policy.sent(msgs)
+        return True
+
     def _on_estop(self, sample: Any) -> None:
         got = self._sample(sample)
         if got is None:
             return
         origin, seq, frames = got
+        if not self._admit(frames, origin, estop_key=True):
+            return
         self._heard[origin] = time.monotonic()
         with self._queue_cv:
             self._stopped_at[origin] = max(seq, self._stopped_at.get(origin, -1))
@@ -496,6 +528,9 @@ class Bridge:
         """Commands of the ROS 2 topics refused (a value out of range, the safety gate); nothing was sent."""
         self.last_refusal: str | None = None
         """The words of the last refusal (those of :mod:`drempower.actions` and the safety gate)."""
+        self.busy: Callable[[], str | None] = lambda: None
+        """Says why the command topics are refused now (a trajectory goal executing: its action sets it),
+        else None: a stray command then neither moves the joints nor starts the topic's watch."""
         self._rosout_limit = RateLimit()
         self._rosout_lock = threading.Lock()
         self.faces: dict[str, BusFace] = {}
@@ -750,6 +785,9 @@ class Bridge:
             if self._closed.is_set():
                 return
             try:
+                why = self.busy()
+                if why:
+                    raise ValueError(why)
                 batches = self._commands(topic, data)  # nothing is sent on any bus if a value is invalid
                 self._pass_gates(topic, batches)  # nor if a bus's gate refuses
                 for face, ids, values in batches:

@@ -131,6 +131,7 @@ class TrajectoryAction:
             if not v > 0:
                 raise ValueError(f"{key}={v!r}: expected > 0")
         self.bridge = bridge
+        bridge.busy = self.running  # the command topics wait while a goal runs
         self.rate, self.feedback_rate = float(rate), float(feedback_rate)
         self.path_tolerance, self.goal_tolerance, self.goal_time = path_tolerance, goal_tolerance, goal_time
         self.start_tolerance = start_tolerance

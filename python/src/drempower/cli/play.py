@@ -135,7 +135,9 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _dry_plan(tr: Trajectory, lanes: list[Lane], limits: dict[str, dict[str, Any]], options: dict[str, Any]) -> None:
-    make_plan(tr, lanes, limits=limits, bandwidth=None, torques=None, timeout=None, **options)
+    plan = make_plan(tr, lanes, limits=limits, bandwidth=None, torques=None, timeout=None, **options)
+    for _ in plan.commands:  # every cycle's commands made and checked as following would (none kept)
+        pass
 
 
 def _run_robot(args: argparse.Namespace, spec: Any, tr: Trajectory, options: dict[str, Any]) -> int:

@@ -40,8 +40,8 @@ def register(sub: Any) -> None:
     p.add_argument(
         "--enable",
         action="store_true",
-        help="clear the errors of the motors the log drives and put them in closed loop first "
-        "(default: refuse when one is idle or in error, as nothing would move)",
+        help="clear the errors of the motors the log drives and put them in closed loop first, and let the "
+        "log's own enables through (default: refuse when one is idle or in error, or when the log enables one)",
     )
     add_json_arg(p)
     add_connection_args(p)
@@ -81,6 +81,39 @@ def _driven(frames: list[tuple[LogRecord, Message | None]]) -> list[int]:
     return sorted(driven - {0})
 
 
+def _enables(frames: list[tuple[LogRecord, Message | None]]) -> list[int]:
+    """The motors the log itself puts in closed loop (its own enable frames), by id."""
+    return sorted(
+        {
+            msg.node
+            for _, msg in frames
+            if isinstance(msg, WriteParam) and msg.address == AXIS0_REQUESTED_STATE and msg.value == _CLOSED_LOOP
+        }
+    )
+
+
+def _refusals(frames: list[tuple[LogRecord, Message | None]], args: argparse.Namespace) -> None:
+    """Refuse, before anything is sent, a log that would enable motors unasked. (Frames the protocol does
+    not define, and the motors' own, go out raw only with --all-frames: the explicit ask.)"""
+    enables = _enables(frames)
+    if enables and not args.enable:
+        ids = ",".join(map(str, enables))
+        raise DrEmpowerError(
+            f"{args.file}: the log enables motors {ids} itself; replay with --enable to let it (nothing was sent)"
+        )
+
+
+def _send(bus: Any, msg: Message) -> None:
+    """One command of the log, through the safety gate: motion (limits, closed loop), and parameter writes
+    as ``write_property`` takes them (domains; those that command motion as that motion)."""
+    if isinstance(msg, WriteParam):
+        bus.motor(msg.node).write_property(msg.address, msg.value)
+        return
+    if msg.cmd in MOTION_CMDS:
+        bus.pass_gate([msg])
+    bus.send(msg)  # the bus remembers the motors it commanded, to stop them at the end
+
+
 def _ready(bus: Any, nodes: list[int], args: argparse.Namespace) -> None:
     """Refuse to replay onto motors that would ignore it (idle, in error); with --enable, enable them first."""
     from . import _readings
@@ -106,9 +139,11 @@ def run(args: argparse.Namespace) -> int:
         nodes = sorted({r.frame.arbitration_id >> 5 for r, _ in frames} - {0}) or [1]
         args.sim = nodes
         print(f"drempower: replaying onto simulated motors {','.join(map(str, nodes))}", file=sys.stderr)
+    _refusals(frames, args)
     sent = 0
     with open_from_args(args, quiet=True) as bus:
         _ready(bus, _driven(frames), args)
+        bus.check_limits([msg for _, msg in frames if msg is not None])  # the log's own values, before it starts
         bus.stop_on_close = not args.leave_running
         start = time.monotonic()
         t0 = frames[0][0].timestamp
@@ -123,7 +158,7 @@ def run(args: argparse.Namespace) -> int:
                 if pause > 0:
                     time.sleep(pause)
                 if msg is not None:
-                    bus.send(msg)  # the bus remembers the motors it commanded, to stop them at the end
+                    _send(bus, msg)
                 else:
                     bus.transport.send(rec.frame)
                 sent += 1

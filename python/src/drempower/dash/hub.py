@@ -190,6 +190,8 @@ class Hub:
         self.motors: dict[int, dict[str, Any]] = {}
         self.targets: dict[int, list[float | None]] = {}
         self.commanded: set[int] = set()
+        self.commanders: dict[int, str] = {}
+        """Per motor key, the page that last set it moving (see :meth:`idle_of`)."""
         self.heartbeat_ms = 0
         self.scanning = False
         self.saved: dict[int, dict[str, float]] = {}
@@ -203,6 +205,10 @@ class Hub:
         """The Tuning view's gains proposed and not yet written, by key (:mod:`drempower.dash.propose`)."""
         self._stop = threading.Event()
         self._halt = threading.Event()
+        self._estops = 0
+        """ESTOPs pressed so far: a request issued before the latest is fenced (see :meth:`issued`)."""
+        self._issued = threading.local()
+        """The ESTOP count when the request the calling worker runs was issued (None: not a page's)."""
         self._subs = [b.subscribe(self._sink(k * KEYS_PER_BUS)) for k, (_, b) in enumerate(self.buses)]
         self._poller = threading.Thread(target=self._poll_loop, name="dash poll", daemon=True)
         self._poller.start()
@@ -556,9 +562,39 @@ class Hub:
 
     # ------------------------------------------------------------------ control
 
+    def ticket(self) -> int:
+        """What a request issued now carries (the count of ESTOPs pressed so far): take it when the
+        request arrives, before it waits for a worker, and run it with :meth:`issued`."""
+        return self._estops
+
+    def fence(self) -> None:
+        """An ESTOP was pressed: every request issued before it is fenced from now on, whichever page or
+        front end issued it; those issued after (a clear, an enable) run as usual."""
+        self._estops += 1
+
+    def issued(self, ticket: int, fn: Callable[..., Any], *args: Any) -> Any:
+        """Run ``fn(*args)`` in this worker as a request issued with ``ticket``: once an ESTOP came after
+        it was issued, each of its commands but the stopping ones (stop, idle, estop) is refused."""
+        self._issued.ticket = ticket
+        try:
+            return fn(*args)
+        finally:
+            self._issued.ticket = None
+
+    def fenced(self) -> bool:
+        """True when the request this worker runs was issued before the latest ESTOP."""
+        ticket = getattr(self._issued, "ticket", None)
+        return ticket is not None and ticket < self._estops
+
+    def check_fence(self) -> None:
+        """Refuse the rest of a request issued before the latest ESTOP (nothing more is sent)."""
+        if self.fenced():
+            raise ValidationError("an ESTOP was pressed after this request was issued: it was not carried out")
+
     def _control(self, who: str, what: str) -> None:
         if self.read_only:
             raise ValidationError("this dashboard is read-only (--read-only)")
+        self.check_fence()
         log(f"{who}: {what}")
 
     def require_enabled(self, keys: list[int]) -> None:
@@ -566,6 +602,7 @@ class Hub:
         motor's axis state; then, with ``--watchdog``, arm the motors not armed yet."""
         if self._halt.is_set():
             raise ValidationError("the dashboard is stopping: no motion is started any more")
+        self.check_fence()
         idle: list[tuple[int, int]] = []
         for i in keys:
             state = int(self.motor(i).read_property(_STATE, timeout=0.2))
@@ -632,6 +669,8 @@ class Hub:
         refuses all but reading and stopping, a motion needs a motor in closed loop (or
         ``enable``) and stays within the limits the motor holds; logged, and the targets kept."""
         act = actions.get(name)
+        if act.safety != "stop":
+            self.check_fence()
         raw = args.get("id")
         if raw == 0 or len(self.buses) == 1:  # the motor id is the key (0: each bus's broadcast)
             places = [(b, 0) for _, b in self.buses] if raw == 0 else [(self.bus, -1)]
@@ -658,6 +697,9 @@ class Hub:
         base = self._base(key) if act.name == "step" else 0.0
         results = [actions.run(bus, act, typed if node < 0 else {**typed, "id": node}) for bus, node in places]
         self._track(act, key, typed, base)
+        if act.safety == "motion":
+            for k in sorted(self.commanded) if key == 0 else [key]:
+                self.commanders[k] = who
         if act.name in _CONFIRMED and key != 0:
             self._confirm(key, _CONFIRMED[act.name])  # never a silent success: got there, or why not
         if all(r is None for r in results):  # a command (one frame per bus for a broadcast): sent
@@ -752,6 +794,7 @@ class Hub:
     def estop(self, who: str) -> None:
         """Emergency-stop every motor on every bus (one broadcast frame per bus, all at once);
         allowed even when read-only."""
+        self.fence()
         if self.robot is None:
             log(f"{who}: ESTOP (broadcast emergency stop)")
             self.bus.estop()
@@ -759,6 +802,22 @@ class Hub:
             log(f"{who}: ESTOP (broadcast emergency stop on buses {', '.join(n for n, _ in self.buses)})")
             self.robot.estop()
         self.targets.clear()
+
+    def idle_of(self, who: str, why: str) -> list[int]:
+        """Put into IDLE the motors page ``who`` was the last to set moving (it went away: a page is a
+        controller, and its motion ends with it); returns their keys."""
+        keys = sorted(k for k, w in list(self.commanders.items()) if w == who and k in self.commanded)
+        for k in keys:
+            self.commanded.discard(k)
+            self.commanders.pop(k, None)
+            self.targets.pop(k, None)
+            try:
+                self.motor(k).set_mode(1)
+            except DrEmpowerError as exc:
+                log(f"idling {self.label(k)} failed: {exc}")
+        if keys:
+            log(f"{why}: idled {', '.join(map(self.label, keys))}")
+        return keys
 
     def idle_commanded(self, why: str) -> list[int]:
         """Put the motors this dashboard moved into IDLE; returns their ids."""
@@ -892,7 +951,9 @@ class Hub:
                 self.do_control(who, {"action": "T", "id": i, "angle": target, "param": bandwidth})
             else:
                 self.do_control(who, {"action": "V", "id": i, "speed": target})
-            self._halt.wait(duration)
+            end = time.monotonic() + duration
+            while not self._halt.is_set() and not self.fenced() and time.monotonic() < end:
+                self._halt.wait(min(0.02, max(0.0, end - time.monotonic())))  # an ESTOP ends the run too
         finally:
             sub.cancel()
             try:

@@ -19,6 +19,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 from aiohttp import web
 
 from ..errors import ConfigError, DrEmpowerError, ValidationError
+from ..sim.twin import PUSH_LIMITS  # the twin's own bounds, one place
 from .hub import KEYS_PER_BUS
 from .model_scene import load_scene
 
@@ -27,8 +28,6 @@ if TYPE_CHECKING:
 
 __all__ = ["PUSH_LIMITS", "ModelView", "TwinHand", "add_routes"]
 
-PUSH_LIMITS = {"force": 1000.0, "torque": 200.0, "duration": 10.0}
-"""The hand's bounds: force N and torque Nm per component, duration s (0 < d <= this)."""
 NO_TWIN = (
     "the hand from outside needs the robot twin (a robot file with a [model], simulated, with the physics "
     "extra: pip install 'drempower[physics]'); these motors have none"

@@ -18,6 +18,7 @@ import asyncio
 import contextlib
 import hmac
 import json
+import re
 import secrets
 import signal
 import socket
@@ -151,6 +152,10 @@ def parse_request(text: str) -> dict[str, Any]:
     if nesting(req) > MAX_DEPTH:
         raise ValueError(f"message refused: lists and objects nested deeper than {MAX_DEPTH} levels")
     return req
+
+
+_REQ = re.compile(r'"req"\s*:\s*(-?\d{1,15})\b')
+"""A request's number in a message whose JSON cannot be parsed (its error reply carries it)."""
 
 
 class Dashboard:
@@ -304,13 +309,17 @@ class Dashboard:
                     continue
                 try:
                     req = parse_request(msg.data)
-                except ValueError as exc:
-                    client.put(json.dumps({"t": "reply", "req": None, "op": None, "ok": False, "error": str(exc)}))
+                except ValueError as exc:  # the request's number, when it can be found, so the page can match it
+                    found = _REQ.search(msg.data)
+                    req_no = int(found.group(1)) if found else None
+                    client.put(json.dumps({"t": "reply", "req": req_no, "op": None, "ok": False, "error": str(exc)}))
                     continue
                 client.last_hb = time.monotonic()
                 if req.get("op") == "hb":
                     continue
-                task = asyncio.ensure_future(self._handle(client, req))
+                if req.get("op") == "estop":
+                    self.hub.fence()  # at once: what any page issued before it is fenced
+                task = asyncio.ensure_future(self._handle(client, req, self.hub.ticket()))
                 self._tasks.add(task)
                 task.add_done_callback(self._tasks.discard)
         finally:
@@ -318,18 +327,33 @@ class Dashboard:
             sender.cancel()
             self.clients.discard(client)
             log(f"{client.name} disconnected")
+            if not self.keep_running:  # a page is a controller: what it set moving stops with it
+                await self._idle_page(client.name, f"{client.name} disconnected")
             await self._check_watchers(f"{client.name} disconnected")
         return ws
 
-    async def _run(self, fn: Callable[..., Any], *args: Any) -> Any:
-        return await asyncio.get_running_loop().run_in_executor(None, fn, *args)
+    async def _run(self, fn: Callable[..., Any], *args: Any, ticket: int | None = None) -> Any:
+        """``fn(*args)`` in a worker; with ``ticket`` (:meth:`Hub.ticket` when the request arrived) as a
+        request an ESTOP pressed after it fences (:meth:`Hub.issued`)."""
+        if ticket is None:
+            return await asyncio.get_running_loop().run_in_executor(None, fn, *args)
+        return await asyncio.get_running_loop().run_in_executor(None, self.hub.issued, ticket, fn, *args)
 
     async def _idle(self, why: str) -> None:
         """Idle the dashboard's motors on the stop thread (nothing else queues there)."""
         await asyncio.get_running_loop().run_in_executor(self._stop_pool, self.hub.idle_commanded, why)
 
-    async def _handle(self, client: Client, req: dict[str, Any]) -> None:
+    async def _idle_page(self, who: str, why: str) -> None:
+        """Idle the motors page ``who`` was the last to set moving, on the stop thread."""
+        await asyncio.get_running_loop().run_in_executor(self._stop_pool, self.hub.idle_of, who, why)
+
+    async def _handle(self, client: Client, req: dict[str, Any], ticket: int) -> None:
+        """Answer one request of a page; ``ticket``: :meth:`Hub.ticket` when it arrived."""
         op, hub, who = req.get("op"), self.hub, client.name
+
+        async def run(fn: Callable[..., Any], *args: Any) -> Any:
+            return await self._run(fn, *args, ticket=ticket)
+
         reply: dict[str, Any] = {"t": "reply", "req": req.get("req"), "op": op}
         try:
             if op == "estop":
@@ -339,32 +363,32 @@ class Dashboard:
             elif op == "scan":
                 result = await self._scan()
             elif op == "control":
-                result = await self._run(hub.do_control, who, req)
+                result = await run(hub.do_control, who, req)
             elif op == "action":
-                result = await self._run(hub.do_row, who, req)
+                result = await run(hub.do_row, who, req)
             elif op == "rate":
-                result = await self._run(hub.do_rate, who, float(req.get("hz", 0)))
+                result = await run(hub.do_rate, who, float(req.get("hz", 0)))
             elif op == "params":
-                result = await self._run(hub.do_read_params, hub.key(req))
+                result = await run(hub.do_read_params, hub.key(req))
             elif op == "write":
                 args = (who, hub.key(req), req.get("name"), req.get("value"), req.get("force") is True)
-                result = await self._run(hub.do_write_param, *args)
+                result = await run(hub.do_write_param, *args)
             elif op == "save":
-                result = await self._run(hub.do_save, who, hub.key(req))
+                result = await run(hub.do_save, who, hub.key(req))
             elif op == "backup":
-                result = await self._run(hub.do_backup, hub.key(req))
+                result = await run(hub.do_backup, hub.key(req))
             elif op == "restore":
-                result = await self._run(hub.do_restore, who, hub.key(req), req.get("doc"), bool(req.get("dry_run")))
+                result = await run(hub.do_restore, who, hub.key(req), req.get("doc"), bool(req.get("dry_run")))
             elif op == "watch":
                 hub.watch(hub.key(req), str(req.get("name")), float(req.get("hz", 0)))
                 result = hub.watched()
                 self._broadcast(json.dumps({"t": "watched", "watched": result}))
             elif op == "step":
-                result = await self._run(hub.do_step, who, req)
+                result = await run(hub.do_step, who, req)
             elif op in ("propose", "apply_gains"):
-                result = await self._run(hub.do_propose if op == "propose" else hub.do_apply_gains, who, req)
+                result = await run(hub.do_propose if op == "propose" else hub.do_apply_gains, who, req)
             elif op == "push":
-                result = await self._run(self.view.do_push, who, req)
+                result = await run(self.view.do_push, who, req)
             else:
                 raise DrEmpowerError(f"op={op!r}: unknown request")
             reply.update(ok=True, result=result)
@@ -413,11 +437,15 @@ class Dashboard:
     # ------------------------------------------------------------------ periodic work
 
     async def _check_watchers(self, why: str) -> None:
-        """Idle the dashboard's motors when no browser with a live heartbeat remains."""
+        """Idle the motors of each page whose heartbeat stopped, and every motor the dashboard moved when
+        no browser with a live heartbeat remains."""
         hub = self.hub
         if self.keep_running or not hub.commanded:
             return
         now = time.monotonic()
+        for c in list(self.clients):  # a page whose heartbeat stopped: its motion ends as if it had gone
+            if now - c.last_hb >= HEARTBEAT_LOST_S and c.name in hub.commanders.values():
+                await self._idle_page(c.name, f"{c.name}: no heartbeat for 0.5 s")
         if any(now - c.last_hb < HEARTBEAT_LOST_S for c in self.clients if not c.ws.closed):
             return
         why = why if not self.clients else "no browser heartbeat for 0.5 s"

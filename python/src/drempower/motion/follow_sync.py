@@ -12,6 +12,7 @@ from typing import TYPE_CHECKING, Any
 
 from ..client.api.flavours import SyncPart
 from ..client.engine.effects import read_states, sleep
+from ..client.engine.gate import path_intents
 from ..client.engine.state import MotorState
 from ..errors import ValidationError
 from .plan import (
@@ -204,7 +205,9 @@ def stream(
                 )
 
     for lane in lanes:  # the gate once, before the clock starts: no cycle pays its read
-        buses[lane.bus].pass_gate([m for cmds in plan.commands for m in cmds[lane.bus]])
+        bus = buses[lane.bus]
+        bus.pass_gate(path_intents(plan.commands[0][lane.bus]))  # the first point from where it is
+        bus.check_path(m for cmds in plan.commands for m in cmds[lane.bus])  # each later from the one before
 
     def part(lane: Lane, k: int) -> SyncPart[dict[int, MotorState]]:
         bus = buses[lane.bus]

@@ -1,5 +1,6 @@
 """A trajectory made ready to follow (no I/O): checked against the joints' limits and the bus's
-capacity, sampled at the cycle rate and turned into each cycle's commands before anything moves.
+capacity before anything moves, each cycle's commands made from it as the cycle comes (the memory a
+plan takes does not grow with its duration; :data:`MAX_DURATION` bounds the time its checks take).
 
 :mod:`drempower.motion.follow_async` (and the generated ``follow_sync``) streams a :class:`FollowPlan`.
 """
@@ -30,6 +31,7 @@ SyncEach = Callable[[Mapping[str, Callable[[], _States]]], dict[str, _States]]
 """The same for the threaded follower."""
 
 __all__ = [
+    "MAX_DURATION",
     "MODES",
     "AsyncEach",
     "SyncEach",
@@ -124,16 +126,54 @@ class FollowReport:
         }
 
 
+MAX_DURATION = 600.0
+"""The longest trajectory (s) a plan follows: its checks sample every cycle before anything moves, so
+a longer one is refused (split it) rather than keeping its caller (a goal, an enable) waiting."""
+
+
+class CycleTimes(Sequence[float]):
+    """The time (s) of each cycle of a plan: ``k / rate``, the last at the trajectory's end (no list)."""
+
+    def __init__(self, count: int, rate: float, duration: float) -> None:
+        self._count, self._rate, self._duration = count, rate, duration
+
+    def __len__(self) -> int:
+        return self._count + 1
+
+    def __getitem__(self, k: Any) -> Any:
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(len(self)))]
+        if not -len(self) <= k < len(self):
+            raise IndexError(k)
+        k %= len(self)
+        return min(k / self._rate, self._duration)
+
+
+class CycleCommands(Sequence[dict[str, list[Message]]]):
+    """Each cycle's commands per bus, made from the trajectory when asked for (no list of them all)."""
+
+    def __init__(self, times: CycleTimes, make: Callable[[float], dict[str, list[Message]]]) -> None:
+        self._times, self._make = times, make
+
+    def __len__(self) -> int:
+        return len(self._times)
+
+    def __getitem__(self, k: Any) -> Any:
+        if isinstance(k, slice):
+            return [self[i] for i in range(*k.indices(len(self)))]
+        return self._make(self._times[k])
+
+
 @dataclass
 class FollowPlan:
-    """A checked trajectory: every cycle's commands per bus, built before anything moves."""
+    """A checked trajectory: each cycle's commands per bus, made as the cycle comes."""
 
     trajectory: Trajectory
     lanes: list[Lane]
     rate: float
     mode: str
-    times: list[float]
-    commands: list[dict[str, list[Message]]]
+    times: Sequence[float]
+    commands: Sequence[dict[str, list[Message]]]
     max_error: list[float]
     timeout: float | None
     bandwidth: float
@@ -252,7 +292,7 @@ def bus_rate_limit(lane: Lane, mode: str) -> tuple[float | None, int]:
     return (None if lane.bitrate is None else lane.bitrate / bits), bits
 
 
-def _check_limits(tr: Trajectory, times: list[float], limits: Mapping[str, Mapping[str, Any]], unit: str) -> None:
+def _check_limits(tr: Trajectory, times: Iterable[float], limits: Mapping[str, Mapping[str, Any]], unit: str) -> None:
     """Refuse a trajectory that leaves a joint's position range or exceeds its speed or acceleration."""
     for t in times:
         s = tr.sample(t)
@@ -314,11 +354,16 @@ def make_plan(
         if isinstance(e, bool) or not isinstance(e, int | float) or math.isnan(e) or e <= 0:
             raise ValidationError(f"max_error[{name!r}]={e!r}: expected a tracking error > 0 {unit}")
         errs.append(float(e))
+    if tr.duration > MAX_DURATION:
+        raise ValidationError(
+            f"follow: the trajectory lasts {tr.duration:g} s, beyond the longest a plan follows "
+            f"({MAX_DURATION:g} s); split it; nothing was sent"
+        )
     count = max(1, math.ceil(tr.duration * rate - 1e-9))
-    times = [min(k / rate, tr.duration) for k in range(count + 1)]
+    times = CycleTimes(count, float(rate), tr.duration)
     _check_limits(tr, times, limits, unit)
-    commands: list[dict[str, list[Message]]] = []
-    for t in times:
+
+    def cycle(t: float) -> dict[str, list[Message]]:
         s = tr.sample(t)
         ff = [0.0] * len(tr.joints) if torques is None else list(torques(t))
         cyc: dict[str, list[Message]] = {}
@@ -336,5 +381,6 @@ def make_plan(
             if mode == "impedance":
                 msgs.append(StartImpedance(0, float(kp), float(kd)))
             cyc[lane.bus] = msgs
-        commands.append(cyc)
-    return FollowPlan(tr, lanes, float(rate), mode, times, commands, errs, timeout, bw, unit)
+        return cyc
+
+    return FollowPlan(tr, lanes, float(rate), mode, times, CycleCommands(times, cycle), errs, timeout, bw, unit)

@@ -22,6 +22,7 @@ import csv
 import json
 import math
 import os
+import struct
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any, NamedTuple
 
@@ -52,9 +53,18 @@ class Peaks(NamedTuple):
     high: list[float]
 
 
+MAX_VALUE = 1e6
+"""The largest magnitude of a time (s), position, velocity or acceleration a trajectory takes (beyond any
+motor's +-720000 deg): a spline through larger ones overflows."""
+MIN_STEP = 1e-6
+"""The shortest step (s) between two times of a trajectory (a spline over a shorter one divides by ~0)."""
+
+
 def _finite(value: object, what: str) -> float:
     if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
         raise ValidationError(f"{what}={value!r}: expected a finite number")
+    if abs(value) > MAX_VALUE:
+        raise ValidationError(f"{what}={value!r}: beyond +-{MAX_VALUE:g}")
     return float(value)
 
 
@@ -210,6 +220,11 @@ class Trajectory:
         for k in range(1, len(t)):
             if not t[k] > t[k - 1]:
                 raise ValidationError(f"times[{k}]={t[k]!r}: must be above times[{k - 1}]={t[k - 1]!r} (increasing)")
+            if t[k] - t[k - 1] < MIN_STEP:
+                step = t[k] - t[k - 1]
+                raise ValidationError(
+                    f"times[{k}]={t[k]!r}: {step:g} s after times[{k - 1}]; the shortest step is {MIN_STEP:g} s"
+                )
         names, pos = _rows(positions, joints, len(t), "positions")
         self.times: list[float] = t
         """Knot times (s from the start)."""
@@ -435,7 +450,7 @@ def _write_csv(tr: Trajectory, path: str) -> None:
 
 
 def _read_csv(path: str) -> Trajectory:
-    with open(path, newline="", encoding="utf-8") as f:
+    with open(path, newline="", encoding="utf-8-sig") as f:  # a byte-order mark (a spreadsheet's) is no header
         rows = list(csv.reader(f))
     rows = [r for r in rows if r and any(c.strip() for c in r)]
     if not rows:
@@ -515,9 +530,16 @@ def _read_mcap(path: str, topic: str) -> Trajectory:
     except ImportError:
         raise missing_extra("mcap-ros2-support") from None
     series: dict[str, tuple[list[float], list[float], list[float]]] = {}
+    from mcap.exceptions import McapError
+
     with open(path, "rb") as fh:
-        reader = make_reader(fh, decoder_factories=[DecoderFactory()])
-        for _, _, message, msg in reader.iter_decoded_messages(topics=[topic]):
+        try:
+            reader = make_reader(fh, decoder_factories=[DecoderFactory()])
+            decoded = list(reader.iter_decoded_messages(topics=[topic]))
+        except (McapError, ValueError, struct.error) as exc:
+            why = str(exc) or "it ends early"
+            raise ValidationError(f"not a readable MCAP file ({type(exc).__name__}: {why})") from None
+        for _, _, message, msg in decoded:
             t = message.log_time / 1e9
             for i, name in enumerate(msg.name):
                 ts, ps, vs = series.setdefault(name, ([], [], []))

@@ -49,7 +49,7 @@ if TYPE_CHECKING:
     from .bus import SimBus
     from .motor import SimMotor
 
-__all__ = ["Coupling", "Push", "Twin", "TwinRunner", "couple_robot", "twin_of", "require_mujoco"]
+__all__ = ["PUSH_LIMITS", "Coupling", "Push", "Twin", "TwinRunner", "couple_robot", "twin_of", "require_mujoco"]
 
 _EPS = 1e-9
 _ACTUATOR_PREFIX = "drempower:"
@@ -85,6 +85,11 @@ class Coupling:
     identified: Mapping[str, float] | None = None
     """The joint's identified ``inertia``, ``viscous``, ``coulomb`` (at the joint): they replace the model's
     armature (less the links' own inertia), damping and friction loss, and the motor's."""
+
+
+PUSH_LIMITS = {"force": 1000.0, "torque": 200.0, "duration": 10.0}
+"""The hand's bounds: force N and torque Nm per component (of one push, and of all pushes acting on one
+body or joint together), duration s (0 < d <= this)."""
 
 
 @dataclass(frozen=True)
@@ -185,6 +190,7 @@ class Twin:
             self.model = spec.compile()
         except Exception as exc:
             raise ConfigError(f"model {model_file}: {exc}") from None
+        _check_finite(self.model, model_file)
         self.data = mujoco.MjData(self.model)
         self._qpos, self._qvel, self._ctrl = self.data.qpos, self.data.qvel, self.data.ctrl
         self._bias = self.model.actuator_biasprm
@@ -298,6 +304,25 @@ class Twin:
             return [p for p in self._pushes if p.end > self.time + _EPS]
 
     def _add(self, push: Push) -> None:
+        """Add ``push`` when it, and the pushes acting on its body or joint with it, stay within
+        :data:`PUSH_LIMITS`; a ValidationError naming the limit otherwise (the lock held)."""
+        if push.end - self.time > PUSH_LIMITS["duration"] + _EPS:
+            raise ValidationError(
+                f"duration={push.end - self.time:g}: a push lasts at most {PUSH_LIMITS['duration']:g} s"
+            )
+        same = [p for p in self._pushes if p.end > self.time + _EPS and (p.body, p.dof) == (push.body, push.dof)]
+        for what, unit, parts in (
+            ("force", "N", [q.force for q in (*same, push)]),
+            ("torque", "Nm", [q.torque if push.dof is None else (q.joint_torque, 0.0, 0.0) for q in (*same, push)]),
+        ):
+            top = PUSH_LIMITS[what]
+            total = [sum(v[i] for v in parts) for i in range(3)]
+            if any(abs(x) > top for x in total):
+                together = " with the pushes acting on it" if same else ""
+                raise ValidationError(
+                    f"{what} {tuple(round(x, 6) for x in total)} {unit}{together}: beyond +-{top:g} {unit} "
+                    "per component (the hand's bound)"
+                )
         self._pushes.append(push)
         self._pushes.sort(key=lambda p: p.end)
         self._pushes_dirty = True
@@ -392,6 +417,48 @@ class Twin:
 
     def __repr__(self) -> str:
         return f"<Twin {self.source}: joints {', '.join(self.joints)}; t={self.time:.3f} s>"
+
+
+_FINITE = {
+    "body_pos": "body",
+    "body_quat": "body",
+    "body_ipos": "body",
+    "body_iquat": "body",
+    "body_mass": "body",
+    "body_inertia": "body",
+    "jnt_pos": "joint",
+    "jnt_axis": "joint",
+    "jnt_range": "joint",
+    "dof_damping": "dof",
+    "dof_armature": "dof",
+    "dof_frictionloss": "dof",
+    "geom_pos": "geom",
+    "geom_quat": "geom",
+    "geom_size": "geom",
+    "qpos0": "",
+}
+"""The compiled model's arrays that must hold finite numbers, and what each row is."""
+
+
+def _check_finite(model: Any, model_file: object) -> None:
+    """Refuse a model with NaN or infinity where physics needs numbers (an MJCF axis, a URDF origin): MuJoCo
+    would reset every step and the joints read 0. A ConfigError naming the file, the field and the element."""
+    import numpy as np
+
+    for field, kind in _FINITE.items():
+        values = np.asarray(getattr(model, field, ()), dtype=float)
+        bad = np.argwhere(~np.isfinite(values))
+        if bad.size:
+            row = int(bad[0][0])
+            name = ""
+            if kind in ("body", "joint", "geom"):
+                name = getattr(model, kind)(row).name or str(row)
+            elif kind == "dof":
+                name = model.joint(int(model.dof_jntid[row])).name or str(row)
+            what = f" ({kind} {name!r})" if name else ""
+            raise ConfigError(
+                f"model {model_file}: {field}{what} holds {float(values[tuple(bad[0])])!r}: expected finite numbers"
+            )
 
 
 def _vector(value: Iterable[float], what: str) -> tuple[float, float, float]:

@@ -121,6 +121,12 @@ class ZenohTransport(QueuedTransport):
         )
         """s between keep-alives once this client drove a motor (None: the bridge watches liveliness only)."""
         self.description = f"zenoh {prefix} via {where}: {info.get('description', '?')}"
+        limits = info.get("limits")
+        self.limits: dict[int, dict[str, Any]] = (
+            {int(k): dict(v) for k, v in limits.items() if isinstance(v, dict)} if isinstance(limits, dict) else {}
+        )
+        """The soft limits the bridge holds its motors to (motor units, its robot file's): the bus on this
+        transport holds its commands to them too, so a refusal is an error here, not a silent drop there."""
 
     def _info(self, timeout: float) -> dict[str, Any] | None:
         for reply in self._session.get(self._keys["info"], timeout=timeout):

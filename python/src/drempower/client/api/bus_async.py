@@ -179,7 +179,7 @@ class AsyncMotor(MotorBase):
     async def estop(self) -> None:
         """Emergency stop: the motor goes idle and ignores motion until clear_error + set_mode(2)."""
         self._core.estop([self._id])
-        self._gate.forget((self._id,))
+        self._gate.estopped((self._id,))
 
     async def position_done(
         self,
@@ -287,10 +287,19 @@ class AsyncMotor(MotorBase):
         (never outside a hard one, such as can_node_id 1..63, or the type's range).
         A read-back that differs is written and read again up to the bus's ``retries``
         times, then raises VerifyError.
+
+        A parameter that commands motion (the output shaft's ``input_pos``/``input_vel``/
+        ``input_torque``, modes...: :data:`~drempower.client.engine.gate.MOTION_PARAMETERS`) passes the
+        safety gate as the motion command it is (MotorIdleError, SoftLimitError) or is refused
+        (MotionParameterError) before anything is sent.
         """
+        op = self._bus._param_gate(self._id, property, value, force)
+        if op is not None:
+            await self._bus.run(op)
         await self._bus.run(
             ops.write_property(self._id, property, value, verify, timeout, force, self._session.retries)
         )
+        self._bus._param_sent(self._id, property, value)
         if parameter(property).address == AXIS0_REQUESTED_STATE:
             self._gate.learn(self._id, int(value))
 
@@ -427,6 +436,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         op = self._gate_op(msgs, enable)
         if op is not None:
             await self.run(op)
+        self._timed.arm(duration)  # its stop first: a command whose stop cannot be kept is not sent
         self._core.send_many(msgs)
         self._sent(msgs, duration)
 
@@ -544,7 +554,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         result = await self.run(
             batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout)
         )
-        self._moved(id_list, angle_list, False)
+        self._moved(id_list)
         return result
 
     async def step_angles(
@@ -563,7 +573,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         result = await self.run(
             batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout)
         )
-        self._moved(id_list, angle_list, True)
+        self._moved(id_list)
         return result
 
     async def set_speeds(
@@ -582,6 +592,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         presets, _ = make_speeds(id_list, speed_list, param, mode)
         duration = check_duration(duration)
         await self.pass_gate(presets, enable)
+        self._timed.arm(duration)
         await self.run(batch.set_speeds(id_list, speed_list, param, mode))
         self._sent(presets, duration)
 
@@ -601,6 +612,7 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         presets, _ = make_torques(id_list, torque_list, param, mode)
         duration = check_duration(duration)
         await self.pass_gate(presets, enable)
+        self._timed.arm(duration)
         await self.run(batch.set_torques(id_list, torque_list, param, mode))
         self._sent(presets, duration)
 

@@ -176,7 +176,7 @@ class Motor(MotorBase):
     def estop(self) -> None:
         """Emergency stop: the motor goes idle and ignores motion until clear_error + set_mode(2)."""
         self._core.estop([self._id])
-        self._gate.forget((self._id,))
+        self._gate.estopped((self._id,))
 
     def position_done(
         self,
@@ -282,8 +282,17 @@ class Motor(MotorBase):
         (never outside a hard one, such as can_node_id 1..63, or the type's range).
         A read-back that differs is written and read again up to the bus's ``retries``
         times, then raises VerifyError.
+
+        A parameter that commands motion (the output shaft's ``input_pos``/``input_vel``/
+        ``input_torque``, modes...: :data:`~drempower.client.engine.gate.MOTION_PARAMETERS`) passes the
+        safety gate as the motion command it is (MotorIdleError, SoftLimitError) or is refused
+        (MotionParameterError) before anything is sent.
         """
+        op = self._bus._param_gate(self._id, property, value, force)
+        if op is not None:
+            self._bus.run(op)
         self._bus.run(ops.write_property(self._id, property, value, verify, timeout, force, self._session.retries))
+        self._bus._param_sent(self._id, property, value)
         if parameter(property).address == AXIS0_REQUESTED_STATE:
             self._gate.learn(self._id, int(value))
 
@@ -420,6 +429,7 @@ class Bus(SyncBusBase[Motor]):
         op = self._gate_op(msgs, enable)
         if op is not None:
             self.run(op)
+        self._timed.arm(duration)  # its stop first: a command whose stop cannot be kept is not sent
         self._core.send_many(msgs)
         self._sent(msgs, duration)
 
@@ -533,7 +543,7 @@ class Bus(SyncBusBase[Motor]):
         """
         self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=False), enable)
         result = self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout))
-        self._moved(id_list, angle_list, False)
+        self._moved(id_list)
         return result
 
     def step_angles(
@@ -550,7 +560,7 @@ class Bus(SyncBusBase[Motor]):
         """Synchronised relative move by ``angle_list`` deg (see :meth:`set_angles`)."""
         self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=True), enable)
         result = self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout))
-        self._moved(id_list, angle_list, True)
+        self._moved(id_list)
         return result
 
     def set_speeds(
@@ -569,6 +579,7 @@ class Bus(SyncBusBase[Motor]):
         presets, _ = make_speeds(id_list, speed_list, param, mode)
         duration = check_duration(duration)
         self.pass_gate(presets, enable)
+        self._timed.arm(duration)
         self.run(batch.set_speeds(id_list, speed_list, param, mode))
         self._sent(presets, duration)
 
@@ -588,6 +599,7 @@ class Bus(SyncBusBase[Motor]):
         presets, _ = make_torques(id_list, torque_list, param, mode)
         duration = check_duration(duration)
         self.pass_gate(presets, enable)
+        self._timed.arm(duration)
         self.run(batch.set_torques(id_list, torque_list, param, mode))
         self._sent(presets, duration)
 

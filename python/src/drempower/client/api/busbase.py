@@ -3,6 +3,7 @@ interface of the layers above (robot, motion, apps: see docs/client.md, "Layers"
 
 from __future__ import annotations
 
+import dataclasses
 import threading
 from abc import ABC, abstractmethod
 from collections.abc import Callable, Iterable, Mapping, Sequence
@@ -13,13 +14,13 @@ from ...errors import ValidationError
 from ...protocol.ids import Frame, check_node
 from ...protocol.limits import check_motor
 from ...protocol.messages import FastRead, Message, ReadParam, Start, StartImpedance, WriteParam
-from ...protocol.parameters import find_parameter
+from ...protocol.parameters import find_parameter, parameter
 from ...transports.base import Transport
 from ...transports.factory import open_transport
 from ..driver.bus_driver import BusDriver, FrameTap
 from ..engine.commands import check_ids
 from ..engine.effects import Op
-from ..engine.gate import Intent, Limit, MotionGate, intents_of
+from ..engine.gate import Intent, Limit, MotionGate, intents_of, param_kind
 from ..engine.session import DEFAULT_TIMEOUT, BusSession, StartPolicy, StopOnClose
 from ..engine.state import MotorState, StateCallback, Subscription
 from ..engine.supervisor import HealthPolicy, Watch
@@ -74,8 +75,13 @@ class BusBase(ABC, Generic[M]):
         self._session.check_request = self._check_broadcast_reads
         self._motors: dict[int, M] = {}
         self._motors_lock = threading.Lock()
-        self._gate = MotionGate()
+        self._gate = MotionGate(self._core.now)
         self._timed = TimedStops(self._core)
+        declared: Mapping[int, Mapping[str, object]] = getattr(transport, "limits", None) or {}
+        for node, lim in declared.items():  # a remote bus: the limits its bridge holds (its robot file)
+            self._gate.set_limits(
+                node, str(lim.get("where", "the bridge")), **{k: v for k, v in lim.items() if k != "where"}
+            )
 
     @abstractmethod
     def _new_motor(self, id: int) -> M:
@@ -165,12 +171,63 @@ class BusBase(ABC, Generic[M]):
         :class:`~drempower.client.engine.gate.Limit`."""
         return dict(self._gate.limits(id))
 
-    def _passage(self, intents: Sequence[Intent], enable: bool, timeout: float | None = None) -> Op[None] | None:
+    def _passage(
+        self, intents: Sequence[Intent], enable: bool, timeout: float | None = None, *, closed_loop: bool = True
+    ) -> Op[None] | None:
         """None when ``intents`` pass the gate as they are; else the operation that reads what it needs,
-        enables (``enable``) or raises MotorIdleError / SoftLimitError (nothing sent)."""
+        enables (``enable``) or raises MotorIdleError / SoftLimitError (nothing sent). An intent for every
+        motor (node 0) stands for one to each motor the bus knows. ``closed_loop`` False checks the limits
+        only (the bridge's remote face: the motor itself ignores motion until enabled)."""
         if enable.__class__ is not bool:
             raise ValidationError(f"enable={enable!r}: expected True or False")
-        return self._gate.passage(intents, self._core.states, enable, timeout)
+        if any(it.node == 0 for it in intents):
+            intents = self._each_motor(intents)
+        return self._gate.passage(intents, self._core.states, enable, timeout, self._core.now(), closed_loop)
+
+    def _each_motor(self, intents: Sequence[Intent]) -> list[Intent]:
+        """``intents`` with each one to every motor (node 0) replaced by one to each motor the bus knows;
+        a ValidationError when it knows none (no motor's limits or state could answer for the command)."""
+        known = sorted(self.known_motors())
+        if not known:
+            raise ValidationError(
+                "a motion command to every motor (id 0) is refused: this bus knows no motor to check it "
+                "against (address each motor by its id, or scan first)"
+            )
+        out: list[Intent] = []
+        for it in intents:
+            out.extend([dataclasses.replace(it, node=n) for n in known] if it.node == 0 else [it])
+        return out
+
+    def check_path(self, motion: Iterable[Message]) -> None:
+        """The soft limits of a path's commands, streamed in the order they will be sent (no I/O, nothing
+        sent): each one's values, each position's step from the one before. The first one's step from
+        where the motor is, and its axis state, are :meth:`pass_gate`'s."""
+        self._gate.check_path(motion)
+
+    def check_limits(self, motion: Sequence[Message]) -> None:
+        """The soft limits that ``motion``'s own values meet (speed, torque, acceleration, absolute
+        positions; no I/O, nothing sent): SoftLimitError for the first beyond one. For a whole program
+        checked before its first command (a replayed log); each command still passes the gate as it goes."""
+        intents = intents_of(motion)
+        if any(it.node == 0 for it in intents) and self.known_motors():
+            intents = self._each_motor(intents)
+        self._gate.check_values(intents)
+
+    def _param_gate(self, node: int, prop: str | int, value: float, force: bool) -> Op[None] | None:
+        """The gate for writing ``value`` to parameter ``prop`` of motor ``node`` (0: every motor): the
+        value checked against the parameter first (nothing sent), then, for a parameter that commands
+        motion (:data:`~drempower.client.engine.gate.MOTION_PARAMETERS`), what a motion command passes."""
+        WriteParam.of(node, prop, value, force=force)  # DomainError before any read of the gate
+        nodes = sorted(self.known_motors()) if node == 0 else [node]
+        intents = self._gate.param_intents(nodes, prop, value)
+        if node == 0 and intents and not nodes:
+            self._each_motor([Intent(0)])  # refuses
+        return self._passage(intents, False) if intents else None
+
+    def _param_sent(self, node: int, prop: str | int, value: float) -> None:
+        """Note a parameter write sent: a motion parameter ends its motors' pending timed stops."""
+        if param_kind(parameter(prop), value) is not None:
+            self._timed.cancel(sorted(self.known_motors()) if node == 0 else [node])
 
     def _gate_op(self, msgs: Sequence[Message], enable: bool) -> Op[None] | None:
         """:meth:`_passage` of motion messages, with the fast path of motors known in closed loop."""
@@ -262,9 +319,6 @@ class BusBase(ABC, Generic[M]):
         """
         where = self._core.send_batch(presets, start, targets, move_time)
         self._sent(presets)
-        if targets is not None:
-            known = [(p.node, t) for p, t in zip(presets, targets, strict=True) if t is not None]
-            self._gate.note_targets([n for n, _ in known], [t for _, t in known])
         return where
 
     def estop_now(self, id_list: Iterable[int] | None = None) -> None:
@@ -273,7 +327,7 @@ class BusBase(ABC, Generic[M]):
         does; a robot stops its buses at once with it)."""
         nodes = self._estop_nodes(id_list)
         self._core.estop(nodes)
-        self._gate.forget(nodes)
+        self._gate.estopped(nodes)
 
     def close_now(self) -> None:
         """Close the bus in the calling thread, in both flavours (it may block briefly): the pending stops
@@ -281,12 +335,8 @@ class BusBase(ABC, Generic[M]):
         self._timed.flush()
         self._core.close()
 
-    def _moved(self, ids: Sequence[int], angles: Sequence[float], relative: bool) -> None:
-        """Note a synchronised move's targets (a step leaves its motors' targets unknown)."""
-        if relative:
-            self._gate.forget_targets(ids)
-        else:
-            self._gate.note_targets(ids, angles)
+    def _moved(self, ids: Sequence[int]) -> None:
+        """Note a synchronised move: it ends its motors' pending timed stops."""
         self._timed.cancel(ids)
 
     def motor(self, id: int) -> M:

@@ -111,6 +111,17 @@ def torque_mode(mode: int) -> TorqueMode:
     raise ValidationError(f"mode={mode!r}: torque modes are 1 (direct) and 6 (ramp; 0 is accepted too)")
 
 
+def _no_bools(**values: object) -> None:
+    """Refuse True/False given for a number (the actions table refuses them too): a ValidationError naming it."""
+    for field, value in values.items():
+        if isinstance(value, bool):
+            raise ValidationError(f"{field}={value!r}: expected a number, not a truth value")
+        if isinstance(value, (list, tuple)):
+            for v in value:
+                if isinstance(v, bool):
+                    raise ValidationError(f"{field}: {v!r} is no number, but a truth value")
+
+
 def _finite(value: float, field: str) -> float:
     try:
         if math.isfinite(value):
@@ -196,6 +207,7 @@ def make_angle(
     mode Q: ``speed`` > 0 r/min cruise, ``param`` > 0 (r/min)/s accel;
     mode P: ``speed`` = speed feed-forward r/min, ``param`` = torque feed-forward Nm.
     """
+    _no_bools(angle=angle, speed=speed, param=param)
     m = position_mode(mode)
     angle = _angle(angle, "angle")
     if m is PositionMode.T:
@@ -211,6 +223,7 @@ def make_speed(node: int, speed: float, param: float = 0.0, mode: int = Velocity
     mode 1: ``param`` = torque feed-forward Nm (sent as 0 when speed is 0, as the
     vendor does); mode 2: ``param`` = ramp rate (r/min)/s.
     """
+    _no_bools(speed=speed, param=param)
     m = velocity_mode(mode)
     speed = check_speed(check_f32(speed, "speed"), "speed", speed)
     if m is VelocityMode.RAMP:
@@ -223,6 +236,7 @@ def make_speed(node: int, speed: float, param: float = 0.0, mode: int = Velocity
 
 def make_torque(node: int, torque: float, param: float = 0.0, mode: int = TorqueMode.DIRECT) -> Torque:
     """Apply ``torque`` Nm (vendor ``set_torque``). mode 1: direct; mode 6: ramp at ``param`` Nm/s."""
+    _no_bools(torque=torque, param=param)
     m = torque_mode(mode)
     torque = check_torque(check_f32(torque, "torque"), "torque", torque)
     return Torque(node, torque, _torque_param(param, m), m)
@@ -236,6 +250,7 @@ def make_impedance(
     ``pos`` deg, ``vel`` r/min, ``tff`` Nm; ``kp`` Nm/rad and ``kd`` Nm/(rad/s),
     both 0..327.67. The control law is ``tff + kp*(pos - P) + kd*(vel - V)``.
     """
+    _no_bools(pos=pos, vel=vel, tff=tff, kp=kp, kd=kd)
     preset = PresetD(node, _angle(pos, "pos"), check_s16(vel, "vel"), check_s16(tff, "tff"))
     return preset, StartImpedance(node, *_gains(kp, kd))
 
@@ -253,6 +268,7 @@ def make_impedances(
     Each motor holds its own ``positions`` deg; ``vel`` r/min, ``tff`` Nm and the
     gains ``kp`` Nm/rad, ``kd`` Nm/(rad/s) (0..327.67, carried by the start) are shared.
     """
+    _no_bools(pos_list=as_list(positions, "pos_list"), vel=vel, tff=tff, kp=kp, kd=kd)
     nodes = check_ids(ids, positions, "pos_list")
     v, t = check_s16(vel, "vel"), check_s16(tff, "tff")
     start = StartImpedance(0, *_gains(kp, kd))
@@ -299,6 +315,7 @@ def make_angles(
     the angles offsets from the current positions. Every value is checked here,
     so an out-of-range one raises before a single frame exists.
     """
+    _no_bools(angle_list=as_list(angles, "angle_list"), speed=speed, param=param)
     nodes = check_ids(ids, angles, "angle_list")
     targets = [_angle(a, f"angle_list (motor {n})") for n, a in zip(nodes, angles, strict=True)]
     m = position_mode(mode)
@@ -326,6 +343,7 @@ def make_speeds(
     ids: Sequence[int], speeds: Sequence[float], param: float = 0.0, mode: int = VelocityMode.PASSTHROUGH
 ) -> tuple[list[Message], Start]:
     """Presets and start of a synchronised speed change (vendor ``set_speeds``); one param/mode for all."""
+    _no_bools(speed_list=as_list(speeds, "speed_list"), param=param)
     nodes = check_ids(ids, speeds, "speed_list")
     m = velocity_mode(mode)
     prm = _positive(param, "param (ramp rate)") if m is VelocityMode.RAMP else check_s16(param, "param")
@@ -340,6 +358,7 @@ def make_torques(
     ids: Sequence[int], torques: Sequence[float], param: float = 0.0, mode: int = TorqueMode.DIRECT
 ) -> tuple[list[Message], Start]:
     """Presets and start of a synchronised torque change (vendor ``set_torques``); one param/mode for all."""
+    _no_bools(torque_list=as_list(torques, "torque_list"), param=param)
     nodes = check_ids(ids, torques, "torque_list")
     m = torque_mode(mode)
     prm = _torque_param(param, m)

@@ -13,26 +13,50 @@ nothing sent:
    :class:`~drempower.errors.MotorIdleError` naming the motor and the fix, unless
    the caller passed ``enable=True`` (then the enable goes first, the command after).
 
+Steps are measured from what the motor will actually do: ``max_step`` and a relative
+move's position range take the motor's measured position (the firmware adds a
+relative step to it, and an absolute target is reached from it), from the state
+cache when a state at most :data:`FRESH_STATE` s old is there, else read once (a
+fast read) before anything is sent. A loop whose motors answer each command with
+their state (``cycle``, ``enable_reply_state``) pays no read for it.
+
+**Parameter writes that command motion** (:data:`MOTION_PARAMETERS`: the output
+shaft's ``input_pos``/``input_vel``/``input_torque``, the rotor-side inputs and
+current setpoint, the control and input modes, step/dir, calibration states) pass
+the same gate in ``write_property``, whatever the front end: the output shaft's
+inputs as a position, speed or torque command; the others, whose effect the limits
+(in output-shaft units) cannot vouch for, are refused on a motor with soft limits
+(:class:`~drempower.errors.MotionParameterError`).
+
 What is known costs nothing: a motor is known to be in closed loop once this bus
 enabled it or read it so, until a state frame shows its error bit, or this bus
 sends it an idle request, an estop, a clear, a reboot or a configuration reset. A
 motor not known so is read once (``axis0.current_state``, one request for every
 motor of the command), so a control loop or a 1 kHz stream pays one read, not one
-per command. Commands to every motor (node 0) are not gated: no single motor's
-state answers for them.
+per command. A command to every motor (node 0) is checked as one command to each
+motor the bus knows (:meth:`~drempower.client.api.busbase.BusBase.known_motors`), and
+refused when the bus knows none.
+
+The raw paths, which this gate does not see, are ``bus.send``/``send_many``
+(messages, checked against their parameter's domain only), ``bus.send_batch`` (the
+layers above pass :meth:`pass_gate` first), ``bus.send_frames`` and
+``compat.send_command``. A robot and the bridge's remote face offer no raw path.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Iterable, Mapping, Sequence
+import time
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Protocol
 
-from ...errors import MotorIdleError, SoftLimitError, ValidationError
+from ...errors import MotionParameterError, MotorIdleError, SoftLimitError, ValidationError
 from ...protocol.addresses import AXIS0_CURRENT_STATE, AXIS0_REQUESTED_STATE
 from ...protocol.enums import AxisState, VelocityMode
-from ...protocol.limits import MOTION_CMDS, OPEN_LOOP_SYS_CMDS
+from ...protocol.ids import SysCmd
+from ...protocol.limits import OPEN_LOOP_SYS_CMDS
 from ...protocol.messages import (
     Message,
     ParamValue,
@@ -51,12 +75,23 @@ from ...protocol.messages import (
     Velocity,
     WriteParam,
 )
-from ...protocol.parameters import DataType
+from ...protocol.parameters import DataType, Parameter, parameter
 from .commands import PositionMode, make_angles, position_mode
 from .effects import Op, Send, read_states, request
 from .state import MotorState
 
-__all__ = ["Intent", "Limit", "MotionGate", "intents_of", "move_intents", "move_intent", "LIMIT_UNITS"]
+__all__ = [
+    "FRESH_STATE",
+    "Intent",
+    "Limit",
+    "LIMIT_UNITS",
+    "MOTION_PARAMETERS",
+    "MotionGate",
+    "intents_of",
+    "move_intent",
+    "move_intents",
+    "path_intents",
+]
 
 
 class _States(Protocol):
@@ -69,6 +104,30 @@ _CLOSED = int(AxisState.CLOSED_LOOP_CONTROL)
 _FORGETS = OPEN_LOOP_SYS_CMDS
 """System commands after which a motor is no longer known to be in closed loop."""
 
+FRESH_STATE = 0.02
+"""The oldest (s, on the bus's clock) a cached state may be for the gate to measure a step from it."""
+
+MOTION_PARAMETERS: Mapping[str, str] = {
+    "axis0.output_shaft.input_pos": "position",
+    "axis0.output_shaft.input_vel": "speed",
+    "axis0.output_shaft.input_torque": "torque",
+    "axis0.controller.input_pos": "rotor-side input",
+    "axis0.controller.input_vel": "rotor-side input",
+    "axis0.controller.input_torque": "rotor-side input",
+    "axis0.motor.current_control.Id_setpoint": "current setpoint",
+    "axis0.controller.config.control_mode": "control mode",
+    "axis0.controller.config.input_mode": "input mode",
+    "axis0.config.enable_step_dir": "step/dir input",
+    "axis0.requested_state": "axis state",
+}
+"""The writable parameters whose writes command motion (``spec/parameters.csv``), by what they command:
+``position``/``speed``/``torque`` are checked as that command of the output shaft; the others are
+refused on a motor with soft limits (the limits cannot vouch for them) and, for a rotor-side input or
+current setpoint, need closed loop. ``axis0.requested_state`` is motion for the calibration states only
+(1 idle and 8 closed loop are ``idle``/``enable``)."""
+
+_IDLE = int(AxisState.IDLE)
+
 LIMIT_UNITS = {"position": "deg", "speed": "r/min", "torque": "Nm", "accel": "(r/min)/s", "max_step": "deg"}
 """The soft limits a motor can have, with their units (motor side, output shaft)."""
 
@@ -78,7 +137,9 @@ class Intent:
     """What one motion command asks of one motor, in motor units (None: not part of it).
 
     ``position`` deg is a target, or a step from where the motor is when ``relative``;
-    ``speed`` r/min, ``torque`` Nm and ``accel`` (r/min)/s are checked by magnitude.
+    ``speed`` r/min, ``torque`` Nm and ``accel`` (r/min)/s are checked by magnitude. ``after``
+    (deg) is the target of the point before on a path (:func:`path_intents`): the step is
+    measured from it instead of from where the motor is.
     """
 
     node: int
@@ -87,6 +148,7 @@ class Intent:
     speed: float | None = None
     torque: float | None = None
     accel: float | None = None
+    after: float | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -138,13 +200,42 @@ def intents_of(msgs: Iterable[Message]) -> list[Intent]:
     return out
 
 
+def param_kind(p: Parameter, value: float) -> str | None:
+    """What writing ``value`` to parameter ``p`` commands (a :data:`MOTION_PARAMETERS` kind), or None."""
+    kind = MOTION_PARAMETERS.get(p.name)
+    if kind == "axis state" and value in (_IDLE, _CLOSED):
+        return None
+    return kind
+
+
+def path_intents(msgs: Iterable[Message]) -> list[Intent]:
+    """The intents of the commands of a path, in the order they will be sent: each motor's first
+    position is measured from where the motor is, each later one from the position before it."""
+    before: dict[int, float] = {}
+    out: list[Intent] = []
+    for it in intents_of(msgs):
+        position = it.position
+        if position is not None and not it.relative:
+            out.append(dataclasses.replace(it, after=before.get(it.node)))
+            before[it.node] = position
+        else:
+            out.append(it)
+    return out
+
+
 class MotionGate:
     """What one bus knows of its motors' axis state, their soft limits and last targets (no I/O)."""
 
-    def __init__(self) -> None:
+    def __init__(self, now: Callable[[], float] = time.monotonic) -> None:
         self._closed: set[int] = set()
         self._limits: dict[int, dict[str, Limit]] = {}
-        self._targets: dict[int, float] = {}
+        self._now = now
+        self._estopped: set[int] = set()
+        """Motors this bus emergency-stopped and did not clear since (0: every motor): an enable alone
+        does not bring them back."""
+        self._released: dict[int, float] = {}
+        """Per motor (0: every motor), when (s, ``now``) it was last released, stopped or enabled: a state
+        from before says nothing of where it is now (it may have been turned by hand meanwhile)."""
 
     # ------------------------------------------------------------------ soft limits
 
@@ -170,6 +261,26 @@ class MotionGate:
         """The soft limits of motor ``node`` (empty when it has none)."""
         return self._limits.get(node, {})
 
+    def param_intents(self, nodes: Sequence[int], prop: str | int, value: float) -> list[Intent]:
+        """The intents of writing ``value`` to parameter ``prop`` of motors ``nodes`` (none when it commands
+        no motion); raises :class:`MotionParameterError` for a write the limits cannot vouch for."""
+        p = parameter(prop)
+        kind = param_kind(p, value)
+        if kind is None:
+            return []
+        if kind == "position":
+            return [Intent(n, float(value)) for n in nodes]
+        if kind == "speed":
+            return [Intent(n, speed=float(value)) for n in nodes]
+        if kind == "torque":
+            return [Intent(n, torque=float(value)) for n in nodes]
+        for n in nodes:
+            table = self._limits.get(n)
+            if table:
+                where = next(iter(table.values())).where
+                raise MotionParameterError(n, p.name, value, kind, where)
+        return [Intent(n) for n in nodes] if kind in ("rotor-side input", "current setpoint") else []
+
     # ------------------------------------------------------------------ what is known
 
     def is_closed(self, node: int, state: MotorState | None = None) -> bool:
@@ -192,42 +303,36 @@ class MotionGate:
     def forget(self, nodes: Iterable[int]) -> None:
         """Motors (0 = every motor) no longer known to be in closed loop."""
         for n in nodes:
+            self._released[n] = self._now()
             if n == 0:
                 self._closed.clear()
-                self._targets.clear()
             else:
                 self._closed.discard(n)
-                self._targets.pop(n, None)
+
+    def estopped(self, nodes: Iterable[int]) -> None:
+        """Motors (0 = every motor) this bus just emergency-stopped: they ignore an enable until cleared."""
+        self.forget(nodes)
+        self._estopped.update(nodes)
 
     def note_sent(self, msgs: Iterable[Message]) -> None:
-        """Learn from what this bus sent: enables and idle requests, stops, position targets."""
+        """Learn from what this bus sent: enables and idle requests, estops and other system commands."""
         for m in msgs:
-            if m.cmd in MOTION_CMDS:
-                if not self._limits:
-                    continue  # targets serve max_step and relative limits only
-                if isinstance(m, (PositionT, PositionQ, PositionP)):
-                    if m.node:
-                        self._targets[m.node] = m.position
-                else:
-                    self._targets.pop(m.node, None)
-            elif isinstance(m, WriteParam):
+            if isinstance(m, WriteParam):
                 if m.address == AXIS0_REQUESTED_STATE:
+                    self._released[m.node] = self._now()
                     if m.node == 0:
                         self._closed.clear()
                     else:
                         self.learn(m.node, int(m.value))
             elif isinstance(m, SystemCommand) and m.op in _FORGETS:
                 self.forget((m.node,))
-
-    def note_targets(self, nodes: Sequence[int], targets: Sequence[float]) -> None:
-        """Record the absolute targets (deg) a synchronised move sent."""
-        for n, t in zip(nodes, targets, strict=True):
-            self._targets[n] = float(t)
-
-    def forget_targets(self, nodes: Iterable[int]) -> None:
-        """Motors whose last target is no longer known (a relative move, a speed...)."""
-        for n in nodes:
-            self._targets.pop(n, None)
+                if m.op == SysCmd.ESTOP:
+                    self._estopped.add(m.node)
+                elif m.op in (SysCmd.CLEAR_ERRORS, SysCmd.REBOOT):
+                    if m.node == 0:
+                        self._estopped.clear()
+                    else:
+                        self._estopped.discard(m.node)
 
     def clear(self, msgs: Sequence[Message], states: _States) -> bool:
         """True when ``msgs`` pass without a look at their values: no soft limits anywhere and every
@@ -238,9 +343,7 @@ class MotionGate:
         for m in msgs:
             n = m.node
             if n not in closed:
-                if n:
-                    return False
-                continue
+                return False  # unknown, or every motor (0): the gate looks
             st = states.get(n)
             if st is not None and st.error:
                 return False
@@ -248,48 +351,92 @@ class MotionGate:
 
     # ------------------------------------------------------------------ the checks
 
-    def needs(self, intents: Sequence[Intent], states: _States) -> tuple[list[int], list[int]]:
+    def needs(
+        self, intents: Sequence[Intent], states: _States, now: float | None = None
+    ) -> tuple[list[int], list[int]]:
         """Pure checks of ``intents`` (raises SoftLimitError), then what must be read before they pass:
-        ``(motors whose axis state is unknown, motors whose position is needed)``."""
+        ``(motors whose axis state is unknown, motors whose position is needed)``; ``now`` (s, the bus's
+        clock) dates the cached states (None: none is fresh)."""
         unknown: list[int] = []
         positions: list[int] = []
         for it in intents:
             n = it.node
-            if n == 0:
-                continue
             table = self._limits.get(n)
             if table:
                 _check_values(n, it, table)
-                wants = it.position is not None and ("max_step" in table or (it.relative and "position" in table))
-                if wants and n not in positions and self._last_position(n, states) is None:
+                wants = it.position is not None and it.after is None
+                wants = wants and ("max_step" in table or (it.relative and "position" in table))
+                if wants and n not in positions and self._fresh_angle(n, states, now) is None:
                     positions.append(n)
             if not self.is_closed(n, states.get(n)) and n not in unknown:
                 unknown.append(n)
         return unknown, positions
 
-    def check_positions(self, intents: Sequence[Intent], states: _States) -> None:
-        """Check relative targets and ``max_step`` against the last known positions (raises SoftLimitError)."""
+    def check_positions(
+        self,
+        intents: Sequence[Intent],
+        states: _States,
+        now: float | None = None,
+        read: Mapping[int, MotorState] | None = None,
+    ) -> None:
+        """Check relative targets and ``max_step`` against the motors' measured positions: the states
+        just ``read``, else the fresh ones of ``states`` (see :data:`FRESH_STATE`; ``now`` None takes
+        them as just read); a path's point against the point before. Raises SoftLimitError."""
         for it in intents:
             table = self._limits.get(it.node)
             if not table or it.position is None:
                 continue
-            last = self._last_position(it.node, states)
+            last = it.after
+            if last is None:
+                st = None if read is None else read.get(it.node)
+                last = self._fresh_angle(it.node, states, now) if st is None else st.angle
             if last is None:
                 continue
             step = it.position if it.relative else it.position - last
             lim = table.get("max_step")
-            if lim is not None and abs(step) > lim.high:
+            if lim is not None and abs(step) > lim.high * (1 + 1e-12):  # (a limit converted from rad: its rounding)
                 raise SoftLimitError(it.node, "max_step", step, -lim.high, lim.high, "deg", lim.where)
             lim = table.get("position")
             if lim is not None and it.relative and not lim.low <= last + step <= lim.high:
                 raise SoftLimitError(it.node, "position", last + step, lim.low, lim.high, "deg", lim.where)
 
-    def _last_position(self, node: int, states: _States) -> float | None:
-        target = self._targets.get(node)
-        if target is not None:
-            return target
+    def check_path(self, msgs: Iterable[Message]) -> None:
+        """A path's commands one after another, streamed (no list of them): each one's values against the
+        limits, each position's step from the position before it (the first one's from the motor is the
+        gate's to check, :func:`path_intents`); raises SoftLimitError."""
+        before: dict[int, float] = {}
+        for m in msgs:
+            for it in intents_of((m,)):
+                table = self._limits.get(it.node)
+                if not table:
+                    continue
+                _check_values(it.node, it, table)
+                if it.position is None or it.relative:
+                    continue
+                last = before.get(it.node)
+                before[it.node] = it.position
+                if last is not None:
+                    self.check_positions([dataclasses.replace(it, after=last)], _NO_STATES)
+
+    def check_values(self, intents: Sequence[Intent]) -> None:
+        """The limits ``intents``' own values meet (no position needed); raises SoftLimitError."""
+        for it in intents:
+            table = self._limits.get(it.node)
+            if table:
+                _check_values(it.node, it, table)
+
+    def _fresh_angle(self, node: int, states: _States, now: float | None) -> float | None:
+        """The measured angle (deg) of motor ``node`` when its cached state is fresh: at most
+        :data:`FRESH_STATE` s old at ``now`` (None: taken as just read) and newer than its last release."""
         st = states.get(node)
-        return None if st is None else st.angle
+        if st is None:
+            return None
+        if now is not None and now - st.timestamp > FRESH_STATE:
+            return None
+        since = max(self._released.get(node, -math.inf), self._released.get(0, -math.inf))
+        if st.timestamp <= since and now is not None:
+            return None
+        return st.angle
 
     def passage(
         self,
@@ -297,27 +444,43 @@ class MotionGate:
         states: _States,
         enable: bool,
         timeout: float | None = None,
+        now: float | None = None,
+        closed_loop: bool = True,
     ) -> Op[None] | None:
         """None when ``intents`` may go at once; else the operation that reads what is missing, checks,
-        and enables when asked (raises before any motion frame exists)."""
-        unknown, positions = self.needs(intents, states)
+        and enables when asked (raises before any motion frame exists). ``now``: see :meth:`needs`;
+        ``closed_loop`` False: the soft limits only."""
+        unknown, positions = self.needs(intents, states, now)
+        if not closed_loop:
+            unknown = []
         if not unknown and not positions:
             if any(self._limits.get(it.node) for it in intents):
-                self.check_positions(intents, states)
+                self.check_positions(intents, states, now)
             return None
-        return self._pass(intents, unknown, positions, enable, timeout)
+        return self._pass(intents, unknown, positions, enable, timeout, states, now)
 
     def _pass(
-        self, intents: Sequence[Intent], unknown: list[int], positions: list[int], enable: bool, timeout: float | None
+        self,
+        intents: Sequence[Intent],
+        unknown: list[int],
+        positions: list[int],
+        enable: bool,
+        timeout: float | None,
+        states: _States,
+        now: float | None,
     ) -> Op[None]:
         read: dict[int, MotorState] = {}
         if positions:
             got = yield from read_states(positions, timeout)
             read = {st.node: st for st in got if st is not None}
-        self.check_positions(intents, read)
+        self.check_positions(intents, states, now, read)
         if not unknown:
             return None
         if enable:
+            stopped = [n for n in unknown if n in self._estopped or 0 in self._estopped]
+            if stopped:
+                fix = "after clearing its errors: it was emergency-stopped (clear_error(), then enable=True)"
+                raise MotorIdleError(stopped, fix=fix)
             writes = [WriteParam.of(n, "axis0.requested_state", _CLOSED) for n in unknown]
             yield Send(writes)
             self.note_sent(writes)
@@ -332,6 +495,16 @@ class MotionGate:
         if idle:
             raise MotorIdleError([n for n, _ in idle], [s for _, s in idle])
         return None
+
+
+class _NoStates:
+    """No state at all (a path's later points are measured from the point before)."""
+
+    def get(self, node: int) -> MotorState | None:
+        return None
+
+
+_NO_STATES = _NoStates()
 
 
 def _number(name: str, value: object) -> float:

@@ -95,6 +95,16 @@ class Watchdog:
         ids = tuple(check_motor(n, "nodes") for n in nodes)
         self._controllers[name] = _Controller(ids, now, liveness)
 
+    def update(self, name: str, nodes: Iterable[int], *, now: float, liveness: bool) -> None:
+        """Controller ``name`` (registered or not) drives ``nodes`` now, with ``liveness`` as it has it now
+        (a publisher with a token gone, a later one without); nothing fires."""
+        ids = tuple(check_motor(n, "nodes") for n in nodes)
+        c = self._controllers.get(name)
+        if c is None:
+            self._controllers[name] = _Controller(ids, now, liveness)
+            return
+        c.nodes, c.liveness = ids, liveness
+
     def _get(self, name: str) -> _Controller:
         c = self._controllers.get(name)
         if c is None:
