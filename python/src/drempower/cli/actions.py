@@ -72,7 +72,10 @@ def register(sub: Any) -> None:
 
 def register_rows(sub: Any) -> dict[str, str]:
     """A command for every row of the table whose name is still free; returns their ``--help`` groups."""
-    taken = set(sub.choices)
+    from ._index import ACTION_ROWS, COMMANDS
+
+    # the names the modules' commands take, whether or not their parsers were built this time
+    taken = set(sub.choices) | {name for name, home in COMMANDS.items() if home != ACTION_ROWS}
     groups: dict[str, str] = {}
     GENERATED.clear()
     for action in table.table():
