@@ -20,6 +20,7 @@ from drempower.robot import Gearing, Joint, JointSpec, Robot, open_robot
 from drempower.sim import SimBus
 
 from ..client.links import Recorder
+from ..waits import eventually
 
 
 def _sims(robot: Robot) -> dict[str, SimBus]:
@@ -183,7 +184,8 @@ def test_virtual_buses_with_attached_simulators(virtual_robot: tuple[Path, dict[
         assert sims["left"].motors[1].position == pytest.approx(20.0, abs=0.1)
         assert robot.joint_states(["b"])["b"].position == pytest.approx(math.radians(-40.0) / 10, abs=1e-3)
         robot.estop()
-    assert sims["left"].motors[1].axis_error and sims["right"].motors[3].axis_error
+    # the simulators take the estop frames on threads of their own
+    assert eventually(lambda: sims["left"].motors[1].axis_error and sims["right"].motors[3].axis_error)
 
 
 def test_a_cycle_sends_nothing_on_any_bus_when_one_buss_gate_refuses(robot: Robot) -> None:
