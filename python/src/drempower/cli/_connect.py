@@ -396,6 +396,14 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
     if getattr(args, "retries", None) is not None:
         kw["retries"] = args.retries
     bus: Bus = open_bus(**kw)
+    if getattr(args, "robot_bus", None):  # the robot file's joints: their limits, as open_robot gives them
+        from ..robot.limits import limit_bus
+
+        try:
+            args.robot_limits = limit_bus(bus, args.robot_spec, args.robot_bus)
+        except BaseException:
+            bus.close()
+            raise
     return bus
 
 

@@ -139,6 +139,11 @@ class BusBase(ABC, Generic[M]):
             where = f"bus.set_limits({id}{', ' if args else ''}{args})"
         self._gate.set_limits(id, where, **given)
 
+    def hold_on_close(self, ids: Iterable[int]) -> None:
+        """Closing with ``stop_on_close=True`` (the default; a signal, Python's exit) holds motors ``ids``
+        (speed 0 in closed loop) instead of idling them: a robot file's joints whose ``on_timeout`` is hold."""
+        self._session.hold_on_close.update(check_motor(i, "id") for i in ids)
+
     def limits(self, id: int) -> dict[str, Limit]:
         """The soft limits of motor ``id`` (see :meth:`set_limits`): name -> :class:`~drempower.client.gate.Limit`."""
         return dict(self._gate.limits(id))
