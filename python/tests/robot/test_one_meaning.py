@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 import drempower
-from drempower.errors import SoftLimitError
+from drempower.errors import MotorIdleError, SoftLimitError
 from drempower.sim.motor import AxisState
 
 ARM6 = Path(__file__).resolve().parents[3] / "examples" / "robots" / "arm6.toml"
@@ -99,3 +99,16 @@ def test_a_bare_bus_still_idles_what_it_commanded() -> None:
         sim = bus.transport.bus  # type: ignore[attr-defined]
     sim.advance(0.5)
     assert sim.motors[1].state == AxisState.IDLE
+
+
+@pytest.mark.parametrize("clock", ["virtual", "wall"])
+def test_a_joint_idled_right_after_a_move_refuses_the_next_move_on_either_clock(tmp_path: Path, clock: str) -> None:
+    """The state read of the safety gate must not overtake the idle request (a lower CAN id wins)."""
+    pytest.importorskip("mujoco")
+    path = _file(tmp_path, clock=clock)
+    with drempower.open_robot(path) as robot:
+        robot.move_joints({"elbow": 0.5}, speed=1.0, accel=5.0, enable=True)
+        robot.joint("elbow").set_mode(1)
+        with pytest.raises(MotorIdleError, match="motor 3 is idle"):
+            robot.set_angles({"elbow": 0.0}, 10, 10)
+        robot.set_angles({"elbow": 0.0}, 10, 10, enable=True)  # enabling again: accepted
