@@ -250,3 +250,30 @@ def test_cli_robot_usage_errors(robot_file: Path, extra: list[str], message: str
     argv = [sys.executable, "-m", "drempower", "bridge", "--robot", str(robot_file), *extra]
     run = subprocess.run([*argv, "--connect", "tcp/127.0.0.1:1"], capture_output=True, text=True, timeout=30)
     assert run.returncode == 2 and message in run.stderr and "Traceback" not in run.stderr
+
+
+def test_the_bridges_end_holds_a_joint_that_holds_and_idles_one_that_says_idle(tmp_path: Path) -> None:
+    """Its way out (Ctrl-C, SIGTERM, SIGHUP): each joint does its on_timeout; a bare motor id still idles."""
+    path = tmp_path / "robot.toml"
+    path.write_text(ROBOT.replace("gear = -1.0\n", 'gear = -1.0\non_timeout = "idle"\n'))
+    spec = load_robot(path)
+    sims = {"left": SimTransport([1, 2]), "right": SimTransport([1])}
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    prefix = f"robot{free_port()}"
+    with session(listen=[endpoint]) as sess:
+        bridge = Bridge(sims, sess, BridgeOptions(dict(spec.joints), prefix=prefix))
+        served = ServedRobot(bridge, sims, endpoint, prefix)
+        try:
+            with served.remote("left") as left, served.remote("right") as right:
+                for bus in (left, right):
+                    bus.motor(1).set_mode(2)
+                    bus.motor(1).set_speed(20.0)
+                shoulder, elbow = served.motor("left", 1), served.motor("right", 1)
+                wait_for(lambda: abs(shoulder.speed - 20) < 1 and abs(elbow.speed + 0 - 20) < 1, limit=5.0)
+                bridge.stop()
+                wait_for(lambda: abs(shoulder.speed) < 0.5 and elbow.state == AxisState.IDLE, limit=5.0)
+                assert shoulder.state == AxisState.CLOSED_LOOP_CONTROL  # held at speed 0, not dropped
+        finally:
+            bridge.close()
+            for s in sims.values():
+                s.close()

@@ -58,3 +58,23 @@ def test_a_named_joint_takes_degrees_at_the_joint_a_motor_id_the_motors(cli: Cli
     assert got["shoulder"]["position_deg"] == pytest.approx(40, abs=0.5)
     r = cli("move", "shoulder", "40", "--robot", arm, "--wait", "--speed", "60", "--accel", "100")
     assert r.code == 0 and "shoulder" in r.out and "units" in r.out, r.out
+
+
+def test_ctrl_c_holds_a_joint_that_holds_and_idles_one_that_says_idle(
+    cli: Cli, sim: SimBus, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from drempower.client import Bus
+    from drempower.sim.motor import AxisState
+
+    path = tmp_path / "arm.toml"
+    path.write_text(ROBOT.replace("id = 2\n", 'id = 2\non_timeout = "idle"\n'))
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(Bus, "positions_done", interrupted)
+    r = cli("move", "shoulder,elbow", "10", "--wait", "--robot", str(path), "--speed", "15", "--accel", "100")
+    assert r.code == 130, r.err
+    assert "interrupted: motor 1 held" in r.err and "interrupted: motor 2 set to idle" in r.err, r.err
+    assert sim.motors[1].state is AxisState.CLOSED_LOOP_CONTROL  # the shoulder is not dropped
+    assert sim.motors[2].state is AxisState.IDLE

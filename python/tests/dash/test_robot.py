@@ -201,3 +201,31 @@ def test_the_robot_page_names_joints_and_its_estop_stops_both_buses(
         assert eventually(stopped, 2), [(m.state, m.speed) for m in sims.values()]
     finally:
         ctx.close()
+
+
+def test_the_dashboards_end_holds_a_joint_that_holds_and_idles_one_that_says_idle(tmp_path: Path) -> None:
+    """Its way out (SIGTERM, the last page gone): a robot file's joints do their on_timeout; an arm is not dropped."""
+    from drempower.dash.hub import Hub
+
+    path = tmp_path / "robot.toml"
+    path.write_text(
+        ROBOT.replace(
+            '[joints.wrist]\nbus = "right"\nid = 2\n', '[joints.wrist]\nbus = "right"\nid = 2\non_timeout = "idle"\n'
+        )
+    )
+    with open_robot(path, stop_on_close=False) as robot:
+        hub = Hub(robot)
+        try:
+            robot.joint("shoulder").set_speed(20, enable=True)
+            robot.joint("wrist").set_speed(20, enable=True)
+            hub.commanded.update({SHOULDER, WRIST})
+            assert sorted(hub.idle_commanded("SIGTERM")) == [SHOULDER, WRIST]
+            shoulder = robot.buses["left"].transport.bus.motors[1]
+            wrist = robot.buses["right"].transport.bus.motors[2]
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline and not (abs(shoulder.speed) < 0.5 and wrist.state == AxisState.IDLE):
+                time.sleep(0.02)
+            assert shoulder.state == AxisState.CLOSED_LOOP_CONTROL and abs(shoulder.speed) < 0.5  # held
+            assert wrist.state == AxisState.IDLE
+        finally:
+            hub.close()

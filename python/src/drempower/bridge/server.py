@@ -22,6 +22,7 @@ from typing import Any
 from .. import actions
 from ..client.bus import Bus
 from ..client.commands import make_angles, make_speeds, make_torques
+from ..client.stops import hold_frames
 from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..logline import RateLimit
 from ..naming import motor_name
@@ -210,6 +211,9 @@ class BusFace:
         )
         self.hub = BusHub(transport, self._publish_rx, self._client_sent)
         self.bus = Bus(self.hub.local, stop_on_close=True, timeout=timeout)
+        self.held = {j.id for j in self.joints if j.bus and j.on_timeout == "hold"}
+        """The motors of a robot file's joints that hold when the bridge ends (a bare motor id idles)."""
+        self.bus.hold_on_close(self.held)
         for j in self.joints:
             if j.limits:  # the robot file's soft limits, in motor units: the safety gate holds every command to them
                 self.bus.set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=f"joint {j.name!r} limits")
@@ -432,7 +436,8 @@ class BusFace:
             actions.run(self.bus, "idle", {"id": n})
 
     def stop(self) -> None:
-        """Stop serving; idle every motor a client set moving. The bus stays open (:meth:`close`). Idempotent."""
+        """Stop serving; idle every motor a client set moving (hold a robot file's joint that holds). The bus
+        stays open (:meth:`close`). Idempotent."""
         if self._closed.is_set():
             return
         self._closed.set()
@@ -447,7 +452,17 @@ class BusFace:
             nodes = set().union(*self._clients.values()) if self._clients else set()
             self._clients.clear()
         if nodes:
-            self.idle(nodes)
+            self.release(nodes)
+
+    def release(self, nodes: set[int] | None = None) -> None:
+        """Leave motors ``nodes`` (default: those served) in their safe state when the bridge ends: a robot
+        file's joint that holds gets speed 0 (it holds where it is, an arm is not dropped), the others idle."""
+        nodes = set(self.ids) if nodes is None else nodes
+        held = nodes & self.held
+        if held:
+            self.bus.send_frames(hold_frames(sorted(held)))
+        if nodes - held:
+            self.idle(nodes - held)
 
     def close(self) -> None:
         """:meth:`stop`, then close the bridge's bus (idling what it commanded) and the hub. Idempotent."""
@@ -970,7 +985,11 @@ class Bridge:
         for face in self.faces.values():
             face.stop()
         if any(stream.driven for stream in getattr(self, "_streams", {}).values()):
-            self._idle_all()
+            for face in self.faces.values():  # each joint as its robot file says: hold, or idle
+                try:
+                    face.release()
+                except Exception as exc:
+                    _log.error("releasing the motors of %s failed: %s", face.prefix, exc)
 
     def close(self) -> None:
         """:meth:`stop`, then close every bus the bridge opened a client on. Idempotent."""

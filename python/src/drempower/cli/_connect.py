@@ -401,6 +401,8 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
 
         try:
             args.robot_limits = limit_bus(bus, args.robot_spec, args.robot_bus)
+            joints = args.robot_spec.joints_on(args.robot_bus)  # stopping holds the joints that hold
+            bus.hold_on_close(j.id for j in joints if j.on_timeout == "hold")
         except BaseException:
             bus.close()
             raise

@@ -23,7 +23,7 @@ from typing import Any
 
 from ..robot.config import JOINT_NAME, JointSpec, RobotSpec, load_robot
 from ..robot.joint import Gearing
-from ._output import emit, json_line
+from ._output import emit, is_terminal, json_line
 from ._usage import UsageError
 
 __all__ = [
@@ -97,6 +97,19 @@ def apply_robot(args: argparse.Namespace) -> None:
     spec = load_robot(robot)
     args.robot_spec = spec
     args.robot_groups = _groups(spec, words)
+    sims = [b for b in args.robot_groups if spec.buses[b].interface == "sim"]
+    if sims and is_terminal(sys.stderr):
+        print(own_twin_notice(robot, spec, sims), file=sys.stderr)
+
+
+def own_twin_notice(robot: str, spec: RobotSpec, sims: list[str]) -> str:
+    """What a command on a robot file with ``sim`` buses says on a terminal: it simulates them itself."""
+    what = "a twin" if spec.model is not None else "simulated motors"
+    buses = ", ".join(sims)
+    return (
+        f"drempower: bus{'es' if len(sims) > 1 else ''} {buses} of {robot} simulated by this command: {what} of its "
+        f"own, gone when it ends; to share one: drempower sim --robot {robot} (it prints the file to use)"
+    )
 
 
 def _joints_by_bus(spec: RobotSpec) -> str:

@@ -259,7 +259,11 @@ def run(args: argparse.Namespace) -> int:
                 for bus, before in armed:
                     restore_watchdog(bus, before)
                 bridge.close()
-        err.line("drempower bridge: stopped; motors it drove are idle")
+        held = sorted(j.name for j in (spec.joints.values() if spec is not None else ()) if j.on_timeout == "hold")
+        err.line(
+            "drempower bridge: stopped; motors it drove are idle"
+            + (f" (joints {', '.join(held)} hold: their on_timeout)" if held else "")
+        )
     finally:
         latch.close()
         log.removeHandler(err)

@@ -144,6 +144,11 @@ class BusBase(ABC, Generic[M]):
         (speed 0 in closed loop) instead of idling them: a robot file's joints whose ``on_timeout`` is hold."""
         self._session.hold_on_close.update(check_motor(i, "id") for i in ids)
 
+    @property
+    def held_on_close(self) -> frozenset[int]:
+        """The motors stopping holds instead of idling (see :meth:`hold_on_close`)."""
+        return frozenset(self._session.hold_on_close)
+
     def limits(self, id: int) -> dict[str, Limit]:
         """The soft limits of motor ``id`` (see :meth:`set_limits`): name -> :class:`~drempower.client.gate.Limit`."""
         return dict(self._gate.limits(id))

@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 from .. import actions
 from ..actions import bandwidth_range
 from ..client import Bus, ConfigBackup, Motor, MotorState
+from ..client.stops import hold_frames
 from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..naming import COLUMNS, TIME_COLUMN, motor_name, motor_names, state_name
 from ..protocol import ERROR_WORDS, FastRead, flag_info
@@ -738,16 +739,26 @@ class Hub:
         self.targets.clear()
 
     def idle_commanded(self, why: str) -> list[int]:
-        """Put the motors this dashboard moved into IDLE; returns their ids."""
+        """Put the motors this dashboard moved into IDLE (a robot file's joint that holds: speed 0, so an arm
+        is not dropped); returns their ids."""
         ids = sorted(self.commanded)
         self.commanded.clear()  # a second caller meanwhile finds nothing to do
+        held: list[int] = []
         for i in ids:
+            bus, node = self.where(i)
             try:
-                self.motor(i).set_mode(1)
+                if node in bus.held_on_close:
+                    bus.send_frames(hold_frames([node]))
+                    held.append(i)
+                else:
+                    self.motor(i).set_mode(1)
             except DrEmpowerError as exc:
-                log(f"idling {self.label(i)} failed: {exc}")
-        if ids:
-            log(f"{why}: idled {', '.join(map(self.label, ids))}")
+                log(f"stopping {self.label(i)} failed: {exc}")
+        idled = [i for i in ids if i not in held]
+        if idled:
+            log(f"{why}: idled {', '.join(map(self.label, idled))}")
+        if held:
+            log(f"{why}: held {', '.join(map(self.label, held))} (speed 0: the robot file's on_timeout)")
         self.commanded.clear()
         self.targets.clear()
         return ids
