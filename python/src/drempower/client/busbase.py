@@ -149,6 +149,13 @@ class BusBase(ABC, Generic[M]):
         """The motors stopping holds instead of idling (see :meth:`hold_on_close`)."""
         return frozenset(self._session.hold_on_close)
 
+    def frame_time(self, id: int) -> float | None:
+        """When motor ``id``'s latest state frame was on the wire by its transport's own clock (the
+        simulator's time, a CAN interface's receive timestamp; else when it arrived), on the scale of
+        the state's ``timestamp`` (s); None before any state. A fit of dynamics uses it: a busy host
+        reads a frame late, but the frame's own time stays true."""
+        return self._session.known.frame_times.get(id)
+
     def limits(self, id: int) -> dict[str, Limit]:
         """The soft limits of motor ``id`` (see :meth:`set_limits`): name -> :class:`~drempower.client.gate.Limit`."""
         return dict(self._gate.limits(id))
