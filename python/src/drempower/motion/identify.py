@@ -22,7 +22,7 @@ from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
-from ..errors import DrEmpowerError, ValidationError
+from ..errors import DrEmpowerError, IdentificationError, ValidationError
 from .plan import model_ranges, robot_limits
 
 if TYPE_CHECKING:
@@ -91,11 +91,6 @@ MIN_SAMPLES = 0.7
 """Smallest share of the samples asked that must arrive on time (within 2.5 periods of the one before)."""
 LATE = 2.5
 """A sample more than this many periods after the one before counts as late (the host fell behind)."""
-
-
-class IdentificationError(DrEmpowerError):
-    """The excitation or its fit is too poor to give a result (missed or late samples, a poor fit): nothing
-    is reported rather than a parameter far off."""
 
 
 def fit_dynamics(

@@ -121,11 +121,12 @@ def tune(
     identified: Identification | None = None,
     step: float = 0.15,
     write: bool = True,
+    amplitude: float = 0.3,
 ) -> TuneReport:
-    """Identify ``joint`` (unless ``identified`` is given), compute the gains for ``bandwidth`` Hz, step it
-    with its present gains, write the new ones (``write``) and step it again (without ``write`` the
-    report's ``after`` is the ``before``)."""
-    got = identified or identify(robot, joint)
+    """Identify ``joint`` (unless ``identified`` is given; ``amplitude`` rad peak excursion), compute the
+    gains for ``bandwidth`` Hz, step it with its present gains, write the new ones (``write``) and step it
+    again (without ``write`` the report's ``after`` is the ``before``)."""
+    got = identified or identify(robot, joint, amplitude=amplitude)
     gains = gains_for(got.inertia, got.viscous, bandwidth, robot.spec.joints[joint].gear)
     before = step_response(robot, joint, step)
     after = before

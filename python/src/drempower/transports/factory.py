@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from ..errors import ConfigError
 from .base import Transport
 from .errors import TransportError, TransportOptionError
 
@@ -140,6 +141,8 @@ def _sim(interface: str, channel: str | int | None, bitrate: int | None, kwargs:
         kwargs.setdefault("bitrate", bitrate)
     try:
         return SimTransport(**kwargs)
+    except ConfigError:  # the robot file's (a model_joint the model lacks): the user's to fix, as it is
+        raise
     except (TypeError, ValueError) as exc:
         raise TransportError(f"cannot start the simulator ({exc})") from exc
 

@@ -20,7 +20,7 @@ from can.interfaces import VALID_INTERFACES
 
 from ..protocol.ids import Frame, parse_int, timed
 from .base import Transport
-from .errors import TransportError
+from .errors import TransportError, TransportOptionError
 from .fds import close_fds, drain_close, nonblocking_pipe
 
 __all__ = ["PythonCanTransport", "SEND_TIMEOUT", "CONNECT_TIMEOUT"]
@@ -311,8 +311,8 @@ class PythonCanTransport(Transport):
                 f"no interface (config files {', '.join(can.util.CONFIG_FILES)}, or CAN_INTERFACE). "
                 "Give interface= (and channel=), e.g. 'socketcan' 'can0'"
             )
-        if name not in VALID_INTERFACES:
-            raise TransportError(
+        if name not in VALID_INTERFACES:  # a typo (simm) is the user's to fix: a TransportOptionError (exit 2)
+            raise TransportOptionError(
                 f"cannot open python-can bus ({_shown(given)}): unknown interface {name!r}. Interfaces "
                 f"python-can knows: {', '.join(sorted(VALID_INTERFACES))}; drempower adds 'adapter', 'serial', "
                 "'uart' and 'sim'"
