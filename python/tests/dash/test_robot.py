@@ -8,6 +8,7 @@ import json
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -229,3 +230,69 @@ def test_the_dashboards_end_holds_a_joint_that_holds_and_idles_one_that_says_idl
             assert wrist.state == AxisState.IDLE
         finally:
             hub.close()
+
+
+@pytest.fixture
+def limited_robot(tmp_path: Path) -> Iterator[tuple[str, Any, Path]]:
+    """The robot with limits on its elbow, served (opened outside the test's event loop)."""
+    path = tmp_path / "robot.toml"
+    path.write_text(
+        ROBOT.replace(
+            '[joints.elbow]\nbus = "right"\nid = 1\n',
+            '[joints.elbow]\nbus = "right"\nid = 1\nlimits = { position = [-1.0, 1.0], speed = 2.0 }\n',
+        )
+    )
+    robot = open_robot(path, stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(robot)
+    try:
+        yield url, hub, path
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        robot.close()
+
+
+def test_a_robot_dashboard_takes_the_files_limits_and_names_the_joint_in_its_messages(
+    limited_robot: tuple[str, Any, Path],
+) -> None:
+    """The Control view's limits are the robot file's (speed 2 rad/s at the elbow: 19.1 r/min, not the
+    motor's 300); a refusal names the joint; the idle hint is a command that works (--robot). (Its own
+    event loop in a thread of its own: a browser test before it keeps the main thread's.)"""
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            asyncio.run(_limits_and_words(*limited_robot))
+        except BaseException as exc:
+            errors.append(exc)
+
+    th = threading.Thread(target=run)
+    th.start()
+    th.join(60)
+    if errors:
+        raise errors[0]
+
+
+async def _limits_and_words(url: str, hub: Any, path: Path) -> None:
+    async with aiohttp.ClientSession() as s, s.ws_connect(url.replace("http:", "ws:") + "ws") as ws:
+        await ws.receive_json(timeout=5)
+
+        async def ask(req: int, **msg: object) -> dict[str, Any]:
+            await ws.send_json({"req": req, **msg})
+            while True:
+                await ws.send_json({"op": "hb"})
+                m: dict[str, Any] = await ws.receive_json(timeout=10)
+                if m["t"] == "reply" and m["req"] == req:
+                    return m
+
+        assert (await ask(1, op="scan"))["ok"]
+        limits = hub.limits[ELBOW]
+        assert limits["speed"] == pytest.approx(2.0 * 60 / (2 * 3.141592653589793), rel=1e-6)
+        assert limits["position"] == pytest.approx([-57.29578, 57.29578], rel=1e-5)
+        assert "[joints.elbow] limits" in limits["set_by"]["speed"]
+        r = await ask(2, op="control", action="V", id=ELBOW, speed=25)
+        assert not r["ok"] and "elbow (bus right, motor 1)" in r["error"] and "[joints.elbow] limits" in r["error"]
+        assert (await ask(3, op="control", action="idle", id=WRIST))["ok"]
+        r = await ask(4, op="control", action="V", id=WRIST, speed=5)
+        assert not r["ok"] and f"drempower enable wrist --robot {path}" in r["error"], r["error"]

@@ -507,7 +507,12 @@
   // the Control inputs bounded by the limits the selected motor holds (read by the server) and by the
   // T-mode bandwidth's parameter domain; the server checks the same bounds again
   const WIRE = 327.67;
-  function setRange(id, lo, hi) { const el = $("#" + id); el.min = String(lo); el.max = String(hi); }
+  function setRange(id, lo, hi) {
+    const el = $("#" + id); el.min = String(lo); el.max = String(hi);
+    // a default beyond a limit (a robot file's speed limit) would be refused: bring it within
+    const v = Number(el.value);
+    if (el.value !== "" && Number.isFinite(v) && (v < lo || v > hi)) el.value = String(Math.min(hi, Math.max(lo, v)));
+  }
   function applyLimits() {
     const c = S.cards[ctlId()], L = (c && c.limits) || {};
     const sp = Math.min(WIRE, L.speed ?? WIRE), tq = Math.min(WIRE, L.torque ?? WIRE);
@@ -521,8 +526,13 @@
     else if (pm === "P") setRange("pos-param", -tq, tq);
     else setRange("pos-param", -WIRE, WIRE);
     if ($("#vel-mode").value === "1") setRange("vel-param", -tq, tq); else setRange("vel-param", -WIRE, WIRE);
+    const pos = L.position;
+    for (const id of ["pos-angle", "imp-angle"]) {
+      if (pos) setRange(id, pos[0], pos[1]); else setRange(id, -36000, 36000);
+    }
+    const by = L.set_by ? ` (set by ${[...new Set(Object.values(L.set_by))].join("; ")})` : "";
     $("#ctl-limits").textContent = c && c.limits
-      ? `limits of ${motorName(ctlId())}: speed ±${fmtL(L.speed)} r/min, torque ±${fmtL(L.torque)} Nm, current ${fmtL(L.current)} A; T bandwidth ${bw[0]}..${bw[1]} 1/s`
+      ? `limits of ${motorName(ctlId())}: ${pos ? `position ${fmtL(pos[0])}..${fmtL(pos[1])} deg, ` : ""}speed ±${fmtL(L.speed)} r/min, torque ±${fmtL(L.torque)} Nm, current ${fmtL(L.current)} A; T bandwidth ${bw[0]}..${bw[1]} 1/s${by}`
       : `T bandwidth ${bw[0]}..${bw[1]} 1/s (scan to read the motor's limits)`;
   }
   const fmtL = (v) => (v === null || v === undefined ? "?" : String(+Number(v).toPrecision(6)));
