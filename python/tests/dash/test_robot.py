@@ -233,9 +233,10 @@ def test_the_dashboards_end_holds_a_joint_that_holds_and_idles_one_that_says_idl
 
 
 @pytest.fixture
-def limited_robot(tmp_path: Path) -> Iterator[tuple[str, Any, Path]]:
-    """The robot with limits on its elbow, served (opened outside the test's event loop)."""
-    path = tmp_path / "robot.toml"
+def limited_robot(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[str, Any, Path]]:
+    """The robot with limits on its elbow, served (opened outside the test's event loop), by a relative path."""
+    monkeypatch.chdir(tmp_path)
+    path = Path("robot.toml")
     path.write_text(
         ROBOT.replace(
             '[joints.elbow]\nbus = "right"\nid = 1\n',
@@ -296,3 +297,38 @@ async def _limits_and_words(url: str, hub: Any, path: Path) -> None:
         assert (await ask(3, op="control", action="idle", id=WRIST))["ok"]
         r = await ask(4, op="control", action="V", id=WRIST, speed=5)
         assert not r["ok"] and f"drempower enable wrist --robot {path}" in r["error"], r["error"]
+
+
+def test_the_control_view_on_a_robot_shows_the_files_limits_and_its_default_move_passes(
+    browser: Any, limited_robot: tuple[str, Any, Path], shots: Path
+) -> None:
+    """In Chromium: the limits line of the elbow is the robot file's, the default Move is within them and
+    accepted, and a message is cleared when the view changes."""
+    url, hub, path = limited_robot
+    ctx = browser.new_context(viewport={"width": 1100, "height": 700})
+    try:
+        p = ctx.new_page()
+        p.set_default_timeout(10_000)
+        p.goto(url)
+        p.wait_for_function("window.dashStats && window.dashStats.connected")
+        p.get_by_role("button", name="Rescan ids 1-63").click()
+        p.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
+        p.get_by_role("tab", name="Control").click()
+        p.locator("#ctl-motor").select_option(label="elbow")
+        p.wait_for_function("document.querySelector('#ctl-limits').textContent.includes('position')")
+        limits = p.locator("#ctl-limits").inner_text()
+        assert "position -57.2958..57.2958 deg, speed ±19.0986 r/min" in limits, limits
+        assert f"set by {path}: [joints.elbow] limits" in limits, limits
+        assert float(p.locator("#pos-speed").input_value()) <= 19.0986  # the default 20 brought within
+        assert float(p.locator("#pos-angle").input_value()) <= 57.2958  # the default 90 brought within
+        p.get_by_role("button", name="Enable").first.click()
+        p.get_by_role("button", name="Move", exact=True).click()
+        assert eventually(lambda: ELBOW in hub.commanded, 5), p.locator("#msg").inner_text()
+        p.screenshot(path=str(shots / "dash-robot-limits.png"))
+        p.locator("#pos-speed").fill("200")  # refused in the page, beyond the file's limit
+        p.get_by_role("button", name="Move", exact=True).click()
+        p.wait_for_function("document.querySelector('#msg').textContent !== ''")
+        p.get_by_role("tab", name="Plots").click()
+        assert p.locator("#msg").inner_text() == ""  # the message belonged to the Control view
+    finally:
+        ctx.close()

@@ -235,6 +235,7 @@
     b.addEventListener("click", () => {
       for (const o of $$("nav button")) o.setAttribute("aria-selected", String(o === b));
       for (const v of $$(".view")) v.hidden = v.id !== "view-" + b.dataset.view;
+      say(""); // a message belongs to the view it came from
       if (b.dataset.view === "plots") rebuildPlot();
       if (b.dataset.view === "params" && S.motors.length && !Object.keys(S.paramValues).length) readParams();
       if (b.dataset.view === "tuning") { loadGains(); drawRuns(); }
@@ -511,7 +512,9 @@
     const el = $("#" + id); el.min = String(lo); el.max = String(hi);
     // a default beyond a limit (a robot file's speed limit) would be refused: bring it within
     const v = Number(el.value);
-    if (el.value !== "" && Number.isFinite(v) && (v < lo || v > hi)) el.value = String(Math.min(hi, Math.max(lo, v)));
+    if (el.value !== "" && Number.isFinite(v) && (v < lo || v > hi)) {
+      el.value = String(Math.trunc(Math.min(hi, Math.max(lo, v)) * 1e4) / 1e4); // toward 0: still within
+    }
   }
   function applyLimits() {
     const c = S.cards[ctlId()], L = (c && c.limits) || {};
