@@ -241,6 +241,17 @@ def _drawn_vs_state(p: Any) -> tuple[dict[str, float], dict[str, float]]:
     return drawn, expect
 
 
+_LEFT_HALF_COLOURS = """(() => {
+  const src = document.querySelector('#v3d-canvas canvas');
+  const c = document.createElement('canvas'); c.width = src.width; c.height = src.height;
+  const g = c.getContext('2d'); g.drawImage(src, 0, 0);
+  const d = g.getImageData(0, 0, Math.floor(c.width / 2), c.height).data, seen = new Set();
+  for (let i = 0; i < d.length; i += 4 * 7) seen.add(d[i] + ',' + d[i + 1] + ',' + d[i + 2]);
+  return seen.size;
+})()"""
+"""How many colours the left half of the 3D view's canvas holds (one: blank)."""
+
+
 def test_the_3d_view_follows_a_moving_joint(browser: Any, served_arm: tuple[str, Any, Any, Any], shots: Path) -> None:
     url, hub, _, robot = served_arm
     ctx = browser.new_context(viewport={"width": 800, "height": 500})
@@ -300,6 +311,14 @@ def test_the_3d_view_follows_a_moving_joint(browser: Any, served_arm: tuple[str,
         assert p.locator("#plot").is_visible() and p.locator("#v3d-canvas canvas").is_visible()
         plot, view = (p.locator(s).bounding_box() for s in ("#plot", "#v3d-canvas"))
         assert plot is not None and view is not None and plot["x"] + plot["width"] <= view["x"]
+        # the 3D tab while pinned: the view over the whole page (not a panel beside an empty half), drawn
+        p.get_by_role("tab", name="3D").click()
+        p.wait_for_function("document.querySelector('#v3d-canvas canvas').width > 0")
+        box = p.locator("#v3d-canvas").bounding_box()
+        assert box is not None and box["x"] < 50 and box["width"] > 0.8 * 800, box
+        time.sleep(0.3)  # a frame drawn at the new size
+        left = p.evaluate(_LEFT_HALF_COLOURS)
+        assert left > 3, left  # the robot and the grid drawn on the left half too, not one blank colour
     finally:
         ctx.close()
     assert not errors, errors
