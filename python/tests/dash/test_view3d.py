@@ -511,3 +511,38 @@ def test_the_page_loads_the_mesh_files_the_model_names(browser: Any, tmp_path: P
         thread.join(10)
         hub.close()
         robot.close()
+
+
+def test_a_dashboard_on_a_twin_served_elsewhere_says_truly_why_it_cannot_push(tmp_path: Path) -> None:
+    """The ready file of ``drempower sim --robot`` (a socketcand bus): the twin runs in the simulator's process,
+    and the hand says so (not "needs the physics extra", which is installed)."""
+    pytest.importorskip("mujoco")
+    import io
+    import threading
+
+    from drempower.cli import build_parser, sim
+    from drempower.dash.hub import Hub
+
+    arm6 = REPO_ROOT / "examples" / "robots" / "arm6.toml"
+    args = build_parser().parse_args(["sim", "--robot", str(arm6), "--json"])
+    out, stop = io.StringIO(), threading.Event()
+    thread = threading.Thread(target=sim.run, args=(args, out, stop))
+    thread.start()
+    try:
+        deadline = time.monotonic() + 30.0
+        while '"running"' not in out.getvalue() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        ready = next(line for line in out.getvalue().splitlines() if "robot_file" in line)
+        path = ready.split('"robot_file": "')[1].split('"')[0]
+        with open_robot(path, stop_on_close=False, timeout=2) as robot:
+            hub = Hub(robot)
+            try:
+                doc = ModelView(hub).document()
+            finally:
+                hub.close()
+        assert doc["twin"] is False and doc["hand"] != NO_TWIN
+        assert "bus 'arm'" in doc["hand"] and "socketcand" in doc["hand"] and "another process" in doc["hand"]
+        assert "physics extra" not in doc["hand"]
+    finally:
+        stop.set()
+        thread.join(10)
