@@ -368,7 +368,11 @@ def test_the_hand_pushes_the_twin_and_the_view_follows(browser: Any, tmp_path: P
         assert eventually(lambda: twin.pushes == [], 2)  # ESTOP lets go of the twin too
         p.locator("#hand-torque").fill("500")
         p.get_by_role("button", name="Push").click()
-        assert "hand-torque: 500 is outside -200..200 Nm" in p.locator("#msg").inner_text()
+        msg = p.locator("#msg").inner_text()
+        assert "torque Nm: 500 is outside -200..200 Nm" in msg and "hand-torque" not in msg, msg  # as labelled
+        p.locator("#hand-kind").select_option("body")  # the default body is one a joint moves, not the base
+        moving = {b for b in p.locator("#hand-target option").all_inner_texts()} - {"base"}
+        assert p.locator("#hand-target").input_value() in moving, moving
     finally:
         ctx.close()
         loop.call_soon_threadsafe(dash.stopping.set)
