@@ -277,3 +277,35 @@ def test_the_bridges_end_holds_a_joint_that_holds_and_idles_one_that_says_idle(t
             bridge.close()
             for s in sims.values():
                 s.close()
+
+
+def test_the_bridge_refuses_beyond_the_files_limits_in_the_words_of_python(tmp_path: Path) -> None:
+    """The robot file's limits reach the bridge from the one place every front end uses: a ROS 2 command
+    beyond the elbow's is refused naming the file and the joint, as open_robot and the CLI do."""
+    path = tmp_path / "robot.toml"
+    path.write_text(ROBOT.replace("offset = 0.5\n", "offset = 0.5\nlimits = { position = [0.0, 1.0] }\n"))
+    spec = load_robot(path)
+    sims = {"left": SimTransport([1, 2]), "right": SimTransport([1])}
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    prefix = f"robot{free_port()}"
+    with session(listen=[endpoint]) as sess:
+        bridge = Bridge(sims, sess, BridgeOptions(dict(spec.joints), prefix=prefix, robot=spec))
+        served = ServedRobot(bridge, sims, endpoint, prefix)
+        try:
+            _closed_loop(served)
+            e1 = served.motor("right", 1)
+            with session(connect=[endpoint]) as ros:
+                pub = ros.declare_publisher(bridge.command_keys["position_commands"])
+                time.sleep(0.2)
+                for _ in range(10):
+                    pub.put(_command([0.0, 0.0, 2.0]))  # the elbow at 2 rad: beyond its 0..1 rad
+                    time.sleep(0.02)
+                wait_for(lambda: bridge.last_refusal is not None, limit=5.0)
+                pub.undeclare()
+            assert bridge.last_refusal is not None
+            assert f"(set by {path}: [joints.elbow] limits)" in bridge.last_refusal, bridge.last_refusal
+            assert e1.position == pytest.approx(0.0, abs=0.01)  # nothing was sent
+        finally:
+            bridge.close()
+            for s in sims.values():
+                s.close()

@@ -31,7 +31,7 @@ from ..protocol.ids import Frame
 from ..protocol.limits import check_motor
 from ..protocol.messages import FastRead, Message, ReadParam
 from ..protocol.parameters import DataType
-from ..robot.config import JOINT_NAME, JointSpec
+from ..robot.config import JOINT_NAME, JointSpec, RobotSpec
 from ..robot.joint import Gearing
 from ..transports.base import Transport
 from ..transports.zenoh_wire import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
@@ -119,6 +119,9 @@ class BridgeOptions:
     node_name: str = NODE_NAME
     timeout: float | None = None
     """Reply timeout (s) of the bridge's own requests (state stream, arming a CAN timeout); None: the transport's."""
+    robot: RobotSpec | None = None
+    """The robot file the joints come from: the buses get its joints' limits (and its model's joint range)
+    from the one place every front end uses, so a refusal has the words of Python and the CLI."""
 
     def __post_init__(self) -> None:
         if not self.joints:
@@ -175,6 +178,7 @@ class BusFace:
         joints: Sequence[JointSpec],
         command_timeout: float = DEFAULT_COMMAND_TIMEOUT,
         timeout: float | None = None,
+        robot: RobotSpec | None = None,
     ) -> None:
         import zenoh
 
@@ -214,9 +218,14 @@ class BusFace:
         self.held = {j.id for j in self.joints if j.bus and j.on_timeout == "hold"}
         """The motors of a robot file's joints that hold when the bridge ends (a bare motor id idles)."""
         self.bus.hold_on_close(self.held)
-        for j in self.joints:
-            if j.limits:  # the robot file's soft limits, in motor units: the safety gate holds every command to them
-                self.bus.set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=f"joint {j.name!r} limits")
+        if robot is not None:  # the robot file's limits and its model's range, as every front end gives them
+            from ..robot.limits import apply_limits, model_range_of
+
+            apply_limits(self.bus, robot, [j.name for j in self.joints], model_range_of(robot))
+        else:
+            for j in self.joints:
+                if j.limits:  # soft limits in motor units: the safety gate holds every command to them
+                    self.bus.set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=f"joint {j.name!r} limits")
         self._decls: list[Any] = []
         self._writer = threading.Thread(target=self._writer_loop, name=f"drempower bridge writer {name}", daemon=True)
         try:
@@ -523,7 +532,7 @@ class Bridge:
             for name, t in transports.items():
                 prefix = o.prefix if not name else f"{o.prefix.strip('/')}/{name}"
                 self.faces[name] = BusFace(
-                    name, t, session, prefix, [j for j in specs if j.bus == name], o.command_timeout, o.timeout
+                    name, t, session, prefix, [j for j in specs if j.bus == name], o.command_timeout, o.timeout, o.robot
                 )
             self._joints = [(j, Gearing(j), self.faces[j.bus]) for j in specs]
             self._names = [j.name for j in specs]

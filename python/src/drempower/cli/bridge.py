@@ -192,6 +192,7 @@ def run(args: argparse.Namespace) -> int:
             command_timeout=args.command_timeout,
             bandwidth=args.bandwidth,
             timeout=args.timeout,
+            robot=spec,
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
