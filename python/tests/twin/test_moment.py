@@ -3,6 +3,7 @@ plain simulator does: no 20 ms staircase in a trace read at a high rate (the das
 
 from __future__ import annotations
 
+import itertools
 import time
 from pathlib import Path
 
@@ -34,7 +35,7 @@ def test_a_served_twin_answers_with_the_state_of_the_moment() -> None:
             time.sleep(0.002)
         m.set_mode(1)
     # between two reads 2 ms or more apart the joint (at 30 r/min: 0.18 deg/ms) has moved
-    spaced = [(a, b) for a, b in zip(reads, reads[1:]) if b[0] - a[0] >= 0.002]
+    spaced = [(a, b) for a, b in itertools.pairwise(reads) if b[0] - a[0] >= 0.002]
     same = sum(1 for a, b in spaced if b[1] == a[1])
     assert len(spaced) > 20
     assert same <= 0.1 * len(spaced), f"{same} of {len(spaced)} reads repeat the one before: a staircase"
