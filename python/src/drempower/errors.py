@@ -24,6 +24,7 @@ device, ``TimeoutError`` for a silent motor)::
     │   ├── MoveFaultError                     (also a MotorFaultError) the motor reported an error
     │   └── MoveTimeoutError                   (also a TimeoutError) the move was not over in time
     ├── FollowError                            a trajectory stopped early (a tracking error above max_error)
+    ├── IdentificationError                    an identification refused: samples missed or late, a poor fit
     ├── VerifyError                            a read-back differs from what was written
     │   ├── IdTakenError                       set_id: another motor already answers at the new id
     │   └── NoMotorError                       set_id: no motor answers where one was expected
@@ -61,6 +62,7 @@ __all__ = [
     "MotionParameterError",
     "MotorIdleError",
     "FollowError",
+    "IdentificationError",
     "SoftLimitError",
     "VerifyError",
     "IdTakenError",
@@ -359,6 +361,11 @@ class DomainError(FieldRangeError):
         self.hard = p.hard
         hint = "" if p.hard else "; force=True writes it anyway"
         self.args = (f"{p.name}={value!r} is outside its domain: {p.domain_text()}{hint}",)
+
+
+class IdentificationError(DrEmpowerError):
+    """An identification refused (samples a busy host missed or got late, a poor fit): nothing is reported
+    rather than a parameter far off (the CLI exits 1)."""
 
 
 class FollowError(DrEmpowerError):

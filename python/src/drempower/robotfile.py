@@ -51,7 +51,7 @@ import math
 import os
 import re
 import sys
-from collections.abc import Mapping
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -74,6 +74,10 @@ __all__ = [
     "parse_robot",
     "JOINT_NAME",
     "FRICTIONS",
+    "JointLimit",
+    "ModelRange",
+    "joint_limits",
+    "model_range_of",
 ]
 
 JOINT_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
@@ -438,3 +442,62 @@ def _identified(j: Mapping[str, Any], where: str) -> dict[str, float] | None:
             raise ConfigError(f"{where}: identified: {key}={value!r}: expected a finite number >= 0")
         out[key] = value
     return out
+
+
+# ---------------------------------------------------------------------- a joint's limits, from one place
+
+ModelRange = Callable[[str], "tuple[float, float] | None"]
+"""``range(model_joint)``: the model joint's (low, high) rad, None when it has no range."""
+
+
+class JointLimit(dict[str, Any]):
+    """Limits at one joint (joint units: rad, rad/s, Nm, rad/s^2, rad) with ``where`` each was set."""
+
+    def __init__(self, values: dict[str, Any], where: dict[str, str]) -> None:
+        super().__init__(values)
+        self.where = where
+
+
+def model_range_of(spec: RobotSpec, model: Any = None) -> ModelRange | None:
+    """The joint ranges of the robot's model (``model``: a ``mujoco.MjModel`` already loaded, e.g. the
+    twin's); None when the file names no model or MuJoCo is not installed."""
+    if model is None:
+        if spec.model is None:
+            return None
+        try:
+            import mujoco
+        except ImportError:
+            return None
+        model = mujoco.MjModel.from_xml_path(spec.model.file)
+    import mujoco
+
+    def joint_range(joint: str) -> tuple[float, float] | None:
+        jid = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_JOINT, joint)
+        if jid < 0 or not model.jnt_limited[jid]:
+            return None
+        return float(model.jnt_range[jid][0]), float(model.jnt_range[jid][1])
+
+    return joint_range
+
+
+def joint_limits(spec: RobotSpec, name: str, model_range: ModelRange | None) -> JointLimit:
+    """Joint ``name``'s limits (joint units): the file's ``limits``, with the model joint's range as its
+    position limit where the file gives none or a wider one; ``.where`` names the source of each."""
+    js = spec.joints[name]
+    own = dict(js.limits)
+    file_where = f"{spec.source}: [joints.{name}] limits"
+    where = dict.fromkeys(own, file_where)
+    rng = None if model_range is None else model_range(js.model_joint or name)
+    if rng is not None:
+        model_where = f"the range of model joint {js.model_joint or name!r}"
+        mine = own.get("position")
+        if mine is None:
+            own["position"], where["position"] = (float(rng[0]), float(rng[1])), model_where
+        else:
+            low, high = max(mine[0], rng[0]), min(mine[1], rng[1])
+            if low > high:  # no position both allow: the file's own range is refused entirely
+                low, high = mine
+            own["position"] = (low, high)
+            if (low, high) != tuple(mine):
+                where["position"] = model_where if (low, high) == tuple(rng) else f"{file_where} and {model_where}"
+    return JointLimit(own, where)

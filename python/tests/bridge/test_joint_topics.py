@@ -60,8 +60,8 @@ def test_a_joint_state_stream_moves_the_twin_arm_and_silence_holds(tmp_path: Pat
         assert [float(p) for p in last.position] == pytest.approx(TARGET, abs=0.02)
         token.undeclare()
         pub.undeclare()
-    # the bridge's end idles what its topics drove
-    assert all(arm.motor(n).state == AxisState.IDLE for n in JOINTS)
+    # the bridge's end holds what its topics drove (the joints' on_timeout, hold by default): not dropped
+    assert all(arm.motor(n).state == AxisState.CLOSED_LOOP_CONTROL for n in JOINTS)
 
 
 def test_command_to_frame_latency(tmp_path: Path) -> None:

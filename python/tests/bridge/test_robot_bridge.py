@@ -250,3 +250,62 @@ def test_cli_robot_usage_errors(robot_file: Path, extra: list[str], message: str
     argv = [sys.executable, "-m", "drempower", "bridge", "--robot", str(robot_file), *extra]
     run = subprocess.run([*argv, "--connect", "tcp/127.0.0.1:1"], capture_output=True, text=True, timeout=30)
     assert run.returncode == 2 and message in run.stderr and "Traceback" not in run.stderr
+
+
+def test_the_bridges_end_holds_a_joint_that_holds_and_idles_one_that_says_idle(tmp_path: Path) -> None:
+    """Its way out (Ctrl-C, SIGTERM, SIGHUP): each joint does its on_timeout; a bare motor id still idles."""
+    path = tmp_path / "robot.toml"
+    path.write_text(ROBOT.replace("gear = -1.0\n", 'gear = -1.0\non_timeout = "idle"\n'))
+    spec = load_robot(path)
+    sims = {"left": SimTransport([1, 2]), "right": SimTransport([1])}
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    prefix = f"robot{free_port()}"
+    with session(listen=[endpoint]) as sess:
+        bridge = Bridge(sims, sess, BridgeOptions(dict(spec.joints), prefix=prefix))
+        served = ServedRobot(bridge, sims, endpoint, prefix)
+        try:
+            with served.remote("left") as left, served.remote("right") as right:
+                for bus in (left, right):
+                    bus.motor(1).set_mode(2)
+                    bus.motor(1).set_speed(20.0)
+                shoulder, elbow = served.motor("left", 1), served.motor("right", 1)
+                wait_for(lambda: abs(shoulder.speed - 20) < 1 and abs(elbow.speed + 0 - 20) < 1, limit=5.0)
+                bridge.stop()
+                wait_for(lambda: abs(shoulder.speed) < 0.5 and elbow.state == AxisState.IDLE, limit=5.0)
+                assert shoulder.state == AxisState.CLOSED_LOOP_CONTROL  # held at speed 0, not dropped
+        finally:
+            bridge.close()
+            for s in sims.values():
+                s.close()
+
+
+def test_the_bridge_refuses_beyond_the_files_limits_in_the_words_of_python(tmp_path: Path) -> None:
+    """The robot file's limits reach the bridge from the one place every front end uses: a ROS 2 command
+    beyond the elbow's is refused naming the file and the joint, as open_robot and the CLI do."""
+    path = tmp_path / "robot.toml"
+    path.write_text(ROBOT.replace("offset = 0.5\n", "offset = 0.5\nlimits = { position = [0.0, 1.0] }\n"))
+    spec = load_robot(path)
+    sims = {"left": SimTransport([1, 2]), "right": SimTransport([1])}
+    endpoint = f"tcp/127.0.0.1:{free_port()}"
+    prefix = f"robot{free_port()}"
+    with session(listen=[endpoint]) as sess:
+        bridge = Bridge(sims, sess, BridgeOptions(dict(spec.joints), prefix=prefix, robot=spec))
+        served = ServedRobot(bridge, sims, endpoint, prefix)
+        try:
+            _closed_loop(served)
+            e1 = served.motor("right", 1)
+            with session(connect=[endpoint]) as ros:
+                pub = ros.declare_publisher(bridge.command_keys["position_commands"])
+                time.sleep(0.2)
+                for _ in range(10):
+                    pub.put(_command([0.0, 0.0, 2.0]))  # the elbow at 2 rad: beyond its 0..1 rad
+                    time.sleep(0.02)
+                wait_for(lambda: bridge.last_refusal is not None, limit=5.0)
+                pub.undeclare()
+            assert bridge.last_refusal is not None
+            assert f"(set by {path}: [joints.elbow] limits)" in bridge.last_refusal, bridge.last_refusal
+            assert e1.position == pytest.approx(0.0, abs=0.01)  # nothing was sent
+        finally:
+            bridge.close()
+            for s in sims.values():
+                s.close()

@@ -115,7 +115,8 @@ def test_a_cancel_stops_the_arm(tmp_path: Path, caplog: pytest.LogCaptureFixture
             assert s + 0.05 < h < e - 0.3  # stopped on the way
         assert client.cancel(gid).return_code == 3  # ERROR_GOAL_TERMINATED
         action.close()
-    assert all(arm.motor(n).state == AxisState.IDLE for n in JOINTS)  # the bridge's end idles what it drove
+    # the bridge's end holds what it drove (the joints' on_timeout, hold by default): the arm is not dropped
+    assert all(arm.motor(n).state == AxisState.CLOSED_LOOP_CONTROL for n in JOINTS)
 
 
 def test_bad_goals_end_with_their_error_codes(tmp_path: Path) -> None:

@@ -172,7 +172,7 @@ def test_bus_options_of_the_robot_file_do_not_collide_with_the_commands_own(
     r = cli("move", "shoulder,elbow", "20", "--robot", str(path), "--json")  # across buses: open_robot
     assert r.code == 0, r.err
     r = cli("speed", "shoulder", "5", "--duration", "0.2", "--robot", str(path))
-    assert r.code == 0 and "after 0.2 s: motor 1 set to idle" in r.err, r.err
+    assert r.code == 0 and "after 0.2 s: motor 1 held" in r.err, r.err  # the joint holds (its on_timeout)
     r = cli("sniff", "--duration", "0.1", "--robot", str(path), "--json")
     assert "TypeError" not in r.err and "unexpected keyword" not in r.err, r.err
 

@@ -78,9 +78,17 @@ def test_plots_receive_every_sample(page: Any, served: Served, shots: Path) -> N
     assert stats["received"] == stats["serverTotal"] - stats["firstTotal"]
     per = page.locator("#plot-per-motor").inner_text()
     assert "motor_1:" in per and "motor_3:" in per
-    # the plot shows samples of all three motors: one series per motor and channel, and targets
+    # the plot shows samples of all three motors: one series per motor and channel; a target only once one
+    # is drawn (none was commanded here), one y axis per unit, one colour per motor
     labels = page.locator(".u-legend .u-series .u-label").all_inner_texts()
-    assert "motor_2 speed" in labels and "motor_1 angle target" in labels
+    assert "motor_2 speed" in labels and not any("target" in label for label in labels), labels
+    axes = page.evaluate("window.dashPlot.axes.map(a => a.label)")
+    assert axes == ["t / s", "angle / deg", "speed / r/min", "torque / Nm"], axes
+    colours = page.evaluate(
+        "[...document.querySelectorAll('#plot .u-legend .u-series .u-marker')].map(e => e.style.borderColor)"
+    )
+    by_motor = {label.split()[0]: c for label, c in zip(labels, colours, strict=False) if label != "t"}
+    assert len(set(by_motor.values())) == len(by_motor) == 3, by_motor
     with page.expect_download() as dl:
         page.get_by_role("button", name="Export CSV").click()
     rows = list(csv.DictReader(io.StringIO(Path(dl.value.path()).read_text())))

@@ -8,6 +8,7 @@ import json
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -199,5 +200,135 @@ def test_the_robot_page_names_joints_and_its_estop_stops_both_buses(
         p.get_by_role("button", name="ESTOP").click()
         stopped = lambda: all(m.state != AxisState.CLOSED_LOOP_CONTROL and abs(m.speed) < 1 for m in sims.values())  # noqa: E731
         assert eventually(stopped, 2), [(m.state, m.speed) for m in sims.values()]
+    finally:
+        ctx.close()
+
+
+def test_the_dashboards_end_holds_a_joint_that_holds_and_idles_one_that_says_idle(tmp_path: Path) -> None:
+    """Its way out (SIGTERM, the last page gone): a robot file's joints do their on_timeout; an arm is not dropped."""
+    from drempower.dash.hub import Hub
+
+    path = tmp_path / "robot.toml"
+    path.write_text(
+        ROBOT.replace(
+            '[joints.wrist]\nbus = "right"\nid = 2\n', '[joints.wrist]\nbus = "right"\nid = 2\non_timeout = "idle"\n'
+        )
+    )
+    with open_robot(path, stop_on_close=False) as robot:
+        hub = Hub(robot)
+        try:
+            robot.joint("shoulder").set_speed(20, enable=True)
+            robot.joint("wrist").set_speed(20, enable=True)
+            hub.commanded.update({SHOULDER, WRIST})
+            assert sorted(hub.idle_commanded("SIGTERM")) == [SHOULDER, WRIST]
+            shoulder = robot.buses["left"].transport.bus.motors[1]
+            wrist = robot.buses["right"].transport.bus.motors[2]
+            deadline = time.monotonic() + 5
+            while time.monotonic() < deadline and not (abs(shoulder.speed) < 0.5 and wrist.state == AxisState.IDLE):
+                time.sleep(0.02)
+            assert shoulder.state == AxisState.CLOSED_LOOP_CONTROL and abs(shoulder.speed) < 0.5  # held
+            assert wrist.state == AxisState.IDLE
+        finally:
+            hub.close()
+
+
+@pytest.fixture
+def limited_robot(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Iterator[tuple[str, Any, Path]]:
+    """The robot with limits on its elbow, served (opened outside the test's event loop), by a relative path."""
+    monkeypatch.chdir(tmp_path)
+    path = Path("robot.toml")
+    path.write_text(
+        ROBOT.replace(
+            '[joints.elbow]\nbus = "right"\nid = 1\n',
+            '[joints.elbow]\nbus = "right"\nid = 1\nlimits = { position = [-1.0, 1.0], speed = 2.0 }\n',
+        )
+    )
+    robot = open_robot(path, stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(robot)
+    try:
+        yield url, hub, path
+    finally:
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        robot.close()
+
+
+def test_a_robot_dashboard_takes_the_files_limits_and_names_the_joint_in_its_messages(
+    limited_robot: tuple[str, Any, Path],
+) -> None:
+    """The Control view's limits are the robot file's (speed 2 rad/s at the elbow: 19.1 r/min, not the
+    motor's 300); a refusal names the joint; the idle hint is a command that works (--robot). (Its own
+    event loop in a thread of its own: a browser test before it keeps the main thread's.)"""
+    errors: list[BaseException] = []
+
+    def run() -> None:
+        try:
+            asyncio.run(_limits_and_words(*limited_robot))
+        except BaseException as exc:
+            errors.append(exc)
+
+    th = threading.Thread(target=run)
+    th.start()
+    th.join(60)
+    if errors:
+        raise errors[0]
+
+
+async def _limits_and_words(url: str, hub: Any, path: Path) -> None:
+    async with aiohttp.ClientSession() as s, s.ws_connect(url.replace("http:", "ws:") + "ws") as ws:
+        await ws.receive_json(timeout=5)
+
+        async def ask(req: int, **msg: object) -> dict[str, Any]:
+            await ws.send_json({"req": req, **msg})
+            while True:
+                await ws.send_json({"op": "hb"})
+                m: dict[str, Any] = await ws.receive_json(timeout=10)
+                if m["t"] == "reply" and m["req"] == req:
+                    return m
+
+        assert (await ask(1, op="scan"))["ok"]
+        limits = hub.limits[ELBOW]
+        assert limits["speed"] == pytest.approx(2.0 * 60 / (2 * 3.141592653589793), rel=1e-6)
+        assert limits["position"] == pytest.approx([-57.29578, 57.29578], rel=1e-5)
+        assert "[joints.elbow] limits" in limits["set_by"]["speed"]
+        r = await ask(2, op="control", action="V", id=ELBOW, speed=25)
+        assert not r["ok"] and "elbow (bus right, motor 1)" in r["error"] and "[joints.elbow] limits" in r["error"]
+        assert (await ask(3, op="control", action="idle", id=WRIST))["ok"]
+        r = await ask(4, op="control", action="V", id=WRIST, speed=5)
+        assert not r["ok"] and f"drempower enable wrist --robot {path}" in r["error"], r["error"]
+
+
+def test_the_control_view_on_a_robot_shows_the_files_limits_and_its_default_move_passes(
+    browser: Any, limited_robot: tuple[str, Any, Path], shots: Path
+) -> None:
+    """In Chromium: the limits line of the elbow is the robot file's, the default Move is within them and
+    accepted, and a message is cleared when the view changes."""
+    url, hub, path = limited_robot
+    ctx = browser.new_context(viewport={"width": 1100, "height": 700})
+    try:
+        p = ctx.new_page()
+        p.set_default_timeout(10_000)
+        p.goto(url)
+        p.wait_for_function("window.dashStats && window.dashStats.connected")
+        p.get_by_role("button", name="Rescan ids 1-63").click()
+        p.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
+        p.get_by_role("tab", name="Control").click()
+        p.locator("#ctl-motor").select_option(label="elbow")
+        p.wait_for_function("document.querySelector('#ctl-limits').textContent.includes('position')")
+        limits = p.locator("#ctl-limits").inner_text()
+        assert "position -57.2958..57.2958 deg, speed ±19.0986 r/min" in limits, limits
+        assert f"set by {path}: [joints.elbow] limits" in limits, limits
+        assert float(p.locator("#pos-speed").input_value()) <= 19.0986  # the default 20 brought within
+        assert float(p.locator("#pos-angle").input_value()) <= 57.2958  # the default 90 brought within
+        p.get_by_role("button", name="Enable").first.click()
+        p.get_by_role("button", name="Move", exact=True).click()
+        assert eventually(lambda: ELBOW in hub.commanded, 5), p.locator("#msg").inner_text()
+        p.screenshot(path=str(shots / "dash-robot-limits.png"))
+        p.locator("#pos-speed").fill("200")  # refused in the page, beyond the file's limit
+        p.get_by_role("button", name="Move", exact=True).click()
+        p.wait_for_function("document.querySelector('#msg').textContent !== ''")
+        p.get_by_role("tab", name="Plots").click()
+        assert p.locator("#msg").inner_text() == ""  # the message belonged to the Control view
     finally:
         ctx.close()

@@ -241,6 +241,17 @@ def _drawn_vs_state(p: Any) -> tuple[dict[str, float], dict[str, float]]:
     return drawn, expect
 
 
+_LEFT_HALF_COLOURS = """(() => {
+  const src = document.querySelector('#v3d-canvas canvas');
+  const c = document.createElement('canvas'); c.width = src.width; c.height = src.height;
+  const g = c.getContext('2d'); g.drawImage(src, 0, 0);
+  const d = g.getImageData(0, 0, Math.floor(c.width / 2), c.height).data, seen = new Set();
+  for (let i = 0; i < d.length; i += 4 * 7) seen.add(d[i] + ',' + d[i + 1] + ',' + d[i + 2]);
+  return seen.size;
+})()"""
+"""How many colours the left half of the 3D view's canvas holds (one: blank)."""
+
+
 def test_the_3d_view_follows_a_moving_joint(browser: Any, served_arm: tuple[str, Any, Any, Any], shots: Path) -> None:
     url, hub, _, robot = served_arm
     ctx = browser.new_context(viewport={"width": 800, "height": 500})
@@ -300,6 +311,14 @@ def test_the_3d_view_follows_a_moving_joint(browser: Any, served_arm: tuple[str,
         assert p.locator("#plot").is_visible() and p.locator("#v3d-canvas canvas").is_visible()
         plot, view = (p.locator(s).bounding_box() for s in ("#plot", "#v3d-canvas"))
         assert plot is not None and view is not None and plot["x"] + plot["width"] <= view["x"]
+        # the 3D tab while pinned: the view over the whole page (not a panel beside an empty half), drawn
+        p.get_by_role("tab", name="3D").click()
+        p.wait_for_function("document.querySelector('#v3d-canvas canvas').width > 0")
+        box = p.locator("#v3d-canvas").bounding_box()
+        assert box is not None and box["x"] < 50 and box["width"] > 0.8 * 800, box
+        time.sleep(0.3)  # a frame drawn at the new size
+        left = p.evaluate(_LEFT_HALF_COLOURS)
+        assert left > 3, left  # the robot and the grid drawn on the left half too, not one blank colour
     finally:
         ctx.close()
     assert not errors, errors
@@ -349,7 +368,11 @@ def test_the_hand_pushes_the_twin_and_the_view_follows(browser: Any, tmp_path: P
         assert eventually(lambda: twin.pushes == [], 2)  # ESTOP lets go of the twin too
         p.locator("#hand-torque").fill("500")
         p.get_by_role("button", name="Push").click()
-        assert "hand-torque: 500 is outside -200..200 Nm" in p.locator("#msg").inner_text()
+        msg = p.locator("#msg").inner_text()
+        assert "torque Nm: 500 is outside -200..200 Nm" in msg and "hand-torque" not in msg, msg  # as labelled
+        p.locator("#hand-kind").select_option("body")  # the default body is one a joint moves, not the base
+        moving = {b for b in p.locator("#hand-target option").all_inner_texts()} - {"base"}
+        assert p.locator("#hand-target").input_value() in moving, moving
     finally:
         ctx.close()
         loop.call_soon_threadsafe(dash.stopping.set)
@@ -492,3 +515,38 @@ def test_the_page_loads_the_mesh_files_the_model_names(browser: Any, tmp_path: P
         thread.join(10)
         hub.close()
         robot.close()
+
+
+def test_a_dashboard_on_a_twin_served_elsewhere_says_truly_why_it_cannot_push(tmp_path: Path) -> None:
+    """The ready file of ``drempower sim --robot`` (a socketcand bus): the twin runs in the simulator's process,
+    and the hand says so (not "needs the physics extra", which is installed)."""
+    pytest.importorskip("mujoco")
+    import io
+    import threading
+
+    from drempower.cli import build_parser, sim
+    from drempower.dash.hub import Hub
+
+    arm6 = REPO_ROOT / "examples" / "robots" / "arm6.toml"
+    args = build_parser().parse_args(["sim", "--robot", str(arm6), "--json"])
+    out, stop = io.StringIO(), threading.Event()
+    thread = threading.Thread(target=sim.run, args=(args, out, stop))
+    thread.start()
+    try:
+        deadline = time.monotonic() + 30.0
+        while '"running"' not in out.getvalue() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        ready = next(line for line in out.getvalue().splitlines() if "robot_file" in line)
+        path = ready.split('"robot_file": "')[1].split('"')[0]
+        with open_robot(path, stop_on_close=False, timeout=2) as robot:
+            hub = Hub(robot)
+            try:
+                doc = ModelView(hub).document()
+            finally:
+                hub.close()
+        assert doc["twin"] is False and doc["hand"] != NO_TWIN
+        assert "bus 'arm'" in doc["hand"] and "socketcand" in doc["hand"] and "another process" in doc["hand"]
+        assert "physics extra" not in doc["hand"]
+    finally:
+        stop.set()
+        thread.join(10)

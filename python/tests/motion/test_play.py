@@ -50,7 +50,7 @@ def test_beyond_a_limit_or_the_bus_is_exit_2_with_one_line(tmp_path: Path, capsy
     assert main(["play", str(ok), "--sim", "1,2"]) == 2  # joint names without --robot
     assert "give --robot FILE, or --ids" in capsys.readouterr().err
     missing = tmp_path / "none.csv"
-    assert main(["play", str(missing), "--sim", "1"]) == 1
+    assert main(["play", str(missing), "--sim", "1"]) == 2  # a file the user names: bad input
     assert "no such file" in capsys.readouterr().err
 
 

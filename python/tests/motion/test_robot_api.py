@@ -179,13 +179,18 @@ def test_drempower_identify_a_motor_id_on_the_plain_simulator(
     from drempower.sim.defaults import MotorModel
 
     monkeypatch.delenv(TIME_SCALE_ENV, raising=False)
-    assert main(["identify", "1", "--sim", "1", "--yes", "--json", "--seconds", "4"]) == 0  # real time
-    out = json.loads(capsys.readouterr().out)
-    assert set(out) == {"joint", "inertia", "viscous", "coulomb", "gravity", "fit"} and out["joint"] == "motor_1"
-    m = MotorModel()
-    assert out["inertia"] == pytest.approx(m.rotor_inertia * 10.0**2, rel=0.25)  # the default gear ratio 10
-    assert out["coulomb"] == pytest.approx(m.coulomb, rel=0.25)
-    assert out["gravity"] < 0.05 and out["fit"] > 0.9
+    code = main(["identify", "1", "--sim", "1", "--yes", "--json", "--seconds", "4"])  # real time
+    got = capsys.readouterr()
+    if code == 1:  # a host too busy to sample it well: refused in one line, never reported far off
+        assert "identify: refused" in got.err and len(got.err.strip().splitlines()) == 1, got.err
+    else:
+        assert code == 0, got.err
+        out = json.loads(got.out)
+        assert set(out) == {"joint", "inertia", "viscous", "coulomb", "gravity", "fit"} and out["joint"] == "motor_1"
+        m = MotorModel()
+        assert out["inertia"] == pytest.approx(m.rotor_inertia * 10.0**2, rel=0.25)  # the default gear ratio 10
+        assert out["coulomb"] == pytest.approx(m.coulomb, rel=0.25)
+        assert out["gravity"] < 0.05 and out["fit"] > 0.9
     assert main(["identify", "1", "--sim", "1", "--yes", "--write"]) == 2
     assert "--write needs --robot FILE" in capsys.readouterr().err
     assert main(["identify", "64", "--sim", "1", "--yes"]) == 2

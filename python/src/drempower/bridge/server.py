@@ -22,6 +22,7 @@ from typing import Any
 from .. import actions
 from ..client.api.bus_sync import Bus
 from ..client.engine.commands import make_angles, make_speeds, make_torques
+from ..client.engine.stops import hold_frames
 from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..logline import RateLimit
 from ..naming import motor_name
@@ -30,7 +31,7 @@ from ..protocol.ids import Frame
 from ..protocol.limits import check_motor
 from ..protocol.messages import FastRead, Message, ReadParam
 from ..protocol.parameters import DataType
-from ..robot.config import JOINT_NAME, JointSpec
+from ..robot.config import JOINT_NAME, JointSpec, RobotSpec
 from ..robot.joint import Gearing
 from ..transports.base import Transport
 from ..transports.zenoh_wire import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
@@ -120,6 +121,9 @@ class BridgeOptions:
     node_name: str = NODE_NAME
     timeout: float | None = None
     """Reply timeout (s) of the bridge's own requests (state stream, arming a CAN timeout); None: the transport's."""
+    robot: RobotSpec | None = None
+    """The robot file the joints come from: the buses get its joints' limits (and its model's joint range)
+    from the one place every front end uses, so a refusal has the words of Python and the CLI."""
 
     def __post_init__(self) -> None:
         if not self.joints:
@@ -176,6 +180,7 @@ class BusFace:
         joints: Sequence[JointSpec],
         command_timeout: float = DEFAULT_COMMAND_TIMEOUT,
         timeout: float | None = None,
+        robot: RobotSpec | None = None,
     ) -> None:
         import zenoh
 
@@ -212,13 +217,27 @@ class BusFace:
         )
         self.hub = BusHub(transport, self._publish_rx, self._client_sent)
         self.bus = Bus(self.hub.local, stop_on_close=True, timeout=timeout)
+        self.held = {j.id for j in self.joints if j.bus and j.on_timeout == "hold"}
+        """The motors of a robot file's joints that hold when the bridge ends (a bare motor id idles)."""
+        self.bus.hold_on_close(self.held)
+        if robot is not None:  # the robot file's limits and its model's range, as every front end gives them
+            from ..robot.limits import apply_limits, model_range_of
+
+            apply_limits(self.bus, robot, [j.name for j in self.joints], model_range_of(robot))
+        else:
+            for j in self.joints:
+                if j.limits:  # soft limits in motor units: the safety gate holds every command to them
+                    self.bus.set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=f"joint {j.name!r} limits")
         self._limits: dict[str, dict[str, Any]] = {}
         """The soft limits of each motor (motor units), told remote clients in the bus's info."""
         for j in self.joints:
-            if j.limits:  # the robot file's soft limits, in motor units: the safety gate holds every command to them
-                where = f"joint {j.name!r} limits"
-                self.bus.set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=where)
-                self._limits[str(j.id)] = {**Gearing(j).motor_limits(j.limits), "where": f"{where} (the bridge's)"}
+            held = self.bus.limits(j.id)
+            if held:
+                told: dict[str, Any] = {
+                    n: (lim.low, lim.high) if n == "position" else lim.high for n, lim in held.items()
+                }
+                told["where"] = f"{next(iter(held.values())).where} (the bridge's)"
+                self._limits[str(j.id)] = told
         self.policy = RemotePolicy(self.bus)
         """What remote peers may send (see :mod:`.remote_policy`)."""
         self.refused = 0
@@ -465,7 +484,8 @@ class BusFace:
             actions.run(self.bus, "idle", {"id": n})
 
     def stop(self) -> None:
-        """Stop serving; idle every motor a client set moving. The bus stays open (:meth:`close`). Idempotent."""
+        """Stop serving; idle every motor a client set moving (hold a robot file's joint that holds). The bus
+        stays open (:meth:`close`). Idempotent."""
         if self._closed.is_set():
             return
         self._closed.set()
@@ -480,7 +500,17 @@ class BusFace:
             nodes = set().union(*self._clients.values()) if self._clients else set()
             self._clients.clear()
         if nodes:
-            self.idle(nodes)
+            self.release(nodes)
+
+    def release(self, nodes: set[int] | None = None) -> None:
+        """Leave motors ``nodes`` (default: those served) in their safe state when the bridge ends: a robot
+        file's joint that holds gets speed 0 (it holds where it is, an arm is not dropped), the others idle."""
+        nodes = set(self.ids) if nodes is None else nodes
+        held = nodes & self.held
+        if held:
+            self.bus.send_frames(hold_frames(sorted(held)))
+        if nodes - held:
+            self.idle(nodes - held)
 
     def close(self) -> None:
         """:meth:`stop`, then close the bridge's bus (idling what it commanded) and the hub. Idempotent."""
@@ -544,7 +574,7 @@ class Bridge:
             for name, t in transports.items():
                 prefix = o.prefix if not name else f"{o.prefix.strip('/')}/{name}"
                 self.faces[name] = BusFace(
-                    name, t, session, prefix, [j for j in specs if j.bus == name], o.command_timeout, o.timeout
+                    name, t, session, prefix, [j for j in specs if j.bus == name], o.command_timeout, o.timeout, o.robot
                 )
             self._joints = [(j, Gearing(j), self.faces[j.bus]) for j in specs]
             self._names = [j.name for j in specs]
@@ -1021,7 +1051,11 @@ class Bridge:
         for face in self.faces.values():
             face.stop()
         if any(stream.driven for stream in getattr(self, "_streams", {}).values()):
-            self._idle_all()
+            for face in self.faces.values():  # each joint as its robot file says: hold, or idle
+                try:
+                    face.release()
+                except Exception as exc:
+                    _log.error("releasing the motors of %s failed: %s", face.prefix, exc)
 
     def close(self) -> None:
         """:meth:`stop`, then close every bus the bridge opened a client on. Idempotent."""

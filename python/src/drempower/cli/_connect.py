@@ -411,6 +411,16 @@ def open_from_args(args: argparse.Namespace, *, quiet: bool = False) -> Bus:
     if getattr(args, "profile", None) is not None:
         kw["profile"] = args.profile
     bus: Bus = open_bus(**kw)
+    if getattr(args, "robot_bus", None):  # the robot file's joints: their limits, as open_robot gives them
+        from ..robot.limits import limit_bus
+
+        try:
+            args.robot_limits = limit_bus(bus, args.robot_spec, args.robot_bus)
+            joints = args.robot_spec.joints_on(args.robot_bus)  # stopping holds the joints that hold
+            bus.hold_on_close(j.id for j in joints if j.on_timeout == "hold")
+        except BaseException:
+            bus.close()
+            raise
     return bus
 
 

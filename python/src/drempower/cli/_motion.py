@@ -12,6 +12,7 @@ from contextlib import contextmanager
 
 from ..client import Bus
 from ..client.driver.signals import Terminated, hurried
+from ..client.engine.stops import hold_frames
 from ..errors import DrEmpowerError
 from ._connect import add_ids_arg, ascii_float, ascii_int, open_from_args, positive
 from ._output import clean, motors_text
@@ -82,7 +83,8 @@ COASTING_RPM = 0.5
 
 
 def stop_commanded(bus: Bus, why: str) -> None:
-    """Set every motor this bus commanded to idle, and say on stderr what each is doing then.
+    """Set every motor this bus commanded to idle (a robot file's joint that holds: speed 0), and say on stderr
+    what each is doing then.
 
     Idle stops driving, not turning: a motor that still moves is reported as
     coasting at its speed (r/min), so nobody takes "idle" for "at rest".
@@ -91,17 +93,24 @@ def stop_commanded(bus: Bus, why: str) -> None:
     gets its idle frame, and only the reading of their motion is left out.
     """
     nodes = sorted(bus.commanded)
+    held = sorted(n for n in nodes if n in bus.held_on_close)  # a robot file's joints that hold
     failed: list[str] = []
     for node in nodes:  # each motor its frame, whatever another one's send did
         try:
-            bus.motor(node).set_mode(1)
+            if node in held:
+                bus.send_frames(hold_frames([node]))
+            else:
+                bus.motor(node).set_mode(1)
         except DrEmpowerError as exc:
             failed.append(f"motor {node}: {exc}")
     if failed:
-        raise DrEmpowerError("could not set to idle: " + "; ".join(failed))
-    if nodes:
-        motion = "" if hurried() else _motion_text(bus, nodes)
-        print(f"drempower: {why}: {motors_text(nodes)} set to idle{motion}", file=sys.stderr)
+        raise DrEmpowerError("could not stop: " + "; ".join(failed))
+    idled = [n for n in nodes if n not in held]
+    if held:
+        print(f"drempower: {why}: {motors_text(held)} held (speed 0: the robot file's on_timeout)", file=sys.stderr)
+    if idled:
+        motion = "" if hurried() else _motion_text(bus, idled)
+        print(f"drempower: {why}: {motors_text(idled)} set to idle{motion}", file=sys.stderr)
 
 
 def _motion_text(bus: Bus, nodes: Sequence[int]) -> str:

@@ -149,7 +149,12 @@ def emit(
     ``digits`` as in :func:`render_table`.
     """
     if getattr(args, "json", False):
+        spec, bus = getattr(args, "robot_spec", None), getattr(args, "robot_bus", None)
+        names = {} if spec is None or bus is None else {j.id: j.name for j in spec.joints_on(bus)}
         for rec in records:
+            ident = rec.get("id")
+            if isinstance(ident, int) and ident in names and "joint" not in rec:  # --robot: the joint's name
+                rec = {"joint": names[ident], **rec}
             sys.stdout.write(json_line(rec) + "\n")
     elif records:
         rows = [list(r.values()) for r in records]

@@ -16,15 +16,27 @@ import contextlib
 import copy
 import io
 import json
+import math
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
-from ..robotfile import JOINT_NAME, RobotSpec, load_robot
-from ._output import emit, json_line
+from ..robot.joint import Gearing
+from ..robotfile import JOINT_NAME, JointSpec, RobotSpec, load_robot
+from ._output import emit, is_terminal, json_line
 from ._usage import UsageError
 
-__all__ = ["apply_robot", "joint_or_ids", "run_command"]
+__all__ = [
+    "apply_robot",
+    "joint_or_ids",
+    "joint_record",
+    "with_units",
+    "named_joints",
+    "rate_scale",
+    "run_command",
+    "to_joint_angle",
+    "to_motor",
+]
 
 _ONE_BUS = frozenset(("monitor", "speed", "torque", "impedance"))
 """Commands that keep running (one bus at a time would never reach the next): their joints must share a bus."""
@@ -85,6 +97,19 @@ def apply_robot(args: argparse.Namespace) -> None:
     spec = load_robot(robot)
     args.robot_spec = spec
     args.robot_groups = _groups(spec, words)
+    sims = [b for b in args.robot_groups if spec.buses[b].interface == "sim"]
+    if sims and is_terminal(sys.stderr):
+        print(own_twin_notice(robot, spec, sims), file=sys.stderr)
+
+
+def own_twin_notice(robot: str, spec: RobotSpec, sims: list[str]) -> str:
+    """What a command on a robot file with ``sim`` buses says on a terminal: it simulates them itself."""
+    what = "a twin" if spec.model is not None else "simulated motors"
+    buses = ", ".join(sims)
+    return (
+        f"drempower: bus{'es' if len(sims) > 1 else ''} {buses} of {robot} simulated by this command: {what} of its "
+        f"own, gone when it ends; to share one: drempower sim --robot {robot} (it prints the file to use)"
+    )
 
 
 def _joints_by_bus(spec: RobotSpec) -> str:
@@ -94,9 +119,80 @@ def _joints_by_bus(spec: RobotSpec) -> str:
 def _one(args: argparse.Namespace, bus: str, ids: list[int]) -> argparse.Namespace:
     part = copy.copy(args)
     part.robot_bus = bus
+    spec: RobotSpec = args.robot_spec
+    words = list(getattr(args, "ids", None) or []) if getattr(args, "robot_ids", False) else []
+    chosen = [spec.joints[w] for w in words if isinstance(w, str)] if words and words != [0] else []
+    if getattr(args, "robot_ids", False) and not words:  # no IDS: every joint of the bus, by name
+        chosen = spec.joints_on(bus)
+    part.robot_named = {j.id: j for j in chosen if j.bus == bus}
     if getattr(args, "robot_ids", False):
         part.ids = ids
     return part
+
+
+def with_units(args: argparse.Namespace, rec: dict[str, Any], id: int) -> dict[str, Any]:
+    """``rec`` with ``units`` (``joint`` or ``motor``) under ``--robot``; as it is without."""
+    if getattr(args, "robot_spec", None) is None:
+        return rec
+    return {**rec, "units": "joint" if id in named_joints(args) else "motor"}
+
+
+def named_joints(args: argparse.Namespace) -> dict[int, JointSpec]:
+    """``{motor id: joint}`` of the joints this command's IDS named (those take joint units; a motor id
+    takes motor units)."""
+    named: dict[int, JointSpec] = getattr(args, "robot_named", None) or {}
+    return named
+
+
+_RPM = 2 * math.pi / 60
+"""rad/s per r/min."""
+_TO_MOTOR: dict[str, Callable[[Gearing, float], float]] = {
+    "angle": lambda g, v: g.motor_angle(math.radians(v)),
+    "step": lambda g, v: g.motor_step(math.radians(v)),
+    "speed": lambda g, v: g.motor_speed(v * _RPM),
+    "torque": lambda g, v: g.motor_torque(v),
+}
+"""Joint units of the command line (deg, r/min and Nm at the joint) to the motor's, by kind of value."""
+
+
+def to_motor(args: argparse.Namespace, ids: Sequence[int], values: Sequence[float], kind: str) -> list[float]:
+    """``values`` (one per motor of ``ids``) in motor units: a named joint's value is in joint units
+    (deg at the joint for ``angle``/``step``, r/min at the joint for ``speed``, Nm at the joint for
+    ``torque``), converted through its gear and offset; a motor id's stays as given."""
+    named = named_joints(args)
+    conv = _TO_MOTOR[kind]
+    return [conv(Gearing(named[i]), v) if i in named else v for i, v in zip(ids, values, strict=True)]
+
+
+def to_joint_angle(args: argparse.Namespace, id: int, angle: float) -> float:
+    """A motor angle (deg) of motor ``id`` in the command line's units: deg at the joint for a named joint."""
+    j = named_joints(args).get(id)
+    return angle if j is None else math.degrees(Gearing(j).joint_state_angle(angle))
+
+
+def joint_record(args: argparse.Namespace, rec: dict[str, Any]) -> dict[str, Any]:
+    """A reading's record (``position_deg``, ``speed_rpm``, ``torque_nm``) in the command line's units:
+    at the joint for a named joint (deg, r/min, Nm there), with ``units`` saying which."""
+    j = named_joints(args).get(rec.get("id"))  # type: ignore[arg-type]
+    if j is None:
+        return {**rec, "units": "motor"} if getattr(args, "robot_spec", None) is not None else rec
+    g = Gearing(j)
+    out = dict(rec)
+    if out.get("position_deg") is not None:
+        out["position_deg"] = round(math.degrees(g.joint_state_angle(out["position_deg"])), 4)
+    if out.get("speed_rpm") is not None:
+        out["speed_rpm"] = out["speed_rpm"] / j.gear
+    if out.get("torque_nm") is not None:
+        out["torque_nm"] = out["torque_nm"] * j.gear
+    return {**out, "units": "joint"}
+
+
+def rate_scale(args: argparse.Namespace, ids: Sequence[int]) -> float:
+    """The factor from a rate at the joints (r/min, (r/min)/s) to the motors': the smallest gear of the
+    named joints among ``ids``, so that no joint turns faster than asked (1 for motor ids)."""
+    named = named_joints(args)
+    gears = [abs(named[i].gear) for i in ids if i in named]
+    return min(gears) if gears and len(gears) == len(ids) else 1.0
 
 
 def run_command(args: argparse.Namespace) -> int:
@@ -171,6 +267,7 @@ def _stop(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
 
 
 def _move(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
+    from ..client import PositionMode
     from ..client.engine.session import DEFAULT_MOVE_TIMEOUT
     from ._motion import stop_commanded
     from .move import _MODES, _params
@@ -183,9 +280,16 @@ def _move(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
         raise UsageError(f"{len(names)} joints but {len(args.values)} angle values: give one for all or one each")
     mode = _MODES[args.mode]
     speed, param = _params(args, mode)
+    spec: RobotSpec = args.robot_spec
+    gears = {n: Gearing(spec.joints[n]) for n in names}  # deg at each joint, to its motor's deg
+    kind = "step" if args.relative else "angle"
+    motor = {n: _TO_MOTOR[kind](gears[n], a) for n, a in zip(names, angles, strict=True)}
+    if mode is not PositionMode.T:  # rates at the joints: no joint turns faster than asked
+        scale = min(abs(g.gear) for g in gears.values())
+        speed, param = speed * scale, param * (scale if mode is PositionMode.Q else 1.0)
     with _open(args) as robot:
         try:
-            move = robot.set_angles(dict(zip(names, angles, strict=True)), speed, param, mode, relative=args.relative)
+            move = robot.set_angles(motor, speed, param, mode, relative=args.relative)
             records: list[dict[str, Any]] = [
                 {"joint": n, "angle": a, "move_time_s": move.move_time, "start_skew_us": round(move.skew * 1e6, 1)}
                 for n, a in zip(names, angles, strict=True)
@@ -194,7 +298,8 @@ def _move(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
                 longest = DEFAULT_MOVE_TIMEOUT if move.move_time is None else 2 * move.move_time + 5
                 final = robot.positions_done(names, args.wait_timeout or longest)
                 for r in records:
-                    r["position_deg"] = round(final[r["joint"]].angle, 4)
+                    at = gears[r["joint"]].joint_state_angle(final[r["joint"]].angle)
+                    r["position_deg"] = round(math.degrees(at), 4)
         except KeyboardInterrupt:  # as a move on one bus: the motors it commanded go idle
             if args.stop_on_exit:
                 for bus in robot.buses.values():

@@ -6,7 +6,14 @@
 * ``adapter``, ``serial``, ``slcan`` and ``uart``: a pty behaving like the USB-CAN
   adapter (or the motor's UART); when the entry's ``channel`` names a path that does
   not exist, a symbolic link there points at the pty while the simulator runs;
-* ``sim``: a USB-CAN adapter pty (a client's own ``sim`` bus needs no server).
+* ``sim``: a socketcand server on 127.0.0.1 (a free port), so that several programs (a script, the
+  CLI, the dashboard, the bridge) share the one simulated robot at the same time.
+
+Each bus simulates its CAN timing at the entry's ``bitrate`` (or ``--bitrate``): the simulator and the
+client take a bus entry's options by the same rules (an ``adapter`` entry's ``bitrate`` is refused by
+both, in the same words). When a ``sim`` bus is served, a ready robot file is written (the same
+joints, each ``sim`` bus as the socketcand bus it now is) and its path printed on one line: every
+other program reaches the twin by joint name with ``--robot`` that file.
 
 When the file names a physics model, every bus's motors drive its joints: one
 :class:`~drempower.sim.twin.Twin` behind all the buses.
@@ -16,6 +23,9 @@ from __future__ import annotations
 
 import argparse
 import os
+import re
+import shutil
+import tempfile
 import threading
 from collections.abc import Callable
 from contextlib import ExitStack
@@ -32,12 +42,13 @@ from ..sim import (
     attach_uart_pty,
 )
 from ..sim.twin import TwinRunner, couple_robot
+from ..transports.factory import adapter_bitrate_refusal
 from ._sim_firmware import firmware_of
 from ._usage import UsageError
 
 __all__ = ["serve_robot"]
 
-_PTY = frozenset(("adapter", "serial", "slcan", "uart", "sim"))
+_PTY = frozenset(("adapter", "serial", "slcan", "uart"))
 _OWN = ("adapter_pty", "uart_pty", "socketcand_port", "python_can", "ids")
 
 
@@ -71,10 +82,10 @@ def _serve(stack: ExitStack, spec: RobotSpec, name: str, bus: SimBus) -> dict[st
         linked = _link(stack, opts.get("channel"), path)
         if linked is not None:
             where["link"] = linked
-    elif kind == "socketcand":
-        server = stack.enter_context(
-            attach_socketcand(bus, int(opts.get("port") or 0), str(opts.get("host", "127.0.0.1")))
-        )
+    elif kind in ("socketcand", "sim"):  # a sim bus: served where every program on this host reaches it
+        port = int(opts.get("port") or 0) if kind == "socketcand" else 0
+        host = str(opts.get("host", "127.0.0.1")) if kind == "socketcand" else "127.0.0.1"
+        server = stack.enter_context(attach_socketcand(bus, port, host))
         where.update(host=server.host, port=server.port, channel=server.channel)
     else:
         channel = opts.get("channel")
@@ -83,6 +94,69 @@ def _serve(stack: ExitStack, spec: RobotSpec, name: str, bus: SimBus) -> dict[st
         stack.enter_context(attach_python_can(bus, str(channel), kind))
         where["channel"] = channel
     return where
+
+
+def _bitrate(spec: RobotSpec, name: str, given: int | None) -> int | None:
+    """The bit rate bus ``name`` is simulated at: ``--bitrate``, else its entry's ``bitrate`` (the client's
+    rules: an ``adapter`` entry takes none)."""
+    entry = spec.buses[name]
+    own = entry.options.get("bitrate")
+    if own is not None and entry.interface in ("adapter", "serial"):
+        raise UsageError(f"{spec.source}: [buses.{name}]: {adapter_bitrate_refusal(entry.options.get('channel'), own)}")
+    if own is not None and (isinstance(own, bool) or not isinstance(own, int) or own <= 0):
+        raise UsageError(f"{spec.source}: [buses.{name}]: bitrate={own!r}: expected bit/s, e.g. 1000000")
+    if given is not None and own is not None and given != own:
+        raise UsageError(f"--bitrate {given}: [buses.{name}] of {spec.source} says bitrate = {own}")
+    return given if given is not None else own
+
+
+_HEADER = re.compile(r"^\s*\[\s*([^\]]+?)\s*\]\s*(#.*)?$")
+
+
+def ready_text(text: str, spec: RobotSpec, served: dict[str, dict[str, Any]]) -> str:
+    """The robot file ``text`` with each ``sim`` bus as the socketcand bus ``served`` says it now is, and the
+    model's path absolute (the copy lives elsewhere)."""
+    out: list[str] = []
+    section: str | None = None
+    for line in text.splitlines():
+        m = _HEADER.match(line)
+        if m is not None:
+            section = m.group(1).replace('"', "").replace(" ", "")
+            out.append(line)
+            name = section.removeprefix("buses.") if section.startswith("buses.") else None
+            if name in served and spec.buses[name].interface == "sim":
+                w = served[name]
+                out.append(
+                    f'interface = "socketcand"\nhost = "{w["host"]}"\nport = {w["port"]}\nchannel = "{w["channel"]}"'
+                )
+                rate = spec.buses[name].options.get("bitrate")
+                if rate is not None:
+                    out.append(f"bitrate = {int(rate)}")
+            continue
+        name = section.removeprefix("buses.") if section and section.startswith("buses.") else None
+        if name in served and spec.buses[name].interface == "sim":
+            continue  # the sim bus's own keys: the socketcand bus above replaces them
+        if section == "model" and line.split("=", 1)[0].strip() == "file" and spec.model is not None:
+            out.append(f'file = "{spec.model.file}"')
+            continue
+        out.append(line)
+    return "\n".join(out) + "\n"
+
+
+def _ready_file(stack: ExitStack, spec: RobotSpec, served: dict[str, dict[str, Any]], path: str) -> str | None:
+    """Write the robot file other programs use to reach the served ``sim`` buses (None: no sim bus);
+    removed when the simulator stops."""
+    if not any(spec.buses[n].interface == "sim" for n in served):
+        return None
+    with open(path, encoding="utf-8") as f:
+        text = ready_text(f.read(), spec, served)
+    folder = tempfile.mkdtemp(prefix="drempower-sim-")
+    stack.callback(shutil.rmtree, folder, True)
+    out = os.path.join(folder, os.path.basename(path))
+    with open(out, "w", encoding="utf-8") as f:
+        f.write(text)
+    load_robot(out)  # the copy is a robot file the client takes
+    return out
 
 
 def serve_robot(args: argparse.Namespace, show: Callable[..., None], stop: threading.Event | None) -> int:
@@ -97,10 +171,11 @@ def serve_robot(args: argparse.Namespace, show: Callable[..., None], stop: threa
         reply_delay=args.reply_delay,
         serial_garbage=args.serial_garbage,
     )
+    rates = {name: _bitrate(spec, name, args.bitrate) for name in spec.buses}
     buses = {
         name: SimBus(
             sorted(j.id for j in spec.joints_on(name)),
-            bitrate=args.bitrate,
+            bitrate=rates[name],
             faults=faults,
             seed=args.seed,
             config_dir=None if args.config_dir is None else os.path.join(args.config_dir, name),
@@ -114,6 +189,7 @@ def serve_robot(args: argparse.Namespace, show: Callable[..., None], stop: threa
             {"model": twin.source, "joints": twin.joints},
             f"physics: {os.path.basename(twin.source)} (MuJoCo), joints {', '.join(twin.joints)}",
         )
+    served: dict[str, dict[str, Any]] = {}
     with ExitStack() as stack:
         if twin is not None:  # one clock for every bus: the twin integrates all their motors' torques each step
             stack.enter_context(TwinRunner(buses.values(), args.time_scale))
@@ -132,6 +208,13 @@ def serve_robot(args: argparse.Namespace, show: Callable[..., None], stop: threa
                 )
             )
             show(where, f"bus {name} ({joints}): {reach}")
+            served[name] = where
+        ready = _ready_file(stack, spec, served, args.robot_file)
+        if ready is not None:
+            show(
+                {"robot_file": ready},
+                f"robot file for other programs (a script, drempower ... --robot, dash, bridge): {ready}",
+            )
         show({"running": True}, f"running {len(buses)} buses of {spec.source}; Ctrl-C stops")
         try:
             (stop or threading.Event()).wait(args.duration)

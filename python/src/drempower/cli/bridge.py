@@ -192,6 +192,7 @@ def run(args: argparse.Namespace) -> int:
             command_timeout=args.command_timeout,
             bandwidth=args.bandwidth,
             timeout=args.timeout,
+            robot=spec,
         )
     except ValueError as exc:
         raise UsageError(str(exc)) from exc
@@ -259,7 +260,11 @@ def run(args: argparse.Namespace) -> int:
                 for bus, before in armed:
                     restore_watchdog(bus, before)
                 bridge.close()
-        err.line("drempower bridge: stopped; motors it drove are idle")
+        held = sorted(j.name for j in (spec.joints.values() if spec is not None else ()) if j.on_timeout == "hold")
+        err.line(
+            "drempower bridge: stopped; motors it drove are idle"
+            + (f" (joints {', '.join(held)} hold: their on_timeout)" if held else "")
+        )
     finally:
         latch.close()
         log.removeHandler(err)

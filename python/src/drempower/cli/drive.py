@@ -11,6 +11,7 @@ from . import _readings
 from ._connect import add_connection_args, number
 from ._motion import add_duration_arg, add_motion_args, add_watchdog_arg, driving, hold, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
+from ._robot import named_joints, to_motor, with_units
 from ._usage import options_named
 from .actions import check_row
 
@@ -72,9 +73,20 @@ def register(sub: Any) -> None:
 
 def _report(args: argparse.Namespace, what: str, unit: str, values: list[float], extra: str) -> None:
     """``motors 1, 2: speed 10.00, 20.00 rpm (...)``, or one JSON object per motor."""
+    named = named_joints(args)
     if args.json:
         key = f"{what}_{unit.lower()}"
-        emit(args, (), [{"id": i, key: v} for i, v in zip(args.ids, values, strict=True)])
+        emit(
+            args,
+            (),
+            [with_units(args, {"id": i, key: v}, i) for i, v in zip(args.ids, values, strict=True)],
+        )
+    elif args.ids and all(i in named for i in args.ids):
+        joints = ", ".join(named[i].name for i in args.ids)
+        print(
+            f"joint{'s' if len(args.ids) > 1 else ''} {joints}: {what} {', '.join(fmt(v) for v in values)} {unit}"
+            f" at the joint{extra}"
+        )
     else:
         print(f"{motors_text(args.ids)}: {what} {', '.join(fmt(v) for v in values)} {unit}{extra}")
 
@@ -84,7 +96,8 @@ _SPEED_OPTIONS = {"speed": "RPM", "torque_ff": "--torque-ff", "ramp": "--ramp"}
 
 
 def run_speed(args: argparse.Namespace) -> int:
-    speeds = per_motor(args.ids, args.values, "speed")
+    given = per_motor(args.ids, args.values, "speed")
+    speeds = to_motor(args, args.ids, given, "speed")  # a named joint's r/min is at the joint
     if args.ramp is None:
         mode, param, extra, option = VelocityMode.PASSTHROUGH, args.torque_ff, "", "--torque-ff"
         if param:
@@ -98,13 +111,14 @@ def run_speed(args: argparse.Namespace) -> int:
     with driving(args) as bus:
         _readings.require_ready(bus, args.ids, args)
         bus.set_speeds(args.ids, speeds, param, mode)
-        _report(args, "speed", "rpm", speeds, extra)
+        _report(args, "speed", "rpm", given, extra)
         hold(bus, args.duration, args.ids, args.watchdog)
     return 0
 
 
 def run_torque(args: argparse.Namespace) -> int:
-    torques = per_motor(args.ids, args.values, "torque")
+    given = per_motor(args.ids, args.values, "torque")
+    torques = to_motor(args, args.ids, given, "torque")  # a named joint's Nm is at the joint
     if args.ramp is None:
         mode, param, extra = TorqueMode.DIRECT, 0.0, ""
     else:
@@ -116,7 +130,7 @@ def run_torque(args: argparse.Namespace) -> int:
     with driving(args) as bus:
         _readings.require_ready(bus, args.ids, args)
         bus.set_torques(args.ids, torques, param, mode)
-        _report(args, "torque", "Nm", torques, extra)
+        _report(args, "torque", "Nm", given, extra)
         hold(bus, args.duration, args.ids, args.watchdog)
     return 0
 

@@ -7,7 +7,6 @@ import os
 import sys
 from typing import TYPE_CHECKING, Any
 
-from ..errors import ConfigError, ValidationError
 from ..protocol.limits import MAX_NODE, MIN_MOTOR, is_motor
 from ._confirm import add_yes_arg, confirm
 from ._connect import add_connection_args, connection_kwargs, positive
@@ -103,17 +102,14 @@ def run(args: argparse.Namespace) -> int:
     from ..robot import open_robot
 
     with open_robot(spec, timeout=args.timeout, stop_on_close=False) as robot:
-        try:
-            got = robot.joint(joint).identify(
-                amplitude=args.amplitude,
-                seconds=args.seconds,
-                kp=args.kp,
-                kd=args.kd,
-                max_torque=args.max_torque,
-                write=False if write is None else write,
-            )
-        except (ValidationError, ConfigError) as exc:
-            raise UsageError(str(exc)) from None
+        got = robot.joint(joint).identify(  # a refusal (limits, a poor fit) is one line: exit 2 or 1
+            amplitude=args.amplitude,
+            seconds=args.seconds,
+            kp=args.kp,
+            kd=args.kd,
+            max_torque=args.max_torque,
+            write=False if write is None else write,
+        )
     if args.json:
         d = got.as_dict()
         sys.stdout.write(

@@ -12,6 +12,7 @@ from . import _readings
 from ._connect import add_connection_args, number, seconds
 from ._motion import add_motion_args, add_watchdog_arg, driving, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
+from ._robot import named_joints, rate_scale, to_joint_angle, to_motor, with_units
 from ._usage import UsageError, options_named
 from .actions import check_row
 
@@ -94,8 +95,12 @@ def _params(args: argparse.Namespace, mode: PositionMode) -> tuple[float, float]
 def run(args: argparse.Namespace) -> int:
     ids: list[int] = args.ids
     mode = _MODES[args.mode]
-    angles = per_motor(ids, args.values, "angle")
+    # a named joint's angle is in deg at the joint (through its gear and offset); a motor id's at the motor
+    angles = to_motor(args, ids, per_motor(ids, args.values, "angle"), "step" if args.relative else "angle")
     speed, param = _params(args, mode)
+    if mode is not PositionMode.T:  # rates at the joints: no named joint turns faster than asked
+        speed *= rate_scale(args, ids)
+        param *= rate_scale(args, ids) if mode is PositionMode.Q else 1.0
     given = {name: getattr(args, name) for name in _OPTIONS[mode]}
     check_row("step" if args.relative else "move", ids, {"angle": angles}, {"mode": mode.name, **given}, _ROW_OPTIONS)
     with options_named({"angle_list": "ANGLES", **_FIELDS[mode]}):
@@ -106,23 +111,42 @@ def run(args: argparse.Namespace) -> int:
         move = bus.step_angles if args.relative else bus.set_angles
         move_time = move(ids, angles, speed, param, mode)
         targets = [start[i] + a if args.relative else a for i, a in zip(ids, angles, strict=True)]
+        shown = [to_joint_angle(args, i, t) for i, t in zip(ids, targets, strict=True)]
         if not args.wait:
             records = [
-                {"id": i, "target_deg": round(t, 4), "mode": args.mode, "move_time_s": move_time}
-                for i, t in zip(ids, targets, strict=True)
+                with_units(args, {"id": i, "target_deg": round(t, 4), "mode": args.mode, "move_time_s": move_time}, i)
+                for i, t in zip(ids, shown, strict=True)
             ]
             if args.json:
                 emit(args, (), records)
             else:
                 took = "" if move_time is None else f", about {move_time:g} s"
-                goal = ", ".join(fmt(t) for t in targets)
-                print(f"{motors_text(ids)}: moving to {goal} deg (mode {args.mode}{took})")
+                goal = ", ".join(fmt(t) for t in shown)
+                at = " at the joint" if ids and all(i in named_joints(args) for i in ids) else ""
+                print(f"{_who(args, ids)}: moving to {goal} deg{at} (mode {args.mode}{took})")
             return 0
         timeout = args.wait_timeout or (DEFAULT_MOVE_TIMEOUT if move_time is None else 2 * move_time + 5)
         final = bus.positions_done(ids, timeout)
     records = [
-        {"id": i, "target_deg": round(t, 4), "position_deg": round(final[i].angle, 4), "done": True}
-        for i, t in zip(ids, targets, strict=True)
+        with_units(
+            args,
+            {
+                "id": i,
+                "target_deg": round(t, 4),
+                "position_deg": round(to_joint_angle(args, i, final[i].angle), 4),
+                "done": True,
+            },
+            i,
+        )
+        for i, t in zip(ids, shown, strict=True)
     ]
-    emit(args, ("id", "target/deg", "position/deg", "done"), records)
+    emit(args, ("id", "target/deg", "position/deg", "done", "units")[: len(records[0])], records)
     return 0
+
+
+def _who(args: argparse.Namespace, ids: list[int]) -> str:
+    """``joint shoulder`` for named joints, ``motor 1`` for motor ids."""
+    named = named_joints(args)
+    if ids and all(i in named for i in ids):
+        return f"joint{'s' if len(ids) > 1 else ''} {', '.join(named[i].name for i in ids)}"
+    return motors_text(ids)

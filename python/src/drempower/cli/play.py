@@ -56,11 +56,9 @@ def register(sub: Any) -> None:
 
 
 def _load(args: argparse.Namespace) -> Trajectory:
-    try:
-        tr = Trajectory.load(args.file, topic=args.topic)
-        return tr.scaled(args.speed) if args.speed != 1.0 else tr
-    except ValidationError as exc:
-        raise UsageError(str(exc)) from None
+    """The file's trajectory (a file that cannot be used raises ValidationError: one line, exit 2)."""
+    tr = Trajectory.load(args.file, topic=args.topic)
+    return tr.scaled(args.speed) if args.speed != 1.0 else tr
 
 
 def _bus_columns(args: argparse.Namespace, tr: Trajectory) -> list[int]:
@@ -130,8 +128,6 @@ def run(args: argparse.Namespace) -> int:
     except FollowError as exc:
         _report(args, exc.report, "rad" if spec is not None else "deg")
         raise
-    except ValidationError as exc:
-        raise UsageError(str(exc)) from None
 
 
 def _dry_plan(tr: Trajectory, lanes: list[Lane], limits: dict[str, dict[str, Any]], options: dict[str, Any]) -> None:
@@ -143,6 +139,11 @@ def _dry_plan(tr: Trajectory, lanes: list[Lane], limits: dict[str, dict[str, Any
 def _run_robot(args: argparse.Namespace, spec: Any, tr: Trajectory, options: dict[str, Any]) -> int:
     if args.ids is not None:
         raise UsageError("--ids: not with --robot (the file's columns are joints)")
+    unknown = [c for c in tr.joints if c not in spec.joints]
+    if unknown:  # the same words with and without --dry-run, before anything is opened
+        raise ValidationError(
+            f"{args.file}: column {unknown[0]!r} is no joint of {spec.source} (joints: {', '.join(spec.joints)})"
+        )
     if args.dry_run:
         ranges = None
         if spec.model is not None:

@@ -8,6 +8,7 @@ from typing import Any
 from . import _readings
 from ._connect import add_connection_args, add_ids_arg, ids_or_found, open_from_args
 from ._output import add_json_arg, emit, no_answer
+from ._robot import joint_record
 
 GROUP = "bus"
 """Where ``drempower --help`` lists this module's subcommands."""
@@ -31,5 +32,7 @@ def register(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     with open_from_args(args) as bus:
         readings = _readings.read(bus, ids_or_found(args, bus), missing_ok=True)
-    emit(args, _readings.HEADERS, [r.record() for r in readings])
+    records = [joint_record(args, r.record()) for r in readings]  # --robot: a named joint's at the joint
+    headers = (*_readings.HEADERS, "units") if records and "units" in records[0] else _readings.HEADERS
+    emit(args, headers, records)
     return no_answer([r.id for r in readings if not r.answered])

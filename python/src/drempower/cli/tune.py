@@ -6,11 +6,9 @@ import argparse
 import sys
 from typing import Any
 
-from ..errors import ValidationError
 from ._confirm import add_yes_arg, confirm
 from ._connect import add_connection_args, positive
 from ._output import add_json_arg, clean, json_line
-from ._usage import UsageError
 from .identify import joint_spec
 
 GROUP = "motion"
@@ -33,6 +31,13 @@ def register(sub: Any) -> None:
     p.add_argument("joint", metavar="JOINT", help="the joint's name in the robot file, or a motor id")
     p.add_argument("--bandwidth", type=positive, required=True, metavar="HZ", help="closed-loop bandwidth, Hz")
     p.add_argument("--step", type=positive, default=0.15, metavar="RAD", help="the verification step (default 0.15)")
+    p.add_argument(
+        "--amplitude",
+        type=positive,
+        default=0.3,
+        metavar="RAD",
+        help="peak excursion of the identification's excitation (default 0.3; lower it for a joint's speed limit)",
+    )
     p.add_argument("--save", action="store_true", help="save the new gains in the motor's flash")
     add_yes_arg(p)
     add_json_arg(p)
@@ -47,14 +52,15 @@ def _step_text(what: str, s: Any) -> str:
 def run(args: argparse.Namespace) -> int:
     spec, joint = joint_spec(args, "tune")
     where = "in RAM, then saved" if args.save else "in RAM"
-    confirm(args, f"tune joint {joint}", f"it is excited, stepped by {args.step:g} rad twice, new gains {where}")
+    confirm(
+        args,
+        f"tune joint {joint}",
+        f"it is excited (+-{args.amplitude:g} rad), stepped by {args.step:g} rad twice, new gains {where}",
+    )
     from ..robot import open_robot
 
     with open_robot(spec, timeout=args.timeout, stop_on_close=False) as robot:
-        try:
-            report = robot.joint(joint).tune(args.bandwidth, step=args.step)
-        except ValidationError as exc:
-            raise UsageError(str(exc)) from None
+        report = robot.joint(joint).tune(args.bandwidth, step=args.step, amplitude=args.amplitude)
         if args.save:
             robot.joint(joint).save_config()
     if args.json:

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 import os
+import re
 import threading
 import time
 from collections import deque
@@ -20,6 +21,7 @@ from typing import TYPE_CHECKING, Any
 from .. import actions
 from ..actions import bandwidth_range
 from ..client import Bus, ConfigBackup, Motor, MotorState
+from ..client.engine.stops import hold_frames
 from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..naming import COLUMNS, TIME_COLUMN, motor_name, motor_names, state_name
 from ..protocol import ERROR_WORDS, FastRead, flag_info
@@ -495,17 +497,42 @@ class Hub:
                 raw[key] = float(m.read_property(name, timeout=0.2))
             except DrEmpowerError:
                 raw[key] = None
-        self.limits[i] = bounds(raw)
-        return self.limits[i]
+        out = bounds(raw)
+        bus, node = self.where(i)
+        gate = bus.limits(node)  # a robot file's limits (and its model's range), in motor units
+        for key in ("speed", "torque"):
+            lim = gate.get(key)
+            if lim is not None and (out[key] is None or lim.high < out[key]):
+                out[key] = lim.high
+                out.setdefault("set_by", {})[key] = lim.where
+        pos = gate.get("position")
+        if pos is not None:
+            out["position"] = [pos.low, pos.high]
+            out.setdefault("set_by", {})["position"] = pos.where
+        self.limits[i] = out
+        return out
+
+    def words(self, text: str, key: int | None) -> str:
+        """A message about motor key ``key`` with its joint named: ``motor 3: ...`` -> ``joint elbow (motor
+        3): ...`` on a robot (the library's words otherwise unchanged)."""
+        j = self.joints.get(key) if key is not None else None
+        if j is None or re.search(rf"\b{re.escape(j['joint'])}\b", text):
+            return text
+        return re.sub(rf"\bmotor {j['id']}\b", f"joint {j['joint']} (motor {j['id']})", text, count=1)
 
     def _speed(self, i: int, key: str, value: float) -> float:
         lim = self.limits.get(i, {}).get("speed")
-        _within(key, value, lim, "r/min", f"speed limit {self.label(i)} holds (axis0.output_shaft.vel_limit)")
+        by = self.limits.get(i, {}).get("set_by", {}).get("speed")
+        held = "holds (axis0.output_shaft.vel_limit)" if by is None else f"has (set by {by})"
+        _within(key, value, lim, "r/min", f"speed limit {self.label(i)} {held}")
         return value
 
     def _torque(self, i: int, key: str, value: float) -> float:
         lim = self.limits.get(i, {}).get("torque")
-        what = f"torque limit {self.label(i)} holds (output_shaft.torque_lim, current_lim x torque_constant)"
+        by = self.limits.get(i, {}).get("set_by", {}).get("torque")
+        what = f"torque limit {self.label(i)} " + (
+            "holds (output_shaft.torque_lim, current_lim x torque_constant)" if by is None else f"has (set by {by})"
+        )
         _within(key, value, lim, "Nm", what)
         return value
 
@@ -604,13 +631,20 @@ class Hub:
             raise ValidationError("the dashboard is stopping: no motion is started any more")
         self.check_fence()
         idle: list[tuple[int, int]] = []
+        idle_keys: list[int] = []
         for i in keys:
             state = int(self.motor(i).read_property(_STATE, timeout=0.2))
             if state != AxisState.CLOSED_LOOP_CONTROL:
                 idle.append((self.where(i)[1], state))
+                idle_keys.append(i)
         if idle:  # the library's refusal, in the library's words (the API, CLI and bridge say the same)
             nodes = ",".join(str(n) for n, _ in idle)
             fix = f"(the Enable button, or drempower enable {nodes})"
+            if self.robot is not None:  # a hint that works: the joints by name, on the robot file
+                names = ",".join(
+                    self.joints[i]["joint"] if i in self.joints else str(self.where(i)[1]) for i in idle_keys
+                )
+                fix = f"(the Enable button, or drempower enable {names} --robot {self.robot.spec.source})"
             raise MotorIdleError([n for n, _ in idle], [s for _, s in idle], fix=fix)
         if self.watchdog_ms:
             self.arm_watchdog(keys)
@@ -820,16 +854,26 @@ class Hub:
         return keys
 
     def idle_commanded(self, why: str) -> list[int]:
-        """Put the motors this dashboard moved into IDLE; returns their ids."""
+        """Put the motors this dashboard moved into IDLE (a robot file's joint that holds: speed 0, so an arm
+        is not dropped); returns their ids."""
         ids = sorted(self.commanded)
         self.commanded.clear()  # a second caller meanwhile finds nothing to do
+        held: list[int] = []
         for i in ids:
+            bus, node = self.where(i)
             try:
-                self.motor(i).set_mode(1)
+                if node in bus.held_on_close:
+                    bus.send_frames(hold_frames([node]))
+                    held.append(i)
+                else:
+                    self.motor(i).set_mode(1)
             except DrEmpowerError as exc:
-                log(f"idling {self.label(i)} failed: {exc}")
-        if ids:
-            log(f"{why}: idled {', '.join(map(self.label, ids))}")
+                log(f"stopping {self.label(i)} failed: {exc}")
+        idled = [i for i in ids if i not in held]
+        if idled:
+            log(f"{why}: idled {', '.join(map(self.label, idled))}")
+        if held:
+            log(f"{why}: held {', '.join(map(self.label, held))} (speed 0: the robot file's on_timeout)")
         self.commanded.clear()
         self.targets.clear()
         return ids

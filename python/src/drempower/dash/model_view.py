@@ -50,6 +50,32 @@ class TwinHand(Protocol):
     def release(self) -> None: ...
 
 
+def no_twin_reason(hub: Hub) -> str:
+    """Why this dashboard cannot push (the truth of its case): no model, no physics extra, or a twin that
+    runs in another process (a robot file whose buses are served, e.g. by ``drempower sim --robot``)."""
+    robot = hub.robot
+    spec = getattr(robot, "spec", None)
+    if spec is None or getattr(spec, "model", None) is None:
+        return NO_TWIN
+    try:
+        importlib.import_module("mujoco")
+    except ImportError:
+        return (
+            f"the hand from outside needs the physics extra for the twin of {spec.source}: "
+            "pip install 'drempower[physics]'"
+        )
+    served = [(name, b.interface) for name, b in spec.buses.items() if b.interface != "sim"]
+    if served:
+        name, kind = served[0]
+        return (
+            f"the hand pushes a twin this dashboard runs; bus {name!r} of {spec.source} is {kind}: its twin (if any, "
+            "e.g. drempower sim --robot) runs in another process. To push, run the dashboard on the robot file "
+            "with sim buses itself (drempower dash --robot FILE), or push in the program that runs the twin "
+            "(robot.twin.push(...))"
+        )
+    return NO_TWIN
+
+
 def model_of(hub: Hub) -> str | None:
     """The model file the robot file of ``hub`` names (absolute), or None."""
     robot = hub.robot
@@ -155,7 +181,7 @@ class ModelView:
             "joints": self.mapping(),
             "twin": twin,
             "read_only": self.hub.read_only,
-            "hand": None if twin else NO_TWIN,
+            "hand": None if twin else no_twin_reason(self.hub),
             "limits": PUSH_LIMITS,
         }
 
@@ -176,7 +202,7 @@ class ModelView:
         on ``target`` for ``duration`` s. Checked whole before the twin is touched; returns what was done."""
         twin = self.twin
         if twin is None or self.scene is None:
-            raise DrEmpowerError(NO_TWIN)
+            raise DrEmpowerError(no_twin_reason(self.hub))
         kind = args.get("kind")
         target = args.get("target")
         duration = _number(args, "duration", 0.0, PUSH_LIMITS["duration"], "s", open_low=True)

@@ -393,7 +393,8 @@ class Dashboard:
                 raise DrEmpowerError(f"op={op!r}: unknown request")
             reply.update(ok=True, result=result)
         except (DrEmpowerError, KeyError, TypeError, ValueError) as exc:
-            reply.update(ok=False, error=str(exc) or type(exc).__name__)
+            key = req.get("id") if isinstance(req.get("id"), int) else None
+            reply.update(ok=False, error=hub.words(str(exc) or type(exc).__name__, key))  # the joint by name
         except Exception as exc:  # a bug must still answer the page
             log(f"{who}: {op} failed: {exc!r}")
             reply.update(ok=False, error=f"internal error: {exc!r}")

@@ -16,19 +16,27 @@ This module is the part without I/O; the run is ``identify`` in ``routines_async
 
 from __future__ import annotations
 
+import itertools
 import math
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass
 from typing import TYPE_CHECKING, Any
 
-from ..errors import DrEmpowerError, ValidationError
+from ..errors import DrEmpowerError, IdentificationError, ValidationError
 from .plan import model_ranges, robot_limits
 
 if TYPE_CHECKING:
     from ..robotfile import RobotSpec
     from ..sim.twin import Twin
 
-__all__ = ["Identification", "check_excitation", "excitation", "fit_dynamics", "from_samples"]
+__all__ = [
+    "Identification",
+    "IdentificationError",
+    "check_excitation",
+    "excitation",
+    "fit_dynamics",
+    "from_samples",
+]
 
 _FREQS = ((0.7, 1.0, 0.0), (1.9, 0.6, 1.0), (3.3, 0.3, 2.0))
 """(Hz, relative amplitude, phase rad) of the excitation's sines."""
@@ -75,23 +83,43 @@ def _solve(a: list[list[float]], b: list[float]) -> list[float]:
     return x
 
 
+MIN_FIT = 0.95
+"""Lowest R^2 of the torque fit an identification is given with (a quiet run gets above 0.99)."""
+MAX_INERTIA_ERROR = 0.1
+"""Largest standard error of the inertia, relative to it, an identification is given with."""
+MIN_SAMPLES = 0.7
+"""Smallest share of the samples asked that must arrive on time (within 2.5 periods of the one before)."""
+LATE = 2.5
+"""A sample more than this many periods after the one before counts as late (the host fell behind)."""
+
+
 def fit_dynamics(
-    times: list[float], positions: list[float], velocities: list[float], torques: list[float], min_speed: float = 0.2
-) -> tuple[list[float], float, int]:
-    """Least-squares coefficients (inertia, viscous, coulomb, gravity_sin, gravity_cos), the R^2 of the fit and
-    the number of samples used, from samples at the joint (s, rad, rad/s, Nm)."""
+    times: list[float],
+    positions: list[float],
+    velocities: list[float],
+    torques: list[float],
+    min_speed: float = 0.2,
+    max_gap: float | None = None,
+) -> tuple[list[float], float, int, list[float]]:
+    """Least-squares coefficients (inertia, viscous, coulomb, gravity_sin, gravity_cos), the R^2 of the fit,
+    the number of samples used and the standard error of each coefficient, from samples at the joint (s,
+    rad, rad/s, Nm). A sample next to a gap longer than ``max_gap`` s is left out (its acceleration, a
+    difference across the gap, would not be that of its moment)."""
     rows: list[list[float]] = []
     ys: list[float] = []
     for k in range(1, len(times) - 1):
         v = velocities[k]
         if abs(v) < min_speed:
             continue
-        acc = (velocities[k + 1] - velocities[k - 1]) / (times[k + 1] - times[k - 1])
+        dt = times[k + 1] - times[k - 1]
+        if dt <= 0 or (max_gap is not None and max(times[k + 1] - times[k], times[k] - times[k - 1]) > max_gap):
+            continue
+        acc = (velocities[k + 1] - velocities[k - 1]) / dt
         q = positions[k]
         rows.append([acc, v, math.copysign(1.0, v), math.sin(q), math.cos(q)])
         ys.append(torques[k])
     if len(rows) < 20:
-        raise DrEmpowerError(f"identify: {len(rows)} samples above {min_speed:g} rad/s: too few to fit")
+        raise IdentificationError(f"identify: {len(rows)} samples above {min_speed:g} rad/s: too few to fit")
     n = 5
     ata = [[sum(r[i] * r[j] for r in rows) for j in range(n)] for i in range(n)]
     aty = [sum(r[i] * y for r, y in zip(rows, ys, strict=True)) for i in range(n)]
@@ -102,7 +130,9 @@ def fit_dynamics(
     mean = sum(ys) / len(ys)
     res = sum((y - sum(c * x for c, x in zip(coef, r, strict=True))) ** 2 for r, y in zip(rows, ys, strict=True))
     tot = sum((y - mean) ** 2 for y in ys) or 1.0
-    return coef, 1.0 - res / tot, len(rows)
+    sigma2 = res / max(1, len(rows) - n)
+    errors = [math.sqrt(max(0.0, sigma2 * _solve(ata, [float(i == j) for j in range(n)])[i])) for i in range(n)]
+    return coef, 1.0 - res / tot, len(rows), errors
 
 
 def check_excitation(
@@ -150,11 +180,38 @@ def excitation(t: float, q0: float, amplitude: float, seconds: float) -> tuple[f
 
 
 def from_samples(
-    joint: str, rate: float, ts: list[float], qs: list[float], vs: list[float], taus: list[float]
+    joint: str,
+    rate: float,
+    ts: list[float],
+    qs: list[float],
+    vs: list[float],
+    taus: list[float],
+    seconds: float | None = None,
 ) -> Identification:
-    """The identification from an excitation's samples (s, rad, rad/s, Nm), its ramps (half a second at
-    ``rate`` Hz each end) left out."""
-    skip = round(0.5 * rate)
-    coef, fit, used = fit_dynamics(ts[skip:-skip], qs[skip:-skip], vs[skip:-skip], taus[skip:-skip])
+    """The identification from an excitation's samples (s, rad, rad/s, Nm; ``ts`` each state frame's own
+    time), its ramps (the first and last half second) left out. Raises :class:`IdentificationError` when
+    fewer than :data:`MIN_SAMPLES` of the samples asked (``seconds`` s at ``rate`` Hz) arrived on time, or
+    the fit is poor (R^2 below :data:`MIN_FIT`, the inertia's standard error above :data:`MAX_INERTIA_ERROR`)."""
+    if len(ts) < 3:
+        raise IdentificationError(f"identify: {len(ts)} samples: too few to fit")
+    start, end = ts[0] + 0.5, ts[-1] - 0.5
+    keep = [k for k, t in enumerate(ts) if start <= t <= end]
+    ts, qs, vs, taus = ([x[k] for k in keep] for x in (ts, qs, vs, taus))
+    period = 1.0 / rate
+    asked = max(1, round(((seconds if seconds is not None else (end - start) + 1.0) - 1.0) * rate))
+    on_time = sum(1 for a, b in itertools.pairwise(ts) if 0 < b - a <= LATE * period)
+    if on_time < MIN_SAMPLES * asked:
+        raise IdentificationError(
+            f"identify: refused: {asked - on_time} of {asked} samples missed or late (the host could not keep "
+            f"{rate:g} Hz): run it on a quieter host, or lower --rate; nothing was reported"
+        )
+    coef, fit, used, errors = fit_dynamics(ts, qs, vs, taus, max_gap=LATE * period)
     inertia, viscous, coulomb, gs, gc = coef
+    spread = errors[0] / abs(inertia) if inertia else math.inf
+    if fit < MIN_FIT or not spread <= MAX_INERTIA_ERROR:
+        raise IdentificationError(
+            f"identify: refused: a poor fit (R^2 {fit:.3f}, inertia {inertia:.3g} kg m^2 +-{100 * spread:.0f} %; "
+            f"needs R^2 >= {MIN_FIT:g} and +-{100 * MAX_INERTIA_ERROR:.0f} %): a blocked or loaded joint, or a busy "
+            "host; try a larger --amplitude or a quieter host; nothing was reported"
+        )
     return Identification(joint, inertia, viscous, coulomb, math.hypot(gs, gc), gs, gc, fit, used)

@@ -55,8 +55,9 @@ async def identify(
     ok = False
     try:
         t0 = bus.now()
-        for k in range(round(seconds * rate)):
-            ref, vel = excitation(k * period, q0, amplitude, seconds)
+        k = 0
+        while (t := bus.now() - t0) < seconds:  # the excitation at the time of now: a late host skips samples
+            ref, vel = excitation(t, q0, amplitude, seconds)
             await j.impedance_control(g.motor_angle(ref), g.motor_speed(vel), 0.0, kp, kd)
             st = await j.get_joint_state()
             if abs(st.position - ref) > 2 * amplitude or (max_torque is not None and abs(st.torque) > max_torque):
@@ -64,10 +65,11 @@ async def identify(
                     f"identify: joint {joint!r} stopped at {st.position:.3f} rad, torque {st.torque:.3g} Nm: "
                     "it does not follow the excitation (blocked, or max_torque reached)"
                 )
-            ts.append(st.timestamp)
+            ts.append(bus.frame_time(j.id) or st.timestamp)  # the frame's own time, not when a busy host read it
             qs.append(st.position)
             vs.append(st.velocity)
             taus.append(st.torque)
+            k = max(k + 1, int((bus.now() - t0) / period))  # the next sample due (missed ones are not made up)
             wait = t0 + (k + 1) * period - bus.now()
             if wait > 0:
                 await bus.run(sleep(wait))
@@ -79,7 +81,7 @@ async def identify(
             await j.set_angle(g.motor_angle(q0), 0.0, 20.0, PositionMode.T)  # back where it was
         else:
             await bus.send_many([j.make_angle(at, 0.0, 20.0, PositionMode.T)])  # hold where it is
-    return from_samples(joint, rate, ts, qs, vs, taus)
+    return from_samples(joint, rate, ts, qs, vs, taus, seconds)
 
 
 async def step_response(
@@ -121,11 +123,12 @@ async def tune(
     identified: Identification | None = None,
     step: float = 0.15,
     write: bool = True,
+    amplitude: float = 0.3,
 ) -> TuneReport:
-    """Identify ``joint`` (unless ``identified`` is given), compute the gains for ``bandwidth`` Hz, step it
-    with its present gains, write the new ones (``write``) and step it again (without ``write`` the
-    report's ``after`` is the ``before``)."""
-    got = identified or await identify(robot, joint)
+    """Identify ``joint`` (unless ``identified`` is given; ``amplitude`` rad peak excursion), compute the
+    gains for ``bandwidth`` Hz, step it with its present gains, write the new ones (``write``) and step it
+    again (without ``write`` the report's ``after`` is the ``before``)."""
+    got = identified or await identify(robot, joint, amplitude=amplitude)
     gains = gains_for(got.inertia, got.viscous, bandwidth, robot.spec.joints[joint].gear)
     before = await step_response(robot, joint, step)
     after = before

@@ -394,7 +394,7 @@ class Trajectory:
         if ext not in (".csv", ".json", ".mcap"):
             raise ValidationError(f"{p}: unknown trajectory file type {ext or '(none)'!r}: .csv, .json or .mcap")
         if not os.path.isfile(p):
-            raise DrEmpowerError(f"cannot read {p}: no such file")
+            raise ValidationError(f"cannot read {p}: no such file")  # the user's to fix: exit 2
         try:
             if ext == ".csv":
                 return _read_csv(p)

@@ -13,6 +13,8 @@ from typing import NamedTuple
 from ..errors import FieldRangeError, ProtocolError, ValidationError
 
 __all__ = [
+    "TimedFrame",
+    "timed",
     "BROADCAST",
     "MAX_NODE",
     "Cmd",
@@ -82,6 +84,22 @@ class Frame(NamedTuple):
     data: bytes
     is_extended: bool = False
     is_remote: bool = False
+
+
+class TimedFrame(Frame):
+    """A received frame with ``time``: when it was on the wire by its transport's own clock (the
+    simulator's time, a CAN interface's receive timestamp), on the scale of :func:`time.monotonic` (s).
+    The client keeps it as the time of a state (``bus.frame_time(id)``): a fit of dynamics uses it
+    rather than when a busy host got round to reading the frame."""
+
+    time: float
+
+
+def timed(frame: Frame, time: float) -> TimedFrame:
+    """``frame`` with its ``time`` (s, monotonic scale)."""
+    out = TimedFrame(*frame)
+    out.time = time
+    return out
 
 
 def check_node(node: object, field: str = "node") -> int:

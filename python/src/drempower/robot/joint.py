@@ -64,6 +64,10 @@ class Gearing:
             st,
         )
 
+    def joint_state_angle(self, angle: float) -> float:
+        """The joint position (rad) when the motor reads ``angle`` deg."""
+        return math.radians(angle) / self.gear + self.offset
+
     def motor_angle(self, position: float) -> float:
         """The motor angle (deg) that puts the joint at ``position`` rad."""
         return math.degrees((position - self.offset) * self.gear)

@@ -26,6 +26,7 @@ from ..protocol.messages import Message
 from .config import JointSpec, RobotSpec, load_robot
 from .flavours import AsyncPart, AsyncRobotBase
 from .joint import Gearing, JointState
+from .limits import JointLimit, apply_limits, model_range_of, twin_model
 from .names import by_bus, check_commands, opening_failed, per_bus
 from .plan import (
     StartClock,
@@ -146,10 +147,12 @@ class AsyncRobot(AsyncRobotBase):
             name: AsyncJoint(self.buses[j.bus], j, self) for name, j in spec.joints.items()
         }
         """Every joint by name, in file order."""
-        for name, j in spec.joints.items():
-            if j.limits:
-                where = f"{spec.source}: [joints.{name}] limits"
-                self.buses[j.bus].set_limits(j.id, **Gearing(j).motor_limits(j.limits), where=where)
+        ranges = model_range_of(spec, next((m for m in map(twin_model, self.buses.values()) if m is not None), None))
+        self.limits: dict[str, JointLimit] = {}
+        """Each joint's soft limits at the joint (the file's, and the model's range: see :mod:`.limits`)."""
+        for b in spec.buses:  # closing holds the joints that hold (an arm is not dropped), idles the others
+            self.buses[b].hold_on_close(j.id for j in spec.joints_on(b) if j.on_timeout == "hold")
+            self.limits.update(apply_limits(self.buses[b], spec, [j.name for j in spec.joints_on(b)], ranges))
         self._clock = StartClock()
         for bus in self.buses.values():
             bus.on_sent = self._clock

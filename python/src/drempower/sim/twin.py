@@ -32,6 +32,7 @@ the one furthest ahead; :class:`TwinRunner` advances them in lockstep, 1 ms at a
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
@@ -560,14 +561,26 @@ class TwinRunner:
         self._stop = False
         self._wake = threading.Event()
         self._thread: threading.Thread | None = None
+        self._goal = 0.0
+        """Simulated time (s) the buses are brought up to."""
+        self._last = 0.0
+        """Wall time (monotonic s) of the latest round."""
 
     def start(self) -> TwinRunner:
-        """Start advancing the buses (no-op when already running)."""
+        """Start advancing the buses (no-op when already running).
+
+        With one bus, a host frame first brings the twin up to wall time (the bus's ``clock_sync``), as
+        the plain simulator's runner does: every answer carries the state of the moment, not that of the
+        last round (up to :attr:`IDLE` old)."""
         if self._thread is None:
             self._stop = False
+            self._goal = max(b.now for b in self.buses)
+            self._last = time.monotonic()
             for bus in self.buses:
                 with bus.lock:
                     bus.on_activity = self._wake.set
+                    if len(self.buses) == 1:
+                        bus.clock_sync = self._sync
             self._thread = threading.Thread(target=self._run, name="drempower-twin", daemon=True)
             self._thread.start()
         return self
@@ -586,12 +599,35 @@ class TwinRunner:
             with bus.lock:
                 if bus.on_activity == self._wake.set:
                     bus.on_activity = None
+                if bus.clock_sync == self._sync:
+                    bus.clock_sync = None
+
+    def _sync(self) -> None:
+        """A one-bus twin's ``clock_sync``: up to wall time before a host frame enters (the bus lock held)."""
+        self._catch_up()
+
+    def _catch_up(self) -> float:
+        """Advance every bus in lockstep up to wall time (a round of :meth:`_run`; with one bus, also
+        called under its lock before a host frame enters); returns the simulated time reached."""
+        buses, step = self.buses, Twin.STEP
+        now = time.monotonic()
+        self._goal += min(now - self._last, self.MAX_CATCH_UP) * self.time_scale
+        self._last = now
+        goal = self._goal
+        while True:
+            t = min(b.now for b in buses)
+            if t >= goal - _EPS:
+                break
+            nxt = min(goal, (math.floor(t / step + _EPS) + 1) * step)
+            for bus in buses:
+                if bus.now < nxt:
+                    bus.advance(nxt - bus.now)
+        return goal
 
     def _run(self) -> None:
         buses, wake, scale = self.buses, self._wake, self.time_scale
-        step = Twin.STEP
-        goal = max(b.now for b in buses)
-        last = start = time.monotonic()
+        start = time.monotonic()
+        one = buses[0].lock if len(buses) == 1 else contextlib.nullcontext()
         seen = False
         while not self._stop:
             if self.while_attached:
@@ -600,17 +636,8 @@ class TwinRunner:
                 if not attached and (seen or time.monotonic() - start > self.ATTACH_GRACE):
                     break
             wake.clear()
-            now = time.monotonic()
-            goal += min(now - last, self.MAX_CATCH_UP) * scale
-            last = now
-            while True:
-                t = min(b.now for b in buses)
-                if t >= goal - _EPS:
-                    break
-                nxt = min(goal, (math.floor(t / step + _EPS) + 1) * step)
-                for bus in buses:
-                    if bus.now < nxt:
-                        bus.advance(nxt - bus.now)
+            with one:  # one bus: its clock_sync may catch up from a host's thread too
+                goal = self._catch_up()
             due = min(b.next_due() for b in buses)
             wake.wait(min(self.IDLE, max((due - goal) / scale, 0.0)))
         self._detach()

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from ..errors import ConfigError
 from .base import Transport
 from .errors import TransportError, TransportOptionError
 
@@ -31,16 +32,21 @@ def _serial_port(interface: str, channel: str | int | None) -> str:
     return str(channel)
 
 
+def adapter_bitrate_refusal(port: object, bitrate: object) -> str:
+    """Why an ``adapter`` bus takes no ``bitrate`` (the words of the client and of ``drempower sim --robot``)."""
+    return (
+        f"cannot open vendor USB-CAN adapter on {port} with bitrate={bitrate}: the adapter's CAN "
+        "bitrate is set with the vendor's configuration tool, not by the host; leave bitrate out "
+        "(baudrate= sets the serial rate, which a USB adapter does not need)"
+    )
+
+
 def _adapter(interface: str, channel: str | int | None, bitrate: int | None, kwargs: dict[str, Any]) -> Transport:
     from .serial_adapter import AdapterTransport
 
     port = _serial_port(interface, channel)
     if bitrate is not None:
-        raise TransportError(
-            f"cannot open vendor USB-CAN adapter on {port} with bitrate={bitrate}: the adapter's CAN "
-            "bitrate is set with the vendor's configuration tool, not by the host; leave bitrate out "
-            "(baudrate= sets the serial rate, which a USB adapter does not need)"
-        )
+        raise TransportError(adapter_bitrate_refusal(port, bitrate))
     return AdapterTransport(port, **kwargs)
 
 
@@ -136,6 +142,8 @@ def _sim(interface: str, channel: str | int | None, bitrate: int | None, kwargs:
         kwargs.setdefault("bitrate", bitrate)
     try:
         return SimTransport(**kwargs)
+    except ConfigError:  # the robot file's (a model_joint the model lacks): the user's to fix, as it is
+        raise
     except (TypeError, ValueError) as exc:
         raise TransportError(f"cannot start the simulator ({exc})") from exc
 

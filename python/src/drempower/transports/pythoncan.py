@@ -18,9 +18,9 @@ import can.util
 import serial
 from can.interfaces import VALID_INTERFACES
 
-from ..protocol.ids import Frame, parse_int
+from ..protocol.ids import Frame, parse_int, timed
 from .base import Transport
-from .errors import TransportError
+from .errors import TransportError, TransportOptionError
 from .fds import close_fds, drain_close, nonblocking_pipe
 
 __all__ = ["PythonCanTransport", "SEND_TIMEOUT", "CONNECT_TIMEOUT"]
@@ -47,9 +47,17 @@ def _shown(settings: dict[str, Any]) -> str:
     return ", ".join(f"{k}={settings[k]!r}" for k in _KEYS if k in settings)
 
 
+_EPOCH_TO_MONOTONIC = time.monotonic() - time.time()
+"""Added to a python-can receive timestamp (s since the epoch) to put it on the monotonic scale."""
+
+
 def _frame(msg: can.Message) -> Frame:
-    """The frame a python-can message carries."""
-    return _new_frame(Frame, (msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame))
+    """The frame a python-can message carries, with its receive timestamp when the interface gives one."""
+    frame: Frame = _new_frame(Frame, (msg.arbitration_id, bytes(msg.data), msg.is_extended_id, msg.is_remote_frame))
+    at = msg.timestamp + _EPOCH_TO_MONOTONIC
+    if abs(at - time.monotonic()) < 10.0:  # seconds since the epoch (others: 0, or the device's own scale)
+        return timed(frame, at)
+    return frame
 
 
 def _why(exc: BaseException) -> str:
@@ -303,8 +311,8 @@ class PythonCanTransport(Transport):
                 f"no interface (config files {', '.join(can.util.CONFIG_FILES)}, or CAN_INTERFACE). "
                 "Give interface= (and channel=), e.g. 'socketcan' 'can0'"
             )
-        if name not in VALID_INTERFACES:
-            raise TransportError(
+        if name not in VALID_INTERFACES:  # a typo (simm) is the user's to fix: a TransportOptionError (exit 2)
+            raise TransportOptionError(
                 f"cannot open python-can bus ({_shown(given)}): unknown interface {name!r}. Interfaces "
                 f"python-can knows: {', '.join(sorted(VALID_INTERFACES))}; drempower adds 'adapter', 'serial', "
                 "'uart' and 'sim'"

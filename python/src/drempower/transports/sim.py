@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import os
 import queue
+import time
 import weakref
 from collections.abc import Callable, Iterable
 from dataclasses import replace
 from typing import Any
 
 from ..errors import ValidationError
-from ..protocol.ids import Frame
+from ..protocol.ids import Frame, timed
 from ..robotfile import RobotSpec, load_robot
 from ..sim import SimBus, SimRunner
 from .base import QueuedTransport
@@ -92,6 +93,8 @@ class SimTransport(QueuedTransport):
         self._signal_r: int | None = None
         self._sink = self._deliver
         self.bus.add_listener(self._sink, host_frames=True)
+        self._time_scale = time_scale if time_scale > 0 and not virtual else 0.0
+        self._mono0, self._sim0 = time.monotonic(), self.bus.now
         self._runner = SimRunner(self.bus, time_scale).start() if time_scale > 0 and not virtual else None
         ids = ",".join(str(m.node_id) for m in self.bus.motors.values())
         pace = "virtual clock" if virtual else f"time x{time_scale:g}" if time_scale > 0 else "manual clock"
@@ -122,6 +125,9 @@ class SimTransport(QueuedTransport):
         return self
 
     def _deliver(self, frame: Frame) -> None:
+        scale = self._time_scale
+        if scale:  # the frame's own time: the simulator's, on the host's scale (it may fall behind a busy host)
+            frame = timed(frame, self._mono0 + (self.bus.now - self._sim0) / scale)
         capture = self._capture
         if capture is not None:  # set only while send_collect holds the bus's lock: this is its answer
             capture.append(frame)

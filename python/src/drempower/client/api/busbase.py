@@ -166,6 +166,23 @@ class BusBase(ABC, Generic[M]):
             where = f"bus.set_limits({id}{', ' if args else ''}{args})"
         self._gate.set_limits(id, where, **given)
 
+    def hold_on_close(self, ids: Iterable[int]) -> None:
+        """Closing with ``stop_on_close=True`` (the default; a signal, Python's exit) holds motors ``ids``
+        (speed 0 in closed loop) instead of idling them: a robot file's joints whose ``on_timeout`` is hold."""
+        self._session.hold_on_close.update(check_motor(i, "id") for i in ids)
+
+    @property
+    def held_on_close(self) -> frozenset[int]:
+        """The motors stopping holds instead of idling (see :meth:`hold_on_close`)."""
+        return frozenset(self._session.hold_on_close)
+
+    def frame_time(self, id: int) -> float | None:
+        """When motor ``id``'s latest state frame was on the wire by its transport's own clock (the
+        simulator's time, a CAN interface's receive timestamp; else when it arrived), on the scale of
+        the state's ``timestamp`` (s); None before any state. A fit of dynamics uses it: a busy host
+        reads a frame late, but the frame's own time stays true."""
+        return self._session.known.frame_times.get(id)
+
     def limits(self, id: int) -> dict[str, Limit]:
         """The soft limits of motor ``id`` (see :meth:`set_limits`): name ->
         :class:`~drempower.client.engine.gate.Limit`."""

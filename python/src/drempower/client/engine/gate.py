@@ -228,6 +228,10 @@ class MotionGate:
 
     def __init__(self, now: Callable[[], float] = time.monotonic) -> None:
         self._closed: set[int] = set()
+        self._idled: dict[int, int] = {}
+        """Motors this bus itself asked out of closed loop (axis state asked) and has not enabled since: a read
+        of their state may overtake that request on the wire (a lower CAN id wins arbitration), so a read
+        saying closed loop is not believed."""
         self._limits: dict[int, dict[str, Limit]] = {}
         self._now = now
         self._estopped: set[int] = set()
@@ -322,8 +326,13 @@ class MotionGate:
                     self._released[m.node] = self._now()
                     if m.node == 0:
                         self._closed.clear()
+                        self._idled.clear()
                     else:
                         self.learn(m.node, int(m.value))
+                        if int(m.value) == _CLOSED:
+                            self._idled.pop(m.node, None)
+                        else:
+                            self._idled[m.node] = int(m.value)
             elif isinstance(m, SystemCommand) and m.op in _FORGETS:
                 self.forget((m.node,))
                 if m.op == SysCmd.ESTOP:
@@ -489,6 +498,8 @@ class MotionGate:
         idle: list[tuple[int, int]] = []
         for n, reply in zip(unknown, values, strict=True):
             state = int(reply.value)
+            if n in self._idled:  # this bus asked it out of closed loop: the read may have overtaken that
+                state = self._idled[n]
             self.learn(n, state)
             if state != _CLOSED:
                 idle.append((n, state))

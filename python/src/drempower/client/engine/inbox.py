@@ -131,6 +131,7 @@ class Inbox:
             pos, vel, tq = _STATE(data)
             st: MotorState = _new_state(MotorState, (node, pos, vel / 100, tq / 100, bool(cmd & 2), bool(cmd & 4), now))
             known = self.known
+            known.frame_times[node] = getattr(frame, "time", now)
             if not cmd & 2:
                 mv = known.moves.get(node)
                 if mv is not None and mv.took is None and st.timestamp > mv.sent:

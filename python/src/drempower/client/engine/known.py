@@ -45,11 +45,14 @@ class MoveRecord:
 class Known:
     """Facts about the motors, per node id; filled by what the bus sends and receives (no I/O)."""
 
-    __slots__ = ("commanded", "heard", "moves", "reply_state", "states", "traj_mode")
+    __slots__ = ("commanded", "frame_times", "heard", "moves", "reply_state", "states", "traj_mode")
 
     def __init__(self) -> None:
         self.states: dict[int, MotorState] = {}
         """The latest state of every motor heard from."""
+        self.frame_times: dict[int, float] = {}
+        """When each latest state was on the wire by its transport's own clock (see
+        :class:`~drempower.protocol.ids.TimedFrame`), else when it arrived (s, monotonic scale)."""
         self.heard: set[int] = set()
         """Motors that answered a request."""
         self.traj_mode: dict[int, int] = {}

@@ -133,6 +133,8 @@ class BusSession:
         if retries.__class__ is not int or retries < 0:
             raise ValidationError(f"retries={retries!r}: must be an integer >= 0")
         self.stop_on_close = stop_on_close
+        self.hold_on_close: set[int] = set()
+        """Motors that ``stop_on_close=True`` holds (speed 0) instead of idling: a robot file's joints that hold."""
         self.timers = timers = Timers(now)
         self.outbox = outbox = Outbox(bitrate, now)
         self.known = known = Known()
@@ -363,8 +365,8 @@ class BusSession:
         self.sequencer.stopped(nodes)
 
     def stop_frames(self) -> list[Frame]:
-        """The frames ``stop_on_close`` sends: idle or estop to every commanded motor."""
-        return stop_frames(self.stop_on_close, self.known.commanded)
+        """The frames ``stop_on_close`` sends: idle (hold: :attr:`hold_on_close`) or estop to each commanded motor."""
+        return stop_frames(self.stop_on_close, self.known.commanded, self.hold_on_close)
 
     # ------------------------------------------------------------------ operations
 

@@ -7,10 +7,10 @@ from typing import Literal
 
 from ...protocol.addresses import AXIS0_REQUESTED_STATE
 from ...protocol.ids import Frame, SysCmd
-from ...protocol.messages import SystemCommand, WriteParam
+from ...protocol.messages import SystemCommand, Velocity, WriteParam
 from ...protocol.parameters import DataType
 
-__all__ = ["StopOnClose", "estop_frames", "idle_frames", "stop_frames"]
+__all__ = ["StopOnClose", "estop_frames", "hold_frames", "idle_frames", "stop_frames"]
 
 StopOnClose = bool | Literal["idle", "estop"]
 """What closing the bus does to the motors it commanded: see :class:`~drempower.client.engine.session.BusSession`."""
@@ -28,9 +28,20 @@ def idle_frames(nodes: Iterable[int]) -> list[Frame]:
     return [WriteParam(n, AXIS0_REQUESTED_STATE, DataType.U32, _IDLE).encode() for n in nodes]
 
 
-def stop_frames(stop_on_close: StopOnClose, commanded: Iterable[int]) -> list[Frame]:
-    """The frames ``stop_on_close`` sends to the ``commanded`` motors: idle writes, estops or nothing."""
+def hold_frames(nodes: Iterable[int]) -> list[Frame]:
+    """Speed 0 to each of motors ``nodes``: a motor in closed loop holds where it is (a joint's ``hold``)."""
+    return [Velocity(n, 0.0).encode() for n in nodes]
+
+
+def stop_frames(stop_on_close: StopOnClose, commanded: Iterable[int], hold: Iterable[int] = ()) -> list[Frame]:
+    """The frames ``stop_on_close`` sends to the ``commanded`` motors: idle writes, estops or nothing.
+
+    With ``True``, the motors in ``hold`` (a robot file's joints whose ``on_timeout`` is ``hold``) get
+    speed 0 instead of idle, so an arm under gravity is not dropped; ``"idle"`` idles every motor."""
     if not stop_on_close:
         return []
     nodes = sorted(commanded)
-    return estop_frames(nodes) if stop_on_close == "estop" else idle_frames(nodes)
+    if stop_on_close == "estop":
+        return estop_frames(nodes)
+    held = set(hold) if stop_on_close is True else set()
+    return hold_frames([n for n in nodes if n in held]) + idle_frames([n for n in nodes if n not in held])

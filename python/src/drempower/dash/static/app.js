@@ -6,6 +6,9 @@
   const KEEP_S = 60; // seconds of samples kept per motor (the largest window)
   const CH = { angle: 2, speed: 3, torque: 4 };
   const TGT = { angle: 6, speed: 7, torque: 8 };
+  const PLOT_UNIT = { angle: "deg", speed: "rpm", torque: "Nm", T: "flag", E: "flag" };
+  const UNIT_LABEL = { deg: "angle / deg", rpm: "speed / r/min", Nm: "torque / Nm", flag: "T, E flags", value: "parameter" };
+  const DASH = { angle: undefined, speed: [8, 4], torque: [3, 3], T: [12, 3, 2, 3], E: [2, 6] };
   const COLORS = ["#1e88e5", "#e53935", "#43a047", "#fb8c00", "#8e24aa", "#00897b", "#6d4c41", "#3949ab",
     "#c0ca33", "#d81b60", "#5e35b1", "#00acc1"];
 
@@ -161,12 +164,18 @@
     window.dashStats.serverTotal = Math.max(window.dashStats.serverTotal, m.total);
     const now = performance.now();
     S.rateWin.push([now, s.length]);
+    let newTarget = false;
     for (const row of s) {
       let d = S.data.get(row[0]);
-      if (!d) { d = { t: [], rows: [] }; S.data.set(row[0], d); if (!S.motors.includes(row[0])) setMotors([...S.motors, row[0]]); }
+      if (!d) { d = { t: [], rows: [], targets: new Set() }; S.data.set(row[0], d); if (!S.motors.includes(row[0])) setMotors([...S.motors, row[0]]); }
       d.t.push(row[1]); d.rows.push(row);
       if (row[1] > S.lastT) S.lastT = row[1];
+      for (const [ch, col] of Object.entries(TGT)) {
+        if (row[col] !== null && row[col] !== undefined && !d.targets.has(ch)) { d.targets.add(ch); newTarget = true; }
+      }
     }
+    // a target drawn for the first time joins the legend (only series that are drawn are listed)
+    if (newTarget && !$("#view-plots").hidden) rebuildPlot();
     for (const d of S.data.values()) {
       if (d.t.length > 1000 && d.t[0] < S.lastT - KEEP_S * 1.2) {
         const k = lowerBound(d.t, S.lastT - KEEP_S);
@@ -235,6 +244,7 @@
     b.addEventListener("click", () => {
       for (const o of $$("nav button")) o.setAttribute("aria-selected", String(o === b));
       for (const v of $$(".view")) v.hidden = v.id !== "view-" + b.dataset.view;
+      say(""); // a message belongs to the view it came from
       if (b.dataset.view === "plots") rebuildPlot();
       if (b.dataset.view === "params" && S.motors.length && !Object.keys(S.paramValues).length) readParams();
       if (b.dataset.view === "tuning") { loadGains(); drawRuns(); }
@@ -337,19 +347,28 @@
     if ($("#view-plots").hidden) return;
     const ids = selectedMotors(), chs = selectedChannels(), tg = $("#plot-targets").checked;
     series = [];
+    // one colour per joint (motor), the channel by its dash; targets only once there are any to draw
     ids.forEach((id, k) => {
+      const color = COLORS[k % COLORS.length], d = S.data.get(id);
       for (const ch of chs) {
-        series.push({ id, ch, target: false, color: COLORS[(k * 3 + chs.indexOf(ch)) % COLORS.length] });
-        if (tg && TGT[ch] !== undefined) series.push({ id, ch, target: true, color: COLORS[(k * 3 + chs.indexOf(ch)) % COLORS.length] });
+        series.push({ id, ch, target: false, color, unit: PLOT_UNIT[ch] });
+        if (tg && TGT[ch] !== undefined && d && d.targets && d.targets.has(ch)) series.push({ id, ch, target: true, color, unit: PLOT_UNIT[ch] });
       }
     });
     S.watched.forEach(([id, name], k) => {
-      series.push({ id, ch: name, param: `${id}:${name}`, color: COLORS[(k + 5) % COLORS.length] });
+      series.push({ id, ch: name, param: `${id}:${name}`, color: COLORS[(ids.length + k) % COLORS.length], unit: "value" });
     });
+    // one y axis per unit drawn: the first on the left, the next on the right, and so on
+    const units = [...new Set(series.map((x) => x.unit))];
+    const scales = { x: { time: false } };
+    for (const u of units) scales[u] = {};
+    const axes = [{ label: "t / s" }].concat(units.map((u, i) => ({
+      scale: u, side: i % 2 ? 1 : 3, label: UNIT_LABEL[u] || u, grid: { show: i === 0 },
+    })));
     const opts = {
       width: Math.max(400, el.clientWidth || window.innerWidth - 30), height: 380,
-      scales: { x: { time: false } },
-      axes: [{ label: "t / s" }, {}],
+      scales,
+      axes: units.length ? axes : [{ label: "t / s" }, {}],
       cursor: { drag: { x: true, y: false } },
       hooks: { setSelect: [(u) => {
         if (u.select.width > 5) {
@@ -359,11 +378,13 @@
       }] },
       series: [{ label: "t" }].concat(series.map((s) => ({
         label: `${legendName(s.id)} ${s.param ? s.ch.split(".").slice(-2).join(".") : s.ch + (s.target ? " target" : "")}`,
-        stroke: s.color, width: s.target ? 1 : 1.5, dash: s.target ? [6, 4] : undefined, spanGaps: true,
+        stroke: s.color, width: s.target ? 1 : 1.5, scale: s.unit,
+        dash: s.target ? [1, 3] : DASH[s.ch], spanGaps: true,
         points: { show: false },
       }))),
     };
     plot = new uPlot(opts, [[]].concat(series.map(() => [])), el);
+    window.dashPlot = plot; // what is drawn: axes and series (for tests and the curious)
     S.dirty = true;
   }
 
@@ -533,7 +554,14 @@
   // the Control inputs bounded by the limits the selected motor holds (read by the server) and by the
   // T-mode bandwidth's parameter domain; the server checks the same bounds again
   const WIRE = 327.67;
-  function setRange(id, lo, hi) { const el = $("#" + id); el.min = String(lo); el.max = String(hi); }
+  function setRange(id, lo, hi) {
+    const el = $("#" + id); el.min = String(lo); el.max = String(hi);
+    // a default beyond a limit (a robot file's speed limit) would be refused: bring it within
+    const v = Number(el.value);
+    if (el.value !== "" && Number.isFinite(v) && (v < lo || v > hi)) {
+      el.value = String(Math.trunc(Math.min(hi, Math.max(lo, v)) * 1e4) / 1e4); // toward 0: still within
+    }
+  }
   function applyLimits() {
     const c = S.cards[ctlId()], L = (c && c.limits) || {};
     const sp = Math.min(WIRE, L.speed ?? WIRE), tq = Math.min(WIRE, L.torque ?? WIRE);
@@ -547,8 +575,13 @@
     else if (pm === "P") setRange("pos-param", -tq, tq);
     else setRange("pos-param", -WIRE, WIRE);
     if ($("#vel-mode").value === "1") setRange("vel-param", -tq, tq); else setRange("vel-param", -WIRE, WIRE);
+    const pos = L.position;
+    for (const id of ["pos-angle", "imp-angle"]) {
+      if (pos) setRange(id, pos[0], pos[1]); else setRange(id, -36000, 36000);
+    }
+    const by = L.set_by ? ` (set by ${[...new Set(Object.values(L.set_by))].join("; ")})` : "";
     $("#ctl-limits").textContent = c && c.limits
-      ? `limits of ${motorName(ctlId())}: speed ±${fmtL(L.speed)} r/min, torque ±${fmtL(L.torque)} Nm, current ${fmtL(L.current)} A; T bandwidth ${bw[0]}..${bw[1]} 1/s`
+      ? `limits of ${motorName(ctlId())}: ${pos ? `position ${fmtL(pos[0])}..${fmtL(pos[1])} deg, ` : ""}speed ±${fmtL(L.speed)} r/min, torque ±${fmtL(L.torque)} Nm, current ${fmtL(L.current)} A; T bandwidth ${bw[0]}..${bw[1]} 1/s${by}`
       : `T bandwidth ${bw[0]}..${bw[1]} 1/s (scan to read the motor's limits)`;
   }
   const fmtL = (v) => (v === null || v === undefined ? "?" : String(+Number(v).toPrecision(6)));

@@ -226,9 +226,18 @@ function resize() {
 // ------------------------------------------------------------ the hand from outside
 function number(id, lo, hi, unit, openLow) {
   const el = $("#" + id), v = Number(el.value);
-  if (el.value.trim() === "" || !Number.isFinite(v)) throw new Error(`${id}: ${JSON.stringify(el.value)} is not a number`);
-  if (v > hi || v < lo || (openLow && v === lo)) throw new Error(`${id}: ${v} is outside ${openLow ? "above " : ""}${lo}..${hi} ${unit}`);
+  const name = fieldName(el);
+  if (el.value.trim() === "" || !Number.isFinite(v)) throw new Error(`${name}: ${JSON.stringify(el.value)} is not a number`);
+  if (v > hi || v < lo || (openLow && v === lo)) throw new Error(`${name}: ${v} is outside ${openLow ? "above " : ""}${lo}..${hi} ${unit}`);
   return v;
+}
+
+// a field as the page labels it ("force N z"), not by its element id
+function fieldName(el) {
+  if (el.getAttribute("aria-label")) return el.getAttribute("aria-label");
+  const words = { "hand-fx": "force N x", "hand-fy": "force N y", "hand-fz": "force N z",
+    "hand-torque": "torque Nm", "hand-duration": "duration s" };
+  return words[el.id] || el.id;
 }
 
 function handKind() {
@@ -236,6 +245,10 @@ function handKind() {
   const sc = V.doc.scene;
   const names = kind === "body" ? sc.bodies.slice(1).map((b) => b.name) : V.doc.joints.map((j) => j.joint);
   $("#hand-target").replaceChildren(...names.map((n) => new Option(n, n)));
+  if (kind === "body") { // the default body is one that moves: the last body a joint turns (not the fixed base)
+    const moving = sc.joints.map((j) => sc.bodies[j.body] && sc.bodies[j.body].name).filter(Boolean);
+    if (moving.length) $("#hand-target").value = moving[moving.length - 1];
+  }
   for (const e of document.querySelectorAll(".hand-body")) e.hidden = kind !== "body";
   for (const e of document.querySelectorAll(".hand-joint")) e.hidden = kind !== "joint";
 }

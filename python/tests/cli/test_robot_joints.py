@@ -1,0 +1,80 @@
+"""``--robot FILE`` on the command line means what it means in Python: a named joint takes joint units
+(deg, r/min, Nm at the joint), the file's limits refuse with the same words, JSON names the joint."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from drempower.sim import SimBus
+
+from .conftest import Cli
+
+ROBOT = """
+[buses.arm]
+interface = "sim"
+[joints.shoulder]
+bus = "arm"
+id = 1
+gear = 2.0
+[joints.elbow]
+bus = "arm"
+id = 2
+limits = { position = [-1.0, 1.0], speed = 2.0 }
+"""
+
+
+@pytest.fixture
+def arm(tmp_path: Path) -> str:
+    path = tmp_path / "arm.toml"
+    path.write_text(ROBOT)
+    return str(path)
+
+
+def test_the_files_limits_refuse_a_move_and_a_speed_with_the_python_words(cli: Cli, sim: SimBus, arm: str) -> None:
+    r = cli("move", "elbow", "80", "--robot", arm)
+    assert r.code == 2, (r.out, r.err)
+    assert f"(set by {arm}: [joints.elbow] limits)" in r.err and "Traceback" not in r.err
+    assert abs(sim.motors[2].position) < 1  # nothing moved
+    r = cli("speed", "elbow", "200", "--robot", arm, "--duration", "0.5")
+    assert r.code == 2 and f"(set by {arm}: [joints.elbow] limits)" in r.err, r.err
+    r = cli("move", "elbow", "45", "--robot", arm, "--wait", "--speed", "15", "--accel", "100")
+    assert r.code == 0, r.err  # inside the limit: 45 deg at the joint, 0.785 rad
+
+
+def test_a_named_joint_takes_degrees_at_the_joint_a_motor_id_the_motors(cli: Cli, sim: SimBus, arm: str) -> None:
+    r = cli("move", "shoulder", "40", "--robot", arm, "--wait", "--json", "--speed", "60", "--accel", "100")
+    assert r.code == 0, r.err
+    (rec,) = r.records()
+    assert rec["joint"] == "shoulder" and rec["units"] == "joint" and rec["target_deg"] == 40.0
+    assert rec["position_deg"] == pytest.approx(40, abs=0.5)
+    r = cli("state", "1", "--robot", arm, "--json")  # motor 1, by id: motor units
+    (rec,) = r.records()
+    assert rec["joint"] == "shoulder" and rec["units"] == "motor" and rec["position_deg"] == pytest.approx(80, abs=1)
+    r = cli("state", "--robot", arm, "--json")  # every joint, by name: joint units
+    got = {x["joint"]: x for x in r.records()}
+    assert set(got) == {"shoulder", "elbow"} and got["shoulder"]["units"] == "joint"
+    assert got["shoulder"]["position_deg"] == pytest.approx(40, abs=0.5)
+    r = cli("move", "shoulder", "40", "--robot", arm, "--wait", "--speed", "60", "--accel", "100")
+    assert r.code == 0 and "shoulder" in r.out and "units" in r.out, r.out
+
+
+def test_ctrl_c_holds_a_joint_that_holds_and_idles_one_that_says_idle(
+    cli: Cli, sim: SimBus, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from drempower.client import Bus
+    from drempower.sim.motor import AxisState
+
+    path = tmp_path / "arm.toml"
+    path.write_text(ROBOT.replace("id = 2\n", 'id = 2\non_timeout = "idle"\n'))
+
+    def interrupted(*args: object, **kwargs: object) -> None:
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(Bus, "positions_done", interrupted)
+    r = cli("move", "shoulder,elbow", "10", "--wait", "--robot", str(path), "--speed", "15", "--accel", "100")
+    assert r.code == 130, r.err
+    assert "interrupted: motor 1 held" in r.err and "interrupted: motor 2 set to idle" in r.err, r.err
+    assert sim.motors[1].state is AxisState.CLOSED_LOOP_CONTROL  # the shoulder is not dropped
+    assert sim.motors[2].state is AxisState.IDLE
