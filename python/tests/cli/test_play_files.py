@@ -3,7 +3,7 @@ with a byte-order mark (as spreadsheets write) is read."""
 
 from __future__ import annotations
 
-import os
+import random
 from pathlib import Path
 
 import pytest
@@ -18,9 +18,10 @@ pytest.importorskip("mcap")
     [
         ("tiny.csv", b"t,1\n0,0\n1e-300,10\n", "1e-300 s after times[0]; the shortest step is 1e-06 s"),
         ("huge.csv", b"t,1\n0,0\n1,1e308\n", "positions['1'][1]=1e+308: beyond +-1e+06"),
-        ("random.mcap", os.urandom(64), "not a readable MCAP file (InvalidMagic"),
+        ("random.mcap", random.Random(7).randbytes(64), "not a readable MCAP file (InvalidMagic"),
         ("empty.mcap", b"", "not a readable MCAP file (EndOfFile: it ends early)"),
     ],
+    ids=["tiny", "huge", "random", "empty"],  # the same in every worker of a parallel run
 )
 def test_a_file_that_cannot_be_followed_is_one_line(
     cli: Cli, tmp_path: Path, name: str, content: bytes, words: str
