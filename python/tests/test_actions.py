@@ -159,3 +159,23 @@ def test_a_new_query_is_one_operation_and_one_row(bus: drempower.Bus) -> None:
     finally:
         actions.unregister("volcur")
     assert "volcur" not in [a.name for a in actions.table()]
+
+
+def test_the_settle_after_an_enable_waits_on_the_buss_clock() -> None:
+    """why_not_enabled asks again every 20 ms of the bus's time: on the virtual clock its wait takes simulated
+    time, not wall time, and an estopped motor that ignores the enable is named with its fix."""
+    import time as _time
+
+    import drempower
+    from drempower import actions as _actions
+
+    with drempower.open_bus("sim", motors=[1], clock="virtual", stop_on_close=False) as bus:
+        bus.motor(1).estop()
+        bus.pass_time(0.05)
+        _actions.run(bus, "enable", {"id": 1})  # an estopped motor keeps its error flags: it stays idle
+        t0, wall0 = bus.now(), _time.monotonic()
+        why = _actions.why_not_enabled(bus, [1], within=30.0)
+        assert bus.now() - t0 >= 30.0 and _time.monotonic() - wall0 < 15.0
+    assert why == {
+        1: "did not enter closed loop (state idle): its error flags are set: clear errors first, then enable again"
+    }
