@@ -100,12 +100,9 @@ def run_fit(args: argparse.Namespace) -> int:
         if not args.json and sys.stderr.isatty():
             print(f"\rreplay {n}: cost {cost:.4g} ({time.monotonic() - started:.0f} s)", end="", file=sys.stderr)
 
-    try:
-        result = fit_twin(
-            spec, recs, args.joints, delay=args.delay, max_evaluations=args.max_evaluations, progress=progress
-        )
-    except ValidationError as exc:
-        raise UsageError(str(exc)) from None
+    result = fit_twin(
+        spec, recs, args.joints, delay=args.delay, max_evaluations=args.max_evaluations, progress=progress
+    )
     if not args.json and sys.stderr.isatty():
         print(file=sys.stderr)
     out: dict[str, Any] = result.as_dict()

@@ -292,18 +292,21 @@ def windowed(
     joint's armature, damping and friction change is slower."""
     np = _numpy()
     st = recording.states[joint]
-    ts = st["t"] - delay
-    n = math.floor(trace.t[-1] / window + 1e-9)
-    keep = (ts >= 0) & (ts < n * window)
+    ts = st["t"]
+    n = math.floor(min(float(ts[-1]), float(trace.t[-1])) / window + 1e-9) if len(ts) else 0
+    keep = ts < n * window
     rb = np.floor(ts[keep] / window).astype(int)
     count = np.bincount(rb, minlength=n)[:n]
     rsum = np.bincount(rb, weights=st[key][keep], minlength=n)[:n]
-    sb = np.minimum(np.floor(trace.t / window + 1e-9).astype(int), n)
+    ok = count > 0
+    # the twin's mean over each window, ``delay`` s earlier: differences of its running integral
     sim = getattr(trace, key)[joint]
-    scount = np.bincount(sb, minlength=n + 1)[:n]
-    ssum = np.bincount(sb, weights=sim, minlength=n + 1)[:n]
-    ok = (count > 0) & (scount > 0)
-    return rsum[ok] / count[ok], ssum[ok] / scount[ok]
+    integral = np.concatenate(([0.0], np.cumsum((sim[1:] + sim[:-1]) * 0.5 * np.diff(trace.t))))
+    end = float(trace.t[-1])
+    a = np.clip(np.arange(n)[ok] * window - delay, 0.0, end - 1e-6)
+    b = np.clip(a + window, a + 1e-6, end)
+    means = (np.interp(b, trace.t, integral) - np.interp(a, trace.t, integral)) / (b - a)
+    return rsum[ok] / count[ok], means
 
 
 def compare(
