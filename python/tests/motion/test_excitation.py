@@ -37,7 +37,7 @@ def test_it_starts_and_ends_at_rest_at_the_centre_and_stays_within_the_amplitude
     xs = [tr.sample(k * 0.01) for k in range(1200)]
     va = [s.velocities[0] for s in xs]
     vb = [s.velocities[1] for s in xs]
-    corr = sum(x * y for x, y in zip(va, vb)) / math.sqrt(sum(x * x for x in va) * sum(y * y for y in vb))
+    corr = sum(x * y for x, y in zip(va, vb, strict=True)) / math.sqrt(sum(x * x for x in va) * sum(y * y for y in vb))
     assert abs(corr) < 0.3
 
 

@@ -28,7 +28,6 @@ ARM = ROBOTS / "arm6.toml"
 
 
 @pytest.fixture(scope="module")
-@pytest.mark.timeout(300)
 def recordings(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     tmp = tmp_path_factory.mktemp("twin-fit")
     real = truth_robot(tmp, {j: TRUTH[j] for j in FITTED})

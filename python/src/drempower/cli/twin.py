@@ -8,7 +8,6 @@ import sys
 import time
 from typing import Any
 
-from ..errors import ValidationError
 from ._output import add_json_arg, clean, json_line, render_table
 from ._usage import UsageError
 
@@ -139,7 +138,10 @@ def run_fit(args: argparse.Namespace) -> int:
     )
     for line in render_table(titles, rows, digits=4):
         print(clean(line))
-    print(f"transport delay {1000 * result.delay:.1f} ms; {result.evaluations} replays in {result.seconds:.1f} s")
+    print(
+        f"transport delay {1000 * result.delay:.1f} ms; {result.evaluations} replays in {result.seconds:.1f} s "
+        f"({result.cpu_seconds:.1f} s of CPU)"
+    )
     if args.write is not None:
         print(clean(f"wrote {out['written']['robot']} and {out['written']['model']}"))
     return 0

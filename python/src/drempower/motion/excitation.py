@@ -105,12 +105,14 @@ def excitation_knots(
     times = [seconds * k / (n - 1) for k in range(n)]
     phases = _phases()
     freqs = [frequencies(j) for j in range(len(joints))]
-    pos, vel, acc = [], [], []
+    pos: list[list[float]] = []
+    vel: list[list[float]] = []
+    acc: list[list[float]] = []
     for t in times:
-        row = [_value(t, seconds, ramp, freqs[j], phases) for j in range(len(joints))]
-        pos.append([centre[j] + amplitude[j] * r[0] for j, r in enumerate(row)])
-        vel.append([amplitude[j] * r[1] for j, r in enumerate(row)])
-        acc.append([amplitude[j] * r[2] for j, r in enumerate(row)])
-    for row in (vel[0], vel[-1], acc[0], acc[-1]):  # exactly at rest at both ends
-        row[:] = [0.0] * len(row)
+        unit = [_value(t, seconds, ramp, freqs[j], phases) for j in range(len(joints))]
+        pos.append([centre[j] + amplitude[j] * r[0] for j, r in enumerate(unit)])
+        vel.append([amplitude[j] * r[1] for j, r in enumerate(unit)])
+        acc.append([amplitude[j] * r[2] for j, r in enumerate(unit)])
+    for rest in (vel[0], vel[-1], acc[0], acc[-1]):  # exactly at rest at both ends
+        rest[:] = [0.0] * len(rest)
     return times, pos, vel, acc

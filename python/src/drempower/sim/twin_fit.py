@@ -53,7 +53,7 @@ _DELAY_UNIT = 0.01
 class FitResult:
     """What :func:`fit_twin` found: per joint the fitted and nominal ``armature``, ``damping``,
     ``frictionloss``; the RMS position error (deg) per joint with both; the transport ``delay`` (s);
-    the evaluations and the time taken (s)."""
+    the replays run, and the time taken (s, wall and CPU)."""
 
     joints: dict[str, dict[str, float]]
     nominal: dict[str, dict[str, float]]
@@ -62,6 +62,7 @@ class FitResult:
     delay: float
     evaluations: int
     seconds: float
+    cpu_seconds: float
     recordings: list[str] = field(default_factory=list)
 
     def as_dict(self) -> dict[str, Any]:
@@ -74,6 +75,7 @@ class FitResult:
             "delay_s": self.delay,
             "evaluations": self.evaluations,
             "seconds": self.seconds,
+            "cpu_seconds": self.cpu_seconds,
             "recordings": self.recordings,
         }
 
@@ -145,7 +147,7 @@ def fit_twin(
         raise ConfigError("twin fit needs the fit extra: pip install 'drempower[fit]' (scipy)") from None
     if not recordings:
         raise ValidationError("no recording to fit to")
-    started = time.monotonic()
+    started, cpu = time.monotonic(), time.process_time()
     replays = [Replay(spec, rec) for rec in recordings]
     every = replays[0].joints
     names = list(every) if joints is None else list(joints)
@@ -230,6 +232,7 @@ def fit_twin(
         d_fit,
         evaluations,
         time.monotonic() - started,
+        time.process_time() - cpu,
         [rec.path for rec in recordings],
     )
 
