@@ -9,12 +9,13 @@ with the twin's joint at that time. A joint whose position residual (robot - twi
 acted on per ``on_divergence``: ``"warn"`` (nothing more), ``"hold"`` (every joint holds where it is) or
 ``"idle"`` (every motor stops: the emergency stop).
 
-The twin keeps the robot's time: ``clock`` (default the wall clock) gives it; the twin's buses are advanced
+The twin's joints start where the robot's are at their first reported state. The twin keeps the robot's time: ``clock`` (default the wall clock) gives it; the twin's buses are advanced
 to it before each frame is taken (a robot on the virtual clock passes its bus's simulated time).
 """
 
 from __future__ import annotations
 
+import asyncio
 import logging
 import math
 import threading
@@ -30,6 +31,7 @@ from ..protocol.ids import Frame
 from ..protocol.messages import State
 
 if TYPE_CHECKING:
+    from .aio import AsyncRobot
     from .threaded import Robot
 
 __all__ = ["ON_DIVERGENCE", "Divergence", "Shadow"]
@@ -74,7 +76,7 @@ class Shadow:
 
     def __init__(
         self,
-        robot: Robot,
+        robot: Robot | AsyncRobot,
         *,
         position: float | None = math.radians(3.0),
         torque: float | None = None,
@@ -118,10 +120,16 @@ class Shadow:
         """The divergences flagged so far."""
         self._since: dict[tuple[str, str], float] = {}
         self._flagged: set[str] = set()
+        self.last: dict[str, float] = {}
+        """The latest position (rad) the robot reported, per joint."""
         self.residuals: dict[str, tuple[float, float]] = {}
         """The latest (position rad, torque Nm) residual, robot - twin, per joint."""
-        for name, state in robot.joint_states().items():  # start where the robot is
-            twin.set_joint(name, state.position, state.velocity)
+        self._synced: set[str] = set()
+        """Joints put where the robot's are (at their first state seen)."""
+        try:
+            self._loop: asyncio.AbstractEventLoop | None = asyncio.get_running_loop()  # an AsyncRobot's
+        except RuntimeError:
+            self._loop = None
         self._taps = []
         for b, bus in robot.buses.items():
             tap = partial(self._tap, b)
@@ -164,6 +172,11 @@ class Shadow:
                 return
             q = msg.position * _DEG / j.gear + j.offset
             tau = msg.torque * j.gear
+            self.last[j.name] = q
+            if j.name not in self._synced:  # start where the robot is
+                self.twin.set_joint(j.name, q, msg.speed * _RPM / j.gear)
+                self._synced.add(j.name)
+                return
             drive = self._buses[bus].motors[j.id].drive
             rq = q - self.twin.joint_position(j.name)
             rt = tau - drive.torque * j.gear
@@ -197,24 +210,33 @@ class Shadow:
 
     def _act(self) -> None:
         try:
-            if self.on_divergence == "idle":
+            if self._loop is not None:  # an AsyncRobot: on its loop
+                asyncio.run_coroutine_threadsafe(self._act_async(), self._loop).result(timeout=5.0)
+            elif self.on_divergence == "idle":
                 self.robot.estop()
             else:
-                for name, state in self.robot.joint_states().items():
-                    self.robot.joint(name).set_position(state.position)
+                for name, q in dict(self.last).items():
+                    self.robot.joint(name).set_position(q)
         except Exception:
             _log.exception("shadow: could not %s the robot", self.on_divergence)
         else:
             self.acted.set()
 
+    async def _act_async(self) -> None:
+        robot: Any = self.robot
+        if self.on_divergence == "idle":
+            await robot.estop()
+        else:
+            for name, q in dict(self.last).items():
+                await robot.joint(name).set_position(q)
+
     def reset(self) -> None:
-        """Forget the divergences flagged (each joint is flagged once until then) and put the twin's joints
-        where the robot's are."""
+        """Forget the divergences flagged (each joint is flagged once until then); the twin's joints are put
+        where the robot's are at their next state."""
         with self.lock:
             self._flagged.clear()
             self._since.clear()
-        for name, state in self.robot.joint_states().items():
-            self.twin.set_joint(name, state.position, state.velocity)
+            self._synced.clear()
 
     # ------------------------------------------------------------------ lifetime
 

@@ -347,7 +347,8 @@ class Robot(SyncRobotBase):
         """Run the robot's twin beside it, fed the same commands, flagging a joint whose position (rad) or
         torque (Nm) residual stays beyond ``position``/``torque`` for ``hold_time`` s; ``on_divergence``
         ``"warn"``, ``"hold"`` or ``"idle"``, ``on_event(divergence)``, ``clock``, ``model``: see
-        :class:`drempower.robot.shadow.Shadow` (needs the physics extra)."""
+        :class:`drempower.robot.shadow.Shadow` (needs the physics extra). Close it (or use it in a
+        ``with``) to stop."""
         from .shadow import Shadow
 
         return Shadow(self, **options)
