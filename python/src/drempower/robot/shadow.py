@@ -9,7 +9,8 @@ with the twin's joint at that time. A joint whose position residual (robot - twi
 acted on per ``on_divergence``: ``"warn"`` (nothing more), ``"hold"`` (every joint holds where it is) or
 ``"idle"`` (every motor stops: the emergency stop).
 
-The twin's joints start where the robot's are at their first reported state. The twin keeps the robot's time: ``clock`` (default the wall clock) gives it; the twin's buses are advanced
+The twin's joints start where the robot's are at their first reported state. The twin keeps the
+robot's time: ``clock`` (default the wall clock) gives it; the twin's buses are advanced
 to it before each frame is taken (a robot on the virtual clock passes its bus's simulated time).
 """
 
