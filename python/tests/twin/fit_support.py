@@ -63,7 +63,7 @@ def record(
     mode: str = "impedance",
     heartbeat_ms: int = 5,
     delay: float = 0.003,
-    kd: float = 0.3,
+    kd: float = 0.1,
 ) -> Path:
     """Record ``robot_file``'s arm following an excitation of ``joints`` (default all; the others hold)
     for ``seconds`` s on the virtual clock, to the MCAP file ``out``; the motors' frames reach the
