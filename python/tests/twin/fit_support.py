@@ -2,8 +2,9 @@
 
 The "real" robot is ``arm6.xml`` with :data:`TRUTH` as its joints' armature, damping and friction loss
 (``friction = "model"``: those are the totals), on the virtual clock; a recorder takes every frame of
-its bus stamped with the simulated time (the host's as it sends them, the motors' as they reach the bus), while the robot follows an excitation in impedance mode and
-the motors send their state every 5 ms, 3 ms late.
+its bus stamped with the simulated time (the host's as it sends them, the motors' as they reach the
+bus), while the robot follows an excitation in impedance mode and the motors send their state every
+5 ms, 3 ms late.
 """
 
 from __future__ import annotations
@@ -15,8 +16,8 @@ from pathlib import Path
 from drempower.motion.trajectory import Trajectory
 from drempower.protocol.ids import Frame
 from drempower.records.recorder import Recorder
-from drempower.sim.faults import Faults
 from drempower.robot import open_robot
+from drempower.sim.faults import Faults
 
 from .conftest import ROBOTS
 

@@ -163,7 +163,7 @@ class Shadow:
                 self._buses[bus].send(frame)
                 return
             try:
-                who, msg = decode_frame(frame.arbitration_id, bytes(frame.data), "motor")
+                _, msg = decode_frame(frame.arbitration_id, bytes(frame.data), "motor")
             except ProtocolError:
                 return
             if not isinstance(msg, State):
