@@ -225,6 +225,10 @@ def main() -> None:
             f"  {what:<46} {fit['fit_s']:7.1f} s wall, {fit['evaluations']} replays (goal < 300 s); "
             f"worst parameter {fit['worst']:.1%} from the truth"
         )
+        errors: dict[str, dict[str, float]] = fit["errors"]  # type: ignore[assignment]
+        for joint, row in errors.items():
+            shown = ", ".join(f"{p} {e:+.1%}" for p, e in row.items())
+            print(f"    {joint:<12} {shown}")
 
 
 if __name__ == "__main__":
