@@ -178,6 +178,8 @@ def twin_fit(seconds: float) -> dict[str, object] | None:
         "worst": worst,
         "evaluations": result.evaluations,
         "seconds": rec.duration,
+        "cpu_s": result.cpu_seconds,
+        "errors": {j: {p: result.joints[j][p] / v - 1.0 for p, v in values.items()} for j, values in TRUTH.items()},
     }
 
 
