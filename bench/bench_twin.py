@@ -145,9 +145,50 @@ def cycle_rate(seconds: float, twin: bool) -> float:
         return done / (time.perf_counter() - t0)
 
 
+def twin_fit(seconds: float) -> dict[str, object] | None:
+    """Record the hidden-truth arm (tests/twin/fit_support.py) for ``seconds`` s on the virtual clock, time one
+    replay (CPU s per recorded s) and a fit of all six joints (wall s); the largest error against the truth."""
+    try:
+        import scipy  # noqa: F401
+
+        sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python"))
+        from tests.twin.fit_support import TRUTH, record, truth_robot
+    except ImportError:
+        return None
+    import tempfile
+
+    from drempower.sim.twin_fit import fit_twin
+    from drempower.sim.twin_replay import Replay, load_recording
+
+    arm = load_robot(str(Path(__file__).resolve().parent.parent / "examples" / "robots" / "arm6.toml"))
+    with tempfile.TemporaryDirectory() as tmp:
+        path = record(truth_robot(Path(tmp)), Path(tmp) / "fit.mcap", seconds)
+        rec = load_recording(path, arm)
+        replay = Replay(arm, rec)
+        t0 = time.process_time()
+        replay.run()
+        per_s = (time.process_time() - t0) / rec.duration
+        t0 = time.perf_counter()
+        result = fit_twin(arm, [rec])
+        took = time.perf_counter() - t0
+    worst = max(abs(result.joints[j][p] / v - 1.0) for j, values in TRUTH.items() for p, v in values.items())
+    return {
+        "replay_cpu_per_s": per_s,
+        "fit_s": took,
+        "worst": worst,
+        "evaluations": result.evaluations,
+        "seconds": rec.duration,
+        "cpu_s": result.cpu_seconds,
+        "errors": {j: {p: result.joints[j][p] / v - 1.0 for p, v in values.items()} for j, values in TRUTH.items()},
+    }
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seconds", type=float, default=5.0, help="seconds per figure (default 5)")
+    parser.add_argument(
+        "--fit-seconds", type=float, default=20.0, help="the twin fit's recording (default 20 s; 0: no fit figure)"
+    )
     args = parser.parse_args()
     try:
         import mujoco
@@ -174,6 +215,22 @@ def main() -> None:
     print(f"  {what:<46} {rate:7.0f} /s, bus limit {limit:.0f} /s: {rate / limit:.1%} (goal >= 80 %)")
     what = "the same on the plain simulator (no physics)"
     print(f"  {what:<46} {plain:7.0f} /s: {plain / limit:.1%}")
+    if args.fit_seconds > 0:
+        fit = twin_fit(args.fit_seconds)
+        if fit is None:
+            print("  twin fit: needs scipy (pip install 'drempower[fit]') and the tests' folder")
+            return
+        what = "twin fit: one replay of a recording"
+        print(f"  {what:<46} {fit['replay_cpu_per_s']:7.3f} CPU s per recorded s")
+        what = f"twin fit of 6 joints, {fit['seconds']:.0f} s recording"
+        print(
+            f"  {what:<46} {fit['fit_s']:7.1f} s wall, {fit['evaluations']} replays (goal < 300 s); "
+            f"worst parameter {fit['worst']:.1%} from the truth"
+        )
+        errors: dict[str, dict[str, float]] = fit["errors"]  # type: ignore[assignment]
+        for joint, row in errors.items():
+            shown = ", ".join(f"{p} {e:+.1%}" for p, e in row.items())
+            print(f"    {joint:<12} {shown}")
 
 
 if __name__ == "__main__":

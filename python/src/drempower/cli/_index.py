@@ -53,6 +53,7 @@ COMMANDS: dict[str, str] = {
     "teach": "teach",
     "torque": "drive",
     "tune": "tune",
+    "twin": "twin",
     "udev": "udev",
     "zero": "control",
 }

@@ -29,7 +29,21 @@ def register(sub: Any) -> None:
             "they are. Example: drempower play path.csv --robot arm.toml --dry-run"
         ),
     )
-    p.add_argument("file", metavar="FILE", help="the trajectory: .csv, .json or .mcap")
+    p.add_argument("file", metavar="FILE", nargs="?", help="the trajectory: .csv, .json or .mcap (or --excite)")
+    p.add_argument(
+        "--excite",
+        type=positive,
+        metavar="S",
+        help="with --robot, instead of FILE: a safe excitation of S s for a recording to fit the twin to "
+        "(a multi-sine per joint around where it is, within its limits; see docs/twin.md)",
+    )
+    p.add_argument(
+        "--amplitude",
+        type=positive,
+        default=0.3,
+        metavar="RAD",
+        help="--excite: each joint's largest excursion from where it starts (rad, default 0.3)",
+    )
     p.add_argument("--ids", type=parse_ids, help="without --robot: the motors of the file's columns, in order")
     p.add_argument("--rate", type=positive, default=200.0, metavar="HZ", help="control cycles per s (default 200)")
     p.add_argument("--speed", type=positive, default=1.0, metavar="X", help="time scale: 2 = twice as fast")
@@ -56,7 +70,10 @@ def register(sub: Any) -> None:
 
 
 def _load(args: argparse.Namespace) -> Trajectory:
-    """The file's trajectory (a file that cannot be used raises ValidationError: one line, exit 2)."""
+    """The file's trajectory, or the excitation asked (a file that cannot be used raises ValidationError: one line,
+    exit 2)."""
+    if args.excite is not None:
+        return _excitation(args, None)
     tr = Trajectory.load(args.file, topic=args.topic)
     return tr.scaled(args.speed) if args.speed != 1.0 else tr
 
@@ -93,11 +110,12 @@ def _summary(args: argparse.Namespace, tr: Trajectory, limits: dict[str, dict[st
                 "source": lim.get("source", "-"),
             }
         )
-    head = {"file": args.file, "duration_s": tr.duration, "rate_hz": args.rate, "mode": args.mode, "unit": unit}
+    what = args.file or f"excitation of {args.excite:g} s"
+    head = {"file": what, "duration_s": tr.duration, "rate_hz": args.rate, "mode": args.mode, "unit": unit}
     if args.json:
         sys.stdout.write(json_line({**head, "joints": rows}) + "\n")
         return
-    print(clean(f"{args.file}: {len(tr.joints)} joints, {tr.duration:.3f} s at {args.rate:g} Hz, mode {args.mode}"))
+    print(clean(f"{what}: {len(tr.joints)} joints, {tr.duration:.3f} s at {args.rate:g} Hz, mode {args.mode}"))
     titles = ("joint", f"low/{unit}", f"high/{unit}", f"speed/{unit}/s", f"accel/{unit}/s^2", "limits", "from")
     for line in render_table(titles, [list(r.values()) for r in rows], digits=3):
         print(clean(line))
@@ -117,9 +135,40 @@ def _report(args: argparse.Namespace, report: Any, unit: str) -> None:
         print(clean(line))
 
 
+def _excitation(args: argparse.Namespace, centre: dict[str, float] | None) -> Trajectory:
+    """The excitation of every joint of the robot around ``centre`` (rad; None: 0), within its limits."""
+    spec = args.robot_spec
+    ranges = _model_ranges(spec)
+    limits = robot_limits(spec, list(spec.joints), ranges)
+    try:
+        tr = Trajectory.excitation(
+            list(spec.joints), args.excite, centre=centre or 0.0, amplitude=args.amplitude, limits=limits
+        )
+        return tr.scaled(args.speed) if args.speed != 1.0 else tr
+    except ValidationError as exc:
+        raise UsageError(f"--excite: {exc}") from None
+
+
+def _model_ranges(spec: Any) -> Any:
+    if spec.model is None:
+        return None
+    try:
+        import mujoco
+
+        return model_ranges(mujoco.MjModel.from_xml_path(spec.model.file))
+    except ImportError:
+        return None  # no physics extra: the file's limits only
+    except Exception as exc:  # MuJoCo's parser errors have no common type
+        raise DrEmpowerError(f"model {spec.model.file}: {exc}") from None
+
+
 def run(args: argparse.Namespace) -> int:
-    tr = _load(args)
     spec = getattr(args, "robot_spec", None)
+    if (args.file is None) == (args.excite is None):
+        raise UsageError("give a trajectory FILE or --excite S (not both)")
+    if args.excite is not None and spec is None:
+        raise UsageError("--excite needs --robot FILE (the joints and their limits)")
+    tr = _load(args)
     options = {"rate": args.rate, "mode": args.mode, "max_error": args.max_error, "kp": args.kp, "kd": args.kd}
     try:
         if spec is not None:
@@ -145,16 +194,7 @@ def _run_robot(args: argparse.Namespace, spec: Any, tr: Trajectory, options: dic
             f"{args.file}: column {unknown[0]!r} is no joint of {spec.source} (joints: {', '.join(spec.joints)})"
         )
     if args.dry_run:
-        ranges = None
-        if spec.model is not None:
-            try:
-                import mujoco
-
-                ranges = model_ranges(mujoco.MjModel.from_xml_path(spec.model.file))
-            except ImportError:
-                pass  # no physics extra: the file's limits only
-            except Exception as exc:  # MuJoCo's parser errors have no common type
-                raise DrEmpowerError(f"model {spec.model.file}: {exc}") from None
+        ranges = _model_ranges(spec)
         limits = robot_limits(spec, tr.joints, ranges)
         lanes = robot_lanes(spec, tr.joints, lambda b: spec.buses[b].options.get("bitrate"), lambda b: {})
         _dry_plan(tr, lanes, limits, options)
@@ -163,6 +203,9 @@ def _run_robot(args: argparse.Namespace, spec: Any, tr: Trajectory, options: dic
     from ..robot import open_robot
 
     with open_robot(spec, timeout=args.timeout, stop_on_close=False) as robot:
+        if args.excite is not None:  # around where the joints are: nothing moved yet
+            at = {n: s.position for n, s in robot.joint_states().items()}
+            tr = _excitation(args, at)
         report = robot.follow(tr, feedforward=args.feedforward, **options)
     _report(args, report, "rad")
     return 0

@@ -136,6 +136,24 @@ def per_joint(value: float | Sequence[float] | Mapping[str, float], joints: Sequ
     return out
 
 
+def _per_joint_any(
+    value: float | Sequence[float] | Mapping[str, float], joints: Sequence[str], what: str
+) -> list[float]:
+    """One finite value per joint from a number, a sequence in joint order, or a mapping by name."""
+    if isinstance(value, Mapping):
+        missing = [j for j in joints if j not in value]
+        if missing:
+            raise ValidationError(f"{what}: no value for joint {missing[0]!r}")
+        vals = [value[j] for j in joints]
+    elif isinstance(value, int | float):
+        vals = [value] * len(joints)
+    else:
+        vals = list(value)
+        if len(vals) != len(joints):
+            raise ValidationError(f"{what}: {len(vals)} values for {len(joints)} joints")
+    return [_finite(v, f"{what}[{j!r}]") for j, v in zip(joints, vals, strict=True)]
+
+
 def _spline_velocities(t: list[float], p: list[float]) -> list[float]:
     """Knot velocities of the C2 cubic spline through ``(t, p)`` with zero velocity at both ends."""
     n = len(t)
@@ -323,6 +341,36 @@ class Trajectory:
     def __repr__(self) -> str:
         kind = "quintic" if self.accelerations is not None else "cubic"
         return f"<Trajectory {len(self.times)} knots, {self.duration:g} s, {kind}; joints {', '.join(self.joints)}>"
+
+    # ------------------------------------------------------------------ excitation
+
+    @classmethod
+    def excitation(
+        cls,
+        joints: Sequence[str],
+        seconds: float = 20.0,
+        *,
+        centre: float | Sequence[float] | Mapping[str, float] = 0.0,
+        amplitude: float | Sequence[float] | Mapping[str, float] = 0.3,
+        ramp: float = 1.0,
+        limits: Mapping[str, Mapping[str, Any]] | None = None,
+    ) -> Trajectory:
+        """A safe excitation of ``joints`` for ``seconds`` s, for a recording to fit a twin to: per joint a
+        multi-sine of four frequencies (different for each joint) around ``centre`` (rad) within
+        +-``amplitude`` (rad), ramped in and out over ``ramp`` s, so it starts and ends at rest at the
+        centre (see :mod:`drempower.motion.excitation`). ``centre`` and ``amplitude``: one value for all
+        joints, one per joint in order, or by name. Refused (:class:`ValidationError`, naming the joint)
+        when it would leave ``limits[joint]["position"]`` (low, high rad) or exceed
+        ``limits[joint]["speed"]`` (rad/s), as :func:`drempower.motion.plan.robot_limits` gives them."""
+        from .excitation import excitation_knots
+
+        if isinstance(joints, str) or not joints:
+            raise ValidationError(f"joints={joints!r}: expected a list of joint names")
+        names = _joint_names(joints, len(joints), "joints")
+        centres = _per_joint_any(centre, names, "centre")
+        amps = per_joint(amplitude, names, "amplitude")
+        t, p, v, a = excitation_knots(names, centres, amps, seconds, ramp=ramp, limits=limits)
+        return cls(t, p, v, a, joints=names)
 
     # ------------------------------------------------------------------ time parameterisation
 

@@ -49,6 +49,7 @@ if TYPE_CHECKING:
     from ..motion.trajectory import Rows, Trajectory
     from ..motion.tune import TuneReport
     from ..sim.twin import Twin
+    from .shadow import Shadow
 
 __all__ = ["AsyncJoint", "AsyncRobot", "open_robot_async"]
 
@@ -407,6 +408,16 @@ class AsyncRobot(AsyncRobotBase):
         from ..motion.follow_async import follow_robot
 
         return await follow_robot(self, times, positions, **options)
+
+    def shadow(self, **options: Any) -> Shadow:
+        """Run the robot's twin beside it, fed the same commands, flagging a joint whose position (rad) or
+        torque (Nm) residual stays beyond ``position``/``torque`` for ``hold_time`` s; ``on_divergence``
+        ``"warn"``, ``"hold"`` or ``"idle"``, ``on_event(divergence)``, ``clock``, ``model``: see
+        :class:`drempower.robot.shadow.Shadow` (needs the physics extra). Close it (or use it in a
+        ``with``) to stop."""
+        from .shadow import Shadow
+
+        return Shadow(self, **options)
 
     async def teach(self, seconds: float | None = None, **options: Any) -> Trajectory:
         """Teach mode for ``seconds`` s (None: until ``stop()`` or Ctrl-C): gravity-compensated, low-stiffness
