@@ -26,6 +26,8 @@ __all__ = [
     "Frame",
     "parse_int",
     "parse_float",
+    "STATE_CMDS",
+    "HOST_CMDS",
 ]
 
 BROADCAST = 0
@@ -165,3 +167,14 @@ def parse_float(text: str, field: str = "value") -> float:
     if t is None or _FLOAT.fullmatch(t) is None:
         raise ValidationError(f"{field}: {text!r} is not a number in ASCII digits")
     return float(t)
+
+
+STATE_CMDS = frozenset(range(0x01, 0x18, 2))
+"""Command values that are a motor's state frame whoever sent them: bit 0 set, bits 3-4 not both set
+(0x01..0x17, odd).
+
+0x19, 0x1B, 0x1D and 0x1F are also the host commands T, P, C and write: the client takes one as a
+state only by the rule of spec/PROTOCOL.md section 1.6 (:mod:`drempower.client.engine.status_bits`); a
+sniffer without requests to pair them with shows them as host commands."""
+HOST_CMDS = frozenset((0x08, 0x0C, 0x19, 0x1A, 0x1B, 0x1C, 0x1D, 0x1E, 0x1F))
+"""Command values a host sends (0x1E is also the motor's parameter reply)."""
