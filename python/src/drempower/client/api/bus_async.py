@@ -20,7 +20,7 @@ from ...protocol.addresses import (
     AXIS0_REQUESTED_STATE,
 )
 from ...protocol.ids import SysCmd
-from ...protocol.messages import Message, PresetD, StartImpedance, Velocity
+from ...protocol.messages import Message, Velocity
 from ...protocol.parameters import parameter
 from ...transports.base import Transport
 from ..engine import batch, ops
@@ -39,7 +39,7 @@ from ..engine.commands import (
     make_torque,
     make_torques,
 )
-from ..engine.effects import Batch, Op, request
+from ..engine.effects import request
 from ..engine.gate import Intent, move_intents
 from ..engine.health import Health, read_health, read_healths
 from ..engine.results import ErrorReport, GpioMode, MotorInfo
@@ -57,11 +57,6 @@ if TYPE_CHECKING:
     from ..engine import backup as _backup
 
 __all__ = ["AsyncBus", "AsyncMotor", "open_bus_async"]
-
-
-def _impedance(preset: PresetD, start: StartImpedance) -> Op[None]:
-    """Impedance control of one motor: its preset, then the start addressed to it alone."""
-    yield Batch([preset], start)
 
 
 @checks_times
@@ -158,7 +153,7 @@ class AsyncMotor(MotorBase):
         kp Nm/rad, kd Nm/(rad/s). The start goes to this motor only (bus option ``start``)."""
         preset, start = make_impedance(self._id, pos, vel, tff, kp, kd)
         await self._bus.pass_gate((preset,), enable)
-        await self._bus.run(_impedance(preset, start))
+        await self._bus.run(ops.impedance(preset, start))
         self._bus._sent((preset,))
 
     async def stop(self) -> None:

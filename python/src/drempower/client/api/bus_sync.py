@@ -17,7 +17,7 @@ from ...protocol.addresses import (
     AXIS0_REQUESTED_STATE,
 )
 from ...protocol.ids import SysCmd
-from ...protocol.messages import Message, PresetD, StartImpedance, Velocity
+from ...protocol.messages import Message, Velocity
 from ...protocol.parameters import parameter
 from ...transports.base import Transport
 from ..engine import batch, ops
@@ -36,7 +36,7 @@ from ..engine.commands import (
     make_torque,
     make_torques,
 )
-from ..engine.effects import Batch, Op, request
+from ..engine.effects import request
 from ..engine.gate import Intent, move_intents
 from ..engine.health import Health, read_health, read_healths
 from ..engine.results import ErrorReport, GpioMode, MotorInfo
@@ -54,11 +54,6 @@ if TYPE_CHECKING:
     from ..engine import backup as _backup
 
 __all__ = ["Bus", "Motor", "open_bus"]
-
-
-def _impedance(preset: PresetD, start: StartImpedance) -> Op[None]:
-    """Impedance control of one motor: its preset, then the start addressed to it alone."""
-    yield Batch([preset], start)
 
 
 @checks_times
@@ -155,7 +150,7 @@ class Motor(MotorBase):
         kp Nm/rad, kd Nm/(rad/s). The start goes to this motor only (bus option ``start``)."""
         preset, start = make_impedance(self._id, pos, vel, tff, kp, kd)
         self._bus.pass_gate((preset,), enable)
-        self._bus.run(_impedance(preset, start))
+        self._bus.run(ops.impedance(preset, start))
         self._bus._sent((preset,))
 
     def stop(self) -> None:

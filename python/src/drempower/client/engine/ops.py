@@ -28,10 +28,10 @@ from ...protocol.addresses import (
 )
 from ...protocol.ids import SysCmd
 from ...protocol.limits import check_motor
-from ...protocol.messages import FastRead, ReadParam, SystemCommand, WriteParam
+from ...protocol.messages import FastRead, PresetD, ReadParam, StartImpedance, SystemCommand, WriteParam
 from ...protocol.parameters import DataType, Parameter, parameter
 from .commands import AxisMode, TrajMode
-from .effects import Op, Request, Send, Single, read_params, read_states, request, sleep
+from .effects import Batch, Op, Request, Send, Single, read_params, read_states, request, sleep
 from .results import ERROR_WORD_NAMES, ErrorReport, GpioMode
 from .session import MOVE_TOLERANCE, BusSession, MoveRecord
 from .state import MotorState
@@ -491,3 +491,8 @@ def wait_done(
                 node, mv.target, st.angle, flags, f"the move ended {st.angle - mv.target:+.2f} deg off its target"
             )
     return done
+
+
+def impedance(preset: PresetD, start: StartImpedance) -> Op[None]:
+    """Impedance control of one motor: its preset, then the start addressed to it alone."""
+    yield Batch([preset], start)
