@@ -31,11 +31,11 @@ from .plan import (
     robot_lanes,
     robot_limits,
 )
+from .robot_view import RobotView
 from .trajectory import Rows, Trajectory
 
 if TYPE_CHECKING:
     from ..client import AsyncBus
-    from ..robot import AsyncRobot
 
 __all__ = ["follow_bus", "follow_robot"]
 
@@ -44,7 +44,7 @@ _START_TOLERANCE = 0.1
 
 
 async def follow_robot(
-    robot: AsyncRobot,
+    robot: RobotView,
     times: Sequence[float] | Trajectory,
     positions: Rows | None = None,
     *,
@@ -153,7 +153,7 @@ async def follow_bus(
 
 
 def model_torques(
-    robot: AsyncRobot, tr: Trajectory, kind: str, given: Callable[[float], Sequence[float]] | None
+    robot: RobotView, tr: Trajectory, kind: str, given: Callable[[float], Sequence[float]] | None
 ) -> Callable[[float], Sequence[float]]:
     """Feed-forward torques (Nm at the joints) along ``tr`` from the robot's model: ``"gravity"`` (holding) or
     ``"inverse"`` (rigid-body inverse dynamics of the path's accelerations too), added to ``given``."""

@@ -10,24 +10,22 @@ The one source of both flavours: ``routines_sync.py`` is generated from this fil
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ..client.engine.commands import PositionMode
 from ..client.engine.effects import sleep
 from ..errors import DrEmpowerError
 from .identify import Identification, check_excitation, excitation, from_samples
+from .robot_view import RobotView
 from .teach import GravityModel, TeachLoop
 from .trajectory import Trajectory
 from .tune import GAIN_NAMES, Step, TuneReport, gains_for, step_metrics
-
-if TYPE_CHECKING:
-    from ..robot import AsyncRobot
 
 __all__ = ["identify", "step_response", "teach", "tune"]
 
 
 async def identify(
-    robot: AsyncRobot,
+    robot: RobotView,
     joint: str,
     *,
     amplitude: float = 0.3,
@@ -85,7 +83,7 @@ async def identify(
 
 
 async def step_response(
-    robot: AsyncRobot,
+    robot: RobotView,
     joint: str,
     amount: float,
     seconds: float = 1.5,
@@ -116,7 +114,7 @@ async def step_response(
 
 
 async def tune(
-    robot: AsyncRobot,
+    robot: RobotView,
     joint: str,
     bandwidth: float,
     *,
@@ -141,7 +139,7 @@ async def tune(
 
 
 async def teach(
-    robot: AsyncRobot,
+    robot: RobotView,
     seconds: float | None = None,
     *,
     joints: Sequence[str] | None = None,

@@ -8,24 +8,22 @@ do not edit; edit ``routines_async.py`` and run ``make generate``.
 from __future__ import annotations
 
 from collections.abc import Callable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any
 
 from ..client.engine.commands import PositionMode
 from ..client.engine.effects import sleep
 from ..errors import DrEmpowerError
 from .identify import Identification, check_excitation, excitation, from_samples
+from .robot_view import RobotView
 from .teach import GravityModel, TeachLoop
 from .trajectory import Trajectory
 from .tune import GAIN_NAMES, Step, TuneReport, gains_for, step_metrics
-
-if TYPE_CHECKING:
-    from ..robot import Robot
 
 __all__ = ["identify", "step_response", "teach", "tune"]
 
 
 def identify(
-    robot: Robot,
+    robot: RobotView,
     joint: str,
     *,
     amplitude: float = 0.3,
@@ -83,7 +81,7 @@ def identify(
 
 
 def step_response(
-    robot: Robot,
+    robot: RobotView,
     joint: str,
     amount: float,
     seconds: float = 1.5,
@@ -114,7 +112,7 @@ def step_response(
 
 
 def tune(
-    robot: Robot,
+    robot: RobotView,
     joint: str,
     bandwidth: float,
     *,
@@ -139,7 +137,7 @@ def tune(
 
 
 def teach(
-    robot: Robot,
+    robot: RobotView,
     seconds: float | None = None,
     *,
     joints: Sequence[str] | None = None,
