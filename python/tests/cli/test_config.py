@@ -10,6 +10,7 @@ import pytest
 
 from drempower.sim import SimBus
 
+from ..waits import eventually
 from .conftest import Cli
 
 STALL = "axis0.config.extra_setting.stall_current_limit"
@@ -68,6 +69,8 @@ def test_save_reboot_set_id_and_set_bitrate_json(cli: Cli, sim: SimBus) -> None:
     assert rec == {"id": 1, "broadcast": False, "command": "reboot", "sent": True, "answering": True}
     (rec,) = cli("reboot", "all", "--json", "--sim", "1").records()
     assert rec == {"id": 0, "broadcast": True, "command": "reboot", "sent": True, "answering": None}
+    # the motors answer again once booted (a command line that starts quickly asks before that)
+    assert eventually(lambda: cli("state", "2", "3", "--sim", "2,3").code == 0)
     (rec,) = cli("set-bitrate", "2", "500k", "--json", "--sim", "2").records()
     assert rec == {"id": 2, "link": "can", "bitrate": 500000, "saved": True, "applies": "after a reboot"}
     (rec,) = cli("set-id", "3", "7", "--json", "--sim", "3").records()

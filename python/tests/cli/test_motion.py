@@ -9,6 +9,7 @@ from drempower.protocol import Frame
 from drempower.protocol.enums import AxisState
 from drempower.sim import SimBus
 
+from ..waits import eventually
 from .conftest import Cli
 
 
@@ -170,8 +171,12 @@ def test_motion_refused_while_estopped(cli: Cli, sim: SimBus) -> None:
 def test_speed_of_two_motors(cli: Cli, sim: SimBus) -> None:
     r = cli("speed", "1,2", "30,-30", "--sim", "1,2")
     assert r.code == 0 and r.out == "motors 1, 2: speed 30.00, -30.00 rpm\n"
-    recs = cli("state", "1,2", "--sim", "1,2", "--json").records()
-    assert recs[0]["speed_rpm"] == pytest.approx(30, abs=1) and recs[1]["speed_rpm"] == pytest.approx(-30, abs=1)
+
+    def settled() -> bool:  # the simulated motors reach the speed on their own time (the command returns first)
+        recs = cli("state", "1,2", "--sim", "1,2", "--json").records()
+        return recs[0]["speed_rpm"] == pytest.approx(30, abs=1) and recs[1]["speed_rpm"] == pytest.approx(-30, abs=1)
+
+    assert eventually(settled)
 
 
 def test_speed_with_ramp_for_a_while_then_idle(cli: Cli, sim: SimBus) -> None:
