@@ -1,4 +1,4 @@
-"""The package is layered: no module imports a module of a higher layer (docs/client.md, "Layers").
+"""The package is layered: no module imports a module of a higher layer (docs/design.md, "Layers").
 
 Every import counts: at module level, under ``if TYPE_CHECKING:`` (a type in a signature is part of a
 layer's interface) and inside a function (a lazy import is still a dependency at run time). The few
@@ -240,7 +240,7 @@ def test_a_module_outside_the_table_has_no_layer() -> None:
 
 CLIENT_ROOMS = ("engine", "driver", "api")
 """The client's rooms from the lowest: the sans-I/O engine, the driver that runs it over a transport, the
-front end (docs/client.md, "Layers"). A room may import its own and those below, never one above."""
+front end (docs/design.md, "Layers"). A room may import its own and those below, never one above."""
 
 
 def client_room_violations(sources: Mapping[str, tuple[str, bool]]) -> list[str]:

@@ -1,5 +1,5 @@
 """What the threaded and the asyncio bus share: the driver, options, the state cache, the safety gate and the
-interface of the layers above (robot, motion, apps: see docs/client.md, "Layers")."""
+interface of the layers above (robot, motion, apps: see docs/design.md, "Layers")."""
 
 from __future__ import annotations
 
@@ -265,7 +265,7 @@ class BusBase(ABC, Generic[M]):
 
     # ------------------------------------------------------------------ for the layers above (robot, motion, apps)
     # Blocking in both flavours: on the asyncio bus they return at once, except send_batch (call it from a
-    # worker thread there, as the robot does). See docs/client.md, "Layers".
+    # worker thread there, as the robot does). See docs/design.md, "Layers".
 
     def now(self) -> float:
         """The bus's clock (s): :func:`time.monotonic`, or the simulated time of a transport with a virtual
