@@ -358,3 +358,34 @@ def test_a_circle_is_found_whatever_its_length() -> None:
         }
     )
     assert circles(sources) == [["drempower.client.engine", "drempower.sim", "drempower.transports"]]
+
+
+def cli_helper_violations(sources: Mapping[str, tuple[str, bool]]) -> list[str]:
+    """Imports of a command module (``drempower.cli.move``) by a helper of the command line (``cli._robot``)."""
+
+    def command(module: str) -> bool:
+        parts = module.split(".")
+        return len(parts) == 3 and parts[:2] == ["drempower", "cli"] and not parts[2].startswith("_")
+
+    found = []
+    known = set(sources)
+    for module, (source, is_package) in sorted(sources.items()):
+        parts = module.split(".")
+        if len(parts) != 3 or parts[:2] != ["drempower", "cli"] or not parts[2].startswith("_"):
+            continue
+        for imp in dict.fromkeys(imports_of(module, source, is_package, known)):
+            if command(imp.imported):
+                found.append(f"{imp.importer} imports the command {imp.imported} {imp.kind}, line {imp.line}")
+    return found
+
+
+def test_the_command_lines_helpers_import_no_command() -> None:
+    found = cli_helper_violations(package_sources())
+    assert not found, "helpers of the command line import commands:\n" + "\n".join(found)
+
+
+def test_a_helper_importing_a_command_is_reported() -> None:
+    found = cli_helper_violations(
+        _fake({"drempower.cli._robot": "def f():\n    from .move import _params\n", "drempower.cli.move": ""})
+    )
+    assert found == ["drempower.cli._robot imports the command drempower.cli.move inside a function, line 2"]

@@ -370,7 +370,7 @@ def find_adapters() -> list[str]:
     """Serial ports of the vendor's USB-CAN adapters plugged in, by their USB ids (those `drempower udev` knows)."""
     from serial.tools import list_ports
 
-    from .udev import CDC, CH340
+    from ._usb import CDC, CH340
 
     known = {(int(v, 16), int(p, 16)) for v, p in (CDC, CH340)}
     return sorted(port.device for port in list_ports.comports() if (port.vid, port.pid) in known)

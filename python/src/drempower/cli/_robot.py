@@ -270,7 +270,7 @@ def _move(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
     from ..client import PositionMode
     from ..client.engine.session import DEFAULT_MOVE_TIMEOUT
     from ._motion import stop_commanded
-    from .move import _MODES, _params
+    from ._position import _MODES, _params
 
     names = _names(args, groups)
     order = [w for w in args.ids if isinstance(w, str)]

@@ -5,30 +5,20 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from .. import actions as table
 from ..client import DEFAULT_MOVE_TIMEOUT, PositionMode
 from ..client.engine.commands import make_angles
 from . import _readings
 from ._connect import add_connection_args, number, seconds
 from ._motion import add_motion_args, add_watchdog_arg, driving, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
+from ._position import _MODES, _OPTIONS, _params
 from ._robot import named_joints, rate_scale, to_joint_angle, to_motor, with_units
-from ._usage import UsageError, options_named
+from ._usage import options_named
 from .actions import check_row
 
 GROUP = "motion"
 """Where ``drempower --help`` lists this module's subcommands."""
 
-_MODES = {"t": PositionMode.T, "q": PositionMode.Q, "p": PositionMode.P}
-_OPTIONS = {
-    mode: {name: table.get("move").arg(name).default for name in names}
-    for mode, names in {
-        PositionMode.T: ("bandwidth",),
-        PositionMode.Q: ("speed", "accel"),
-        PositionMode.P: ("speed_ff", "torque_ff"),
-    }.items()
-}
-"""The options each mode takes, with their defaults (row ``move``'s of the table of actions)."""
 _ROW_OPTIONS = {
     "angle": "ANGLES",
     "speed": "--speed",
@@ -79,17 +69,6 @@ def register(sub: Any) -> None:
     add_json_arg(p)
     add_connection_args(p)
     p.set_defaults(func=run)
-
-
-def _params(args: argparse.Namespace, mode: PositionMode) -> tuple[float, float]:
-    """``speed`` and ``param`` of set_angles for ``mode``; the options of other modes are refused."""
-    for other, options in _OPTIONS.items():
-        stray = [name for name in options if other is not mode and getattr(args, name) is not None]
-        if stray:
-            flag = "--" + stray[0].replace("_", "-")
-            raise UsageError(f"{flag} applies to mode {other.name.lower()}, not {mode.name.lower()}")
-    values = [default if (v := getattr(args, name)) is None else v for name, default in _OPTIONS[mode].items()]
-    return (0.0, values[0]) if mode is PositionMode.T else (values[0], values[1])
 
 
 def run(args: argparse.Namespace) -> int:

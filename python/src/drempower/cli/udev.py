@@ -20,16 +20,13 @@ from typing import Any
 
 from ..errors import DrEmpowerError
 from ._output import report
+from ._usb import CDC, CH340
 
 GROUP = "logs and tools"
 """Where ``drempower --help`` lists this module's subcommands."""
 
 RULES_PATH = Path("/etc/udev/rules.d/70-drempower-usbcan.rules")
 """Where ``--install`` writes: numbered below 73 so that ``uaccess`` takes effect."""
-CH340 = ("1a86", "7523")
-"""USB vendor and product id of the CH340 generation (ttyUSB)."""
-CDC = ("0483", "5740")
-"""USB vendor and product id of the CDC generation (ttyACM): the STM32 virtual COM port ids."""
 SYMLINK = "drempower-usbcan"
 
 _HEX4 = re.compile(r"^[0-9a-f]{4}$")
