@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
 
 __all__ = ["Capabilities"]
 
@@ -35,3 +37,6 @@ class Capabilities:
     """The transport runs on its own simulated time: :meth:`~drempower.transports.Transport.clock` gives it."""
     motor_ids: frozenset[int] = frozenset()
     """The motors the transport knows are on the bus (the in-process simulator's); empty when unknown."""
+    limits: Mapping[int, Mapping[str, Any]] = field(default_factory=dict)
+    """Soft limits the far end holds each motor to (motor units, with ``where`` they were set), which a bus on
+    the transport holds its commands to as well: a remote bus's bridge declares its robot file's."""

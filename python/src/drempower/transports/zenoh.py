@@ -6,10 +6,12 @@ import itertools
 import json
 import threading
 from collections.abc import Sequence
+from dataclasses import replace
 from typing import Any
 
 from ..protocol.ids import Frame
 from .base import QueuedTransport
+from .capabilities import Capabilities
 from .errors import TransportError
 
 __all__ = ["ZenohTransport", "OPEN_TIMEOUT"]
@@ -127,6 +129,11 @@ class ZenohTransport(QueuedTransport):
         )
         """The soft limits the bridge holds its motors to (motor units, its robot file's): the bus on this
         transport holds its commands to them too, so a refusal is an error here, not a silent drop there."""
+
+    @property
+    def capabilities(self) -> Capabilities:
+        """A remote bus's: the soft limits its bridge holds the motors to."""
+        return replace(super().capabilities, limits=self.limits)
 
     def _info(self, timeout: float) -> dict[str, Any] | None:
         for reply in self._session.get(self._keys["info"], timeout=timeout):

@@ -77,8 +77,10 @@ class BusBase(ABC, Generic[M]):
         self._motors_lock = threading.Lock()
         self._gate = MotionGate(self._core.now)
         self._timed = TimedStops(self._core)
-        declared: Mapping[int, Mapping[str, object]] = getattr(transport, "limits", None) or {}
-        for node, lim in declared.items():  # a remote bus: the limits its bridge holds (its robot file)
+        for (
+            node,
+            lim,
+        ) in self._core.capabilities.limits.items():  # a remote bus: the limits its bridge holds (its robot file)
             self._gate.set_limits(
                 node, str(lim.get("where", "the bridge")), **{k: v for k, v in lim.items() if k != "where"}
             )
