@@ -131,7 +131,7 @@ class Inbox:
             pos, vel, tq = _STATE(data)
             st: MotorState = _new_state(MotorState, (node, pos, vel / 100, tq / 100, bool(cmd & 2), bool(cmd & 4), now))
             known = self.known
-            known.frame_times[node] = getattr(frame, "time", now)
+            known.frame_times[node] = now if frame.__class__ is Frame else getattr(frame, "time", now)
             if not cmd & 2:
                 mv = known.moves.get(node)
                 if mv is not None and mv.took is None and st.timestamp > mv.sent:
@@ -140,7 +140,9 @@ class Inbox:
             answered = self.matcher.resolve_state(node, st)
             waits = self.waits.get(node)
             if cmd < 0x18 and (cmd > 0x07 or answered or waits):  # learn from answers, not from heartbeats
-                self.bits.saw(node, cmd)
+                bits = self.bits
+                if bits.known.get(node) != ("zero" if cmd < 0x08 else "kept"):  # the commonest: known already
+                    bits.saw(node, cmd)
             if waits:
                 resume = self.operations.resume
                 for opn, since in list(waits):

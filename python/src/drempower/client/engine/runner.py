@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Any
 from ...errors import TimeoutError, ValidationError
 from ...protocol.messages import FastRead, Message, ReadParam, Start, StartImpedance
 from ...protocol.parameters import find_parameter
-from .effects import Cycle, Request
+from .effects import Cycle, Request, Single
 from .requests import Matcher, Waiter, request_dtype, request_key
 
 if TYPE_CHECKING:
@@ -118,9 +118,10 @@ class RequestRunner:
         """How often a read whose reply did not come is sent again."""
         return self.policy.retries
 
-    def single(self, opn: Operation[Any], effect: Request) -> None:
-        """Run ``effect`` as ``opn``'s only effect (its first answer is the result); one message whose answer
-        is required takes the fast path."""
+    def single(self, opn: Operation[Any], single: Single[Any]) -> None:
+        """Run ``single``'s request as ``opn``'s only effect (its first answer is the result); one message
+        whose answer is required takes the fast path."""
+        effect = single.request
         if self.check_request is not None:
             self.check_request(effect.messages)
         ex: _Exchange | _OneRequest

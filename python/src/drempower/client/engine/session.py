@@ -164,7 +164,7 @@ class BusSession:
         )
         operations.handlers.update(_effect_handlers(runner, sequencer, inbox))
         self._direct: dict[type, Callable[[Operation[Any], Any], None]] = {
-            Single: lambda run, op: runner.single(run, op.request),
+            Single: runner.single,
             Cycle: runner.cycle,
         }
         """Runnables that are one effect, run without a generator: their answer is the result."""
