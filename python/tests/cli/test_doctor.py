@@ -265,3 +265,25 @@ def test_factory_id_of_another_motor_reports_the_shared_id(
     assert "disconnect motor 1" in last
     (sim,) = recorded.made
     assert sim.motors[1].params.ram[VEL_LIMIT] == OWN_VEL_LIMIT  # motor 1 was not written
+
+
+def test_factory_id_probe_interrupted_says_where_the_motor_is(
+    recorded: type[_Recorded], capsys: pytest.CaptureFixture[str], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Ctrl-C once init_config was obeyed: no record is printed, so stderr says what was done and how to
+    recover, and the backup is kept."""
+    on_system = sim_motor._HANDLERS[SystemCommand]
+
+    def then_interrupt(m: Any, msg: Any, reply: Any) -> None:
+        on_system(m, msg, reply)
+        if msg.op is SysCmd.INIT_CONFIG:
+            raise KeyboardInterrupt
+
+    monkeypatch.setitem(sim_motor._HANDLERS, SystemCommand, then_interrupt)
+    code = main(["doctor", "1", "--sim", "1", "-o", "clock=virtual", "-o", "factory_id=5", "--yes", "--factory-id"])
+    out, err = capsys.readouterr()
+    assert code != 0 and out == ""
+    assert "drempower: motor 1: factory-id probe interrupted (backed up motor 1 (" in err
+    assert "recover: find the motor (`drempower scan`), then `drempower restore ID ./doctor-motor1-backup.json" in err
+    assert (tmp_path / "doctor-motor1-backup.json").exists()
+    assert recorded.made[0].motors[1].node_id == 5

@@ -17,6 +17,7 @@ recover it are returned as findings, one per line.
 from __future__ import annotations
 
 import os
+import sys
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
@@ -190,11 +191,23 @@ def probe_factory_id(
         step(f"FAILED: {stop.state}")
     except DrEmpowerError as exc:
         res.ok = False
-        step(
-            f"FAILED: {exc}; motor {node}'s configuration is in {path}; recover: find the motor (`drempower scan`), "
-            f"then `drempower restore ID {path} --include-link --force --save` and `drempower reboot {node}`"
-        )
+        step(f"FAILED: {exc}; {_recover(node, path)}")
+    except BaseException:  # interrupted (Ctrl-C...): no record will be printed, so say it here
+        if os.path.exists(path):
+            done = "; ".join(res.steps) or "nothing done"
+            print(
+                f"drempower: motor {node}: factory-id probe interrupted ({done}); {_recover(node, path)}",
+                file=sys.stderr,
+            )
+        raise
     return res
+
+
+def _recover(node: int, path: str) -> str:
+    return (
+        f"motor {node}'s configuration is in {path}; recover: find the motor (`drempower scan`), "
+        f"then `drempower restore ID {path} --include-link --force --save` and `drempower reboot {node}`"
+    )
 
 
 def _present(bus: Any) -> list[int]:
