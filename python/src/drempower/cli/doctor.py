@@ -4,8 +4,10 @@ For each motor: firmware and hardware versions, the command values of the state 
 answering a fast read, a control frame and a preset (``status_ids``), whether the fast
 read, reply-state triggers and heartbeat work, and with ``--reboot`` the boot time. Each
 finding names its section of spec/PROTOCOL.md. Probes that can move a joint run only with
-``--yes`` and are listed first. ``--json`` output attached to an issue is the report the
-project asks for (docs/cli.md).
+``--yes`` and are listed first; ``--yes --factory-id`` also measures the factory node id, which
+replaces the configuration for a moment (:mod:`._factory_id` backs it up, restores and
+verifies it). ``--json`` output attached to an issue is the report the project asks for
+(docs/cli.md).
 """
 
 from __future__ import annotations
@@ -23,8 +25,10 @@ from ..protocol import FastRead, PositionP, PresetQ, ReadParam, Start
 from ..protocol.addresses import FW_VERSION
 from ..protocol.ids import Frame, StartKind
 from ..protocol.parameters import DataType
+from . import _factory_id
 from ._connect import add_connection_args, add_ids_arg, open_from_args
 from ._output import add_json_arg, clean, json_line
+from ._usage import UsageError
 
 GROUP = "bus"
 """Where ``drempower --help`` lists this module's subcommands."""
@@ -56,6 +60,11 @@ def register(sub: Any) -> None:
     add_ids_arg(p, optional=True)
     p.add_argument("--reboot", action="store_true", help="reboot each motor and measure its boot time")
     p.add_argument("--yes", action="store_true", help="also run the probes that can move a joint (listed first)")
+    p.add_argument(
+        "--factory-id",
+        action="store_true",
+        help="with --yes: measure the factory node id (init_config, then the configuration restored and verified)",
+    )
     p.add_argument("--write-profile", metavar="FILE", help="save what the client uses (open_bus(profile=FILE))")
     add_json_arg(p)
     add_connection_args(p)
@@ -73,6 +82,10 @@ class _Capture:
         if not tx:
             with self.lock:
                 self.frames.append(frame)
+
+    def since(self, mark: int) -> list[Frame]:
+        with self.lock:
+            return self.frames[mark:]
 
     def mark(self) -> int:
         with self.lock:
@@ -196,9 +209,30 @@ def _probe(bus: Any, cap: _Capture, node: int, args: argparse.Namespace) -> dict
         findings.append(_finding("3.3", "boot_s", text))
     else:
         findings.append(_finding("3.3", "boot_s", "not measured (--reboot)"))
-    findings.append(
-        _finding("3.8", "factory_id", "not measured: only init_config shows it, and that loses the configuration")
-    )
+    failed = False
+    if args.factory_id and not knobs["fast_read"]:
+        findings.append(_finding("3.8", "factory_id", "not measured: backing the configuration up needs the fast read"))
+    elif args.factory_id:
+        res = _factory_id.probe_factory_id(
+            bus,
+            node,
+            mark=cap.mark,
+            count_replies=lambda n, since: _factory_id.count_replies(cap.since(since), n),
+            wait=lambda s: _wait(bus, s),
+            reboot_limit_s=REBOOT_LIMIT_S,
+        )
+        knobs["factory_id"] = res.factory_id
+        findings += [_finding("3.8", "factory_id", line) for line in res.steps]
+        failed = not res.ok
+    else:
+        findings.append(
+            _finding(
+                "3.8",
+                "factory_id",
+                "not measured: only init_config shows it, and that replaces the configuration "
+                "(--yes --factory-id measures it, then restores and verifies the configuration)",
+            )
+        )
     record: dict[str, Any] = {
         "id": node,
         "firmware": firmware,
@@ -209,6 +243,8 @@ def _probe(bus: Any, cap: _Capture, node: int, args: argparse.Namespace) -> dict
         record["boot_s"] = round(boot_s, 3)
     record["knobs"] = knobs
     record["findings"] = findings
+    if failed:
+        record["failed"] = True
     return record
 
 
@@ -333,9 +369,15 @@ def _bus_findings(bus: Any, cap: _Capture, seconds: float) -> dict[str, Any]:
 
 
 def run(args: argparse.Namespace) -> int:
+    if args.factory_id and not args.yes:
+        raise UsageError("--factory-id: needs --yes (it replaces the configuration, then restores it)")
     if args.yes:
-        print("drempower doctor: with --yes these probes can move a joint:", file=sys.stderr)
-        for what in MOVING:
+        print(
+            "drempower doctor: with --yes these probes can move a joint"
+            + (" or change a motor's configuration:" if args.factory_id else ":"),
+            file=sys.stderr,
+        )
+        for what in MOVING + ((_factory_id.WHAT,) if args.factory_id else ()):
             print(f"  - {what}", file=sys.stderr)
     records: list[dict[str, Any]] = []
     missing: list[int] = []
@@ -363,11 +405,18 @@ def run(args: argparse.Namespace) -> int:
         print(clean(f"bus: {summary['findings'][0]['text']}"))
     for node in missing:
         print(f"drempower: motor {node} answered nothing", file=sys.stderr)
+    for rec in records:
+        if rec.get("failed"):
+            print(
+                f"drempower: motor {rec['id']}: the factory-id probe failed; its findings say where the motor is "
+                "and how to recover",
+                file=sys.stderr,
+            )
     if args.write_profile:
         _write_profile(args.write_profile, records)
     if not records:
         raise DrEmpowerError(f"no motor answered (motor {', '.join(map(str, missing))})")
-    return 1 if missing else 0
+    return 1 if missing or any(r.get("failed") for r in records) else 0
 
 
 def _write_profile(path: str, records: list[dict[str, Any]]) -> None:
