@@ -703,8 +703,6 @@ class Hub:
         refuses all but reading and stopping, a motion needs a motor in closed loop (or
         ``enable``) and stays within the limits the motor holds; logged, and the targets kept."""
         act = actions.get(name)
-        if act.safety != "stop":
-            self.check_fence()
         raw = args.get("id")
         if raw == 0 or len(self.buses) == 1:  # the motor id is the key (0: each bus's broadcast)
             places = [(b, 0) for _, b in self.buses] if raw == 0 else [(self.bus, -1)]
@@ -715,8 +713,10 @@ class Hub:
             bus, node = self.where(key)
             places = [(bus, node)]
             typed = actions.validate(act, {**args, "id": node})
-        if self.read_only and act.safety not in ("read", "stop"):
+        if self.read_only and act.safety not in ("read", "stop"):  # what the page is, whenever it asked
             raise ValidationError("this dashboard is read-only (--read-only)")
+        if act.safety != "stop":
+            self.check_fence()
         if act.safety == "motion":
             if typed.get("enable"):
                 if self._halt.is_set():
