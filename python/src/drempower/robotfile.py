@@ -84,7 +84,7 @@ JOINT_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
 """What a joint or bus name looks like: it starts with a letter or ``_``, so it never reads as a motor id."""
 _JOINT_KEYS = frozenset(("bus", "id", "gear", "offset"))
 # the safety keys of a joint: soft limits and the watchdog's action
-_SAFETY_KEYS = frozenset(("limits", "on_timeout", "on_overheat"))
+_SAFETY_KEYS = frozenset(("limits", "on_timeout", "on_overheat", "on_stall"))
 JOINT_LIMITS = {"position": "rad", "speed": "rad/s", "torque": "Nm", "accel": "rad/s^2", "max_step": "rad"}
 """The soft limits a joint can have, in joint units."""
 ON_TIMEOUT = ("hold", "idle")
@@ -135,6 +135,8 @@ class JointSpec:
     """What the command watchdog does when the joint's controller is gone: ``hold`` or ``idle``."""
     on_overheat: str | None = None
     """What the health supervisor does when the joint overheats (None: ``[health]``'s ``on_overheat``)."""
+    on_stall: str | None = None
+    """What the health supervisor does when the joint stalls (None: ``[health]``'s ``on_stall``)."""
     identified: Mapping[str, float] | None = None
     """The joint's identified ``inertia`` kg m^2, ``viscous`` Nm s/rad, ``coulomb`` Nm (``drempower identify
     --write``): the twin's joint has them in place of the model's and the motor's."""
@@ -256,7 +258,7 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         if extra:
             raise ConfigError(
                 f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear, offset, limits, on_timeout, "
-                "on_overheat, model_joint, friction, sim_params and identified"
+                "on_overheat, on_stall, model_joint, friction, sim_params, identified and thermal"
             )
         bus = j.get("bus")
         if bus not in buses:
@@ -277,6 +279,9 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         on_overheat = j.get("on_overheat")
         if on_overheat is not None and on_overheat not in ON_OVERHEAT:
             raise ConfigError(f"{where}: on_overheat={on_overheat!r}: expected 'warn', 'hold' or 'idle'")
+        on_stall = j.get("on_stall")
+        if on_stall is not None and on_stall not in ON_OVERHEAT:
+            raise ConfigError(f"{where}: on_stall={on_stall!r}: expected 'warn', 'hold' or 'idle'")
         joints[name] = JointSpec(
             name,
             bus,
@@ -286,6 +291,7 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
             limits=limits,
             on_timeout=on_timeout,
             on_overheat=on_overheat,
+            on_stall=on_stall,
             **_model_joint(j, where),
         )
     if not joints:

@@ -21,6 +21,7 @@ from ..driver.bus_driver import BusDriver, FrameTap
 from ..engine.commands import check_ids
 from ..engine.effects import Op
 from ..engine.gate import Intent, Limit, MotionGate, intents_of, param_kind
+from ..engine.operation import Operation
 from ..engine.session import DEFAULT_TIMEOUT, BusSession, StartPolicy, StopOnClose
 from ..engine.state import MotorState, StateCallback, Subscription
 from ..engine.supervisor import HealthPolicy, Watch
@@ -30,6 +31,7 @@ from .timed import TimedStops
 __all__ = ["BusBase", "connect"]
 
 M = TypeVar("M")
+T = TypeVar("T")
 
 
 def connect(
@@ -276,6 +278,17 @@ class BusBase(ABC, Generic[M]):
     def virtual(self) -> bool:
         """True when the bus runs on its transport's simulated time (see :meth:`now`, ``pass_time``)."""
         return self._core.virtual
+
+    def submit(self, op: Op[T]) -> Operation[T]:
+        """Start operation ``op`` in the bus's session now and return at once: it goes on as replies come and
+        its sleeps come due, while any caller waits on the bus (on a virtual clock: as simulated time
+        passes). For what runs beside the caller, such as the robot's health supervisor."""
+        return self._core.submit(op)
+
+    def cancel(self, opn: Operation[Any]) -> None:
+        """Stop an operation of :meth:`submit` (nothing happens once it is done)."""
+        if not opn.done:
+            self._core._waits.cancel(opn)
 
     @property
     def commanded(self) -> frozenset[int]:
