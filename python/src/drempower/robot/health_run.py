@@ -32,16 +32,31 @@ from typing import TYPE_CHECKING, Any
 from ..client.engine.effects import Op, sleep
 from ..client.engine.supervisor import HealthEvent, HealthPolicy, Level, Watch, prepare, supervise
 from ..errors import BusClosedError, DrEmpowerError
+from ..robotfile import RobotSpec
 
 if TYPE_CHECKING:
     from ..client.engine.operation import Operation
 
-__all__ = ["EVENTS_KEPT", "HealthRun"]
+__all__ = ["EVENTS_KEPT", "HealthRun", "bus_policy"]
 
 EVENTS_KEPT = 500
 """The latest events :attr:`HealthRun.events` keeps."""
 _log = logging.getLogger("drempower.health")
 _LOG_LEVEL = {"ok": logging.INFO, "warn": logging.WARNING, "error": logging.ERROR}
+
+
+def bus_policy(spec: RobotSpec, bus: str | None = None) -> HealthPolicy | None:
+    """The supervisor's policy of ``spec``'s ``[health]`` for the joints of bus ``bus`` (their own ``on_overheat``
+    and ``on_stall`` by motor id; None: every joint's, for a robot whose motor ids differ across its buses),
+    or None when the file has no ``[health]``."""
+    if spec.health is None:
+        return None
+    joints = [j for j in spec.joints.values() if bus is None or j.bus == bus]
+    return HealthPolicy(
+        **spec.health,
+        joints={j.id: j.on_overheat for j in joints if j.on_overheat is not None},
+        stalls={j.id: j.on_stall for j in joints if j.on_stall is not None},
+    )
 
 
 class HealthRun:

@@ -25,7 +25,7 @@ from ..errors import DrEmpowerError, ValidationError
 from ..protocol.messages import Message
 from .config import JointSpec, RobotSpec, load_robot
 from .flavours import AsyncPart, AsyncRobotBase
-from .health_run import HealthRun
+from .health_run import HealthRun, bus_policy
 from .joint import Gearing, JointState
 from .limits import JointLimit, apply_limits, model_range_of, twin_model
 from .names import by_bus, check_commands, opening_failed, per_bus
@@ -354,9 +354,7 @@ class AsyncRobot(AsyncRobotBase):
         or None."""
         if self.spec.health is None:
             return None
-        joints = {j.id: j.on_overheat for j in self.spec.joints.values() if j.on_overheat is not None}
-        stalls = {j.id: j.on_stall for j in self.spec.joints.values() if j.on_stall is not None}
-        return HealthPolicy(**self.spec.health, joints=joints, stalls=stalls)
+        return bus_policy(self.spec)
 
     async def supervise(self, policy: HealthPolicy | None = None, *, timeout: float | None = None) -> list[HealthEvent]:
         """One step of the health supervisor over every joint (see :mod:`drempower.client.engine.supervisor`); call it
@@ -383,11 +381,15 @@ class AsyncRobot(AsyncRobotBase):
         return out
 
     def _watch_all(self, policy: HealthPolicy) -> dict[str, list[Watch]]:
-        """The supervisor's watches of every joint, per bus (made once: the first policy stays)."""
+        """The supervisor's watches of every joint, per bus (made once: the first policy stays; with the file's
+        policy, each bus's joints keep their own actions, motor ids repeating across buses or not)."""
         if self._watches is None:
+            own = policy == self.health_policy()
             self._watches = {
                 b: self.buses[b].watch_health(
-                    [j.id for j in self.spec.joints_on(b)], policy, {j.id: j.name for j in self.spec.joints_on(b)}
+                    [j.id for j in self.spec.joints_on(b)],
+                    (bus_policy(self.spec, b) or policy) if own else policy,
+                    {j.id: j.name for j in self.spec.joints_on(b)},
                 )
                 for b in self.buses
             }

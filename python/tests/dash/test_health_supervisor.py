@@ -1,0 +1,61 @@
+"""The dashboard over a robot file with ``[health]`` (``drempower dash --robot FILE``): the supervisor runs on its
+own, the cards and the Health view carry its level per joint and its events with what it did, the log names them."""
+
+from __future__ import annotations
+
+import logging
+import time
+from pathlib import Path
+
+import pytest
+
+from drempower import open_robot
+from drempower.dash.hub import Hub
+from drempower.protocol.enums import AxisState
+
+ROBOT = """
+[buses.can0]
+interface = "sim"
+[joints.shoulder]
+bus = "can0"
+id = 1
+on_overheat = "idle"
+[joints.elbow]
+bus = "can0"
+id = 2
+[health]
+period = 0.05
+"""
+
+
+def test_the_robot_dashboard_shows_the_supervisors_level_and_events(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    caplog.set_level(logging.INFO, "drempower.dash")
+    path = tmp_path / "robot.toml"
+    path.write_text(ROBOT)
+    robot = open_robot(path, stop_on_close=False)
+    hub = Hub(robot)
+    try:
+        hub.do_scan(lambda *_: None)
+        sim = robot.bus("can0").transport.bus  # type: ignore[attr-defined]
+        with sim.lock:
+            sim.motors[1].thermal.winding = 91.0  # 4 K below the firmware's derating
+        end = time.monotonic() + 20.0
+        while time.monotonic() < end and not hub.health_events:
+            time.sleep(0.02)
+        cards = hub.do_cards()
+        assert cards[1]["level"] == "warn" and cards[2]["level"] == "ok"
+        (event,) = cards[1]["events"]
+        assert (event["kind"], event["action"]) == ("overheat", "idle")
+        assert (
+            event["text"].startswith("joint shoulder (motor 1): the winding at 9")
+            and "Released it (idle)" in event["text"]
+        )
+        assert cards[2]["events"] == []
+        assert sim.motors[1].state == AxisState.IDLE  # the file's action for this joint, with no page open
+        assert any("health: joint shoulder (motor 1)" in r.getMessage() for r in caplog.records)
+    finally:
+        hub.close()
+        robot.close()
+    assert robot.health_run is not None and not robot.health_run.running
