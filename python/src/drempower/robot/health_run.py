@@ -103,6 +103,7 @@ class HealthRun:
             self._listeners = (*self._listeners, fn)
 
     def remove_listener(self, fn: Callable[[HealthEvent], None]) -> None:
+        """Stop calling ``fn`` (no error when it is not a listener)."""
         with self._lock:
             self._listeners = tuple(f for f in self._listeners if f is not fn)
 
