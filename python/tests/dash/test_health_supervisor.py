@@ -6,6 +6,7 @@ from __future__ import annotations
 import logging
 import time
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -59,3 +60,37 @@ def test_the_robot_dashboard_shows_the_supervisors_level_and_events(
         hub.close()
         robot.close()
     assert robot.health_run is not None and not robot.health_run.running
+
+
+def test_the_health_view_in_chromium_shows_what_the_supervisor_did(tmp_path: Path, browser: Any) -> None:
+    from .conftest import serve_in_thread
+
+    path = tmp_path / "robot.toml"
+    path.write_text(ROBOT.replace("period = 0.05", "period = 0.2"))
+    robot = open_robot(path, stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(robot)
+    ctx = browser.new_context(viewport={"width": 1100, "height": 640})
+    try:
+        page = ctx.new_page()
+        page.set_default_timeout(20_000)
+        page.goto(url)
+        page.wait_for_function("window.dashStats && window.dashStats.connected")
+        page.get_by_role("tab", name="Health").click()
+        page.wait_for_function("document.querySelectorAll('#health-table tbody tr').length === 2")
+        sim = robot.bus("can0").transport.bus  # type: ignore[attr-defined]
+        with sim.lock:
+            sim.motors[1].thermal.winding = 91.0
+        page.wait_for_function(
+            'document.querySelector(\'#health-table tr[data-id="1"] .event[data-action="idle"]\') !== null'
+        )
+        row1 = page.locator('#health-table tr[data-id="1"]')
+        assert row1.get_attribute("class") == "health-warn"
+        assert "joint shoulder (motor 1)" in row1.inner_text() and "Released it (idle)" in row1.inner_text()
+        row2 = page.locator('#health-table tr[data-id="2"]')
+        assert row2.get_attribute("class") == "health-ok" and row2.locator(".event").count() == 0
+    finally:
+        ctx.close()
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        robot.close()
