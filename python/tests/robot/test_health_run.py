@@ -146,3 +146,24 @@ def test_the_asyncio_robot_runs_it_as_a_task_on_either_clock(tmp_path: Path) -> 
 
     asyncio.run(main(True))
     asyncio.run(main(False))
+
+
+def test_six_motors_at_the_default_period_take_under_one_percent_of_a_1_mbit_bus(tmp_path: Path) -> None:
+    """The documented cost, measured on the simulated wire (frame lengths with stuffing, 1 Mbit/s)."""
+    p = tmp_path / "six.toml"
+    joints = "".join(f'[joints.j{i}]\nbus = "can0"\nid = {i}\n' for i in range(1, 7))
+    p.write_text('[buses.can0]\ninterface = "sim"\nbitrate = 1000000\n' + joints + "[health]\n")
+    with drempower.open_robot(p, sim={"clock": "virtual"}) as robot:
+        bus = robot.bus("can0")
+        sim = _sim(robot)
+        bus.pass_time(0.5)  # the first step (with the limits) is behind
+        before = sim.stats
+        bus.pass_time(60.0)
+        after = sim.stats
+    frames, busy = after.frames - before.frames, after.busy - before.busy
+    steps = frames / (6 * FRAMES_PER_MOTOR)
+    assert frames % (6 * FRAMES_PER_MOTOR) == 0 and 58 <= steps <= 60  # a period after each step's end
+    assert busy / (after.elapsed - before.elapsed) < 0.01
+    assert 1.0e-3 < busy / steps / 6 < 1.7e-3  # s of the bus per motor and step
+    print(f"{frames} frames, {steps:.0f} steps in 60 s: {busy / 60 * 100:.2f} % of the bus, "
+          f"{busy / steps / 6 * 1e3:.2f} ms per motor and step")  # fmt: skip
