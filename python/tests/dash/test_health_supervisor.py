@@ -94,3 +94,25 @@ def test_the_health_view_in_chromium_shows_what_the_supervisor_did(tmp_path: Pat
         thread.join(10)
         hub.close()
         robot.close()
+
+
+def test_events_from_before_the_dashboard_listened_are_shown_once(tmp_path: Path) -> None:
+    path = tmp_path / "robot.toml"
+    path.write_text(ROBOT.replace("period = 0.05", "period = 0.05\nwarn_c = 20.0"))  # the room is "hot"
+    robot = open_robot(path, stop_on_close=False)
+    try:
+        run = robot.health_run
+        assert run is not None
+        end = time.monotonic() + 20.0
+        while time.monotonic() < end and len(run.events) < 2:
+            time.sleep(0.02)
+        early = list(run.events)
+        assert {e.joint for e in early} == {"shoulder", "elbow"} and all(e.kind == "hot" for e in early)
+        hub = Hub(robot)
+        try:
+            time.sleep(0.3)  # more steps: nothing new begins
+            assert [e for _, _, e in hub.health_events] == early
+        finally:
+            hub.close()
+    finally:
+        robot.close()

@@ -223,14 +223,18 @@ class Hub:
         self.health_events: deque[tuple[int, float, HealthEvent]] = deque(maxlen=500)
         """The robot's health supervisor's events (key, wall s since start, event), when the file has ``[health]``."""
         self._health_run = None if self.robot is None else self.robot.health_run
+        self._health_seen: set[HealthEvent] = set()
         if self._health_run is not None:
             self._health_run.add_listener(self._on_health)
+            for e in list(self._health_run.events):  # those of its steps before this dashboard listened
+                self._on_health(e)
 
     def _on_health(self, event: HealthEvent) -> None:
-        """An event of the robot's health supervisor: kept for the cards and the Health view, logged."""
+        """An event of the robot's health supervisor: kept for the cards and the Health view, logged (once)."""
         key = next((k for k, j in self.joints.items() if j["joint"] == event.joint), None)
-        if key is None:
+        if key is None or event in self._health_seen:
             return
+        self._health_seen.add(event)
         self.health_events.append((key, round(time.monotonic() - self._t0, 2), event))
         log(f"health: {event}")
 
