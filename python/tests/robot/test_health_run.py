@@ -13,6 +13,7 @@ import pytest
 
 import drempower
 from drempower.client.engine.supervisor import FRAMES_PER_MOTOR
+from drempower.errors import MotorIdleError
 from drempower.protocol import AxisState, ParamValue, State, decode_reply
 from drempower.protocol.ids import Frame
 from drempower.sim import SimBus
@@ -167,3 +168,19 @@ def test_six_motors_at_the_default_period_take_under_one_percent_of_a_1_mbit_bus
     assert 1.0e-3 < busy / steps / 6 < 1.7e-3  # s of the bus per motor and step
     print(f"{frames} frames, {steps:.0f} steps in 60 s: {busy / 60 * 100:.2f} % of the bus, "
           f"{busy / steps / 6 * 1e3:.2f} ms per motor and step")  # fmt: skip
+
+
+def test_a_joint_it_idled_is_refused_motion_until_enabled_again(tmp_path: Path) -> None:
+    """A program still commanding the joint (a control loop, a LeRobot step) gets a clear error, not silence."""
+    health = '[health]\nperiod = 0.5\non_overheat = "idle"\n'
+    with drempower.open_robot(_robot(tmp_path, health), sim={"clock": "virtual"}) as robot:
+        a = robot.joint("a")
+        robot.cycle({"a": a.make_angle(0.0, 0.0, 20.0, 0)})
+        _sim(robot).motors[1].thermal.winding = 91.0
+        robot.bus("can0").pass_time(0.6)
+        assert _sim(robot).motors[1].state == AxisState.IDLE
+        with pytest.raises(MotorIdleError, match="motor 1 is idle"):
+            robot.cycle({"a": a.make_angle(10.0, 0.0, 20.0, 0)})
+        robot.cycle({"b": robot.joint("b").make_angle(10.0, 0.0, 20.0, 0)})  # the other joint goes on
+        a.enable()
+        robot.cycle({"a": a.make_angle(10.0, 0.0, 20.0, 0)})

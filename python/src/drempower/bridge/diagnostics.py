@@ -114,6 +114,7 @@ class Diagnostics:
                 if fresh:
                     face.bus.run(prepare(fresh))
                 events: list[HealthEvent] = face.bus.run(supervise(watches, face.bus.now()))
+                face.bus.health_acted(events)  # a joint idled is refused motion until enabled again
             except Exception as exc:
                 for w in watches:
                     row = self._rows[(bus, w.node)]

@@ -148,6 +148,7 @@ class HealthRun:
                 if fresh:
                     yield from prepare(fresh)
                 events = yield from supervise(watches, bus.now())
+                bus.health_acted(events)
             except BusClosedError:
                 return
             except DrEmpowerError as exc:

@@ -24,7 +24,7 @@ from ..engine.gate import Intent, Limit, MotionGate, intents_of, param_kind
 from ..engine.operation import Operation
 from ..engine.session import DEFAULT_TIMEOUT, BusSession, StartPolicy, StopOnClose
 from ..engine.state import MotorState, StateCallback, Subscription
-from ..engine.supervisor import HealthPolicy, Watch
+from ..engine.supervisor import HealthEvent, HealthPolicy, Watch, action_messages
 from ..engine.timeouts import seconds
 from .timed import TimedStops
 
@@ -278,6 +278,13 @@ class BusBase(ABC, Generic[M]):
     def virtual(self) -> bool:
         """True when the bus runs on its transport's simulated time (see :meth:`now`, ``pass_time``)."""
         return self._core.virtual
+
+    def health_acted(self, events: Sequence[HealthEvent]) -> None:
+        """Note what a supervisor step's actions sent (:func:`~drempower.client.engine.supervisor.action_messages`):
+        the safety gate then refuses motion to a joint it idled until it is enabled again."""
+        acts = action_messages(events)
+        if acts:
+            self._sent(acts)
 
     def submit(self, op: Op[T]) -> Operation[T]:
         """Start operation ``op`` in the bus's session now and return at once: it goes on as replies come and
