@@ -43,6 +43,13 @@ model's joints (see :mod:`drempower.sim.twin`)::
     friction = "model"         # only the model's damping and friction act (default "motor": both)
     [joints.shoulder.sim_params]   # a simulated motor's configuration (its gains tuned for the arm)
     "axis0.controller.config.pos_gain" = 20.0
+
+A simulated joint's heat (:mod:`drempower.sim.thermal`) takes its constants from ``[joints.NAME.thermal]``
+(:data:`THERMAL_KEYS`), over a sim bus's ``thermal = {...}`` for all its motors, over the estimates::
+
+    [joints.shoulder.thermal]
+    winding_tau = 600.0        # s
+    winding_r_th = 8.0         # K/W
 """
 
 from __future__ import annotations
@@ -74,6 +81,8 @@ __all__ = [
     "parse_robot",
     "JOINT_NAME",
     "FRICTIONS",
+    "THERMAL_KEYS",
+    "thermal_table",
     "JointLimit",
     "ModelRange",
     "joint_limits",
@@ -84,7 +93,7 @@ JOINT_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
 """What a joint or bus name looks like: it starts with a letter or ``_``, so it never reads as a motor id."""
 _JOINT_KEYS = frozenset(("bus", "id", "gear", "offset"))
 # the safety keys of a joint: soft limits and the watchdog's action
-_SAFETY_KEYS = frozenset(("limits", "on_timeout", "on_overheat"))
+_SAFETY_KEYS = frozenset(("limits", "on_timeout", "on_overheat", "on_stall"))
 JOINT_LIMITS = {"position": "rad", "speed": "rad/s", "torque": "Nm", "accel": "rad/s^2", "max_step": "rad"}
 """The soft limits a joint can have, in joint units."""
 ON_TIMEOUT = ("hold", "idle")
@@ -103,6 +112,35 @@ HEALTH_KEYS: dict[str, tuple[float, float] | tuple[str, ...]] = {
 }
 """The ``[health]`` keys (the supervisor's policy, :class:`~drempower.client.engine.supervisor.HealthPolicy`):
 a number's range, or a choice's values."""
+
+
+THERMAL_KEYS: dict[str, tuple[float, float, str]] = {
+    "ambient_c": (-40.0, 80.0, "degC"),
+    "winding_r_th": (0.1, 100.0, "K/W"),
+    "winding_tau": (1.0, 36000.0, "s"),
+    "board_r_th": (0.1, 100.0, "K/W"),
+    "board_tau": (1.0, 36000.0, "s"),
+    "board_idle_w": (0.0, 50.0, "W"),
+    "fet_resistance": (0.0, 1.0, "ohm"),
+}
+"""A simulated motor's thermal constants (:class:`~drempower.sim.thermal.ThermalModel`'s fields): each key's
+(low, high, unit)."""
+
+
+def thermal_table(value: object, where: str) -> dict[str, float]:
+    """A ``thermal`` table, checked: known keys (:data:`THERMAL_KEYS`), finite numbers in their range;
+    a :class:`ConfigError` naming ``where``, the key, the value and the range otherwise."""
+    out: dict[str, float] = {}
+    for key, v in _table(value, where).items():
+        rng = THERMAL_KEYS.get(key)
+        if rng is None:
+            raise ConfigError(f"{where}: unknown key {key!r}: the keys are {', '.join(THERMAL_KEYS)}")
+        lo, hi, unit = rng
+        x = _number(v, f"{where}: {key}")
+        if not lo <= x <= hi:
+            raise ConfigError(f"{where}: {key}={v!r}: expected {lo:g}..{hi:g} {unit}")
+        out[key] = x
+    return out
 
 
 @dataclass(frozen=True)
@@ -135,9 +173,14 @@ class JointSpec:
     """What the command watchdog does when the joint's controller is gone: ``hold`` or ``idle``."""
     on_overheat: str | None = None
     """What the health supervisor does when the joint overheats (None: ``[health]``'s ``on_overheat``)."""
+    on_stall: str | None = None
+    """What the health supervisor does when the joint stalls (None: ``[health]``'s ``on_stall``)."""
     identified: Mapping[str, float] | None = None
     """The joint's identified ``inertia`` kg m^2, ``viscous`` Nm s/rad, ``coulomb`` Nm (``drempower identify
     --write``): the twin's joint has them in place of the model's and the motor's."""
+    thermal: Mapping[str, float] | None = None
+    """A simulated joint's thermal constants (``[joints.NAME.thermal]``, :data:`THERMAL_KEYS`) over its bus's
+    and the estimates; None: those."""
 
 
 @dataclass(frozen=True)
@@ -172,7 +215,15 @@ class RobotSpec:
             kw.update(robot=self, robot_bus=bus)
         elif spec.interface == "sim":
             kw["motors"] = sorted(j.id for j in self.joints_on(bus))
+        if spec.interface == "sim":
+            kw.update(self.sim_thermal(bus))
         return kw
+
+    def sim_thermal(self, bus: str) -> dict[str, Any]:
+        """The simulated bus ``bus``'s per-motor thermal constants (``motor_thermal``, a SimBus argument) of
+        its joints' ``thermal`` tables (empty: none has one)."""
+        per = {j.id: dict(j.thermal) for j in self.joints_on(bus) if j.thermal}
+        return {"motor_thermal": per} if per else {}
 
 
 def _name(kind: str, name: str, where: str) -> str:
@@ -240,6 +291,10 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
             raise ConfigError(f"{where}: interface={interface!r}: give the interface, e.g. 'sim', 'socketcan'")
         if interface == "sim" and "motors" in opts:
             raise ConfigError(f"{where}: motors: a sim bus simulates the motors of its joints; leave motors out")
+        if "thermal" in opts:
+            if interface != "sim":
+                raise ConfigError(f"{where}: thermal: only a sim bus simulates heat (its motors' constants)")
+            opts["thermal"] = thermal_table(opts["thermal"], f"{where}: thermal")
         profile = opts.get("profile")
         if isinstance(profile, str) and profile:  # a firmware profile file, relative to the robot file
             opts["profile"] = os.path.normpath(os.path.join(base or os.getcwd(), os.path.expanduser(profile)))
@@ -256,7 +311,7 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         if extra:
             raise ConfigError(
                 f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear, offset, limits, on_timeout, "
-                "on_overheat, model_joint, friction, sim_params and identified"
+                "on_overheat, on_stall, model_joint, friction, sim_params, identified and thermal"
             )
         bus = j.get("bus")
         if bus not in buses:
@@ -277,6 +332,9 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         on_overheat = j.get("on_overheat")
         if on_overheat is not None and on_overheat not in ON_OVERHEAT:
             raise ConfigError(f"{where}: on_overheat={on_overheat!r}: expected 'warn', 'hold' or 'idle'")
+        on_stall = j.get("on_stall")
+        if on_stall is not None and on_stall not in ON_OVERHEAT:
+            raise ConfigError(f"{where}: on_stall={on_stall!r}: expected 'warn', 'hold' or 'idle'")
         joints[name] = JointSpec(
             name,
             bus,
@@ -286,6 +344,7 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
             limits=limits,
             on_timeout=on_timeout,
             on_overheat=on_overheat,
+            on_stall=on_stall,
             **_model_joint(j, where),
         )
     if not joints:
@@ -377,7 +436,7 @@ def bus_options(spec: RobotSpec, bus: str, overrides: Mapping[str, Any]) -> dict
 
 FRICTIONS = ("motor", "model")
 """A joint's ``friction``: the motor's own friction and rotor inertia act too, or only the model's."""
-_MODEL_JOINT_KEYS = frozenset(("model_joint", "friction", "sim_params", "identified"))
+_MODEL_JOINT_KEYS = frozenset(("model_joint", "friction", "sim_params", "identified", "thermal"))
 IDENTIFIED_KEYS = ("inertia", "viscous", "coulomb")
 """The keys of a joint's ``identified`` table."""
 _MODEL_KEYS = frozenset(("file",))
@@ -422,7 +481,14 @@ def _model_joint(j: Mapping[str, Any], where: str) -> dict[str, Any]:
         if not p.writable:
             raise ConfigError(f"{where}: sim_params: {key!r} is read-only")
         params[p.name] = _number(value, f"{where}: sim_params: {key}")
-    return {"model_joint": model_joint, "friction": friction, "sim_params": params, "identified": _identified(j, where)}
+    thermal = thermal_table(j["thermal"], f"{where}: thermal") if "thermal" in j else None
+    return {
+        "model_joint": model_joint,
+        "friction": friction,
+        "sim_params": params,
+        "identified": _identified(j, where),
+        "thermal": thermal,
+    }
 
 
 def _identified(j: Mapping[str, Any], where: str) -> dict[str, float] | None:

@@ -41,3 +41,28 @@ def test_the_held_load_heats_the_winding_as_the_model_says(tmp_path: Path, angle
         assert after.motor_temp_c < TM.ambient_c + 0.1
     else:
         assert after.motor_temp_c > TM.ambient_c + 14.0
+
+
+def test_the_joints_thermal_constants_from_the_robot_file_drive_the_twins_heat(tmp_path: Path) -> None:
+    """``[joints.swing.thermal]``: the held pendulum warms by the file's time constant and resistance, not the
+    estimates'."""
+    own = {"winding_tau": 120.0, "winding_r_th": 6.0, "ambient_c": 30.0}
+    path = robot_file(
+        tmp_path,
+        ROBOTS / "pendulum.xml",
+        {"swing": {"id": 1, "friction": "model", "sim_params": PENDULUM_GAINS, "thermal": own}},
+    )
+    with drempower.open_robot(path, sim={"clock": "virtual"}) as robot:
+        joint = robot.joint("swing")
+        assert joint.health().motor_temp_c == pytest.approx(30.0)  # the file's room
+        joint.set_position(math.radians(90.0))
+        robot.bus("can0").run(sleep(2.0))
+        amps = abs(float(joint.read_property("axis0.motor.current_control.Iq_measured")))
+        before = joint.health()
+        robot.bus("can0").run(sleep(120.0))
+        after = joint.health()
+    rise = 1.5 * amps**2 * 0.2 * own["winding_r_th"]
+    expected = 30.0 + rise + (before.motor_temp_c - 30.0 - rise) * math.exp(-1.0)  # one of its time constants
+    assert after.motor_temp_c == pytest.approx(expected, abs=0.05 + 0.01 * rise)
+    estimate = TM.ambient_c + 1.5 * amps**2 * 0.2 * TM.winding_r_th * (1 - math.exp(-122.0 / TM.winding_tau))
+    assert abs(after.motor_temp_c - estimate) > 3.0  # the estimates would have said otherwise

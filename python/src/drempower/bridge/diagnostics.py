@@ -6,10 +6,14 @@ One ``DiagnosticStatus`` per joint: ``name`` ``drempower/<joint>``, ``hardware_i
 ``message`` (the worst condition, a fault with its fix) and the key-values
 ``motor_temp_c``, ``driver_temp_c``, ``current_limit_a``, ``derating`` and ``errors``.
 
-Each second one supervisor step per bus (:mod:`drempower.client.engine.supervisor`, warn
-only: the bridge acts on nothing) reads every joint's state and health in one
-exchange, 12 frames per motor. The state stream's E bits are watched too: when
-one changes, the array goes out at once with a fresh reading.
+Each second one supervisor step per bus (:mod:`drempower.client.engine.supervisor`)
+reads every joint's state and health in one exchange, 12 frames per motor. Without a
+policy it only warns (the bridge acts on nothing). With a robot file whose ``[health]``
+asks for the supervisor (``drempower bridge --robot FILE``), each bus's policy sets the
+period of the steps (its ``period``; the array still goes out each second) and the
+actions: a joint's ``on_overheat`` and ``on_stall`` hold or idle it, the event is
+logged (``drempower.health``) and the array goes out at once. The state stream's E
+bits are watched too: when one changes, the array goes out at once with a fresh reading.
 """
 
 from __future__ import annotations
@@ -35,6 +39,8 @@ PERIOD = 1.0
 """Seconds between two arrays when nothing changes."""
 _LEVEL = {"ok": OK, "warn": WARN, "error": ERROR}
 _log = logging.getLogger("drempower.bridge")
+_health_log = logging.getLogger("drempower.health")
+_LOG_LEVEL = {"ok": logging.INFO, "warn": logging.WARNING, "error": logging.ERROR}
 
 
 class _Row:
@@ -51,16 +57,28 @@ class _Row:
 class Diagnostics:
     """Publishes ``/diagnostics`` for the joints of ``faces`` through ``put(payload, attachment)``."""
 
-    def __init__(self, faces: Mapping[str, BusFace], put: Callable[[bytes, bytes], None], gid: bytes) -> None:
+    def __init__(
+        self,
+        faces: Mapping[str, BusFace],
+        put: Callable[[bytes, bytes], None],
+        gid: bytes,
+        policies: Mapping[str, HealthPolicy] | None = None,
+    ) -> None:
         self._faces = dict(faces)
         self._put = put
         self._gid = gid
         self._seq = 0
-        policy = HealthPolicy()
+        self.policies = dict(policies or {})
+        """Each bus's supervisor policy (a robot file's ``[health]``); a bus without one: warn only, each second."""
+        self.period = min([PERIOD, *(p.period for p in self.policies.values())])
+        """Seconds between two supervisor steps."""
+        self.events: list[HealthEvent] = []
+        """Every event the steps saw (and what they did)."""
         self._watches: dict[str, list[Watch]] = {}
         self._rows: dict[tuple[str, int], _Row] = {}
         for bus, face in self._faces.items():
             names = {j.id: j.name for j in face.joints}
+            policy = self.policies.get(bus, HealthPolicy())
             self._watches[bus] = [Watch(i, policy, names.get(i)) for i in face.ids]
             for j in face.joints:
                 hw = f"{bus}/motor {j.id}" if bus else f"motor {j.id}"
@@ -86,7 +104,9 @@ class Diagnostics:
         if changed:
             self._wake.set()
 
-    def _read(self) -> None:
+    def _read(self) -> bool:
+        """One supervisor step per bus; True when an event began (the array goes out at once)."""
+        seen = False
         for bus, face in self._faces.items():
             watches = self._watches[bus]
             try:
@@ -94,11 +114,16 @@ class Diagnostics:
                 if fresh:
                     face.bus.run(prepare(fresh))
                 events: list[HealthEvent] = face.bus.run(supervise(watches, face.bus.now()))
+                face.bus.health_acted(events)  # a joint idled is refused motion until enabled again
             except Exception as exc:
                 for w in watches:
                     row = self._rows[(bus, w.node)]
                     row.level, row.message, row.values = STALE, f"no answer: {exc}", []
                 continue
+            for e in events:
+                _health_log.log(_LOG_LEVEL[e.level], "bus %s: %s", bus or "-", e)
+            self.events.extend(events)
+            seen = seen or bool(events)
             worst: dict[int, HealthEvent] = {}
             for e in events:
                 if e.motor not in worst or _LEVEL[e.level] > _LEVEL[worst[e.motor].level]:
@@ -125,6 +150,7 @@ class Diagnostics:
                     ("derating", f"{h.derating:.3f}"),
                     ("errors", " ".join(d["errors"]) or "none"),
                 ]
+        return seen
 
     def message(self) -> bytes:
         """The DiagnosticArray of the rows as they stand (CDR)."""
@@ -147,20 +173,28 @@ class Diagnostics:
     def publish(self) -> None:
         """Read every joint's health and publish the array."""
         self._read()
+        self._send()
+
+    def _send(self) -> None:
         self._seq += 1
         self._put(self.message(), rmw.Attachment(self._seq, time.time_ns(), self._gid).encode())
         self.published += 1
 
     def _loop(self) -> None:
+        due = 0.0  # the next array's time when nothing changes (time.monotonic s)
         while not self._closed.is_set():
             try:
-                self.publish()
+                changed = self._read()
+                now = time.monotonic()
+                if changed or self._wake.is_set() or now >= due:
+                    self._wake.clear()
+                    self._send()
+                    due = now + PERIOD
             except Exception as exc:
                 if self._closed.is_set():
                     return
                 _log.warning("/diagnostics: %s", exc)
-            self._wake.wait(PERIOD)
-            self._wake.clear()
+            self._wake.wait(self.period)
 
     def close(self) -> None:
         self._closed.set()

@@ -23,6 +23,7 @@ from .. import actions
 from ..client.api.bus_sync import Bus
 from ..client.engine.commands import make_angles, make_speeds, make_torques
 from ..client.engine.stops import hold_frames
+from ..client.engine.supervisor import HealthPolicy
 from ..errors import DrEmpowerError, MotorIdleError, ValidationError
 from ..logline import RateLimit
 from ..naming import motor_name
@@ -667,7 +668,9 @@ class Bridge:
         self.diagnostics_key = diag_key
         self._diag_pub = s.declare_publisher(diag_key)
         self._decls.append(self._diag_pub)
-        self.diagnostics = Diagnostics(self.faces, lambda p, a: self._diag_pub.put(p, attachment=a), diag_gid)
+        self.diagnostics = Diagnostics(
+            self.faces, lambda p, a: self._diag_pub.put(p, attachment=a), diag_gid, _health_policies(o.robot)
+        )
         """``/diagnostics``: each joint's health at 1 Hz and on change (:mod:`drempower.bridge.diagnostics`)."""
         self._publisher_topics = {
             (rmw.mangle(rmw.qualify(ns, topic)), rosmsg.dds_type_name(rosmsg.FLOAT64_MULTI_ARRAY)): topic
@@ -1085,3 +1088,12 @@ def _on_bus(face: BusFace, exc: DrEmpowerError, nodes: Sequence[int]) -> DrEmpow
     names = [j.name for j in face.joints if j.id in nodes] or [j.name for j in face.joints]
     out = DrEmpowerError(f"bus {face.name!r}, joint{'s' if len(names) > 1 else ''} {', '.join(names)}: {exc}")
     return out
+
+
+def _health_policies(spec: RobotSpec | None) -> dict[str, HealthPolicy]:
+    """The supervisor's policy of each bus of a robot file with ``[health]`` (none: the bridge only reports)."""
+    from ..robot.health_run import bus_policy
+
+    if spec is None:
+        return {}
+    return {b: p for b in spec.buses if (p := bus_policy(spec, b)) is not None}

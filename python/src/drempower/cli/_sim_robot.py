@@ -180,6 +180,8 @@ def serve_robot(args: argparse.Namespace, show: Callable[..., None], stop: threa
             seed=args.seed,
             config_dir=None if args.config_dir is None else os.path.join(args.config_dir, name),
             firmware=firmware_of(args, spec.buses[name].options),
+            thermal=spec.buses[name].options.get("thermal"),
+            **spec.sim_thermal(name),
         )
         for name in spec.buses
     }

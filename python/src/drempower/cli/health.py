@@ -51,7 +51,8 @@ def _policy(args: argparse.Namespace) -> HealthPolicy:
     if spec is None or spec.health is None:
         return HealthPolicy()
     joints = {j.id: j.on_overheat for j in spec.joints_on(args.robot_bus) if j.on_overheat is not None}
-    return HealthPolicy(**spec.health, joints=joints)
+    stalls = {j.id: j.on_stall for j in spec.joints_on(args.robot_bus) if j.on_stall is not None}
+    return HealthPolicy(**spec.health, joints=joints, stalls=stalls)
 
 
 def watch(args: argparse.Namespace) -> int:

@@ -31,6 +31,7 @@ from . import tuning
 from .logline import log
 
 if TYPE_CHECKING:
+    from ..client.engine.supervisor import HealthEvent
     from ..robot import Robot
 
 __all__ = ["Hub", "Sample", "bandwidth_range", "param_table"]
@@ -48,6 +49,8 @@ _CARD_READS = (
     ("state", _STATE),
 )
 TREND_POINTS = 600
+HEALTH_EVENTS_SHOWN = 5
+"""The latest supervisor events a card (and its row of the Health view) shows."""
 """Health readings kept per motor for the Health view's trends (one per card refresh: 10 minutes at 1 s)."""
 _LIMIT_READS = (
     ("speed", "axis0.output_shaft.vel_limit"),
@@ -217,6 +220,23 @@ class Hub:
         self._frames_mark = [(time.monotonic(), b.stats["frames_received"]) for _, b in self.buses]
         self.load = 0.0
         self.frame_rate = 0.0
+        self.health_events: deque[tuple[int, float, HealthEvent]] = deque(maxlen=500)
+        """The robot's health supervisor's events (key, wall s since start, event), when the file has ``[health]``."""
+        self._health_run = None if self.robot is None else self.robot.health_run
+        self._health_seen: set[HealthEvent] = set()
+        if self._health_run is not None:
+            self._health_run.add_listener(self._on_health)
+            for e in list(self._health_run.events):  # those of its steps before this dashboard listened
+                self._on_health(e)
+
+    def _on_health(self, event: HealthEvent) -> None:
+        """An event of the robot's health supervisor: kept for the cards and the Health view, logged (once)."""
+        key = next((k for k, j in self.joints.items() if j["joint"] == event.joint), None)
+        if key is None or event in self._health_seen:
+            return
+        self._health_seen.add(event)
+        self.health_events.append((key, round(time.monotonic() - self._t0, 2), event))
+        log(f"health: {event}")
 
     def _sink(self, off: int) -> Callable[[MotorState], None]:
         """The subscriber of the bus whose keys start at ``off``."""
@@ -584,8 +604,22 @@ class Hub:
                             )
                 except DrEmpowerError:
                     card["errors"] = [{"word": "?", "flag": "error (unread)", "advice": "read again"}]
+            self._card_health(i, card)
             cards[i] = card
         return cards
+
+    def _card_health(self, key: int, card: dict[str, Any]) -> None:
+        """The robot's health supervisor's say on motor ``key``: its level and latest events (with what it did)."""
+        run = self._health_run
+        if run is None:
+            return
+        j = self.joints.get(key)
+        card["level"] = None if j is None else run.levels().get((j["bus"], j["id"]))
+        card["events"] = [
+            {"t": t, "kind": e.kind, "level": e.level, "action": e.action, "text": str(e)}
+            for k, t, e in list(self.health_events)
+            if k == key
+        ][-HEALTH_EVENTS_SHOWN:]
 
     # ------------------------------------------------------------------ control
 
@@ -1038,6 +1072,8 @@ class Hub:
     def close(self) -> None:
         self._halt.set()
         self._stop.set()
+        if self._health_run is not None:
+            self._health_run.remove_listener(self._on_health)
         for sub in self._subs:
             sub.cancel()
         self._poller.join(2.0)

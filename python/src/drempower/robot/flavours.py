@@ -20,6 +20,8 @@ from .names import note_bus
 if TYPE_CHECKING:
     import asyncio
 
+    from .health_run import HealthRun
+
 __all__ = ["AsyncPart", "AsyncRobotBase", "SyncPart", "SyncRobotBase"]
 
 T = TypeVar("T")
@@ -34,6 +36,7 @@ class SyncRobotBase:
 
     spec: RobotSpec
     _closed: bool
+    health_run: HealthRun | None
 
     def _setup(self, nbuses: int) -> None:
         self._pool = ThreadPoolExecutor(max(2, 2 * nbuses), thread_name_prefix="drempower robot")
@@ -106,6 +109,16 @@ class SyncRobotBase:
     def _shutdown(self) -> None:
         self._pool.shutdown(wait=False, cancel_futures=True)
 
+    def _run_health_wall(self) -> None:
+        """Step the health supervisor of the wall-clock buses from a thread of its own."""
+        if self.health_run is not None:
+            self.health_run.start_thread()
+
+    def _stop_health(self) -> None:
+        """Stop the health supervisor (its thread ends after the step under way)."""
+        if self.health_run is not None:
+            self.health_run.stop()
+
 
 class AsyncRobotBase:
     """The asyncio robot's own parts: each bus's part as a task, the starts released together from
@@ -114,6 +127,7 @@ class AsyncRobotBase:
 
     spec: RobotSpec
     _closed: bool
+    health_run: HealthRun | None
 
     def _setup(self, nbuses: int) -> None:
         import asyncio
@@ -170,3 +184,33 @@ class AsyncRobotBase:
 
     def _shutdown(self) -> None:
         pass
+
+    def _run_health_wall(self) -> None:
+        """Step the health supervisor of the wall-clock buses as a task of the running event loop (none
+        running yet: ``async with`` starts it)."""
+        import asyncio
+
+        run = self.health_run
+        if run is None or not run.wall or run.task is not None or not run.running:
+            return
+        try:
+            loop = asyncio.get_running_loop()
+        except RuntimeError:
+            return
+        run.task = loop.create_task(run.run_async(), name="drempower health")
+
+    async def _stop_health(self) -> None:
+        """Stop the health supervisor: its task is cancelled and awaited."""
+        import asyncio
+
+        run = self.health_run
+        if run is None:
+            return
+        run.stop()
+        task = run.task
+        if task is not None and not task.done():
+            task.cancel()
+            try:
+                await task
+            except (asyncio.CancelledError, Exception):
+                pass

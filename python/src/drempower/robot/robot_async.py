@@ -25,6 +25,7 @@ from ..errors import DrEmpowerError, ValidationError
 from ..protocol.messages import Message
 from .config import JointSpec, RobotSpec, load_robot
 from .flavours import AsyncPart, AsyncRobotBase
+from .health_run import HealthRun, bus_policy
 from .joint import Gearing, JointState
 from .limits import JointLimit, apply_limits, model_range_of, twin_model
 from .names import by_bus, check_commands, opening_failed, per_bus
@@ -140,7 +141,7 @@ class AsyncRobot(AsyncRobotBase):
     others' stop. Errors of one bus's part carry a note naming the bus.
     """
 
-    def __init__(self, spec: RobotSpec, buses: Mapping[str, AsyncBus]) -> None:
+    def __init__(self, spec: RobotSpec, buses: Mapping[str, AsyncBus], *, supervise: bool = True) -> None:
         self.spec = spec
         self.buses: dict[str, AsyncBus] = dict(buses)
         """The open buses by name."""
@@ -160,6 +161,13 @@ class AsyncRobot(AsyncRobotBase):
         self._closed = False
         self._watches: dict[str, list[Watch]] | None = None
         self._setup(len(self.buses))
+        self.health_run: HealthRun | None = None
+        """The health supervisor running on its own (the file's ``[health]``; see :mod:`.health_run`), or None."""
+        policy = self.health_policy() if supervise else None
+        if policy is not None:
+            self.health_run = HealthRun(self.buses, self._watch_all(policy), policy, spec.source)
+            self.health_run.start_virtual()
+            self._run_health_wall()
 
     # ------------------------------------------------------------------ lookup
 
@@ -342,11 +350,11 @@ class AsyncRobot(AsyncRobotBase):
         return {n: out[n] for g in groups.values() for n in g}
 
     def health_policy(self) -> HealthPolicy | None:
-        """The supervisor's policy of the robot file's ``[health]`` (joints' ``on_overheat`` per motor), or None."""
+        """The supervisor's policy of the robot file's ``[health]`` (joints' ``on_overheat``, ``on_stall`` per motor),
+        or None."""
         if self.spec.health is None:
             return None
-        joints = {j.id: j.on_overheat for j in self.spec.joints.values() if j.on_overheat is not None}
-        return HealthPolicy(**self.spec.health, joints=joints)
+        return bus_policy(self.spec)
 
     async def supervise(self, policy: HealthPolicy | None = None, *, timeout: float | None = None) -> list[HealthEvent]:
         """One step of the health supervisor over every joint (see :mod:`drempower.client.engine.supervisor`); call it
@@ -357,13 +365,9 @@ class AsyncRobot(AsyncRobotBase):
             pol = policy or self.health_policy()
             if pol is None:
                 raise ValidationError(f"{self.spec.source}: no [health] section: give supervise() a HealthPolicy")
-            self._watches = {
-                b: self.buses[b].watch_health(
-                    [j.id for j in self.spec.joints_on(b)], pol, {j.id: j.name for j in self.spec.joints_on(b)}
-                )
-                for b in self.buses
-            }
+            self._watch_all(pol)
         watches = self._watches
+        assert watches is not None
 
         def part(bus: str) -> AsyncPart[list[HealthEvent]]:
             async def run() -> list[HealthEvent]:
@@ -375,6 +379,21 @@ class AsyncRobot(AsyncRobotBase):
         for events in (await self._each({b: part(b) for b in watches})).values():
             out.extend(events)
         return out
+
+    def _watch_all(self, policy: HealthPolicy) -> dict[str, list[Watch]]:
+        """The supervisor's watches of every joint, per bus (made once: the first policy stays; with the file's
+        policy, each bus's joints keep their own actions, motor ids repeating across buses or not)."""
+        if self._watches is None:
+            own = policy == self.health_policy()
+            self._watches = {
+                b: self.buses[b].watch_health(
+                    [j.id for j in self.spec.joints_on(b)],
+                    (bus_policy(self.spec, b) or policy) if own else policy,
+                    {j.id: j.name for j in self.spec.joints_on(b)},
+                )
+                for b in self.buses
+            }
+        return self._watches
 
     async def estop(self, names: Iterable[str] | None = None) -> None:
         """Emergency stop: every motor of every bus (one broadcast frame per bus) when ``names`` is None,
@@ -450,6 +469,7 @@ class AsyncRobot(AsyncRobotBase):
         """Close every bus (each applies its ``stop_on_close``). Idempotent."""
         if self._closed:
             return
+        await self._stop_health()  # before the buses close: no step runs on a closing bus
         self._closed = True
         self._shutdown()
         first: BaseException | None = None
@@ -462,6 +482,7 @@ class AsyncRobot(AsyncRobotBase):
             raise first
 
     async def __aenter__(self) -> AsyncRobot:
+        self._run_health_wall()
         return self
 
     async def __aexit__(
@@ -481,12 +502,16 @@ def open_robot_async(
     stop_on_close: bool | str | None = None,
     start: str | None = None,
     sim: Mapping[str, Any] | None = None,
+    supervise: bool = True,
 ) -> AsyncRobot:
     """Open every bus of the robot file ``robot`` (or a :class:`RobotSpec`).
 
     ``timeout``, ``retries``, ``stop_on_close`` and ``start`` (see
     :func:`~drempower.open_bus`) apply to every bus, over what the file says;
-    ``sim`` options (``time_scale``, ``bitrate``...) to its sim buses. If a bus
+    ``sim`` options (``time_scale``, ``bitrate``...) to its sim buses. When the file has a ``[health]``
+    section the health supervisor runs on its own (:attr:`AsyncRobot.health_run`, see
+    :mod:`drempower.robot.health_run`; an asyncio robot's wall-clock steps start with ``async with`` or
+    when opened inside a running event loop); ``supervise=False`` leaves it out. If a bus
     cannot be opened, the ones already open are closed and the error names the bus.
     Use it as a context manager.
     """
@@ -500,7 +525,7 @@ def open_robot_async(
                 buses[name] = open_bus_async(**options[name])
             except DrEmpowerError as exc:
                 raise opening_failed(spec, name, exc) from exc
-        return AsyncRobot(spec, buses)
+        return AsyncRobot(spec, buses, supervise=supervise)
     except BaseException:
         for b in buses.values():
             b.close_now()

@@ -28,6 +28,7 @@ import os
 import random
 import threading
 from collections.abc import Callable, Iterable, Mapping
+from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
@@ -49,6 +50,7 @@ from .defaults import MotorModel
 from .faults import Faults
 from .firmware import Firmware, firmware_from
 from .motor import SimMotor
+from .thermal import ThermalModel, thermal_model
 from .timing import BusStats, frame_bits
 
 __all__ = ["SimBus", "Listener", "DEFAULT_HOST_QUEUE", "HOST_QUEUES", "parse_host_queue"]
@@ -111,6 +113,9 @@ class SimBus:
     (default ``"priority:3"``, see the module docstring). ``firmware`` and the knobs after it
     (``status_bits``, ``boot_s``, ``reply_state``, ``fast_read``, ``q_time_zero``, ``heartbeat``,
     ``factory_id``) pick the motors' reading of the vendor's document (:class:`~drempower.sim.firmware.Firmware`).
+    ``thermal`` (a :class:`~drempower.sim.thermal.ThermalModel`, or some of its constants by name) sets every
+    motor's heat constants, ``motor_thermal`` (``{motor id: {name: value}}``) one motor's over those (a robot
+    file's ``[joints.NAME.thermal]``); each constant in the range of :data:`~drempower.robotfile.THERMAL_KEYS`.
     """
 
     STEP = 0.001
@@ -134,6 +139,8 @@ class SimBus:
         q_time_zero: str | None = None,
         heartbeat: bool | None = None,
         factory_id: int | None = None,
+        thermal: ThermalModel | Mapping[str, float] | None = None,
+        motor_thermal: Mapping[int, Mapping[str, float]] | None = None,
     ) -> None:
         self.firmware = firmware_from(
             firmware,
@@ -172,9 +179,18 @@ class SimBus:
         """The motors by the id they were created with (their node id may change)."""
         self._replies: dict[int, Callable[[Frame], None]] = {}
         self._uart_taps: dict[int, list[Listener]] = {}
+        base = model or MotorModel()
+        bus_heat = thermal_model(base.thermal, thermal, "thermal")
+        for i in motor_thermal or {}:
+            if i not in ids:
+                raise ValidationError(f"motor_thermal: motor {i} is not simulated on this bus (motors {ids})")
         for i in ids:
+            heat = thermal_model(bus_heat, (motor_thermal or {}).get(i), f"motor_thermal: motor {i}")
             m = SimMotor(
-                i, model=model, config_path=folder / f"motor-{i}.json" if folder else None, firmware=self.firmware
+                i,
+                model=base if heat is base.thermal else replace(base, thermal=heat),
+                config_path=folder / f"motor-{i}.json" if folder else None,
+                firmware=self.firmware,
             )
             self.motors[i] = m
             self._replies[i] = self._replier(m)

@@ -43,8 +43,9 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
+from ..errors import ConfigError, ValidationError
 from ..protocol.addresses import (
     AXIS0_FET_THERMISTOR_CONFIG_ENABLED,
     AXIS0_FET_THERMISTOR_CONFIG_TEMP_LIMIT_LOWER,
@@ -59,8 +60,17 @@ from ..protocol.addresses import (
     AXIS0_MOTOR_THERMISTOR_CONFIG_TEMP_LIMIT_UPPER,
     AXIS0_MOTOR_THERMISTOR_ERROR,
 )
+from ..robotfile import thermal_table
 
-__all__ = ["HEAT_STEPS", "ThermalModel", "Thermal", "ThermalLimits", "derated_limit", "OVER_TEMP_TRIP_MARGIN_C"]
+__all__ = [
+    "HEAT_STEPS",
+    "ThermalModel",
+    "Thermal",
+    "ThermalLimits",
+    "derated_limit",
+    "OVER_TEMP_TRIP_MARGIN_C",
+    "thermal_model",
+]
 
 HEAT_STEPS = 10
 """The simulated motor updates its temperatures, the limiter and the trip every this many 1 ms steps (10 ms),
@@ -87,6 +97,21 @@ class ThermalModel:
     board_tau: float = 60.0
     board_idle_w: float = 0.5
     fet_resistance: float = 0.02
+
+
+def thermal_model(base: ThermalModel, values: ThermalModel | Mapping[str, float] | None, where: str) -> ThermalModel:
+    """``base`` with the constants of ``values`` (a :class:`ThermalModel`, or some of its fields by name, each in
+    :data:`~drempower.robotfile.THERMAL_KEYS`'s range); a :class:`ValidationError` naming ``where``, the key and
+    the range otherwise."""
+    if values is None:
+        return base
+    if isinstance(values, ThermalModel):
+        return values
+    try:
+        checked = thermal_table(values, where)
+    except ConfigError as exc:
+        raise ValidationError(str(exc)) from None
+    return replace(base, **checked)
 
 
 def derated_limit(base: float, temperature: float, lower: float, upper: float) -> float:

@@ -489,7 +489,9 @@ class AsyncBus(AsyncBusBase[AsyncMotor]):
         fresh = [w for w in watches if w.limits.kt != w.limits.kt]
         if fresh:
             await self.run(prepare(fresh, timeout))
-        return await self.run(supervise(watches, self.now(), timeout))
+        events = await self.run(supervise(watches, self.now(), timeout))
+        self.health_acted(events)
+        return events
 
     async def traj_modes(self, ids: Iterable[int], *, timeout: float | None = None) -> dict[int, int]:
         """The Q-mode profile of each motor (:class:`~drempower.client.engine.commands.TrajMode` values): those the

@@ -480,7 +480,9 @@ class Bus(SyncBusBase[Motor]):
         fresh = [w for w in watches if w.limits.kt != w.limits.kt]
         if fresh:
             self.run(prepare(fresh, timeout))
-        return self.run(supervise(watches, self.now(), timeout))
+        events = self.run(supervise(watches, self.now(), timeout))
+        self.health_acted(events)
+        return events
 
     def traj_modes(self, ids: Iterable[int], *, timeout: float | None = None) -> dict[int, int]:
         """The Q-mode profile of each motor (:class:`~drempower.client.engine.commands.TrajMode` values): those the

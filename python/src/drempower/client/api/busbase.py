@@ -21,15 +21,17 @@ from ..driver.bus_driver import BusDriver, FrameTap
 from ..engine.commands import check_ids
 from ..engine.effects import Op
 from ..engine.gate import Intent, Limit, MotionGate, intents_of, param_kind
+from ..engine.operation import Operation
 from ..engine.session import DEFAULT_TIMEOUT, BusSession, StartPolicy, StopOnClose
 from ..engine.state import MotorState, StateCallback, Subscription
-from ..engine.supervisor import HealthPolicy, Watch
+from ..engine.supervisor import HealthEvent, HealthPolicy, Watch, action_messages
 from ..engine.timeouts import seconds
 from .timed import TimedStops
 
 __all__ = ["BusBase", "connect"]
 
 M = TypeVar("M")
+T = TypeVar("T")
 
 
 def connect(
@@ -278,6 +280,24 @@ class BusBase(ABC, Generic[M]):
     def virtual(self) -> bool:
         """True when the bus runs on its transport's simulated time (see :meth:`now`, ``pass_time``)."""
         return self._core.virtual
+
+    def health_acted(self, events: Sequence[HealthEvent]) -> None:
+        """Note what a supervisor step's actions sent (:func:`~drempower.client.engine.supervisor.action_messages`):
+        the safety gate then refuses motion to a joint it idled until it is enabled again."""
+        acts = action_messages(events)
+        if acts:
+            self._sent(acts)
+
+    def submit(self, op: Op[T]) -> Operation[T]:
+        """Start operation ``op`` in the bus's session now and return at once: it goes on as replies come and
+        its sleeps come due, while any caller waits on the bus (on a virtual clock: as simulated time
+        passes). For what runs beside the caller, such as the robot's health supervisor."""
+        return self._core.submit(op)
+
+    def cancel(self, opn: Operation[Any]) -> None:
+        """Stop an operation of :meth:`submit` (nothing happens once it is done)."""
+        if not opn.done:
+            self._core._waits.cancel(opn)
 
     @property
     def commanded(self) -> frozenset[int]:

@@ -99,6 +99,8 @@ class HealthPolicy:
     on_stall: str = "warn"
     joints: Mapping[int, str] = field(default_factory=dict)
     """``{motor id: on_overheat}`` for motors that differ from ``on_overheat``."""
+    stalls: Mapping[int, str] = field(default_factory=dict)
+    """``{motor id: on_stall}`` for motors that differ from ``on_stall``."""
 
     def __post_init__(self) -> None:
         _positive("period", self.period, 0.05, 60.0)
@@ -111,10 +113,16 @@ class HealthPolicy:
         _action("on_stall", self.on_stall)
         for node, a in self.joints.items():
             _action(f"on_overheat of motor {node}", a)
+        for node, a in self.stalls.items():
+            _action(f"on_stall of motor {node}", a)
 
     def overheat_action(self, node: int) -> Action:
         """What overheating motor ``node`` makes the supervisor do."""
         return _action("on_overheat", self.joints.get(node, self.on_overheat))
+
+    def stall_action(self, node: int) -> Action:
+        """What a stall of motor ``node`` makes the supervisor do."""
+        return _action("on_stall", self.stalls.get(node, self.on_stall))
 
 
 @dataclass(frozen=True, slots=True)
@@ -236,7 +244,7 @@ class Watch:
                         f"stalled: {state.torque:.2f} Nm at its {tlim:.2f} Nm limit for {now - since:.1f} s "
                         "without reaching the target",
                         "Remove the blockage, lower the load or the target, then command it again.",
-                        "none" if p.on_stall == "warn" else p.on_stall,  # type: ignore[arg-type]
+                        "none" if p.stall_action(self.node) == "warn" else p.stall_action(self.node),  # type: ignore[arg-type]
                         self.joint,
                     )
             else:

@@ -273,6 +273,7 @@
     return act("scan", {});
   }
   on("#scan", scanBus);
+  const esc = (t) => String(t).replace(/[&<>"]/g, (c) => ({ "&": "&amp;", "<": "&lt;", ">": "&gt;", '"': "&quot;" }[c]));
   function fmt(v, d) { return v === null || v === undefined ? "-" : Number(v).toFixed(d); }
   function latest(id) {
     const d = S.data.get(id);
@@ -324,8 +325,10 @@
   function renderHealth() {
     const rows = S.motors.map((id) => {
       const c = S.cards[id] || { id };
-      const level = (c.errors || []).length ? "error" : c.derating > 0 || c.motor_temp >= 80 || c.fet_temp >= 80 ? "warn" : "ok";
-      const faults = (c.errors || []).map((e) => `<div class="err"><b>${e.word} ${e.flag}</b>: ${e.meaning} <i>Fix: ${e.advice}</i></div>`).join("");
+      // the robot file's supervisor (its [health]) decides the level when it runs; else the reading does
+      const level = c.level || ((c.errors || []).length ? "error" : c.derating > 0 || c.motor_temp >= 80 || c.fet_temp >= 80 ? "warn" : "ok");
+      const faults = (c.errors || []).map((e) => `<div class="err"><b>${e.word} ${e.flag}</b>: ${e.meaning} <i>Fix: ${e.advice}</i></div>`).join("") +
+        (c.events || []).map((e) => `<div class="event event-${e.level}" data-kind="${e.kind}" data-action="${e.action}">${fmt(e.t, 1)} s: ${esc(e.text)}</div>`).join("");
       return `<tr class="health-${level}" data-id="${id}"><td>${motorName(id)}</td><td>${level}</td>
         <td>${fmt(c.motor_temp, 1)}</td><td>${fmt(c.fet_temp, 1)}</td><td>${fmt(c.current_limit, 2)}</td>
         <td>${c.derating == null ? "-" : fmt(c.derating * 100, 0)} %</td><td>${trendSvg(c.trend)}${faults}</td></tr>`;
