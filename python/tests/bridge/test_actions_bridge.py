@@ -13,8 +13,9 @@ from typing import Any
 import pytest
 
 from drempower.bridge import rosmsg
+from drempower.bridge.bus_face import ENABLE_FIX
 from drempower.bridge.hub import driven_nodes
-from drempower.bridge.server import ENABLE_FIX, Bridge, BridgeOptions, motor_joints
+from drempower.bridge.server import Bridge, BridgeOptions, motor_joints
 from drempower.errors import MotorIdleError
 from drempower.protocol.enums import AxisState
 from drempower.protocol.ids import Frame

@@ -28,7 +28,7 @@ from ..client.engine.supervisor import HealthEvent, HealthPolicy, Watch, prepare
 from . import rmw, rosmsg
 
 if TYPE_CHECKING:
-    from .server import BusFace
+    from .bus_face import BusFace
 
 __all__ = ["DIAGNOSTIC_ARRAY", "Diagnostics", "OK", "WARN", "ERROR", "STALE", "PERIOD"]
 

@@ -44,10 +44,11 @@ from ..client.engine.watchdog import Watchdog, stop_messages
 from ..errors import DrEmpowerError
 from ..protocol.messages import Message, StartImpedance
 from . import rmw, rosmsg
-from .server import check_joint_value, pass_face_gate
+from .bus_face import check_joint_value, pass_face_gate
 
 if TYPE_CHECKING:
-    from .server import Bridge, BusFace
+    from .bus_face import BusFace
+    from .server import Bridge
 
 __all__ = [
     "COMMAND_INTERFACES",

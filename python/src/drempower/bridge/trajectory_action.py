@@ -53,7 +53,7 @@ from ..motion.plan import FollowError, make_plan, robot_lanes, robot_limits
 from ..motion.trajectory import Trajectory
 from ..robot.config import BusSpec, RobotSpec
 from . import rmw, rosaction, rosmsg
-from .server import in_ros_terms
+from .bus_face import in_ros_terms
 
 if TYPE_CHECKING:
     from .server import Bridge
