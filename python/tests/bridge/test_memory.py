@@ -11,7 +11,7 @@ from typing import Any
 import pytest
 
 from drempower import open_bus
-from drempower.bridge import server
+from drempower.bridge import bus_face
 from drempower.protocol.messages import FastRead
 from drempower.transports.zenoh_wire import encode_frames
 
@@ -45,7 +45,7 @@ def _traffic(served: Served, peer: Any, stop: threading.Event) -> None:
 
 @pytest.mark.parametrize("served", [{"rate": 1000.0}], indirect=True)
 def test_memory_is_flat_over_a_bounded_run(served: Served, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setattr(server, "FORGET_AFTER", 1.0)  # made-up clients forgotten after 2 s (ten command timeouts)
+    monkeypatch.setattr(bus_face, "FORGET_AFTER", 1.0)  # made-up clients forgotten after 2 s (ten command timeouts)
     face = served.bridge._face
     got = [0]
     with session(connect=[served.endpoint]) as peer:
