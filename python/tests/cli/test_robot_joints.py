@@ -78,3 +78,19 @@ def test_ctrl_c_holds_a_joint_that_holds_and_idles_one_that_says_idle(
     assert "interrupted: motor 1 held" in r.err and "interrupted: motor 2 set to idle" in r.err, r.err
     assert sim.motors[1].state is AxisState.CLOSED_LOOP_CONTROL  # the shoulder is not dropped
     assert sim.motors[2].state is AxisState.IDLE
+
+
+@pytest.mark.parametrize("option", ["--accel", "--speed"])
+def test_a_rate_refused_at_the_joint_names_what_was_typed_and_the_joints_range(
+    cli: Cli, sim: SimBus, arm: str, option: str
+) -> None:
+    # 200 (r/min or (r/min)/s) at the 2:1 shoulder is 400 at the motor, beyond the wire's 327.67
+    r = cli("move", "shoulder", "10", "--robot", arm, option, "200")
+    assert r.code == 2, (r.out, r.err)
+    line = r.err.strip().splitlines()[-1]
+    assert f"argument {option}: 200 " in line and "at the joint" in line, line
+    assert "0.005..163.835" in line, line  # the wire's range through the gear
+    assert "400 is" not in line and "Traceback" not in r.err
+    assert abs(sim.motors[1].position) < 1  # nothing moved
+    r = cli("move", "shoulder", "10", "--robot", arm, option, "160")  # 320 at the motor: taken
+    assert r.code == 0, (r.out, r.err)

@@ -18,9 +18,10 @@ import io
 import json
 import math
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
+from ..errors import FieldRangeError
 from ..robot.joint import Gearing
 from ..robotfile import JOINT_NAME, JointSpec, RobotSpec, load_robot
 from ._output import emit, is_terminal, json_line
@@ -33,6 +34,7 @@ __all__ = [
     "with_units",
     "named_joints",
     "rate_scale",
+    "rates_at_joint",
     "run_command",
     "to_joint_angle",
     "to_motor",
@@ -195,6 +197,25 @@ def rate_scale(args: argparse.Namespace, ids: Sequence[int]) -> float:
     return min(gears) if gears and len(gears) == len(ids) else 1.0
 
 
+@contextlib.contextmanager
+def rates_at_joint(scale: float, options: Mapping[str, str]) -> Iterator[None]:
+    """Name a refused rate in the units it was typed in: a rate given at the joints and multiplied by
+    ``scale`` (:func:`rate_scale`) for the motors is refused with the value typed and the range at the
+    joint, the motor's value and range said after it. ``options`` maps the library's field to the option
+    (``param (accel)`` -> ``--accel``); other errors, and every error at ``scale`` 1, pass unchanged."""
+    try:
+        yield
+    except FieldRangeError as exc:
+        option = options.get(exc.field)
+        if scale == 1.0 or option is None or not isinstance(exc.value, (int, float)):
+            raise
+        raise UsageError(
+            f"argument {option}: {exc.value / scale:g} at the joint is out of range: allowed "
+            f"{exc.low / scale:g}..{exc.high / scale:g} at the joint ({exc.value:g} at the motor through the gear "
+            f"{scale:g}, where the motor allows {exc.low:g}..{exc.high:g})"
+        ) from None
+
+
 def run_command(args: argparse.Namespace) -> int:
     """Run the command over the robot's buses (see the module docstring)."""
     groups: dict[str, list[int]] = args.robot_groups
@@ -270,7 +291,10 @@ def _move(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
     from ..client import PositionMode
     from ..client.engine.session import DEFAULT_MOVE_TIMEOUT
     from ._motion import stop_commanded
-    from .move import _MODES, _params
+    from .move import _FIELDS, _MODES, _params
+
+    def _move_fields(mode: PositionMode) -> dict[str, str]:
+        return _FIELDS[mode] if mode is PositionMode.Q else {}
 
     names = _names(args, groups)
     order = [w for w in args.ids if isinstance(w, str)]
@@ -284,12 +308,13 @@ def _move(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
     gears = {n: Gearing(spec.joints[n]) for n in names}  # deg at each joint, to its motor's deg
     kind = "step" if args.relative else "angle"
     motor = {n: _TO_MOTOR[kind](gears[n], a) for n, a in zip(names, angles, strict=True)}
+    scale = min(abs(g.gear) for g in gears.values())
     if mode is not PositionMode.T:  # rates at the joints: no joint turns faster than asked
-        scale = min(abs(g.gear) for g in gears.values())
         speed, param = speed * scale, param * (scale if mode is PositionMode.Q else 1.0)
     with _open(args) as robot:
         try:
-            move = robot.set_angles(motor, speed, param, mode, relative=args.relative)
+            with rates_at_joint(scale if mode is not PositionMode.T else 1.0, _move_fields(mode)):
+                move = robot.set_angles(motor, speed, param, mode, relative=args.relative)
             records: list[dict[str, Any]] = [
                 {"joint": n, "angle": a, "move_time_s": move.move_time, "start_skew_us": round(move.skew * 1e6, 1)}
                 for n, a in zip(names, angles, strict=True)
