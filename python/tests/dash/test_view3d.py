@@ -550,3 +550,53 @@ def test_a_dashboard_on_a_twin_served_elsewhere_says_truly_why_it_cannot_push(tm
     finally:
         stop.set()
         thread.join(10)
+
+
+def test_a_push_on_a_body_is_drawn_and_its_deflection_shown(
+    browser: Any, tmp_path: Path, model: Path, shots: Path
+) -> None:
+    """On the robot twin: a 60 N push on the forearm draws its force as an arrow at the body for as long as
+    it lasts (and a second after), and the page writes the joints' deflection (the idle shoulder turns)."""
+    pytest.importorskip("mujoco")
+    pytest.importorskip("drempower.sim.twin")
+    (tmp_path / "robot.toml").write_text('[model]\nfile = "arm.xml"\n' + ROBOT)
+    robot = open_robot(tmp_path / "robot.toml", stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(robot)
+    ctx = browser.new_context(viewport={"width": 900, "height": 600})
+    try:
+        bus = robot.buses["arm"]
+        p = ctx.new_page()
+        p.set_default_timeout(10_000)
+        p.goto(url)
+        p.get_by_role("button", name="Scan ids 1-63").click()
+        p.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
+        p.get_by_role("tab", name="3D").click()
+        p.wait_for_function("window.drempowerView && window.drempowerView.ready")
+        bus.motor(1).set_mode(1)  # idle: the shoulder turns freely about its vertical axis
+        assert p.locator("#hand-target").input_value() != "base"  # the default body moves
+        p.locator("#hand-kind").select_option("body")
+        p.locator("#hand-target").select_option("fore")
+        p.locator("#hand-fx").fill("0")
+        p.locator("#hand-fy").fill("60")  # across the arm: a torque about the shoulder's axis
+        p.locator("#hand-fz").fill("0")
+        p.locator("#hand-duration").fill("1")
+        p.get_by_role("button", name="Push").click()
+        p.wait_for_function("window.drempowerView.push && window.drempowerView.push.arrow")
+        arrow = p.evaluate(
+            "(() => { let a = null; window.drempowerView.world.traverse((o) => { if (o.name === 'push:fore') a = o; });"
+            " return a && a.visible; })()"
+        )
+        assert arrow is True
+        p.wait_for_function(
+            "Math.abs(window.drempowerView.push.deflection.shoulder || 0) > 5", timeout=10_000
+        )  # the idle shoulder swung, and the page says by how much
+        text = p.locator("#hand-deflection").inner_text()
+        assert text.startswith("force (0, 60, 0) N on fore: deflection ") and "shoulder" in text, text
+        p.screenshot(path=str(shots / "dash-3d-push.png"))
+        p.wait_for_function("window.drempowerView.push.arrow === false", timeout=15_000)  # gone after the push
+    finally:
+        ctx.close()
+        loop.call_soon_threadsafe(dash.stopping.set)
+        thread.join(10)
+        hub.close()
+        robot.close()
