@@ -838,10 +838,11 @@
       await loadGains();
     });
   }
-  // where the runs of a mode are all at a joint (or all at a motor), the axis says so
+  // where the runs of a mode are at a joint, the axis says so
   function unitsNote(m) {
     const u = new Set(S.runs.filter((r) => r.mode === m).map((r) => r.units));
-    return u.size === 1 ? (u.has("joint") ? " at the joint" : " at the motor") : " (joints at the joint, motors at the motor)";
+    if (!u.has("joint")) return ""; // bare motors: the motor's own units, as ever
+    return u.size === 1 ? " at the joint" : " (joints at the joint, motors at the motor)";
   }
   function drawRuns() {
     const el = $("#tun-plot");
