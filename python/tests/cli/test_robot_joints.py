@@ -94,3 +94,17 @@ def test_a_rate_refused_at_the_joint_names_what_was_typed_and_the_joints_range(
     assert abs(sim.motors[1].position) < 1  # nothing moved
     r = cli("move", "shoulder", "10", "--robot", arm, option, "160")  # 320 at the motor: taken
     assert r.code == 0, (r.out, r.err)
+
+
+def test_a_soft_limit_refused_at_a_named_joint_names_the_joint_value(cli: Cli, sim: SimBus, tmp_path: Path) -> None:
+    # the shoulder's limit is +-1 rad at the joint: 80 deg there is 160 at the 2:1 motor
+    path = tmp_path / "arm.toml"
+    path.write_text(ROBOT.replace("gear = 2.0\n", "gear = 2.0\nlimits = { position = [-1.0, 1.0] }\n"))
+    r = cli("move", "shoulder", "80", "--robot", str(path))
+    assert r.code == 2, (r.out, r.err)
+    line = r.err.strip().splitlines()[-1]
+    assert "joint shoulder: position 80 deg at the joint is beyond its soft limit -57.2958..57.2958 deg" in line, line
+    assert f"(set by {path}: [joints.shoulder] limits)" in line and "Traceback" not in r.err
+    assert abs(sim.motors[1].position) < 1  # nothing moved
+    r = cli("move", "1", "160", "--robot", str(path))  # by motor id: the motor's degrees, as the motor's words
+    assert r.code == 2 and "motor 1: position 160 deg is beyond its soft limit -114.592..114.592 deg" in r.err, r.err

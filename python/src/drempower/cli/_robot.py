@@ -21,7 +21,7 @@ import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
-from ..errors import FieldRangeError
+from ..errors import FieldRangeError, SoftLimitError
 from ..robot.joint import Gearing
 from ..robotfile import JOINT_NAME, JointSpec, RobotSpec, load_robot
 from ._output import emit, is_terminal, json_line
@@ -31,6 +31,7 @@ __all__ = [
     "apply_robot",
     "joint_or_ids",
     "joint_record",
+    "joint_refusal",
     "with_units",
     "named_joints",
     "rate_scale",
@@ -214,6 +215,42 @@ def rates_at_joint(scale: float, options: Mapping[str, str]) -> Iterator[None]:
             f"{exc.low / scale:g}..{exc.high / scale:g} at the joint ({exc.value:g} at the motor through the gear "
             f"{scale:g}, where the motor allows {exc.low:g}..{exc.high:g})"
         ) from None
+
+
+_AT_JOINT: dict[str, tuple[str, Callable[[Gearing, float], float]]] = {
+    "position": ("deg", lambda g, v: math.degrees(g.joint_state_angle(v))),
+    "max_step": ("deg", lambda g, v: v / g.gear),
+    "speed": ("r/min", lambda g, v: v / g.gear),
+    "accel": ("(r/min)/s", lambda g, v: v / g.gear),
+    "torque": ("Nm", lambda g, v: v * g.gear),
+}
+"""A soft limit's unit and the motor's value of it at the joint (deg, r/min, (r/min)/s, Nm there)."""
+
+
+def joint_refusal(args: argparse.Namespace, exc: Exception) -> str:
+    """The words of a refusal: a soft limit refused for a joint the command line named (whose value
+    was typed at the joint) says the value and the limit at the joint, the motor's figures after them;
+    every other refusal as it is."""
+    spec: RobotSpec | None = getattr(args, "robot_spec", None)
+    groups: dict[str, list[int]] = getattr(args, "robot_groups", None) or {}
+    if not isinstance(exc, SoftLimitError) or spec is None or len(groups) != 1 or exc.limit not in _AT_JOINT:
+        return str(exc)
+    (bus,) = groups
+    words = list(getattr(args, "ids", None) or []) if getattr(args, "robot_ids", False) else []
+    named = {spec.joints[w].id: spec.joints[w] for w in words if isinstance(w, str) and w in spec.joints}
+    if not words:  # no IDS: every joint of the bus, by name
+        named = {j.id: j for j in spec.joints_on(bus)}
+    j = named.get(exc.node)
+    if j is None or j.bus != bus or not isinstance(exc.value, (int, float)):
+        return str(exc)
+    unit, at = _AT_JOINT[exc.limit]
+    g = Gearing(j)
+    lo, hi = sorted((at(g, exc.low), at(g, exc.high)))
+    return (
+        f"joint {j.name}: {exc.limit} {at(g, float(exc.value)):g} {unit} at the joint is beyond its soft limit "
+        f"{lo:g}..{hi:g} {unit} at the joint (motor {exc.node}: {exc.value:g} {unit}, limit {exc.low:g}..{exc.high:g} "
+        f"{unit}) (set by {exc.where})"
+    )
 
 
 def run_command(args: argparse.Namespace) -> int:
