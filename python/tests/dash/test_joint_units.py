@@ -91,7 +91,7 @@ def test_the_controls_take_degrees_at_the_joint_and_the_samples_show_them(geared
         hub.do_control("t", {"action": "V", "id": SHOULDER, "speed": 200})  # 400 at the motor: no such value
     text = str(err.value)
     assert "speed=200 at the joint" in text and "-163.84..163.835 at the joint" in text, text
-    assert abs(sim.speed) < 1  # nothing sent
+    assert hub.targets[SHOULDER][1] is None  # nothing sent: the jog's target stands, no speed target
 
 
 def test_the_tuning_step_of_a_joint_is_at_the_joint(geared: tuple[Any, Hub]) -> None:
@@ -127,7 +127,7 @@ def test_the_page_takes_and_shows_the_shoulder_at_the_joint(browser: Any, tmp_pa
         p.locator("#ctl-motor").select_option(label="shoulder")
         p.wait_for_function("document.querySelector('#ctl-limits').textContent.includes('limits of')")
         units = p.locator("#ctl-units").inner_text()
-        assert "at the joint (gear 2, offset 5.72958 deg)" in units, units
+        assert "at the joint (gear 2, offset 5.72958 deg: motor angle = (joint angle - offset) x gear)" in units, units
         limits = p.locator("#ctl-limits").inner_text()
         speed = hub.limits[SHOULDER]["speed"] / 2
         assert "limits of shoulder at the joint:" in limits and f"speed ±{speed:.6g} r/min" in limits, limits

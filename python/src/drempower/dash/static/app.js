@@ -228,7 +228,7 @@
     const n = S.names && S.names[id];
     if (!n) return "";
     return n.units === "joint"
-      ? `${motorName(id)}: deg, r/min and Nm at the joint (gear ${fmtL(n.gear)}, offset ${fmtL(n.offset_deg)} deg); the motor turns gear x as far`
+      ? `${motorName(id)}: deg, r/min and Nm at the joint (gear ${fmtL(n.gear)}, offset ${fmtL(n.offset_deg)} deg: motor angle = (joint angle - offset) x gear)`
       : `${motorName(id)}: the motor's deg, r/min and Nm`;
   }
   const shortName = motorName;
@@ -609,7 +609,7 @@
       ctlPlotId = id;
       ctlPlot = new uPlot({
         width: Math.max(400, el.clientWidth || window.innerWidth - 30), height: 200, scales: { x: { time: false } },
-        axes: [{ label: "t / s" }, { scale: "deg", label: `angle / deg${unitsWord(id)}` }, { scale: "rpm", side: 1, label: `speed / r/min${unitsWord(id)}`, grid: { show: false } }],
+        axes: [{ label: "t / s" }, { scale: "deg", label: `angle / deg${atJoint(id) ? " (joint)" : ""}` }, { scale: "rpm", side: 1, label: `speed / r/min${atJoint(id) ? " (joint)" : ""}`, grid: { show: false } }],
         series: [{ label: "t" },
           { label: `${legendName(id)} angle`, scale: "deg", stroke: COLORS[0], points: { show: false }, spanGaps: true },
           { label: `${legendName(id)} angle target`, scale: "deg", stroke: COLORS[0], dash: [6, 4], points: { show: false }, spanGaps: true },
