@@ -108,3 +108,17 @@ def test_a_soft_limit_refused_at_a_named_joint_names_the_joint_value(cli: Cli, s
     assert abs(sim.motors[1].position) < 1  # nothing moved
     r = cli("move", "1", "160", "--robot", str(path))  # by motor id: the motor's degrees, as the motor's words
     assert r.code == 2 and "motor 1: position 160 deg is beyond its soft limit -114.592..114.592 deg" in r.err, r.err
+
+
+def test_a_rate_refused_across_buses_names_what_was_typed_at_the_joints(cli: Cli, sim: SimBus, tmp_path: Path) -> None:
+    # two 2:1 joints on two buses: one synchronised move, its acceleration at the joints
+    path = tmp_path / "two.toml"
+    path.write_text(
+        '[buses.left]\ninterface = "sim"\n[buses.right]\ninterface = "sim"\n'
+        '[joints.shoulder]\nbus = "left"\nid = 1\ngear = 2.0\n[joints.elbow]\nbus = "right"\nid = 2\ngear = 2.0\n'
+    )
+    r = cli("move", "shoulder,elbow", "10", "--robot", str(path), "--accel", "200")
+    assert r.code == 2, (r.out, r.err)
+    line = r.err.strip().splitlines()[-1]
+    assert "argument --accel: 200 at the joint is out of range: allowed 0.005..163.835 at the joint" in line, line
+    assert abs(sim.motors[1].position) < 1 and abs(sim.motors[2].position) < 1  # nothing moved

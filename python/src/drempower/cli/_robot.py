@@ -17,6 +17,7 @@ import copy
 import io
 import json
 import math
+import re
 import sys
 from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
@@ -207,7 +208,8 @@ def rates_at_joint(scale: float, options: Mapping[str, str]) -> Iterator[None]:
     try:
         yield
     except FieldRangeError as exc:
-        option = options.get(exc.field)
+        field = re.sub(r" \((joint|motor) [^)]*\)$", "", exc.field)  # a robot's per-joint field: the option's
+        option = options.get(field)
         if scale == 1.0 or option is None or not isinstance(exc.value, (int, float)):
             raise
         raise UsageError(
