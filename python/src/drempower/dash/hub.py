@@ -777,6 +777,8 @@ class Hub:
         refuses all but reading and stopping, a motion needs a motor in closed loop (or
         ``enable``) and stays within the limits the motor holds; logged, and the targets kept."""
         act = actions.get(name)
+        if self.read_only and act.safety not in ("read", "stop"):  # first: whatever else, it is never carried out
+            raise ValidationError("this dashboard is read-only (--read-only)")
         if act.safety != "stop":
             self.check_fence()
         raw = args.get("id")
