@@ -78,3 +78,47 @@ def test_ctrl_c_holds_a_joint_that_holds_and_idles_one_that_says_idle(
     assert "interrupted: motor 1 held" in r.err and "interrupted: motor 2 set to idle" in r.err, r.err
     assert sim.motors[1].state is AxisState.CLOSED_LOOP_CONTROL  # the shoulder is not dropped
     assert sim.motors[2].state is AxisState.IDLE
+
+
+@pytest.mark.parametrize("option", ["--accel", "--speed"])
+def test_a_rate_refused_at_the_joint_names_what_was_typed_and_the_joints_range(
+    cli: Cli, sim: SimBus, arm: str, option: str
+) -> None:
+    # 200 (r/min or (r/min)/s) at the 2:1 shoulder is 400 at the motor, beyond the wire's 327.67
+    r = cli("move", "shoulder", "10", "--robot", arm, option, "200")
+    assert r.code == 2, (r.out, r.err)
+    line = r.err.strip().splitlines()[-1]
+    assert f"argument {option}: 200 " in line and "at the joint" in line, line
+    assert "0.005..163.835" in line, line  # the wire's range through the gear
+    assert "400 is" not in line and "Traceback" not in r.err
+    assert abs(sim.motors[1].position) < 1  # nothing moved
+    r = cli("move", "shoulder", "10", "--robot", arm, option, "160")  # 320 at the motor: taken
+    assert r.code == 0, (r.out, r.err)
+
+
+def test_a_soft_limit_refused_at_a_named_joint_names_the_joint_value(cli: Cli, sim: SimBus, tmp_path: Path) -> None:
+    # the shoulder's limit is +-1 rad at the joint: 80 deg there is 160 at the 2:1 motor
+    path = tmp_path / "arm.toml"
+    path.write_text(ROBOT.replace("gear = 2.0\n", "gear = 2.0\nlimits = { position = [-1.0, 1.0] }\n"))
+    r = cli("move", "shoulder", "80", "--robot", str(path))
+    assert r.code == 2, (r.out, r.err)
+    line = r.err.strip().splitlines()[-1]
+    assert "joint shoulder: position 80 deg at the joint is beyond its soft limit -57.2958..57.2958 deg" in line, line
+    assert f"(set by {path}: [joints.shoulder] limits)" in line and "Traceback" not in r.err
+    assert abs(sim.motors[1].position) < 1  # nothing moved
+    r = cli("move", "1", "160", "--robot", str(path))  # by motor id: the motor's degrees, as the motor's words
+    assert r.code == 2 and "motor 1: position 160 deg is beyond its soft limit -114.592..114.592 deg" in r.err, r.err
+
+
+def test_a_rate_refused_across_buses_names_what_was_typed_at_the_joints(cli: Cli, sim: SimBus, tmp_path: Path) -> None:
+    # two 2:1 joints on two buses: one synchronised move, its acceleration at the joints
+    path = tmp_path / "two.toml"
+    path.write_text(
+        '[buses.left]\ninterface = "sim"\n[buses.right]\ninterface = "sim"\n'
+        '[joints.shoulder]\nbus = "left"\nid = 1\ngear = 2.0\n[joints.elbow]\nbus = "right"\nid = 2\ngear = 2.0\n'
+    )
+    r = cli("move", "shoulder,elbow", "10", "--robot", str(path), "--accel", "200")
+    assert r.code == 2, (r.out, r.err)
+    line = r.err.strip().splitlines()[-1]
+    assert "argument --accel: 200 at the joint is out of range: allowed 0.005..163.835 at the joint" in line, line
+    assert abs(sim.motors[1].position) < 1 and abs(sim.motors[2].position) < 1  # nothing moved

@@ -21,8 +21,10 @@ HEADER = [
     "name",
     *(COLUMNS[c][0] for c in ("position", "speed", "torque", "done", "error")),
     *("target_" + COLUMNS[c][0] for c in ("position", "speed", "torque")),
+    "units",
 ]
-"""The CSV's header: the keys (with units) of ``monitor --csv`` and ``state --json``, and the motor's name."""
+"""The CSV's header: the keys (with units) of ``monitor --csv`` and ``state --json``, the motor's name, and
+``units`` as ``state --json --robot`` says it (``joint``: at the joint, ``motor``: the motor's)."""
 
 
 def test_the_header_is_that_of_monitor_and_state() -> None:
@@ -38,6 +40,7 @@ def test_the_header_is_that_of_monitor_and_state() -> None:
         "target_position_deg",
         "target_speed_rpm",
         "target_torque_nm",
+        "units",
     ]
 
 
@@ -79,6 +82,7 @@ def test_a_plain_bus_names_its_motors_motor_id(page: Any, served: Served) -> Non
     assert header == HEADER
     assert {r["name"] for r in rows} == set(names)
     assert all(r["name"] == f"motor_{r['id']}" for r in rows)
+    assert {r["units"] for r in rows} == {"motor"}  # bare motors: the motor's units
     assert all(float(r["time_s"]) >= 0 and r["position_deg"] != "" for r in rows)
 
 
@@ -128,3 +132,4 @@ def test_a_robot_files_joint_names_label_its_motors(browser: Any, robot_url: str
     assert "shoulder:" in labels["per_motor"][0] and "elbow:" in labels["per_motor"][0]
     assert header == HEADER
     assert {(r["name"], r["id"]) for r in rows} == {("shoulder", "1"), ("elbow", "1")}
+    assert {r["units"] for r in rows} == {"joint"}  # a robot file's joints: at the joint

@@ -74,10 +74,11 @@ async def test_a_robot_dashboard_keys_motors_by_bus_controls_by_joint_and_stops_
     url, hub, _, sims = served_robot
     async with aiohttp.ClientSession() as s, s.ws_connect(url.replace("http:", "ws:") + "ws") as ws:
         hello = await ws.receive_json(timeout=5)
+        at_joint = {"units": "joint", "gear": 1.0, "offset_deg": 0.0}  # the page's units: at each joint
         assert hello["names"] == {
-            "1": {"name": "shoulder", "joint": "shoulder", "bus": "left", "id": 1},
-            "65": {"name": "elbow", "joint": "elbow", "bus": "right", "id": 1},
-            "66": {"name": "wrist", "joint": "wrist", "bus": "right", "id": 2},
+            "1": {"name": "shoulder", "joint": "shoulder", "bus": "left", "id": 1, **at_joint},
+            "65": {"name": "elbow", "joint": "elbow", "bus": "right", "id": 1, **at_joint},
+            "66": {"name": "wrist", "joint": "wrist", "bus": "right", "id": 2, **at_joint},
         }
         assert hello["bus"].startswith("robot ") and "left: " in hello["bus"] and "right: " in hello["bus"]
         seen: set[int] = set()

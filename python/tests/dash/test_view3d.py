@@ -6,7 +6,9 @@ event loop in this thread.
 
 from __future__ import annotations
 
+import json
 import math
+import os
 import struct
 import time
 from collections.abc import Iterator
@@ -517,36 +519,128 @@ def test_the_page_loads_the_mesh_files_the_model_names(browser: Any, tmp_path: P
         robot.close()
 
 
-def test_a_dashboard_on_a_twin_served_elsewhere_says_truly_why_it_cannot_push(tmp_path: Path) -> None:
-    """The ready file of ``drempower sim --robot`` (a socketcand bus): the twin runs in the simulator's process,
-    and the hand says so (not "needs the physics extra", which is installed)."""
+def test_a_dashboard_pushes_a_twin_that_drempower_sim_runs_in_another_process(tmp_path: Path) -> None:
+    """The ready file of ``drempower sim --robot`` (a socketcand bus), the simulator in a process of its own:
+    the dashboard's hand pushes its twin through the simulator's socketcand port (``< push ... >``), and
+    the joint turns there; the twin's own refusal comes back in its words."""
     pytest.importorskip("mujoco")
-    import io
-    import threading
+    import subprocess
+    import sys
 
-    from drempower.cli import build_parser, sim
     from drempower.dash.hub import Hub
+    from drempower.errors import DrEmpowerError
+    from drempower.sim.hand_link import RemoteHand
 
     arm6 = REPO_ROOT / "examples" / "robots" / "arm6.toml"
-    args = build_parser().parse_args(["sim", "--robot", str(arm6), "--json"])
-    out, stop = io.StringIO(), threading.Event()
-    thread = threading.Thread(target=sim.run, args=(args, out, stop))
-    thread.start()
+    env = {**os.environ, "PYTHONPATH": str(REPO_ROOT / "python" / "src")}
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "drempower", "sim", "--robot", str(arm6), "--json"],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
+    )
     try:
-        deadline = time.monotonic() + 30.0
-        while '"running"' not in out.getvalue() and time.monotonic() < deadline:
-            time.sleep(0.01)
-        ready = next(line for line in out.getvalue().splitlines() if "robot_file" in line)
-        path = ready.split('"robot_file": "')[1].split('"')[0]
+        path = None
+        assert proc.stdout is not None
+        for line in proc.stdout:
+            if '"robot_file"' in line:
+                path = json.loads(line)["robot_file"]
+            if '"running"' in line:
+                break
+        assert path is not None, proc.stderr.read() if proc.stderr else ""
+        with open_robot(path, stop_on_close=False, timeout=2) as robot:
+            hub = Hub(robot)
+            try:
+                view = ModelView(hub)
+                doc = view.document()
+                assert doc["twin"] is True and doc["hand"] is None, doc["hand"]
+                motor = robot.buses["arm"].motor(1)
+                motor.set_mode(1)  # idle: the base turns freely about its vertical axis
+                start = motor.get_state().angle
+                said = view.do_push("t", {"kind": "joint", "target": "base_yaw", "torque": 5.0, "duration": 0.5})
+                assert said == "push joint base_yaw: torque 5 Nm for 0.5 s"
+                assert eventually(lambda: abs(motor.get_state().angle - start) > 5, 10), motor.get_state().angle
+                port = robot.spec.buses["arm"].options["port"]
+                with pytest.raises(DrEmpowerError, match="not a body of the model"):
+                    RemoteHand(str(robot.spec.buses["arm"].options["host"]), int(port)).push("nope", (1, 0, 0))
+            finally:
+                hub.close()
+    finally:
+        proc.terminate()
+        proc.wait(10)
+
+
+def test_a_dashboard_says_truly_why_a_served_bus_without_a_twin_cannot_be_pushed(tmp_path: Path) -> None:
+    """A robot file with a model whose socketcand bus is served by a simulator without a twin: the hand
+    says that this program takes no pushes (not "needs the physics extra", which is installed)."""
+    from drempower.dash.hub import Hub
+    from drempower.sim import SimBus
+    from drempower.sim.socketcand import attach_socketcand
+
+    arm6 = REPO_ROOT / "examples" / "robots" / "arm6.xml"
+    with attach_socketcand(SimBus([1])) as server:
+        path = tmp_path / "robot.toml"
+        path.write_text(
+            f'[model]\nfile = "{arm6}"\n[buses.arm]\ninterface = "socketcand"\nhost = "127.0.0.1"\n'
+            f'port = {server.port}\nchannel = "can0"\n[joints.base_yaw]\nbus = "arm"\nid = 1\n'
+        )
         with open_robot(path, stop_on_close=False, timeout=2) as robot:
             hub = Hub(robot)
             try:
                 doc = ModelView(hub).document()
             finally:
                 hub.close()
-        assert doc["twin"] is False and doc["hand"] != NO_TWIN
-        assert "bus 'arm'" in doc["hand"] and "socketcand" in doc["hand"] and "another process" in doc["hand"]
-        assert "physics extra" not in doc["hand"]
+    assert doc["twin"] is False and doc["hand"] != NO_TWIN
+    assert f"served at 127.0.0.1:{server.port} by a program that takes no pushes" in doc["hand"], doc["hand"]
+    assert "physics extra" not in doc["hand"]
+
+
+def test_a_push_on_a_body_is_drawn_and_its_deflection_shown(
+    browser: Any, tmp_path: Path, model: Path, shots: Path
+) -> None:
+    """On the robot twin: a 60 N push on the forearm draws its force as an arrow at the body for as long as
+    it lasts (and a second after), and the page writes the joints' deflection (the idle shoulder turns)."""
+    pytest.importorskip("mujoco")
+    pytest.importorskip("drempower.sim.twin")
+    (tmp_path / "robot.toml").write_text('[model]\nfile = "arm.xml"\n' + ROBOT)
+    robot = open_robot(tmp_path / "robot.toml", stop_on_close=False)
+    url, hub, dash, loop, thread = serve_in_thread(robot)
+    ctx = browser.new_context(viewport={"width": 900, "height": 600})
+    try:
+        bus = robot.buses["arm"]
+        p = ctx.new_page()
+        p.set_default_timeout(10_000)
+        p.goto(url)
+        p.get_by_role("button", name="Scan ids 1-63").click()
+        p.wait_for_function("document.querySelector('#scan-text').textContent.startsWith('done')")
+        p.get_by_role("tab", name="3D").click()
+        p.wait_for_function("window.drempowerView && window.drempowerView.ready")
+        bus.motor(1).set_mode(1)  # idle: the shoulder turns freely about its vertical axis
+        assert p.locator("#hand-target").input_value() != "base"  # the default body moves
+        p.locator("#hand-kind").select_option("body")
+        p.locator("#hand-target").select_option("fore")
+        p.locator("#hand-fx").fill("0")
+        p.locator("#hand-fy").fill("60")  # across the arm: a torque about the shoulder's axis
+        p.locator("#hand-fz").fill("0")
+        p.locator("#hand-duration").fill("1")
+        p.get_by_role("button", name="Push").click()
+        p.wait_for_function("window.drempowerView.push && window.drempowerView.push.arrow")
+        arrow = p.evaluate(
+            "(() => { let a = null; window.drempowerView.world.traverse((o) => { if (o.name === 'push:fore') a = o; });"
+            " return a && a.visible; })()"
+        )
+        assert arrow is True
+        p.wait_for_function(
+            "Math.abs(window.drempowerView.push.deflection.shoulder || 0) > 5", timeout=10_000
+        )  # the idle shoulder swung, and the page says by how much
+        text = p.locator("#hand-deflection").inner_text()
+        assert text.startswith("force (0, 60, 0) N on fore: deflection ") and "shoulder" in text, text
+        p.screenshot(path=str(shots / "dash-3d-push.png"))
+        p.wait_for_function("window.drempowerView.push.arrow === false", timeout=15_000)  # gone after the push
     finally:
-        stop.set()
+        ctx.close()
+        loop.call_soon_threadsafe(dash.stopping.set)
         thread.join(10)
+        hub.close()
+        robot.close()

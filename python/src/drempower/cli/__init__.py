@@ -157,7 +157,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     parser = build_parser(_chosen(argv))
     args = parser.parse_args(argv)
     from ..client.driver.signals import Terminated, exit_code, signals_interrupt
-    from ._robot import apply_robot, run_command
+    from ._robot import apply_robot, joint_refusal, run_command
 
     try:
         apply_robot(args)  # --robot: joint names, the buses the command runs on
@@ -170,7 +170,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         print(clean(f"{command.prog}: error: {cli_words(str(exc))}"), file=sys.stderr)
         return 2
     except ValidationError as exc:  # a value, file or option the command cannot use: nothing was sent for it
-        print(clean(f"drempower: error: {cli_words(str(exc))}"), file=sys.stderr)
+        print(clean(f"drempower: error: {cli_words(joint_refusal(args, exc))}"), file=sys.stderr)
         return 2
     except DrEmpowerError as exc:  # a failure on the bus (no answer, a motor that refused, a lost device)
         print(clean(f"drempower: error: {cli_words(str(exc))}"), file=sys.stderr)

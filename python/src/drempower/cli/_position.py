@@ -31,3 +31,11 @@ def _params(args: argparse.Namespace, mode: PositionMode) -> tuple[float, float]
             raise UsageError(f"{flag} applies to mode {other.name.lower()}, not {mode.name.lower()}")
     values = [default if (v := getattr(args, name)) is None else v for name, default in _OPTIONS[mode].items()]
     return (0.0, values[0]) if mode is PositionMode.T else (values[0], values[1])
+
+
+_FIELDS = {
+    PositionMode.T: {"param (bandwidth)": "--bandwidth"},
+    PositionMode.Q: {"speed": "--speed", "param (accel)": "--accel"},
+    PositionMode.P: {"speed": "--speed-ff", "param": "--torque-ff"},
+}
+"""The library's field names of each mode, by the option that sets them (and ANGLES for the positions)."""

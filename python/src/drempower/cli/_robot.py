@@ -17,10 +17,12 @@ import copy
 import io
 import json
 import math
+import re
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from typing import Any
 
+from ..errors import FieldRangeError, SoftLimitError
 from ..robot.joint import Gearing
 from ..robotfile import JOINT_NAME, JointSpec, RobotSpec, load_robot
 from ._output import emit, is_terminal, json_line
@@ -30,9 +32,11 @@ __all__ = [
     "apply_robot",
     "joint_or_ids",
     "joint_record",
+    "joint_refusal",
     "with_units",
     "named_joints",
     "rate_scale",
+    "rates_at_joint",
     "run_command",
     "to_joint_angle",
     "to_motor",
@@ -195,6 +199,62 @@ def rate_scale(args: argparse.Namespace, ids: Sequence[int]) -> float:
     return min(gears) if gears and len(gears) == len(ids) else 1.0
 
 
+@contextlib.contextmanager
+def rates_at_joint(scale: float, options: Mapping[str, str]) -> Iterator[None]:
+    """Name a refused rate in the units it was typed in: a rate given at the joints and multiplied by
+    ``scale`` (:func:`rate_scale`) for the motors is refused with the value typed and the range at the
+    joint, the motor's value and range said after it. ``options`` maps the library's field to the option
+    (``param (accel)`` -> ``--accel``); other errors, and every error at ``scale`` 1, pass unchanged."""
+    try:
+        yield
+    except FieldRangeError as exc:
+        field = re.sub(r" \((joint|motor) [^)]*\)$", "", exc.field)  # a robot's per-joint field: the option's
+        option = options.get(field)
+        if scale == 1.0 or option is None or not isinstance(exc.value, (int, float)):
+            raise
+        raise UsageError(
+            f"argument {option}: {exc.value / scale:g} at the joint is out of range: allowed "
+            f"{exc.low / scale:g}..{exc.high / scale:g} at the joint ({exc.value:g} at the motor through the gear "
+            f"{scale:g}, where the motor allows {exc.low:g}..{exc.high:g})"
+        ) from None
+
+
+_AT_JOINT: dict[str, tuple[str, Callable[[Gearing, float], float]]] = {
+    "position": ("deg", lambda g, v: math.degrees(g.joint_state_angle(v))),
+    "max_step": ("deg", lambda g, v: v / g.gear),
+    "speed": ("r/min", lambda g, v: v / g.gear),
+    "accel": ("(r/min)/s", lambda g, v: v / g.gear),
+    "torque": ("Nm", lambda g, v: v * g.gear),
+}
+"""A soft limit's unit and the motor's value of it at the joint (deg, r/min, (r/min)/s, Nm there)."""
+
+
+def joint_refusal(args: argparse.Namespace, exc: Exception) -> str:
+    """The words of a refusal: a soft limit refused for a joint the command line named (whose value
+    was typed at the joint) says the value and the limit at the joint, the motor's figures after them;
+    every other refusal as it is."""
+    spec: RobotSpec | None = getattr(args, "robot_spec", None)
+    groups: dict[str, list[int]] = getattr(args, "robot_groups", None) or {}
+    if not isinstance(exc, SoftLimitError) or spec is None or len(groups) != 1 or exc.limit not in _AT_JOINT:
+        return str(exc)
+    (bus,) = groups
+    words = list(getattr(args, "ids", None) or []) if getattr(args, "robot_ids", False) else []
+    named = {spec.joints[w].id: spec.joints[w] for w in words if isinstance(w, str) and w in spec.joints}
+    if not words:  # no IDS: every joint of the bus, by name
+        named = {j.id: j for j in spec.joints_on(bus)}
+    j = named.get(exc.node)
+    if j is None or j.bus != bus or not isinstance(exc.value, (int, float)):
+        return str(exc)
+    unit, at = _AT_JOINT[exc.limit]
+    g = Gearing(j)
+    lo, hi = sorted((at(g, exc.low), at(g, exc.high)))
+    return (
+        f"joint {j.name}: {exc.limit} {at(g, float(exc.value)):g} {unit} at the joint is beyond its soft limit "
+        f"{lo:g}..{hi:g} {unit} at the joint (motor {exc.node}: {exc.value:g} {unit}, limit {exc.low:g}..{exc.high:g} "
+        f"{unit}) (set by {exc.where})"
+    )
+
+
 def run_command(args: argparse.Namespace) -> int:
     """Run the command over the robot's buses (see the module docstring)."""
     groups: dict[str, list[int]] = args.robot_groups
@@ -270,7 +330,10 @@ def _move(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
     from ..client import PositionMode
     from ..client.engine.session import DEFAULT_MOVE_TIMEOUT
     from ._motion import stop_commanded
-    from ._position import _MODES, _params
+    from ._position import _FIELDS, _MODES, _params
+
+    def _move_fields(mode: PositionMode) -> dict[str, str]:
+        return _FIELDS[mode] if mode is PositionMode.Q else {}
 
     names = _names(args, groups)
     order = [w for w in args.ids if isinstance(w, str)]
@@ -284,12 +347,13 @@ def _move(args: argparse.Namespace, groups: dict[str, list[int]]) -> int:
     gears = {n: Gearing(spec.joints[n]) for n in names}  # deg at each joint, to its motor's deg
     kind = "step" if args.relative else "angle"
     motor = {n: _TO_MOTOR[kind](gears[n], a) for n, a in zip(names, angles, strict=True)}
+    scale = min(abs(g.gear) for g in gears.values())
     if mode is not PositionMode.T:  # rates at the joints: no joint turns faster than asked
-        scale = min(abs(g.gear) for g in gears.values())
         speed, param = speed * scale, param * (scale if mode is PositionMode.Q else 1.0)
     with _open(args) as robot:
         try:
-            move = robot.set_angles(motor, speed, param, mode, relative=args.relative)
+            with rates_at_joint(scale if mode is not PositionMode.T else 1.0, _move_fields(mode)):
+                move = robot.set_angles(motor, speed, param, mode, relative=args.relative)
             records: list[dict[str, Any]] = [
                 {"joint": n, "angle": a, "move_time_s": move.move_time, "start_skew_us": round(move.skew * 1e6, 1)}
                 for n, a in zip(names, angles, strict=True)

@@ -27,7 +27,7 @@ import re
 import shutil
 import tempfile
 import threading
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from contextlib import ExitStack
 from typing import Any
 
@@ -41,6 +41,7 @@ from ..sim import (
     attach_socketcand,
     attach_uart_pty,
 )
+from ..sim.hand_link import twin_hand
 from ..sim.twin import TwinRunner, couple_robot
 from ..transports.factory import adapter_bitrate_refusal
 from ._sim_firmware import firmware_of
@@ -64,8 +65,11 @@ def _link(stack: ExitStack, channel: object, path: str) -> str | None:
     return channel
 
 
-def _serve(stack: ExitStack, spec: RobotSpec, name: str, bus: SimBus) -> dict[str, Any]:
-    """Attach ``bus`` as bus entry ``name`` describes; returns what a client connects to."""
+def _serve(
+    stack: ExitStack, spec: RobotSpec, name: str, bus: SimBus, hand: Callable[[Sequence[str]], None] | None = None
+) -> dict[str, Any]:
+    """Attach ``bus`` as bus entry ``name`` describes; returns what a client connects to. ``hand``: the twin's
+    hand from outside, taken by a socketcand server's ``< push ... >`` (:mod:`drempower.sim.hand_link`)."""
     entry = spec.buses[name]
     opts = dict(entry.options)
     kind = entry.interface
@@ -85,7 +89,7 @@ def _serve(stack: ExitStack, spec: RobotSpec, name: str, bus: SimBus) -> dict[st
     elif kind in ("socketcand", "sim"):  # a sim bus: served where every program on this host reaches it
         port = int(opts.get("port") or 0) if kind == "socketcand" else 0
         host = str(opts.get("host", "127.0.0.1")) if kind == "socketcand" else "127.0.0.1"
-        server = stack.enter_context(attach_socketcand(bus, port, host))
+        server = stack.enter_context(attach_socketcand(bus, port, host, hand=hand))
         where.update(host=server.host, port=server.port, channel=server.channel)
     else:
         channel = opts.get("channel")
@@ -198,7 +202,7 @@ def serve_robot(args: argparse.Namespace, show: Callable[..., None], stop: threa
         for name, bus in buses.items():
             if twin is None:
                 stack.enter_context(SimRunner(bus, args.time_scale))
-            where = _serve(stack, spec, name, bus)
+            where = _serve(stack, spec, name, bus, None if twin is None else twin_hand(twin))
             joints = ", ".join(f"{j.name}={j.id}" for j in spec.joints_on(name))
             reach = (
                 where.get("link")

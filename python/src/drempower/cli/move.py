@@ -11,8 +11,8 @@ from . import _readings
 from ._connect import add_connection_args, number, seconds
 from ._motion import add_motion_args, add_watchdog_arg, driving, per_motor
 from ._output import add_json_arg, emit, fmt, motors_text
-from ._position import _MODES, _OPTIONS, _params
-from ._robot import named_joints, rate_scale, to_joint_angle, to_motor, with_units
+from ._position import _FIELDS, _MODES, _OPTIONS, _params
+from ._robot import named_joints, rate_scale, rates_at_joint, to_joint_angle, to_motor, with_units
 from ._usage import options_named
 from .actions import check_row
 
@@ -28,12 +28,6 @@ _ROW_OPTIONS = {
     "torque_ff": "--torque-ff",
 }
 """Row ``move``'s arguments, by the option that sets them."""
-_FIELDS = {
-    PositionMode.T: {"param (bandwidth)": "--bandwidth"},
-    PositionMode.Q: {"speed": "--speed", "param (accel)": "--accel"},
-    PositionMode.P: {"speed": "--speed-ff", "param": "--torque-ff"},
-}
-"""The library's field names of each mode, by the option that sets them (and ANGLES for the positions)."""
 
 
 def register(sub: Any) -> None:
@@ -77,12 +71,14 @@ def run(args: argparse.Namespace) -> int:
     # a named joint's angle is in deg at the joint (through its gear and offset); a motor id's at the motor
     angles = to_motor(args, ids, per_motor(ids, args.values, "angle"), "step" if args.relative else "angle")
     speed, param = _params(args, mode)
-    if mode is not PositionMode.T:  # rates at the joints: no named joint turns faster than asked
-        speed *= rate_scale(args, ids)
-        param *= rate_scale(args, ids) if mode is PositionMode.Q else 1.0
+    scale = rate_scale(args, ids) if mode is not PositionMode.T else 1.0
+    # rates at the joints: no named joint turns faster than asked (P's torque feed-forward is not a rate)
+    speed *= scale
+    param *= scale if mode is PositionMode.Q else 1.0
     given = {name: getattr(args, name) for name in _OPTIONS[mode]}
     check_row("step" if args.relative else "move", ids, {"angle": angles}, {"mode": mode.name, **given}, _ROW_OPTIONS)
-    with options_named({"angle_list": "ANGLES", **_FIELDS[mode]}):
+    rates = _FIELDS[mode] if mode is PositionMode.Q else {"speed": "--speed-ff"}
+    with options_named({"angle_list": "ANGLES", **_FIELDS[mode]}), rates_at_joint(scale, rates):
         # every value checked before connecting (the Q move time needs the positions: it is checked when sent)
         make_angles(ids, angles, speed, param, mode, move_time=1.0, relative=args.relative)
     with driving(args) as bus:

@@ -22,13 +22,15 @@ from .. import actions
 from ..actions import bandwidth_range
 from ..client import Bus, ConfigBackup, Motor, MotorState
 from ..client.engine.stops import hold_frames
-from ..errors import DrEmpowerError, MotorIdleError, ValidationError
+from ..errors import DrEmpowerError, FieldRangeError, MotorIdleError, SoftLimitError, ValidationError
 from ..naming import COLUMNS, TIME_COLUMN, motor_name, motor_names, state_name
 from ..protocol import ERROR_WORDS, FastRead, flag_info
 from ..protocol.enums import AxisState
 from ..protocol.parameters import Parameter, find_parameter, parameters
+from ..robot.joint import Gearing
 from . import tuning
 from .logline import log
+from .units import ROW_KINDS, JointUnits
 
 if TYPE_CHECKING:
     from ..client.engine.supervisor import HealthEvent
@@ -177,10 +179,13 @@ class Hub:
         self.bus = self.buses[0][1]
         self.joints: dict[int, dict[str, Any]] = {}
         """Robot joints by key: ``{"joint", "bus", "id"}``."""
+        self.units: dict[int, JointUnits] = {}
+        """The page's units of each robot joint by key (deg, r/min, Nm at the joint); a bare motor's are its own."""
         if self.robot is not None:
             index = {name: k for k, (name, _) in enumerate(self.buses)}
             for j in self.robot.spec.joints.values():
                 self.joints[index[j.bus] * KEYS_PER_BUS + j.id] = {"joint": j.name, "bus": j.bus, "id": j.id}
+                self.units[index[j.bus] * KEYS_PER_BUS + j.id] = JointUnits(Gearing(j))
         self.read_only = read_only
         self.poll_hz = poll_hz
         self.watchdog_ms = watchdog_ms
@@ -325,7 +330,11 @@ class Hub:
         where = {k: (self.buses[k // KEYS_PER_BUS][0], k % KEYS_PER_BUS) for k in sorted({*self.joints, *self.motors})}
         joints = {(j["bus"], j["id"]): j["joint"] for j in self.joints.values()}
         named = motor_names(where.values(), joints)
-        return {k: {"name": named[p], "joint": joints.get(p), "bus": p[0], "id": p[1]} for k, p in where.items()}
+        return {
+            k: {"name": named[p], "joint": joints.get(p), "bus": p[0], "id": p[1]}
+            | (self.units[k].describe() if k in self.units else {"units": "motor"})
+            for k, p in where.items()
+        }
 
     @staticmethod
     def columns() -> dict[str, str]:
@@ -339,10 +348,18 @@ class Hub:
         tg = self.targets.get(key)
         flags = int(st.trajectory_done) | (int(st.error) << 1)
         t = st.timestamp - self.t0
-        if tg is None:
-            self.samples.append((key, t, st.angle, st.speed, st.torque, flags, None, None, None))
+        u = self.units.get(key)  # a joint's samples and targets at the joint
+        if u is None:
+            angle, speed, torque = st.angle, st.speed, st.torque
         else:
-            self.samples.append((key, t, st.angle, st.speed, st.torque, flags, tg[0], tg[1], tg[2]))
+            angle, speed, torque = u.angle(st.angle), u.speed(st.speed), u.torque(st.torque)
+        if tg is None:
+            self.samples.append((key, t, angle, speed, torque, flags, None, None, None))
+        elif u is None:
+            self.samples.append((key, t, angle, speed, torque, flags, tg[0], tg[1], tg[2]))
+        else:
+            a, v, q = (None if x is None else f(x) for x, f in zip(tg, (u.angle, u.speed, u.torque), strict=True))
+            self.samples.append((key, t, angle, speed, torque, flags, a, v, q))
         self.samples_total += 1
 
     def take_samples(self) -> list[Sample]:
@@ -532,6 +549,41 @@ class Hub:
         self.limits[i] = out
         return out
 
+    def shown_limits(self, i: int) -> dict[str, Any] | None:
+        """Motor ``i``'s limits as the page shows them: at the joint for a robot joint (with its units)."""
+        lim = self.limits.get(i)
+        if lim is None:
+            return None
+        u = self.units.get(i)
+        return u.limits(lim) if u is not None else {**lim, "units": "motor"}
+
+    def joint_words(self, key: int, exc: DrEmpowerError) -> DrEmpowerError:
+        """A refusal of a robot joint's value, which the page gave at the joint, in the joint's units: a
+        soft limit (the gate's words, motor units) or a field's range (the wire's, at the motor) with the
+        value typed and the range at the joint, the motor's figures after them; others as they are."""
+        u = self.units.get(key)
+        if u is None or not isinstance(exc, FieldRangeError) or not isinstance(exc.value, (int, float)):
+            return exc
+        who = self.label(key)
+        if isinstance(exc, SoftLimitError):
+            at = u.refusal(exc.limit, float(exc.value), exc.low, exc.high)
+            if at is None:
+                return exc
+            v, lo, hi, unit = at
+            return ValidationError(
+                f"joint {who}: {exc.limit} {v:g} {unit} at the joint is beyond its soft limit {lo:g}..{hi:g} "
+                f"{unit} at the joint (set by {exc.where}; {exc.value:g}, {exc.low:g}..{exc.high:g} at the motor)"
+            )
+        kind = "angle" if exc.field in ("angle", "pos") else ROW_KINDS.get(exc.field)
+        if kind is None:
+            return exc
+        f = {"angle": u.angle, "speed": u.speed, "torque": u.torque}[kind]
+        a, b = f(exc.low), f(exc.high)
+        return ValidationError(
+            f"joint {who}: {exc.field}={f(float(exc.value)):g} at the joint is out of range: allowed "
+            f"{min(a, b):g}..{max(a, b):g} at the joint ({exc.value:g}, {exc.low:g}..{exc.high:g} at the motor)"
+        )
+
     def words(self, text: str, key: int | None) -> str:
         """A message about motor key ``key`` with its joint named: ``motor 3: ...`` -> ``joint elbow (motor
         3): ...`` on a robot (the library's words otherwise unchanged)."""
@@ -544,6 +596,9 @@ class Hub:
         lim = self.limits.get(i, {}).get("speed")
         by = self.limits.get(i, {}).get("set_by", {}).get("speed")
         held = "holds (axis0.output_shaft.vel_limit)" if by is None else f"has (set by {by})"
+        u = self.units.get(i)
+        if u is not None and lim is not None:  # the page's value and the limit at the joint
+            _within(key, u.speed(value), abs(u.speed(lim)), "r/min at the joint", f"speed limit {self.label(i)} {held}")
         _within(key, value, lim, "r/min", f"speed limit {self.label(i)} {held}")
         return value
 
@@ -553,6 +608,9 @@ class Hub:
         what = f"torque limit {self.label(i)} " + (
             "holds (output_shaft.torque_lim, current_lim x torque_constant)" if by is None else f"has (set by {by})"
         )
+        u = self.units.get(i)
+        if u is not None and lim is not None:  # the page's value and the limit at the joint
+            _within(key, u.torque(value), abs(u.torque(lim)), "Nm at the joint", what)
         _within(key, value, lim, "Nm", what)
         return value
 
@@ -569,7 +627,7 @@ class Hub:
                 except DrEmpowerError:
                     card[key] = None
             card["state_name"] = state_name(card["state"])
-            card["limits"] = self.limits.get(i)
+            card["limits"] = self.shown_limits(i)
             st = m.state
             card["errors"] = []
             try:  # temperatures, effective current limit, derating and errors with their fixes (5 reads, +7 faulted)
@@ -728,7 +786,23 @@ class Hub:
                 row_args[name] = args["param"]
         elif action == "step" and "param" not in args:  # a T step through the motor's own filter
             row_args["bandwidth"] = float(self.motor(self.key(args)).read_property(_BANDWIDTH))
-        return self.do_action(who, row, row_args)
+        key = self._joint_key(args)
+        if key is None:
+            return self.do_action(who, row, row_args)
+        try:  # a robot joint's values are at the joint: the row runs on the motor's
+            return self.do_action(who, row, self.units[key].to_motor(row, row_args))
+        except FieldRangeError as exc:
+            raise self.joint_words(key, exc) from None
+
+    def _joint_key(self, args: dict[str, Any]) -> int | None:
+        """The key of ``args["id"]`` when it is a robot joint (its page values are at the joint), else None."""
+        if not self.units:
+            return None
+        try:
+            key = self.key(args)
+        except ValidationError:
+            return None
+        return key if key in self.units else None
 
     def do_action(self, who: str, name: str, args: dict[str, Any]) -> Any:
         """Run row ``name`` of :mod:`drempower.actions` with ``args`` (``id``: a motor key of this
@@ -737,6 +811,10 @@ class Hub:
         refuses all but reading and stopping, a motion needs a motor in closed loop (or
         ``enable``) and stays within the limits the motor holds; logged, and the targets kept."""
         act = actions.get(name)
+        if self.read_only and act.safety not in ("read", "stop"):  # first: whatever else, it is never carried out
+            raise ValidationError("this dashboard is read-only (--read-only)")
+        if act.safety != "stop":
+            self.check_fence()
         raw = args.get("id")
         if raw == 0 or len(self.buses) == 1:  # the motor id is the key (0: each bus's broadcast)
             places = [(b, 0) for _, b in self.buses] if raw == 0 else [(self.bus, -1)]
@@ -747,10 +825,6 @@ class Hub:
             bus, node = self.where(key)
             places = [(bus, node)]
             typed = actions.validate(act, {**args, "id": node})
-        if self.read_only and act.safety not in ("read", "stop"):  # what the page is, whenever it asked
-            raise ValidationError("this dashboard is read-only (--read-only)")
-        if act.safety != "stop":
-            self.check_fence()
         if act.safety == "motion":
             if typed.get("enable"):
                 if self._halt.is_set():
@@ -803,10 +877,22 @@ class Hub:
             raise ValidationError(f"angles={angles!r}: one angle per motor of ids={keys}")
         move = actions.get("move")
         shared = {"mode": "Q", "speed": args.get("speed"), "accel": args.get("accel")}
-        typed = [
-            actions.validate(move, {"id": self.where(k)[1], "angle": a, **shared})
-            for k, a in zip(keys, angles, strict=True)
-        ]
+        gears = [abs(self.units[k].gear) for k in keys if k in self.units]
+        scale = min(gears) if gears and len(gears) == len(keys) else 1.0  # rates at the joints: none faster
+        typed = []
+        for k, a in zip(keys, angles, strict=True):
+            u = self.units.get(k)
+            given = {"id": self.where(k)[1], "angle": a, **shared}
+            if u is not None:  # a robot joint's angle at the joint; the rates by the smallest gear
+                given = u.to_motor("move", {**given, "speed": None, "accel": None}) | {
+                    r: v * scale if isinstance(v, (int, float)) and not isinstance(v, bool) else v
+                    for r, v in shared.items()
+                    if r != "mode"
+                }
+            try:
+                typed.append(actions.validate(move, given))
+            except FieldRangeError as exc:
+                raise self.joint_words(k, exc) from None
         if self.read_only:
             raise ValidationError("this dashboard is read-only (--read-only)")
         self.require_enabled(keys)
@@ -964,7 +1050,7 @@ class Hub:
         if any(name == n for _, n in _LIMIT_READS):
             self.do_limits(i)
         changed = back != baseline[p.name]
-        return {"id": i, "name": name, "value": back, "limits": self.limits.get(i), "changed": changed}
+        return {"id": i, "name": name, "value": back, "limits": self.shown_limits(i), "changed": changed}
 
     def do_save(self, who: str, i: int) -> None:
         """Store motor ``i``'s RAM configuration in flash; what it holds becomes the saved set."""
@@ -1015,7 +1101,10 @@ class Hub:
             bandwidth = float(m.read_property(_BANDWIDTH)) if given is None else actions.BANDWIDTH.check(given)
         self.require_enabled([i])
         st = m.get_state()
+        u = self.units.get(i)  # a robot joint steps at the joint (deg, r/min there), a bare motor at the motor
         base = st.angle if mode == "position" else st.speed
+        if u is not None:
+            base = u.angle(st.angle) if mode == "position" else u.speed(st.speed)
         target = base + amp
         got: list[MotorState] = []
         bus, node = self.where(i)
@@ -1045,8 +1134,11 @@ class Hub:
         key = 1 if mode == "position" else 2
         ts = [s.timestamp - start for s in got if s.timestamp >= start]
         ys = [s[key] for s in got if s.timestamp >= start]
+        if u is not None:
+            ys = [u.angle(y) if mode == "position" else u.speed(y) for y in ys]
         fig = tuning.step_figures(ts, ys, base, target)
-        return {"id": i, "mode": mode, "base": base, "target": target, "t": ts, "y": ys, "figures": fig}
+        units = "joint" if u is not None else "motor"
+        return {"id": i, "mode": mode, "units": units, "base": base, "target": target, "t": ts, "y": ys, "figures": fig}
 
     def do_propose(self, who: str, args: dict[str, Any]) -> dict[str, Any]:
         """Propose gains for ``args["bandwidth"]`` Hz (the joint is identified and stepped; nothing is

@@ -21,6 +21,7 @@ from aiohttp import web
 from ..errors import ConfigError, DrEmpowerError, ValidationError
 from ..sim.twin import PUSH_LIMITS  # the twin's own bounds, one place
 from .hub import KEYS_PER_BUS
+from .logline import log
 from .model_scene import load_scene
 
 if TYPE_CHECKING:
@@ -65,6 +66,14 @@ def no_twin_reason(hub: Hub) -> str:
             "pip install 'drempower[physics]'"
         )
     served = [(name, b.interface) for name, b in spec.buses.items() if b.interface != "sim"]
+    remote = served_twin_address(hub)
+    if remote is not None:
+        name, host, port = remote
+        return (
+            f"bus {name!r} of {spec.source} is served at {host}:{port} by a program that takes no pushes (a simulator "
+            "without the model, an older one, or real motors behind socketcand): only a twin run by drempower sim "
+            "--robot with a [model] can be pushed from here"
+        )
     if served:
         name, kind = served[0]
         return (
@@ -74,6 +83,31 @@ def no_twin_reason(hub: Hub) -> str:
             "(robot.twin.push(...))"
         )
     return NO_TWIN
+
+
+def served_twin_address(hub: Hub) -> tuple[str, str, int] | None:
+    """The first socketcand bus of the hub's robot file (its name, host and port) when the file names a
+    model: where ``drempower sim --robot`` takes the pushes of its twin (:mod:`drempower.sim.hand_link`)."""
+    spec = getattr(hub.robot, "spec", None)
+    if spec is None or getattr(spec, "model", None) is None:
+        return None
+    for name, b in spec.buses.items():
+        port = b.options.get("port")
+        if b.interface == "socketcand" and isinstance(port, int) and not isinstance(port, bool):
+            return name, str(b.options.get("host", "127.0.0.1")), port
+    return None
+
+
+def remote_hand(hub: Hub) -> TwinHand | None:
+    """The hand of a twin that another process runs (``drempower sim --robot``) and serves over socketcand,
+    when it answers that it takes pushes; else None."""
+    where = served_twin_address(hub)
+    if where is None:
+        return None
+    from ..sim.hand_link import RemoteHand
+
+    hand = RemoteHand(where[1], where[2])
+    return hand if hand.ready() else None
 
 
 def model_of(hub: Hub) -> str | None:
@@ -139,6 +173,8 @@ class ModelView:
         self.scene: dict[str, Any] | None = None
         self.error: str | None = None
         self._twin = twin
+        self._remote: TwinHand | None = None
+        self._remote_asked = False
         if self.file is not None:
             try:
                 self.scene = load_scene(self.file)
@@ -147,7 +183,15 @@ class ModelView:
 
     @property
     def twin(self) -> TwinHand | None:
-        return self._twin if self._twin is not None else twin_of_hub(self.hub)
+        """The twin to push: the one given, the one behind the hub's buses, or one another process runs and
+        serves (asked once: ``< push ready >``)."""
+        own = self._twin if self._twin is not None else twin_of_hub(self.hub)
+        if own is not None:
+            return own
+        if not self._remote_asked:
+            self._remote_asked = True
+            self._remote = remote_hand(self.hub)
+        return self._remote
 
     def mapping(self) -> list[dict[str, Any]]:
         """Each robot joint's motor key, model joint, gear and offset (rad)."""
@@ -194,8 +238,12 @@ class ModelView:
     def release(self) -> None:
         """End every push on the twin now (ESTOP does it: nothing from outside keeps moving a joint)."""
         twin = self.twin
-        if twin is not None:
+        if twin is None:
+            return
+        try:
             twin.release()
+        except DrEmpowerError as exc:  # a twin in another process that is gone: nothing left to push it
+            log(f"ESTOP: the pushes on the twin could not be released: {exc}")
 
     def do_push(self, who: str, args: dict[str, Any]) -> str:
         """One push from a page: ``kind`` ``body`` (``force``, ``torque`` vectors) or ``joint`` (``torque`` Nm),

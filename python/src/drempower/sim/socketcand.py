@@ -33,9 +33,10 @@ import queue
 import socket
 import threading
 import time
+from collections.abc import Callable, Sequence
 from types import TracebackType
 
-from ..errors import ProtocolError, ValidationError
+from ..errors import DrEmpowerError, ProtocolError, ValidationError
 from ..protocol.ids import Frame
 from ..protocol.socketcand import MAX_COMMAND, CommandParser, format_frame, parse_send
 from .bus import SimBus
@@ -140,6 +141,18 @@ class _Client:
             self.put(b"< ok >")
         elif word == "echo":
             self.put(b"< echo >")
+        elif word == "push":  # the hand from outside (drempower.sim.hand_link): a twin in this process
+            hand = self.server.hand
+            if hand is None:
+                self.put(b"< error no twin here to push: this simulator runs motors without a model >")
+                return
+            try:
+                hand(body.split()[1:])
+            except (DrEmpowerError, ValueError) as exc:
+                why = " ".join(str(exc).replace("<", "(").replace(">", ")").split())[:MAX_COMMAND]
+                self.put(f"< error {why} >".encode())
+                return
+            self.put(b"< ok >")
         elif word == "send" and self.raw:
             try:
                 frame = parse_send(body)
@@ -187,6 +200,7 @@ class SocketcandServer:
         max_queue: int = MAX_QUEUE,
         handshake_timeout: float = HANDSHAKE_TIMEOUT,
         evict_idle: float = EVICT_IDLE,
+        hand: Callable[[Sequence[str]], None] | None = None,
     ) -> None:
         if not ipaddress.ip_address(host).is_loopback:
             raise ValidationError(f"host={host!r}: the simulator serves loopback addresses only")
@@ -194,6 +208,8 @@ class SocketcandServer:
             raise ValidationError(f"max_clients={max_clients}, max_queue={max_queue}: both must be >= 1")
         self.sim = bus
         self.channel = channel
+        self.hand = hand
+        """Takes ``< push ... >`` (see :mod:`drempower.sim.hand_link`): a twin's hand, or None (no twin)."""
         self.closed = False
         self.max_clients = max_clients
         self.max_queue = max_queue
@@ -287,6 +303,13 @@ def _refuse(conn: socket.socket, message: bytes) -> None:
         conn.close()
 
 
-def attach_socketcand(bus: SimBus, port: int = 0, host: str = "127.0.0.1", channel: str = "can0") -> SocketcandServer:
-    """Serve ``bus`` over the socketcand protocol on ``host``:``port`` (127.0.0.1 and a free port by default)."""
-    return SocketcandServer(bus, port, host, channel)
+def attach_socketcand(
+    bus: SimBus,
+    port: int = 0,
+    host: str = "127.0.0.1",
+    channel: str = "can0",
+    hand: Callable[[Sequence[str]], None] | None = None,
+) -> SocketcandServer:
+    """Serve ``bus`` over the socketcand protocol on ``host``:``port`` (127.0.0.1 and a free port by default);
+    ``hand`` takes the pushes of a twin's hand from outside (:mod:`drempower.sim.hand_link`)."""
+    return SocketcandServer(bus, port, host, channel, hand=hand)

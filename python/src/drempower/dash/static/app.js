@@ -220,6 +220,17 @@
     return n && n.name ? n.name : `motor_${id}`;
   }
   const legendName = motorName;
+  // the units the page takes and shows for a motor: at the joint (gear and offset applied) for a joint of
+  // a robot file, the motor's own for a bare motor (the server's names say which)
+  function atJoint(id) { const n = S.names && S.names[id]; return !!(n && n.units === "joint"); }
+  const unitsWord = (id) => (atJoint(id) ? " at the joint" : "");
+  function unitsText(id) {
+    const n = S.names && S.names[id];
+    if (!n) return "";
+    return n.units === "joint"
+      ? `${motorName(id)}: deg, r/min and Nm at the joint (gear ${fmtL(n.gear)}, offset ${fmtL(n.offset_deg)} deg: motor angle = (joint angle - offset) x gear)`
+      : `${motorName(id)}: the motor's deg, r/min and Nm`;
+  }
   const shortName = motorName;
   function setMotors(ids) {
     ids = Array.from(new Set(ids)).sort((a, b) => a - b);
@@ -481,7 +492,7 @@
     // the columns of monitor --csv and state --json (names with units, from the server), one row per sample
     const C = S.columns;
     const lines = [[C.time, C.id, C.name, C.position, C.speed, C.torque, C.done, C.error,
-      "target_" + C.position, "target_" + C.speed, "target_" + C.torque].join(",")];
+      "target_" + C.position, "target_" + C.speed, "target_" + C.torque, "units"].join(",")];
     for (const id of selectedMotors()) {
       const d = src.get(id);
       if (!d) continue;
@@ -490,7 +501,7 @@
       for (let i = lowerBound(d.t, x0); i < d.t.length && d.t[i] <= x1; i++) {
         const r = d.rows[i];
         lines.push([r[1].toFixed(4), n ? n.id : id, quoted, r[2], r[3], r[4], r[5] & 1, (r[5] >> 1) & 1,
-          r[6] ?? "", r[7] ?? "", r[8] ?? ""].join(","));
+          r[6] ?? "", r[7] ?? "", r[8] ?? "", atJoint(id) ? "joint" : "motor"].join(","));
       }
     }
     download("drempower-plot.csv", lines.join("\n") + "\n", "text/csv");
@@ -584,8 +595,9 @@
     }
     const by = L.set_by ? ` (set by ${[...new Set(Object.values(L.set_by))].join("; ")})` : "";
     $("#ctl-limits").textContent = c && c.limits
-      ? `limits of ${motorName(ctlId())}: ${pos ? `position ${fmtL(pos[0])}..${fmtL(pos[1])} deg, ` : ""}speed ±${fmtL(L.speed)} r/min, torque ±${fmtL(L.torque)} Nm, current ${fmtL(L.current)} A; T bandwidth ${bw[0]}..${bw[1]} 1/s${by}`
+      ? `limits of ${motorName(ctlId())}${unitsWord(ctlId())}: ${pos ? `position ${fmtL(pos[0])}..${fmtL(pos[1])} deg, ` : ""}speed ±${fmtL(L.speed)} r/min, torque ±${fmtL(L.torque)} Nm, current ${fmtL(L.current)} A; T bandwidth ${bw[0]}..${bw[1]} 1/s${by}`
       : `T bandwidth ${bw[0]}..${bw[1]} 1/s (scan to read the motor's limits)`;
+    $("#ctl-units").textContent = unitsText(ctlId()) ? "units: " + unitsText(ctlId()) : "";
   }
   const fmtL = (v) => (v === null || v === undefined ? "?" : String(+Number(v).toPrecision(6)));
   for (const sel of ["#ctl-motor", "#pos-mode", "#vel-mode"]) on(sel, applyLimits, "change");
@@ -600,7 +612,7 @@
       ctlPlotId = id;
       ctlPlot = new uPlot({
         width: Math.max(400, el.clientWidth || window.innerWidth - 30), height: 200, scales: { x: { time: false } },
-        axes: [{ label: "t / s" }, { scale: "deg", label: "angle / deg" }, { scale: "rpm", side: 1, label: "speed / r/min", grid: { show: false } }],
+        axes: [{ label: "t / s" }, { scale: "deg", label: `angle / deg${atJoint(id) ? " (joint)" : ""}` }, { scale: "rpm", side: 1, label: `speed / r/min${atJoint(id) ? " (joint)" : ""}`, grid: { show: false } }],
         series: [{ label: "t" },
           { label: `${legendName(id)} angle`, scale: "deg", stroke: COLORS[0], points: { show: false }, spanGaps: true },
           { label: `${legendName(id)} angle target`, scale: "deg", stroke: COLORS[0], dash: [6, 4], points: { show: false }, spanGaps: true },
@@ -624,7 +636,7 @@
   on("#ctl-motor", drawControlPlot, "change");
   setInterval(() => {
     const r = latest(ctlId());
-    $("#ctl-state").textContent = r ? `angle ${fmt(r[2], 2)} deg, speed ${fmt(r[3], 2)} r/min, torque ${fmt(r[4], 2)} Nm${r[5] & 1 ? ", done" : ""}${r[5] & 2 ? ", ERROR" : ""}` : "";
+    $("#ctl-state").textContent = r ? `${atJoint(ctlId()) ? "at the joint: " : ""}angle ${fmt(r[2], 2)} deg, speed ${fmt(r[3], 2)} r/min, torque ${fmt(r[4], 2)} Nm${r[5] & 1 ? ", done" : ""}${r[5] & 2 ? ", ERROR" : ""}` : "";
   }, 250);
 
   // ------------------------------------------------------------ parameters
@@ -763,8 +775,14 @@
     });
   }
   const UNIT = { position: "deg", velocity: "r/min" };
-  on("#tun-mode", () => { $("#tun-amp-label").textContent = `amplitude ${UNIT[$("#tun-mode").value]}`; return loadGains(); }, "change");
-  on("#tun-motor", loadGains, "change");
+  function tunUnits() {
+    const id = Number($("#tun-motor").value);
+    $("#tun-amp-label").textContent = `amplitude ${UNIT[$("#tun-mode").value]}${unitsWord(id)}`;
+    $("#tun-units").textContent = unitsText(id) ? ` (units: ${unitsText(id)})` : "";
+  }
+  setInterval(tunUnits, 500);  // the names (and so the units) may arrive after the motor is chosen
+  on("#tun-mode", () => { tunUnits(); return loadGains(); }, "change");
+  on("#tun-motor", () => { tunUnits(); return loadGains(); }, "change");
   on("#tun-run", async () => {
     const gains = $$("#tun-gains input[data-gain]").map((e) => `${e.dataset.gain.split(".").pop()}=${e.value}`).join(" ");
     say("running step...", true);
@@ -778,7 +796,7 @@
     S.runs.push(r);
     const f = r.figures;
     $("#tun-runs tbody").insertAdjacentHTML("beforeend", `<tr><td>${r.n}</td><td>${r.mode}</td>
-      <td>${fmt(r.base, 2)} &rarr; ${fmt(r.target, 2)} ${UNIT[r.mode]}</td><td>${fmt(f.rise_s, 3)}</td><td>${fmt(f.overshoot_pct, 1)}</td>
+      <td>${fmt(r.base, 2)} &rarr; ${fmt(r.target, 2)} ${UNIT[r.mode]}${r.units === "joint" ? " at the joint" : ""}</td><td>${fmt(f.rise_s, 3)}</td><td>${fmt(f.overshoot_pct, 1)}</td>
       <td>${fmt(f.settling_s, 3)}</td><td>${fmt(f.steady_error, 3)}</td><td>${gains}</td></tr>`);
     say(`step run ${r.n}: rise ${fmt(f.rise_s, 3)} s, overshoot ${fmt(f.overshoot_pct, 1)} %`, true);
     drawRuns();
@@ -823,6 +841,12 @@
       await loadGains();
     });
   }
+  // where the runs of a mode are at a joint, the axis says so
+  function unitsNote(m) {
+    const u = new Set(S.runs.filter((r) => r.mode === m).map((r) => r.units));
+    if (!u.has("joint")) return ""; // bare motors: the motor's own units, as ever
+    return u.size === 1 ? " at the joint" : " (joints at the joint, motors at the motor)";
+  }
   function drawRuns() {
     const el = $("#tun-plot");
     if (tunPlot) { tunPlot.destroy(); tunPlot = null; }
@@ -838,7 +862,7 @@
     });
     const modes = ["position", "velocity"].filter((m) => S.runs.some((r) => r.mode === m));
     const axes = [{ label: "t / s" }].concat(modes.map((m, k) => ({ scale: UNIT[m], side: k ? 1 : 3,
-      label: m === "position" ? "angle change from start / deg" : "speed change from start / r/min", grid: { show: k === 0 } })));
+      label: (m === "position" ? "angle change from start / deg" : "speed change from start / r/min") + unitsNote(m), grid: { show: k === 0 } })));
     tunPlot = new uPlot({ width: Math.max(400, el.clientWidth || 800), height: 320, scales: { x: { time: false } },
       axes, series: ser }, data, el);
     window.dashStats.tuningAxes = axes.slice(1).map((a) => a.label);

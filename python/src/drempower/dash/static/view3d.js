@@ -156,12 +156,75 @@ function onMessage(m) {
   for (const [key, row] of last) {
     const map = V.mapping.get(key);
     if (!map) continue;
-    V.angles[key] = row[2];
-    pose(map.model_joint, (row[2] * Math.PI / 180) / map.gear + map.offset);
+    // a robot joint's samples are at the joint (deg there, gear and offset applied by the server)
+    const q = row[2] * Math.PI / 180;
+    V.angles[key] = (q - map.offset) * map.gear * 180 / Math.PI; // the motor's angle, as it reads it
+    pose(map.model_joint, q);
     const bad = (row[5] & 2) !== 0;
     if (bad !== V.errors.has(key)) { bad ? V.errors.add(key) : V.errors.delete(key); errorsChanged = true; }
   }
   if (errorsChanged) setErrors();
+  if (V.push) followPush();
+  V.drawn = false;
+}
+
+// ------------------------------------------------------------ a push, shown
+// while a push lasts (and a second after), its force is drawn as an arrow at the body it pushes and the
+// joints' deflection from where they were when it began is written beside the hand (largest first)
+function showPush(args) {
+  endPush();
+  const now = performance.now();
+  const P = { args, start: jointAngles(), peak: {}, until: now + (args.duration + 1) * 1000, arrow: null, body: null };
+  if (args.kind === "body" && V.world) {
+    const f = new THREE.Vector3().fromArray(args.force);
+    const n = f.length();
+    let body = null;
+    V.world.traverse((o) => { if (!body && o.name === args.target && !o.isMesh) body = o; });
+    if (body && n > 0) {
+      // length grows with the force: 0.1 m, and 0.1 m more per 20 N, up to 0.6 m; drawn where it pulls
+      const len = Math.min(0.6, 0.1 + n / 200);
+      P.arrow = new THREE.ArrowHelper(f.clone().normalize(), new THREE.Vector3(), len, 0xd62728, 0.25 * len, 0.12 * len);
+      P.arrow.name = "push:" + args.target;
+      P.arrow.userData.len = len;
+      P.body = body;
+      V.world.add(P.arrow);
+    }
+  }
+  V.push = P;
+  followPush();
+  P.timer = setInterval(() => { followPush(); if (performance.now() > P.until) endPush(); }, 100);
+}
+
+function followPush() {
+  const P = V.push;
+  if (!P) return;
+  if (P.arrow && P.body) { // the arrow's head on the body, its tail where the force comes from
+    V.world.updateMatrixWorld(true);
+    const at = V.world.worldToLocal(P.body.getWorldPosition(new THREE.Vector3()));
+    const dir = new THREE.Vector3().fromArray(P.args.force).normalize();
+    P.arrow.position.copy(at).addScaledVector(dir, -P.arrow.userData.len || 0);
+  }
+  const now = jointAngles();
+  for (const [name, a] of Object.entries(now)) {
+    const d = a - (P.start[name] ?? a);
+    if (Math.abs(d) > Math.abs(P.peak[name] ?? 0)) P.peak[name] = d;
+  }
+  const moved = Object.entries(P.peak).filter(([, d]) => Math.abs(d) >= 0.05).sort((a, b) => Math.abs(b[1]) - Math.abs(a[1]));
+  const what = P.args.kind === "body" ? `force (${P.args.force.join(", ")}) N on ${P.args.target}` : `torque ${P.args.torque} Nm on ${P.args.target}`;
+  $("#hand-deflection").textContent = `${what}: ` + (moved.length
+    ? "deflection " + moved.map(([n, d]) => `${n} ${d > 0 ? "+" : ""}${d.toFixed(1)} deg`).join(", ")
+    : "no joint deflected yet");
+  window.drempowerView.push = { arrow: !!P.arrow, force: P.args.force || null, deflection: { ...P.peak } };
+  V.drawn = false;
+}
+
+function endPush() {
+  const P = V.push;
+  if (!P) return;
+  clearInterval(P.timer);
+  if (P.arrow) { V.world.remove(P.arrow); P.arrow.dispose && P.arrow.dispose(); }
+  V.push = null;
+  if (window.drempowerView.push) window.drempowerView.push.arrow = false;
   V.drawn = false;
 }
 
@@ -261,6 +324,7 @@ async function push() {
   else args.torque = number("hand-torque", -L.torque, L.torque, "Nm");
   const done = await window.dashCall("push", args);
   say(done, true);
+  showPush(args);
 }
 
 function setupHand(doc) {
