@@ -1,5 +1,5 @@
 """The shadow twin: beside a "real" arm whose model has an obstacle the twin lacks, it flags the contact within
-0.2 s and holds the arm when asked; over ordinary motion it flags nothing."""
+0.2 s and holds the arm as the robot file asks; over ordinary motion it flags nothing."""
 
 from __future__ import annotations
 
@@ -28,7 +28,9 @@ def _with_obstacle(tmp: Path) -> Path:
     model = tmp / "obstacle.xml"
     ET.ElementTree(root).write(model)
     robot = tmp / "obstacle.toml"
-    robot.write_text((ROBOTS / "arm6.toml").read_text().replace('file = "arm6.xml"', f'file = "{model}"'))
+    text = (ROBOTS / "arm6.toml").read_text().replace('file = "arm6.xml"', f'file = "{model}"')
+    # the robot file says what a divergence of the shoulder does (the other joints: "warn", the default)
+    robot.write_text(text.replace("[joints.shoulder]\n", '[joints.shoulder]\non_divergence = "hold"\n'))
     return robot
 
 
@@ -49,9 +51,8 @@ def test_a_contact_is_flagged_within_0_2_s_and_the_arm_held(tmp_path: Path) -> N
         bus.add_tap(watch)
         for j in robot.spec.joints.values():
             bus.motor(j.id).write_property("can.config.heartbeat_ms", 5)
-        with robot.shadow(
-            model=str(ROBOTS / "arm6.xml"), on_divergence="hold", on_event=events.append, clock=lambda: sim.now
-        ) as shadow:
+        with robot.shadow(model=str(ROBOTS / "arm6.xml"), on_event=events.append, clock=lambda: sim.now) as shadow:
+            assert shadow.action("shoulder") == "hold" and shadow.action("elbow") == "warn"
             robot.joint("shoulder").set_position(0.8, bandwidth=5.0)
             bus.run(sleep(3.0))
             assert contact, "the arm never met the obstacle"
