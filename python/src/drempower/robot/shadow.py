@@ -129,10 +129,12 @@ class Shadow:
         """The latest (position rad, torque Nm) residual, robot - twin, per joint."""
         self._synced: set[str] = set()
         """Joints put where the robot's are (at their first state seen)."""
-        try:
-            self._loop: asyncio.AbstractEventLoop | None = asyncio.get_running_loop()  # an AsyncRobot's
-        except RuntimeError:
-            self._loop = None
+        from .robot_async import AsyncRobot
+
+        # an AsyncRobot's loop (a Robot's program may run in a thread that holds some other loop)
+        self._loop: asyncio.AbstractEventLoop | None = (
+            asyncio.get_running_loop() if isinstance(robot, AsyncRobot) else None
+        )
         self._taps = []
         for b, bus in robot.buses.items():
             tap = partial(self._tap, b)
@@ -237,6 +239,11 @@ class Shadow:
         else:
             for name, q in dict(self.last).items():
                 await robot.joint(name).set_position(q)
+
+    def twin_positions(self) -> dict[str, float]:
+        """Where the twin has each joint now (rad), for a view beside the robot's."""
+        with self.lock:
+            return {name: self.twin.joint_position(name) for name in self.spec.joints}
 
     def reset(self) -> None:
         """Forget the divergences flagged (each joint is flagged once until then); the twin's joints are put

@@ -119,6 +119,13 @@
         $("#scan-text").textContent = `done: ${m.found.length} motor(s): ${m.found.map((f) => shortName(f.id)).join(", ")}`;
         break;
       case "samples": onSamples(m); break;
+      case "divergence": { // the shadow twin flagged a joint: said, and kept on the page
+        say(m.text);
+        const n = $("#shadow-note");
+        n.hidden = false;
+        n.textContent = n.textContent ? n.textContent + "\n" + m.text : m.text;
+        break;
+      }
       case "watched": setWatched(m.watched); break;
       case "names": { S.names = m.names || {}; const ms = S.motors; S.motors = []; setMotors(ms); break; }
       case "params":
