@@ -1,6 +1,7 @@
 """The dashboard with the shadow twin (``drempower dash --robot FILE --shadow``): the 3D view draws the twin as a
-second, translucent arm beside the robot, and a divergence (a contact the model lacks) is shown on the page,
-written to the log, and acts as the robot file says (here: the shoulder holds)."""
+second, translucent arm beside the robot, the plots each motor's twin angle beside its own, and a divergence (a
+contact the model lacks) is shown on the page, written to the log, and acts as the robot file says (here: the
+shoulder holds)."""
 
 from __future__ import annotations
 
@@ -71,6 +72,17 @@ def test_the_shadow_is_drawn_and_a_divergence_is_shown_logged_and_held(
         drawn, ghost, twin = elbows()
         assert abs(ghost - twin) < 2.0 and abs(drawn - ghost) < 2.0
         assert shadow.events == []
+        # the plots: each motor's twin angle as a series beside its own
+        p.get_by_role("tab", name="Plots").click()
+        p.wait_for_function("window.dashPlot && window.dashPlot.series.some(s => s.label.endsWith('angle twin'))")
+        drawn_twin = (
+            "(() => { const k = window.dashPlot.series.findIndex(s => s.label.endsWith('angle twin'));"
+            " return window.dashPlot.data[k].filter(v => v !== null).length; })()"
+        )
+        assert eventually(lambda: p.evaluate(drawn_twin) > 0, 5)
+        labels = p.evaluate("window.dashPlot.series.map(s => s.label)")
+        assert sum(label.endswith("angle twin") for label in labels) == 6, labels
+        p.get_by_role("tab", name="3D").click()
         # into the ball the twin lacks: flagged, on the page and in the log, and the shoulder holds
         robot.joint("shoulder").set_position(0.8, bandwidth=5.0)
         p.wait_for_function("!document.querySelector('#shadow-note').hidden")

@@ -18,6 +18,7 @@ import asyncio
 import contextlib
 import hmac
 import json
+import math
 import re
 import secrets
 import signal
@@ -167,8 +168,8 @@ class Dashboard:
     dashboard's motors when the last browser goes away. ``model``: the model file the 3D view draws
     (default: the one the robot file names). ``shadow``: a :class:`~drempower.robot.shadow.Shadow` run
     beside the robot: every FLUSH_S the page gets where its twin has the joints (``{"t": "shadow"}``,
-    drawn as a second, translucent arm), and each divergence as a message (``{"t": "divergence"}``),
-    also written to the log.
+    drawn as a second, translucent arm, and in the plots as each motor's twin angle), and each
+    divergence as a message (``{"t": "divergence"}``), also written to the log.
     """
 
     def __init__(
@@ -509,9 +510,17 @@ class Dashboard:
         """Where the shadow's twin has the joints, and each new divergence (to the log too)."""
         shadow = self.shadow
         if shadow.residuals:  # the twin started where the robot is
-            q = {k: round(v, 5) for k, v in shadow.twin_positions().items()}
+            positions = shadow.twin_positions()
+            q = {k: round(v, 5) for k, v in positions.items()}
             res = {k: [round(a, 5), round(b, 4)] for k, (a, b) in dict(shadow.residuals).items()}
-            self._broadcast(json.dumps({"t": "shadow", "q": q, "res": res}), True)
+            # the twin's angle at each motor (deg), for the plots beside the motor's own
+            angles = {
+                j["key"]: round(math.degrees((positions[j["joint"]] - j["offset"]) * j["gear"]), 4)
+                for j in self.view.mapping()
+                if j["joint"] in positions
+            }
+            at = round(time.monotonic() - self.hub.t0, 4)
+            self._broadcast(json.dumps({"t": "shadow", "q": q, "res": res, "at": at, "a": angles}), True)
         events = shadow.events
         while self._divergences < len(events):
             e = events[self._divergences]
