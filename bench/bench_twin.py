@@ -9,7 +9,7 @@ keeps real time on one core), so that other load on the machine does not count.
 * floor: MuJoCo stepping ``examples/robots/arm6.xml`` alone (no motors, no protocol);
 * in-process: the six simulated motors' controllers, each step, on the twin
   (a 1 Mbit/s bus, a host reading every joint's state every 10 ms, moves going on);
-* ``drempower sim --robot``: the same robot served on an adapter pty, a client
+* ``drempower sim --robot``: the same robot served (socketcand, as ``sim`` writes it), a client
   moving it and reading its six joints at 100 Hz (the server process's CPU time);
 * the shadow twin (``robot.shadow()``) beside the arm on its twin (virtual clock), a 200 Hz control
   loop (``robot.follow``) and states every 5 ms: the CPU time of the shadow's own work;
@@ -99,16 +99,20 @@ def served(seconds: float) -> float | None:
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, text=True, env=env)
     try:
         assert proc.stdout is not None
-        path = None
+        path = ready = None
         for line in proc.stdout:
             record = json.loads(line)
             path = record.get("path", path)
+            ready = record.get("robot_file", ready)
             if record.get("running"):
                 break
-        spec_text = ARM.read_text().replace('interface = "sim"', f'interface = "adapter"\nchannel = "{path}"')
-        spec_text = spec_text.replace('file = "arm6.xml"', f'file = "{ARM.parent / "arm6.xml"}"')
         robot_file = Path(os.environ.get("TMPDIR", "/tmp")) / f"bench-twin-{os.getpid()}.toml"
-        robot_file.write_text(spec_text.replace("bitrate = 1000000\n", ""))
+        if path is None and ready is not None:  # a sim bus is served over socketcand: the file sim wrote
+            robot_file.write_text(Path(ready).read_text())
+        else:
+            spec_text = ARM.read_text().replace('interface = "sim"', f'interface = "adapter"\nchannel = "{path}"')
+            spec_text = spec_text.replace('file = "arm6.xml"', f'file = "{ARM.parent / "arm6.xml"}"')
+            robot_file.write_text(spec_text.replace("bitrate = 1000000\n", ""))
         try:
             with drempower.open_robot(robot_file, timeout=1.0, stop_on_close=False) as robot:
                 cpu0, t0 = _cpu(proc.pid), time.perf_counter()
