@@ -31,6 +31,9 @@ def register(sub: Any) -> None:
             "(the commands sent and the states received). See docs/twin.md."
         ),
     )
+    p.add_argument(
+        "--json", dest="twin_json", action="store_true", help="one JSON object of the result (as VERB's --json)"
+    )
     verbs = p.add_subparsers(dest="verb", metavar="VERB", required=True)
     f = verbs.add_parser(
         "fit",
@@ -80,6 +83,7 @@ def _load(args: argparse.Namespace, paths: list[str]) -> tuple[Any, list[Any]]:
 
 
 def run_fit(args: argparse.Namespace) -> int:
+    args.json = args.json or args.twin_json
     from ..sim.twin_fit import fit_twin, write_fitted
 
     if args.write is not None and not args.write.endswith(".toml"):
@@ -148,6 +152,7 @@ def run_fit(args: argparse.Namespace) -> int:
 
 
 def run_check(args: argparse.Namespace) -> int:
+    args.json = args.json or args.twin_json
     from ..sim.twin_fit import best_delay
     from ..sim.twin_replay import Replay, compare
 
