@@ -93,13 +93,16 @@ JOINT_NAME = re.compile(r"^[A-Za-z_][A-Za-z0-9_.-]*$")
 """What a joint or bus name looks like: it starts with a letter or ``_``, so it never reads as a motor id."""
 _JOINT_KEYS = frozenset(("bus", "id", "gear", "offset"))
 # the safety keys of a joint: soft limits and the watchdog's action
-_SAFETY_KEYS = frozenset(("limits", "on_timeout", "on_overheat", "on_stall"))
+_SAFETY_KEYS = frozenset(("limits", "on_timeout", "on_overheat", "on_stall", "on_divergence"))
 JOINT_LIMITS = {"position": "rad", "speed": "rad/s", "torque": "Nm", "accel": "rad/s^2", "max_step": "rad"}
 """The soft limits a joint can have, in joint units."""
 ON_TIMEOUT = ("hold", "idle")
 """What the watchdog may do to a joint whose controller is gone; the first is a joint's default."""
 ON_OVERHEAT = ("warn", "hold", "idle")
 """What the health supervisor may do to a joint that overheats or stalls."""
+ON_DIVERGENCE = ("warn", "hold", "idle")
+"""What the shadow twin (:mod:`drempower.robot.shadow`) may do when a joint diverges from its twin: report
+it, hold every joint where it is, or stop every motor (the emergency stop)."""
 HEALTH_KEYS: dict[str, tuple[float, float] | tuple[str, ...]] = {
     "period": (0.05, 60.0),
     "warn_c": (0.0, 150.0),
@@ -175,6 +178,9 @@ class JointSpec:
     """What the health supervisor does when the joint overheats (None: ``[health]``'s ``on_overheat``)."""
     on_stall: str | None = None
     """What the health supervisor does when the joint stalls (None: ``[health]``'s ``on_stall``)."""
+    on_divergence: str | None = None
+    """What the shadow twin does when the joint diverges from its twin (:data:`ON_DIVERGENCE`; None:
+    ``[model]``'s ``on_divergence``)."""
     identified: Mapping[str, float] | None = None
     """The joint's identified ``inertia`` kg m^2, ``viscous`` Nm s/rad, ``coulomb`` Nm (``drempower identify
     --write``): the twin's joint has them in place of the model's and the motor's."""
@@ -200,6 +206,16 @@ class RobotSpec:
     def joints_on(self, bus: str) -> list[JointSpec]:
         """The joints of bus ``bus``, in file order."""
         return [j for j in self.joints.values() if j.bus == bus]
+
+    def on_divergence(self, joint: str) -> str:
+        """What the shadow twin does when joint ``joint`` diverges: the joint's ``on_divergence``, else
+        ``[model]``'s, else ``"warn"``."""
+        own = self.joints[joint].on_divergence
+        if own is not None:
+            return own
+        if self.model is not None and self.model.on_divergence is not None:
+            return self.model.on_divergence
+        return ON_DIVERGENCE[0]
 
     def on_timeout(self, bus: str) -> dict[int, str]:
         """``{motor id: "hold"|"idle"}`` of bus ``bus``'s joints, for its command watchdog
@@ -311,7 +327,7 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         if extra:
             raise ConfigError(
                 f"{where}: unknown key {extra[0]!r}: a joint has bus, id, gear, offset, limits, on_timeout, "
-                "on_overheat, on_stall, model_joint, friction, sim_params, identified and thermal"
+                "on_overheat, on_stall, on_divergence, model_joint, friction, sim_params, identified and thermal"
             )
         bus = j.get("bus")
         if bus not in buses:
@@ -335,6 +351,7 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
         on_stall = j.get("on_stall")
         if on_stall is not None and on_stall not in ON_OVERHEAT:
             raise ConfigError(f"{where}: on_stall={on_stall!r}: expected 'warn', 'hold' or 'idle'")
+        on_divergence = _on_divergence(j, where)
         joints[name] = JointSpec(
             name,
             bus,
@@ -345,6 +362,7 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
             on_timeout=on_timeout,
             on_overheat=on_overheat,
             on_stall=on_stall,
+            on_divergence=on_divergence,
             **_model_joint(j, where),
         )
     if not joints:
@@ -353,6 +371,12 @@ def parse_robot(data: Mapping[str, Any], source: str = "robot", base: str | None
     if empty:
         raise ConfigError(f"{source}: [buses.{empty[0]}] carries no joint: give it one or remove it")
     model = _model(data["model"], source, base) if "model" in data else None
+    if model is None:
+        named = next((n for n, j in joints.items() if j.on_divergence is not None), None)
+        if named is not None:
+            raise ConfigError(
+                f"{source}: [joints.{named}]: on_divergence: the shadow twin needs a [model]; give one or leave it out"
+            )
     ros2 = _ros2_control(data.get("ros2_control", {}), f"{source}: [ros2_control]")
     health = _health(data["health"], f"{source}: [health]") if "health" in data else None
     return RobotSpec(buses, joints, source, model, ros2, health)
@@ -439,14 +463,24 @@ FRICTIONS = ("motor", "model")
 _MODEL_JOINT_KEYS = frozenset(("model_joint", "friction", "sim_params", "identified", "thermal"))
 IDENTIFIED_KEYS = ("inertia", "viscous", "coulomb")
 """The keys of a joint's ``identified`` table."""
-_MODEL_KEYS = frozenset(("file",))
+_MODEL_KEYS = frozenset(("file", "on_divergence"))
 
 
 @dataclass(frozen=True)
 class ModelSpec:
-    """The robot's physics model: ``file`` (absolute path) of an MJCF or URDF model."""
+    """The robot's physics model: ``file`` (absolute path) of an MJCF or URDF model; ``on_divergence``
+    what the shadow twin does when a joint without its own ``on_divergence`` diverges (None: ``"warn"``)."""
 
     file: str
+    on_divergence: str | None = None
+
+
+def _on_divergence(entry: Mapping[str, Any], where: str) -> str | None:
+    """An entry's ``on_divergence`` (one of :data:`ON_DIVERGENCE`), or None when it has none."""
+    value = entry.get("on_divergence")
+    if value is not None and value not in ON_DIVERGENCE:
+        raise ConfigError(f"{where}: on_divergence={value!r}: expected one of {', '.join(map(repr, ON_DIVERGENCE))}")
+    return value
 
 
 def _model(value: object, source: str, base: str | None) -> ModelSpec:
@@ -454,14 +488,14 @@ def _model(value: object, source: str, base: str | None) -> ModelSpec:
     entry = _table(value, where)
     extra = sorted(set(entry) - _MODEL_KEYS)
     if extra:
-        raise ConfigError(f"{where}: unknown key {extra[0]!r}: [model] has file")
+        raise ConfigError(f"{where}: unknown key {extra[0]!r}: [model] has file and on_divergence")
     file = entry.get("file")
     if not isinstance(file, str) or not file:
         raise ConfigError(f"{where}: file={file!r}: give the model's MJCF or URDF file, e.g. 'arm.xml'")
     path = os.path.normpath(os.path.join(base or os.getcwd(), os.path.expanduser(file)))
     if not os.path.isfile(path):
         raise ConfigError(f"{where}: file={file!r}: no such file ({path})")
-    return ModelSpec(path)
+    return ModelSpec(path, _on_divergence(entry, where))
 
 
 def _model_joint(j: Mapping[str, Any], where: str) -> dict[str, Any]:

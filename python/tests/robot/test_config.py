@@ -60,6 +60,14 @@ def test_the_issues_example_reads(tmp_path: Path) -> None:
         ("[buses.a]\ninterface='sim'\n[joints.j]\nbus='a'\nid=1\nratio=2\n", r"unknown key 'ratio'"),
         ("[buses.a]\ninterface='sim'\n[joints.1]\nbus='a'\nid=1\n", r"joint name '1'"),
         ("[buses.a]\ninterface='sim'\n[buses.b]\ninterface='sim'\n[joints.j]\nbus='a'\nid=1\n", r"\[buses.b\] carries"),
+        (
+            "[buses.a]\ninterface='sim'\n[joints.j]\nbus='a'\nid=1\non_divergence='stop'\n",
+            r"\[joints.j\]: on_divergence='stop': expected one of 'warn', 'hold', 'idle'",
+        ),
+        (
+            "[buses.a]\ninterface='sim'\n[joints.j]\nbus='a'\nid=1\non_divergence='hold'\n",
+            r"\[joints.j\]: on_divergence: the shadow twin needs a \[model\]",
+        ),
     ],
 )
 def test_bad_files_name_the_entry_and_key(tmp_path: Path, text: str, message: str) -> None:
@@ -83,3 +91,20 @@ def test_unreadable_and_invalid_toml(tmp_path: Path) -> None:
 def test_parse_a_mapping_directly() -> None:
     spec = parse_robot({"buses": {"a": {"interface": "sim"}}, "joints": {"j": {"bus": "a", "id": 3}}}, "inline")
     assert spec.source == "inline" and spec.open_options("a")["motors"] == [3]
+
+
+def test_on_divergence_per_joint_and_for_the_robot(tmp_path: Path) -> None:
+    """A joint's on_divergence, else [model]'s, else "warn"; a bad [model] value names the file and key."""
+    (tmp_path / "m.xml").write_text("<mujoco/>")
+    head = "[buses.a]\ninterface='sim'\n[joints.j]\nbus='a'\nid=1\non_divergence='hold'\n[joints.k]\nbus='a'\nid=2\n"
+    path = tmp_path / "r.toml"
+    path.write_text(head + "[model]\nfile='m.xml'\non_divergence='idle'\n")
+    spec = load_robot(path)
+    assert spec.on_divergence("j") == "hold" and spec.on_divergence("k") == "idle"
+    path.write_text(head + "[model]\nfile='m.xml'\n")
+    spec = load_robot(path)
+    assert spec.on_divergence("j") == "hold" and spec.on_divergence("k") == "warn"
+    path.write_text(head + "[model]\nfile='m.xml'\non_divergence='halt'\n")
+    with pytest.raises(ConfigError, match=r"r\.toml: \[model\]: on_divergence='halt': expected one of") as info:
+        load_robot(path)
+    assert str(path) in str(info.value)

@@ -52,6 +52,13 @@ def register(sub: Any) -> None:
         metavar="HZ",
         help="fast reads per second per motor (default 50), within a polling budget of 30 %% of the bus",
     )
+    p.add_argument(
+        "--shadow",
+        action="store_true",
+        help="with --robot FILE naming a [model]: run the robot's twin beside it (fed the same commands); the 3D "
+        "view draws it as a second, translucent arm, and a divergence is shown on the page and logged, and acts "
+        "as the file's on_divergence says (needs the physics extra)",
+    )
     add_watchdog_arg(p)
     add_connection_args(p)
     for group in p._action_groups:  # the dashboard's own default connection, not python-can's
@@ -82,6 +89,9 @@ def run(args: argparse.Namespace) -> int:
     if spec is None and not (args.sim or args.serial or args.uart or args.interface):
         args.sim = DEFAULT_SIM
     token = None if args.host == DEFAULT_HOST else new_token()
+    if args.shadow and (spec is None or spec.model is None):
+        where = "a robot file" if spec is None else f"{spec.source}: a [model]"
+        raise UsageError(f"--shadow needs {where}: the shadow is the robot's twin (--robot FILE with [model])")
     bus: Any
     if spec is not None:
         from ..robot import open_robot
@@ -89,9 +99,17 @@ def run(args: argparse.Namespace) -> int:
         bus = open_robot(spec, timeout=args.timeout, stop_on_close=False)
     else:
         bus = open_from_args(args, quiet=True)
+    shadow = None
     try:
+        if args.shadow:
+            try:
+                shadow = bus.shadow(on_event=None)
+            except ImportError as exc:
+                raise DrEmpowerError(
+                    f"--shadow needs the physics extra: pip install 'drempower[physics]' ({exc})"
+                ) from None
         hub = Hub(bus, read_only=args.read_only, poll_hz=args.poll_rate, watchdog_ms=args.watchdog)
-        dash = Dashboard(hub, token=token, keep_running=args.keep_running)
+        dash = Dashboard(hub, token=token, keep_running=args.keep_running, shadow=shadow)
         try:
 
             def ready(url: str) -> None:
@@ -109,6 +127,8 @@ def run(args: argparse.Namespace) -> int:
         finally:
             hub.close()
     finally:
+        if shadow is not None:
+            shadow.close()
         bus.close()
     how = f" ({signal.Signals(dash.signal).name})" if dash.signal else ""
     logline.write(f"drempower dash: stopped{how}")

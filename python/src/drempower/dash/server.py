@@ -18,6 +18,7 @@ import asyncio
 import contextlib
 import hmac
 import json
+import math
 import re
 import secrets
 import signal
@@ -165,13 +166,25 @@ class Dashboard:
     the cookie the page sets) when not None; when None, only requests whose ``Host``
     is a loopback name with the bound port are served. ``keep_running``: do not idle the
     dashboard's motors when the last browser goes away. ``model``: the model file the 3D view draws
-    (default: the one the robot file names).
+    (default: the one the robot file names). ``shadow``: a :class:`~drempower.robot.shadow.Shadow` run
+    beside the robot: every FLUSH_S the page gets where its twin has the joints (``{"t": "shadow"}``,
+    drawn as a second, translucent arm, and in the plots as each motor's twin angle), and each
+    divergence as a message (``{"t": "divergence"}``), also written to the log.
     """
 
     def __init__(
-        self, hub: Hub, *, token: str | None = None, keep_running: bool = False, model: str | None = None
+        self,
+        hub: Hub,
+        *,
+        token: str | None = None,
+        keep_running: bool = False,
+        model: str | None = None,
+        shadow: Any = None,
     ) -> None:
         self.hub = hub
+        self.shadow = shadow
+        self._divergences = 0
+        """The shadow's divergences sent so far."""
         self.token = token
         self.keep_running = keep_running
         self.clients: set[Client] = set()
@@ -470,6 +483,8 @@ class Dashboard:
             if samples:
                 self.sent_total += len(samples)
                 self._broadcast(json.dumps({"t": "samples", "total": self.sent_total, "s": samples}), True)
+            if self.shadow is not None:
+                self._send_shadow()
             psamples = hub.take_param_samples()
             if psamples:
                 self._broadcast(json.dumps({"t": "params", "s": psamples}), True)
@@ -490,6 +505,31 @@ class Dashboard:
             if now >= next_cards and hub.motors and not hub.scanning and (cards_task is None or cards_task.done()):
                 next_cards = now + CARDS_S
                 cards_task = asyncio.ensure_future(self._send_cards())
+
+    def _send_shadow(self) -> None:
+        """Where the shadow's twin has the joints, and each new divergence (to the log too)."""
+        shadow = self.shadow
+        if shadow.residuals:  # the twin started where the robot is
+            positions = shadow.twin_positions()
+            q = {k: round(v, 5) for k, v in positions.items()}
+            res = {k: [round(a, 5), round(b, 4)] for k, (a, b) in dict(shadow.residuals).items()}
+            # the twin's angle at each motor (deg), for the plots beside the motor's own
+            angles = {
+                j["key"]: round(math.degrees((positions[j["joint"]] - j["offset"]) * j["gear"]), 4)
+                for j in self.view.mapping()
+                if j["joint"] in positions
+            }
+            at = round(time.monotonic() - self.hub.t0, 4)
+            self._broadcast(json.dumps({"t": "shadow", "q": q, "res": res, "at": at, "a": angles}), True)
+        events = shadow.events
+        while self._divergences < len(events):
+            e = events[self._divergences]
+            self._divergences += 1
+            text = f"shadow: {e}; {shadow.action(e.joint)}"
+            log(text)
+            self._broadcast(
+                json.dumps({"t": "divergence", "joint": e.joint, "kind": e.kind, "residual": e.residual, "text": text})
+            )
 
     async def _send_cards(self) -> None:
         with contextlib.suppress(DrEmpowerError):

@@ -19,7 +19,7 @@ import binascii
 import re
 
 from ..errors import ProtocolError
-from .ids import Frame, parse_int
+from .ids import Frame, TimedFrame, parse_int
 
 __all__ = [
     "CommandParser",
@@ -41,7 +41,7 @@ _HEX = b"0123456789abcdefABCDEF"
 _TIME = b"0123456789."
 _FRAME = b"< frame "
 _ANSWERS = (b"< ok >", b"< hi >", b"< echo >")
-_ONE_FRAME = re.compile(rb"< frame ([0-9A-Fa-f]{1,8}) [0-9.]+ ((?:[0-9A-Fa-f]{2}){0,8}) >")
+_ONE_FRAME = re.compile(rb"< frame ([0-9A-Fa-f]{1,8}) ([0-9.]+) ((?:[0-9A-Fa-f]{2}){0,8}) >")
 """A chunk that is one whole frame message, the commonest read: parsed in one match."""
 
 
@@ -62,6 +62,14 @@ def encode_send(frame: Frame) -> bytes:
     return head + b" " + binascii.hexlify(data, b" ").upper() + b" >"
 
 
+def _seconds(stamp: bytes) -> float | None:
+    """A ``SECS.USECS`` time stamp in seconds (None when it is not one number)."""
+    try:
+        return float(stamp)
+    except ValueError:
+        return None
+
+
 class FrameDecoder:
     """Incremental decoder of what a socketcand server sends a raw-mode client.
 
@@ -71,6 +79,9 @@ class FrameDecoder:
     in ``last_error``. A message that is not valid is dropped and its bytes
     counted in ``dropped``, as are bytes outside ``< >`` and a message longer
     than :data:`MAX_MESSAGE` without its ``>``.
+
+    Each frame is a :class:`~drempower.protocol.ids.TimedFrame` whose ``time`` is the server's time
+    stamp as sent (s, on the server's clock; a client puts it on its own scale).
     """
 
     __slots__ = ("_buf", "answers", "dropped", "errors", "frames", "last_error")
@@ -106,9 +117,12 @@ class FrameDecoder:
             head = one[1]
             arb = int(head, 16)
             ext = len(head) != 3
-            if arb <= (0x1FFFFFFF if ext else 0x7FF):
+            stamp = _seconds(one[2])
+            if arb <= (0x1FFFFFFF if ext else 0x7FF) and stamp is not None:
                 self.frames += 1
-                return [_new_frame(Frame, (arb, binascii.unhexlify(one[2]), ext, False))]
+                out1 = _new_frame(TimedFrame, (arb, binascii.unhexlify(one[3]), ext, False))
+                out1.time = stamp
+                return [out1]
         data = self._buf + chunk if self._buf else chunk
         out: list[Frame] = []
         pos, n = 0, len(data)
@@ -147,7 +161,7 @@ class FrameDecoder:
         self.frames += len(out)
         return out
 
-    def _frame(self, message: bytes) -> Frame | None:
+    def _frame(self, message: bytes) -> TimedFrame | None:
         """The frame of one ``< frame ID SECS.USECS DATA >`` message (None when malformed: counted, dropped)."""
         parts = message[8:-1].split()
         if len(parts) == 2:
@@ -172,12 +186,17 @@ class FrameDecoder:
         if arb > (0x1FFFFFFF if ext else 0x7FF):
             self.dropped += len(message)
             return None
+        seconds = _seconds(stamp)
         try:
             payload = binascii.unhexlify(hexdata)
         except binascii.Error:
+            seconds = None
+        if seconds is None:
             self.dropped += len(message)
             return None
-        return _new_frame(Frame, (arb, payload, ext, False))
+        out: TimedFrame = _new_frame(TimedFrame, (arb, payload, ext, False))
+        out.time = seconds
+        return out
 
 
 class CommandParser:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import queue
 import threading
 import time
@@ -22,6 +23,49 @@ if TYPE_CHECKING:
 __all__ = ["FrameSink", "SinkStats"]
 
 _S = TypeVar("_S", bound="FrameSink")
+
+
+_MONOTONIC_TO_EPOCH = time.time() - time.monotonic()
+"""Added to a time on the monotonic scale (s) to make it Unix time: one offset for every stamp, so that
+the stamps keep the spacing of the monotonic clock (the wall clock may be stepped meanwhile)."""
+
+
+class _Stamps:
+    """The times to record one bus's frames at (Unix ns).
+
+    A received frame is stamped with its transport's own time where the transport gives one (a
+    :class:`~drempower.protocol.ids.TimedFrame`: the simulator's clock, a socketcand server's stamp, a
+    python-can receive timestamp); a sent frame (and a received one without a time) with now on that
+    same clock: the monotonic clock less how far the transport's clock was behind it at the last
+    received frame (a simulator that fell behind a busy host, a hop's latency). The order of cause and
+    effect is kept (by 1 µs at least): a received frame comes after the last frame sent on its bus (a
+    reply after its request, which the bus reports once sent), a sent frame after every frame before it
+    (the host sent it after it had them)."""
+
+    __slots__ = ("lag", "latest", "sent")
+
+    def __init__(self) -> None:
+        self.lag = 0.0
+        self.sent = -math.inf
+        self.latest = -math.inf
+
+    def __call__(self, frame: Frame, tx: bool) -> int:
+        now = time.monotonic()
+        own = None if tx else getattr(frame, "time", None)
+        if own is None:
+            at = now - self.lag
+        else:
+            self.lag = now - own
+            at = own
+        if tx:
+            if at <= self.latest:
+                at = self.latest + 1e-6
+            self.sent = at
+        elif at <= self.sent:
+            at = self.sent + 1e-6
+        if at > self.latest:
+            self.latest = at
+        return round((at + _MONOTONIC_TO_EPOCH) * 1e9)
 
 
 class SinkStats:
@@ -49,7 +93,7 @@ class SinkStats:
 class FrameSink(ABC):
     """Takes the frames of attached buses and writes their messages (see :mod:`.events`) in its own thread.
 
-    The buses' threads only queue each frame with the wall clock, so a sink never
+    The buses' threads only queue each frame with its time (see :class:`_Stamps`), so a sink never
     slows a bus down; :meth:`close` writes what is queued, then finishes.
     """
 
@@ -57,6 +101,8 @@ class FrameSink(ABC):
 
     def __init__(self, names: Mapping[int, str] | None, channel: str) -> None:
         self._events: dict[str | None, FrameEvents] = {None: FrameEvents(names, channel)}
+        self._stamps: dict[str | None, _Stamps] = {None: _Stamps()}
+        """The time stamps of each bus's frames (the keys of ``_events``)."""
         """The frame decoders: None for buses attached without a name, else one per named bus."""
         self.stats = SinkStats()
         self._queue: queue.SimpleQueue[tuple[int, Frame, bool, str | None] | None] = queue.SimpleQueue()
@@ -97,6 +143,7 @@ class FrameSink(ABC):
                 topic_prefix=f"/can/{name}",
                 gears={j.id: (j.gear, j.offset) for j in joints},
             )
+            self._stamps[name] = _Stamps()
             tap = partial(self._tap_named, name)
         bus.add_tap(tap)
         self._buses.append((bus, tap))
@@ -109,11 +156,11 @@ class FrameSink(ABC):
         self._buses.clear()
 
     def tap(self, frame: Frame, tx: bool) -> None:
-        """A bus's frame tap: queue ``frame`` stamped with the wall clock now."""
-        self._queue.put((time.time_ns(), frame, tx, None))
+        """A bus's frame tap: queue ``frame`` stamped with its transport's own time where it has one."""
+        self._queue.put((self._stamps[None](frame, tx), frame, tx, None))
 
     def _tap_named(self, name: str, frame: Frame, tx: bool) -> None:
-        self._queue.put((time.time_ns(), frame, tx, name))
+        self._queue.put((self._stamps[name](frame, tx), frame, tx, name))
 
     def record(self, frame: Frame, tx: bool, timestamp: float | None = None) -> None:
         """Queue one frame seen elsewhere; ``timestamp`` is Unix time (s), default now."""

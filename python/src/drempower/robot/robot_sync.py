@@ -427,7 +427,8 @@ class Robot(SyncRobotBase):
     def shadow(self, **options: Any) -> Shadow:
         """Run the robot's twin beside it, fed the same commands, flagging a joint whose position (rad) or
         torque (Nm) residual stays beyond ``position``/``torque`` for ``hold_time`` s; ``on_divergence``
-        ``"warn"``, ``"hold"`` or ``"idle"``, ``on_event(divergence)``, ``clock``, ``model``: see
+        ``"warn"``, ``"hold"`` or ``"idle"`` (default: the robot file's ``on_divergence``, per joint),
+        ``on_event(divergence)``, ``clock``, ``model``: see
         :class:`drempower.robot.shadow.Shadow` (needs the physics extra). Close it (or use it in a
         ``with``) to stop."""
         from .shadow import Shadow

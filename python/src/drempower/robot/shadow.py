@@ -7,7 +7,8 @@ with the twin's joint at that time. A joint whose position residual (robot - twi
 ``position`` rad, or torque residual beyond ``torque`` Nm, for longer than ``hold_time`` s is a
 *divergence*: an unexpected contact, a payload the model lacks. It is logged, passed to ``on_event``, and
 acted on per ``on_divergence``: ``"warn"`` (nothing more), ``"hold"`` (every joint holds where it is) or
-``"idle"`` (every motor stops: the emergency stop).
+``"idle"`` (every motor stops: the emergency stop). Without ``on_divergence`` the robot file says, per
+joint: the diverging joint's ``on_divergence``, else ``[model]``'s, else ``"warn"``.
 
 The twin's joints start where the robot's are at their first reported state. The twin keeps the
 robot's time: ``clock`` (default the wall clock) gives it; the twin's buses are advanced
@@ -30,6 +31,7 @@ from ..errors import ProtocolError, ValidationError
 from ..protocol.describe import decode_frame
 from ..protocol.ids import Frame
 from ..protocol.messages import State
+from ..robotfile import ON_DIVERGENCE
 
 if TYPE_CHECKING:
     from .robot_async import AsyncRobot
@@ -37,8 +39,6 @@ if TYPE_CHECKING:
 
 __all__ = ["ON_DIVERGENCE", "Divergence", "Shadow"]
 
-ON_DIVERGENCE = ("warn", "hold", "idle")
-"""What a divergence does besides being reported."""
 _log = logging.getLogger("drempower.shadow")
 _DEG = math.pi / 180.0
 _RPM = 2.0 * math.pi / 60.0
@@ -82,7 +82,7 @@ class Shadow:
         position: float | None = math.radians(3.0),
         torque: float | None = None,
         hold_time: float = 0.1,
-        on_divergence: str = "warn",
+        on_divergence: str | None = None,
         on_event: Callable[[Divergence], None] | None = None,
         clock: Callable[[], float] | None = None,
         model: str | None = None,
@@ -90,7 +90,7 @@ class Shadow:
         from ..sim.bus import SimBus
         from ..sim.twin import couple_robot
 
-        if on_divergence not in ON_DIVERGENCE:
+        if on_divergence is not None and on_divergence not in ON_DIVERGENCE:
             raise ValidationError(f"on_divergence={on_divergence!r}: one of {', '.join(ON_DIVERGENCE)}")
         self.position = _positive(position, "position")
         self.torque = _positive(torque, "torque")
@@ -98,6 +98,7 @@ class Shadow:
             raise ValidationError("position and torque are both None: nothing to watch")
         self.hold_time = float(_positive(hold_time, "hold_time") or 0.0)
         self.on_divergence = on_divergence
+        """What every divergence does (None: per joint, as the robot file says: :meth:`action`)."""
         self.on_event = on_event
         self.robot = robot
         spec = robot.spec
@@ -106,9 +107,10 @@ class Shadow:
 
             from ..robotfile import ModelSpec
 
-            spec = replace(spec, model=ModelSpec(model))
+            spec = replace(spec, model=ModelSpec(model) if spec.model is None else replace(spec.model, file=model))
         if spec.model is None:
             raise ValidationError(f"{spec.source}: no [model]: a shadow needs the robot's twin")
+        self.spec = spec
         self._clock = clock or time.monotonic
         self._t0 = self._clock()
         self._buses = {b: SimBus([j.id for j in spec.joints_on(b)]) for b in spec.buses}
@@ -127,10 +129,12 @@ class Shadow:
         """The latest (position rad, torque Nm) residual, robot - twin, per joint."""
         self._synced: set[str] = set()
         """Joints put where the robot's are (at their first state seen)."""
-        try:
-            self._loop: asyncio.AbstractEventLoop | None = asyncio.get_running_loop()  # an AsyncRobot's
-        except RuntimeError:
-            self._loop = None
+        from .robot_async import AsyncRobot
+
+        # an AsyncRobot's loop (a Robot's program may run in a thread that holds some other loop)
+        self._loop: asyncio.AbstractEventLoop | None = (
+            asyncio.get_running_loop() if isinstance(robot, AsyncRobot) else None
+        )
         self._taps = []
         for b, bus in robot.buses.items():
             tap = partial(self._tap, b)
@@ -197,39 +201,49 @@ class Shadow:
         if found is not None:
             self._report(found)
 
+    def action(self, joint: str) -> str:
+        """What a divergence of ``joint`` does: ``on_divergence`` as given, else the robot file's for it."""
+        return self.on_divergence if self.on_divergence is not None else self.spec.on_divergence(joint)
+
     def _report(self, event: Divergence) -> None:
-        _log.warning("%s; %s", event, self.on_divergence)
+        action = self.action(event.joint)
+        _log.warning("%s; %s", event, action)
         if self.on_event is not None:
             try:
                 self.on_event(event)
             except Exception:
                 _log.exception("shadow: on_event failed")
-        if self.on_divergence == "warn":
+        if action == "warn":
             return
         # act outside the bus's thread: a tap must not wait for the bus it runs on
-        threading.Thread(target=self._act, name="drempower-shadow-act", daemon=True).start()
+        threading.Thread(target=self._act, args=(action,), name="drempower-shadow-act", daemon=True).start()
 
-    def _act(self) -> None:
+    def _act(self, action: str) -> None:
         try:
             if self._loop is not None:  # an AsyncRobot: on its loop
-                asyncio.run_coroutine_threadsafe(self._act_async(), self._loop).result(timeout=5.0)
-            elif self.on_divergence == "idle":
+                asyncio.run_coroutine_threadsafe(self._act_async(action), self._loop).result(timeout=5.0)
+            elif action == "idle":
                 self.robot.estop()
             else:
                 for name, q in dict(self.last).items():
                     self.robot.joint(name).set_position(q)
         except Exception:
-            _log.exception("shadow: could not %s the robot", self.on_divergence)
+            _log.exception("shadow: could not %s the robot", action)
         else:
             self.acted.set()
 
-    async def _act_async(self) -> None:
+    async def _act_async(self, action: str) -> None:
         robot: Any = self.robot
-        if self.on_divergence == "idle":
+        if action == "idle":
             await robot.estop()
         else:
             for name, q in dict(self.last).items():
                 await robot.joint(name).set_position(q)
+
+    def twin_positions(self) -> dict[str, float]:
+        """Where the twin has each joint now (rad), for a view beside the robot's."""
+        with self.lock:
+            return {name: self.twin.joint_position(name) for name in self.spec.joints}
 
     def reset(self) -> None:
         """Forget the divergences flagged (each joint is flagged once until then); the twin's joints are put

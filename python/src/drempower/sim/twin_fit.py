@@ -340,6 +340,8 @@ def _robot_text(spec: RobotSpec, fitted: dict[str, dict[str, float]], model: str
         "[model]",
         f"file = {value(model)}",
     ]
+    if spec.model is not None and spec.model.on_divergence is not None:
+        lines.append(f"on_divergence = {value(spec.model.on_divergence)}")
     for b in spec.buses.values():
         lines += ["", f"[buses.{key(b.name)}]", f"interface = {value(b.interface)}"]
         lines += [f"{key(k)} = {value(v)}" for k, v in b.options.items()]
@@ -356,6 +358,9 @@ def _robot_text(spec: RobotSpec, fitted: dict[str, dict[str, float]], model: str
             lines.append(f"friction = {value(friction)}")
         if j.on_timeout != "hold":
             lines.append(f"on_timeout = {value(j.on_timeout)}")
+        for k in ("on_overheat", "on_divergence"):
+            if getattr(j, k) is not None:
+                lines.append(f"{k} = {value(getattr(j, k))}")
         if j.limits:
             lines.append(f"[joints.{key(j.name)}.limits]")
             lines += [f"{key(k)} = {value(v)}" for k, v in j.limits.items()]

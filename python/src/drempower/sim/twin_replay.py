@@ -76,10 +76,12 @@ def load_recording(path: str | os.PathLike[str], spec: RobotSpec, *, smooth: int
     """The host frames and joint states of the MCAP recording ``path`` of the robot ``spec``.
 
     The states are the motors' state frames (on ``/can/<bus>/rx``), at the joint (gear and offset as
-    the robot file says). A recording stamps each frame when the recording host took it, late by a
-    latency that varies (a busy host takes a burst of frames at once after a pause); the frames are
-    in the order they were on the bus, and a bus carries them at a steady rate, so each frame's time
-    is taken as the mean of the recorded times of the ``smooth`` frames each side of it (0: as recorded).
+    the robot file says). ``drempower record`` stamps each received frame with its transport's own
+    time where the transport gives one (a socketcand server's stamp, python-can's receive timestamp,
+    the simulator's clock), else when the recording host took it, late by a latency that varies (a
+    busy host takes a burst of frames at once after a pause); for such a recording, whose frames are in
+    the order they were on the bus at a steady rate, each frame's time may be taken as the mean of the
+    recorded times of the ``smooth`` frames each side of it (0, the default: as recorded).
 
     Raises :class:`ValidationError` (naming the file) when it is not a recording of this robot or has
     no motion command."""

@@ -7,6 +7,7 @@ socketcand client stays reachable as interface ``"python-can:socketcand"``.
 
 from __future__ import annotations
 
+import math
 import os
 import select
 import socket
@@ -55,6 +56,12 @@ class SocketcandTransport(Transport):
     fails saying so). A server that closes the connection fails the next read.
     ``bitrate`` (bit/s), when given, is the served bus's rate: the client then
     times what it queues; socketcand itself sets no bit rate.
+
+    Each received frame keeps the server's time stamp as its ``time`` (a
+    :class:`~drempower.protocol.ids.TimedFrame`), put on the scale of :func:`time.monotonic`: the
+    server's clock plus the smallest difference seen so far between when a frame reached this host and
+    its stamp (the server's clock and this host's then differ by the quickest hop's latency), so the
+    frames keep the spacing the server gave them however late this host reads them.
     """
 
     recv_slice = None
@@ -98,6 +105,8 @@ class SocketcandTransport(Transport):
         self.wire_bitrate = bitrate
         self._send_timeout = float(send_timeout)
         self._decoder = FrameDecoder()
+        self._offset = math.inf
+        """This host's monotonic clock minus the server's (s): the smallest difference seen so far."""
         self._frames: deque[Frame] = deque()
         self._wlock = threading.Lock()
         self._closed = False
@@ -253,10 +262,20 @@ class SocketcandTransport(Transport):
                 return out
             raise TransportError(f"{self.description}: the socketcand server closed the connection")
         got = self._decoder.feed(chunk)
+        if got:
+            self._on_host_scale(got)
         if not out:
             return got
         out.extend(got)
         return out
+
+    def _on_host_scale(self, frames: list[Frame]) -> None:
+        """Put the server's time stamps of ``frames`` (just read) on this host's monotonic scale."""
+        last = max(f.time for f in frames)  # type: ignore[attr-defined]
+        offset = min(self._offset, time.monotonic() - last)
+        self._offset = offset
+        for f in frames:
+            f.time += offset  # type: ignore[attr-defined]
 
     def wait_frame(self, timeout: float) -> Frame | None:
         """The next frame, or None after at most ``timeout`` s (or once closed)."""

@@ -18,7 +18,7 @@
     data: new Map(), // id -> {t:[], rows:[]} raw samples, oldest first
     lastT: 0, paused: false, frozen: null, xRange: null, dirty: true,
     received: 0, frames: 0, rateWin: [], paramValues: {}, changed: new Set(), runs: [],
-    names: {}, watched: [], gainsSeq: 0, paramsSeq: 0, pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
+    names: {}, watched: [], gainsSeq: 0, paramsSeq: 0, twin: new Map(), pdata: new Map(), // "id:name" -> {t:[], v:[]} polled parameter values
   };
   window.dashParams = (key) => S.pdata.get(key);
   window.dashListeners = window.dashListeners || []; // other views' handlers of every server message
@@ -119,6 +119,14 @@
         $("#scan-text").textContent = `done: ${m.found.length} motor(s): ${m.found.map((f) => shortName(f.id)).join(", ")}`;
         break;
       case "samples": onSamples(m); break;
+      case "shadow": onShadow(m); break;
+      case "divergence": { // the shadow twin flagged a joint: said, and kept on the page
+        say(m.text);
+        const n = $("#shadow-note");
+        n.hidden = false;
+        n.textContent = n.textContent ? n.textContent + "\n" + m.text : m.text;
+        break;
+      }
       case "watched": setWatched(m.watched); break;
       case "names": { S.names = m.names || {}; const ms = S.motors; S.motors = []; setMotors(ms); break; }
       case "params":
@@ -199,6 +207,23 @@
     $("#plot-per-motor").textContent = per.join(", ");
     window.dashStats.fps = S.frames; $("#plot-fps").textContent = S.frames; S.frames = 0;
   }, 1000);
+
+  // the shadow twin's angle at each motor (deg): a series beside the motor's own angle
+  function onShadow(m) {
+    let added = false;
+    for (const [key, v] of Object.entries(m.a || {})) {
+      const id = Number(key);
+      let d = S.twin.get(id);
+      if (!d) { d = { t: [], v: [] }; S.twin.set(id, d); added = true; }
+      d.t.push(m.at); d.v.push(v);
+      if (d.t.length > 1000 && d.t[0] < m.at - KEEP_S * 1.2) {
+        const k = lowerBound(d.t, m.at - KEEP_S);
+        d.t = d.t.slice(k); d.v = d.v.slice(k);
+      }
+    }
+    if (added && !$("#view-plots").hidden) rebuildPlot();
+    S.dirty = true;
+  }
 
   function lowerBound(a, x) {
     let lo = 0, hi = a.length;
@@ -367,6 +392,7 @@
       for (const ch of chs) {
         series.push({ id, ch, target: false, color, unit: PLOT_UNIT[ch] });
         if (tg && TGT[ch] !== undefined && d && d.targets && d.targets.has(ch)) series.push({ id, ch, target: true, color, unit: PLOT_UNIT[ch] });
+        if (ch === "angle" && S.twin.has(id)) series.push({ id, ch, twin: true, color, unit: PLOT_UNIT[ch] });
       }
     });
     S.watched.forEach(([id, name], k) => {
@@ -391,9 +417,9 @@
         }
       }] },
       series: [{ label: "t" }].concat(series.map((s) => ({
-        label: `${legendName(s.id)} ${s.param ? s.ch.split(".").slice(-2).join(".") : s.ch + (s.target ? " target" : "")}`,
-        stroke: s.color, width: s.target ? 1 : 1.5, scale: s.unit,
-        dash: s.target ? [1, 3] : DASH[s.ch], spanGaps: true,
+        label: `${legendName(s.id)} ${s.param ? s.ch.split(".").slice(-2).join(".") : s.ch + (s.target ? " target" : s.twin ? " twin" : "")}`,
+        stroke: s.color, width: s.target || s.twin ? 1 : 1.5, scale: s.unit,
+        dash: s.target ? [1, 3] : s.twin ? [8, 4] : DASH[s.ch], spanGaps: true,
         points: { show: false },
       }))),
     };
@@ -412,8 +438,8 @@
     const src = S.paused && S.frozen ? S.frozen : S.data;
     for (const s of series) {
       const ys = new Array(2 * n).fill(null);
-      if (s.param) {
-        const p = S.pdata.get(s.param);
+      if (s.param || s.twin) {
+        const p = s.twin ? S.twin.get(s.id) : S.pdata.get(s.param);
         if (p) {
           for (let i = lowerBound(p.t, x0); i < p.t.length && p.t[i] < x1; i++) {
             const b = Math.min(n - 1, Math.floor((p.t[i] - x0) / dt));

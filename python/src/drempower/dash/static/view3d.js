@@ -14,7 +14,9 @@ const V = {
   errors: new Set(), // motor keys whose last state had the error bit
   angles: {}, // motor key -> the angle (deg) of its last state
   drawn: false,
+  ghost: null, // the shadow's twin: {world, joints, meshes}, drawn translucent beside the robot
 };
+const GHOST = new THREE.Color(0.95, 0.55, 0.1);
 
 // ------------------------------------------------------------ scene
 const quat = (q) => new THREE.Quaternion(q[1], q[2], q[3], q[0]); // MuJoCo w x y z -> three x y z w
@@ -63,7 +65,8 @@ function loadMesh(g, mesh) {
   }, undefined, fail);
 }
 
-function build(doc) {
+// the model's scene as three.js groups; its joints and meshes go into `into` (the robot's, or the shadow's)
+function build(doc, into = V) {
   const sc = doc.scene;
   const inner = []; // each body's innermost group (after its joints)
   const world = new THREE.Group();
@@ -83,7 +86,7 @@ function build(doc) {
       back.position.fromArray(j.pos).negate();
       node.add(pivot); pivot.add(rot); rot.add(back);
       rot.name = "joint:" + j.name;
-      V.joints.set(j.name, { rot, axis: new THREE.Vector3().fromArray(j.axis).normalize(), type: j.type, ref: j.ref, body: i });
+      into.joints.set(j.name, { rot, axis: new THREE.Vector3().fromArray(j.axis).normalize(), type: j.type, ref: j.ref, body: i });
       node = back;
     }
     inner[i] = node;
@@ -96,24 +99,24 @@ function build(doc) {
     mesh.quaternion.copy(quat(g.quat));
     if (g.type === "mesh" && !g.vertices) loadMesh(g, mesh);
     inner[g.body].add(mesh);
-    if (!V.meshes.has(g.body)) V.meshes.set(g.body, []);
-    V.meshes.get(g.body).push(mesh);
+    if (!into.meshes.has(g.body)) into.meshes.set(g.body, []);
+    into.meshes.get(g.body).push(mesh);
   }
   return world;
 }
 
 // the joint's position (rad, or m for a slide joint) -> the drawn transform
-function pose(name, q) {
-  const j = V.joints.get(name);
+function pose(name, q, of = V) {
+  const j = of.joints.get(name);
   if (!j) return;
   if (j.type === "hinge") j.rot.quaternion.setFromAxisAngle(j.axis, q - j.ref);
   else j.rot.position.copy(j.axis).multiplyScalar(q - j.ref);
 }
 
 // read back from the three.js objects: hinge joints in degrees, slide joints in metres
-function jointAngles() {
+function jointAngles(of = V) {
   const out = {};
-  for (const [name, j] of V.joints) {
+  for (const [name, j] of of.joints) {
     if (j.type === "hinge") {
       const q = j.rot.quaternion;
       const s = q.x * j.axis.x + q.y * j.axis.y + q.z * j.axis.z;
@@ -147,8 +150,38 @@ function setErrors() {
   $("#v3d-errors").textContent = names.length ? "error: " + names.join(", ") : "";
 }
 
+// ------------------------------------------------------------ the shadow twin
+function ghost() {
+  const g = { joints: new Map(), meshes: new Map() };
+  g.world = build(V.doc, g);
+  g.world.name = "shadow twin";
+  for (const ms of g.meshes.values()) {
+    for (const m of ms) {
+      m.material.transparent = true;
+      m.material.opacity = 0.35;
+      m.material.color.lerp(GHOST, 0.6);
+      m.material.depthWrite = false;
+    }
+  }
+  if (V.three) V.three.add(g.world);
+  V.ghost = g;
+  $("#v3d-shadow").textContent = "shadow twin: translucent orange";
+  window.drempowerView.shadow = true;
+}
+
+function onShadow(m) {
+  if (!V.ghost) ghost();
+  for (const j of V.doc.joints) {
+    if (m.q[j.joint] !== undefined) pose(j.model_joint, m.q[j.joint], V.ghost);
+  }
+  V.shadowRes = m.res;
+  V.drawn = false;
+}
+
 // ------------------------------------------------------------ live states
 function onMessage(m) {
+  if (m.t === "shadow" && V.world) { onShadow(m); return; }
+  if (m.t === "divergence") { $("#v3d-shadow").textContent = m.text; return; }
   if (m.t !== "samples" || !V.world) return;
   const last = new Map();
   for (const row of m.s) last.set(row[0], row);
@@ -251,6 +284,7 @@ function startRenderer() {
   sun.position.set(2, -3, 5);
   V.three.add(sun);
   V.three.add(V.world);
+  if (V.ghost) V.three.add(V.ghost.world);
   // frame the robot (planes left out: a floor would dwarf it)
   const bbox = new THREE.Box3();
   V.world.updateMatrixWorld(true);
@@ -342,8 +376,8 @@ function setupHand(doc) {
 // ------------------------------------------------------------ start
 async function start() {
   window.drempowerView = {
-    ready: false, error: null, twin: false,
-    jointAngles, highlighted, joints: () => [...V.joints.keys()], motorAngles: () => ({ ...V.angles }),
+    ready: false, error: null, twin: false, shadow: false,
+    jointAngles: () => jointAngles(), shadowAngles: () => (V.ghost ? jointAngles(V.ghost) : null), highlighted, joints: () => [...V.joints.keys()], motorAngles: () => ({ ...V.angles }),
   };
   $("#v3d-pin").addEventListener("change", (e) => {
     $("#view-view3d").classList.toggle("pinned", e.target.checked);
