@@ -81,22 +81,23 @@ def test_raw_frames_of_a_peer_pass_the_bridges_gate(face: Face, caplog: pytest.L
     motor = face.sim.bus.motors[1]
     with session(connect=[face.endpoint]) as peer, caplog.at_level(logging.WARNING, "drempower.bridge"):
         wait_for(lambda: peer.get(k["info"], timeout=0.5) is not None)
-        time.sleep(0.3)  # the routes settle
+        tx, estop = peer.declare_publisher(k["tx"]), peer.declare_publisher(k["estop"])
+        # the routes to the bridge's subscribers are there (a loaded machine takes longer than any fixed wait)
+        wait_for(lambda: tx.matching_status.matching and estop.matching_status.matching, limit=30.0)
         enable = WriteParam.of(1, "axis0.requested_state", 8).encode()
         fast = Velocity(1, 250.0).encode()
-        peer.put(
-            k["tx"],
+        tx.put(
             encode_frames([SystemCommand(1, SysCmd.CLEAR_ERRORS).encode(), enable, fast]),
             attachment=join_origin(b"peer", 1),
         )
         wait_for(lambda: face_.refused >= 3)
         time.sleep(0.3)
         assert abs(motor.speed) < 1 and motor.param("axis0.output_shaft.input_vel") == 0  # nothing of it went
-        peer.put(k["tx"], encode_frames([fast]), attachment=join_origin(b"peer", 2))  # alone: refused too
+        tx.put(encode_frames([fast]), attachment=join_origin(b"peer", 2))  # alone: refused too
         wait_for(lambda: face_.refused >= 4)
-        peer.put(k["estop"], encode_frames([fast]), attachment=join_origin(b"peer", 3))  # no estop: refused
+        estop.put(encode_frames([fast]), attachment=join_origin(b"peer", 3))  # no estop: refused
         wait_for(lambda: face_.refused >= 5)
-        peer.put(k["tx"], encode_frames([enable, Velocity(1, 5.0).encode()]), attachment=join_origin(b"peer", 4))
+        tx.put(encode_frames([enable, Velocity(1, 5.0).encode()]), attachment=join_origin(b"peer", 4))
         wait_for(lambda: motor.state == AxisState.CLOSED_LOOP_CONTROL and motor.speed > 2)
     refusals = [r.getMessage() for r in caplog.records if "refused" in r.getMessage()]
     assert any("motor 1: speed 250 r/min is beyond its soft limit" in r for r in refusals), refusals
