@@ -67,6 +67,22 @@ def test_the_files_narrower_limit_wins_and_a_wider_one_is_narrowed_to_the_model(
             robot.move_joints({"elbow": 3.0}, speed=1.0, accel=5.0, enable=True)
 
 
+def test_the_files_limits_and_the_models_range_both_hold_each_naming_its_source(tmp_path: Path) -> None:
+    """A file's max_step and the model's range come from two sources: the bus holds both (the second
+    source once replaced the first), each refusal naming where its limit was set."""
+    pytest.importorskip("mujoco")
+    path = _file(tmp_path, elbow="limits = { max_step = 0.05, speed = 2.0 }")
+    with drempower.open_robot(path) as robot:
+        held = robot.bus("arm").limits(3)
+        assert set(held) == {"max_step", "speed", "position"}
+        assert "[joints.elbow] limits" in held["max_step"].where and "[joints.elbow] limits" in held["speed"].where
+        assert held["position"].where == "the range of model joint 'elbow'"
+        with pytest.raises(SoftLimitError, match=r"max_step .*\[joints.elbow\] limits"):
+            robot.move_joints({"elbow": 0.5}, speed=1.0, accel=5.0, enable=True)
+        with pytest.raises(SoftLimitError, match="range of model joint 'elbow'"):
+            robot.move_joints({"elbow": 3.0}, speed=1.0, accel=5.0, enable=True)
+
+
 def _closing_states(path: Path, how: str) -> dict[int, AxisState]:
     """Each motor's axis state after a program moved both joints and ended ``how``."""
     robot = drempower.open_robot(path)

@@ -30,9 +30,9 @@ def apply_limits(
         if not lim:
             continue
         motor = Gearing(js).motor_limits(lim)
-        for key in sorted(set(lim.where.values())):  # one call per source, so each limit names its own
+        for n, key in enumerate(sorted(set(lim.where.values()))):  # one call per source: each limit names its own
             part = {k: v for k, v in motor.items() if lim.where.get(k) == key}
-            bus.set_limits(js.id, where=key, **part)
+            bus.set_limits(js.id, where=key, replace=n == 0, **part)
     return out
 
 

@@ -154,8 +154,10 @@ class BusBase(ABC, Generic[M]):
         accel: float | None = None,
         max_step: float | None = None,
         where: str | None = None,
+        replace: bool = True,
     ) -> None:
-        """Set the soft limits of motor ``id`` (replacing its earlier ones; None: no such limit).
+        """Set the soft limits of motor ``id`` (replacing its earlier ones; None: no such limit; with
+        ``replace`` False, the limits not given here are kept, each with its own ``where``).
 
         ``position`` (low, high) deg, ``speed`` r/min, ``torque`` Nm, ``accel`` (r/min)/s (by
         magnitude) and ``max_step``, the largest step (deg) a single position command may make
@@ -165,6 +167,8 @@ class BusBase(ABC, Generic[M]):
         """
         check_motor(id, "id")
         given = {"position": position, "speed": speed, "torque": torque, "accel": accel, "max_step": max_step}
+        if not replace:
+            given = {k: v for k, v in given.items() if v is not None}
         if where is None:
             args = ", ".join(f"{k}={v!r}" for k, v in given.items() if v is not None)
             where = f"bus.set_limits({id}{', ' if args else ''}{args})"
