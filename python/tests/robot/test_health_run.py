@@ -5,8 +5,6 @@ from __future__ import annotations
 
 import asyncio
 import logging
-import time
-from collections.abc import Callable
 from pathlib import Path
 
 import pytest
@@ -17,6 +15,8 @@ from drempower.errors import MotorIdleError
 from drempower.protocol import AxisState, ParamValue, State, decode_reply
 from drempower.protocol.ids import Frame
 from drempower.sim import SimBus
+
+from ..waits import eventually
 
 
 def _robot(tmp_path: Path, health: str = '[health]\nperiod = 0.5\non_overheat = "hold"\n') -> Path:
@@ -97,15 +97,6 @@ def test_no_health_section_or_supervise_false_runs_nothing(tmp_path: Path) -> No
         assert robot.health_run is None
 
 
-def _wait(cond: Callable[[], bool], seconds: float = 20.0) -> bool:
-    end = time.monotonic() + seconds
-    while time.monotonic() < end:
-        if cond():
-            return True
-        time.sleep(0.01)
-    return False
-
-
 def test_on_a_wall_clock_a_thread_runs_it_and_close_ends_it(tmp_path: Path) -> None:
     health = '[health]\nperiod = 0.05\non_overheat = "hold"\n'
     with drempower.open_robot(_robot(tmp_path, health)) as robot:
@@ -116,9 +107,11 @@ def test_on_a_wall_clock_a_thread_runs_it_and_close_ends_it(tmp_path: Path) -> N
         sim = _sim(robot)
         with sim.lock:
             sim.motors[1].thermal.winding = 91.0
-        assert _wait(lambda: sim.motors[1].state == AxisState.IDLE)
+        assert eventually(lambda: sim.motors[1].state == AxisState.IDLE, limit=20.0)
         # the supervisor's thread records the event once its action is sent: the motor may be idle first
-        assert _wait(lambda: [(e.joint, e.kind, e.action) for e in run.events][:1] == [("a", "overheat", "idle")])
+        assert eventually(
+            lambda: [(e.joint, e.kind, e.action) for e in run.events][:1] == [("a", "overheat", "idle")], limit=20.0
+        )
     assert not thread.is_alive()
 
 
