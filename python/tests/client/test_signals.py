@@ -5,6 +5,7 @@ from __future__ import annotations
 import os
 import signal
 import threading
+from collections.abc import Iterator
 from types import FrameType
 
 import pytest
@@ -167,6 +168,42 @@ def test_a_second_signal_during_the_stopping_does_not_interrupt_it(monkeypatch: 
         sig._stop_and_chain(signal.SIGTERM, None)
     assert info.value.code == 128 + signal.SIGTERM
     assert calls == ["close begins", "close ends"]
+
+
+@pytest.fixture
+def handlers_kept() -> Iterator[None]:
+    """Put the test process's own SIGINT, SIGTERM and SIGHUP handlers back, whatever the test left."""
+    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, *sig.TERMINATING_SIGNALS)}
+    yield
+    for number, handler in saved.items():
+        signal.signal(number, handler)
+
+
+@pytest.mark.parametrize("second", [signal.SIGINT, signal.SIGTERM])
+def test_a_late_second_signal_after_the_block_is_absorbed_when_the_block_ends_the_program(
+    handlers_kept: None, second: signal.Signals
+) -> None:
+    """The command's stop finished and the block exited; a second signal arriving now (a busy machine delays it)
+    must not reach the handlers the block replaced (the default action would kill the process while it reports
+    with -signal instead of 128 + the first): it only marks the exit hurried."""
+    reached: list[int] = []
+    for number in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(number, lambda signum, _frame: reached.append(signum))
+    with pytest.raises(KeyboardInterrupt), sig.signals_interrupt(until_exit=True):
+        signal.raise_signal(signal.SIGINT)
+    signal.raise_signal(second)
+    assert reached == [] and sig.hurried()
+
+
+def test_without_until_exit_the_handlers_come_back_after_a_signal(handlers_kept: None) -> None:
+    """As a library block, the program gets its own handlers back, whether or not a signal ended the block."""
+    before = signal.getsignal(signal.SIGINT)
+    with pytest.raises(KeyboardInterrupt), sig.signals_interrupt():
+        signal.raise_signal(signal.SIGINT)
+    assert signal.getsignal(signal.SIGINT) is before and not sig.hurried()
+    with sig.signals_interrupt(until_exit=True):  # no signal: the handlers come back here too
+        pass
+    assert signal.getsignal(signal.SIGINT) is before
 
 
 _SIGTERM_AT = """

@@ -153,6 +153,7 @@ def _grouped_help(sub: argparse._SubParsersAction[_Parser], group_of: dict[str, 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``drempower`` console script; returns the exit code."""
+    argv_given = argv is not None
     argv = sys.argv[1:] if argv is None else list(argv)
     parser = build_parser(_chosen(argv))
     args = parser.parse_args(argv)
@@ -161,7 +162,8 @@ def main(argv: Sequence[str] | None = None) -> int:
 
     try:
         apply_robot(args)  # --robot: joint names, the buses the command runs on
-        with signals_interrupt():  # SIGTERM and SIGHUP end a command as Ctrl-C does
+        # SIGTERM and SIGHUP end a command as Ctrl-C does; run as the program, a late second signal is absorbed
+        with signals_interrupt(until_exit=not argv_given):
             code: int = run_command(args) if getattr(args, "robot_groups", None) else args.func(args)
         return code
     except UsageError as exc:  # reported as argparse reports its own errors, exit code included

@@ -145,16 +145,14 @@ def _raise_terminated(signum: int, frame: FrameType | None) -> None:
 _raise_terminated._drempower_stops = True  # type: ignore[attr-defined]
 
 
-def _replace_handlers(handler: Callable[[int, FrameType | None], Any]) -> dict[int, _Handler]:
+def _replace_handlers(handler: Callable[[int, FrameType | None], Any], saved: dict[int, _Handler]) -> None:
     """Install ``handler`` for SIGINT, SIGTERM and SIGHUP, but where a signal is ignored (``nohup``'s
-    SIGHUP stays ignored); returns the handlers it replaced, for :func:`_put_back`."""
-    saved: dict[int, _Handler] = {}
+    SIGHUP stays ignored); notes in ``saved`` each handler it replaced, as it goes, for :func:`_put_back`."""
     for signum in (signal.SIGINT, *TERMINATING_SIGNALS):
         current = signal.getsignal(signum)
         if current is not signal.SIG_IGN:
             saved[signum] = current
             signal.signal(signum, handler)
-    return saved
 
 
 def _put_back(saved: dict[int, _Handler]) -> None:
@@ -164,7 +162,7 @@ def _put_back(saved: dict[int, _Handler]) -> None:
 
 
 @contextmanager
-def signals_interrupt() -> Iterator[None]:
+def signals_interrupt(*, until_exit: bool = False) -> Iterator[None]:
     """While inside: SIGINT, SIGTERM and SIGHUP raise in the main thread (the handlers restored afterwards).
 
     The first of them raises :class:`KeyboardInterrupt` (SIGINT) or
@@ -172,17 +170,25 @@ def signals_interrupt() -> Iterator[None]:
     second Ctrl-C or a SIGTERM right after it never cuts the stopping short. A
     signal that is ignored (SIGHUP under ``nohup``) stays ignored. Outside
     the main thread this does nothing.
+
+    ``until_exit`` is for a program that ends when the block does (the
+    ``drempower`` command): once a signal has ended the block, the handlers
+    are not put back, so a second signal arriving late (after the stop, while
+    the program reports it) is absorbed too and the exit code stays 128 + the
+    first signal's number instead of the default action killing the process.
     """
     if threading.current_thread() is not threading.main_thread():
         yield
         return
-    saved = _replace_handlers(_raise_terminated)
     _Flags.terminating = _Flags.hurry = False
+    saved: dict[int, _Handler] = {}
     try:
+        _replace_handlers(_raise_terminated, saved)
         yield
     finally:
-        _put_back(saved)
-        _Flags.terminating = _Flags.hurry = False
+        if not (until_exit and _Flags.terminating):
+            _put_back(saved)
+            _Flags.terminating = _Flags.hurry = False
 
 
 class SignalLatch:
@@ -218,7 +224,7 @@ class SignalLatch:
     def install(self) -> None:
         """Note SIGINT, SIGTERM and SIGHUP from now on (in the main thread; elsewhere nothing)."""
         if threading.current_thread() is threading.main_thread() and not self._saved:
-            self._saved = _replace_handlers(self._note)
+            _replace_handlers(self._note, self._saved)
 
     def wait(self, timeout: float) -> bool:
         """Wait up to ``timeout`` seconds for a signal; whether one has been received (now or before)."""
