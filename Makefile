@@ -37,10 +37,10 @@ docs: $(DEVSTAMP)
 
 # The fast tier: the protocol, the sans-I/O engine, the actions, the gate, parsing. Run with --fast-tier, a
 # test there fails as soon as it starts a process (a browser too) or sleeps (python/tests/conftest.py).
-FAST_TESTS := tests/protocol tests/client/session tests/client/test_session_parts.py tests/client/test_gate.py \
-	tests/client/test_watchdog.py tests/client/test_arguments.py tests/client/test_domains.py \
-	tests/client/test_vectors.py tests/client/test_client_vectors.py tests/client/test_refusals.py \
-	tests/client/test_virtual_time.py tests/client/test_batch.py tests/client/test_motor.py \
+FAST_TESTS := tests/protocol tests/client/engine/session tests/client/engine/test_session_parts.py tests/client/engine/test_gate.py \
+	tests/client/engine/test_watchdog.py tests/client/api/test_arguments.py tests/client/api/test_domains.py \
+	tests/client/api/test_vectors.py tests/client/engine/test_client_vectors.py tests/client/api/test_refusals.py \
+	tests/client/driver/test_virtual_time.py tests/client/engine/test_batch.py tests/client/api/test_motor.py \
 	tests/robot/test_config.py tests/test_actions.py tests/test_layers.py tests/test_naming.py \
 	tests/test_errors.py tests/test_cli_params.py tests/cli/test_param_domains.py
 # the rest runs on every core (pytest-xdist); PYTEST_WORKERS=0 runs it in one process

@@ -24,12 +24,12 @@ settings.load_profile(os.environ.get("HYPOTHESIS_PROFILE", "default"))
 # keeps bits 3-4 of the command a state frame answers (spec/PROTOCOL.md 1.6): `make test` runs
 # `pytest -m status_bits --sim-status-bits kept` after the whole suite.
 STATUS_BITS_CORE = (
-    "tests/client/test_motor.py",
-    "tests/client/test_batch.py",
-    "tests/client/test_move_done.py",
-    "tests/client/test_other_hosts.py",
-    "tests/client/test_status_bits.py",
-    "tests/client/test_async.py",
+    "tests/client/api/test_motor.py",
+    "tests/client/engine/test_batch.py",
+    "tests/client/api/test_move_done.py",
+    "tests/client/engine/test_other_hosts.py",
+    "tests/client/engine/test_status_bits.py",
+    "tests/client/api/test_async.py",
     "tests/robot/test_robot.py",
     "tests/robot/test_safety.py",
     "tests/cli/test_read.py",

@@ -9,7 +9,7 @@ from drempower.client.engine.effects import sleep
 from drempower.protocol import AxisError, MotorError
 from drempower.sim import Faults, SimBus
 
-from .links import Recorder, link
+from ..links import Recorder, link
 
 
 def test_dropped_frames_give_correct_values_or_timeouts() -> None:

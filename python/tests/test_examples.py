@@ -7,7 +7,7 @@ import sys
 
 import pytest
 
-from ..conftest import REPO_ROOT
+from .conftest import REPO_ROOT
 
 EXAMPLES = {
     "single_motor.py": ["--time-scale", "10"],

@@ -18,7 +18,7 @@ from drempower.client.engine.commands import (
 )
 from drempower.errors import FieldRangeError
 
-from .scripted import ScriptedTransport
+from ..scripted import ScriptedTransport
 
 
 @pytest.mark.parametrize(
@@ -98,7 +98,7 @@ def test_a_traj_mode_the_motor_reports_out_of_its_set_is_named() -> None:
     from drempower import DrEmpowerError
     from drempower.sim import SimBus
 
-    from .links import link
+    from ..links import link
 
     sim = SimBus(ids=[1, 2])
     sim.motors[2].set_param("axis0.trap_traj.config.traj_mode", 7)

@@ -12,7 +12,7 @@ from drempower import compat
 from drempower.errors import MotorIdleError, SoftLimitError, ValidationError
 from drempower.sim import SimBus
 
-from .scripted import ScriptedTransport
+from ..scripted import ScriptedTransport
 
 
 def _open(sim: SimBus) -> drempower.Bus:

@@ -12,7 +12,7 @@ from drempower.client import Bus, ConfigBackup
 from drempower.protocol import parameters
 from drempower.protocol.parameters import parameter
 
-from .scripted import FakeMotors, ScriptedTransport
+from ..scripted import FakeMotors, ScriptedTransport
 
 
 def test_backup_and_restore(bus: Bus, motors: FakeMotors, tmp_path: Path) -> None:

@@ -10,7 +10,7 @@ import pytest
 from drempower.protocol import Frame
 from drempower.sim import Faults, SimBus
 
-from .links import Recorder, link, lose
+from ..links import Recorder, link, lose
 
 PRESET, SYSTEM = 0x0C, 0x08
 _POSITION_STARTS = (0x10, 0x11, 0x12)

@@ -19,8 +19,8 @@ from drempower.client import Bus, MoveError, open_bus_async
 from drempower.protocol import FastRead, Frame, PresetQ, PresetT, Start, StartKind
 from drempower.sim import SimBus
 
-from .links import link
-from .scripted import FakeMotors, ScriptedTransport
+from ..links import link
+from ..scripted import FakeMotors, ScriptedTransport
 
 IDS = [1, 2, 3]
 TARGETS = [30.0, -30.0, 60.0]

@@ -12,7 +12,7 @@ import pytest
 import drempower
 from drempower.sim import SimBus, SimRunner, attach_socketcand
 
-from ..conftest import REPO_ROOT
+from .conftest import REPO_ROOT
 
 
 @pytest.fixture

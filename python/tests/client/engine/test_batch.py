@@ -24,7 +24,7 @@ from drempower.protocol import (
 )
 from drempower.transports.capabilities import Capabilities
 
-from .scripted import FakeMotors, ScriptedTransport
+from ..scripted import FakeMotors, ScriptedTransport
 
 
 @pytest.mark.parametrize(
@@ -264,7 +264,7 @@ def test_impedance_of_several_motors_has_one_start() -> None:
     from drempower.protocol import Preset, PresetD, StartImpedance, StartKind, decode_command
     from drempower.sim import SimBus
 
-    from .links import Recorder, link
+    from ..links import Recorder, link
 
     sim = SimBus(ids=[1, 2])
     rec = Recorder(sim)

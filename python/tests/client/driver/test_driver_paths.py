@@ -21,7 +21,7 @@ from drempower.sim import SimBus, attach_adapter_pty
 from drempower.transports.serial_adapter import AdapterTransport
 from drempower.transports.sim import SimTransport
 
-from .links import link
+from ..links import link
 
 IDS = [1, 2, 3, 4]
 ROUNDS = 40

@@ -8,7 +8,7 @@ import drempower
 from drempower.client import AxisMode, Bus, IdTakenError, NoMotorError, VerifyError
 from drempower.protocol import SysCmd, SystemCommand, WriteParam
 
-from .scripted import FakeMotors, ScriptedTransport
+from ..scripted import FakeMotors, ScriptedTransport
 
 
 def test_set_id_checks_the_new_id_then_saves(bus: Bus, scripted: ScriptedTransport) -> None:
@@ -150,7 +150,7 @@ def test_remembered_parameters_follow_every_write_and_reset(bus: Bus) -> None:
 def test_set_id_never_makes_two_motors_share_an_id() -> None:
     from drempower.sim import SimBus
 
-    from .links import Recorder, link
+    from ..links import Recorder, link
 
     sim = SimBus(ids=[1, 2])
     rec = Recorder(sim)

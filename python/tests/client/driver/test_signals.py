@@ -16,7 +16,7 @@ from drempower.protocol import DataType, WriteParam
 from drempower.protocol.ids import SysCmd
 from drempower.protocol.messages import SystemCommand
 
-from .scripted import FakeMotors, ScriptedTransport
+from ..scripted import FakeMotors, ScriptedTransport
 
 pytestmark = [
     pytest.mark.skipif(not hasattr(signal, "SIGHUP"), reason="POSIX signals"),
@@ -114,7 +114,7 @@ def test_sigterm_during_the_exit_time_close_still_stops_the_motors() -> None:
     import sys
     from pathlib import Path
 
-    here = str(Path(__file__).parent)
+    here = str(Path(__file__).parent.parent)  # tests/client, where scripted.py is
     run = subprocess.run([sys.executable, "-c", _AT_EXIT, here], capture_output=True, text=True, timeout=30)
     assert run.stdout.splitlines() == ["idle written"], run.stderr
 

@@ -19,7 +19,7 @@ from drempower.client.api.busbase import BusBase
 from drempower.client.api.motorbase import MotorBase
 from drempower.robot import AsyncJoint, AsyncRobot, Joint, Robot
 
-from ..conftest import REPO_ROOT
+from ...conftest import REPO_ROOT
 
 _TOOL = REPO_ROOT / "tools" / "gen_sync.py"
 _CLIENT = Path("python/src/drempower/client")

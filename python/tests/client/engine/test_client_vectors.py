@@ -24,8 +24,8 @@ from drempower.protocol.ids import Frame
 from drempower.protocol.messages import ReadParam, Start
 from drempower.protocol.parameters import DataType
 
-from ..conftest import REPO_ROOT
-from ..protocol.vectors import build
+from ...conftest import REPO_ROOT
+from ...protocol.vectors import build
 
 CLIENT_DIR = REPO_ROOT / "spec" / "vectors" / "client"
 EPS = 1e-9

@@ -10,7 +10,7 @@ import pytest
 import drempower
 from drempower.client import AsyncBus, BusClosedError, open_bus_async
 
-from .scripted import FakeMotors, ScriptedTransport
+from ..scripted import FakeMotors, ScriptedTransport
 
 
 async def test_async_queries_and_moves(motors: FakeMotors) -> None:

@@ -15,7 +15,7 @@ from drempower.client.engine.session import ZERO_REPLY_GRACE
 from drempower.protocol import DataType, ReadParam
 from drempower.sim import SimBus
 
-from .links import TRANSPORTS, link
+from ..links import TRANSPORTS, link
 
 
 @pytest.fixture

@@ -14,7 +14,7 @@ from drempower.client import AsyncBus, AsyncMotor, Bus, Motor
 from drempower.client.engine.timeouts import MAX_TIMEOUT, check_timeout
 from drempower.errors import ValidationError
 
-from .scripted import FakeMotors, ScriptedTransport
+from ..scripted import FakeMotors, ScriptedTransport
 
 NAN = float("nan")
 

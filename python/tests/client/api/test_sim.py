@@ -9,7 +9,7 @@ from drempower.client import PositionMode
 from drempower.protocol import PresetQ
 from drempower.sim import SimBus
 
-from .links import TRANSPORTS, link
+from ..links import TRANSPORTS, link
 
 
 @pytest.mark.parametrize("kind", TRANSPORTS)

@@ -11,7 +11,7 @@ import pytest
 import drempower
 from drempower.sim import Faults, SimBus
 
-from .links import Recorder, link, lose
+from ..links import Recorder, link, lose
 
 WRITE = 0x1F
 POS_GAIN = "axis0.controller.config.pos_gain"

@@ -11,7 +11,7 @@ from drempower import compat
 from drempower.client import Bus, MoveError, MoveFaultError, MoveTimeoutError, open_bus_async
 from drempower.sim import Faults, SimBus
 
-from .links import link
+from ..links import link
 
 TARGETS = [30.0, -30.0, 60.0]
 STATE_SOURCES = ["both"]

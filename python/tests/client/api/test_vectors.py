@@ -7,7 +7,7 @@ import pytest
 from drempower import compat
 from drempower.client import Bus, make_angle, make_speed, make_torque
 
-from .scripted import FakeMotors, ScriptedTransport
+from ..scripted import FakeMotors, ScriptedTransport
 
 
 def frames(t: ScriptedTransport) -> list[tuple[int, str]]:

@@ -2,7 +2,7 @@
 
 State frames have bit 0 set; 0x01..0x17 are always a motor's. 0x19, 0x1B, 0x1D and 0x1F are also the
 host commands T, P, C and write: once a motor's answers showed bits 3-4 sent as 0, such a frame is another
-host's and carries no state (spec/PROTOCOL.md 1.6; tests/client/test_status_bits.py for the other cases).
+host's and carries no state (spec/PROTOCOL.md 1.6; tests/client/engine/test_status_bits.py for the other cases).
 """
 
 from __future__ import annotations

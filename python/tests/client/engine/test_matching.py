@@ -13,7 +13,7 @@ from drempower.client import Bus, BusClosedError, MotorState
 from drempower.protocol import DataType, FastRead, ParamValue, ReadParam, State
 from drempower.protocol.ids import Frame
 
-from .scripted import FakeMotors, ScriptedTransport
+from ..scripted import FakeMotors, ScriptedTransport
 
 
 def test_get_state_and_cache(bus: Bus, motors: FakeMotors) -> None:

@@ -25,7 +25,7 @@ from drempower.sim import Faults, SimBus, SimRunner
 from drempower.transports import TransportError
 from drempower.transports.sim import SimTransport
 
-from .links import Recorder
+from ..links import Recorder
 
 
 def _rx_threads() -> list[str]:

@@ -20,7 +20,7 @@ from drempower.protocol.addresses import (
 from drempower.protocol.parameters import DomainError
 from drempower.sim.defaults import FACTORY
 
-from .scripted import FakeMotors, ScriptedTransport
+from ..scripted import FakeMotors, ScriptedTransport
 
 REFUSED = [
     ("axis0.config.can_node_id", 64, "1..63 (hard)"),
