@@ -51,7 +51,7 @@ CONFIRMED: Mapping[str, Callable[..., dict[int, str]]] = {"enable": why_not_enab
 class Motors(Protocol):
     """Where the motors a front end names by key live (a key is what its requests carry as ``id``)."""
 
-    def buses(self) -> Sequence[Any]:
+    def every_bus(self) -> Sequence[Any]:
         """Every bus, in key order (a key of 0 is every motor on each of them)."""
         ...
 
@@ -74,7 +74,7 @@ class OneBus:
     def __init__(self, bus: Any) -> None:
         self.bus = bus
 
-    def buses(self) -> Sequence[Any]:
+    def every_bus(self) -> Sequence[Any]:
         return [self.bus]
 
     def key(self, args: dict[str, Any]) -> int:
@@ -157,15 +157,23 @@ class Service:
         """Row ``name`` with ``args`` for ``who`` (a page, a command line, a caller): validated, gated,
         carried out, confirmed and worded; refusals raise with nothing sent."""
         checked = self.check(name, args)
+        return self.conclude(checked, self.act(who, checked))
+
+    def act(self, who: str, checked: Checked) -> Any:
+        """Steps 3 and 4: :meth:`admit` the row, log it for ``who`` and carry it out; returns what its
+        operation returned (a list, one a bus, for a broadcast over several; None for a command)."""
         self.admit([checked])
         act, key = checked.action, checked.key
         shown = ", ".join(f"{k}={v}" for k, v in checked.args.items() if k != "id" and v is not None)
         self.policy.log(f"{who}: {'every motor' if key == 0 else self.motors.label(key)} {act.name}({shown})")
         results = [act.operation(bus, {**checked.args, "id": node}) for bus, node in checked.places]
-        result = None if all(r is None for r in results) else results[0] if len(results) == 1 else results
+        return None if all(r is None for r in results) else results[0] if len(results) == 1 else results
+
+    def conclude(self, checked: Checked, result: Any) -> Outcome:
+        """Steps 5 and 6: :meth:`confirm` what the row came to, and word it."""
         self.confirm(checked)
-        said = outcome(act, result)
-        return Outcome(checked, result, None if said is None else act.name + said)
+        said = outcome(checked.action, result)
+        return Outcome(checked, result, None if said is None else checked.action.name + said)
 
     def check(self, name: str | Action, args: Mapping[str, Any]) -> Checked:
         """Steps 1 and 2: ``args`` typed for row ``name`` and the motor they name; refused when the front
@@ -179,7 +187,7 @@ class Service:
             self.policy.fence(act)
         if not isinstance(args, Mapping):
             raise ValidationError(f"{act.name}: arguments are a mapping of names to values, got {args!r}")
-        buses = self.motors.buses()
+        buses = self.motors.every_bus()
         if args.get("id") == 0 or len(buses) == 1:  # the motor id is the key (0: each bus's broadcast)
             typed = validate(act, args)
             key = int(typed["id"])
