@@ -24,6 +24,7 @@ from ..errors import DrEmpowerError, FieldRangeError, ValidationError
 from ..naming import COLUMNS, TIME_COLUMN
 from . import tuning
 from .cards import Cards
+from .fence import Fence
 from .keys import KEYS_PER_BUS, MotorKeys, motor_id
 from .limits import MotorLimits, bounds
 from .logline import log
@@ -80,7 +81,7 @@ class Hub:
         self.read_only = read_only
         # the parts, each holding only what it needs; their state and methods are also the Hub's, under the
         # names the server, the views and the tests use
-        self.parts = keys = MotorKeys(bus)
+        self.motor_keys = keys = MotorKeys(bus)
         self.robot, self.buses, self.bus = keys.robot, keys.buses, keys.bus
         self.joints, self.units = keys.joints, keys.units
         self.where, self.motor, self.label = keys.where, keys.motor, keys.label
@@ -88,34 +89,32 @@ class Hub:
         self.description, self.words = keys.description, keys.words
         self.watchdog = Watchdog(keys, watchdog_ms)
         self.arm_watchdog, self.restore_watchdog = self.watchdog.arm, self.watchdog.restore
-        self.watchdog_before = self.watchdog.before
         self.tracking = Targets(keys)
         self.targets, self.commanded = self.tracking.targets, self.tracking.commanded
         self.commanders = self.tracking.commanders
         self.idle_of, self.idle_commanded = self.tracking.idle_of, self.tracking.idle_commanded
-        self.lims = MotorLimits(keys)
-        self.limits, self.do_limits, self.shown_limits = self.lims.limits, self.lims.read, self.lims.shown
-        self.joint_words = self.lims.joint_words
-        self.cards = Cards(keys, self.lims, None if self.robot is None else self.robot.health_run)
-        self.do_cards, self.health_events, self.trends = self.cards.read, self.cards.health_events, self.cards.trends
-        self.params = Params(keys, self.lims, self._control)
-        self.do_read_params, self.do_write_param, self.saved = self.params.read, self.params.write, self.params.saved
+        self.motor_limits = lim = MotorLimits(keys)
+        self.limits, self.do_limits, self.shown_limits = lim.limits, lim.read, lim.shown
+        self.joint_words = lim.joint_words
+        self.cards = Cards(keys, lim, None if self.robot is None else self.robot.health_run)
+        self.do_cards, self.health_events = self.cards.read, self.cards.health_events
+        self.params = Params(keys, lim, self._control)
+        self.do_read_params, self.do_write_param = self.params.read, self.params.write
         self.do_save, self.do_backup, self.do_restore = self.params.save, self.params.backup, self.params.restore
         self._scan_lock = threading.Lock()
         self._proposals: dict[int, Any] = {}
         """The Tuning view's gains proposed and not yet written, by key (:mod:`drempower.dash.propose`)."""
         self._halt = threading.Event()
-        self._estops = 0
-        """ESTOPs pressed so far: a request issued before the latest is fenced (see :meth:`issued`)."""
-        self._issued = threading.local()
-        """The ESTOP count when the request the calling worker runs was issued (None: not a page's)."""
+        self.fencing = Fence()
+        self.ticket, self.fence, self.issued = self.fencing.ticket, self.fencing.fence, self.fencing.issued
+        self.fenced, self.check_fence = self.fencing.fenced, self.fencing.check
         self.service = actions.Service(
             keys,
             actions.Policy(
                 read_only=lambda: _READ_ONLY if self.read_only else None,
                 fence=self._fence_row,
                 enable_fix=keys.enable_fix,
-                limits=self.lims.check,
+                limits=lim.check,
                 ready=self._ready,
                 log=log,
                 state_timeout=0.2,
@@ -123,20 +122,20 @@ class Hub:
         )
         """The command service every row of a page goes through."""
         self.sampler = s = Sampler(keys, self.tracking, self.watchdog, poll_hz)
-        self.t0, self.samples, self.take_samples, self.watch = s.t0, s.samples, s.take_samples, s.watch
-        self.watched, self.take_param_samples, self.measure_load = s.watched, s.take_param_samples, s.measure_load
-        self.budget, self.budget_text, self.param_samples = s.budget, s.budget_text, s.param_samples
+        self.t0, self.take_samples, self.watch, self.watched = s.t0, s.take_samples, s.watch, s.watched
+        self.take_param_samples, self.measure_load = s.take_param_samples, s.measure_load
+        self.budget_text = s.budget_text
 
     # state that the parts own and a caller may set
 
     @property
     def motors(self) -> dict[int, dict[str, Any]]:
         """The motors the scan found, by key."""
-        return self.parts.found
+        return self.motor_keys.found
 
     @motors.setter
     def motors(self, found: dict[int, dict[str, Any]]) -> None:
-        self.parts.found = found
+        self.motor_keys.found = found
 
     @property
     def watchdog_ms(self) -> int | None:
@@ -157,10 +156,6 @@ class Hub:
     @property
     def scanning(self) -> bool:
         return self.sampler.scanning
-
-    @property
-    def samples_total(self) -> int:
-        return self.sampler.samples_total
 
     @property
     def load(self) -> float:
@@ -187,32 +182,16 @@ class Hub:
     def do_scan(self, progress: Callable[[int, int, list[dict[str, Any]]], None]) -> list[dict[str, Any]]:
         """Scan ids 1-63 of every bus in four groups, calling ``progress(done, 63 * buses, found)`` after each."""
         with self._scan_lock:
-            found = self._scan(progress)
+            self.sampler.scanning = True
+            try:
+                found = self.motor_keys.scan(progress)
+            finally:
+                self.sampler.scanning = False
         self.motors = {m["id"]: m for m in found}
         for i in self.motors:
             self.do_limits(i)
         if self.watchdog_ms:
             self.arm_watchdog(sorted(self.motors))
-        return found
-
-    def _scan(self, progress: Callable[[int, int, list[dict[str, Any]]], None]) -> list[dict[str, Any]]:
-        found: list[dict[str, Any]] = []
-        self.sampler.scanning = True
-        try:
-            for k, (name, bus) in enumerate(self.buses):
-                timeout = min(bus.timeout, 0.2)
-                for lo in range(1, 64, 16):
-                    group = range(lo, min(lo + 16, 64))
-                    for info in bus.scan(group, timeout=timeout, versions=True):
-                        key = k * KEYS_PER_BUS + info.id
-                        entry: dict[str, Any] = {"id": key, "hw": info.hw_version, "fw": info.fw_version}
-                        if self.robot is not None:
-                            joint = self.joints.get(key, {}).get("joint")
-                            entry.update(bus=name, motor=info.id, joint=joint)
-                        found.append(entry)
-                    progress(k * 63 + group[-1], 63 * len(self.buses), found)
-        finally:
-            self.sampler.scanning = False
         return found
 
     def do_rate(self, who: str, hz: float) -> None:
@@ -225,38 +204,7 @@ class Hub:
             self.motor(i).write_property(_HEARTBEAT, ms)
         self.sampler.heartbeat_ms = ms
 
-    # ------------------------------------------------------------------ parameters
-
     # ------------------------------------------------------------------ control
-
-    def ticket(self) -> int:
-        """What a request issued now carries (the count of ESTOPs pressed so far): take it when the
-        request arrives, before it waits for a worker, and run it with :meth:`issued`."""
-        return self._estops
-
-    def fence(self) -> None:
-        """An ESTOP was pressed: every request issued before it is fenced from now on, whichever page or
-        front end issued it; those issued after (a clear, an enable) run as usual."""
-        self._estops += 1
-
-    def issued(self, ticket: int, fn: Callable[..., Any], *args: Any) -> Any:
-        """Run ``fn(*args)`` in this worker as a request issued with ``ticket``: once an ESTOP came after
-        it was issued, each of its commands but the stopping ones (stop, idle, estop) is refused."""
-        self._issued.ticket = ticket
-        try:
-            return fn(*args)
-        finally:
-            self._issued.ticket = None
-
-    def fenced(self) -> bool:
-        """True when the request this worker runs was issued before the latest ESTOP."""
-        ticket = getattr(self._issued, "ticket", None)
-        return ticket is not None and ticket < self._estops
-
-    def check_fence(self) -> None:
-        """Refuse the rest of a request issued before the latest ESTOP (nothing more is sent)."""
-        if self.fenced():
-            raise ValidationError("an ESTOP was pressed after this request was issued: it was not carried out")
 
     def _control(self, who: str, what: str) -> None:
         """Refuse a command when read-only or fenced, else log it."""
