@@ -39,8 +39,9 @@ class Host:
             out.append(decode_command(f.arbitration_id, f.data))
         return out
 
-    def state_reads(self) -> int:
-        return sum(isinstance(m, ReadParam) and m.address == AXIS0_CURRENT_STATE for m in self.sent())
+    def state_reads(self) -> list[int]:
+        """The motors whose axis state was read, in order."""
+        return [m.node for m in self.sent() if isinstance(m, ReadParam) and m.address == AXIS0_CURRENT_STATE]
 
     def clear(self) -> None:
         self.all.clear()
@@ -116,7 +117,7 @@ def test_the_closed_loop_check_reads_each_state_once_and_the_command_none(bus: d
         host.clear()
         out = service.run("test", "move", {"id": 1, "angle": angle})
         assert out.said == "move sent"
-        assert host.state_reads() == 1  # the service's read; the gate learnt it and the move paid none
+        assert host.state_reads() == [1]  # the service's read; the gate learnt it and the move paid none
         assert [type(m).__name__ for m in host.sent()] == ["ReadParam", "PositionQ"]
 
 

@@ -87,10 +87,6 @@ class OneBus:
         return motor_name(key)
 
 
-def _none() -> None:
-    return None
-
-
 def _nothing(*_: Any) -> None:
     return None
 
@@ -99,12 +95,12 @@ def _nothing(*_: Any) -> None:
 class Policy:
     """What a front end adds to the pipeline, each a hook that refuses by raising (defaults: nothing)."""
 
-    read_only: Callable[[], str | None] = _none
+    read_only: Callable[[], str | None] = _nothing
     """The words refusing a command when the front end only reads now (reading and stopping still run)."""
     fence: Callable[[Action], None] = _nothing
     """Refuse a row that may not run any more (an ESTOP since it was issued, the front end stopping); not
     asked for a stop."""
-    enable_fix: Callable[[Sequence[int]], str | None] = lambda keys: None
+    enable_fix: Callable[[Sequence[int]], str | None] = _nothing
     """How to enable the idle motors of ``keys`` in the caller's terms (a button, a command line; None: the
     library's words)."""
     limits: Callable[[Action, int, Mapping[str, Any]], None] = _nothing
@@ -238,9 +234,10 @@ class Service:
             return
         failures: list[str] = []
         for bus, node in checked.places:
-            nodes = sorted(bus.known_motors()) if node == 0 else [node]
-            for n, why in sorted(why_not(bus, nodes).items()):
-                key = checked.key if node != 0 else n
-                failures.append(f"{self.motors.label(key) if node != 0 else motor_name(n)} {why}")
+            if node:
+                failures += [f"{self.motors.label(checked.key)} {why}" for why in why_not(bus, [node]).values()]
+            else:
+                left = why_not(bus, sorted(bus.known_motors()))
+                failures += [f"{motor_name(n)} {why}" for n, why in sorted(left.items())]
         if failures:
             raise DrEmpowerError("; ".join(failures))
