@@ -17,7 +17,7 @@ from drempower.protocol.flags import MotorError
 from drempower.protocol.messages import PositionQ, ReadParam
 from drempower.sim import SimBus
 
-from ..test_actions_service import Host as Sent
+from ..actions.test_service import Host as Sent
 
 
 @pytest.fixture
