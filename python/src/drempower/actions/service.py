@@ -37,7 +37,7 @@ from ..protocol.addresses import AXIS0_CURRENT_STATE
 from ..protocol.enums import AxisState
 from ..protocol.messages import ReadParam
 from ..protocol.parameters import DataType
-from .settle import why_not_cleared, why_not_enabled
+from .settle import ENABLE_SETTLE, why_not_cleared, why_not_enabled
 from .table import Action, get
 from .validate import validate
 from .words import outcome, plain
@@ -113,6 +113,10 @@ class Policy:
     """Refuse a motion to a motor not in closed loop (False: the motor's own refusal is enough)."""
     state_timeout: float | None = None
     """How long (s) the closed-loop check waits for the states (None: the bus's timeout)."""
+    settle: float = ENABLE_SETTLE
+    """How long (s) an enable or a clear is given to show in the motors' states before it is reported failed."""
+    interrupted: Callable[[], bool] | None = None
+    """True ends that wait early (an ESTOP since the request was issued): the motors not there yet are named."""
 
 
 @dataclass(frozen=True)
@@ -233,11 +237,13 @@ class Service:
         if why_not is None:
             return
         failures: list[str] = []
+        within, stop = self.policy.settle, self.policy.interrupted
         for bus, node in checked.places:
             if node:
-                failures += [f"{self.motors.label(checked.key)} {why}" for why in why_not(bus, [node]).values()]
+                left = why_not(bus, [node], within, stop)
+                failures += [f"{self.motors.label(checked.key)} {why}" for why in left.values()]
             else:
-                left = why_not(bus, sorted(bus.known_motors()))
+                left = why_not(bus, sorted(bus.known_motors()), within, stop)
                 failures += [f"{motor_name(n)} {why}" for n, why in sorted(left.items())]
         if failures:
             raise DrEmpowerError("; ".join(failures))

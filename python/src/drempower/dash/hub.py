@@ -118,6 +118,7 @@ class Hub:
                 ready=self._ready,
                 log=log,
                 state_timeout=0.2,
+                interrupted=self.fenced,
             ),
         )
         """The command service every row of a page goes through."""
