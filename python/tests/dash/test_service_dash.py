@@ -73,3 +73,19 @@ def test_an_enable_that_fails_is_worded_and_one_that_works_said(rig: tuple[Hub, 
     )
     got = hub.do_row("page", {"action": "get", "args": {"id": 1, "name": "vbus_voltage"}})
     assert got["said"] == "get" + (actions.outcome("get", got["result"]) or "")
+
+
+def test_a_tuning_step_checks_closed_loop_once(rig: tuple[Hub, Bus, SimBus, Sent]) -> None:
+    hub, bus, _, sent = rig
+    bus.motor(1).enable()
+    for mode, amplitude in (("position", 5.0), ("velocity", 3.0)):
+        sent.clear()
+        run = hub.do_step("page", {"id": 1, "mode": mode, "amplitude": amplitude, "duration": 0.1, "bandwidth": 20})
+        assert run["target"] == pytest.approx(run["base"] + amplitude)
+        assert sent.state_reads() == [1]  # the service's one read before anything was sent
+    bus.motor(1).idle()
+    sent.clear()
+    with pytest.raises(MotorIdleError):
+        hub.do_step("page", {"id": 1, "mode": "position", "amplitude": 5.0, "duration": 0.1})
+    sent_types = {type(m).__name__ for m in sent.sent()}
+    assert "PositionT" not in sent_types and "WriteParam" not in sent_types  # no heartbeat, no step

@@ -160,9 +160,13 @@ class Service:
         return self.conclude(checked, self.act(who, checked))
 
     def act(self, who: str, checked: Checked) -> Any:
-        """Steps 3 and 4: :meth:`admit` the row, log it for ``who`` and carry it out; returns what its
-        operation returned (a list, one a bus, for a broadcast over several; None for a command)."""
+        """Steps 3 and 4: :meth:`admit` the row and :meth:`send` it."""
         self.admit([checked])
+        return self.send(who, checked)
+
+    def send(self, who: str, checked: Checked) -> Any:
+        """Step 4 for an admitted row: log it for ``who`` and carry it out; returns what its operation
+        returned (a list, one a bus, for a broadcast over several; None for a command)."""
         act, key = checked.action, checked.key
         shown = ", ".join(f"{k}={v}" for k, v in checked.args.items() if k != "id" and v is not None)
         self.policy.log(f"{who}: {'every motor' if key == 0 else self.motors.label(key)} {act.name}({shown})")

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
 from .. import actions
@@ -254,23 +255,39 @@ class Hub:
             return self.do_sync_move(who, args)
         if not isinstance(action, str) or action not in PAGE_CONTROLS:
             raise ValidationError(f"action={action!r}: unknown control action")
-        row, fields, fixed = PAGE_CONTROLS[action]
+        row, row_args, key = self._page_row(args)
+        with self._at_joint(key):
+            return self._run(who, row, row_args).plain
+
+    def _page_row(self, args: dict[str, Any]) -> tuple[str, dict[str, Any], int | None]:
+        """The row of a page's control (:data:`PAGE_CONTROLS`), its arguments at the motor, and the key of
+        the robot joint whose units the page's values are in (None: a bare motor's)."""
+        row, fields, fixed = PAGE_CONTROLS[str(args.get("action"))]
         row_args = {"id": args.get("id"), **fixed}
         row_args.update({arg: args[field] for field, arg in fields.items() if field in args})
+        action = args.get("action")
         if action in PAGE_PARAM and "param" in args:  # its meaning is the mode's (the row's words for a bad mode)
             mode = actions.get(row).arg("mode")
             given = args.get("mode")
-            name = PAGE_PARAM[action].get(mode.default if given is None else mode.check(given))
+            name = PAGE_PARAM[str(action)].get(mode.default if given is None else mode.check(given))
             if name is not None:
                 row_args[name] = args["param"]
         elif action == "step" and "param" not in args:  # a T step through the motor's own filter
             row_args["bandwidth"] = float(self.motor(self.key(args)).read_property(_BANDWIDTH))
         key = self._joint_key(args)
-        if key is None:
-            return self.do_action(who, row, row_args)
-        try:  # a robot joint's values are at the joint: the row runs on the motor's
-            return self.do_action(who, row, self.units[key].to_motor(row, row_args))
+        if key is not None:  # a robot joint's values are at the joint: the row runs on the motor's
+            with self._at_joint(key):
+                row_args = self.units[key].to_motor(row, row_args)
+        return row, row_args, key
+
+    @contextmanager
+    def _at_joint(self, key: int | None) -> Iterator[None]:
+        """A value refused for robot joint ``key`` (given at the joint) in the joint's units."""
+        try:
+            yield
         except FieldRangeError as exc:
+            if key is None:
+                raise
             raise self.joint_words(key, exc) from None
 
     def _joint_key(self, args: dict[str, Any]) -> int | None:
@@ -293,9 +310,14 @@ class Hub:
 
     def _run(self, who: str, name: str, args: dict[str, Any]) -> actions.Outcome:
         checked = self.service.check(name, args)
+        self.service.admit([checked])
+        return self._send(who, checked)
+
+    def _send(self, who: str, checked: actions.Checked) -> actions.Outcome:
+        """An admitted row sent, tracked (whether or not the service then confirms it), concluded."""
         base = self.tracking.base(checked.key) if checked.action.name == "step" else 0.0
-        result = self.service.act(who, checked)
-        self.tracking.track(who, checked.action, checked.key, checked.args, base)  # sent: tracked, confirmed or not
+        result = self.service.send(who, checked)
+        self.tracking.track(who, checked.action, checked.key, checked.args, base)
         return self.service.conclude(checked, result)
 
     def do_row(self, who: str, req: dict[str, Any]) -> dict[str, Any]:
@@ -331,10 +353,8 @@ class Hub:
                     for r, v in shared.items()
                     if r != "mode"
                 }
-            try:
+            with self._at_joint(k):
                 checked.append(self.service.check("move", given))
-            except FieldRangeError as exc:
-                raise self.joint_words(k, exc) from None
         self.service.admit(checked)  # closed loop (the one check: set_angles pays no second), limits, watchdog
         typed = [c.args for c in checked]
         seconds = self._sync_move(who, keys, [t["angle"] for t in typed], typed[0]["speed"], typed[0]["accel"])
@@ -394,13 +414,19 @@ class Hub:
         if mode == "position":
             given = args.get("bandwidth")  # checked as row move's T-mode bandwidth, in its words
             bandwidth = float(m.read_property(_BANDWIDTH)) if given is None else actions.BANDWIDTH.check(given)
-        self.require_enabled([i])
         st = m.get_state()
         u = self.units.get(i)  # a robot joint steps at the joint (deg, r/min there), a bare motor at the motor
         base = st.angle if mode == "position" else st.speed
         if u is not None:
             base = u.angle(st.angle) if mode == "position" else u.speed(st.speed)
         target = base + amp
+        position = {"action": "T", "id": i, "angle": target, "param": bandwidth}
+        row, row_args, key = self._page_row(
+            position if mode == "position" else {"action": "V", "id": i, "speed": target}
+        )
+        with self._at_joint(key):
+            checked = self.service.check(row, row_args)
+            self.service.admit([checked])  # the one closed-loop check: refused before anything is sent
         got: list[MotorState] = []
         bus, node = self.where(i)
         sub = bus.subscribe(got.append, node)
@@ -409,10 +435,9 @@ class Hub:
             if fast:
                 m.write_property(_HEARTBEAT, 2)
             start = time.monotonic()
-            if mode == "position":
-                self.do_control(who, {"action": "T", "id": i, "angle": target, "param": bandwidth})
-            else:
-                self.do_control(who, {"action": "V", "id": i, "speed": target})
+            self._fence_row(checked.action)  # an ESTOP meanwhile: the step is not sent
+            with self._at_joint(key):
+                self._send(who, checked)
             end = time.monotonic() + duration
             while not self._halt.is_set() and not self.fenced() and time.monotonic() < end:
                 self._halt.wait(min(0.02, max(0.0, end - time.monotonic())))  # an ESTOP ends the run too
