@@ -25,6 +25,7 @@ from ..errors import DrEmpowerError, FieldRangeError, ValidationError
 from ..naming import COLUMNS, TIME_COLUMN
 from . import tuning
 from .cards import Cards
+from .controls import PAGE_CONTROLS, PAGE_ROWS, page_row
 from .fence import Fence
 from .keys import KEYS_PER_BUS, MotorKeys, motor_id
 from .limits import MotorLimits, bounds
@@ -47,24 +48,6 @@ _CSV_COLUMNS = ("id", "position", "speed", "torque", "done", "error")
 """The readings of a sample in the page's CSV (then the targets of position, speed and torque)."""
 _READ_ONLY = "this dashboard is read-only (--read-only)"
 _STOPPING = "the dashboard is stopping: no motion is started any more"
-PAGE_ROWS = {"stop": "stop", "idle": "idle", "enable": "enable", "clear_errors": "clear"}
-"""The page's buttons that are rows of :mod:`drempower.actions` (the page's name: the row's)."""
-PAGE_CONTROLS: dict[str, tuple[str, dict[str, str], dict[str, Any]]] = {
-    "T": ("move", {"angle": "angle", "param": "bandwidth"}, {"mode": "T"}),
-    "Q": ("move", {"angle": "angle", "speed": "speed", "param": "accel"}, {"mode": "Q"}),
-    "P": ("move", {"angle": "angle", "speed": "speed_ff", "param": "torque_ff"}, {"mode": "P"}),
-    "jog": ("step", {"delta": "angle", "speed": "speed", "param": "accel"}, {"mode": "Q"}),
-    "step": ("step", {"delta": "angle", "param": "bandwidth"}, {"mode": "T"}),
-    "V": ("speed", {"speed": "speed", "mode": "mode"}, {}),
-    "C": ("torque", {"torque": "torque", "mode": "mode"}, {}),
-    "impedance": ("impedance", {"angle": "pos", "speed": "vel", "torque": "tff", "kp": "kp", "kd": "kd"}, {}),
-}
-"""The page's controls that are rows of :mod:`drempower.actions`: the row, the row's argument for each
-field the page sends, and the arguments the control fixes (its mode). The T-mode speed the page sends is
-not passed: the motor does not use it."""
-PAGE_PARAM: dict[str, dict[int, str]] = {"V": {1: "torque_ff", 2: "ramp"}, "C": {6: "ramp"}}
-"""The row's argument for the page's ``param`` of the velocity and torque controls, by mode (direct
-torque, mode 1, has none: the motor does not use it)."""
 
 
 class Hub:
@@ -87,7 +70,7 @@ class Hub:
         self.joints, self.units = keys.joints, keys.units
         self.where, self.motor, self.label = keys.where, keys.motor, keys.label
         self.key, self.keys, self.names = keys.key, keys.keys, keys.names
-        self.description, self.words = keys.description, keys.words
+        self.description, self.words, self.bitrate = keys.description, keys.words, keys.bitrate
         self.watchdog = Watchdog(keys, watchdog_ms)
         self.arm_watchdog, self.restore_watchdog = self.watchdog.arm, self.watchdog.restore
         self.tracking = Targets(keys)
@@ -166,13 +149,6 @@ class Hub:
     @property
     def frame_rate(self) -> float:
         return self.sampler.frame_rate
-
-    def bitrate(self) -> int | None:
-        """The CAN bit rate (bit/s) when the transport knows it (the slowest bus's over a robot); a serial
-        link's baud rate is not the CAN bit rate and is never taken for it."""
-        rates = [b.transport.wire_bitrate for _, b in self.buses]
-        known = [r for r in rates if r]
-        return min(known) if known and len(known) == len(rates) else None
 
     @staticmethod
     def columns() -> dict[str, str]:
@@ -262,18 +238,7 @@ class Hub:
     def _page_row(self, args: dict[str, Any]) -> tuple[str, dict[str, Any], int | None]:
         """The row of a page's control (:data:`PAGE_CONTROLS`), its arguments at the motor, and the key of
         the robot joint whose units the page's values are in (None: a bare motor's)."""
-        row, fields, fixed = PAGE_CONTROLS[str(args.get("action"))]
-        row_args = {"id": args.get("id"), **fixed}
-        row_args.update({arg: args[field] for field, arg in fields.items() if field in args})
-        action = args.get("action")
-        if action in PAGE_PARAM and "param" in args:  # its meaning is the mode's (the row's words for a bad mode)
-            mode = actions.get(row).arg("mode")
-            given = args.get("mode")
-            name = PAGE_PARAM[str(action)].get(mode.default if given is None else mode.check(given))
-            if name is not None:
-                row_args[name] = args["param"]
-        elif action == "step" and "param" not in args:  # a T step through the motor's own filter
-            row_args["bandwidth"] = float(self.motor(self.key(args)).read_property(_BANDWIDTH))
+        row, row_args = page_row(args, lambda: float(self.motor(self.key(args)).read_property(_BANDWIDTH)))
         key = self._joint_key(args)
         if key is not None:  # a robot joint's values are at the joint: the row runs on the motor's
             with self._at_joint(key):

@@ -141,6 +141,13 @@ class MotorKeys:
             f"{name}: {bus.transport.description}" for name, bus in self.buses
         )
 
+    def bitrate(self) -> int | None:
+        """The CAN bit rate (bit/s) when the transport knows it (the slowest bus's over a robot); a serial
+        link's baud rate is not the CAN bit rate and is never taken for it."""
+        rates = [b.transport.wire_bitrate for _, b in self.buses]
+        known = [r for r in rates if r]
+        return min(known) if known and len(known) == len(rates) else None
+
     def names(self) -> dict[int, dict[str, Any]]:
         """How the page names each motor it knows (the joints of a robot file, the motors found), by key:
         ``{"name", "joint", "bus", "id"}``, ``name`` by :mod:`drempower.naming` (``motor_<id>``, a joint's
