@@ -41,7 +41,7 @@ FAST_TESTS := tests/protocol tests/client/engine/session tests/client/engine/tes
 	tests/client/engine/test_watchdog.py tests/client/api/test_arguments.py tests/client/api/test_domains.py \
 	tests/client/api/test_vectors.py tests/client/engine/test_client_vectors.py tests/client/api/test_refusals.py \
 	tests/client/driver/test_virtual_time.py tests/client/engine/test_batch.py tests/client/api/test_motor.py \
-	tests/robot/test_config.py tests/test_actions.py tests/test_layers.py tests/test_naming.py \
+	tests/robot/test_config.py tests/actions tests/test_layers.py tests/test_naming.py \
 	tests/test_errors.py tests/cli/test_params.py tests/cli/test_param_domains.py
 # the rest runs on every core (pytest-xdist); PYTEST_WORKERS=0 runs it in one process
 PYTEST_WORKERS ?= 2
