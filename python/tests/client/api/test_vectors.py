@@ -42,6 +42,8 @@ def compat_bus() -> tuple[ScriptedTransport, Bus]:
 
 
 def test_compat_single_frames(compat_bus: tuple[ScriptedTransport, Bus]) -> None:
+    """The vendor's frames, and one more: ``set_mode(1, 2)`` is confirmed as every front end confirms an
+    enable, by reading ``axis0.current_state`` (30002) back (the vendor's returns without knowing)."""
     t, _ = compat_bus
     compat.estop(3)
     compat.set_mode(1, 2)
@@ -50,6 +52,7 @@ def test_compat_single_frames(compat_bus: tuple[ScriptedTransport, Bus]) -> None
     assert frames(t) == [
         (0x068, "06 00 00 00 00 00 00 00"),
         (0x03F, "33 75 03 00 08 00 00 00"),
+        (0x03E, "32 75 03 00 00 00 00 00"),  # the confirmation: current_state read back
         (0x03E, "00 00 00 00 00 00 00 00"),
         (0x03E, "01 00 00 00 00 00 00 00"),
     ]
