@@ -78,12 +78,7 @@ class AsyncBusMoves(AsyncBusBase[M]):
         ``speed`` = speed FF r/min, ``param`` = torque FF Nm. Nothing is sent if
         any value is invalid.
         """
-        await self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=False), enable)
-        result = await self.run(
-            batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout)
-        )
-        self._moved(id_list)
-        return result
+        return await self._move_angles(id_list, angle_list, speed, param, mode, False, timeout, enable)
 
     async def step_angles(
         self,
@@ -97,9 +92,23 @@ class AsyncBusMoves(AsyncBusBase[M]):
         enable: bool = False,
     ) -> float | None:
         """Synchronised relative move by ``angle_list`` deg (see :meth:`set_angles`)."""
-        await self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=True), enable)
+        return await self._move_angles(id_list, angle_list, speed, param, mode, True, timeout, enable)
+
+    async def _move_angles(
+        self,
+        id_list: Sequence[int],
+        angle_list: Sequence[float],
+        speed: float,
+        param: float,
+        mode: int,
+        relative: bool,
+        timeout: float | None,
+        enable: bool,
+    ) -> float | None:
+        """A synchronised move (``relative``: by ``angle_list``) through the gate; ends the motors' timed stops."""
+        await self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=relative), enable)
         result = await self.run(
-            batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout)
+            batch.move_angles(self._session, id_list, angle_list, speed, param, mode, relative, timeout)
         )
         self._moved(id_list)
         return result

@@ -78,10 +78,7 @@ class SyncBusMoves(SyncBusBase[M]):
         ``speed`` = speed FF r/min, ``param`` = torque FF Nm. Nothing is sent if
         any value is invalid.
         """
-        self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=False), enable)
-        result = self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, False, timeout))
-        self._moved(id_list)
-        return result
+        return self._move_angles(id_list, angle_list, speed, param, mode, False, timeout, enable)
 
     def step_angles(
         self,
@@ -95,8 +92,22 @@ class SyncBusMoves(SyncBusBase[M]):
         enable: bool = False,
     ) -> float | None:
         """Synchronised relative move by ``angle_list`` deg (see :meth:`set_angles`)."""
-        self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=True), enable)
-        result = self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, True, timeout))
+        return self._move_angles(id_list, angle_list, speed, param, mode, True, timeout, enable)
+
+    def _move_angles(
+        self,
+        id_list: Sequence[int],
+        angle_list: Sequence[float],
+        speed: float,
+        param: float,
+        mode: int,
+        relative: bool,
+        timeout: float | None,
+        enable: bool,
+    ) -> float | None:
+        """A synchronised move (``relative``: by ``angle_list``) through the gate; ends the motors' timed stops."""
+        self.pass_gate(move_intents(id_list, angle_list, speed, param, mode, relative=relative), enable)
+        result = self.run(batch.move_angles(self._session, id_list, angle_list, speed, param, mode, relative, timeout))
         self._moved(id_list)
         return result
 
