@@ -6,7 +6,7 @@ at a fixed period (:meth:`SimMotor.step`). Its parts, each holding only what it 
 the control loop and mechanics (:mod:`~drempower.sim.drive`), the parameter memory
 (:mod:`~drempower.sim.params`), the configuration in effect (:mod:`~drempower.sim.settings`),
 what it reports (:mod:`~drempower.sim.readings`), how it takes writes
-(:mod:`~drempower.sim.param_writes`), its command handlers (:mod:`~drempower.sim.commands`),
+(:mod:`~drempower.sim.param_writes`), its command handlers (:mod:`~drempower.sim.handlers`),
 its error words (:mod:`~drempower.sim.error_words`), its protections
 (:mod:`~drempower.sim.protection`) and calibration (:mod:`~drempower.sim.calibration`);
 every choice where the vendor is silent is in :mod:`drempower.sim.behaviour`, every
@@ -37,11 +37,11 @@ from . import behaviour as bh
 from . import firmware as firmware_module
 from .axis import Axis
 from .calibration import CALIBRATION_STATES, Calibration
-from .commands import Commands, Reply
 from .defaults import MotorModel
 from .drive import Drive
 from .error_words import ErrorWords
 from .firmware import Firmware, factory_firmware_id
+from .handlers import CommandHandlers, Reply
 from .param_writes import ParamWriter
 from .params import ParamStore
 from .protection import Protections
@@ -99,7 +99,7 @@ class SimMotor:
             request_state=self._request_state,
             timing_changed=self._timing_changed,
         )
-        self.commands = Commands(self.readings, self.writer, self.error_words, self._system)
+        self.handlers = CommandHandlers(self.readings, self.writer, self.error_words, self._system)
         self.protections = Protections(self.drive, self.settings, self.thermal, limits, self.error_words)
         self.calibration = Calibration(self.axis, self.settings, self.error_words)
         self.bitrate = 1_000_000
@@ -144,7 +144,7 @@ class SimMotor:
     @property
     def preset(self) -> Preset | None:
         """The pending preset (0x0C), waiting for a start."""
-        return self.commands.preset
+        return self.handlers.preset
 
     @property
     def node_id(self) -> int:
@@ -297,7 +297,7 @@ class SimMotor:
         if self.in_dfu or self._boot_end != math.inf:
             return  # the firmware is not running, or still booting
         self._last_rx = self.time
-        self.commands.handle(msg, reply)
+        self.handlers.handle(msg, reply)
 
     def _system(self, op: SysCmd) -> None:
         action = _SYSTEM.get(op)
@@ -326,7 +326,7 @@ class SimMotor:
     def _reboot(self) -> None:
         """The firmware stops (the axis idles, heartbeats stop) and boots :data:`BOOT_SECONDS` later."""
         self._enter_idle()
-        self.commands.preset = None
+        self.handlers.preset = None
         self._hb_next = math.inf
         self._boot_end = self.time + self.firmware.boot_s
         self._rearm()
@@ -352,7 +352,7 @@ class SimMotor:
         p, s = self.params, self.settings
         p.boot()
         self.error_words.reset()
-        self.commands.preset = None
+        self.handlers.preset = None
         s.watchdog_damping = False
         self.axis.requested = 0
         self.calibration.end = math.inf

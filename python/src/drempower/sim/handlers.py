@@ -46,7 +46,7 @@ from .error_words import ErrorWords
 from .param_writes import ParamWriter
 from .readings import Readings
 
-__all__ = ["Commands", "Reply"]
+__all__ = ["CommandHandlers", "Reply"]
 
 Reply = Callable[[Frame], None]
 """Where a motor puts the frames it answers with."""
@@ -55,7 +55,7 @@ _FILTER_MAX = 250.0
 """Largest input-filter bandwidth (1/s): a quarter of the 1 kHz loop rate, as on ODrive."""
 
 
-class Commands:
+class CommandHandlers:
     """The command handlers of one motor, and its pending preset.
 
     Reads go through ``readings``, writes through ``writer``, errors into ``errors``; ``system``
@@ -232,18 +232,18 @@ class Commands:
         self._answer_state(reply, 0x1F)
 
 
-_HANDLERS: dict[type, Callable[[Commands, object, Reply], None]] = {
-    PositionT: Commands._on_t,  # type: ignore[dict-item]
-    PositionQ: Commands._on_q,  # type: ignore[dict-item]
-    PositionP: Commands._on_p,  # type: ignore[dict-item]
-    Velocity: Commands._on_v,  # type: ignore[dict-item]
-    Torque: Commands._on_c,  # type: ignore[dict-item]
-    Preset: Commands._on_preset,  # type: ignore[dict-item]
-    Start: Commands._on_start,  # type: ignore[dict-item]
-    StartImpedance: Commands._on_start,  # type: ignore[dict-item]
-    SystemCommand: Commands._on_system,  # type: ignore[dict-item]
-    ReadParam: Commands._on_read,  # type: ignore[dict-item]
-    FastRead: Commands._on_fast_read,  # type: ignore[dict-item]
-    WriteParam: Commands._on_write,  # type: ignore[dict-item]
+_HANDLERS: dict[type, Callable[[CommandHandlers, object, Reply], None]] = {
+    PositionT: CommandHandlers._on_t,  # type: ignore[dict-item]
+    PositionQ: CommandHandlers._on_q,  # type: ignore[dict-item]
+    PositionP: CommandHandlers._on_p,  # type: ignore[dict-item]
+    Velocity: CommandHandlers._on_v,  # type: ignore[dict-item]
+    Torque: CommandHandlers._on_c,  # type: ignore[dict-item]
+    Preset: CommandHandlers._on_preset,  # type: ignore[dict-item]
+    Start: CommandHandlers._on_start,  # type: ignore[dict-item]
+    StartImpedance: CommandHandlers._on_start,  # type: ignore[dict-item]
+    SystemCommand: CommandHandlers._on_system,  # type: ignore[dict-item]
+    ReadParam: CommandHandlers._on_read,  # type: ignore[dict-item]
+    FastRead: CommandHandlers._on_fast_read,  # type: ignore[dict-item]
+    WriteParam: CommandHandlers._on_write,  # type: ignore[dict-item]
 }
 """The handler of each kind of command."""
