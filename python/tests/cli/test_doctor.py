@@ -12,7 +12,6 @@ import pytest
 import drempower
 from drempower.cli import main
 from drempower.client.api.profile import load_profile
-from drempower.protocol import SystemCommand
 from drempower.protocol.addresses import AXIS0_CONFIG_CAN_NODE_ID as NODE_ID
 from drempower.protocol.addresses import AXIS0_CONTROLLER_CONFIG_VEL_LIMIT as VEL_LIMIT
 from drempower.protocol.ids import SysCmd
@@ -226,14 +225,13 @@ def test_factory_id_motor_silent_after_init_reports_state_and_exits_1(
 ) -> None:
     """A motor that stops answering once it took the factory configuration: exit 1, the steps done, the
     state (answers at no id) and how to recover, the backup kept for it."""
-    on_system = sim_motor._HANDLERS[SystemCommand]
+    init_config = sim_motor._SYSTEM[SysCmd.INIT_CONFIG]
 
-    def then_silent(m: Any, msg: Any, reply: Any) -> None:  # the motor obeys init_config, then falls silent
-        on_system(m, msg, reply)
-        if msg.op is SysCmd.INIT_CONFIG:
-            recorded.made[0].faults.silent.add(m.ident)
+    def then_silent(m: Any) -> None:  # the motor obeys init_config, then falls silent
+        init_config(m)
+        recorded.made[0].faults.silent.add(m.ident)
 
-    monkeypatch.setitem(sim_motor._HANDLERS, SystemCommand, then_silent)
+    monkeypatch.setitem(sim_motor._SYSTEM, SysCmd.INIT_CONFIG, then_silent)
     code, lines, err = _doctor(
         capsys, "1", "--sim", "1", "-o", "clock=virtual", "-o", "factory_id=5", "--yes", "--factory-id"
     )
@@ -272,14 +270,13 @@ def test_factory_id_probe_interrupted_says_where_the_motor_is(
 ) -> None:
     """Ctrl-C once init_config was obeyed: no record is printed, so stderr says what was done and how to
     recover, and the backup is kept."""
-    on_system = sim_motor._HANDLERS[SystemCommand]
+    init_config = sim_motor._SYSTEM[SysCmd.INIT_CONFIG]
 
-    def then_interrupt(m: Any, msg: Any, reply: Any) -> None:
-        on_system(m, msg, reply)
-        if msg.op is SysCmd.INIT_CONFIG:
-            raise KeyboardInterrupt
+    def then_interrupt(m: Any) -> None:
+        init_config(m)
+        raise KeyboardInterrupt
 
-    monkeypatch.setitem(sim_motor._HANDLERS, SystemCommand, then_interrupt)
+    monkeypatch.setitem(sim_motor._SYSTEM, SysCmd.INIT_CONFIG, then_interrupt)
     code = main(["doctor", "1", "--sim", "1", "-o", "clock=virtual", "-o", "factory_id=5", "--yes", "--factory-id"])
     out, err = capsys.readouterr()
     assert code != 0 and out == ""

@@ -61,7 +61,13 @@ def test_no_negative_zero(value: float, digits: int | None, text: str) -> None:
 
 def test_state_of_a_motor_drifting_below_zero_shows_no_minus(cli: Cli, sim: SimBus) -> None:
     m = sim.motors[1]
-    m._offset = 1e-4  # reads -0.0001 deg
+    zero, cpr, ratio = (
+        "axis0.config.extra_setting.zero_offset_counts",
+        "axis0.encoder.config.cpr",
+        "axis0.config.extra_setting.gear_ratio",
+    )
+    m.set_param(zero, m.param(zero) + 1e-4 / 360 * m.param(cpr) * m.param(ratio))  # the zero 0.0001 deg ahead
+    assert -2e-4 < m.position < 0
     r = cli("state", "1", "--sim", "1")
     assert "-0.00" not in r.out and r.out.splitlines()[1].split()[1] == "0.00"
 

@@ -19,10 +19,8 @@ a lower id may overtake earlier ones still waiting). Motors send in order.
 
 from __future__ import annotations
 
-import collections
 import heapq
 import itertools
-import logging
 import math
 import os
 import random
@@ -32,26 +30,17 @@ from dataclasses import replace
 from pathlib import Path
 from typing import Any
 
-from ..errors import DrEmpowerError, ValidationError
+from ..errors import ValidationError
 from ..protocol.ids import Frame
 from ..protocol.limits import MAX_NODE, MIN_MOTOR
-from ..protocol.messages import (
-    Command,
-    PositionP,
-    PositionQ,
-    PositionT,
-    Preset,
-    Torque,
-    Velocity,
-    WriteParam,
-    decode_command,
-)
+from .decoding import Decoder
 from .defaults import MotorModel
 from .faults import Faults
 from .firmware import Firmware, firmware_from
 from .motor import SimMotor
 from .thermal import ThermalModel, thermal_model
-from .timing import BusStats, frame_bits
+from .timing import BusStats
+from .wire import Wire
 
 __all__ = ["SimBus", "Listener", "DEFAULT_HOST_QUEUE", "HOST_QUEUES", "parse_host_queue"]
 
@@ -73,31 +62,6 @@ def parse_host_queue(text: str) -> int:
     if kind == "priority" and count.isascii() and count.isdigit() and 1 <= int(count) <= 32:
         return int(count)
     raise ValueError(f"host_queue={text!r}: 'fifo' or 'priority:N' with N mailboxes 1..32, e.g. 'priority:3'")
-
-
-_log = logging.getLogger("drempower.sim")
-
-_F32_FIELD: dict[type, str] = {
-    PositionT: "position",
-    PositionQ: "position",
-    PositionP: "position",
-    Velocity: "speed",
-    Torque: "torque",
-    Preset: "p1",
-    WriteParam: "value",
-}
-"""The float32 field of each command that carries one: a NaN or infinity there is ignored."""
-
-
-class _HostQueue:
-    """One host's transmit queue: frames wait in ``backlog`` until one of ``slots`` mailboxes is free."""
-
-    __slots__ = ("backlog", "in_flight", "slots")
-
-    def __init__(self, slots: int) -> None:
-        self.slots = slots
-        self.in_flight = 0
-        self.backlog: collections.deque[tuple[int, int, Frame, SimMotor | None, Listener | None]] = collections.deque()
 
 
 class SimBus:
@@ -162,8 +126,7 @@ class SimBus:
             raise ValidationError(f"bitrate={bitrate!r}: must be > 0 bit/s (or None for instant delivery)")
         self.bitrate = bitrate
         self.host_queue = host_queue
-        self._host_slots = parse_host_queue(host_queue)
-        self._hosts: dict[Listener | None, _HostQueue] = {}
+        host_slots = parse_host_queue(host_queue)
         self.faults = faults if faults is not None else Faults()
         self.rng = random.Random(seed)
         """The generator of every random fault."""
@@ -201,16 +164,21 @@ class SimBus:
         self._steps = 0
         self._seq = itertools.count()
         self._events: list[tuple[float, int, Callable[[], None]]] = []
-        self._ready: list[tuple[int, int, Frame, SimMotor | None, Listener | None]] = []
-        self._tx: tuple[float, Frame, SimMotor | None, Listener | None] | None = None
         self._stats = BusStats()
+        self._wire: Wire[SimMotor, Listener] | None = (
+            None if bitrate is None else Wire(bitrate, host_slots, self._seq, self._stats, self._host_sent)
+        )
+        """The frames' contention for the wire and their lengths (None: instant delivery)."""
         self.clock_sync: Callable[[], None] | None = None
         """Called (under the lock) before a host frame enters: a runner brings ``now`` up to wall time."""
         self.on_activity: Callable[[], None] | None = None
         """Called after a host frame entered: a runner wakes to deliver it at its completion time."""
-        self.ignored = 0
-        """Host frames the simulated firmware could not act on (see :meth:`_ignore`)."""
-        self._said: set[tuple[int, str]] = set()
+        self._decoder = Decoder()
+
+    @property
+    def ignored(self) -> int:
+        """Host frames the simulated firmware could not act on (see :meth:`~drempower.sim.decoding.Decoder.ignore`)."""
+        return self._decoder.ignored
 
     # ------------------------------------------------------------------ public
 
@@ -259,8 +227,9 @@ class SimBus:
         frame on the wire, a scheduled event or a motor timer (heartbeat, watchdog...); inf if none."""
         with self.lock:
             due = min((m.next_wake for m in self._order), default=math.inf)
-            if self._tx is not None:
-                due = min(due, self._tx[0])
+            tx = None if self._wire is None else self._wire.tx
+            if tx is not None:
+                due = min(due, tx[0])
             if self._events:
                 due = min(due, self._events[0][0])
             return due
@@ -268,8 +237,7 @@ class SimBus:
     def host_pending(self, origin: Listener | None = None) -> int:
         """Frames the host sending through ``origin`` has queued that are not yet fully on the wire."""
         with self.lock:
-            q = self._hosts.get(origin)
-            return 0 if q is None else q.in_flight + len(q.backlog)
+            return 0 if self._wire is None else self._wire.host_pending(origin)
 
     def schedule(self, at: float, action: Callable[[], None]) -> None:
         """Run ``action()`` when simulated time reaches ``at`` (s), e.g. to raise an error mid-move."""
@@ -288,12 +256,13 @@ class SimBus:
             step = self.STEP
             order = self._order
             events = self._events
+            wire = self._wire
             while True:
                 t_step = (self._steps + 1) * step
                 t = t_step
                 if events and events[0][0] < t:
                     t = events[0][0]
-                tx = self._tx
+                tx = None if wire is None else wire.tx
                 if tx is not None and tx[0] < t:
                     t = tx[0]
                 if t > target + _EPS:
@@ -301,7 +270,8 @@ class SimBus:
                 if t > self.now:
                     self.now = t
                 if tx is not None and tx[0] <= t:
-                    self._finish_tx()
+                    assert wire is not None
+                    self._deliver(*wire.finish(self.now))
                 elif events and events[0][0] <= t:
                     heapq.heappop(events)[2]()
                 else:
@@ -310,7 +280,7 @@ class SimBus:
                         try:
                             m.step(step, t)
                         except Exception as exc:
-                            self._ignore(None, f"motor {m.ident}: {type(exc).__name__}: {exc}")
+                            self._decoder.ignore(None, f"motor {m.ident}: {type(exc).__name__}: {exc}")
                 if stop is not None and stop():
                     return True
             if target > self.now:
@@ -333,13 +303,13 @@ class SimBus:
             faulty = self._fault(frame)
             if faulty is None:
                 return out
-            msg = self._command(faulty)
+            msg = self._decoder.command(faulty)
             m = self.motors[ident]
             if msg is not None and (msg.node == 0 or msg.node == m.node_id):
                 try:
                     m.receive(msg, out.append)
                 except Exception as exc:
-                    self._ignore(faulty, f"{type(exc).__name__}: {exc}")
+                    self._decoder.ignore(faulty, f"{type(exc).__name__}: {exc}")
             return [] if ident in self.faults.silent else out
 
     def uart_reply(self, frame: Frame, sink: Listener) -> None:
@@ -415,52 +385,17 @@ class SimBus:
         if faulty is None:
             return
         frame = faulty
-        if self.bitrate is None:
+        wire = self._wire
+        if wire is None:
             self._stats.frames += 1
             self._deliver(frame, source, origin)
             return
-        entry = (frame.arbitration_id, next(self._seq), frame, source, origin)
-        if source is None:
-            q = self._hosts.get(origin)
-            if q is None:
-                q = self._hosts[origin] = _HostQueue(self._host_slots)
-            q.backlog.append(entry)
-            self._refill(q)
-        else:
-            heapq.heappush(self._ready, entry)
-        if self._tx is None and self._ready:
-            self._start_tx()
+        wire.offer(frame, source, origin, self.now)
 
-    def _refill(self, q: _HostQueue) -> None:
-        """Move a host's waiting frames into its free mailboxes, where they contend for the bus."""
-        while q.backlog and q.in_flight < q.slots:
-            heapq.heappush(self._ready, q.backlog.popleft())
-            q.in_flight += 1
-
-    def _start_tx(self) -> None:
-        _, _, frame, source, origin = heapq.heappop(self._ready)
-        bits = frame_bits(frame.arbitration_id, frame.data, frame.is_extended)
-        assert self.bitrate is not None
-        duration = bits / self.bitrate
-        s = self._stats
-        s.frames += 1
-        s.bits += bits
-        s.busy += duration
-        self._tx = (self.now + duration, frame, source, origin)
-
-    def _finish_tx(self) -> None:
-        assert self._tx is not None
-        _, frame, source, origin = self._tx
-        self._tx = None
-        if source is None:
-            q = self._hosts[origin]
-            q.in_flight -= 1
-            self._refill(q)
-            with self.tx_done:
-                self.tx_done.notify_all()
-        if self._ready:
-            self._start_tx()
-        self._deliver(frame, source, origin)
+    def _host_sent(self) -> None:
+        """A host frame has left its host (the end of its transmission)."""
+        with self.tx_done:
+            self.tx_done.notify_all()
 
     def _deliver(self, frame: Frame, source: SimMotor | None, origin: Listener | None = None) -> None:
         if source is not None:
@@ -474,7 +409,7 @@ class SimBus:
         for tap in self._taps:
             if tap != origin:
                 tap(frame)
-        msg = self._command(frame)
+        msg = self._decoder.command(frame)
         if msg is None:
             return
         node = msg.node
@@ -484,33 +419,4 @@ class SimBus:
                 try:
                     m.receive(msg, self._replies[m.ident])
                 except Exception as exc:
-                    self._ignore(frame, f"{type(exc).__name__}: {exc}")
-
-    def _command(self, frame: Frame) -> Command | None:
-        """The command a motor hears in ``frame``; None for what a motor ignores (no DrEmpower command, a
-        NaN or infinite float)."""
-        if frame.is_extended or frame.is_remote:
-            return None
-        try:
-            msg = decode_command(frame.arbitration_id, frame.data)
-        except DrEmpowerError:
-            return None
-        field = _F32_FIELD.get(msg.__class__)
-        if field is not None:
-            value = getattr(msg, field)
-            if not math.isfinite(value):
-                self._ignore(frame, f"{field} is {value}")
-                return None
-        return msg
-
-    def _ignore(self, frame: Frame | None, why: str) -> None:
-        """The simulated firmware ignores ``frame`` (None: a motor's own step failed): counted, logged once
-        per command value and reason, so that a flood of bad frames never floods the log."""
-        self.ignored += 1
-        cmd = -1 if frame is None else frame.arbitration_id & 0x1F
-        key = (cmd, why if frame is None else why.split(":", 1)[0])
-        if key in self._said:
-            return
-        self._said.add(key)
-        what = "a step" if frame is None else f"{frame.arbitration_id:03X}#{frame.data.hex().upper()}"
-        _log.warning("simulated firmware ignores %s: %s (said once)", what, why)
+                    self._decoder.ignore(frame, f"{type(exc).__name__}: {exc}")

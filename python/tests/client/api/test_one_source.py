@@ -52,6 +52,7 @@ def test_an_edit_of_either_side_alone_is_stale(tmp_path: Path) -> None:
         _ROBOT / "robot_sync.py",
         *(_ROBOT.parent / "motion" / f for f in ("follow_async.py", "follow_sync.py")),
         *(_ROBOT.parent / "motion" / f for f in ("routines_async.py", "routines_sync.py")),
+        *(_CLIENT / "api" / f for f in ("moves_async.py", "moves_sync.py")),
     ]
     for rel in parts:
         (tmp_path / rel).parent.mkdir(parents=True, exist_ok=True)
@@ -64,12 +65,12 @@ def test_an_edit_of_either_side_alone_is_stale(tmp_path: Path) -> None:
     assert check().returncode == 0
     generated = tmp_path / parts[3]
     text = generated.read_text()
-    generated.write_text(text.replace("mode: int = VelocityMode.PASSTHROUGH", "mode: int = 1"))
+    generated.write_text(text.replace("mode: int = PositionMode.T", "mode: int = 0"))
     r = check()
     assert r.returncode == 1 and "bus_sync.py" in r.stderr
     generated.write_text(text)
     source = tmp_path / parts[2]
-    source.write_text(source.read_text().replace("speed: float = 10.0", "speed: float = 20.0"))
+    source.write_text(source.read_text().replace("speed: float = 0.0", "speed: float = 20.0"))
     assert check().returncode == 1
     assert subprocess.run(script, capture_output=True, text=True, check=False).returncode == 0
     assert check().returncode == 0
@@ -87,6 +88,7 @@ def test_the_twins_are_found_by_path(tmp_path: Path) -> None:
     pairs = gen.find_pairs()
     assert {(s.name, t.name) for s, t, _ in pairs} == {
         ("bus_async.py", "bus_sync.py"),
+        ("moves_async.py", "moves_sync.py"),
         ("robot_async.py", "robot_sync.py"),
         ("follow_async.py", "follow_sync.py"),
         ("routines_async.py", "routines_sync.py"),

@@ -32,6 +32,7 @@ from ..engine.effects import Batch, Op, Runnable
 from ..engine.session import DEFAULT_TIMEOUT, BusSession, Operation, StartPolicy, StopOnClose, TxOrder
 from ..engine.state import MotorState, StateCache
 from . import open_buses, signals
+from .handoff import Handoff
 from .receiver import LINGER as _LINGER  # noqa: F401  (how long the receive thread stays parked, s)
 from .receiver import Receiver
 from .wait_threaded import ThreadWaits
@@ -51,7 +52,7 @@ AsyncRun = Callable[[Runnable[Any]], Coroutine[Any, Any, Any]]
 
 _monotonic = time.monotonic
 _HANDOFF_WAIT = 2.0
-"""Longest wait (s) of a close handed to a thread (see :meth:`BusDriver._later`) for the bus lock."""
+"""Longest wait (s) of a close handed to a thread (see :mod:`.handoff`) for the bus lock."""
 
 
 def tx_order(caps: Capabilities) -> TxOrder:
@@ -128,9 +129,7 @@ class BusDriver:
         they must not send."""
         self._close_lock = threading.Lock()
         self._closed = False
-        self._closer: threading.Thread | None = None
-        """The thread closing the bus for a signal handler (see :meth:`_later`), once there is one."""
-        self._handed: list[threading.Thread] = []
+        self._handoff = Handoff(lambda: self.transport.description)
         """The threads doing what signal handlers handed over (estops, the close): a close waits for them."""
         self._failure: BaseException | None = None
         self._sleepers: set[Callable[[], None]] = set()
@@ -288,43 +287,15 @@ class BusDriver:
     def _interrupted_here(self) -> bool:
         """True when the calling thread holds the bus lock: it runs a signal handler that interrupted its own
         bus work, perhaps in the middle of a transport's write. Writing now could wait for that write's
-        lock forever or cut its frame in two: the stopping is handed to :meth:`_later`."""
+        lock forever or cut its frame in two: the stopping is handed to a thread (:mod:`.handoff`)."""
         return bool(self._lock._is_owned())  # type: ignore[attr-defined]
 
-    def _later(self, what: Callable[..., None], *args: Any, **kwargs: Any) -> threading.Thread:
-        """Run ``what`` in a thread of its own: it takes the bus lock as soon as the interrupted code lets it
-        go (carrying on, or unwinding from the handler's ``SystemExit``). A close waits for it first, but
-        not for good: code a signal cuts short may leave a lock of a library held for good."""
-
-        def run() -> None:
-            try:
-                what(*args, **kwargs)
-            except Exception:  # a later close tries again
-                _log.exception("stopping %s for a signal handler failed", self.transport.description)
-
-        name = f"drempower stop ({self.transport.description})"
-        thread = threading.Thread(target=run, name=name, daemon=True)
-        thread.start()
-        self._handed.append(thread)
-        return thread
-
     def _close_handed(self) -> None:
-        """The close a signal handler handed over (see :meth:`_later`): once the interrupted code lets the
+        """The close a signal handler handed over (see :mod:`.handoff`): once the interrupted code lets the
         bus go, after what the handlers handed over until then (a chained handler's estop)."""
         if self._lock.acquire(timeout=_HANDOFF_WAIT):
             self._lock.release()
         self.close(lock_timeout=_HANDOFF_WAIT)
-
-    def _wait_handed(self, timeout: float) -> None:
-        """Wait, ``timeout`` s at most in all, for the threads of :meth:`_later` (but the calling one), those
-        handed over meanwhile included."""
-        end = _monotonic() + timeout
-        me = threading.current_thread()
-        while (left := end - _monotonic()) > 0:
-            waiting = [t for t in self._handed if t is not me and t.is_alive()]
-            if not waiting:
-                return
-            waiting[0].join(left)
 
     def _send_frames(self, frames: Sequence[Frame], lock_timeout: float = -1) -> None:
         """Write ``frames`` as they are, after anything queued (no tracking: frames the protocol does not
@@ -388,7 +359,7 @@ class BusDriver:
         if self._closed:
             raise BusClosedError(f"the bus ({self.transport.description}) is closed")
         if self._interrupted_here():  # the estop goes out as soon as the interrupted code lets the bus go
-            self._later(self._estop, nodes, _HANDOFF_WAIT)
+            self._handoff.later(self._estop, nodes, _HANDOFF_WAIT)
             return
         self._estop(nodes, open_buses.SIGNAL_LOCK_WAIT)
 
@@ -451,11 +422,11 @@ class BusDriver:
         of its own closes the bus once that work lets the lock go.
         """
         if self._interrupted_here():
-            if not self._closed and (self._closer is None or not self._closer.is_alive()):
-                self._closer = self._later(self._close_handed)
+            if not self._closed and not self._handoff.closing():
+                self._handoff.closer = self._handoff.later(self._close_handed)
             return
-        if self._handed:  # what signal handlers handed over goes first: their estops, their close
-            self._wait_handed(lock_timeout if lock_timeout >= 0 else 2 * _HANDOFF_WAIT)
+        if self._handoff.threads:  # what signal handlers handed over goes first: their estops, their close
+            self._handoff.wait(lock_timeout if lock_timeout >= 0 else 2 * _HANDOFF_WAIT)
             if self._closed:
                 return
             if lock_timeout < 0:  # that close failed, or waits still: close here, never for good
