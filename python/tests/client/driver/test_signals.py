@@ -306,11 +306,12 @@ from drempower.protocol.addresses import AXIS0_ERROR
 def python_only(frame):
     # Not in a Condition's __enter__ or __exit__: a signal at the entry of __exit__ leaves its lock held (a with
     # statement is not safe against asynchronous exceptions) and python-can's virtual bus then takes no frame.
-    # Not under a finalizer (__del__, weakref.finalize): Python ignores the SystemExit raised there.
+    # Not under a finalizer (__del__, weakref.finalize, a WeakSet's callback as the collector frees a thread):
+    # Python ignores the SystemExit raised there.
     if frame.f_code.co_filename.endswith("threading.py") and frame.f_code.co_name in ("__enter__", "__exit__"):
         return False
     while frame is not None:
-        if frame.f_code.co_name == "__del__" or frame.f_code.co_filename.endswith("weakref.py"):
+        if frame.f_code.co_name == "__del__" or frame.f_code.co_filename.endswith(("weakref.py", "_weakrefset.py")):
             return False
         frame = frame.f_back
     return True
