@@ -63,8 +63,6 @@ def check_joint_value(topic: str, j: JointSpec, g: Gearing, x: float) -> float:
 
 SERVICE_ROWS = {"estop": "estop", "clear_errors": "clear", "enable": "enable"}
 """Each service's row of :mod:`drempower.actions`, run for every motor served."""
-ROSOUT_WARN = 30
-"""``rcl_interfaces/msg/Log``'s WARN level."""
 _FENCED = "{service} not done: an estop called after it came first (call clear_errors, then enable)"
 """A service call an estop that arrived after it fenced off (see :mod:`.order`)."""
 ENABLE_FIX = "(call the enable service, or drempower enable {ids})"

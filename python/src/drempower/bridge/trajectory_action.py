@@ -132,12 +132,12 @@ class TrajectoryAction:
         self._thread: threading.Thread | None = None
         spec = RobotSpec(
             {b: BusSpec(b, "bridge") for b in bridge.faces},
-            {j.name: j for j, _, _ in bridge._joints},
+            {j.name: j for j, _, _ in bridge.joints},
             "the bridge's joints",
         )
         self.runner = GoalRunner(
             spec,
-            {j.name: (j.id, g, j.bus) for j, g, _ in bridge._joints},
+            {j.name: (j.id, g, j.bus) for j, g, _ in bridge.joints},
             {b: face.bus for b, face in bridge.faces.items()},
             rate=self.rate,
             feedback_rate=self.feedback_rate,
