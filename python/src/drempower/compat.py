@@ -31,7 +31,9 @@ Differences from the vendor library (see docs/client.md):
   :class:`~drempower.errors.MotorIdleError` and sends nothing (the vendor's is
   silently ignored by the motor): call ``set_mode(id, 2)`` first, as vendor scripts
   do. ``estop``, ``set_mode``, ``clear_error``, ``save_config``, ``reboot``,
-  ``set_zero_position`` run through :mod:`drempower.actions`. ``write_property``
+  ``set_zero_position`` run through :mod:`drempower.actions` (its command service:
+  ``set_mode(id, 2)`` returns once the motor reads closed loop and ``clear_error``
+  once its error flags are gone, else each raises saying why). ``write_property``
   writes any parameter the vendor's does, checked against its domain; one that
   commands motion (``input_pos``, ``input_vel``, modes...) passes the safety gate as
   that motion (:data:`drempower.client.engine.gate.MOTION_PARAMETERS`).
@@ -325,8 +327,9 @@ def impedance_control(
 
 
 def _act(action: str, id: int, **args: Any) -> Any:
-    """Carry out ``action`` of :mod:`drempower.actions` for motor ``id`` on the bus in use (its checks, its words)."""
-    return actions.run(_m(id).bus, action, {"id": id, **args})
+    """Carry out ``action`` of :mod:`drempower.actions` for motor ``id`` on the bus in use through the command
+    service (its checks, its words; an enable or a clear confirmed)."""
+    return actions.Service(actions.OneBus(_m(id).bus)).run("compat", action, {"id": id, **args}).result
 
 
 def estop(id_num: int = 0) -> None:

@@ -20,7 +20,9 @@ Motion actions pass the bus's safety gate (idle motors, soft limits; see
                                     (actions.MOTOR,), lambda bus, a: bus.motor(a["id"]).get_volcur()))
 
 and front ends that list :func:`table` (the CLI's subcommands, the dashboard's controls)
-offer it with no further change.
+offer it with no further change. A front end runs rows through one :class:`Service`
+(:mod:`drempower.actions.service`: validate, gate, confirm, act, confirm the outcome, word it),
+giving what is its own (where a motor key lives, read-only, a fence, limits, a log) as hooks.
 """
 
 from __future__ import annotations
@@ -57,12 +59,19 @@ from .args import (
     Arg,
     bandwidth_range,
 )
+from .service import Checked, Motors, OneBus, Outcome, Policy, Service
 from .settle import ENABLE_SETTLE, why_not_cleared, why_not_enabled
 from .table import Action, Safety, get, register, table, unregister
 from .validate import run, run_async, validate
 from .words import describe, outcome, plain
 
 __all__ = [
+    "Checked",
+    "Motors",
+    "OneBus",
+    "Outcome",
+    "Policy",
+    "Service",
     "ACCEL",
     "ANGLE",
     "Action",

@@ -194,23 +194,27 @@ def check_row(
 
 
 def run_row(args: argparse.Namespace) -> int:
+    """Row ``args.action_name`` through the command service (:class:`~drempower.actions.Service`): validated
+    before the bus is opened, gated (an idle motor refused in the library's words), carried out, an enable
+    or a clear confirmed, worded as every front end words it."""
     action = table.get(args.action_name)
-    values = table.validate(action, _given(args, action))  # refused here: nothing is sent
+    values = table.validate(action, _given(args, action))  # refused here: nothing is opened, nothing sent
     node = int(values["id"])
     if action.safety == "motion":  # on Ctrl-C or a failure the motor goes idle, as with move or speed
         args.ids, args.stop_on_exit = [node], True
         with driving(args) as bus:
-            result = table.run(bus, action, values)
+            out = table.Service(table.OneBus(bus)).run("command line", action, values)
     else:
         with open_from_args(args) as bus:
-            result = table.run(bus, action, values)
-    show(args, action, node, table.plain(result))
+            out = table.Service(table.OneBus(bus)).run("command line", action, values)
+    show(args, node, out)
     return 0
 
 
-def show(args: argparse.Namespace, action: table.Action, node: int, result: Any) -> None:
-    """One action's result: a JSON line with ``--json`` (with the unit of a number the row names),
-    else a line in the table's words (:func:`~drempower.actions.outcome`), a field a line for a record."""
+def show(args: argparse.Namespace, node: int, out: table.Outcome) -> None:
+    """What a row came to for motor ``node``: a JSON line with ``--json`` (with the unit of a number the row
+    names), else the service's words (:attr:`~drempower.actions.Outcome.said`), a field a line for a record."""
+    action, result, said = out.checked.action, out.plain, out.said
     name = action.name
     spec, bus = getattr(args, "robot_spec", None), getattr(args, "robot_bus", None)
     joints = {j.id: j.name for j in spec.joints_on(bus)} if spec is not None and bus is not None else {}
@@ -220,9 +224,8 @@ def show(args: argparse.Namespace, action: table.Action, node: int, result: Any)
         sys.stdout.write(json_line({"id": node, **joint, "action": name, "result": result, **unit}) + "\n")
         return
     who = f"joint {joints[node]}" if node in joints else motors_text([node])
-    said = table.outcome(action, result)
     if said is not None:
-        lines = [f"{who}: {name}{said}"]
+        lines = [f"{who}: {said}"]
     elif isinstance(result, dict):
         width = max((len(k) for k in result), default=0)
         lines = [f"{who}: {name}", *(f"  {k:<{width}}  {_value(v)}" for k, v in result.items())]

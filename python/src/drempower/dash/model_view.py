@@ -20,7 +20,7 @@ from aiohttp import web
 
 from ..errors import ConfigError, DrEmpowerError, ValidationError
 from ..sim.twin import PUSH_LIMITS  # the twin's own bounds, one place
-from .hub import KEYS_PER_BUS
+from .keys import KEYS_PER_BUS
 from .logline import log
 from .model_scene import load_scene
 
