@@ -37,6 +37,7 @@ from ..protocol.addresses import AXIS0_CURRENT_STATE
 from ..protocol.enums import AxisState
 from ..protocol.messages import ReadParam
 from ..protocol.parameters import DataType
+from . import settle
 from .settle import why_not_cleared, why_not_enabled
 from .table import Action, get
 from .validate import validate
@@ -233,14 +234,28 @@ class Service:
     def confirm(self, checked: Checked) -> None:
         """Step 5: after an ``enable`` or a ``clear``, each motor got there, else a DrEmpowerError saying
         which did not and why (a broadcast: each motor its bus knows)."""
-        why_not = CONFIRMED.get(checked.action.name)
-        if why_not is None:
-            return
+        self.confirm_all([checked])
+
+    def confirm_all(self, rows: Sequence[Checked], stop: Callable[[], bool] | None = None) -> None:
+        """Step 5 for rows run together (a front end that enables several motors at once): the motors of
+        each bus are read together and given :data:`~drempower.actions.ENABLE_SETTLE` s in all (on each
+        bus's clock) to get there; ``stop()`` true ends the wait early (a front end's fence: an estop that
+        came since), the motors not there yet then named as not there. A DrEmpowerError names, in the
+        rows' order, each motor that did not get there and why."""
+        groups: dict[tuple[str, int], tuple[Callable[..., dict[int, str]], Any, list[tuple[str | None, int]]]] = {}
+        for c in rows:
+            why_not = CONFIRMED.get(c.action.name)
+            if why_not is None:
+                continue
+            for bus, node in c.places:
+                nodes = sorted(bus.known_motors()) if node == 0 else [node]
+                group = groups.setdefault((c.action.name, id(bus)), (why_not, bus, []))
+                group[2].extend((self.motors.label(c.key) if node != 0 else None, n) for n in nodes)
+        started = {id(bus): bus.now() for _, bus, _ in groups.values()}
         failures: list[str] = []
-        for bus, node in checked.places:
-            nodes = sorted(bus.known_motors()) if node == 0 else [node]
-            for n, why in sorted(why_not(bus, nodes).items()):
-                key = checked.key if node != 0 else n
-                failures.append(f"{self.motors.label(key) if node != 0 else motor_name(n)} {why}")
+        for why_not, bus, motors in groups.values():
+            left = max(0.0, settle.ENABLE_SETTLE - (bus.now() - started[id(bus)]))
+            why = why_not(bus, [n for _, n in motors], left, stop)
+            failures.extend(f"{label or motor_name(n)} {why[n]}" for label, n in motors if n in why)
         if failures:
             raise DrEmpowerError("; ".join(failures))
