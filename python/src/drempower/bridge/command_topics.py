@@ -136,10 +136,11 @@ class CommandTopics:
 
     def _commands(self, topic: str, data: Sequence[float]) -> list[tuple[BusFace, list[int], list[float]]]:
         """Each bus's motors and values (motor units) for ``data`` (one value per joint, SI at the joint),
-        every value checked by the topic's row of :mod:`drempower.actions` first (its words, naming the joint)."""
+        every value checked by the topic's row through its bus's command service first (the table's words,
+        naming the joint)."""
         groups: dict[str, tuple[list[int], list[float]]] = {}
-        for (j, g, _), x in zip(self._joints, data, strict=True):
-            v = check_joint_value(topic, j, g, x)
+        for (j, g, face), x in zip(self._joints, data, strict=True):
+            v = check_joint_value(face, topic, j, g, x)
             ids, values = groups.setdefault(j.bus, ([], []))
             ids.append(j.id)
             values.append(v)

@@ -200,7 +200,7 @@ class JointTopics:
             j, g, face = self._faces[name]
             vals = {key: float(arrays[key][k]) if len(arrays[key]) else 0.0 for key in used}
             for key, x in vals.items():  # each value by its row of the actions table, in the table's words
-                check_joint_value(f"{key}_commands", j, g, x)
+                check_joint_value(face, f"{key}_commands", j, g, x)
             try:
                 msgs = out.setdefault(face.name, [])
                 if used == ("position",):

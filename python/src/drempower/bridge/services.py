@@ -3,8 +3,10 @@
 An estop is answered at once, from Zenoh's callback; the others one at a time
 in the order they arrived (:mod:`.order`), each in a thread of its own, and an
 estop that arrives later fences the ones still waiting or running: they send
-nothing more and say so. ``enable`` and ``clear_errors`` succeed only once every
-joint served got there (closed loop; no error flag).
+nothing more and say so. ``enable`` and ``clear_errors`` go through the command
+service (:mod:`drempower.actions.service`): validated, sent, and successful only
+once every joint served got there (closed loop; no error flag), else worded as
+the dashboard and the CLI word it.
 """
 
 from __future__ import annotations
@@ -13,12 +15,14 @@ import logging
 import threading
 import time
 from collections.abc import Callable, Mapping, Sequence
+from functools import partial
 from typing import Any
 
 from .. import actions
-from ..naming import motor_name
+from ..errors import DrEmpowerError
 from . import rmw, rosmsg
 from .bus_face import _FENCED, SERVICE_ROWS, BusFace
+from .motors import ServedMotors
 from .order import ServiceOrder
 
 __all__ = ["SERVICES", "Services"]
@@ -37,6 +41,9 @@ class Services:
         self._faces = dict(faces)
         self._names = list(names)
         self._on_estop = on_estop
+        self._motors = ServedMotors([(face.name, face.bus, face.joints) for face in self._faces.values()])
+        self.service = actions.Service(self._motors, actions.Policy(log=_log.info))
+        """The command service the ``enable`` and ``clear_errors`` rows go through (:mod:`drempower.actions`)."""
         self.order = ServiceOrder()
         """Tickets of the calls and the fence of the last estop (:mod:`.order`)."""
 
@@ -99,58 +106,41 @@ class Services:
             return "motors " + ", ".join(map(str, self._faces[""].ids))
         return "joints " + ", ".join(self._names)
 
-    def _run_each(self, ticket: int, service: str) -> tuple[bool, str]:
-        """The service's row of :mod:`drempower.actions` for every motor served, one at a time, until an
-        estop that arrived later fences it."""
-        row = SERVICE_ROWS[service]
-        failures = []
-        for face in self._faces.values():
-            try:
-                for i in face.ids:
-                    if not face.run_unless(row, i, lambda: self.order.stale(ticket)):
-                        return False, _FENCED.format(service=service)
-            except Exception as exc:  # a reply in every case: the caller waits for one
-                failures.append(f"{face.name or face.prefix}: {exc}")
-        if failures:
-            return False, f"{service} failed: " + "; ".join(failures)
-        return True, ""
-
     def _srv_clear_errors(self, ticket: int) -> tuple[bool, str]:
         """Clear the errors of every joint served, unless an estop that arrived later came first; success
         only once none reports an error (an encoder error stays until zeroed)."""
-        return self._settled(ticket, "clear_errors", actions.why_not_cleared, "errors cleared on ")
+        return self._settled(ticket, "clear_errors", "errors cleared on ")
 
     def _srv_enable(self, ticket: int) -> tuple[bool, str]:
         """Closed loop for every joint served, on every bus (a bus that fails does not keep the others from
         it); success only once each reads closed loop (a motor with error flags ignores an enable)."""
-        return self._settled(ticket, "enable", actions.why_not_enabled, "closed loop on ")
+        return self._settled(ticket, "enable", "closed loop on ")
 
-    def _settled(
-        self, ticket: int, service: str, why_not: Callable[..., dict[int, str]], done: str
-    ) -> tuple[bool, str]:
-        """Run ``service``'s row for every joint served (:meth:`_run_each`), then check that each got where
-        the row takes it (``why_not``: :func:`~drempower.actions.why_not_enabled` or ``why_not_cleared``),
-        within :data:`~drempower.actions.ENABLE_SETTLE` s in all, unless an estop that arrived later comes
-        first; ``done`` + what is served on success."""
-        ok, message = self._run_each(ticket, service)
-        if not ok:
-            return ok, message
-        failures = []
-        deadline = time.monotonic() + actions.ENABLE_SETTLE
+    def _settled(self, ticket: int, service: str, done: str) -> tuple[bool, str]:
+        """``service``'s row for every motor served through the command service, one at a time, each sent
+        unless an estop that arrived later came first; then confirmed by the service for all together (its
+        words: closed loop reached, errors cleared), the wait ended by such an estop; ``done`` + what is
+        served on success."""
+        row = SERVICE_ROWS[service]
 
         def stale() -> bool:
             return self.order.stale(ticket)
 
-        for face in self._faces.values():
+        sent: list[actions.Checked] = []
+        failures: list[str] = []
+        for face, keys in zip(self._faces.values(), self._motors.served(), strict=True):
             try:
-                why = why_not(face.bus, face.ids, max(0.0, deadline - time.monotonic()), stale)
+                for key in keys:
+                    checked = self.service.check(row, {"id": key})
+                    if not face.act_unless(stale, partial(self.service.act, f"ROS 2 {service}", checked)):
+                        return False, _FENCED.format(service=service)
+                    sent.append(checked)
             except Exception as exc:  # a reply in every case: the caller waits for one
-                failures.append(f"{face.name or face.prefix}: state not read: {exc}")
-                continue
-            for j in face.joints:
-                if j.id in why:
-                    who = f"motor {j.id}" if j.name == motor_name(j.id) else f"joint {j.name} (motor {j.id})"
-                    failures.append(f"{who} {why[j.id]}")
+                failures.append(f"{face.name or face.prefix}: {exc}")
+        try:
+            self.service.confirm_all(sent, stop=stale)
+        except DrEmpowerError as exc:  # which did not get there and why, in the service's words
+            failures.append(str(exc))
         if stale():
             return False, _FENCED.format(service=service)
         if failures:
