@@ -41,7 +41,7 @@ FAST_TESTS := tests/protocol tests/client/session tests/client/test_session_part
 	tests/client/test_watchdog.py tests/client/test_arguments.py tests/client/test_domains.py \
 	tests/client/test_vectors.py tests/client/test_client_vectors.py tests/client/test_refusals.py \
 	tests/client/test_virtual_time.py tests/client/test_batch.py tests/client/test_motor.py \
-	tests/robot/test_config.py tests/test_actions.py tests/test_layers.py tests/test_naming.py \
+	tests/robot/test_config.py tests/actions tests/test_layers.py tests/test_naming.py \
 	tests/test_errors.py tests/test_cli_params.py tests/cli/test_param_domains.py
 # the rest runs on every core (pytest-xdist); PYTEST_WORKERS=0 runs it in one process
 PYTEST_WORKERS ?= 2

@@ -3,7 +3,6 @@ each motor's state, which the bus's safety gate then knows), the service's confi
 
 from __future__ import annotations
 
-from collections import Counter
 from collections.abc import Iterator
 
 import pytest
@@ -14,39 +13,11 @@ from drempower import actions, open_bus
 from drempower.client import Bus
 from drempower.dash import Hub
 from drempower.errors import DrEmpowerError, MotorIdleError
-from drempower.protocol import Frame
-from drempower.protocol.addresses import AXIS0_CURRENT_STATE
 from drempower.protocol.flags import MotorError
-from drempower.protocol.messages import PositionQ, ReadParam, decode_command
+from drempower.protocol.messages import PositionQ, ReadParam
 from drempower.sim import SimBus
 
-
-class Sent:
-    """What the host sent on the simulated bus: every frame seen, less the motors' own."""
-
-    def __init__(self, sim: SimBus) -> None:
-        self.all: list[Frame] = []
-        self.motors: list[Frame] = []
-        sim.add_listener(self.all.append, host_frames=True)
-        sim.add_listener(self.motors.append)
-
-    def messages(self) -> list[object]:
-        left = Counter(self.motors)
-        out = []
-        for f in list(self.all):
-            if left[f]:
-                left[f] -= 1
-                continue
-            out.append(decode_command(f.arbitration_id, f.data))
-        return out
-
-    def state_reads(self) -> list[int]:
-        """The motors whose axis state was read, in order."""
-        return [m.node for m in self.messages() if isinstance(m, ReadParam) and m.address == AXIS0_CURRENT_STATE]
-
-    def clear(self) -> None:
-        self.all.clear()
-        self.motors.clear()
+from ..actions.test_service import Host as Sent
 
 
 @pytest.fixture
@@ -56,7 +27,7 @@ def rig() -> Iterator[tuple[Hub, Bus, SimBus, Sent]]:
     sim: SimBus = bus.transport.bus  # type: ignore[attr-defined]
     hub = Hub(bus, poll_hz=50)
     try:
-        yield hub, bus, sim, Sent(sim)
+        yield hub, bus, sim, Sent(bus)
     finally:
         hub.close()
         bus.close()
@@ -70,7 +41,7 @@ def test_a_dashboard_move_checks_closed_loop_once(rig: tuple[Hub, Bus, SimBus, S
         sent.clear()
         hub.do_control("page", {"action": "Q", "id": 1, "angle": angle, "speed": 10, "param": 10})
         assert sent.state_reads() == [1]  # the service's read; the gate learnt it: the move paid none
-        assert [type(m) for m in sent.messages()] == [ReadParam, PositionQ]
+        assert [type(m) for m in sent.sent()] == [ReadParam, PositionQ]
     sent.clear()
     hub.do_control("page", {"action": "sync_move", "ids": [1, 2], "angles": [5, 6], "speed": 10, "accel": 10})
     assert sent.state_reads() == [1, 2]  # one read of each motor, together
@@ -86,7 +57,7 @@ def test_an_idle_motor_is_refused_with_the_enable_button(rig: tuple[Hub, Bus, Si
     assert str(info.value) == (
         "motor 2 is idle (not in closed loop): enable it first (the Enable button, or drempower enable 2)"
     )
-    assert [type(m) for m in sent.messages()] == [ReadParam]  # nothing but the check's read
+    assert [type(m) for m in sent.sent()] == [ReadParam]  # nothing but the check's read
     assert 2 not in hub.commanded
 
 
@@ -102,3 +73,19 @@ def test_an_enable_that_fails_is_worded_and_one_that_works_said(rig: tuple[Hub, 
     )
     got = hub.do_row("page", {"action": "get", "args": {"id": 1, "name": "vbus_voltage"}})
     assert got["said"] == "get" + (actions.outcome("get", got["result"]) or "")
+
+
+def test_a_tuning_step_checks_closed_loop_once(rig: tuple[Hub, Bus, SimBus, Sent]) -> None:
+    hub, bus, _, sent = rig
+    bus.motor(1).enable()
+    for mode, amplitude in (("position", 5.0), ("velocity", 3.0)):
+        sent.clear()
+        run = hub.do_step("page", {"id": 1, "mode": mode, "amplitude": amplitude, "duration": 0.1, "bandwidth": 20})
+        assert run["target"] == pytest.approx(run["base"] + amplitude)
+        assert sent.state_reads() == [1]  # the service's one read before anything was sent
+    bus.motor(1).idle()
+    sent.clear()
+    with pytest.raises(MotorIdleError):
+        hub.do_step("page", {"id": 1, "mode": "position", "amplitude": 5.0, "duration": 0.1})
+    sent_types = {type(m).__name__ for m in sent.sent()}
+    assert "PositionT" not in sent_types and "WriteParam" not in sent_types  # no heartbeat, no step

@@ -37,8 +37,7 @@ from ..protocol.addresses import AXIS0_CURRENT_STATE
 from ..protocol.enums import AxisState
 from ..protocol.messages import ReadParam
 from ..protocol.parameters import DataType
-from . import settle
-from .settle import why_not_cleared, why_not_enabled
+from .settle import ENABLE_SETTLE, why_not_cleared, why_not_enabled
 from .table import Action, get
 from .validate import validate
 from .words import outcome, plain
@@ -88,10 +87,6 @@ class OneBus:
         return motor_name(key)
 
 
-def _none() -> None:
-    return None
-
-
 def _nothing(*_: Any) -> None:
     return None
 
@@ -100,12 +95,12 @@ def _nothing(*_: Any) -> None:
 class Policy:
     """What a front end adds to the pipeline, each a hook that refuses by raising (defaults: nothing)."""
 
-    read_only: Callable[[], str | None] = _none
+    read_only: Callable[[], str | None] = _nothing
     """The words refusing a command when the front end only reads now (reading and stopping still run)."""
     fence: Callable[[Action], None] = _nothing
     """Refuse a row that may not run any more (an ESTOP since it was issued, the front end stopping); not
     asked for a stop."""
-    enable_fix: Callable[[Sequence[int]], str | None] = lambda keys: None
+    enable_fix: Callable[[Sequence[int]], str | None] = _nothing
     """How to enable the idle motors of ``keys`` in the caller's terms (a button, a command line; None: the
     library's words)."""
     limits: Callable[[Action, int, Mapping[str, Any]], None] = _nothing
@@ -118,6 +113,10 @@ class Policy:
     """Refuse a motion to a motor not in closed loop (False: the motor's own refusal is enough)."""
     state_timeout: float | None = None
     """How long (s) the closed-loop check waits for the states (None: the bus's timeout)."""
+    settle: float = ENABLE_SETTLE
+    """How long (s) an enable or a clear is given to show in the motors' states before it is reported failed."""
+    interrupted: Callable[[], bool] | None = None
+    """True ends that wait early (an ESTOP since the request was issued): the motors not there yet are named."""
 
 
 @dataclass(frozen=True)
@@ -161,9 +160,13 @@ class Service:
         return self.conclude(checked, self.act(who, checked))
 
     def act(self, who: str, checked: Checked) -> Any:
-        """Steps 3 and 4: :meth:`admit` the row, log it for ``who`` and carry it out; returns what its
-        operation returned (a list, one a bus, for a broadcast over several; None for a command)."""
+        """Steps 3 and 4: :meth:`admit` the row and :meth:`send` it."""
         self.admit([checked])
+        return self.send(who, checked)
+
+    def send(self, who: str, checked: Checked) -> Any:
+        """Step 4 for an admitted row: log it for ``who`` and carry it out; returns what its operation
+        returned (a list, one a bus, for a broadcast over several; None for a command)."""
         act, key = checked.action, checked.key
         shown = ", ".join(f"{k}={v}" for k, v in checked.args.items() if k != "id" and v is not None)
         self.policy.log(f"{who}: {'every motor' if key == 0 else self.motors.label(key)} {act.name}({shown})")
@@ -236,12 +239,11 @@ class Service:
         which did not and why (a broadcast: each motor its bus knows)."""
         self.confirm_all([checked])
 
-    def confirm_all(self, rows: Sequence[Checked], stop: Callable[[], bool] | None = None) -> None:
-        """Step 5 for rows run together (a front end that enables several motors at once): the motors of
-        each bus are read together and given :data:`~drempower.actions.ENABLE_SETTLE` s in all (on each
-        bus's clock) to get there; ``stop()`` true ends the wait early (a front end's fence: an estop that
-        came since), the motors not there yet then named as not there. A DrEmpowerError names, in the
-        rows' order, each motor that did not get there and why."""
+    def confirm_all(self, rows: Sequence[Checked]) -> None:
+        """Step 5 for rows run together (a front end that enables several motors at once, as the bridge's
+        ``enable`` service does): the motors of each bus are read together and given ``policy.settle`` s in
+        all (on each bus's clock), ``policy.interrupted`` ending the wait early; a DrEmpowerError names,
+        in the rows' order, each motor that did not get there and why."""
         groups: dict[tuple[str, int], tuple[Callable[..., dict[int, str]], Any, list[tuple[str | None, int]]]] = {}
         for c in rows:
             why_not = CONFIRMED.get(c.action.name)
@@ -254,8 +256,8 @@ class Service:
         started = {id(bus): bus.now() for _, bus, _ in groups.values()}
         failures: list[str] = []
         for why_not, bus, motors in groups.values():
-            left = max(0.0, settle.ENABLE_SETTLE - (bus.now() - started[id(bus)]))
-            why = why_not(bus, [n for _, n in motors], left, stop)
+            left = max(0.0, self.policy.settle - (bus.now() - started[id(bus)]))
+            why = why_not(bus, [n for _, n in motors], left, self.policy.interrupted)
             failures.extend(f"{label or motor_name(n)} {why[n]}" for label, n in motors if n in why)
         if failures:
             raise DrEmpowerError("; ".join(failures))

@@ -19,6 +19,7 @@ from functools import partial
 from typing import Any
 
 from .. import actions
+from ..actions import settle
 from ..errors import DrEmpowerError
 from . import rmw, rosmsg
 from .bus_face import _FENCED, SERVICE_ROWS, BusFace
@@ -42,8 +43,6 @@ class Services:
         self._names = list(names)
         self._on_estop = on_estop
         self._motors = ServedMotors([(face.name, face.bus, face.joints) for face in self._faces.values()])
-        self.service = actions.Service(self._motors, actions.Policy(log=_log.info))
-        """The command service the ``enable`` and ``clear_errors`` rows go through (:mod:`drempower.actions`)."""
         self.order = ServiceOrder()
         """Tickets of the calls and the fence of the last estop (:mod:`.order`)."""
 
@@ -106,6 +105,12 @@ class Services:
             return "motors " + ", ".join(map(str, self._faces[""].ids))
         return "joints " + ", ".join(self._names)
 
+    def service(self, fenced: Callable[[], bool]) -> actions.Service:
+        """The command service of one call, which ``fenced()`` (an estop that arrived after it) interrupts
+        while it waits for the motors; each gets :data:`~drempower.actions.ENABLE_SETTLE` s, as read now."""
+        policy = actions.Policy(log=_log.info, settle=settle.ENABLE_SETTLE, interrupted=fenced)
+        return actions.Service(self._motors, policy)
+
     def _srv_clear_errors(self, ticket: int) -> tuple[bool, str]:
         """Clear the errors of every joint served, unless an estop that arrived later came first; success
         only once none reports an error (an encoder error stays until zeroed)."""
@@ -126,19 +131,20 @@ class Services:
         def stale() -> bool:
             return self.order.stale(ticket)
 
+        through = self.service(stale)
         sent: list[actions.Checked] = []
         failures: list[str] = []
         for face, keys in zip(self._faces.values(), self._motors.served(), strict=True):
             try:
                 for key in keys:
-                    checked = self.service.check(row, {"id": key})
-                    if not face.act_unless(stale, partial(self.service.act, f"ROS 2 {service}", checked)):
+                    checked = through.check(row, {"id": key})
+                    if not face.act_unless(stale, partial(through.act, f"ROS 2 {service}", checked)):
                         return False, _FENCED.format(service=service)
                     sent.append(checked)
             except Exception as exc:  # a reply in every case: the caller waits for one
                 failures.append(f"{face.name or face.prefix}: {exc}")
         try:
-            self.service.confirm_all(sent, stop=stale)
+            through.confirm_all(sent)
         except DrEmpowerError as exc:  # which did not get there and why, in the service's words
             failures.append(str(exc))
         if stale():

@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from typing import TYPE_CHECKING, Any
 
 from .. import actions
@@ -24,6 +25,8 @@ from ..errors import DrEmpowerError, FieldRangeError, ValidationError
 from ..naming import COLUMNS, TIME_COLUMN
 from . import tuning
 from .cards import Cards
+from .controls import PAGE_CONTROLS, PAGE_ROWS, page_row
+from .fence import Fence
 from .keys import KEYS_PER_BUS, MotorKeys, motor_id
 from .limits import MotorLimits, bounds
 from .logline import log
@@ -45,24 +48,6 @@ _CSV_COLUMNS = ("id", "position", "speed", "torque", "done", "error")
 """The readings of a sample in the page's CSV (then the targets of position, speed and torque)."""
 _READ_ONLY = "this dashboard is read-only (--read-only)"
 _STOPPING = "the dashboard is stopping: no motion is started any more"
-PAGE_ROWS = {"stop": "stop", "idle": "idle", "enable": "enable", "clear_errors": "clear"}
-"""The page's buttons that are rows of :mod:`drempower.actions` (the page's name: the row's)."""
-PAGE_CONTROLS: dict[str, tuple[str, dict[str, str], dict[str, Any]]] = {
-    "T": ("move", {"angle": "angle", "param": "bandwidth"}, {"mode": "T"}),
-    "Q": ("move", {"angle": "angle", "speed": "speed", "param": "accel"}, {"mode": "Q"}),
-    "P": ("move", {"angle": "angle", "speed": "speed_ff", "param": "torque_ff"}, {"mode": "P"}),
-    "jog": ("step", {"delta": "angle", "speed": "speed", "param": "accel"}, {"mode": "Q"}),
-    "step": ("step", {"delta": "angle", "param": "bandwidth"}, {"mode": "T"}),
-    "V": ("speed", {"speed": "speed", "mode": "mode"}, {}),
-    "C": ("torque", {"torque": "torque", "mode": "mode"}, {}),
-    "impedance": ("impedance", {"angle": "pos", "speed": "vel", "torque": "tff", "kp": "kp", "kd": "kd"}, {}),
-}
-"""The page's controls that are rows of :mod:`drempower.actions`: the row, the row's argument for each
-field the page sends, and the arguments the control fixes (its mode). The T-mode speed the page sends is
-not passed: the motor does not use it."""
-PAGE_PARAM: dict[str, dict[int, str]] = {"V": {1: "torque_ff", 2: "ramp"}, "C": {6: "ramp"}}
-"""The row's argument for the page's ``param`` of the velocity and torque controls, by mode (direct
-torque, mode 1, has none: the motor does not use it)."""
 
 
 class Hub:
@@ -80,63 +65,62 @@ class Hub:
         self.read_only = read_only
         # the parts, each holding only what it needs; their state and methods are also the Hub's, under the
         # names the server, the views and the tests use
-        self.parts = keys = MotorKeys(bus)
+        self.motor_keys = keys = MotorKeys(bus)
         self.robot, self.buses, self.bus = keys.robot, keys.buses, keys.bus
         self.joints, self.units = keys.joints, keys.units
         self.where, self.motor, self.label = keys.where, keys.motor, keys.label
         self.key, self.keys, self.names = keys.key, keys.keys, keys.names
-        self.description, self.words = keys.description, keys.words
+        self.description, self.words, self.bitrate = keys.description, keys.words, keys.bitrate
         self.watchdog = Watchdog(keys, watchdog_ms)
         self.arm_watchdog, self.restore_watchdog = self.watchdog.arm, self.watchdog.restore
-        self.watchdog_before = self.watchdog.before
         self.tracking = Targets(keys)
         self.targets, self.commanded = self.tracking.targets, self.tracking.commanded
         self.commanders = self.tracking.commanders
         self.idle_of, self.idle_commanded = self.tracking.idle_of, self.tracking.idle_commanded
-        self.lims = MotorLimits(keys)
-        self.limits, self.do_limits, self.shown_limits = self.lims.limits, self.lims.read, self.lims.shown
-        self.joint_words = self.lims.joint_words
-        self.cards = Cards(keys, self.lims, None if self.robot is None else self.robot.health_run)
-        self.do_cards, self.health_events, self.trends = self.cards.read, self.cards.health_events, self.cards.trends
-        self.params = Params(keys, self.lims, self._control)
-        self.do_read_params, self.do_write_param, self.saved = self.params.read, self.params.write, self.params.saved
+        self.motor_limits = lim = MotorLimits(keys)
+        self.limits, self.do_limits, self.shown_limits = lim.limits, lim.read, lim.shown
+        self.joint_words = lim.joint_words
+        self.cards = Cards(keys, lim, None if self.robot is None else self.robot.health_run)
+        self.do_cards, self.health_events = self.cards.read, self.cards.health_events
+        self.params = Params(keys, lim, self._control)
+        self.do_read_params, self.do_write_param = self.params.read, self.params.write
         self.do_save, self.do_backup, self.do_restore = self.params.save, self.params.backup, self.params.restore
         self._scan_lock = threading.Lock()
         self._proposals: dict[int, Any] = {}
         """The Tuning view's gains proposed and not yet written, by key (:mod:`drempower.dash.propose`)."""
         self._halt = threading.Event()
-        self._estops = 0
-        """ESTOPs pressed so far: a request issued before the latest is fenced (see :meth:`issued`)."""
-        self._issued = threading.local()
-        """The ESTOP count when the request the calling worker runs was issued (None: not a page's)."""
+        self.fencing = Fence()
+        self.ticket, self.fence, self.issued = self.fencing.ticket, self.fencing.fence, self.fencing.issued
+        self.fenced, self.check_fence = self.fencing.fenced, self.fencing.check
         self.service = actions.Service(
             keys,
             actions.Policy(
                 read_only=lambda: _READ_ONLY if self.read_only else None,
                 fence=self._fence_row,
                 enable_fix=keys.enable_fix,
-                limits=self.lims.check,
+                limits=lim.check,
                 ready=self._ready,
                 log=log,
                 state_timeout=0.2,
+                interrupted=self.fenced,
             ),
         )
         """The command service every row of a page goes through."""
         self.sampler = s = Sampler(keys, self.tracking, self.watchdog, poll_hz)
-        self.t0, self.samples, self.take_samples, self.watch = s.t0, s.samples, s.take_samples, s.watch
-        self.watched, self.take_param_samples, self.measure_load = s.watched, s.take_param_samples, s.measure_load
-        self.budget, self.budget_text, self.param_samples = s.budget, s.budget_text, s.param_samples
+        self.t0, self.take_samples, self.watch, self.watched = s.t0, s.take_samples, s.watch, s.watched
+        self.take_param_samples, self.measure_load = s.take_param_samples, s.measure_load
+        self.budget_text = s.budget_text
 
     # state that the parts own and a caller may set
 
     @property
     def motors(self) -> dict[int, dict[str, Any]]:
         """The motors the scan found, by key."""
-        return self.parts.found
+        return self.motor_keys.found
 
     @motors.setter
     def motors(self, found: dict[int, dict[str, Any]]) -> None:
-        self.parts.found = found
+        self.motor_keys.found = found
 
     @property
     def watchdog_ms(self) -> int | None:
@@ -159,23 +143,12 @@ class Hub:
         return self.sampler.scanning
 
     @property
-    def samples_total(self) -> int:
-        return self.sampler.samples_total
-
-    @property
     def load(self) -> float:
         return self.sampler.load
 
     @property
     def frame_rate(self) -> float:
         return self.sampler.frame_rate
-
-    def bitrate(self) -> int | None:
-        """The CAN bit rate (bit/s) when the transport knows it (the slowest bus's over a robot); a serial
-        link's baud rate is not the CAN bit rate and is never taken for it."""
-        rates = [b.transport.wire_bitrate for _, b in self.buses]
-        known = [r for r in rates if r]
-        return min(known) if known and len(known) == len(rates) else None
 
     @staticmethod
     def columns() -> dict[str, str]:
@@ -187,32 +160,16 @@ class Hub:
     def do_scan(self, progress: Callable[[int, int, list[dict[str, Any]]], None]) -> list[dict[str, Any]]:
         """Scan ids 1-63 of every bus in four groups, calling ``progress(done, 63 * buses, found)`` after each."""
         with self._scan_lock:
-            found = self._scan(progress)
+            self.sampler.scanning = True
+            try:
+                found = self.motor_keys.scan(progress)
+            finally:
+                self.sampler.scanning = False
         self.motors = {m["id"]: m for m in found}
         for i in self.motors:
             self.do_limits(i)
         if self.watchdog_ms:
             self.arm_watchdog(sorted(self.motors))
-        return found
-
-    def _scan(self, progress: Callable[[int, int, list[dict[str, Any]]], None]) -> list[dict[str, Any]]:
-        found: list[dict[str, Any]] = []
-        self.sampler.scanning = True
-        try:
-            for k, (name, bus) in enumerate(self.buses):
-                timeout = min(bus.timeout, 0.2)
-                for lo in range(1, 64, 16):
-                    group = range(lo, min(lo + 16, 64))
-                    for info in bus.scan(group, timeout=timeout, versions=True):
-                        key = k * KEYS_PER_BUS + info.id
-                        entry: dict[str, Any] = {"id": key, "hw": info.hw_version, "fw": info.fw_version}
-                        if self.robot is not None:
-                            joint = self.joints.get(key, {}).get("joint")
-                            entry.update(bus=name, motor=info.id, joint=joint)
-                        found.append(entry)
-                    progress(k * 63 + group[-1], 63 * len(self.buses), found)
-        finally:
-            self.sampler.scanning = False
         return found
 
     def do_rate(self, who: str, hz: float) -> None:
@@ -225,38 +182,7 @@ class Hub:
             self.motor(i).write_property(_HEARTBEAT, ms)
         self.sampler.heartbeat_ms = ms
 
-    # ------------------------------------------------------------------ parameters
-
     # ------------------------------------------------------------------ control
-
-    def ticket(self) -> int:
-        """What a request issued now carries (the count of ESTOPs pressed so far): take it when the
-        request arrives, before it waits for a worker, and run it with :meth:`issued`."""
-        return self._estops
-
-    def fence(self) -> None:
-        """An ESTOP was pressed: every request issued before it is fenced from now on, whichever page or
-        front end issued it; those issued after (a clear, an enable) run as usual."""
-        self._estops += 1
-
-    def issued(self, ticket: int, fn: Callable[..., Any], *args: Any) -> Any:
-        """Run ``fn(*args)`` in this worker as a request issued with ``ticket``: once an ESTOP came after
-        it was issued, each of its commands but the stopping ones (stop, idle, estop) is refused."""
-        self._issued.ticket = ticket
-        try:
-            return fn(*args)
-        finally:
-            self._issued.ticket = None
-
-    def fenced(self) -> bool:
-        """True when the request this worker runs was issued before the latest ESTOP."""
-        ticket = getattr(self._issued, "ticket", None)
-        return ticket is not None and ticket < self._estops
-
-    def check_fence(self) -> None:
-        """Refuse the rest of a request issued before the latest ESTOP (nothing more is sent)."""
-        if self.fenced():
-            raise ValidationError("an ESTOP was pressed after this request was issued: it was not carried out")
 
     def _control(self, who: str, what: str) -> None:
         """Refuse a command when read-only or fenced, else log it."""
@@ -305,23 +231,28 @@ class Hub:
             return self.do_sync_move(who, args)
         if not isinstance(action, str) or action not in PAGE_CONTROLS:
             raise ValidationError(f"action={action!r}: unknown control action")
-        row, fields, fixed = PAGE_CONTROLS[action]
-        row_args = {"id": args.get("id"), **fixed}
-        row_args.update({arg: args[field] for field, arg in fields.items() if field in args})
-        if action in PAGE_PARAM and "param" in args:  # its meaning is the mode's (the row's words for a bad mode)
-            mode = actions.get(row).arg("mode")
-            given = args.get("mode")
-            name = PAGE_PARAM[action].get(mode.default if given is None else mode.check(given))
-            if name is not None:
-                row_args[name] = args["param"]
-        elif action == "step" and "param" not in args:  # a T step through the motor's own filter
-            row_args["bandwidth"] = float(self.motor(self.key(args)).read_property(_BANDWIDTH))
+        row, row_args, key = self._page_row(args)
+        with self._at_joint(key):
+            return self._run(who, row, row_args).plain
+
+    def _page_row(self, args: dict[str, Any]) -> tuple[str, dict[str, Any], int | None]:
+        """The row of a page's control (:data:`PAGE_CONTROLS`), its arguments at the motor, and the key of
+        the robot joint whose units the page's values are in (None: a bare motor's)."""
+        row, row_args = page_row(args, lambda: float(self.motor(self.key(args)).read_property(_BANDWIDTH)))
         key = self._joint_key(args)
-        if key is None:
-            return self.do_action(who, row, row_args)
-        try:  # a robot joint's values are at the joint: the row runs on the motor's
-            return self.do_action(who, row, self.units[key].to_motor(row, row_args))
+        if key is not None:  # a robot joint's values are at the joint: the row runs on the motor's
+            with self._at_joint(key):
+                row_args = self.units[key].to_motor(row, row_args)
+        return row, row_args, key
+
+    @contextmanager
+    def _at_joint(self, key: int | None) -> Iterator[None]:
+        """A value refused for robot joint ``key`` (given at the joint) in the joint's units."""
+        try:
+            yield
         except FieldRangeError as exc:
+            if key is None:
+                raise
             raise self.joint_words(key, exc) from None
 
     def _joint_key(self, args: dict[str, Any]) -> int | None:
@@ -344,9 +275,14 @@ class Hub:
 
     def _run(self, who: str, name: str, args: dict[str, Any]) -> actions.Outcome:
         checked = self.service.check(name, args)
+        self.service.admit([checked])
+        return self._send(who, checked)
+
+    def _send(self, who: str, checked: actions.Checked) -> actions.Outcome:
+        """An admitted row sent, tracked (whether or not the service then confirms it), concluded."""
         base = self.tracking.base(checked.key) if checked.action.name == "step" else 0.0
-        result = self.service.act(who, checked)
-        self.tracking.track(who, checked.action, checked.key, checked.args, base)  # sent: tracked, confirmed or not
+        result = self.service.send(who, checked)
+        self.tracking.track(who, checked.action, checked.key, checked.args, base)
         return self.service.conclude(checked, result)
 
     def do_row(self, who: str, req: dict[str, Any]) -> dict[str, Any]:
@@ -382,10 +318,8 @@ class Hub:
                     for r, v in shared.items()
                     if r != "mode"
                 }
-            try:
+            with self._at_joint(k):
                 checked.append(self.service.check("move", given))
-            except FieldRangeError as exc:
-                raise self.joint_words(k, exc) from None
         self.service.admit(checked)  # closed loop (the one check: set_angles pays no second), limits, watchdog
         typed = [c.args for c in checked]
         seconds = self._sync_move(who, keys, [t["angle"] for t in typed], typed[0]["speed"], typed[0]["accel"])
@@ -445,13 +379,19 @@ class Hub:
         if mode == "position":
             given = args.get("bandwidth")  # checked as row move's T-mode bandwidth, in its words
             bandwidth = float(m.read_property(_BANDWIDTH)) if given is None else actions.BANDWIDTH.check(given)
-        self.require_enabled([i])
         st = m.get_state()
         u = self.units.get(i)  # a robot joint steps at the joint (deg, r/min there), a bare motor at the motor
         base = st.angle if mode == "position" else st.speed
         if u is not None:
             base = u.angle(st.angle) if mode == "position" else u.speed(st.speed)
         target = base + amp
+        position = {"action": "T", "id": i, "angle": target, "param": bandwidth}
+        row, row_args, key = self._page_row(
+            position if mode == "position" else {"action": "V", "id": i, "speed": target}
+        )
+        with self._at_joint(key):
+            checked = self.service.check(row, row_args)
+            self.service.admit([checked])  # the one closed-loop check: refused before anything is sent
         got: list[MotorState] = []
         bus, node = self.where(i)
         sub = bus.subscribe(got.append, node)
@@ -460,10 +400,9 @@ class Hub:
             if fast:
                 m.write_property(_HEARTBEAT, 2)
             start = time.monotonic()
-            if mode == "position":
-                self.do_control(who, {"action": "T", "id": i, "angle": target, "param": bandwidth})
-            else:
-                self.do_control(who, {"action": "V", "id": i, "speed": target})
+            self._fence_row(checked.action)  # an ESTOP meanwhile: the step is not sent
+            with self._at_joint(key):
+                self._send(who, checked)
             end = time.monotonic() + duration
             while not self._halt.is_set() and not self.fenced() and time.monotonic() < end:
                 self._halt.wait(min(0.02, max(0.0, end - time.monotonic())))  # an ESTOP ends the run too

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import TYPE_CHECKING, Any
 
 from ..client import Bus, Motor
@@ -108,6 +108,23 @@ class MotorKeys:
             f"{j['joint']} (bus {bus}, motor {i})" if j else self.names().get(key, {}).get("name", f"{bus}/motor_{i}")
         )
 
+    def scan(self, progress: Callable[[int, int, list[dict[str, Any]]], None]) -> list[dict[str, Any]]:
+        """Scan ids 1-63 of every bus in four groups, calling ``progress(done, 63 * buses, found)`` after each;
+        returns what was found (``id``: the key; a robot's with its bus, motor and joint)."""
+        found: list[dict[str, Any]] = []
+        for k, (name, bus) in enumerate(self.buses):
+            timeout = min(bus.timeout, 0.2)
+            for lo in range(1, 64, 16):
+                group = range(lo, min(lo + 16, 64))
+                for info in bus.scan(group, timeout=timeout, versions=True):
+                    key = k * KEYS_PER_BUS + info.id
+                    entry: dict[str, Any] = {"id": key, "hw": info.hw_version, "fw": info.fw_version}
+                    if self.robot is not None:
+                        entry.update(bus=name, motor=info.id, joint=self.joints.get(key, {}).get("joint"))
+                    found.append(entry)
+                progress(k * 63 + group[-1], 63 * len(self.buses), found)
+        return found
+
     def enable_fix(self, keys: Sequence[int]) -> str:
         """How to enable the motors of ``keys`` from here: the Enable button, or the command line (a robot's
         joints by name, on the robot file)."""
@@ -123,6 +140,13 @@ class MotorKeys:
         return f"robot {os.path.basename(self.robot.spec.source)}: " + "; ".join(
             f"{name}: {bus.transport.description}" for name, bus in self.buses
         )
+
+    def bitrate(self) -> int | None:
+        """The CAN bit rate (bit/s) when the transport knows it (the slowest bus's over a robot); a serial
+        link's baud rate is not the CAN bit rate and is never taken for it."""
+        rates = [b.transport.wire_bitrate for _, b in self.buses]
+        known = [r for r in rates if r]
+        return min(known) if known and len(known) == len(rates) else None
 
     def names(self) -> dict[int, dict[str, Any]]:
         """How the page names each motor it knows (the joints of a robot file, the motors found), by key:

@@ -39,8 +39,9 @@ class Host:
             out.append(decode_command(f.arbitration_id, f.data))
         return out
 
-    def state_reads(self) -> int:
-        return sum(isinstance(m, ReadParam) and m.address == AXIS0_CURRENT_STATE for m in self.sent())
+    def state_reads(self) -> list[int]:
+        """The motors whose axis state was read, in order."""
+        return [m.node for m in self.sent() if isinstance(m, ReadParam) and m.address == AXIS0_CURRENT_STATE]
 
     def clear(self) -> None:
         self.all.clear()
@@ -116,7 +117,7 @@ def test_the_closed_loop_check_reads_each_state_once_and_the_command_none(bus: d
         host.clear()
         out = service.run("test", "move", {"id": 1, "angle": angle})
         assert out.said == "move sent"
-        assert host.state_reads() == 1  # the service's read; the gate learnt it and the move paid none
+        assert host.state_reads() == [1]  # the service's read; the gate learnt it and the move paid none
         assert [type(m).__name__ for m in host.sent()] == ["ReadParam", "PositionQ"]
 
 
@@ -189,3 +190,15 @@ def test_a_fence_refuses_all_but_a_stop(bus: drempower.Bus, host: Host) -> None:
             service.run("page", name, {"id": 1})
     assert host.sent() == []
     assert service.run("page", "idle", {"id": 1}).said == "idle sent"
+
+
+def test_the_confirmation_waits_its_settle_time_on_the_bus_clock_unless_interrupted(bus: drempower.Bus) -> None:
+    bus.transport.bus.motors[2].inject_error(MotorError.DRV_FAULT)  # type: ignore[attr-defined]
+    waits = []
+    for policy in ({"settle": 0.5}, {"settle": 0.5, "interrupted": lambda: True}):
+        t0 = bus.now()
+        with pytest.raises(DrEmpowerError, match="motor_2 did not enter closed loop"):
+            _service(bus, **policy).run("test", "enable", {"id": 2})
+        waits.append(bus.now() - t0)
+    assert waits[0] >= 0.5  # the virtual clock: the whole settle time, asked again and again
+    assert waits[1] < 0.02  # an ESTOP since the request ends the wait at the first answer

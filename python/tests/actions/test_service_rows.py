@@ -1,5 +1,5 @@
 """The command service's confirmation of rows run together (a front end that enables several motors at
-once, as the bridge's services do): one wait for all, cut short by the front end's fence; on the
+once, as the bridge's services do): one wait for all, cut short by the policy's ``interrupted``; on the
 simulator's virtual clock."""
 
 from __future__ import annotations
@@ -43,24 +43,25 @@ def test_rows_run_together_share_one_wait_and_name_each_motor_in_order(bus: drem
     took = bus.now() - t0
     assert str(info.value) == f"motor_1 {_IDLE}; motor_3 {_IDLE}"  # the words of one row's, in the rows' order
     assert sim.motors[2].state == AxisState.CLOSED_LOOP_CONTROL
-    # one wait of ENABLE_SETTLE for the three, not one a motor (virtual s: exact, whatever the machine)
-    assert actions.ENABLE_SETTLE <= took < 2 * actions.ENABLE_SETTLE, took
+    # one wait of the policy's settle for the three, not one a motor (virtual s: exact, whatever the machine)
+    settle = service.policy.settle
+    assert settle <= took < 2 * settle, took
 
 
-def test_the_front_ends_stop_ends_the_wait_early(bus: drempower.Bus) -> None:
+def test_the_policys_interrupted_ends_the_wait_of_all_early(bus: drempower.Bus) -> None:
     sim = bus.transport.bus  # type: ignore[attr-defined]
     sim.motors[2].inject_error(MotorError.DRV_FAULT)
-    service = actions.Service(actions.OneBus(bus))
-    rows = _enable_all(service, [1, 2])
     asked: list[float] = []
 
     def stop() -> bool:  # an estop came in once the motors were asked twice
         asked.append(bus.now())
         return len(asked) >= 2
 
+    service = actions.Service(actions.OneBus(bus), actions.Policy(interrupted=stop))
+    rows = _enable_all(service, [1, 2])
     t0 = bus.now()
     with pytest.raises(DrEmpowerError, match=f"^{re.escape('motor_2 ' + _IDLE)}$"):
-        service.confirm_all(rows, stop=stop)
+        service.confirm_all(rows)
     assert len(asked) == 2 and bus.now() - t0 < actions.ENABLE_SETTLE / 2
 
 
