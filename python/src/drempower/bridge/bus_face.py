@@ -63,10 +63,6 @@ def check_joint_value(face: BusFace, topic: str, j: JointSpec, g: Gearing, x: fl
     return value
 
 
-SERVICE_ROWS = {"estop": "estop", "clear_errors": "clear", "enable": "enable"}
-"""Each service's row of :mod:`drempower.actions`, run for every motor served."""
-_FENCED = "{service} not done: an estop called after it came first (call clear_errors, then enable)"
-"""A service call an estop that arrived after it fenced off (see :mod:`.order`)."""
 _WHO = "the bridge"
 """Who runs the bridge's own rows, as the command service logs it."""
 ENABLE_FIX = "(call the enable service, or drempower enable {ids})"

@@ -22,16 +22,20 @@ from .. import actions
 from ..actions import settle
 from ..errors import DrEmpowerError
 from . import rmw, rosmsg
-from .bus_face import _FENCED, SERVICE_ROWS, BusFace
+from .bus_face import BusFace
 from .motors import ServedMotors
 from .order import ServiceOrder
 
-__all__ = ["SERVICES", "Services"]
+__all__ = ["FENCED", "SERVICES", "SERVICE_ROWS", "Services"]
 
 _log = logging.getLogger("drempower.bridge")
 
 SERVICES = ("estop", "clear_errors", "enable")
 """The services, in the order their entities are declared."""
+SERVICE_ROWS = {"estop": "estop", "clear_errors": "clear", "enable": "enable"}
+"""Each service's row of :mod:`drempower.actions`, run for every motor served."""
+FENCED = "{service} not done: an estop called after it came first (call clear_errors, then enable)"
+"""A service call an estop that arrived after it fenced off (see :mod:`.order`)."""
 
 
 class Services:
@@ -139,7 +143,7 @@ class Services:
                 for key in keys:
                     checked = through.check(row, {"id": key})
                     if not face.act_unless(stale, partial(through.act, f"ROS 2 {service}", checked)):
-                        return False, _FENCED.format(service=service)
+                        return False, FENCED.format(service=service)
                     sent.append(checked)
             except Exception as exc:  # a reply in every case: the caller waits for one
                 failures.append(f"{face.name or face.prefix}: {exc}")
@@ -148,7 +152,7 @@ class Services:
         except DrEmpowerError as exc:  # which did not get there and why, in the service's words
             failures.append(str(exc))
         if stale():
-            return False, _FENCED.format(service=service)
+            return False, FENCED.format(service=service)
         if failures:
             return False, f"{service} failed: " + "; ".join(failures)
         return True, done + self._served()
