@@ -94,15 +94,23 @@ class GoalRunner:
         }
         period = 1.0 / self.feedback_rate
 
-        def at(states: Mapping[str, _States]) -> tuple[dict[str, float], dict[str, float]]:
-            """Each joint's position (rad) and speed (rad/s) in ``states``."""
-            pos, speed = {}, {}
+        def at(states: Mapping[str, _States]) -> dict[str, float]:
+            """Each joint's position (rad) in ``states``."""
+            return {
+                joint_of[(b, i)][0]: joint_of[(b, i)][1].position(st)
+                for b, sts in states.items()
+                for i, st in sts.items()
+            }
+
+        def speeds(states: Mapping[str, _States], of: Mapping[str, float]) -> dict[str, float]:
+            """The speed (rad/s) in ``states`` of each joint in ``of``."""
+            out = {}
             for b, sts in states.items():
                 for i, st in sts.items():
                     n, u = joint_of[(b, i)]
-                    pos[n] = u.position(st)
-                    speed[n] = abs(u.position(_moved(st)) - pos[n])
-            return pos, speed
+                    if n in of:
+                        out[n] = abs(u.position(_moved(st)) - u.position(st))
+            return out
 
         clock: dict[str, float] = {"calls": 0, "t0": 0.0, "next": 0.0}
 
@@ -110,9 +118,9 @@ class GoalRunner:
             if cancel.is_set():
                 raise GoalCanceled
             got = {bus: fn() for bus, fn in work.items()}
-            actual, speed = at(got)
-            for n, v in speed.items():
-                tol.check_path_speed(n, v)
+            if tol.path_speed:  # only what a tolerance asks for: this runs at every cycle
+                for n, v in speeds(got, tol.path_speed).items():
+                    tol.check_path_speed(n, v)
             now = time.monotonic()
             clock["calls"] += 1
             if clock["calls"] == 2:
@@ -120,6 +128,7 @@ class GoalRunner:
             if clock["calls"] >= 2 and now >= clock["next"]:
                 late = now - clock["next"] >= period  # the first one, or a stall: start again from now
                 clock["next"] = now + period if late else clock["next"] + period
+                actual = at(got)
                 sample = tr.sample(min(now - clock["t0"], tr.duration)).positions
                 feedback(names, sample, [actual.get(n, math.nan) for n in names])
             return got
@@ -141,9 +150,9 @@ class GoalRunner:
                 lane.bus: dict(zip(lane.ids, buses[lane.bus].request([_fast_read(i) for i in lane.ids]), strict=True))
                 for lane in lanes
             }
-            actual, speed = at(states)
+            actual = at(states)
             feedback(names, end, [actual[n] for n in names])
-            off = tol.off_goal(names, end, actual, speed)
+            off = tol.off_goal(names, end, actual, speeds(states, actual))
             if not off:
                 return
             if time.monotonic() > deadline:
