@@ -6,7 +6,8 @@ Everything goes through the client's public API (:class:`~drempower.client.Bus`,
 ESTOP fence, the Enable button's words, the limits each motor holds, the watchdog).
 The parts: :mod:`.keys` (where each motor lives and its name), :mod:`.sampling`
 (samples, polling, plots, bus load), :mod:`.targets` (what was set moving, by whom),
-:mod:`.limits`, :mod:`.cards`, :mod:`.params` and :mod:`.watchdog`. Methods named
+:mod:`.limits`, :mod:`.cards`, :mod:`.params`, :mod:`.watchdog`, :mod:`.fence` and
+:mod:`.controls` (the page's controls as rows). Methods named
 ``do_*`` block (they wait for replies) and are run in a worker thread by the web server.
 """
 
