@@ -162,7 +162,7 @@ def test_the_enable_service_succeeds_only_once_the_motors_are_in_closed_loop(ser
         resp, _ = _call(ros, served.bridge.service_keys["enable"], 1)
         assert resp.success is False
         assert resp.message == (
-            "enable failed: motor 2 did not enter closed loop (state idle): its error flags are set: "
+            "enable failed: motor_2 did not enter closed loop (state idle): its error flags are set: "
             "clear errors first, then enable again"
         )
         assert served.sim.bus.motors[1].state == AxisState.CLOSED_LOOP_CONTROL  # the other one was enabled
@@ -170,6 +170,41 @@ def test_the_enable_service_succeeds_only_once_the_motors_are_in_closed_loop(ser
         resp, _ = _call(ros, served.bridge.service_keys["enable"], 3)
         assert resp.success is True and resp.message == "closed loop on motors 1, 2"
         assert m2.state == AxisState.CLOSED_LOOP_CONTROL
+
+
+def test_a_faulted_enable_is_worded_as_the_dashboard_and_the_cli_word_it(served: Served) -> None:
+    """The enable service, the dashboard's enable and the command line's (``drempower actions enable``: the
+    command service on one bus) say the same words after their own prefix for a motor that refuses closed
+    loop: they all go through the one command service."""
+    pytest.importorskip("aiohttp")
+    from drempower import actions, open_bus
+    from drempower.dash import Hub
+    from drempower.errors import DrEmpowerError
+    from drempower.protocol.flags import MotorError
+
+    served.sim.bus.motors[2].inject_error(MotorError.DRV_FAULT)
+    with session(connect=[served.endpoint]) as ros:
+        resp, _ = _call(ros, served.bridge.service_keys["enable"], 1)
+    assert resp.success is False and resp.message.startswith("enable failed: ")
+    bridge_words = resp.message.removeprefix("enable failed: ")
+
+    def faulted() -> Any:
+        bus = open_bus("sim", motors=[1, 2], clock="virtual", stop_on_close=False)
+        bus.transport.bus.motors[2].inject_error(MotorError.DRV_FAULT)  # type: ignore[attr-defined]
+        return bus
+
+    with faulted() as bus, pytest.raises(DrEmpowerError) as cli:
+        actions.Service(actions.OneBus(bus)).run("command line", "enable", {"id": 2})  # as run_row runs it
+    bus = faulted()
+    hub = Hub(bus, poll_hz=50)
+    try:
+        with pytest.raises(DrEmpowerError) as dash:
+            hub.do_action("page", "enable", {"id": 2})
+    finally:
+        hub.close()
+        bus.close()
+    assert bridge_words == str(cli.value) == str(dash.value)
+    assert bridge_words.startswith("motor_2 did not enter closed loop (state idle): its error flags are set")
 
 
 def test_the_clear_errors_service_succeeds_only_once_no_error_remains(served: Served) -> None:
@@ -183,7 +218,7 @@ def test_the_clear_errors_service_succeeds_only_once_no_error_remains(served: Se
         resp, _ = _call(ros, served.bridge.service_keys["clear_errors"], 1)
         assert resp.success is False
         assert resp.message == (
-            "clear_errors failed: motor 1 errors remain after clearing: see its errors "
+            "clear_errors failed: motor_1 errors remain after clearing: see its errors "
             "(an encoder error needs zeroing first)"
         )
         next(iter(served.bridge.faces.values())).bus.motor(1).set_zero_position()  # as drempower zero does

@@ -203,6 +203,24 @@ def test_estop_clear_errors_and_enable_reach_every_bus(served: ServedRobot) -> N
         pub.undeclare()
 
 
+def test_an_enable_a_joint_refuses_names_it_as_the_dashboard_does(served: ServedRobot) -> None:
+    """The enable service on a robot goes through the command service for every joint of every bus: the
+    joint that refuses closed loop is named as the dashboard names a robot's joint (name, bus, motor), the
+    others are enabled; the keys of two buses with the same motor id do not mix."""
+    from drempower.protocol.flags import MotorError
+
+    served.motor("right", 1).inject_error(MotorError.DRV_FAULT)  # elbow; shoulder is motor 1 of bus left
+    with session(connect=[served.endpoint]) as ros:
+        resp, _ = _call(ros, served.bridge.service_keys["enable"], 1)
+    assert resp.success is False
+    assert resp.message == (
+        "enable failed: elbow (bus right, motor 1) did not enter closed loop (state idle): its error flags are "
+        "set: clear errors first, then enable again"
+    )
+    assert served.motor("left", 1).state == AxisState.CLOSED_LOOP_CONTROL
+    assert served.motor("left", 2).state == AxisState.CLOSED_LOOP_CONTROL
+
+
 def test_options_that_do_not_match_the_buses_are_refused(robot_file: Path) -> None:
     spec = load_robot(robot_file)
     with session(listen=[f"tcp/127.0.0.1:{free_port()}"]) as sess:

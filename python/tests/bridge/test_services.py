@@ -132,11 +132,12 @@ def test_an_estop_behind_an_enable_waiting_for_closed_loop_is_not_delayed(
     """An enable waits (up to ENABLE_SETTLE s) for closed loop: an estop from the same caller right behind
     it is answered at once and fences it; the enable then says the estop came first, not that the motors
     failed to enter closed loop. The wait is made 3 s long, so that an estop queued behind it (2.9 s) and
-    one answered at once (a few bus frames) are told apart on however busy a machine."""
-    import drempower.actions
+    one answered at once (a few bus frames) are told apart on however busy a machine, and so are an
+    enable whose wait the estop ended and one that waited it out."""
+    import drempower.actions.settle
     from drempower.protocol.flags import MotorError
 
-    monkeypatch.setattr(drempower.actions, "ENABLE_SETTLE", 3.0)
+    monkeypatch.setattr(drempower.actions.settle, "ENABLE_SETTLE", 3.0)  # the command service reads it here
     bridge, sim, endpoint = slow
     sim.bus.motors[8].inject_error(MotorError.DRV_FAULT)  # refuses closed loop: the enable waits for it
     caller = session(connect=[endpoint])
@@ -149,7 +150,9 @@ def test_an_estop_behind_an_enable_waiting_for_closed_loop_is_not_delayed(
         assert _reply(stop).success is True
         took = time.monotonic() - t0
         late = _reply(enable)
+        ended = time.monotonic() - t0
         assert took < 1.0, took  # not behind the enable's wait (2.9 s more)
+        assert ended < 1.5, ended  # the estop ended the enable's wait too (it would have run 2.9 s more)
         assert late.success is False
         assert late.message == "enable not done: an estop called after it came first (call clear_errors, then enable)"
         time.sleep(0.05)

@@ -237,17 +237,27 @@ class Service:
     def confirm(self, checked: Checked) -> None:
         """Step 5: after an ``enable`` or a ``clear``, each motor got there, else a DrEmpowerError saying
         which did not and why (a broadcast: each motor its bus knows)."""
-        why_not = CONFIRMED.get(checked.action.name)
-        if why_not is None:
-            return
+        self.confirm_all([checked])
+
+    def confirm_all(self, rows: Sequence[Checked]) -> None:
+        """Step 5 for rows run together (a front end that enables several motors at once, as the bridge's
+        ``enable`` service does): the motors of each bus are read together and given ``policy.settle`` s in
+        all (on each bus's clock), ``policy.interrupted`` ending the wait early; a DrEmpowerError names,
+        in the rows' order, each motor that did not get there and why."""
+        groups: dict[tuple[str, int], tuple[Callable[..., dict[int, str]], Any, list[tuple[str | None, int]]]] = {}
+        for c in rows:
+            why_not = CONFIRMED.get(c.action.name)
+            if why_not is None:
+                continue
+            for bus, node in c.places:
+                nodes = sorted(bus.known_motors()) if node == 0 else [node]
+                group = groups.setdefault((c.action.name, id(bus)), (why_not, bus, []))
+                group[2].extend((self.motors.label(c.key) if node != 0 else None, n) for n in nodes)
+        started = {id(bus): bus.now() for _, bus, _ in groups.values()}
         failures: list[str] = []
-        within, stop = self.policy.settle, self.policy.interrupted
-        for bus, node in checked.places:
-            if node:
-                left = why_not(bus, [node], within, stop)
-                failures += [f"{self.motors.label(checked.key)} {why}" for why in left.values()]
-            else:
-                left = why_not(bus, sorted(bus.known_motors()), within, stop)
-                failures += [f"{motor_name(n)} {why}" for n, why in sorted(left.items())]
+        for why_not, bus, motors in groups.values():
+            left = max(0.0, self.policy.settle - (bus.now() - started[id(bus)]))
+            why = why_not(bus, [n for _, n in motors], left, self.policy.interrupted)
+            failures.extend(f"{label or motor_name(n)} {why[n]}" for label, n in motors if n in why)
         if failures:
             raise DrEmpowerError("; ".join(failures))

@@ -27,6 +27,7 @@ from ..robot.joint import Gearing
 from ..transports.base import Transport
 from ..transports.zenoh_wire import BRIDGE_ORIGIN, DEFAULT_PREFIX, decode_frames, encode_frames, keys, split_origin
 from .hub import BusHub, axis_changed, driven_nodes
+from .motors import ServedMotors
 from .remote_policy import RemotePolicy
 
 _log = logging.getLogger("drempower.bridge")
@@ -50,23 +51,20 @@ COMMAND_ROWS = {
 what a value is at the joint with its unit, and the gearing's conversion to the motor."""
 
 
-def check_joint_value(topic: str, j: JointSpec, g: Gearing, x: float) -> float:
-    """``x`` (SI at joint ``j``) in motor units, checked by ``topic``'s row of :mod:`drempower.actions`
-    (its words, naming the joint): the one check of the bridge's command topics and its ros2_control topics."""
+def check_joint_value(face: BusFace, topic: str, j: JointSpec, g: Gearing, x: float) -> float:
+    """``x`` (SI at joint ``j`` of bus ``face``) in motor units, checked by ``topic``'s row through the
+    face's command service (the table's words, naming the joint); nothing is sent: the one check of the
+    bridge's command topics and its ros2_control topics."""
     row, field, what, unit, convert = COMMAND_ROWS[topic]
     try:
-        value: float = actions.validate(actions.get(row), {"id": j.id, field: getattr(g, convert)(x)})[field]
+        value: float = face.service.check(row, {"id": j.id, field: getattr(g, convert)(x)}).args[field]
     except ValidationError as exc:
         raise ValidationError(f"joint {j.name!r} ({what} {x:g} {unit}): {exc}") from None
     return value
 
 
-SERVICE_ROWS = {"estop": "estop", "clear_errors": "clear", "enable": "enable"}
-"""Each service's row of :mod:`drempower.actions`, run for every motor served."""
-ROSOUT_WARN = 30
-"""``rcl_interfaces/msg/Log``'s WARN level."""
-_FENCED = "{service} not done: an estop called after it came first (call clear_errors, then enable)"
-"""A service call an estop that arrived after it fenced off (see :mod:`.order`)."""
+_WHO = "the bridge"
+"""Who runs the bridge's own rows, as the command service logs it."""
 ENABLE_FIX = "(call the enable service, or drempower enable {ids})"
 """How a refusal for a motor not in closed loop names the fix, in the terms of a ROS 2 caller."""
 
@@ -202,6 +200,9 @@ class BusFace:
                 }
                 told["where"] = f"{next(iter(held.values())).where} (the bridge's)"
                 self._limits[str(j.id)] = told
+        self.service = actions.Service(ServedMotors([(name, self.bus, self.joints)]))
+        """The command service of this bus's rows (:mod:`drempower.actions.service`): the table's checks
+        and words, an enable or a clear confirmed."""
         self.policy = RemotePolicy(self.bus)
         """What remote peers may send (see :mod:`.remote_policy`)."""
         self.refused = 0
@@ -328,15 +329,15 @@ class BusFace:
 
     def estop(self) -> None:
         """Emergency stop of every motor of this bus that the bridge serves (the ``estop`` row of
-        :mod:`drempower.actions` for each), ahead of queued client frames."""
+        :mod:`drempower.actions` for each, through :attr:`service`), ahead of queued client frames."""
         self._fence()
         with self._write_lock:
             for i in self.ids:
-                actions.run(self.bus, "estop", {"id": i})
+                self.service.run(_WHO, "estop", {"id": i})
 
-    def run_unless(self, row: str, node: int, stale: Callable[[], bool]) -> bool:
-        """Row ``row`` of :mod:`drempower.actions` for motor ``node`` on the bridge's bus, ahead of queued
-        client samples, unless ``stale()`` once the bus is free.
+    def act_unless(self, stale: Callable[[], bool], act: Callable[[], object]) -> bool:
+        """``act()`` (a row sent on the bridge's bus) ahead of queued client samples, unless ``stale()``
+        once the bus is free.
 
         ``stale`` is asked while the bus is held, so an estop that makes it
         true either finds this action's frames written already (and comes after them) or
@@ -345,7 +346,7 @@ class BusFace:
         with self._write_lock:
             if stale():
                 return False
-            actions.run(self.bus, row, {"id": node})
+            act()
             return True
 
     def relearn(self) -> None:
@@ -441,11 +442,11 @@ class BusFace:
 
     def idle(self, nodes: set[int] | None = None) -> None:
         """Set motors ``nodes`` (default: those served; 0: every motor) to idle: the ``idle`` row of
-        :mod:`drempower.actions` for each, so the bridge's bus knows them idle (its safety gate then
-        refuses motion to them until an ``enable``)."""
+        :mod:`drempower.actions` for each through :attr:`service`, so the bridge's bus knows them idle
+        (its safety gate then refuses motion to them until an ``enable``)."""
         nodes = set(self.ids) if nodes is None else nodes
         for n in [0] if 0 in nodes else sorted(nodes):
-            actions.run(self.bus, "idle", {"id": n})
+            self.service.run(_WHO, "idle", {"id": n})
 
     def stop(self) -> None:
         """Stop serving; idle every motor a client set moving (hold a robot file's joint that holds). The bus

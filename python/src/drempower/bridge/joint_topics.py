@@ -114,7 +114,7 @@ class JointTopics:
         o, s = bridge.options, bridge.session
         ns = bridge.namespace
         zid = str(s.zid())
-        self._faces = {j.name: (j, g, f) for j, g, f in bridge._joints}
+        self._faces = {j.name: (j, g, f) for j, g, f in bridge.joints}
         self._lock = threading.Lock()
         self._closed = threading.Event()
         self._decls: list[Any] = []
@@ -200,7 +200,7 @@ class JointTopics:
             j, g, face = self._faces[name]
             vals = {key: float(arrays[key][k]) if len(arrays[key]) else 0.0 for key in used}
             for key, x in vals.items():  # each value by its row of the actions table, in the table's words
-                check_joint_value(f"{key}_commands", j, g, x)
+                check_joint_value(face, f"{key}_commands", j, g, x)
             try:
                 msgs = out.setdefault(face.name, [])
                 if used == ("position",):
@@ -257,7 +257,7 @@ class JointTopics:
                 batches = self._messages(msg)
                 self._send(batches)
             except (DrEmpowerError, ValueError) as exc:
-                self.bridge._refuse(self.commands_topic, str(exc))  # logged, and told on /rosout
+                self.bridge.refuse(self.commands_topic, str(exc))  # logged, and told on /rosout
                 self.refused += 1  # after the words: a reader of the count finds them said
                 return
             now = time.monotonic()
@@ -304,7 +304,7 @@ class JointTopics:
 
     def _fire(self, now: float) -> None:
         """Carry out what the watchdogs find gone (caller holds the lock)."""
-        if self.bridge._closed.is_set():  # the bridge idles what was driven
+        if self.bridge.closed:  # the bridge idles what was driven
             return
         for name, dog in self._dogs.items():
             fired = dog.tick(now)
@@ -322,7 +322,7 @@ class JointTopics:
 
     def _tick_loop(self) -> None:
         period = min(dog.timeout for dog in self._dogs.values()) / 4
-        while not self._closed.wait(period) and not self.bridge._closed.is_set():
+        while not self._closed.wait(period) and not self.bridge.closed:
             with self._lock:
                 if self._registered is False:
                     self._fire(time.monotonic())
