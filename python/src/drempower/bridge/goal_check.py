@@ -2,7 +2,7 @@
 
 :class:`GoalCheck` turns a goal into a :class:`CheckedGoal` (the trajectory in rad
 at the joints, each joint's path and goal tolerances with the server's defaults
-filled in) or refuses it with :class:`GoalError`, whose ``code`` is the name of
+filled in) or refuses it with :class:`_GoalError`, whose ``code`` is the name of
 the action result's error code (``INVALID_JOINTS``, ``INVALID_GOAL``, ...).
 """
 
@@ -16,14 +16,14 @@ from typing import Any
 from ..errors import DrEmpowerError, ValidationError
 from ..motion.trajectory import Trajectory
 
-__all__ = ["CheckedGoal", "GoalCanceled", "GoalCheck", "GoalError", "Tolerances"]
+__all__ = ["CheckedGoal", "GoalCheck", "Tolerances"]
 
 
-class GoalCanceled(Exception):
+class _Canceled(Exception):  # a signal between the action's parts, never raised to a caller
     """A cancel request (or a newer goal) stopped the goal."""
 
 
-class GoalError(DrEmpowerError):
+class _GoalError(DrEmpowerError):
     """A goal refused or ended with an error code of the action's result (``code``: its name)."""
 
     def __init__(self, code: str, text: str) -> None:
@@ -49,7 +49,7 @@ class Tolerances:
     def check_path_speed(self, name: str, speed: float) -> None:
         """Raise ``PATH_TOLERANCE_VIOLATED`` when joint ``name``'s ``speed`` (rad/s) is above its path's."""
         if name in self.path_speed and speed > self.path_speed[name]:
-            raise GoalError(
+            raise _GoalError(
                 "PATH_TOLERANCE_VIOLATED",
                 f"joint {name!r}: speed {speed:.4g} rad/s above the path tolerance's "
                 f"velocity {self.path_speed[name]:g} rad/s",
@@ -65,9 +65,9 @@ class Tolerances:
             if abs(actual[n] - end[k]) > self.goal[n] or (n in self.goal_speed and speed[n] > self.goal_speed[n])
         ]
 
-    def late(self, name: str, err: float) -> GoalError:
+    def late(self, name: str, err: float) -> _GoalError:
         """``GOAL_TOLERANCE_VIOLATED`` for joint ``name``, ``err`` rad from the goal once the time is up."""
-        return GoalError(
+        return _GoalError(
             "GOAL_TOLERANCE_VIOLATED",
             f"joint {name!r}: {err:.4g} rad from the goal {self.goal_time:g} s after the trajectory's end "
             f"(goal tolerance {self.goal[name]:g} rad)",
@@ -108,11 +108,11 @@ class GoalCheck:
     def check_components(goal: Any) -> None:
         """Refuse a goal with component tolerances (multi-DOF joints), before it waits for its start."""
         if len(goal.component_path_tolerance) or len(goal.component_goal_tolerance):
-            raise GoalError("INVALID_JOINTS", "component tolerances are for multi-DOF joints, which are not served")
+            raise _GoalError("INVALID_JOINTS", "component tolerances are for multi-DOF joints, which are not served")
 
     def check(self, goal: Any) -> CheckedGoal:
         """``goal`` (a ``FollowJointTrajectory_Goal``) checked, where the joints are read now when its first
-        point is after 0 s; :class:`GoalError` when it is refused."""
+        point is after 0 s; :class:`_GoalError` when it is refused."""
         tr = self.trajectory(goal)
         names = list(tr.joints)
         path, path_speed = self._tolerances(goal, names, "path")
@@ -127,22 +127,22 @@ class GoalCheck:
         names = [str(n) for n in tr.joint_names]
         unknown = [n for n in names if n not in self.joints]
         if unknown or not names:
-            raise GoalError(
+            raise _GoalError(
                 "INVALID_JOINTS",
                 f"joint {unknown[0]!r} is not served (joints: {', '.join(self.joints)})"
                 if unknown
                 else "the trajectory names no joint",
             )
         if len(set(names)) != len(names):
-            raise GoalError("INVALID_JOINTS", "a joint is named twice")
+            raise _GoalError("INVALID_JOINTS", "a joint is named twice")
         if len(goal.multi_dof_trajectory.joint_names):
-            raise GoalError("INVALID_JOINTS", "multi-DOF joints are not served")
+            raise _GoalError("INVALID_JOINTS", "multi-DOF joints are not served")
         if not len(tr.points):
-            raise GoalError("INVALID_GOAL", "the trajectory has no point")
+            raise _GoalError("INVALID_GOAL", "the trajectory has no point")
         times, rows, vels = [], [], []
         for k, p in enumerate(tr.points):
             if len(p.positions) != len(names):
-                raise GoalError("INVALID_GOAL", f"point {k}: {len(p.positions)} positions for {len(names)} joints")
+                raise _GoalError("INVALID_GOAL", f"point {k}: {len(p.positions)} positions for {len(names)} joints")
             times.append(p.time_from_start.sec + p.time_from_start.nanosec * 1e-9)
             rows.append([float(x) for x in p.positions])
             vels.append([float(x) for x in p.velocities] if len(p.velocities) == len(names) else None)
@@ -155,7 +155,7 @@ class GoalCheck:
         try:
             return Trajectory(times, rows, velocities, joints=names)  # type: ignore[arg-type]
         except ValidationError as exc:
-            raise GoalError("INVALID_GOAL", str(exc)) from exc
+            raise _GoalError("INVALID_GOAL", str(exc)) from exc
 
     def _tolerances(self, goal: Any, names: Sequence[str], which: str) -> tuple[dict[str, float], dict[str, float]]:
         """Position and velocity tolerances per joint (``path`` or ``goal``), defaults filled in."""
@@ -164,7 +164,7 @@ class GoalCheck:
         vel: dict[str, float] = {}
         for tol in getattr(goal, f"{which}_tolerance"):
             if tol.name not in pos:
-                raise GoalError("INVALID_JOINTS", f"{which}_tolerance names joint {tol.name!r}, not in the trajectory")
+                raise _GoalError("INVALID_JOINTS", f"{which}_tolerance names joint {tol.name!r}, not in the trajectory")
             if tol.position < 0:
                 pos[tol.name] = math.inf
             elif tol.position > 0:

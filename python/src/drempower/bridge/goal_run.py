@@ -22,7 +22,7 @@ from ..motion.follow_sync import stream
 from ..motion.plan import make_plan, robot_lanes, robot_limits
 from ..robot.config import RobotSpec
 from ..robot.joint import Gearing
-from .goal_check import CheckedGoal, GoalCanceled, GoalError
+from .goal_check import CheckedGoal, _Canceled, _GoalError
 
 __all__ = ["Feedback", "GoalRunner"]
 
@@ -63,8 +63,8 @@ class GoalRunner:
         return out
 
     def run(self, goal: CheckedGoal, cancel: threading.Event, feedback: Feedback) -> None:
-        """Follow ``goal`` until its joints are within its goal tolerance; :class:`GoalCanceled` once ``cancel``
-        is set (the joints hold), :class:`GoalError` for a tolerance violated or a start too far."""
+        """Follow ``goal`` until its joints are within its goal tolerance; :class:`_Canceled` once ``cancel``
+        is set (the joints hold), :class:`_GoalError` for a tolerance violated or a start too far."""
         tr, names, tol = goal.trajectory, goal.names, goal.tolerances
         all_buses = self._buses
         lanes = robot_lanes(
@@ -85,7 +85,7 @@ class GoalRunner:
                 timeout=None,
             )
         except ValidationError as exc:
-            raise GoalError("INVALID_GOAL", str(exc)) from exc
+            raise _GoalError("INVALID_GOAL", str(exc)) from exc
         for lane in lanes:  # a cancel or a path error holds every joint where it is, as the controller does
             lane.on_timeout = ["hold"] * len(lane.ids)
         buses = {lane.bus: all_buses[lane.bus] for lane in lanes}
@@ -116,7 +116,7 @@ class GoalRunner:
 
         def each(work: Mapping[str, Callable[[], _States]]) -> dict[str, _States]:
             if cancel.is_set():
-                raise GoalCanceled
+                raise _Canceled
             got = {bus: fn() for bus, fn in work.items()}
             if tol.path_speed:  # only what a tolerance asks for: this runs at every cycle
                 for n, v in speeds(got, tol.path_speed).items():
@@ -138,14 +138,14 @@ class GoalRunner:
         try:
             stream(plan, buses, each, self.start_tolerance, False)
         except ValidationError as exc:  # where the joints are is too far from the start
-            raise GoalError("INVALID_GOAL", str(exc)) from exc
+            raise _GoalError("INVALID_GOAL", str(exc)) from exc
         # the last command stands (the last point): wait for the joints to settle within the goal tolerance
         end = tr.sample(tr.duration).positions
         deadline = time.monotonic() + tol.goal_time
         while True:
             if cancel.is_set():
                 _hold(lanes, buses, plan)
-                raise GoalCanceled
+                raise _Canceled
             states = {
                 lane.bus: dict(zip(lane.ids, buses[lane.bus].request([_fast_read(i) for i in lane.ids]), strict=True))
                 for lane in lanes

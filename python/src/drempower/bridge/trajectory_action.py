@@ -53,7 +53,7 @@ from ..robot.config import BusSpec, RobotSpec
 from . import rmw, rosaction
 from .action_wire import ActionWire
 from .bus_face import in_ros_terms
-from .goal_check import GoalCanceled, GoalCheck, GoalError
+from .goal_check import GoalCheck, _Canceled, _GoalError
 from .goal_run import GoalRunner
 
 if TYPE_CHECKING:
@@ -249,9 +249,9 @@ class TrajectoryAction:
             before.join()
         try:
             outcome = self._run(g)
-        except GoalError as exc:
+        except _GoalError as exc:
             outcome = GoalOutcome(rosaction.STATUS["ABORTED"], rosaction.ERROR[exc.code], exc.text)
-        except GoalCanceled:
+        except _Canceled:
             text = "canceled: the joints hold where they are"
             if g.preempted_by is not None:
                 text = f"preempted by goal {uuidlib.UUID(bytes=g.preempted_by)}: the joints hold where they are"
@@ -285,11 +285,11 @@ class TrajectoryAction:
         start = st.sec * 1_000_000_000 + st.nanosec
         while start and time.time_ns() < start:
             if g.cancel.wait(min(0.05, (start - time.time_ns()) / 1e9)):
-                raise GoalCanceled
+                raise _Canceled
 
     def _run(self, g: _Goal) -> GoalOutcome:
         if g.cancel.is_set():  # canceled or preempted before it began: nothing was sent
-            raise GoalCanceled
+            raise _Canceled
         g.status = rosaction.STATUS["EXECUTING"]
         self._publish_status()
         self.check.check_components(g.goal)

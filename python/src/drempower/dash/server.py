@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import asyncio
 import contextlib
-import hmac
 import json
 import math
 import re
@@ -24,17 +23,17 @@ import secrets
 import signal
 import socket
 import time
-from collections.abc import Awaitable, Callable
+from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from importlib import resources
 from typing import Any, ClassVar
-from urllib.parse import urlsplit
 
 from aiohttp import WSMsgType, web
 
 from .. import actions
 from ..errors import DrEmpowerError
+from .access import Access
 from .hub import Hub, bandwidth_range, param_table
 from .logline import log
 from .model_view import ModelView, add_routes
@@ -47,8 +46,6 @@ HEARTBEAT_LOST_S = 0.5
 """A browser silent this long no longer counts as watching (s)."""
 STATUS_S = 0.5
 CARDS_S = 1.0
-_COOKIE = "drempower_dash_token"
-_LOOPBACK_NAMES = ("127.0.0.1", "localhost", "[::1]")
 _ANY_ADDRESS = ("0.0.0.0", "::", "")
 
 
@@ -186,6 +183,7 @@ class Dashboard:
         self._divergences = 0
         """The shadow's divergences sent so far."""
         self.token = token
+        self.access = Access(token)
         self.keep_running = keep_running
         self.clients: set[Client] = set()
         self.stopping = asyncio.Event()
@@ -203,7 +201,7 @@ class Dashboard:
         self.port: int | None = None
         """The bound port, once serving."""
         self._static = resources.files("drempower.dash") / "static"
-        self.app = web.Application(middlewares=[self._auth])
+        self.app = web.Application(middlewares=[self.access.middleware])
         self.app.router.add_get("/", self._index)
         self.app.router.add_get("/ws", self._ws)
         self.app.router.add_get("/static/{path:.+}", self._asset)
@@ -213,38 +211,9 @@ class Dashboard:
 
     # ------------------------------------------------------------------ http
 
-    def _token_ok(self, request: web.Request) -> bool:
-        if self.token is None:
-            return True
-        given = request.query.get("token") or request.cookies.get(_COOKIE) or ""
-        return hmac.compare_digest(given.encode(), self.token.encode())
-
-    def _host_ok(self, request: web.Request) -> bool:
-        """With a token, any Host; without, only a loopback name with the bound port."""
-        if self.token is not None:
-            return True
-        host = (request.headers.get("Host") or "").lower()
-        names = {f"{n}:{self.port}" for n in _LOOPBACK_NAMES}
-        if self.port == 80:
-            names.update(_LOOPBACK_NAMES)
-        return host in names
-
-    @web.middleware
-    async def _auth(
-        self, request: web.Request, handler: Callable[[web.Request], Awaitable[web.StreamResponse]]
-    ) -> web.StreamResponse:
-        if not self._host_ok(request):
-            log(f"refused a request for Host {request.headers.get('Host')!r}")
-            text = "forbidden: this dashboard answers only to 127.0.0.1, localhost and [::1]\n"
-            return web.Response(status=403, text=text)
-        if not self._token_ok(request):
-            return web.Response(status=403, text="forbidden: this dashboard needs the token of its URL\n")
-        return await handler(request)
-
     async def _index(self, request: web.Request) -> web.StreamResponse:
         resp = web.Response(text=(self._static / "index.html").read_text("utf-8"), content_type="text/html")
-        if self.token is not None:
-            resp.set_cookie(_COOKIE, self.token, httponly=True, samesite="Strict")
+        self.access.remember(resp)
         resp.headers["Cache-Control"] = "no-store"
         return resp
 
@@ -274,14 +243,8 @@ class Dashboard:
 
     # ------------------------------------------------------------------ websocket
 
-    def _origin_ok(self, request: web.Request) -> bool:
-        origin = request.headers.get("Origin")
-        if origin is None:  # not a browser (browsers always send it on WebSockets)
-            return True
-        return urlsplit(origin).netloc == request.host
-
     async def _ws(self, request: web.Request) -> web.StreamResponse:
-        if not self._origin_ok(request):
+        if not self.access.origin_ok(request):
             log(f"refused a WebSocket from origin {request.headers.get('Origin')!r}")
             return web.Response(status=403, text="forbidden: cross-origin WebSocket\n")
         ws = web.WebSocketResponse(heartbeat=None, max_msg_size=8 * 1024 * 1024)
@@ -549,7 +512,7 @@ class Dashboard:
         try:
             site = web.TCPSite(runner, host, port)
             await site.start()
-            self.port = int(runner.addresses[0][1])
+            self.port = self.access.port = int(runner.addresses[0][1])
             on_ready(format_url(host, self.port, self.token))
             periodic = [asyncio.ensure_future(self._pump()), asyncio.ensure_future(self._watch_heartbeats())]
             first_scan = asyncio.ensure_future(self._first_scan())  # what is on the bus, before any page asks
