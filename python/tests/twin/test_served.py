@@ -124,3 +124,29 @@ def test_sim_robot_names_a_joint_the_model_lacks(tmp_path: Path, capsys: pytest.
     err = capsys.readouterr().err
     assert code == 2  # a robot file that cannot be used is a validation error
     assert err.count("\n") == 1 and "joint 'knee': model_joint='knee' is not a joint of the model (swing)" in err
+
+
+def test_sensor_noise_on_the_served_twins_readings() -> None:
+    """``--noise``: what a client reads of the served twin scatters by the deviation asked (seeded)."""
+    args = build_parser().parse_args(
+        ["sim", "--robot", str(ROBOTS / "arm6.toml"), "--noise", "position=0.05", "--seed", "4", "--json"]
+    )
+    out, stop = io.StringIO(), threading.Event()
+    thread = threading.Thread(target=sim.run, args=(args, out, stop))
+    thread.start()
+    try:
+        deadline = time.monotonic() + 30.0
+        while '"running"' not in out.getvalue() and time.monotonic() < deadline:
+            time.sleep(0.01)
+        ready = next(r["robot_file"] for r in map(json.loads, out.getvalue().splitlines()) if "robot_file" in r)
+        with open_robot(ready, stop_on_close=False) as robot:
+            base = robot.joint("base_yaw")  # about a vertical axis: at rest where it powered up
+            deg = [math.degrees(base.get_joint_state().position) for _ in range(300)]
+    finally:
+        stop.set()
+        thread.join(10)
+    assert not thread.is_alive()
+    mean = sum(deg) / len(deg)
+    sd = math.sqrt(sum((x - mean) ** 2 for x in deg) / (len(deg) - 1))
+    assert abs(mean) < 0.02  # 300 readings: 7 sigma of the mean
+    assert sd == pytest.approx(0.05, rel=0.25)

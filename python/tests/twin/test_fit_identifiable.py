@@ -1,0 +1,43 @@
+"""The twin fit's identifiability check: each parameter's relative standard error from the final Jacobian,
+and the refusal, naming the joint and the parameter, of one the recording cannot tell."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from drempower.sim.twin_fit import relative_errors
+
+
+def test_standard_errors_of_a_linear_model_match_the_textbook() -> None:
+    rng = np.random.default_rng(1)
+    m = 4000
+    t = np.linspace(0.0, 1.0, m)
+    jac = np.column_stack([np.ones(m), t, np.sin(7 * t)])  # residual = jac @ x - data
+    noise = rng.normal(0.0, 0.1, m)
+    truth = np.array([1.0, 2.0, 3.0])
+    data = jac @ truth + noise
+    x, *_ = np.linalg.lstsq(jac, data, rcond=None)
+    residuals = jac @ x - data
+    se = relative_errors(np, jac, residuals)
+    textbook = np.sqrt(np.diag(np.linalg.inv(jac.T @ jac)) * float(residuals @ residuals) / (m - 3))
+    assert se == pytest.approx(textbook, rel=1e-9)
+    # the scatter of the estimates over many noises is what the standard error says
+    fits = [np.linalg.lstsq(jac, jac @ truth + rng.normal(0.0, 0.1, m), rcond=None)[0] for _ in range(300)]
+    assert np.std(fits, axis=0) == pytest.approx(se, rel=0.15)
+
+
+def test_a_parameter_the_residuals_cannot_tell_has_an_infinite_error() -> None:
+    m = 500
+    t = np.linspace(0.0, 1.0, m)
+    r = np.full(m, 0.01)
+    unused = np.column_stack([t, np.zeros(m)])  # the second parameter changes nothing
+    assert np.isinf(relative_errors(np, unused, r)).tolist() == [False, True]
+    twins = np.column_stack([t, 2 * t, np.cos(t)])  # two parameters with the same effect: only their sum is told
+    se = relative_errors(np, twins, r)
+    assert math.isinf(se[0]) and math.isinf(se[1]) and math.isfinite(se[2])
+    nearly = np.column_stack([t, t + 1e-4 * np.sin(9 * t)])  # nearly alike: told, but poorly
+    apart = np.column_stack([t, np.sin(9 * t)])
+    assert relative_errors(np, nearly, r)[1] > 1000 * relative_errors(np, apart, r)[1]
