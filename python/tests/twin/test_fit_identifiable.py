@@ -29,6 +29,27 @@ def test_standard_errors_of_a_linear_model_match_the_textbook() -> None:
     assert np.std(fits, axis=0) == pytest.approx(se, rel=0.15)
 
 
+def test_residuals_that_follow_each_other_widen_the_error_as_much_as_they_widen_the_scatter() -> None:
+    rng = np.random.default_rng(2)
+    m = 4000
+    t = np.linspace(0.0, 1.0, m)
+    jac = np.column_stack([np.ones(m), np.sin(3 * t), np.cos(11 * t)])
+
+    def slow_noise() -> np.ndarray:  # each residual 0.9 of the one before: what a slow model error leaves
+        e = rng.normal(0.0, 0.1, m)
+        for i in range(1, m):
+            e[i] += 0.9 * e[i - 1]
+        return e
+
+    fits = [np.linalg.lstsq(jac, slow_noise(), rcond=None)[0] for _ in range(200)]
+    noise = slow_noise()
+    x = np.linalg.lstsq(jac, noise, rcond=None)[0]
+    se = relative_errors(np, jac, jac @ x - noise)
+    white = np.sqrt(np.diag(np.linalg.inv(jac.T @ jac)) * float((jac @ x - noise) @ (jac @ x - noise)) / (m - 3))
+    assert np.all(se > 3 * white)  # sqrt(1.9 / 0.1) = 4.4 times
+    assert se == pytest.approx(np.std(fits, axis=0), rel=0.35)
+
+
 def test_a_parameter_the_residuals_cannot_tell_has_an_infinite_error() -> None:
     m = 500
     t = np.linspace(0.0, 1.0, m)

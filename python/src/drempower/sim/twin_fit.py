@@ -255,20 +255,21 @@ def fit_twin(
     uncertainty: dict[str, dict[str, float]] = {j: {} for j in names}
     for i, (j, p) in enumerate(free):
         uncertainty[j][p] = float(rel[i])
-    paths = ", ".join(rec.path for rec in recordings)
-    for i, (j, p) in enumerate(free):
-        at_bound = abs(float(sol.x[i])) > _SPAN - 1e-3
-        if at_bound or not rel[i] <= max_rel_error:
-            why = (
-                f"the fit ran to its bound, {fitted[j][p]:.3g}, a factor 50 from {start[j][p]:.3g}"
-                if at_bound
-                else f"relative standard error {100 * rel[i]:.0f} %, needs <= {100 * max_rel_error:g} %"
-            )
-            raise ValidationError(
-                f"{paths}: joint {j!r}: the recording does not excite its {p} enough to fit it ({why}); record "
-                f"an excitation that moves it more (drempower play --excite with a lower --kd) or keep the "
-                f"robot file's value with --fixed {j}.{p}"
-            )
+    refused = _refused(sol.x, rel, free, max_rel_error)
+    if refused:
+        i, (j, p) = refused[0]
+        paths = ", ".join(rec.path for rec in recordings)
+        why = (
+            f"the fit ran to its bound, {fitted[j][p]:.3g}, a factor 50 from {start[j][p]:.3g}"
+            if math.isfinite(rel[i]) and rel[i] <= max_rel_error
+            else f"relative standard error {100 * rel[i]:.0f} %, needs <= {100 * max_rel_error:g} %"
+        )
+        also = "".join(f"; also {jj}'s {pp} ({100 * rel[k]:.0f} %)" for k, (jj, pp) in refused[1:])
+        raise ValidationError(
+            f"{paths}: joint {j!r}: the recording does not excite its {p} enough to fit it ({why}{also}); record "
+            "an excitation that moves it more (drempower play --excite with a lower --kd) or keep the robot "
+            f"file's value with --fixed {','.join(f'{jj}.{pp}' for _, (jj, pp) in refused)}"
+        )
     final = traces(fitted)
     rms = _rms(recordings, final, every, d_fit)
     rms_nominal = _rms(recordings, base, every, d_fit)
@@ -286,15 +287,27 @@ def fit_twin(
     )
 
 
+def _refused(x: Any, rel: Any, free: Sequence[tuple[str, str]], top: float) -> list[tuple[int, tuple[str, str]]]:
+    """The fitted parameters (index, (joint, parameter)) not told well enough: relative error beyond
+    ``top``, or at the fit's bound; the worst first."""
+    out = [(i, jp) for i, jp in enumerate(free) if not float(rel[i]) <= top or abs(float(x[i])) > _SPAN - 1e-3]
+    return sorted(out, key=lambda item: -float(rel[item[0]]) if math.isfinite(rel[item[0]]) else -math.inf)
+
+
 def relative_errors(np: Any, jac: Any, residuals: Any) -> Any:
     """Each variable's standard error (1 sigma) from the Jacobian ``jac`` of ``residuals`` at the optimum:
     the square roots of the diagonal of ``s^2 (J^T J)^-1``, ``s^2`` the residuals' variance (sum of
-    squares over the degrees of freedom). For a logarithm, its relative error; inf for a variable the
-    residuals do not depend on, or depend on only as some others together do."""
+    squares over the degrees of freedom), times ``(1 + rho) / (1 - rho)`` for residuals that follow each
+    other (``rho`` their correlation with the next: what the model leaves out is slow, and n such
+    residuals tell less than n independent ones). For a logarithm, its relative error; inf for a
+    variable the residuals do not depend on, or depend on only as some others together do."""
     j = np.asarray(jac, dtype=float)
     r = np.asarray(residuals, dtype=float)
     m, n = j.shape
     s2 = float(r @ r) / max(1, m - n)
+    if m > 2 and s2 > 0:
+        rho = min(max(float(r[1:] @ r[:-1]) / float(r @ r), 0.0), 0.99)
+        s2 *= (1 + rho) / (1 - rho)
     norms = np.linalg.norm(j, axis=0)
     out = np.full(n, np.inf)
     live = norms > 0
