@@ -168,6 +168,9 @@ def run_fit(args: argparse.Namespace) -> int:
     )
     for line in render_table(titles, rows, digits=4):
         print(clean(line))
+    worst = max(((e, j, p) for j, row in result.uncertainty.items() for p, e in row.items()), default=None)
+    if worst is not None:
+        print(f"largest relative standard error {100 * worst[0]:.1f} % ({worst[1]}'s {worst[2]})")
     print(
         f"transport delay {1000 * result.delay:.1f} ms; {result.evaluations} replays in {result.seconds:.1f} s "
         f"({result.cpu_seconds:.1f} s of CPU)"
