@@ -1,5 +1,5 @@
 """The twin fit's identifiability check: each parameter's relative standard error from the final Jacobian,
-and the refusal, naming the joint and the parameter, of one the recording cannot tell."""
+and how far an error of the recording's timing moves it (the delay's column of the same Jacobian)."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from drempower.sim.twin_fit import relative_errors
+from drempower.sim.twin_fit import relative_errors, timing_shifts
 
 
 def test_standard_errors_of_a_linear_model_match_the_textbook() -> None:
@@ -62,3 +62,22 @@ def test_a_parameter_the_residuals_cannot_tell_has_an_infinite_error() -> None:
     nearly = np.column_stack([t, t + 1e-4 * np.sin(9 * t)])  # nearly alike: told, but poorly
     apart = np.column_stack([t, np.sin(9 * t)])
     assert relative_errors(np, nearly, r)[1] > 1000 * relative_errors(np, apart, r)[1]
+
+
+def test_the_shift_per_delay_is_what_refitting_with_the_delay_moved_gives() -> None:
+    rng = np.random.default_rng(3)
+    m = 3000
+    t = np.linspace(0.0, 1.0, m)
+    delay = np.sin(5 * t)
+    jac = np.column_stack([np.cos(2 * t), 0.8 * delay + 0.2 * np.cos(17 * t), np.ones(m), delay])
+    shift = timing_shifts(np, jac)
+    data = jac @ np.array([1.0, 2.0, 3.0, 4.0]) + rng.normal(0.0, 0.01, m)
+    best = np.linalg.lstsq(jac, data, rcond=None)[0]
+
+    def refit(d: float) -> np.ndarray:  # the delay held at ``d``, the rest fitted again
+        return np.linalg.lstsq(jac[:, :3], data - jac[:, 3] * d, rcond=None)[0]
+
+    assert refit(best[3]) == pytest.approx(best[:3], rel=1e-9)
+    assert (refit(best[3] + 0.1) - best[:3]) / 0.1 == pytest.approx(shift[:3], rel=1e-6, abs=1e-9)
+    assert shift[3] == pytest.approx(1.0)
+    assert abs(shift[1]) > 3 * abs(shift[0])  # the column most like the delay's moves most with it

@@ -35,7 +35,17 @@ from .twin_replay import PARAMETERS, Recording, Replay, Trace, compare, windowed
 if TYPE_CHECKING:
     from ..robotfile import RobotSpec
 
-__all__ = ["MAX_REL_ERROR", "FitResult", "best_delay", "check_excited", "fit_twin", "relative_errors", "write_fitted"]
+__all__ = [
+    "MAX_REL_ERROR",
+    "TIMING",
+    "FitResult",
+    "best_delay",
+    "check_excited",
+    "fit_twin",
+    "relative_errors",
+    "timing_shifts",
+    "write_fitted",
+]
 
 MIN_SPEED = 0.1
 """rad/s: a joint whose peak recorded speed is below this excites none of its parameters."""
@@ -52,9 +62,12 @@ _SPAN = math.log(50.0)
 """The fit keeps each parameter within a factor 50 of its start."""
 _DELAY_UNIT = 0.01
 """s per unit of the delay variable."""
-MAX_REL_ERROR = 0.05
-"""The largest relative standard error (1 sigma, from the final Jacobian) of a parameter reported as fitted:
-a fitted value is then within 20 % of the truth at 4 sigma, if the model is right."""
+MAX_REL_ERROR = 0.2
+"""The largest uncertainty (relative) of a parameter reported as fitted: its standard error from the final
+Jacobian together with how far a :data:`TIMING` error of the recording's time base would move it."""
+TIMING = 0.001
+"""s: the error of a recording's time base the fit allows for: the replay's step (the twin integrates 1 ms
+at a time, its commands take effect on that grid, and the recorded stamps are good to about as much)."""
 
 
 @dataclass
@@ -66,7 +79,11 @@ class FitResult:
     joints: dict[str, dict[str, float]]
     nominal: dict[str, dict[str, float]]
     uncertainty: dict[str, dict[str, float]]
-    """Per joint and fitted parameter: its relative standard error (1 sigma; 0.05 = 5 %)."""
+    """Per joint and fitted parameter: its relative uncertainty (0.05 = 5 %): the standard error (1 sigma)
+    and the ``timing`` shift together (root sum of squares)."""
+    timing: dict[str, dict[str, float]]
+    """Per joint and fitted parameter: how much (relative) it moves per :data:`TIMING` of error in the
+    recording's time base (the fitted delay moved, the other parameters fitted again)."""
     rms_deg: dict[str, float]
     rms_deg_nominal: dict[str, float]
     delay: float
@@ -83,6 +100,7 @@ class FitResult:
             "rms_deg_nominal": self.rms_deg_nominal,
             "nominal": self.nominal,
             "uncertainty": self.uncertainty,
+            "timing": self.timing,
             "delay_s": self.delay,
             "evaluations": self.evaluations,
             "seconds": self.seconds,
@@ -251,10 +269,14 @@ def fit_twin(
     )
     fitted = physical(sol.x)
     d_fit = float(sol.x[-1]) * _DELAY_UNIT if fit_delay else float(d0)
-    rel = relative_errors(np, sol.jac, sol.fun)
+    se = relative_errors(np, sol.jac, sol.fun)
+    shift = timing_shifts(np, sol.jac) * (TIMING / _DELAY_UNIT) if fit_delay else np.zeros(len(sol.x))
+    rel = np.sqrt(se * se + shift * shift)
     uncertainty: dict[str, dict[str, float]] = {j: {} for j in names}
+    timing: dict[str, dict[str, float]] = {j: {} for j in names}
     for i, (j, p) in enumerate(free):
         uncertainty[j][p] = float(rel[i])
+        timing[j][p] = float(shift[i])
     refused = _refused(sol.x, rel, free, max_rel_error)
     if refused:
         i, (j, p) = refused[0]
@@ -262,7 +284,10 @@ def fit_twin(
         why = (
             f"the fit ran to its bound, {fitted[j][p]:.3g}, a factor 50 from {start[j][p]:.3g}"
             if math.isfinite(rel[i]) and rel[i] <= max_rel_error
-            else f"relative standard error {100 * rel[i]:.0f} %, needs <= {100 * max_rel_error:g} %"
+            else (
+                f"uncertain by {100 * rel[i]:.0f} %: standard error {100 * se[i]:.0f} %, {100 * abs(shift[i]):.0f} % "
+                f"per ms of timing error; needs <= {100 * max_rel_error:g} %"
+            )
         )
         also = "".join(f"; also {jj}'s {pp} ({100 * rel[k]:.0f} %)" for k, (jj, pp) in refused[1:])
         raise ValidationError(
@@ -277,6 +302,7 @@ def fit_twin(
         {j: fitted[j] for j in names},
         {j: nominal[j] for j in names},
         uncertainty,
+        timing,
         rms,
         rms_nominal,
         d_fit,
@@ -292,6 +318,20 @@ def _refused(x: Any, rel: Any, free: Sequence[tuple[str, str]], top: float) -> l
     ``top``, or at the fit's bound; the worst first."""
     out = [(i, jp) for i, jp in enumerate(free) if not float(rel[i]) <= top or abs(float(x[i])) > _SPAN - 1e-3]
     return sorted(out, key=lambda item: -float(rel[item[0]]) if math.isfinite(rel[item[0]]) else -math.inf)
+
+
+def timing_shifts(np: Any, jac: Any) -> Any:
+    """Per variable: how much it moves per unit of the last one (the delay) when that is moved and the others
+    are fitted again, from the Jacobian ``jac`` at the optimum: ``cov[i, last] / cov[last, last]`` of
+    ``(J^T J)^-1`` (a regression of each variable on the delay; 0 for the delay itself is not returned:
+    its own entry is 1). Large for a parameter that the delay mimics (a light joint's damping)."""
+    j = np.asarray(jac, dtype=float)
+    norms = np.linalg.norm(j, axis=0)
+    if norms[-1] == 0:
+        return np.zeros(j.shape[1])
+    safe = np.where(norms > 0, norms, 1.0)
+    cov = np.linalg.pinv((j / safe).T @ (j / safe)) / np.outer(safe, safe)
+    return cov[:, -1] / cov[-1, -1]
 
 
 def relative_errors(np: Any, jac: Any, residuals: Any) -> Any:
