@@ -5,7 +5,8 @@ excitation (see ``fit_support``).
 The fit recovers each fitted joint's armature, damping and friction loss within 20 %; on a held-out
 recording the fitted twin's RMS position error is at most half the nominal twin's; a joint the recording
 does not move is refused in one line naming it and the parameter, before the fit; so is, after it, a
-parameter the recording does not tell (its relative standard error too large), and ``--fixed`` keeps it.
+parameter the recording does not tell well enough (its uncertainty beyond --max-error), and ``--fixed``
+keeps it.
 """
 
 from __future__ import annotations
@@ -118,24 +119,32 @@ def test_check_draws_robot_and_twin(recordings: dict[str, Path], capsys: pytest.
     assert all(row["rms_deg"] < 0.1 for row in truth.values()), truth
 
 
-def test_a_parameter_the_recording_does_not_tell_is_refused_and_can_be_kept(
+def test_a_parameter_not_told_well_enough_is_refused_and_can_be_kept(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    """A stiff impedance damping (kd 2 Nm s/rad, 20 times the joint's own) hides wrist_pitch's damping: its
-    uncertainty (standard error and the shift per ms of timing error) comes out beyond the 20 % allowed."""
+    """The fit's uncertainty of each parameter decides: beyond ``--max-error`` (here set just under the
+    largest found), that parameter is refused in one line naming the joint and the parameter; ``--fixed``
+    keeps it at the robot file's value and fits the rest."""
     assert NOISE.position > 0
     real = truth_robot(tmp_path, {"wrist_pitch": TRUTH["wrist_pitch"]})
-    rec = record(real, tmp_path / "stiff.mcap", 6.0, joints=["wrist_pitch"], kd=2.0)
+    rec = record(real, tmp_path / "wrist.mcap", 6.0, joints=["wrist_pitch"])
     argv = ["twin", "fit", str(rec), "--robot", str(ARM), "--joints", "wrist_pitch", "--json"]
-    assert main(argv) == 2
+    assert main(argv) == 0, capsys.readouterr().err
+    got = json.loads(capsys.readouterr().out)
+    uncertain, timing = got["uncertainty"]["wrist_pitch"], got["timing"]["wrist_pitch"]
+    assert set(uncertain) == set(TRUTH["wrist_pitch"]) and all(0 < u <= 0.2 for u in uncertain.values())
+    assert all(abs(timing[p]) <= uncertain[p] for p in uncertain)
+    worst = max(uncertain, key=lambda p: uncertain[p])
+    limit = max(0.001, round(0.9 * uncertain[worst], 4))
+    assert main([*argv, "--max-error", str(limit)]) == 2
     captured = capsys.readouterr()
     assert captured.out == ""
     err = captured.err.strip().splitlines()
     assert len(err) == 1, err
-    assert "joint 'wrist_pitch': the recording does not excite its damping enough to fit it" in err[0]
-    assert "standard error" in err[0] and "per ms of timing error; needs <= 20 %" in err[0]
+    assert f"joint 'wrist_pitch': the recording does not excite its {worst} enough to fit it (uncertain by" in err[0]
+    assert f"per ms of timing error; needs <= {100 * limit:g} %" in err[0]
     fixed = err[0].rsplit("--fixed ", 1)[1].split(",")
-    assert "wrist_pitch.damping" in fixed
+    assert fixed[0] == f"wrist_pitch.{worst}"
     # kept at the robot file's value, the rest is fitted
     assert main([*argv, "--fixed", ",".join(fixed)]) == 0, capsys.readouterr().err
     got = json.loads(capsys.readouterr().out)
