@@ -45,8 +45,9 @@ def register(sub: Any) -> None:
             "recording's transport delay by least squares (scipy, the fit extra) on the differences of position, "
             "speed and torque. --write OUT.toml writes a robot file whose twin uses them and the model copy "
             "OUT.xml beside it. A recording that does not excite a parameter is refused, before the fit (a joint that "
-            "barely moves) or after it (a parameter whose relative standard error, from the final Jacobian, exceeds "
-            "--max-error): --fixed keeps such a parameter at the robot file's value. Example: drempower twin "
+            "barely moves) or after it (a parameter whose uncertainty, its standard error and how far a 1 ms error of "
+            "the recording's timing moves it, from the final Jacobian, exceeds --max-error): --fixed keeps such a "
+            "parameter at the robot file's value. Example: drempower twin "
             "fit run.mcap --robot arm6.toml --write arm6.fitted.toml"
         ),
     )
@@ -69,7 +70,8 @@ def register(sub: Any) -> None:
         type=float,
         default=MAX_REL_ERROR,
         metavar="E",
-        help=f"the largest relative standard error of a fitted parameter (default {MAX_REL_ERROR:g}: 5 %%)",
+        help=f"the largest relative uncertainty of a fitted parameter (default {MAX_REL_ERROR:g}: "
+        f"{100 * MAX_REL_ERROR:g} %%)",
     )
     f.add_argument("--max-evaluations", type=int, default=40, metavar="N", help="least-squares steps (default 40)")
     add_json_arg(f)
@@ -170,7 +172,7 @@ def run_fit(args: argparse.Namespace) -> int:
         print(clean(line))
     worst = max(((e, j, p) for j, row in result.uncertainty.items() for p, e in row.items()), default=None)
     if worst is not None:
-        print(f"largest relative standard error {100 * worst[0]:.1f} % ({worst[1]}'s {worst[2]})")
+        print(f"largest uncertainty {100 * worst[0]:.1f} % ({worst[1]}'s {worst[2]})")
     print(
         f"transport delay {1000 * result.delay:.1f} ms; {result.evaluations} replays in {result.seconds:.1f} s "
         f"({result.cpu_seconds:.1f} s of CPU)"
