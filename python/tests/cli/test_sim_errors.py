@@ -98,3 +98,16 @@ def test_python_can_options_reach_the_interface(cli: Cli) -> None:
         "channel": server.channel,
         "options": {"host": server.host, "port": server.port},
     } in r.records()
+
+
+def test_noise_out_of_range_names_the_field_value_and_range(cli: Cli, tmp_path: Path) -> None:
+    r = cli("sim", "--noise", "position=0.01,speed=12", "--duration", "0.1")
+    assert r.code == 2
+    assert "argument --noise: noise speed=12.0: expected a standard deviation 0..10 r/min" in r.err
+    assert "Traceback" not in r.err
+    robot = tmp_path / "noisy.toml"
+    robot.write_text('[buses.arm]\ninterface = "sim"\nnoise = {torque = -1}\n[joints.a]\nbus = "arm"\nid = 1\n')
+    r = cli("sim", "--robot", str(robot), "--duration", "0.1")
+    assert r.code == 2 and r.out == ""
+    err = _one_line(r.err)
+    assert err == f"drempower: error: {robot}: [buses.arm]: noise torque=-1: expected a standard deviation 0..1 Nm\n"

@@ -4,7 +4,7 @@ The "real" robot is ``arm6.xml`` with :data:`TRUTH` as its joints' armature, dam
 (``friction = "model"``: those are the totals), on the virtual clock; a recorder takes every frame of
 its bus stamped with the simulated time (the host's as it sends them, the motors' as they reach the
 bus), while the robot follows an excitation in impedance mode and the motors send their state every
-5 ms, 3 ms late.
+5 ms, 3 ms late, with sensor noise (:data:`NOISE`) on what they report.
 """
 
 from __future__ import annotations
@@ -18,6 +18,7 @@ from drempower.protocol.ids import Frame
 from drempower.records.recorder import Recorder
 from drempower.robot import open_robot
 from drempower.sim.faults import Faults
+from drempower.sim.noise import SensorNoise
 
 from .conftest import ROBOTS
 
@@ -31,6 +32,9 @@ TRUTH: dict[str, dict[str, float]] = {
 }
 """The "real" arm's joint parameters (totals at the joint); the example's twin has others (the model's
 damping 0.05 and friction loss 0.02 plus the motor's rotor inertia and friction)."""
+NOISE = SensorNoise(position=0.015, speed=0.2, torque=0.01, seed=11)
+"""The "real" motors' sensor noise (standard deviations: deg, r/min, Nm): an encoder's position to about
+a 24000th of a turn, its speed and the torque estimate from the current a little filtered."""
 EPOCH = 1_800_000_000.0
 """Unix time (s) of the recordings' simulated time 0."""
 
@@ -65,12 +69,14 @@ def record(
     heartbeat_ms: int = 5,
     delay: float = 0.003,
     kd: float = 0.1,
+    noise: SensorNoise | None = NOISE,
 ) -> Path:
     """Record ``robot_file``'s arm following an excitation of ``joints`` (default all; the others hold)
     for ``seconds`` s on the virtual clock, to the MCAP file ``out``; the motors' frames reach the
     recorder ``delay`` s late (a transport delay). Impedance ``kp`` 20 Nm/rad and ``kd`` Nm s/rad: a
-    ``kd`` well above a joint's own damping would hide it."""
-    with open_robot(robot_file, sim={"clock": "virtual", "faults": Faults(reply_delay=delay)}) as robot:
+    ``kd`` well above a joint's own damping would hide it. ``noise``: on the motors' state frames."""
+    sim_options = {"clock": "virtual", "faults": Faults(reply_delay=delay), "noise": noise}
+    with open_robot(robot_file, sim=sim_options) as robot:
         bus = robot.buses["arm"]
         sim = bus.transport.bus
         names = list(robot.spec.joints) if joints is None else list(joints)

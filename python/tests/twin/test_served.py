@@ -8,7 +8,10 @@ import math
 import threading
 import time
 import uuid
+from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -71,11 +74,10 @@ id = 6
     return path
 
 
-def test_the_twin_behind_adapter_uart_python_can_and_socketcand(tmp_path: Path) -> None:
-    adapter, uart = tmp_path / "adapter", tmp_path / "uart"
-    channel = f"drempower-twin-{uuid.uuid4().hex}"
-    served = _file(tmp_path, adapter, uart, channel, 0)
-    args = build_parser().parse_args(["sim", "--robot", str(served), "--json"])
+@contextmanager
+def _served(*argv: str) -> Iterator[list[dict[str, Any]]]:
+    """``drempower sim ARGV --json`` on a thread: its records once it runs; stopped (and checked) after."""
+    args = build_parser().parse_args(["sim", *argv, "--json"])
     out, stop = io.StringIO(), threading.Event()
     thread = threading.Thread(target=sim.run, args=(args, out, stop))
     thread.start()
@@ -83,7 +85,19 @@ def test_the_twin_behind_adapter_uart_python_can_and_socketcand(tmp_path: Path) 
         deadline = time.monotonic() + 30.0
         while '"running"' not in out.getvalue() and time.monotonic() < deadline:
             time.sleep(0.01)
-        records = [json.loads(line) for line in out.getvalue().splitlines()]
+        yield [json.loads(line) for line in out.getvalue().splitlines()]
+    finally:
+        stop.set()
+        thread.join(10)
+    assert not thread.is_alive()
+    assert '"stopped": true' in out.getvalue()
+
+
+def test_the_twin_behind_adapter_uart_python_can_and_socketcand(tmp_path: Path) -> None:
+    adapter, uart = tmp_path / "adapter", tmp_path / "uart"
+    channel = f"drempower-twin-{uuid.uuid4().hex}"
+    served = _file(tmp_path, adapter, uart, channel, 0)
+    with _served("--robot", str(served)) as records:
         assert records[0]["joints"] == ["base_yaw", "shoulder", "elbow", "wrist_roll", "wrist_pitch", "flange_roll"]
         port = next(r["port"] for r in records if r.get("interface") == "socketcand")
         with open_robot(_file(tmp_path, adapter, uart, channel, port), stop_on_close=False) as robot:
@@ -106,11 +120,6 @@ def test_the_twin_behind_adapter_uart_python_can_and_socketcand(tmp_path: Path) 
                 "wrist_pitch": 5,
                 "flange_roll": 6,
             }
-    finally:
-        stop.set()
-        thread.join(10)
-    assert not thread.is_alive()
-    assert '"stopped": true' in out.getvalue()
 
 
 def test_sim_robot_names_a_joint_the_model_lacks(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -124,3 +133,16 @@ def test_sim_robot_names_a_joint_the_model_lacks(tmp_path: Path, capsys: pytest.
     err = capsys.readouterr().err
     assert code == 2  # a robot file that cannot be used is a validation error
     assert err.count("\n") == 1 and "joint 'knee': model_joint='knee' is not a joint of the model (swing)" in err
+
+
+def test_sensor_noise_on_the_served_twins_readings() -> None:
+    """``--noise``: what a client reads of the served twin scatters by the deviation asked (seeded)."""
+    with _served("--robot", str(ROBOTS / "arm6.toml"), "--noise", "position=0.05", "--seed", "4") as records:
+        ready = next(r["robot_file"] for r in records if "robot_file" in r)
+        with open_robot(ready, stop_on_close=False) as robot:
+            base = robot.joint("base_yaw")  # about a vertical axis: at rest where it powered up
+            deg = [math.degrees(base.get_joint_state().position) for _ in range(300)]
+    mean = sum(deg) / len(deg)
+    sd = math.sqrt(sum((x - mean) ** 2 for x in deg) / (len(deg) - 1))
+    assert abs(mean) < 0.02  # 300 readings: 7 sigma of the mean
+    assert sd == pytest.approx(0.05, rel=0.25)

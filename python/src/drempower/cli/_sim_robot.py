@@ -31,6 +31,7 @@ from collections.abc import Callable, Sequence
 from contextlib import ExitStack
 from typing import Any
 
+from ..errors import ConfigError, ValidationError
 from ..robot.config import RobotSpec, load_robot
 from ..sim import (
     Faults,
@@ -42,6 +43,7 @@ from ..sim import (
     attach_uart_pty,
 )
 from ..sim.hand_link import twin_hand
+from ..sim.noise import sensor_noise
 from ..sim.twin import TwinRunner, couple_robot
 from ..transports.factory import adapter_bitrate_refusal
 from ._sim_firmware import firmware_of
@@ -98,6 +100,17 @@ def _serve(
         stack.enter_context(attach_python_can(bus, str(channel), kind))
         where["channel"] = channel
     return where
+
+
+def _noise(args: argparse.Namespace, spec: RobotSpec, name: str) -> Any:
+    """The sensor noise of bus ``name``: ``--noise``, else its entry's ``noise`` table (checked by the bus)."""
+    given = getattr(args, "noise", None)
+    if given is not None:
+        return given
+    try:
+        return sensor_noise(spec.buses[name].options.get("noise"))
+    except ValidationError as exc:
+        raise ConfigError(f"{spec.source}: [buses.{name}]: {exc}") from None
 
 
 def _bitrate(spec: RobotSpec, name: str, given: int | None) -> int | None:
@@ -185,6 +198,7 @@ def serve_robot(args: argparse.Namespace, show: Callable[..., None], stop: threa
             config_dir=None if args.config_dir is None else os.path.join(args.config_dir, name),
             firmware=firmware_of(args, spec.buses[name].options),
             thermal=spec.buses[name].options.get("thermal"),
+            noise=_noise(args, spec, name),
             **spec.sim_thermal(name),
         )
         for name in spec.buses

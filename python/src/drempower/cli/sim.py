@@ -24,6 +24,7 @@ from ..sim import (
     attach_uart_pty,
 )
 from ..sim.bus import DEFAULT_HOST_QUEUE, parse_host_queue
+from ..sim.noise import SensorNoise, parse_noise
 from ._connect import ascii_float, bitrate, can_option, parse_ids, positive
 from ._output import clean, json_line
 from ._sim_firmware import add_firmware_options, firmware_changes, firmware_of
@@ -87,7 +88,14 @@ def register(sub: Any) -> None:
     f.add_argument(
         "--serial-garbage", type=_rate, default=0.0, metavar="P", help="probability of garbage before a pty frame"
     )
-    f.add_argument("--seed", type=int, default=0, help="seed of the fault generator (default 0)")
+    f.add_argument(
+        "--noise",
+        type=_noise,
+        metavar="KEY=SD,...",
+        help="sensor noise on every state frame: standard deviations position=DEG (0..1), speed=RPM (0..10), "
+        "torque=NM (0..1), e.g. position=0.01,speed=0.2 (seeded by --seed)",
+    )
+    f.add_argument("--seed", type=int, default=0, help="seed of the fault and noise generators (default 0)")
     p.add_argument(
         "--json",
         action="store_true",
@@ -102,6 +110,13 @@ def _host_queue(text: str) -> str:
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc).split(": ", 1)[1]) from None
     return text
+
+
+def _noise(text: str) -> SensorNoise:
+    try:
+        return parse_noise(text)
+    except ValidationError as exc:
+        raise argparse.ArgumentTypeError(str(exc)) from None
 
 
 def _rate(text: str) -> float:
@@ -190,6 +205,7 @@ def run(args: argparse.Namespace, out: TextIO | None = None, stop: threading.Eve
             seed=args.seed,
             config_dir=args.config_dir,
             firmware=firmware_of(args),
+            noise=getattr(args, "noise", None),
         )
     except SavedConfigError as exc:  # a file in --config-dir that cannot be used: the user's to fix (exit 2)
         raise ValidationError(str(exc)) from None

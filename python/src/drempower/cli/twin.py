@@ -8,6 +8,7 @@ import sys
 import time
 from typing import Any
 
+from ..sim.twin_fit import MAX_REL_ERROR
 from ._output import add_json_arg, clean, json_line, render_table
 from ._usage import UsageError
 
@@ -43,7 +44,10 @@ def register(sub: Any) -> None:
             "joint's armature, damping and frictionloss (totals at the joint, the motor's share included) and the "
             "recording's transport delay by least squares (scipy, the fit extra) on the differences of position, "
             "speed and torque. --write OUT.toml writes a robot file whose twin uses them and the model copy "
-            "OUT.xml beside it. A recording that does not excite a parameter is refused. Example: drempower twin "
+            "OUT.xml beside it. A recording that does not excite a parameter is refused, before the fit (a joint that "
+            "barely moves) or after it (a parameter whose uncertainty, its standard error and how far a 1 ms error of "
+            "the recording's timing moves it, from the final Jacobian, exceeds --max-error): --fixed keeps such a "
+            "parameter at the robot file's value. Example: drempower twin "
             "fit run.mcap --robot arm6.toml --write arm6.fitted.toml"
         ),
     )
@@ -54,6 +58,21 @@ def register(sub: Any) -> None:
     )
     f.add_argument("--write", metavar="OUT.toml", help="write the fitted robot file there (and the model OUT.xml)")
     f.add_argument("--delay", type=float, metavar="S", help="the transport delay if known (s; default: fitted)")
+    f.add_argument(
+        "--fixed",
+        type=_names,
+        default=[],
+        metavar="JOINT.PARAM,...",
+        help="keep these at the robot file's values, e.g. flange_roll.damping",
+    )
+    f.add_argument(
+        "--max-error",
+        type=float,
+        default=MAX_REL_ERROR,
+        metavar="E",
+        help=f"the largest relative uncertainty of a fitted parameter (default {MAX_REL_ERROR:g}: "
+        f"{100 * MAX_REL_ERROR:g} %%)",
+    )
     f.add_argument("--max-evaluations", type=int, default=40, metavar="N", help="least-squares steps (default 40)")
     add_json_arg(f)
     f.set_defaults(func=run_fit)
@@ -90,6 +109,8 @@ def run_fit(args: argparse.Namespace) -> int:
         raise UsageError(f"--write {args.write}: expected a robot file name ending in .toml")
     if args.delay is not None and not 0 <= args.delay <= 0.1:
         raise UsageError(f"--delay {args.delay}: out of range: allowed 0..0.1 s")
+    if not 0.001 <= args.max_error <= 1.0:
+        raise UsageError(f"--max-error {args.max_error}: out of range: allowed 0.001..1 (a relative error)")
     if not 1 <= args.max_evaluations <= 1000:
         raise UsageError(f"--max-evaluations {args.max_evaluations}: out of range: allowed 1..1000")
     spec, recs = _load(args, args.recordings)
@@ -104,7 +125,14 @@ def run_fit(args: argparse.Namespace) -> int:
             print(f"\rreplay {n}: cost {cost:.4g} ({time.monotonic() - started:.0f} s)", end="", file=sys.stderr)
 
     result = fit_twin(
-        spec, recs, args.joints, delay=args.delay, max_evaluations=args.max_evaluations, progress=progress
+        spec,
+        recs,
+        args.joints,
+        delay=args.delay,
+        fixed=args.fixed,
+        max_evaluations=args.max_evaluations,
+        max_rel_error=args.max_error,
+        progress=progress,
     )
     if not args.json and sys.stderr.isatty():
         print(file=sys.stderr)
@@ -142,6 +170,9 @@ def run_fit(args: argparse.Namespace) -> int:
     )
     for line in render_table(titles, rows, digits=4):
         print(clean(line))
+    worst = max(((e, j, p) for j, row in result.uncertainty.items() for p, e in row.items()), default=None)
+    if worst is not None:
+        print(f"largest uncertainty {100 * worst[0]:.1f} % ({worst[1]}'s {worst[2]})")
     print(
         f"transport delay {1000 * result.delay:.1f} ms; {result.evaluations} replays in {result.seconds:.1f} s "
         f"({result.cpu_seconds:.1f} s of CPU)"

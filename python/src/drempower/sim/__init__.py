@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from .defaults import MotorModel
     from .faults import Faults
     from .motor import SimMotor
+    from .noise import SensorNoise
     from .runner import SimRunner
     from .socketcand import SocketcandServer, attach_socketcand
     from .timing import BusStats, frame_bits
@@ -40,6 +41,7 @@ __all__ = [
     "SimBus",
     "SimMotor",
     "SimRunner",
+    "SensorNoise",
     "SocketcandServer",
     "UartPty",
     "attach_adapter_pty",
@@ -65,6 +67,7 @@ _HOMES = {
     "defaults": ("MotorModel",),
     "faults": ("Faults",),
     "motor": ("SimMotor",),
+    "noise": ("SensorNoise",),
     "runner": ("SimRunner",),
     "socketcand": (
         "SocketcandServer",

@@ -38,6 +38,7 @@ from .defaults import MotorModel
 from .faults import Faults
 from .firmware import Firmware, firmware_from
 from .motor import SimMotor
+from .noise import Readings, SensorNoise, sensor_noise
 from .thermal import ThermalModel, thermal_model
 from .timing import BusStats
 from .wire import Wire
@@ -80,6 +81,8 @@ class SimBus:
     ``thermal`` (a :class:`~drempower.sim.thermal.ThermalModel`, or some of its constants by name) sets every
     motor's heat constants, ``motor_thermal`` (``{motor id: {name: value}}``) one motor's over those (a robot
     file's ``[joints.NAME.thermal]``); each constant in the range of :data:`~drempower.robotfile.THERMAL_KEYS`.
+    ``noise`` (a :class:`~drempower.sim.noise.SensorNoise`, or its fields by name) adds sensor noise to the
+    motors' state frames, seeded by its own ``seed`` or else ``seed``.
     """
 
     STEP = 0.001
@@ -105,6 +108,7 @@ class SimBus:
         factory_id: int | None = None,
         thermal: ThermalModel | Mapping[str, float] | None = None,
         motor_thermal: Mapping[int, Mapping[str, float]] | None = None,
+        noise: SensorNoise | Mapping[str, Any] | None = None,
     ) -> None:
         self.firmware = firmware_from(
             firmware,
@@ -130,6 +134,9 @@ class SimBus:
         self.faults = faults if faults is not None else Faults()
         self.rng = random.Random(seed)
         """The generator of every random fault."""
+        given = sensor_noise(noise)
+        self.readings = None if given is None else Readings(given, seed)
+        """The noise on the motors' state frames (:mod:`drempower.sim.noise`), or None."""
         self.lock = threading.RLock()
         self.tx_done = threading.Condition(self.lock)
         """Notified (under ``lock``) each time a host frame has left its host (end of its transmission)."""
@@ -310,7 +317,10 @@ class SimBus:
                     m.receive(msg, out.append)
                 except Exception as exc:
                     self._decoder.ignore(faulty, f"{type(exc).__name__}: {exc}")
-            return [] if ident in self.faults.silent else out
+            if ident in self.faults.silent:
+                return []
+            readings = self.readings
+            return out if readings is None else [readings.report(f) for f in out]
 
     def uart_reply(self, frame: Frame, sink: Listener) -> None:
         """Send a motor frame out of a UART attachment as the faults allow: lost, corrupted, or late.
@@ -356,12 +366,16 @@ class SimBus:
 
     def _replier(self, m: SimMotor) -> Callable[[Frame], None]:
         def reply(frame: Frame) -> None:
+            if self.readings is not None:
+                frame = self.readings.report(frame)
             self._from_motor(m, frame)
 
         return reply
 
     def _heartbeat_sink(self, m: SimMotor) -> Callable[[Frame], None]:
         def emit(frame: Frame) -> None:
+            if self.readings is not None:
+                frame = self.readings.report(frame)
             if m.ident not in self.faults.silent:
                 for tap in self._uart_taps.get(m.ident, ()):
                     tap(frame)

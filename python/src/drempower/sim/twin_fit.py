@@ -11,7 +11,12 @@ squares over the logarithms of the parameters (so they stay positive and scale a
 recording's transport delay (the twin's states are compared that long before their recorded time).
 
 Before anything is fitted each fitted joint's motion is checked: a parameter the recording does not
-excite (a joint that barely moves, never reverses, or never accelerates) is refused by name.
+excite (a joint that barely moves, never reverses, or never accelerates) is refused by name. After the
+fit, each parameter's relative standard error is estimated from the final Jacobian (the covariance
+``s^2 (J^T J)^-1`` of the logarithms, ``s^2`` the residual variance): a parameter whose effect on the
+residuals is too small against the noise, or too like another parameter's (the delay's, a neighbour's),
+to be told within :data:`MAX_REL_ERROR` is refused by name rather than reported as fitted; so is one the
+fit drove to its bound. ``fixed`` keeps such a parameter at the robot file's value and fits the rest.
 """
 
 from __future__ import annotations
@@ -30,7 +35,17 @@ from .twin_replay import PARAMETERS, Recording, Replay, Trace, compare, windowed
 if TYPE_CHECKING:
     from ..robotfile import RobotSpec
 
-__all__ = ["FitResult", "best_delay", "check_excited", "fit_twin", "write_fitted"]
+__all__ = [
+    "MAX_REL_ERROR",
+    "TIMING",
+    "FitResult",
+    "best_delay",
+    "check_excited",
+    "fit_twin",
+    "relative_errors",
+    "timing_shifts",
+    "write_fitted",
+]
 
 MIN_SPEED = 0.1
 """rad/s: a joint whose peak recorded speed is below this excites none of its parameters."""
@@ -47,6 +62,12 @@ _SPAN = math.log(50.0)
 """The fit keeps each parameter within a factor 50 of its start."""
 _DELAY_UNIT = 0.01
 """s per unit of the delay variable."""
+MAX_REL_ERROR = 0.2
+"""The largest uncertainty (relative) of a parameter reported as fitted: its standard error from the final
+Jacobian together with how far a :data:`TIMING` error of the recording's time base would move it."""
+TIMING = 0.001
+"""s: the error of a recording's time base the fit allows for: the replay's step (the twin integrates 1 ms
+at a time, its commands take effect on that grid, and the recorded stamps are good to about as much)."""
 
 
 @dataclass
@@ -57,6 +78,12 @@ class FitResult:
 
     joints: dict[str, dict[str, float]]
     nominal: dict[str, dict[str, float]]
+    uncertainty: dict[str, dict[str, float]]
+    """Per joint and fitted parameter: its relative uncertainty (0.05 = 5 %): the standard error (1 sigma)
+    and the ``timing`` shift together (root sum of squares)."""
+    timing: dict[str, dict[str, float]]
+    """Per joint and fitted parameter: how much (relative) it moves per :data:`TIMING` of error in the
+    recording's time base (the fitted delay moved, the other parameters fitted again)."""
     rms_deg: dict[str, float]
     rms_deg_nominal: dict[str, float]
     delay: float
@@ -72,6 +99,8 @@ class FitResult:
             "rms_deg": self.rms_deg,
             "rms_deg_nominal": self.rms_deg_nominal,
             "nominal": self.nominal,
+            "uncertainty": self.uncertainty,
+            "timing": self.timing,
             "delay_s": self.delay,
             "evaluations": self.evaluations,
             "seconds": self.seconds,
@@ -134,12 +163,17 @@ def fit_twin(
     joints: Sequence[str] | None = None,
     *,
     delay: float | None = None,
+    fixed: Sequence[str] = (),
     max_evaluations: int = 40,
+    max_rel_error: float = MAX_REL_ERROR,
     progress: Any = None,
 ) -> FitResult:
     """Fit ``joints`` (default: every joint of the recordings' buses) of the robot ``spec`` to
     ``recordings`` (see the module docstring). ``delay``: the transport delay (s) if known, else fitted.
-    ``progress(evaluations, cost)`` is called after each replay. Needs the ``fit`` extra (scipy)."""
+    ``fixed``: parameters (``"JOINT.PARAMETER"``) kept at the robot file's values. A parameter whose
+    relative standard error exceeds ``max_rel_error`` is refused (:class:`ValidationError` naming the
+    joint and the parameter). ``progress(evaluations, cost)`` is called after each replay. Needs the
+    ``fit`` extra (scipy)."""
     try:
         import numpy as np
         from scipy.optimize import least_squares
@@ -156,6 +190,20 @@ def fit_twin(
             raise ValidationError(f"joint {j!r}: not a joint of the recording ({', '.join(every)})")
     if not names:
         raise ValidationError("joints: none to fit")
+    kept = set()
+    for item in fixed:
+        joint, _, param = item.partition(".")
+        if joint not in names or param not in PARAMETERS:
+            raise ValidationError(
+                f"fixed {item!r}: expected JOINT.PARAMETER of a fitted joint ({', '.join(names)}) and one of "
+                f"{', '.join(PARAMETERS)}"
+            )
+        kept.add((joint, param))
+    if not 0 < max_rel_error < math.inf:
+        raise ValidationError(f"max_rel_error={max_rel_error!r}: expected a relative error > 0, e.g. 0.05")
+    free = [(j, p) for j in names for p in PARAMETERS if (j, p) not in kept]
+    if not free:
+        raise ValidationError("fixed: every parameter is fixed: nothing to fit")
     for rec in recordings:
         for j in names:
             check_excited(rec, j)
@@ -166,10 +214,10 @@ def fit_twin(
     evaluations = 0
 
     def physical(x: Any) -> dict[str, dict[str, float]]:
-        return {
-            j: {p: start[j][p] * math.exp(float(x[3 * i + k])) for k, p in enumerate(PARAMETERS)}
-            for i, j in enumerate(names)
-        }
+        out = {j: {p: nominal[j][p] for p in PARAMETERS} for j in names}
+        for i, (j, p) in enumerate(free):
+            out[j][p] = start[j][p] * math.exp(float(x[i]))
+        return out
 
     def traces(params: dict[str, dict[str, float]]) -> list[Trace]:
         nonlocal evaluations
@@ -200,7 +248,7 @@ def fit_twin(
             progress(evaluations, float(res @ res))
         return res
 
-    n = 3 * len(names)
+    n = len(free)
     x0 = np.zeros(n + (1 if fit_delay else 0))
     lo = np.full_like(x0, -_SPAN)
     hi = np.full_like(x0, _SPAN)
@@ -221,12 +269,40 @@ def fit_twin(
     )
     fitted = physical(sol.x)
     d_fit = float(sol.x[-1]) * _DELAY_UNIT if fit_delay else float(d0)
+    se = relative_errors(np, sol.jac, sol.fun)
+    shift = timing_shifts(np, sol.jac) * (TIMING / _DELAY_UNIT) if fit_delay else np.zeros(len(sol.x))
+    rel = np.sqrt(se * se + shift * shift)
+    uncertainty: dict[str, dict[str, float]] = {j: {} for j in names}
+    timing: dict[str, dict[str, float]] = {j: {} for j in names}
+    for i, (j, p) in enumerate(free):
+        uncertainty[j][p] = float(rel[i])
+        timing[j][p] = float(shift[i])
+    refused = _refused(sol.x, rel, free, max_rel_error)
+    if refused:
+        i, (j, p) = refused[0]
+        paths = ", ".join(rec.path for rec in recordings)
+        why = (
+            f"the fit ran to its bound, {fitted[j][p]:.3g}, a factor 50 from {start[j][p]:.3g}"
+            if math.isfinite(rel[i]) and rel[i] <= max_rel_error
+            else (
+                f"uncertain by {100 * rel[i]:.0f} %: standard error {100 * se[i]:.0f} %, {100 * abs(shift[i]):.0f} % "
+                f"per ms of timing error; needs <= {100 * max_rel_error:g} %"
+            )
+        )
+        also = "".join(f"; also {jj}'s {pp} ({100 * rel[k]:.0f} %)" for k, (jj, pp) in refused[1:])
+        raise ValidationError(
+            f"{paths}: joint {j!r}: the recording does not excite its {p} enough to fit it ({why}{also}); record "
+            "an excitation that moves it more (drempower play --excite with a lower --kd) or keep the robot "
+            f"file's value with --fixed {','.join(f'{jj}.{pp}' for _, (jj, pp) in refused)}"
+        )
     final = traces(fitted)
     rms = _rms(recordings, final, every, d_fit)
     rms_nominal = _rms(recordings, base, every, d_fit)
     return FitResult(
         {j: fitted[j] for j in names},
         {j: nominal[j] for j in names},
+        uncertainty,
+        timing,
         rms,
         rms_nominal,
         d_fit,
@@ -235,6 +311,58 @@ def fit_twin(
         time.process_time() - cpu,
         [rec.path for rec in recordings],
     )
+
+
+def _refused(x: Any, rel: Any, free: Sequence[tuple[str, str]], top: float) -> list[tuple[int, tuple[str, str]]]:
+    """The fitted parameters (index, (joint, parameter)) not told well enough: relative error beyond
+    ``top``, or at the fit's bound; the worst first."""
+    out = [(i, jp) for i, jp in enumerate(free) if not float(rel[i]) <= top or abs(float(x[i])) > _SPAN - 1e-3]
+    return sorted(out, key=lambda item: -float(rel[item[0]]) if math.isfinite(rel[item[0]]) else -math.inf)
+
+
+def timing_shifts(np: Any, jac: Any) -> Any:
+    """Per variable: how much it moves per unit of the last one (the delay) when that is moved and the others
+    are fitted again, from the Jacobian ``jac`` at the optimum: ``cov[i, last] / cov[last, last]`` of
+    ``(J^T J)^-1`` (a regression of each variable on the delay; 0 for the delay itself is not returned:
+    its own entry is 1). Large for a parameter that the delay mimics (a light joint's damping)."""
+    j = np.asarray(jac, dtype=float)
+    norms = np.linalg.norm(j, axis=0)
+    if norms[-1] == 0:
+        return np.zeros(j.shape[1])
+    safe = np.where(norms > 0, norms, 1.0)
+    cov = np.linalg.pinv((j / safe).T @ (j / safe)) / np.outer(safe, safe)
+    return cov[:, -1] / cov[-1, -1]
+
+
+def relative_errors(np: Any, jac: Any, residuals: Any) -> Any:
+    """Each variable's standard error (1 sigma) from the Jacobian ``jac`` of ``residuals`` at the optimum:
+    the square roots of the diagonal of ``s^2 (J^T J)^-1``, ``s^2`` the residuals' variance (sum of
+    squares over the degrees of freedom), times ``(1 + rho) / (1 - rho)`` for residuals that follow each
+    other (``rho`` their correlation with the next: what the model leaves out is slow, and n such
+    residuals tell less than n independent ones). For a logarithm, its relative error; inf for a
+    variable the residuals do not depend on, or depend on only as some others together do."""
+    j = np.asarray(jac, dtype=float)
+    r = np.asarray(residuals, dtype=float)
+    m, n = j.shape
+    s2 = float(r @ r) / max(1, m - n)
+    if m > 2 and s2 > 0:
+        rho = min(max(float(r[1:] @ r[:-1]) / float(r @ r), 0.0), 0.99)
+        s2 *= (1 + rho) / (1 - rho)
+    norms = np.linalg.norm(j, axis=0)
+    out = np.full(n, np.inf)
+    live = norms > 0
+    if not live.any():
+        return out
+    js = j[:, live] / norms[live]  # unit columns: the conditioning is of the directions, not the scales
+    _u, sv, vt = np.linalg.svd(js, full_matrices=False)
+    tiny = sv <= sv[0] * 1e-10
+    inv = np.where(tiny, 0.0, 1.0 / np.where(tiny, 1.0, sv) ** 2)
+    cov = (vt.T * inv) @ vt * s2
+    se = np.sqrt(np.diag(cov)) / norms[live]
+    degenerate = np.abs(vt[tiny]).max(axis=0) > 1e-6 if tiny.any() else np.zeros(len(se), dtype=bool)
+    se[degenerate] = np.inf
+    out[live] = se
+    return out
 
 
 def _sizes(
