@@ -183,13 +183,13 @@ def shadow_speed(seconds: float) -> tuple[float, float, int]:
 
 
 def twin_fit(seconds: float) -> dict[str, object] | None:
-    """Record the hidden-truth arm (tests/twin/fit_support.py) for ``seconds`` s on the virtual clock, time one
+    """Record the hidden-truth arm (tests/sim/twin/fit_support.py) for ``seconds`` s on the virtual clock, time one
     replay (CPU s per recorded s) and a fit of all six joints (wall s); the largest error against the truth."""
     try:
         import scipy  # noqa: F401
 
         sys.path.insert(0, str(Path(__file__).resolve().parent.parent / "python"))
-        from tests.twin.fit_support import TRUTH, record, truth_robot
+        from tests.sim.twin.fit_support import TRUTH, record, truth_robot
     except ImportError:
         return None
     import tempfile

@@ -16,7 +16,7 @@ from drempower.sim.twin import TwinRunner, couple_robot
 
 pytest.importorskip("mujoco", reason="the twin needs MuJoCo")
 
-ARM6 = Path(__file__).resolve().parents[3] / "examples" / "robots" / "arm6.toml"
+ARM6 = Path(__file__).resolve().parents[4] / "examples" / "robots" / "arm6.toml"
 
 
 def test_a_served_twin_answers_with_the_state_of_the_moment() -> None:

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import pytest
 
-from ..conftest import REPO_ROOT
+from ...conftest import REPO_ROOT
 
 pytest.importorskip("mujoco", reason="the robot twin needs MuJoCo: pip install 'drempower[physics]'")
 
