@@ -125,6 +125,8 @@ def test_move_from_the_page_reaches_the_motor(page: Any, served: Served, shots: 
     page.get_by_role("button", name="Move", exact=True).click()
     m2 = served.sim.motors[2]
     assert eventually(lambda: abs(m2.position - 45.0) < 0.1, 8), m2.position
+    # the move's answer is on the page before the next input (a late one would overwrite the refusal below)
+    page.wait_for_function("document.querySelector('#msg').textContent.includes('move to 45 deg')", timeout=10000)
     limits = page.locator("#ctl-limits").inner_text()
     assert limits == "limits of motor_2: speed ±300 r/min, torque ±12 Nm, current 15 A; T bandwidth 0..300 1/s"
     assert served.hub.commanded == {2}

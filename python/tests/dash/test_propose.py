@@ -23,7 +23,7 @@ def _gains(hub: Hub, key: int) -> list[float]:
 
 def test_propose_on_the_twin_pendulum_then_write_on_confirmation(tmp_path: Path) -> None:
     pytest.importorskip("mujoco", reason="the twin needs MuJoCo")
-    from ..twin.conftest import model_copy, robot_file
+    from ..sim.twin.conftest import model_copy, robot_file
 
     model = model_copy(tmp_path, "pendulum.xml", lambda root: None)
     path = robot_file(tmp_path, model, {"swing": {"id": 1}}, clock="virtual")

@@ -15,7 +15,7 @@ from drempower.motion.routines_sync import identify
 
 pytest.importorskip("mujoco", reason="the twin needs MuJoCo")
 
-from ..twin.conftest import PENDULUM_GAINS, model_copy, robot_file
+from ..sim.twin.conftest import PENDULUM_GAINS, model_copy, robot_file
 
 _G = 9.81
 _ROD = 2.0 * 0.25 * 0.25 + 0.0416667

@@ -18,7 +18,7 @@ from drempower.robot import load_robot, open_robot_async
 
 pytest.importorskip("mujoco", reason="the twin needs MuJoCo")
 
-from ..twin.conftest import PENDULUM_GAINS, model_copy, robot_file
+from ..sim.twin.conftest import PENDULUM_GAINS, model_copy, robot_file
 
 _TRUTH = {"armature": 0.02, "damping": 0.2, "frictionloss": 0.3}
 _ROD = 2.0 * 0.25 * 0.25 + 0.0416667

@@ -15,7 +15,7 @@ from drempower.motion.tune import GAIN_NAMES, gains_for
 
 pytest.importorskip("mujoco", reason="the twin needs MuJoCo")
 
-from ..twin.conftest import model_copy, robot_file
+from ..sim.twin.conftest import model_copy, robot_file
 
 FACTORY = (40.0, 0.06, 2.4)
 """The simulated motor's own gains (pos_gain, vel_gain, vel_integrator_gain)."""
