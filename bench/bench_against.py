@@ -109,7 +109,7 @@ def main() -> None:
         sys.exit("bench_against: no row ran on both trees (see the errors above)")
     print(f"this checkout against {args.rev}: medians of {args.rounds} runs each, taken in turns")
     head = f"{'this':>10} {'(floor)':>9} {'ratio':>7}   {args.rev[:10]:>10} {'(floor)':>9} {'ratio':>7}"
-    print(f"  {'row':<60} {head}   this/rev")
+    print(f"  {'row':<60} {head}   this/rev  noise  verdict")
     for label in labels:
         cols = []
         for side in ("this", "rev"):
@@ -120,9 +120,40 @@ def main() -> None:
             cols.append((fig, floor, ratio, runs[side][0][label][1]))
         (a, af, ar, unit), (b, bf, br, _) = cols
         versus = f"{a / b:.2f}" if b else ""
+        noise, verdict = _against(runs, label)
         print(
-            f"  {label:<60} {a:>7.1f} {unit:<2} {af:>9.1f} {ar:>7}   {b:>7.1f} {unit:<2} {bf:>9.1f} {br:>7}   {versus}"
+            f"  {label:<60} {a:>7.1f} {unit:<2} {af:>9.1f} {ar:>7}   {b:>7.1f} {unit:<2} {bf:>9.1f} {br:>7}"
+            f"   {versus:>8}  {noise:>5}  {verdict}"
         )
+    print(
+        "  noise: how far one tree's ratio to its floor moves from run to run (the larger median absolute\n"
+        "  deviation of the two trees, in %); verdict: the median of the rounds' this/rev ratios to the floor,\n"
+        "  against twice that noise"
+    )
+
+
+def _against(runs: dict[str, list[dict[str, tuple[float, str, float, float | None]]]], label: str) -> tuple[str, str]:
+    """A row's noise (the relative run-to-run spread of each tree's ratio to its floor, the larger, in %) and its
+    verdict: this tree's ratio over the revision's, round by round (measured in turns), beside twice that noise."""
+
+    def ratio(row: tuple[float, str, float, float | None]) -> float | None:  # figure over floor, unrounded
+        return row[0] / row[2] if row[2] and row[3] is not None else None
+
+    mine = [ratio(r[label]) for r in runs["this"]]
+    theirs = [ratio(r[label]) for r in runs["rev"]]
+    pairs = [(x, y) for x, y in zip(mine, theirs, strict=True) if x is not None and y]
+    if not pairs:
+        return "", ""
+    spread = 0.0
+    for side in ([x for x, _ in pairs], [y for _, y in pairs]):
+        mid = statistics.median(side)
+        spread = max(spread, statistics.median(abs(v - mid) for v in side) / mid)
+    change = statistics.median(x / y for x, y in pairs) - 1.0
+    if abs(change) <= 2 * spread:
+        verdict = f"{change:+.0%}, within the noise"
+    else:
+        verdict = f"{change:+.0%}, {'worse' if change > 0 else 'better'}"
+    return f"{spread:.0%}", verdict
 
 
 if __name__ == "__main__":
