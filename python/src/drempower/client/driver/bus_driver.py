@@ -225,7 +225,8 @@ class BusDriver:
         if self._stopped:  # estops written without the lock: what the session holds must not follow them
             stopped, self._stopped = self._stopped, ()
             s.stopped(stopped)
-        s.now = self._now() if now is None else now
+        timers = s.timers  # the session's time (s.now), set without the property on every request
+        timers.now = self._now() if now is None else now
         frames = s.data_to_send()
         while frames:
             try:
@@ -242,7 +243,7 @@ class BusDriver:
             self._rx.take(back, now)
             if not s.outbox.frames:  # the replies queued nothing more (the commonest)
                 return
-            s.now = now  # what they queued is sent at the time they came
+            timers.now = now  # what they queued is sent at the time they came
             frames = s.data_to_send()
 
     def _write(self, frames: Sequence[Frame], collect: Callable[[Frame], list[Frame]] | None = None) -> list[Frame]:

@@ -298,7 +298,7 @@ class _OneRequest(Waiter):
         msg = self.msg = effect.messages[0]
         self.frame = msg.encode()
         timeout = effect.timeout
-        self.timeout = runner.timeout if timeout is None else timeout
+        self.timeout = runner.policy.timeout if timeout is None else timeout
         if not self.timeout > 0:
             raise ValidationError(f"timeout={timeout!r}: must be > 0 s")
         self.tries = 0
@@ -337,7 +337,7 @@ class _OneRequest(Waiter):
 
     def _answered(self) -> None:
         runner = self.runner
-        runner.timers.drop(self.timer)
+        runner.timers.pending.pop(self.timer, None)  # Timers.drop, inline: the commonest call
         r = self.results[0]
         node = getattr(r, "node", 0)
         if node:

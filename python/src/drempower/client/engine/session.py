@@ -292,7 +292,7 @@ class BusSession:
         out = self.outbox.frames
         if not out:
             return out
-        out = self.outbox.take(self.now)
+        out = self.outbox.take(self.timers.now)
         if self.hold.current is not None:
             self.hold.check()
         return out
@@ -377,9 +377,9 @@ class BusSession:
         is called when it finishes later (from whichever call finished it).
         Raises :class:`BusClosedError` when the session is closed.
         """
-        if self.closed_error is not None:
-            raise self.closed_error
         ops = self.operations
+        if ops.closed_error is not None:
+            raise ops.closed_error
         direct = self._direct.get(op.__class__)
         if direct is not None:
             run: Operation[T] = Operation(None, on_done)

@@ -23,24 +23,25 @@ class Timers:
     have come).
     """
 
-    __slots__ = ("_timers", "changes", "heap", "now")
+    __slots__ = ("changes", "heap", "now", "pending")
 
     def __init__(self, now: float = 0.0) -> None:
         self.now = now
         """The latest time the driver gave (s): what the parts that schedule read as the time now."""
         self.changes = 0
-        self._timers: dict[int, tuple[float, Callable[[], None]]] = {}
+        self.pending: dict[int, tuple[float, Callable[[], None]]] = {}
+        """Timer id -> (due s, what to call) of every timer not fired or dropped (``pending.pop(id, None)``
+        is :meth:`drop`, for the hot path)."""
         self.heap: list[tuple[float, int]] = []
         """(due s, id) of every timer, dropped ones included until popped: a heap, the soonest first."""
-        """(due, timer id) of every timer, earliest first; a dropped timer's entry stays until it surfaces."""
 
     def __len__(self) -> int:
-        return len(self._timers)
+        return len(self.pending)
 
     def add(self, due: float, fire: Callable[[], None]) -> int:
         """Call ``fire()`` once the time reaches ``due`` (s); returns the timer's id (for :meth:`drop`)."""
         self.changes = tid = self.changes + 1
-        timers, heap = self._timers, self.heap
+        timers, heap = self.pending, self.heap
         timers[tid] = (due, fire)
         if len(heap) >= _COMPACT_AT and len(heap) > 4 * len(timers):
             # dropped timers (answered requests) outnumber the live ones: keep only these, so that a run
@@ -53,7 +54,7 @@ class Timers:
 
     def drop(self, tid: int) -> None:
         """Forget timer ``tid`` (fired or dropped already: nothing happens)."""
-        self._timers.pop(tid, None)
+        self.pending.pop(tid, None)
 
     def touch(self) -> None:
         """Count a change: a deadline kept elsewhere (held-back reply, held start) was set."""
@@ -61,14 +62,14 @@ class Timers:
 
     def next_due(self) -> float | None:
         """When the earliest timer is due (s), or None."""
-        heap, timers = self.heap, self._timers
+        heap, timers = self.heap, self.pending
         while heap and heap[0][1] not in timers:  # dropped timers leave their entry behind
             heappop(heap)
         return heap[0][0] if heap else None
 
     def fire_due(self, now: float) -> None:
         """Fire every timer due by ``now`` (s), earliest first; timers they add wait for the next call."""
-        heap, timers = self.heap, self._timers
+        heap, timers = self.heap, self.pending
         if not heap or heap[0][0] > now:
             return
         newest = self.changes
@@ -88,5 +89,5 @@ class Timers:
 
     def clear(self) -> None:
         """Drop every timer."""
-        self._timers.clear()
+        self.pending.clear()
         self.heap.clear()
