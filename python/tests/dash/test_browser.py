@@ -132,6 +132,8 @@ def test_move_from_the_page_reaches_the_motor(page: Any, served: Served, shots: 
     assert served.hub.commanded == {2}
     # an input outside its domain is refused in the page and nothing is sent
     page.locator("#pos-speed").fill("500")
+    page.locator("#pos-mode").dispatch_event("change")  # the limits applied again (as a card arriving does)
+    assert page.locator("#pos-speed").input_value() == "500"  # what the user typed is never changed by the page
     page.get_by_role("button", name="Move", exact=True).click()
     msg = page.locator("#msg").inner_text()
     assert "Position: speed r/min 500 is outside -300..300" in msg and "pos-speed" not in msg  # as labelled

@@ -149,6 +149,9 @@ async def test_a_client_that_never_reads_is_dropped_and_its_motor_idled() -> Non
             while dash.clients and time.monotonic() < deadline:
                 await asyncio.sleep(0.02)
             assert not dash.clients  # dropped: it was not reading
+            deadline = time.monotonic() + 5  # its motor is idled on the dashboard's stop thread, after the drop
+            while sim.motors[1].state != AxisState.IDLE and time.monotonic() < deadline:
+                await asyncio.sleep(0.02)
             assert sim.motors[1].state == AxisState.IDLE
         finally:
             stuck.close()

@@ -594,11 +594,13 @@
   // the Control inputs bounded by the limits the selected motor holds (read by the server) and by the
   // T-mode bandwidth's parameter domain; the server checks the same bounds again
   const WIRE = 327.67;
+  // a value the user typed is never changed by the page (a limit arriving later only makes it refused)
+  $$("#view-control input[type=number]").forEach((el) => el.addEventListener("input", () => { el.dataset.typed = "1"; }));
   function setRange(id, lo, hi) {
     const el = $("#" + id); el.min = String(lo); el.max = String(hi);
     // a default beyond a limit (a robot file's speed limit) would be refused: bring it within
     const v = Number(el.value);
-    if (el.value !== "" && Number.isFinite(v) && (v < lo || v > hi)) {
+    if (!el.dataset.typed && el.value !== "" && Number.isFinite(v) && (v < lo || v > hi)) {
       el.value = String(Math.trunc(Math.min(hi, Math.max(lo, v)) * 1e4) / 1e4); // toward 0: still within
     }
   }
