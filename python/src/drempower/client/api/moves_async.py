@@ -21,6 +21,7 @@ from ..engine.commands import (
     make_speeds,
     make_torques,
 )
+from ..engine.effects import Op
 from ..engine.gate import Intent, move_intents
 from ..engine.session import DEFAULT_MOVE_TIMEOUT, DEFAULT_POLL_INTERVAL, MOVE_TOLERANCE
 from ..engine.state import MotorState
@@ -127,11 +128,7 @@ class AsyncBusMoves(AsyncBusBase[M]):
 
         With ``duration`` (s) the bus sends speed 0 to them that long after, by itself."""
         presets, _ = make_speeds(id_list, speed_list, param, mode)
-        duration = check_duration(duration)
-        await self.pass_gate(presets, enable)
-        self._timed.arm(duration)
-        await self.run(batch.set_speeds(id_list, speed_list, param, mode))
-        self._sent(presets, duration)
+        await self._preset_all(presets, batch.set_speeds(id_list, speed_list, param, mode), duration, enable)
 
     async def set_torques(
         self,
@@ -147,10 +144,15 @@ class AsyncBusMoves(AsyncBusBase[M]):
 
         With ``duration`` (s) the bus sends torque 0 to them that long after, by itself."""
         presets, _ = make_torques(id_list, torque_list, param, mode)
+        await self._preset_all(presets, batch.set_torques(id_list, torque_list, param, mode), duration, enable)
+
+    async def _preset_all(self, presets: Sequence[Message], op: Op[None], duration: float | None, enable: bool) -> None:
+        """``presets`` through the gate, then ``op`` (their one batch); with ``duration`` (s) their zero follows
+        by itself."""
         duration = check_duration(duration)
         await self.pass_gate(presets, enable)
         self._timed.arm(duration)
-        await self.run(batch.set_torques(id_list, torque_list, param, mode))
+        await self.run(op)
         self._sent(presets, duration)
 
     async def impedance_controls(
